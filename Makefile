@@ -1,0 +1,53 @@
+# The front door. `make run` and `make test` install what is missing (Debian packages and
+# the npm test tools), configure, build and run. Everything else is plain CMake + CTest.
+BUILD      ?= build
+BUILD_ASAN ?= build-asan
+JOBS       ?= $(shell nproc)
+CMAKE_GEN  := $(shell command -v ninja >/dev/null 2>&1 && echo "-G Ninja")
+EXAMPLE    ?= tests/data/scenes/gears2d.json
+OUT        ?= out
+
+.PHONY: all deps configure build run test test-asan bench format tidy clean
+
+all: build
+
+deps:
+	@./docker/install-deps.sh
+
+$(BUILD)/CMakeCache.txt:
+	cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release
+
+configure: $(BUILD)/CMakeCache.txt
+
+build: deps
+	@$(MAKE) --no-print-directory configure
+	cmake --build $(BUILD) -j $(JOBS)
+
+run: build
+	@mkdir -p $(OUT)
+	$(BUILD)/clients/gvd compute $(EXAMPLE) -o $(OUT)/gvd.glb --graph $(OUT)/graph.json \
+	  --json $(OUT)/gvd.json --save $(OUT)/result.gvd
+	$(BUILD)/clients/gvd info $(OUT)/result.gvd
+	@echo "outputs: $(OUT)/gvd.glb (open in any glTF viewer), $(OUT)/graph.json, $(OUT)/gvd.json, $(OUT)/result.gvd"
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 600
+
+test-asan: deps
+	cmake -S . -B $(BUILD_ASAN) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Debug -DGVD_SANITIZE=ON \
+	  -DGVD_BUILD_BENCH=OFF
+	cmake --build $(BUILD_ASAN) -j $(JOBS)
+	cd $(BUILD_ASAN) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  ctest --output-on-failure -j $(JOBS) -L unit --timeout 1200
+
+bench: build
+	$(BUILD)/tests/gvd_bench
+
+format:
+	clang-format -i $$(git ls-files '*.cpp' '*.h')
+
+tidy: build
+	clang-tidy -p $(BUILD) $$(git ls-files 'core/src/*.cpp')
+
+clean:
+	rm -rf $(BUILD) $(BUILD_ASAN)

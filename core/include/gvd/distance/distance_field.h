@@ -1,0 +1,49 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/octree.h"
+#include "gvd/octree/vertices.h"
+#include "gvd/scene/scene.h"
+
+namespace gvd {
+
+/// Label and closest point of every octree vertex (paper §4), in unit-domain coordinates.
+struct DistanceField {
+  OctreeVertices vertices;
+  std::vector<ObjectId> label;     ///< per vertex; kNoObject when no object was reached
+  std::vector<uint32_t> point;     ///< per vertex: index into `closest`, kNoVertex if none
+  std::vector<Vec3> closest;       ///< closest points on objects (shared between vertices)
+  std::vector<uint8_t> exact;      ///< per vertex: 1 = exact closest point (non-empty vertex)
+  uint64_t exact_count = 0;        ///< non-empty vertices initialised exactly
+  uint64_t exact_reused = 0;       ///< of those, taken from the previous field (refinement)
+
+  size_t size() const { return label.size(); }
+  /// Distance from vertex v to its assigned closest point (unit domain; inf if none).
+  double distance(uint32_t v) const;
+  size_t memory_bytes() const;
+};
+
+/// Options of the distance transform.
+struct DistanceOptions {
+  int threads = 0;                               ///< 0 = all cores
+  const std::atomic<bool>* cancel = nullptr;     ///< stop with gvd::Error{kCancelled}
+};
+
+/// The exact closest point of one vertex among all simplices (the per-item function of the
+/// initialisation; the OpenCL kernel of issue 4 mirrors it). `upper2` bounds the search.
+ClosestHit closest_for_vertex(const SimplexBvh& bvh, Vec3 position, double upper2 = 1e300);
+
+/// Paper §4, COMPUTE_DISTANCES: exact closest points for every non-empty vertex (a vertex of
+/// a leaf that intersects an object), then a wavefront expansion in increasing distance that
+/// pushes closest points to visible vertices (vertices on the boundary of a common leaf).
+/// `previous` (optional) supplies exact points already computed for the same vertex keys.
+/// Initialisation O(V log M) with the BVH; expansion O(V log V) on a 2:1-balanced tree.
+DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
+                                const SimplexBvh& bvh, const DistanceOptions& options = {},
+                                const DistanceField* previous = nullptr);
+
+}  // namespace gvd

@@ -1,0 +1,28 @@
+#pragma once
+
+#include "gvd/geometry/vec.h"
+
+namespace gvd {
+
+/// Closest point to `p` on the closed segment [a, b] (a degenerate segment gives a).
+Vec3 closest_point_on_segment(Vec3 p, Vec3 a, Vec3 b);
+
+/// Closest point to `p` on the closed triangle (a, b, c), by Voronoi regions of the
+/// triangle's features (Ericson, Real-Time Collision Detection §5.1.5). Exact up to rounding;
+/// degenerate triangles fall back to their longest edge.
+Vec3 closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c);
+
+/// Squared distance from `p` to box `b` (0 inside).
+double box_distance2(Vec3 p, const Box& b);
+
+/// Conservative overlap test of a closed 3D triangle and a closed box: never false when they
+/// touch. Separating axis test (Akenine-Möller) on the box inflated by `slack` (absolute).
+bool triangle_overlaps_box(Vec3 a, Vec3 b, Vec3 c, const Box& box, double slack);
+
+/// Conservative overlap test of a closed 2D segment (z ignored) and a closed box (x, y).
+bool segment_overlaps_box_2d(Vec3 a, Vec3 b, const Box& box, double slack);
+
+/// Overlap of a segment and a box in 3D (slab test on the inflated box).
+bool segment_overlaps_box_3d(Vec3 a, Vec3 b, const Box& box, double slack);
+
+}  // namespace gvd

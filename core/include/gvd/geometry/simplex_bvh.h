@@ -1,0 +1,121 @@
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "gvd/geometry/primitives.h"
+#include "gvd/geometry/simplex.h"
+#include "gvd/geometry/vec.h"
+
+namespace gvd {
+
+/// Closest point on one simplex: exact point, its squared distance and the simplex index.
+struct ClosestHit {
+  Vec3 point;
+  double dist2 = 1e300;
+  uint32_t simplex = 0xFFFFFFFFu;
+  bool found() const { return simplex != 0xFFFFFFFFu; }
+};
+
+/// Closest point on simplex `s` (segment in 2D, triangle in 3D) to `p`.
+Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const Simplex& s,
+                              Vec3 p);
+
+/// Bounding volume hierarchy over the simplices of a scene for exact nearest-simplex queries.
+/// Flat arrays (nodes in depth-first order), built once in O(M log M), queried concurrently.
+class SimplexBvh {
+ public:
+  SimplexBvh() = default;
+  /// `points` and `simplices` must outlive the BVH (it keeps views).
+  SimplexBvh(int dimension, std::span<const Vec3> points, std::span<const Simplex> simplices);
+
+  /// The exact closest point on any simplex to `p`, searching only boxes nearer than the best
+  /// hit so far and than `max_dist2` (pass a known upper bound to prune harder).
+  ClosestHit nearest(Vec3 p, double max_dist2 = 1e300) const;
+
+  /// Like `nearest`, but only among simplices for which `accept(simplex)` is true.
+  template <class Accept>
+  ClosestHit nearest_if(Vec3 p, Accept&& accept, double max_dist2 = 1e300) const;
+
+  /// Calls `visit(simplex)` for every simplex whose bounding box overlaps `box`.
+  template <class Visit>
+  void for_each_overlapping(const Box& box, Visit&& visit) const;
+
+  size_t memory_bytes() const;
+
+ private:
+  struct Node {
+    Box box;
+    uint32_t first = 0;  // leaf: first index into order_; inner: right child (left = this+1)
+    uint32_t count = 0;  // leaf: number of simplices; inner: 0
+  };
+  int dimension_ = 3;
+  std::span<const Vec3> points_;
+  std::span<const Simplex> simplices_;
+  std::vector<Node> nodes_;
+  std::vector<uint32_t> order_;
+};
+
+template <class Accept>
+ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) const {
+  ClosestHit best;
+  best.dist2 = max_dist2;
+  if (nodes_.empty()) return best;
+  uint32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const uint32_t ni = stack[--top];
+    const Node& n = nodes_[ni];
+    if (box_distance2(p, n.box) > best.dist2) continue;
+    if (n.count > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+        const uint32_t s = order_[k];
+        if (!accept(s)) continue;
+        const Vec3 q = closest_point_on_simplex(dimension_, points_, simplices_[s], p);
+        const double d2 = dist2(p, q);
+        if (d2 < best.dist2 || (d2 == best.dist2 && s < best.simplex)) {
+          best = {q, d2, s};
+        }
+      }
+      continue;
+    }
+    const uint32_t l = ni + 1, r = n.first;
+    const double dl = box_distance2(p, nodes_[l].box);
+    const double dr = box_distance2(p, nodes_[r].box);
+    // Push the farther child first so the nearer one is searched first.
+    if (dl <= dr) {
+      stack[top++] = r;
+      stack[top++] = l;
+    } else {
+      stack[top++] = l;
+      stack[top++] = r;
+    }
+  }
+  return best;
+}
+
+template <class Visit>
+void SimplexBvh::for_each_overlapping(const Box& box, Visit&& visit) const {
+  if (nodes_.empty()) return;
+  uint32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& n = nodes_[stack[--top]];
+    bool overlap = true;
+    for (int i = 0; i < 3; ++i)
+      if (n.box.lo[i] > box.hi[i] || n.box.hi[i] < box.lo[i]) overlap = false;
+    if (!overlap) continue;
+    if (n.count > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count; ++k) visit(order_[k]);
+      continue;
+    }
+    const uint32_t self = static_cast<uint32_t>(&n - nodes_.data());
+    stack[top++] = n.first;
+    stack[top++] = self + 1;
+  }
+}
+
+}  // namespace gvd

@@ -1,0 +1,56 @@
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+namespace gvd {
+
+/// A point or vector in 2D or 3D; 2D data keeps z = 0, so one set of routines serves both.
+struct Vec3 {
+  double x = 0, y = 0, z = 0;
+
+  constexpr double operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
+  constexpr double& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
+};
+
+constexpr Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+constexpr Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+constexpr Vec3 operator*(Vec3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+constexpr Vec3 operator*(double s, Vec3 a) { return a * s; }
+constexpr Vec3 operator/(Vec3 a, double s) { return {a.x / s, a.y / s, a.z / s}; }
+constexpr bool operator==(Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+constexpr bool operator!=(Vec3 a, Vec3 b) { return !(a == b); }
+constexpr double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+constexpr Vec3 cross(Vec3 a, Vec3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+constexpr double norm2(Vec3 a) { return dot(a, a); }
+inline double norm(Vec3 a) { return std::sqrt(norm2(a)); }
+constexpr double dist2(Vec3 a, Vec3 b) { return norm2(a - b); }
+inline double dist(Vec3 a, Vec3 b) { return std::sqrt(dist2(a, b)); }
+
+/// Axis-aligned box; empty when lo > hi on some axis.
+struct Box {
+  Vec3 lo{1e300, 1e300, 1e300};
+  Vec3 hi{-1e300, -1e300, -1e300};
+
+  void extend(Vec3 p) {
+    for (int i = 0; i < 3; ++i) {
+      lo[i] = p[i] < lo[i] ? p[i] : lo[i];
+      hi[i] = p[i] > hi[i] ? p[i] : hi[i];
+    }
+  }
+  void extend(const Box& b) {
+    extend(b.lo);
+    extend(b.hi);
+  }
+  bool is_empty() const { return lo.x > hi.x || lo.y > hi.y || lo.z > hi.z; }
+  Vec3 center() const { return (lo + hi) * 0.5; }
+  bool contains(Vec3 p, int dim) const {
+    for (int i = 0; i < dim; ++i)
+      if (p[i] < lo[i] || p[i] > hi[i]) return false;
+    return true;
+  }
+};
+
+}  // namespace gvd

@@ -1,0 +1,35 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "gvd/graph/dual_graph.h"
+#include "gvd/scene/scene.h"
+#include "gvd/surface/gvd.h"
+
+namespace gvd {
+
+/// The GVD as binary glTF (contract in DESIGN.md): one node per object with a non-empty cell
+/// (name = label, extras = {"label", "object"}); 3D TRIANGLES oriented into the cell, 2D
+/// LINES at z = 0; float32 POSITION, `_FEATURE_ID_0` (EXT_mesh_features, FLOAT, object on the
+/// other side, nullFeatureId = object count for the domain box), `_CLEARANCE` (float) and
+/// `COLOR_0` (RGB float, red = tight, blue = wide clearance).
+std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene);
+
+/// The same GVD with float64 coordinates as JSON: {"dimension", "objects":[{"object","label",
+/// "positions":[[x,y(,z)]..], "other":[..], "clearance":[..], "simplices":[[i,j(,k)]..]}]}.
+std::string gvd_to_json(const Gvd& gvd, const Scene& scene);
+
+/// The dual graph JSON of DESIGN.md: {"nodes":[{"object","label"}],"edges":[{"a","b","area",
+/// "min_clearance"}]}.
+std::string graph_to_json(const DualGraph& graph, const Scene& scene);
+
+/// Writes bytes to a file atomically (temporary file + rename); gvd::Error{kIo} on failure.
+void write_file_atomic(const std::string& path, const void* data, size_t size);
+void write_file_atomic(const std::string& path, const std::string& text);
+
+/// Reads a whole file; gvd::Error{kIo} when it cannot be read.
+std::vector<uint8_t> read_file_bytes(const std::string& path);
+
+}  // namespace gvd

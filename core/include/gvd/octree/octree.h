@@ -1,0 +1,74 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "gvd/octree/lattice.h"
+#include "gvd/scene/scene.h"
+
+namespace gvd {
+
+/// Progress report of a long stage: stage name and fraction done in [0, 1].
+using ProgressFn = std::function<void(const std::string& stage, double fraction)>;
+
+/// Options of the octree build (paper §3).
+struct OctreeOptions {
+  /// Deepest level a cell may reach; <= 0 picks the default: 26 in 2D (separates gaps of
+  /// ~1e-7 of the domain), 21 in 3D (~1e-6 of the domain; 21 is also the lattice limit).
+  int max_depth = 0;
+  /// Upper bound on leaves; exceeding it is gvd::Error{kLimitExceeded} (checked per level).
+  uint64_t max_leaves = 30'000'000;
+  /// Worker threads (0 = all cores).
+  int threads = 0;
+  /// Set to true by another thread to stop with gvd::Error{kCancelled}.
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+/// Resolved maximum depth for a dimension (applies the defaults, clamps to the lattice).
+int resolve_max_depth(int dimension, int requested);
+
+/// A linear, 2:1-balanced octree (quadtree in 2D) over the unit domain. Leaves only, sorted
+/// by the Morton code of their lower corner (Z order), so point location is a binary search
+/// and neighbours are O(1) hash lookups of lattice keys. Every leaf knows which object it
+/// intersects (conservatively) and, for non-empty leaves, which simplices.
+struct Octree {
+  int dimension = 3;
+  int max_depth = 0;        ///< the depth limit used
+  int depth = 0;            ///< deepest leaf level
+  std::vector<uint64_t> code;    ///< per leaf: Morton code of the lower corner (lattice units)
+  std::vector<uint8_t> level;    ///< per leaf
+  std::vector<ObjectId> object;  ///< per leaf: kNoObject, an object, or kManyObjects
+  /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries).
+  std::vector<uint32_t> simplex_begin;
+  std::vector<uint32_t> simplex_index;
+
+  size_t leaf_count() const { return code.size(); }
+  lattice::Coord corner(uint32_t leaf) const { return lattice::morton_decode(dimension, code[leaf]); }
+  Box box(uint32_t leaf) const { return lattice::cell_box(dimension, corner(leaf), level[leaf]); }
+  /// The leaf containing unit point u (points on shared faces go to the upper cell); u must
+  /// be inside [0,1]^D (it is clamped). O(log N).
+  uint32_t locate(Vec3 u) const;
+  /// Bytes of the leaf arrays (code, level, object) — the octree proper.
+  size_t structure_bytes() const;
+  /// Bytes of the leaf -> simplex incidence (depends on object complexity).
+  size_t incidence_bytes() const;
+};
+
+/// Builds the octree with the paper's SHOULD_SUBDIVIDE (§3): a cell is split when it
+/// intersects more than one object, or when a face-neighbour intersects a different object,
+/// until `max_depth`; then balanced so that leaves sharing a face, edge or corner differ by
+/// at most one level (DESIGN.md: watertight surfacing across level changes). Cell–simplex
+/// tests are conservative. Level-synchronous and parallel over cells;
+/// O(sum over levels of non-empty cells x simplices per cell).
+Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options = {});
+
+/// Splits the given leaves once more (those at max_depth are kept), re-balances and
+/// recomputes the leaf -> simplex incidence. Used for ambiguity resolution (§5).
+Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
+                     std::span<const uint32_t> leaves_to_split, const OctreeOptions& options = {});
+
+}  // namespace gvd

@@ -1,0 +1,79 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "gvd/distance/distance_field.h"
+#include "gvd/geometry/simplex_bvh.h"
+#include "gvd/graph/dual_graph.h"
+#include "gvd/octree/octree.h"
+#include "gvd/scene/scene.h"
+#include "gvd/surface/gvd.h"
+
+namespace gvd {
+
+/// Version of the algorithm; part of job ids and of the saved result.
+inline constexpr uint32_t kAlgorithmVersion = 1;
+
+/// Options of the whole computation.
+struct PipelineOptions {
+  DomainOptions domain;
+  int max_depth = 0;                    ///< 0 = default (2D 26, 3D 21)
+  uint64_t max_leaves = 30'000'000;     ///< limit on octree leaves
+  int max_refine_rounds = 48;           ///< ambiguity-resolution rounds (§5)
+  int threads = 0;                      ///< 0 = all cores
+  std::string backend = "cpu";          ///< "cpu" (OpenCL arrives with issue 4)
+  ProgressFn progress;                  ///< optional
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+/// Wall time, size and memory of one stage.
+struct StageStats {
+  std::string name;
+  double seconds = 0;
+  uint64_t bytes = 0;   ///< size of the stage's output data
+  uint64_t items = 0;   ///< leaves, vertices, simplices... (stage specific)
+};
+
+/// Figures of a finished computation (what `gvd info` prints).
+struct ResultStats {
+  std::vector<StageStats> stages;
+  std::string backend = "cpu";
+  int threads = 1;
+  int max_depth = 0;
+  int depth = 0;
+  uint64_t leaves = 0;
+  uint64_t vertices = 0;
+  uint64_t octree_bytes = 0;     ///< leaves (code, level, object) + vertex keys
+  double bytes_per_leaf = 0;     ///< octree_bytes / leaves
+  uint64_t distance_bytes = 0;   ///< labels + closest points
+  uint64_t gvd_simplices = 0;    ///< per side, i.e. each interface simplex counted twice
+  uint64_t graph_edges = 0;
+  int refine_rounds = 0;
+  uint64_t ambiguous_at_limit = 0;
+  uint64_t touching_leaves = 0;
+  double total_seconds = 0;
+};
+
+/// A finished GVD: everything later commands and the server need.
+struct GvdResult {
+  Scene scene;
+  Domain domain;
+  UnitGeometry geometry;
+  Octree octree;  ///< without the leaf -> simplex incidence after loading from disk
+  DistanceField field;
+  Gvd gvd;
+  DualGraph graph;
+  ResultStats stats;
+};
+
+/// The whole pipeline (DESIGN.md data flow):
+/// Scene -> make_domain/make_unit_geometry -> build_octree -> Octree -> compute_distances ->
+/// DistanceField -> (find_cells_to_refine -> refine_octree -> compute_distances)* ->
+/// extract_gvd -> Gvd -> build_dual_graph -> DualGraph. Adds warnings for objects that touch
+/// (leaves at the depth limit holding several objects) and for ambiguity left at the limit.
+GvdResult compute_gvd(Scene scene, const PipelineOptions& options = {});
+
+}  // namespace gvd

@@ -1,0 +1,33 @@
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "gvd/scene/scene.h"
+
+namespace gvd {
+
+/// Input formats the scene loader understands.
+enum class SceneFormat { kAuto, kJson, kObj, kGltf, kGlb, kPly, kStl, kOff };
+
+/// Parses the native scene JSON of DESIGN.md ({"dimension":..,"objects":[..]}) and validates
+/// it. Errors name the JSON path, object label and index.
+Scene parse_scene_json(std::string_view text, const SceneLimits& limits = {});
+
+/// Parses an in-memory file in the given format (kAuto sniffs the content). `name` is used
+/// for error messages and, for single-object formats (PLY/STL/OFF), as the label.
+/// OBJ: each `o`/`g` group is an object (faces before any group form an object named
+/// after `name`); 2D is never inferred from OBJ/PLY/STL/OFF/glTF: they are 3D.
+Scene parse_scene_bytes(std::span<const uint8_t> bytes, SceneFormat format,
+                        const std::string& name, const SceneLimits& limits = {});
+
+/// Loads a scene from files: one scene file (JSON, OBJ, GLB/glTF), or several mesh files
+/// (PLY/STL/OFF/OBJ), one object each, labelled by file stem. Validated.
+Scene load_scene(std::span<const std::string> paths, const SceneLimits& limits = {});
+
+/// Serialises a scene to the native JSON (for round trips and the job store).
+std::string scene_to_json(const Scene& scene);
+
+}  // namespace gvd

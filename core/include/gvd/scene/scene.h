@@ -1,0 +1,107 @@
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gvd/geometry/simplex.h"
+#include "gvd/geometry/vec.h"
+
+namespace gvd {
+
+/// Index of an object in its scene (its position in `Scene::objects`).
+using ObjectId = uint32_t;
+/// No object: an empty octree cell, or the domain box on the other side of a GVD simplex.
+inline constexpr ObjectId kNoObject = 0xFFFFFFFFu;
+/// Several objects in one octree cell (only at the depth limit, where objects touch).
+inline constexpr ObjectId kManyObjects = 0xFFFFFFFEu;
+
+/// One labelled object: a polygon soup (2D segments or 3D triangles) in user coordinates.
+struct SceneObject {
+  std::string label;
+  std::vector<Vec3> vertices;  ///< 2D objects keep z = 0
+  std::vector<Simplex> simplices;
+};
+
+/// A condition that was accepted but that the user should know about.
+struct SceneWarning {
+  std::string kind;    ///< stable name: "degenerate_simplices", "open_mesh", ...
+  std::string object;  ///< label, empty when it concerns the whole scene
+  uint64_t count = 0;  ///< how many instances (simplices, edges, components, pairs)
+  std::string detail;  ///< human readable, says where
+};
+
+/// The validated input of the pipeline: labels unique, indices in range, coordinates
+/// finite, degenerate simplices removed (counted in `warnings`).
+struct Scene {
+  int dimension = 3;
+  std::vector<SceneObject> objects;
+  std::vector<SceneWarning> warnings;
+
+  uint64_t simplex_count() const;
+  uint64_t vertex_count() const;
+  /// Index of the object with this label, if any.
+  std::optional<ObjectId> find(const std::string& label) const;
+};
+
+/// Limits enforced before any work starts (the service and CLI expose them as options).
+struct SceneLimits {
+  uint64_t max_objects = 100000;
+  uint64_t max_simplices = 20000000;
+  double max_abs_coordinate = 1e15;  ///< larger magnitudes lose all precision in the lattice
+};
+
+/// Checks the structure of a parsed scene and normalises it in place: throws
+/// gvd::Error{kInvalidScene} naming the object label and simplex/vertex index for missing or
+/// duplicate labels, out-of-range indices, non-finite or too large coordinates, an empty
+/// scene or empty objects; removes degenerate simplices (zero length/area, repeated
+/// indices) and records warnings for them, for open or non-manifold meshes and for
+/// objects with several connected components. O(V + S log S).
+void validate_scene(Scene& scene, const SceneLimits& limits = {});
+
+/// The computational domain: an axis-aligned square/cube in user coordinates, and the map
+/// to the unit lattice [0,1]^D in which the octree works.
+struct Domain {
+  int dimension = 3;
+  Vec3 origin;        ///< lower corner (user units)
+  double side = 1.0;  ///< edge length (user units)
+
+  Vec3 to_unit(Vec3 p) const;
+  Vec3 from_unit(Vec3 u) const;
+  Box box() const;  ///< the domain in user units (z = 0..0 in 2D)
+};
+
+/// Options of `make_domain`.
+struct DomainOptions {
+  /// User-given box (user units); it is made a cube of its largest extent, centred.
+  std::optional<Box> box;
+  /// Padding on every side as a fraction of the largest extent (default 5 %).
+  double padding = 0.05;
+};
+
+/// The default domain: bounding box of all vertices made a cube (side = largest extent,
+/// centred) and padded by `padding` of the side on every side. A user box must contain every
+/// vertex, else gvd::Error{kInvalidArgument}.
+Domain make_domain(const Scene& scene, const DomainOptions& options = {});
+
+/// Bits of the unit lattice in which octree cells live: cells at level l span 2^(bits-l)
+/// lattice units. 3D: 21 (so (2^21+1)^3 lattice points fit 64 bits), 2D: 31.
+constexpr int lattice_bits(int dimension) { return dimension == 2 ? 31 : 21; }
+
+/// The scene mapped to the unit domain: one flat array of points and simplices with the
+/// object of each simplex, coordinates snapped to multiples of 2^-48 so that every coordinate
+/// is an exact dyadic number (octree tests on lattice-aligned cells stay reproducible).
+struct UnitGeometry {
+  int dimension = 3;
+  std::vector<Vec3> points;
+  std::vector<Simplex> simplices;  ///< indices into `points`
+  std::vector<ObjectId> object_of;  ///< per simplex
+  uint32_t object_count = 0;
+};
+
+/// Maps every object of the scene into the unit domain. Vertices outside the domain are an
+/// error (gvd::Error{kInvalidArgument} naming object and vertex).
+UnitGeometry make_unit_geometry(const Scene& scene, const Domain& domain);
+
+}  // namespace gvd

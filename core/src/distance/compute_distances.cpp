@@ -1,0 +1,165 @@
+#include <cmath>
+#include <limits>
+#include <queue>
+
+#include "gvd/common/error.h"
+#include "gvd/common/parallel.h"
+#include "gvd/distance/distance_field.h"
+
+namespace gvd {
+
+double DistanceField::distance(uint32_t v) const {
+  if (point[v] == kNoVertex) return std::numeric_limits<double>::infinity();
+  return gvd::dist(vertices.position(v), closest[point[v]]);
+}
+
+size_t DistanceField::memory_bytes() const {
+  return vertices.memory_bytes() + label.size() * sizeof(ObjectId) +
+         point.size() * sizeof(uint32_t) + closest.size() * sizeof(Vec3) + exact.size();
+}
+
+ClosestHit closest_for_vertex(const SimplexBvh& bvh, Vec3 position, double upper2) {
+  return bvh.nearest(position, upper2);
+}
+
+namespace {
+
+// Compressed sparse rows.
+struct Csr {
+  std::vector<uint32_t> begin;
+  std::vector<uint32_t> items;
+};
+
+void check_cancel(const DistanceOptions& options) {
+  if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
+    throw Error(ErrorCode::kCancelled, "distance transform cancelled");
+  }
+}
+
+}  // namespace
+
+DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
+                                const SimplexBvh& bvh, const DistanceOptions& options,
+                                const DistanceField* previous) {
+  const int dim = octree.dimension;
+  const int threads = resolve_threads(options.threads);
+  DistanceField field;
+  field.vertices = enumerate_vertices(octree, threads);
+  const size_t nv = field.vertices.size();
+  const size_t nl = octree.leaf_count();
+  const int grid_points = dim == 3 ? 27 : 9;
+
+  // Leaf -> boundary vertices (CSR), and its transpose vertex -> incident leaves.
+  Csr leaf_verts;
+  leaf_verts.begin.assign(nl + 1, 0);
+  {
+    std::vector<LeafGrid> grids(nl);
+    parallel_for(nl, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i)
+        grids[i] = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
+    });
+    for (size_t i = 0; i < nl; ++i) {
+      uint32_t count = 0;
+      for (int k = 0; k < grid_points; ++k) count += grids[i][k] != kNoVertex;
+      leaf_verts.begin[i + 1] = leaf_verts.begin[i] + count;
+    }
+    leaf_verts.items.resize(leaf_verts.begin[nl]);
+    for (size_t i = 0; i < nl; ++i) {
+      uint32_t pos = leaf_verts.begin[i];
+      for (int k = 0; k < grid_points; ++k)
+        if (grids[i][k] != kNoVertex) leaf_verts.items[pos++] = grids[i][k];
+    }
+  }
+  Csr vert_leaves;
+  vert_leaves.begin.assign(nv + 1, 0);
+  for (uint32_t v : leaf_verts.items) ++vert_leaves.begin[v + 1];
+  for (size_t v = 0; v < nv; ++v) vert_leaves.begin[v + 1] += vert_leaves.begin[v];
+  vert_leaves.items.resize(leaf_verts.items.size());
+  {
+    std::vector<uint32_t> fill(vert_leaves.begin.begin(), vert_leaves.begin.end() - 1);
+    for (size_t l = 0; l < nl; ++l)
+      for (uint32_t k = leaf_verts.begin[l]; k < leaf_verts.begin[l + 1]; ++k)
+        vert_leaves.items[fill[leaf_verts.items[k]]++] = static_cast<uint32_t>(l);
+  }
+
+  // Non-empty vertices: on the boundary of a leaf that intersects an object.
+  field.exact.assign(nv, 0);
+  for (size_t l = 0; l < nl; ++l) {
+    if (octree.object[l] == kNoObject) continue;
+    for (uint32_t k = leaf_verts.begin[l]; k < leaf_verts.begin[l + 1]; ++k)
+      field.exact[leaf_verts.items[k]] = 1;
+  }
+  std::vector<uint32_t> nonempty;
+  for (size_t v = 0; v < nv; ++v)
+    if (field.exact[v]) nonempty.push_back(static_cast<uint32_t>(v));
+  field.exact_count = nonempty.size();
+
+  // Initialisation: exact closest point of every non-empty vertex.
+  field.label.assign(nv, kNoObject);
+  field.point.assign(nv, kNoVertex);
+  field.closest.resize(nonempty.size());
+  std::vector<uint8_t> reused(nonempty.size(), 0);
+  check_cancel(options);
+  parallel_for(
+      nonempty.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t i = b; i < e; ++i) {
+          const uint32_t v = nonempty[i];
+          if (previous != nullptr) {
+            const uint32_t pv = previous->vertices.find(field.vertices.key[v]);
+            if (pv != kNoVertex && previous->exact[pv]) {
+              field.closest[i] = previous->closest[previous->point[pv]];
+              field.label[v] = previous->label[pv];
+              field.point[v] = static_cast<uint32_t>(i);
+              reused[i] = 1;
+              continue;
+            }
+          }
+          const ClosestHit hit = closest_for_vertex(bvh, field.vertices.position(v));
+          GVD_CHECK(hit.found(), "a non-empty vertex must find a closest simplex");
+          field.closest[i] = hit.point;
+          field.label[v] = geometry.object_of[hit.simplex];
+          field.point[v] = static_cast<uint32_t>(i);
+        }
+      },
+      512);
+  for (uint8_t r : reused) field.exact_reused += r;
+
+  // Wavefront expansion (Algorithm 1): Dijkstra-like in the distance to the assigned point.
+  check_cancel(options);
+  std::vector<double> d2(nv, std::numeric_limits<double>::infinity());
+  using Item = std::pair<double, uint32_t>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  for (uint32_t v : nonempty) {
+    d2[v] = dist2(field.vertices.position(v), field.closest[field.point[v]]);
+    queue.push({d2[v], v});
+  }
+  std::vector<Vec3> position(nv);
+  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+    for (size_t v = b; v < e; ++v) position[v] = field.vertices.position(static_cast<uint32_t>(v));
+  });
+  uint64_t pops = 0;
+  while (!queue.empty()) {
+    const auto [dv, v] = queue.top();
+    queue.pop();
+    if (dv > d2[v]) continue;  // stale entry
+    if ((++pops & 0xfffff) == 0) check_cancel(options);
+    const Vec3 p = field.closest[field.point[v]];
+    for (uint32_t a = vert_leaves.begin[v]; a < vert_leaves.begin[v + 1]; ++a) {
+      const uint32_t leaf = vert_leaves.items[a];
+      for (uint32_t k = leaf_verts.begin[leaf]; k < leaf_verts.begin[leaf + 1]; ++k) {
+        const uint32_t w = leaf_verts.items[k];
+        const double dw = dist2(position[w], p);
+        if (dw < d2[w]) {
+          d2[w] = dw;
+          field.point[w] = field.point[v];
+          field.label[w] = field.label[v];
+          queue.push({dw, w});
+        }
+      }
+    }
+  }
+  return field;
+}
+
+}  // namespace gvd

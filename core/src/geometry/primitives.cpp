@@ -1,0 +1,147 @@
+#include "gvd/geometry/primitives.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gvd {
+
+Vec3 closest_point_on_segment(Vec3 p, Vec3 a, Vec3 b) {
+  const Vec3 ab = b - a;
+  const double len2 = norm2(ab);
+  if (len2 <= 0) return a;
+  const double t = std::clamp(dot(p - a, ab) / len2, 0.0, 1.0);
+  return a + ab * t;
+}
+
+Vec3 closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
+  const Vec3 ab = b - a;
+  const Vec3 ac = c - a;
+  if (norm2(cross(ab, ac)) <= 0) {
+    // Degenerate: closest of the three edges.
+    const Vec3 q1 = closest_point_on_segment(p, a, b);
+    const Vec3 q2 = closest_point_on_segment(p, b, c);
+    const Vec3 q3 = closest_point_on_segment(p, c, a);
+    Vec3 best = q1;
+    if (dist2(p, q2) < dist2(p, best)) best = q2;
+    if (dist2(p, q3) < dist2(p, best)) best = q3;
+    return best;
+  }
+  const Vec3 ap = p - a;
+  const double d1 = dot(ab, ap);
+  const double d2 = dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = dot(ab, bp);
+  const double d4 = dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const Vec3 cp = p - c;
+  const double d5 = dot(ab, cp);
+  const double d6 = dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom;
+  const double w = vc * denom;
+  return a + ab * v + ac * w;
+}
+
+double box_distance2(Vec3 p, const Box& b) {
+  double d2 = 0;
+  for (int i = 0; i < 3; ++i) {
+    double d = 0;
+    if (p[i] < b.lo[i]) d = b.lo[i] - p[i];
+    if (p[i] > b.hi[i]) d = p[i] - b.hi[i];
+    d2 += d * d;
+  }
+  return d2;
+}
+
+namespace {
+
+// Projection interval of the triangle (relative to the box centre) on `axis` against the
+// box's projection radius; true when separated.
+bool separated_on_axis(Vec3 axis, Vec3 v0, Vec3 v1, Vec3 v2, Vec3 half) {
+  const double p0 = dot(v0, axis);
+  const double p1 = dot(v1, axis);
+  const double p2 = dot(v2, axis);
+  const double r =
+      half.x * std::fabs(axis.x) + half.y * std::fabs(axis.y) + half.z * std::fabs(axis.z);
+  const double lo = std::min({p0, p1, p2});
+  const double hi = std::max({p0, p1, p2});
+  // Slack for rounding in the products, relative to the magnitudes involved.
+  const double eps = 1e-12 * (r + std::max(std::fabs(lo), std::fabs(hi)));
+  return lo > r + eps || hi < -r - eps;
+}
+
+}  // namespace
+
+bool triangle_overlaps_box(Vec3 a, Vec3 b, Vec3 c, const Box& box, double slack) {
+  const Vec3 center = box.center();
+  const Vec3 half = (box.hi - box.lo) * 0.5 + Vec3{slack, slack, slack};
+  const Vec3 v0 = a - center;
+  const Vec3 v1 = b - center;
+  const Vec3 v2 = c - center;
+  // Box face normals.
+  for (int i = 0; i < 3; ++i) {
+    const double lo = std::min({v0[i], v1[i], v2[i]});
+    const double hi = std::max({v0[i], v1[i], v2[i]});
+    if (lo > half[i] || hi < -half[i]) return false;
+  }
+  const Vec3 e[3] = {v1 - v0, v2 - v1, v0 - v2};
+  // Triangle normal.
+  const Vec3 n = cross(e[0], e[1]);
+  if (norm2(n) > 0 && separated_on_axis(n, v0, v1, v2, half)) return false;
+  // Edge x box axis cross products.
+  const Vec3 axes[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (const Vec3& edge : e) {
+    for (const Vec3& ax : axes) {
+      const Vec3 axis = cross(edge, ax);
+      if (norm2(axis) > 0 && separated_on_axis(axis, v0, v1, v2, half)) return false;
+    }
+  }
+  return true;
+}
+
+bool segment_overlaps_box_2d(Vec3 a, Vec3 b, const Box& box, double slack) {
+  const double lox = box.lo.x - slack, hix = box.hi.x + slack;
+  const double loy = box.lo.y - slack, hiy = box.hi.y + slack;
+  if (std::max(a.x, b.x) < lox || std::min(a.x, b.x) > hix) return false;
+  if (std::max(a.y, b.y) < loy || std::min(a.y, b.y) > hiy) return false;
+  // Segment normal axis: the box corners must not all lie strictly on one side.
+  const double nx = -(b.y - a.y);
+  const double ny = b.x - a.x;
+  const double cx = 0.5 * (lox + hix), cy = 0.5 * (loy + hiy);
+  const double hx = 0.5 * (hix - lox), hy = 0.5 * (hiy - loy);
+  const double s = nx * (cx - a.x) + ny * (cy - a.y);
+  const double r = hx * std::fabs(nx) + hy * std::fabs(ny);
+  const double eps = 1e-12 * (r + std::fabs(s));
+  return std::fabs(s) <= r + eps;
+}
+
+bool segment_overlaps_box_3d(Vec3 a, Vec3 b, const Box& box, double slack) {
+  double t0 = 0, t1 = 1;
+  const Vec3 d = b - a;
+  for (int i = 0; i < 3; ++i) {
+    const double lo = box.lo[i] - slack, hi = box.hi[i] + slack;
+    if (d[i] == 0) {
+      if (a[i] < lo || a[i] > hi) return false;
+      continue;
+    }
+    double ta = (lo - a[i]) / d[i];
+    double tb = (hi - a[i]) / d[i];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1 + 1e-12) return false;
+  }
+  return true;
+}
+
+}  // namespace gvd

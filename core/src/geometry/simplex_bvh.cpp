@@ -1,0 +1,82 @@
+#include "gvd/geometry/simplex_bvh.h"
+
+#include <algorithm>
+#include <numeric>
+
+#include "gvd/geometry/primitives.h"
+
+namespace gvd {
+
+Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const Simplex& s,
+                              Vec3 p) {
+  if (dimension == 2) return closest_point_on_segment(p, points[s.v[0]], points[s.v[1]]);
+  return closest_point_on_triangle(p, points[s.v[0]], points[s.v[1]], points[s.v[2]]);
+}
+
+SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
+                       std::span<const Simplex> simplices)
+    : dimension_(dimension), points_(points), simplices_(simplices) {
+  const uint32_t m = static_cast<uint32_t>(simplices.size());
+  if (m == 0) return;
+  const int arity = dimension == 2 ? 2 : 3;
+  std::vector<Box> boxes(m);
+  std::vector<Vec3> centers(m);
+  for (uint32_t i = 0; i < m; ++i) {
+    for (int k = 0; k < arity; ++k) boxes[i].extend(points[simplices[i].v[k]]);
+    centers[i] = boxes[i].center();
+  }
+  order_.resize(m);
+  std::iota(order_.begin(), order_.end(), 0u);
+  nodes_.reserve(m / 2 + 2);
+  constexpr uint32_t kLeafSize = 4;
+  // Iterative top-down median split along the largest axis of the centre bounds, in
+  // depth-first layout: a left child directly follows its parent, the parent stores the
+  // index of its right child.
+  struct Frame {
+    uint32_t begin, end, parent;  // parent: node whose `first` (right child) to set, or ~0
+  };
+  std::vector<Frame> stack;
+  stack.push_back({0, m, ~0u});
+  while (!stack.empty()) {
+    const Frame f = stack.back();
+    stack.pop_back();
+    const uint32_t self = static_cast<uint32_t>(nodes_.size());
+    if (f.parent != ~0u) nodes_[f.parent].first = self;
+    nodes_.push_back({});
+    Box box, cbox;
+    for (uint32_t k = f.begin; k < f.end; ++k) {
+      box.extend(boxes[order_[k]]);
+      cbox.extend(centers[order_[k]]);
+    }
+    nodes_[self].box = box;
+    if (f.end - f.begin <= kLeafSize) {
+      nodes_[self].first = f.begin;
+      nodes_[self].count = f.end - f.begin;
+      continue;
+    }
+    const Vec3 ext = cbox.hi - cbox.lo;
+    int axis = 0;
+    if (ext.y > ext[axis]) axis = 1;
+    if (ext.z > ext[axis]) axis = 2;
+    const uint32_t mid = f.begin + (f.end - f.begin) / 2;
+    std::nth_element(order_.begin() + f.begin, order_.begin() + mid, order_.begin() + f.end,
+                     [&](uint32_t a, uint32_t b) { return centers[a][axis] < centers[b][axis]; });
+    // Right subtree is pushed first so the left one (popped next) directly follows `self`.
+    stack.push_back({mid, f.end, self});
+    stack.push_back({f.begin, mid, ~0u});
+  }
+}
+
+size_t SimplexBvh::memory_bytes() const {
+  return nodes_.size() * sizeof(Node) + order_.size() * sizeof(uint32_t);
+}
+
+}  // namespace gvd
+
+namespace gvd {
+
+ClosestHit SimplexBvh::nearest(Vec3 p, double max_dist2) const {
+  return nearest_if(p, [](uint32_t) { return true; }, max_dist2);
+}
+
+}  // namespace gvd

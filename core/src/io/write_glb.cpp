@@ -1,0 +1,246 @@
+// The GVD as binary glTF (DESIGN.md, "GVD GLB"). All tinygltf use of the core lives here so that
+// its heavy header is compiled once (ENVIRONMENT.md).
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "gvd/common/error.h"
+#include "gvd/io/write_outputs.h"
+
+namespace gvd {
+namespace {
+
+constexpr const char* kMeshFeaturesExtension = "EXT_mesh_features";
+
+/// Colour of the domain-box side of a cell: it has no clearance to speak of.
+constexpr std::array<float, 3> kBoxColor = {0.5f, 0.5f, 0.5f};
+
+/// The clearance ramp: red at 0 -> yellow -> green -> blue at `max_clearance` (piecewise
+/// linear with the three segments of equal length), so that tight places stand out in red.
+std::array<float, 3> clearance_color(double clearance, double max_clearance) {
+  double t = max_clearance > 0 ? clearance / max_clearance : 0.0;
+  t = std::clamp(t, 0.0, 1.0) * 3.0;
+  std::array<double, 3> rgb;
+  if (t <= 1.0) {
+    rgb = {1.0, t, 0.0};  // red -> yellow
+  } else if (t <= 2.0) {
+    rgb = {2.0 - t, 1.0, 0.0};  // yellow -> green
+  } else {
+    rgb = {0.0, 3.0 - t, t - 2.0};  // green -> blue
+  }
+  return {static_cast<float>(rgb[0]), static_cast<float>(rgb[1]), static_cast<float>(rgb[2])};
+}
+
+/// Appends `bytes` to the single buffer at a 4-byte aligned offset (every component type we
+/// write is at most 4 bytes wide, so this satisfies glTF's accessor alignment) and adds a
+/// bufferView with the given target. Returns the bufferView index.
+int add_buffer_view(tinygltf::Model& model, const void* data, size_t bytes, int target) {
+  std::vector<unsigned char>& buffer = model.buffers[0].data;
+  buffer.resize((buffer.size() + 3) / 4 * 4, 0);
+  tinygltf::BufferView view;
+  view.buffer = 0;
+  view.byteOffset = buffer.size();
+  view.byteLength = bytes;
+  view.target = target;
+  const auto* begin = static_cast<const unsigned char*>(data);
+  buffer.insert(buffer.end(), begin, begin + bytes);
+  model.bufferViews.push_back(std::move(view));
+  return static_cast<int>(model.bufferViews.size() - 1);
+}
+
+/// A float32 accessor of `components` components per element over a new bufferView.
+int add_float_accessor(tinygltf::Model& model, const std::vector<float>& values, int components,
+                       bool with_bounds) {
+  const size_t count = values.size() / static_cast<size_t>(components);
+  tinygltf::Accessor accessor;
+  accessor.bufferView = add_buffer_view(model, values.data(), values.size() * sizeof(float),
+                                        TINYGLTF_TARGET_ARRAY_BUFFER);
+  accessor.byteOffset = 0;
+  accessor.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  accessor.count = count;
+  accessor.type = components == 1 ? TINYGLTF_TYPE_SCALAR : TINYGLTF_TYPE_VEC3;
+  if (with_bounds) {
+    // The bounds of the float32 values actually stored (not of the doubles they came from):
+    // the validator compares them exactly.
+    accessor.minValues.assign(static_cast<size_t>(components), std::numeric_limits<double>::max());
+    accessor.maxValues.assign(static_cast<size_t>(components),
+                              std::numeric_limits<double>::lowest());
+    for (size_t i = 0; i < values.size(); ++i) {
+      const size_t c = i % static_cast<size_t>(components);
+      accessor.minValues[c] = std::min(accessor.minValues[c], static_cast<double>(values[i]));
+      accessor.maxValues[c] = std::max(accessor.maxValues[c], static_cast<double>(values[i]));
+    }
+  }
+  model.accessors.push_back(std::move(accessor));
+  return static_cast<int>(model.accessors.size() - 1);
+}
+
+/// The index accessor: uint16 when every index fits below the uint16 restart value 65535
+/// (which glTF forbids as an index), uint32 otherwise.
+int add_index_accessor(tinygltf::Model& model, const std::vector<uint32_t>& indices,
+                       size_t vertex_count) {
+  tinygltf::Accessor accessor;
+  if (vertex_count <= 0xFFFFu) {
+    std::vector<uint16_t> narrow(indices.begin(), indices.end());
+    accessor.bufferView = add_buffer_view(model, narrow.data(), narrow.size() * sizeof(uint16_t),
+                                          TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+    accessor.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+  } else {
+    accessor.bufferView = add_buffer_view(model, indices.data(), indices.size() * sizeof(uint32_t),
+                                          TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+    accessor.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+  }
+  accessor.byteOffset = 0;
+  accessor.count = indices.size();
+  accessor.type = TINYGLTF_TYPE_SCALAR;
+  model.accessors.push_back(std::move(accessor));
+  return static_cast<int>(model.accessors.size() - 1);
+}
+
+/// Checks the invariants of a cell that the writer relies on (our bug if violated: the GVD is
+/// produced by the pipeline, not by the user).
+void check_cell(const GvdCell& cell, ObjectId index, size_t object_count, int dimension) {
+  const size_t n = cell.positions.size();
+  GVD_CHECK(cell.object == index, "gvd cell i must belong to object i");
+  GVD_CHECK(cell.other.size() == n && cell.clearance.size() == n,
+            "gvd cell attributes must have one value per vertex");
+  GVD_CHECK(cell.indices.size() % static_cast<size_t>(dimension) == 0,
+            "gvd cell indices must form whole simplices");
+  for (uint32_t v : cell.indices) GVD_CHECK(v < n, "gvd cell index out of range");
+  for (size_t v = 0; v < n; ++v) {
+    const Vec3 p = cell.positions[v];
+    GVD_CHECK(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z),
+              "gvd cell position must be finite");
+    GVD_CHECK(std::isfinite(cell.clearance[v]), "gvd cell clearance must be finite");
+    GVD_CHECK(cell.other[v] == kNoObject || cell.other[v] < object_count,
+              "gvd cell 'other' must be an object of the scene or the domain box");
+  }
+}
+
+/// Adds the mesh of one non-empty cell and the node that shows it; returns the node index.
+int add_cell(tinygltf::Model& model, const GvdCell& cell, ObjectId index, const Scene& scene,
+             int dimension, double max_clearance) {
+  const size_t n = cell.positions.size();
+  const auto null_feature_id = static_cast<uint32_t>(scene.objects.size());
+
+  std::vector<float> positions;
+  std::vector<float> feature_ids;
+  std::vector<float> clearance;
+  std::vector<float> colors;
+  positions.reserve(3 * n);
+  feature_ids.reserve(n);
+  clearance.reserve(n);
+  colors.reserve(3 * n);
+  std::set<uint32_t> distinct_features;
+  for (size_t v = 0; v < n; ++v) {
+    const Vec3 p = cell.positions[v];
+    positions.push_back(static_cast<float>(p.x));
+    positions.push_back(static_cast<float>(p.y));
+    positions.push_back(dimension == 2 ? 0.0f : static_cast<float>(p.z));
+    const bool is_box = cell.other[v] == kNoObject;
+    const uint32_t feature = is_box ? null_feature_id : cell.other[v];
+    if (!is_box) distinct_features.insert(feature);
+    feature_ids.push_back(static_cast<float>(feature));
+    clearance.push_back(static_cast<float>(cell.clearance[v]));
+    const std::array<float, 3> rgb =
+        is_box ? kBoxColor : clearance_color(cell.clearance[v], max_clearance);
+    colors.insert(colors.end(), rgb.begin(), rgb.end());
+  }
+
+  tinygltf::Primitive primitive;
+  primitive.mode = dimension == 2 ? TINYGLTF_MODE_LINE : TINYGLTF_MODE_TRIANGLES;
+  primitive.attributes["POSITION"] = add_float_accessor(model, positions, 3, true);
+  primitive.attributes["_FEATURE_ID_0"] = add_float_accessor(model, feature_ids, 1, false);
+  primitive.attributes["_CLEARANCE"] = add_float_accessor(model, clearance, 1, false);
+  primitive.attributes["COLOR_0"] = add_float_accessor(model, colors, 3, false);
+  primitive.indices = add_index_accessor(model, cell.indices, n);
+
+  // EXT_mesh_features: the feature id is the vertex attribute _FEATURE_ID_0; featureCount
+  // counts the distinct objects across this cell's boundary (the schema wants at least 1).
+  tinygltf::Value::Object feature_id;
+  feature_id["featureCount"] =
+      tinygltf::Value(std::max(1, static_cast<int>(distinct_features.size())));
+  feature_id["attribute"] = tinygltf::Value(0);
+  feature_id["nullFeatureId"] = tinygltf::Value(static_cast<int>(null_feature_id));
+  tinygltf::Value::Object mesh_features;
+  mesh_features["featureIds"] =
+      tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(std::move(feature_id))});
+  primitive.extensions[kMeshFeaturesExtension] = tinygltf::Value(std::move(mesh_features));
+
+  const std::string& label = scene.objects[index].label;
+  tinygltf::Mesh mesh;
+  mesh.name = label;
+  mesh.primitives.push_back(std::move(primitive));
+  model.meshes.push_back(std::move(mesh));
+
+  tinygltf::Node node;
+  node.name = label;
+  node.mesh = static_cast<int>(model.meshes.size() - 1);
+  tinygltf::Value::Object extras;
+  extras["label"] = tinygltf::Value(label);
+  extras["object"] = tinygltf::Value(static_cast<int>(index));
+  node.extras = tinygltf::Value(std::move(extras));
+  model.nodes.push_back(std::move(node));
+  return static_cast<int>(model.nodes.size() - 1);
+}
+
+}  // namespace
+
+std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene) {
+  GVD_CHECK(gvd.dimension == 2 || gvd.dimension == 3, "gvd dimension must be 2 or 3");
+  GVD_CHECK(gvd.cells.size() <= scene.objects.size(), "gvd has more cells than scene objects");
+  // Object indices and the null feature id are written as JSON integers and float32 values:
+  // both are exact far beyond SceneLimits::max_objects.
+  GVD_CHECK(scene.objects.size() < (size_t{1} << 24), "too many objects for float feature ids");
+
+  double max_clearance = 0;
+  for (size_t i = 0; i < gvd.cells.size(); ++i) {
+    const GvdCell& cell = gvd.cells[i];
+    if (cell.indices.empty()) continue;
+    check_cell(cell, static_cast<ObjectId>(i), scene.objects.size(), gvd.dimension);
+    for (double c : cell.clearance) max_clearance = std::max(max_clearance, c);
+  }
+
+  tinygltf::Model model;
+  model.asset.version = "2.0";
+  model.asset.generator = "gvd";
+  model.buffers.emplace_back();
+  tinygltf::Scene gltf_scene;
+  // A name keeps the scene a JSON object even without nodes (tinygltf writes an empty scene
+  // as null, which is invalid glTF).
+  gltf_scene.name = "gvd";
+  for (size_t i = 0; i < gvd.cells.size(); ++i) {
+    if (gvd.cells[i].indices.empty()) continue;
+    gltf_scene.nodes.push_back(add_cell(model, gvd.cells[i], static_cast<ObjectId>(i), scene,
+                                        gvd.dimension, max_clearance));
+  }
+  model.scenes.push_back(std::move(gltf_scene));
+  model.defaultScene = 0;
+
+  if (model.buffers[0].data.empty()) {
+    // No cell has simplices: glTF forbids a zero-length buffer, and no primitive uses the
+    // extension.
+    model.buffers.clear();
+  } else {
+    model.buffers[0].data.resize((model.buffers[0].data.size() + 3) / 4 * 4, 0);
+    model.extensionsUsed.push_back(kMeshFeaturesExtension);
+  }
+
+  std::ostringstream out(std::ios::out | std::ios::binary);
+  tinygltf::TinyGLTF writer;
+  const bool ok = writer.WriteGltfSceneToStream(&model, out, /*prettyPrint=*/false,
+                                                /*writeBinary=*/true);
+  GVD_CHECK(ok && out.good(), "tinygltf failed to serialise the GVD");
+  const std::string bytes = out.str();
+  return std::vector<uint8_t>(bytes.begin(), bytes.end());
+}
+
+}  // namespace gvd

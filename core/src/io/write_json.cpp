@@ -1,0 +1,190 @@
+// JSON outputs (GVD with float64 coordinates, dual graph) and the file helpers of io/.
+#include <errno.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "gvd/common/error.h"
+#include "gvd/io/write_outputs.h"
+
+namespace gvd {
+namespace {
+
+using nlohmann::json;
+
+/// A point as a JSON array of `dimension` coordinates. nlohmann prints doubles with the
+/// shortest representation that reads back to the same double, so coordinates round-trip.
+json point_json(Vec3 p, int dimension) {
+  GVD_CHECK(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z),
+            "output point must be finite");
+  return dimension == 2 ? json::array({p.x, p.y}) : json::array({p.x, p.y, p.z});
+}
+
+const std::string& label_of(const Scene& scene, ObjectId object) {
+  GVD_CHECK(object < scene.objects.size(), "object index out of range of the scene");
+  return scene.objects[object].label;
+}
+
+std::string errno_text(int error) { return std::generic_category().message(error); }
+
+[[noreturn]] void throw_io(const std::string& what, const std::string& path, int error) {
+  throw Error(ErrorCode::kIo, what + " '" + path + "': " + errno_text(error));
+}
+
+/// Writes all of `data` to `fd`, retrying on EINTR and short writes; returns 0 or an errno.
+int write_all(int fd, const unsigned char* data, size_t size) {
+  while (size > 0) {
+    const ssize_t written = ::write(fd, data, size);
+    if (written < 0) {
+      if (errno == EINTR) continue;
+      return errno;
+    }
+    data += written;
+    size -= static_cast<size_t>(written);
+  }
+  return 0;
+}
+
+std::string directory_of(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  if (slash == 0) return "/";
+  return path.substr(0, slash);
+}
+
+}  // namespace
+
+std::string gvd_to_json(const Gvd& gvd, const Scene& scene) {
+  GVD_CHECK(gvd.dimension == 2 || gvd.dimension == 3, "gvd dimension must be 2 or 3");
+  GVD_CHECK(gvd.cells.size() <= scene.objects.size(), "gvd has more cells than scene objects");
+  const size_t k = static_cast<size_t>(gvd.dimension);  // vertices per simplex
+
+  json objects = json::array();
+  for (size_t i = 0; i < gvd.cells.size(); ++i) {
+    const GvdCell& cell = gvd.cells[i];
+    if (cell.indices.empty()) continue;  // the same cells as the GLB: only non-empty ones
+    const size_t n = cell.positions.size();
+    GVD_CHECK(cell.object == i, "gvd cell i must belong to object i");
+    GVD_CHECK(cell.other.size() == n && cell.clearance.size() == n,
+              "gvd cell attributes must have one value per vertex");
+    GVD_CHECK(cell.indices.size() % k == 0, "gvd cell indices must form whole simplices");
+
+    json positions = json::array();
+    json other = json::array();
+    json clearance = json::array();
+    for (size_t v = 0; v < n; ++v) {
+      positions.push_back(point_json(cell.positions[v], gvd.dimension));
+      if (cell.other[v] == kNoObject) {
+        other.push_back(-1);
+      } else {
+        GVD_CHECK(cell.other[v] < scene.objects.size(), "gvd cell 'other' out of range");
+        other.push_back(cell.other[v]);
+      }
+      GVD_CHECK(std::isfinite(cell.clearance[v]), "gvd cell clearance must be finite");
+      clearance.push_back(cell.clearance[v]);
+    }
+    json simplices = json::array();
+    for (size_t s = 0; s < cell.indices.size(); s += k) {
+      json simplex = json::array();
+      for (size_t j = 0; j < k; ++j) {
+        GVD_CHECK(cell.indices[s + j] < n, "gvd cell index out of range");
+        simplex.push_back(cell.indices[s + j]);
+      }
+      simplices.push_back(std::move(simplex));
+    }
+    objects.push_back({{"object", i},
+                       {"label", scene.objects[i].label},
+                       {"positions", std::move(positions)},
+                       {"other", std::move(other)},
+                       {"clearance", std::move(clearance)},
+                       {"simplices", std::move(simplices)}});
+  }
+  const json out = {{"dimension", gvd.dimension},
+                    {"null_feature_id", scene.objects.size()},
+                    {"objects", std::move(objects)}};
+  return out.dump();
+}
+
+std::string graph_to_json(const DualGraph& graph, const Scene& scene) {
+  GVD_CHECK(graph.node_count <= scene.objects.size(), "dual graph has more nodes than objects");
+  json nodes = json::array();
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    nodes.push_back({{"object", i}, {"label", scene.objects[i].label}});
+  }
+  json edges = json::array();
+  for (const DualEdge& edge : graph.edges) {
+    GVD_CHECK(std::isfinite(edge.area) && std::isfinite(edge.min_clearance),
+              "dual edge measures must be finite");
+    edges.push_back({{"a", edge.a},
+                     {"b", edge.b},
+                     {"label_a", label_of(scene, edge.a)},
+                     {"label_b", label_of(scene, edge.b)},
+                     {"area", edge.area},
+                     {"min_clearance", edge.min_clearance},
+                     {"tightest_point", point_json(edge.tightest_point, scene.dimension)}});
+  }
+  const json out = {{"nodes", std::move(nodes)}, {"edges", std::move(edges)}};
+  return out.dump();
+}
+
+void write_file_atomic(const std::string& path, const void* data, size_t size) {
+  // A process-wide counter makes temporary names unique between threads of this process (the
+  // pid separates processes); O_EXCL guards against anything left over by a crashed run.
+  static std::atomic<uint64_t> counter{0};
+  const std::string tmp =
+      path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter.fetch_add(1));
+
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) throw_io("cannot create a temporary file for", path, errno);
+  int error = write_all(fd, static_cast<const unsigned char*>(data), size);
+  if (error == 0 && ::fsync(fd) != 0) error = errno;
+  if (::close(fd) != 0 && error == 0) error = errno;
+  if (error == 0 && ::rename(tmp.c_str(), path.c_str()) != 0) error = errno;
+  if (error != 0) {
+    ::unlink(tmp.c_str());
+    throw_io("cannot write", path, error);
+  }
+  // Make the rename itself durable. Best effort: some file systems refuse fsync on a directory,
+  // and the file is already complete and in place.
+  const int dir = ::open(directory_of(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir >= 0) {
+    ::fsync(dir);
+    ::close(dir);
+  }
+}
+
+void write_file_atomic(const std::string& path, const std::string& text) {
+  write_file_atomic(path, text.data(), text.size());
+}
+
+std::vector<uint8_t> read_file_bytes(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw_io("cannot open", path, errno);
+  std::vector<uint8_t> bytes;
+  struct stat info {};
+  if (::fstat(fd, &info) == 0 && info.st_size > 0) bytes.reserve(static_cast<size_t>(info.st_size));
+  unsigned char chunk[1 << 16];
+  for (;;) {
+    const ssize_t got = ::read(fd, chunk, sizeof chunk);
+    if (got < 0) {
+      if (errno == EINTR) continue;
+      const int error = errno;
+      ::close(fd);
+      throw_io("cannot read", path, error);
+    }
+    if (got == 0) break;
+    bytes.insert(bytes.end(), chunk, chunk + got);
+  }
+  ::close(fd);
+  return bytes;
+}
+
+}  // namespace gvd

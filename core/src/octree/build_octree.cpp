@@ -1,0 +1,400 @@
+#include <algorithm>
+#include <numeric>
+
+#include "gvd/common/error.h"
+#include "gvd/common/flat_hash.h"
+#include "gvd/common/parallel.h"
+#include "gvd/geometry/primitives.h"
+#include "gvd/octree/octree.h"
+
+namespace gvd {
+namespace {
+
+using lattice::Coord;
+
+// Internal (split) nodes of the tree, one hash set of corner Morton codes per level.
+using InternalSets = std::vector<FlatMap64>;
+
+void check_cancel(const OctreeOptions& options) {
+  if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
+    throw Error(ErrorCode::kCancelled, "octree build cancelled");
+  }
+}
+
+uint64_t child_code(int dim, uint64_t code, int level, uint32_t child) {
+  const int shift = dim * (lattice_bits(dim) - level - 1);
+  return code | (static_cast<uint64_t>(child) << shift);
+}
+
+uint64_t parent_code(int dim, uint64_t code, int level) {
+  const int shift = dim * (lattice_bits(dim) - level + 1);
+  return shift >= 64 ? 0 : (code >> shift) << shift;
+}
+
+// Does simplex s of `geometry` touch `box`? Conservative: the box is inflated a hair.
+bool simplex_touches(const UnitGeometry& g, uint32_t s, const Box& box, double slack) {
+  const Simplex& t = g.simplices[s];
+  if (g.dimension == 2) {
+    return segment_overlaps_box_2d(g.points[t.v[0]], g.points[t.v[1]], box, slack);
+  }
+  return triangle_overlaps_box(g.points[t.v[0]], g.points[t.v[1]], g.points[t.v[2]], box, slack);
+}
+
+double slack_for(int dim, int level) {
+  const double size = std::ldexp(1.0, -level);
+  (void)dim;
+  return size * 1e-9 + 1e-15;
+}
+
+ObjectId tag_of(const UnitGeometry& g, const uint32_t* begin, const uint32_t* end) {
+  if (begin == end) return kNoObject;
+  const ObjectId first = g.object_of[*begin];
+  for (const uint32_t* p = begin + 1; p != end; ++p) {
+    if (g.object_of[*p] != first) return kManyObjects;
+  }
+  return first;
+}
+
+// A set of cells of one level with their simplex lists (CSR).
+struct CellSet {
+  std::vector<uint64_t> codes;
+  std::vector<uint32_t> begin{0};
+  std::vector<uint32_t> pool;
+
+  size_t size() const { return codes.size(); }
+  void add(uint64_t c, const std::vector<uint32_t>& list) {
+    codes.push_back(c);
+    pool.insert(pool.end(), list.begin(), list.end());
+    begin.push_back(static_cast<uint32_t>(pool.size()));
+  }
+  void append(const CellSet& o) {
+    const uint32_t off = static_cast<uint32_t>(pool.size());
+    codes.insert(codes.end(), o.codes.begin(), o.codes.end());
+    pool.insert(pool.end(), o.pool.begin(), o.pool.end());
+    for (size_t i = 1; i < o.begin.size(); ++i) begin.push_back(o.begin[i] + off);
+  }
+};
+
+// Children of cell (code, level) with the simplices of `list` that touch them, in child
+// order; calls out(child_code, child_list).
+template <class Out>
+void split_cell(const UnitGeometry& g, uint64_t code, int level, const uint32_t* lb,
+                const uint32_t* le, std::vector<uint32_t>& scratch, Out&& out) {
+  const int dim = g.dimension;
+  const uint32_t nchildren = 1u << dim;
+  const double slack = slack_for(dim, level + 1);
+  for (uint32_t c = 0; c < nchildren; ++c) {
+    const uint64_t cc = child_code(dim, code, level, c);
+    const Box box = lattice::cell_box(dim, lattice::morton_decode(dim, cc), level + 1);
+    scratch.clear();
+    for (const uint32_t* p = lb; p != le; ++p) {
+      if (simplex_touches(g, *p, box, slack)) scratch.push_back(*p);
+    }
+    out(cc, scratch);
+  }
+}
+
+// Face-neighbour codes of a cell at `level` (those inside the domain).
+template <class F>
+void for_each_face_neighbour(int dim, uint64_t code, int level, F&& f) {
+  const Coord c = lattice::morton_decode(dim, code);
+  const int64_t size = static_cast<int64_t>(lattice::cell_size(dim, level));
+  const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
+  for (int axis = 0; axis < dim; ++axis) {
+    for (int sign = -1; sign <= 1; sign += 2) {
+      const int64_t v = static_cast<int64_t>(c.c[axis]) + sign * size;
+      if (v < 0 || v >= limit) continue;
+      Coord n = c;
+      n.c[axis] = static_cast<uint32_t>(v);
+      f(lattice::morton(dim, n));
+    }
+  }
+}
+
+// Per-chunk outputs merged in chunk order, so results do not depend on thread timing.
+template <class T>
+struct ChunkResults {
+  std::vector<T> chunks;
+  size_t grain;
+  ChunkResults(size_t n, size_t g) : chunks((n + g - 1) / g + 1), grain(g) {}
+  T& at(size_t begin) { return chunks[begin / grain]; }
+};
+
+// Phase 1: SHOULD_SUBDIVIDE, level by level over the non-empty cells; returns internal sets.
+InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& options,
+                                int max_depth, int threads) {
+  const int dim = g.dimension;
+  InternalSets internal(max_depth + 1);
+  CellSet current;
+  {
+    std::vector<uint32_t> all(g.simplices.size());
+    std::iota(all.begin(), all.end(), 0u);
+    current.add(0, all);
+  }
+  uint64_t internal_count = 0;
+  const uint64_t children_per_split = (1u << dim) - 1;
+  for (int level = 0; level <= max_depth && current.size() > 0; ++level) {
+    check_cancel(options);
+    const size_t n = current.size();
+    std::vector<ObjectId> tags(n);
+    FlatMap64 tag_of_code(n);
+    for (size_t i = 0; i < n; ++i) {
+      tags[i] = tag_of(g, current.pool.data() + current.begin[i],
+                       current.pool.data() + current.begin[i + 1]);
+      tag_of_code.set(current.codes[i], tags[i]);
+    }
+    if (level == max_depth) break;
+    std::vector<uint8_t> split(n, 0);
+    for (size_t i = 0; i < n; ++i) {
+      bool s = tags[i] == kManyObjects;
+      if (!s) {
+        for_each_face_neighbour(dim, current.codes[i], level, [&](uint64_t nc) {
+          const uint32_t t = tag_of_code.find(nc);
+          if (t != FlatMap64::kMissing && t != tags[i]) s = true;
+        });
+      }
+      split[i] = s ? 1 : 0;
+      if (s) internal[level].insert(current.codes[i], 0);
+    }
+    internal_count += internal[level].size();
+    if (internal_count * children_per_split + 1 > options.max_leaves) {
+      throw Error(ErrorCode::kLimitExceeded,
+                  "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
+                      " at level " + std::to_string(level + 1) +
+                      " (raise --max-leaves or lower --max-depth)");
+    }
+    const size_t grain = 256;
+    ChunkResults<CellSet> out(n, grain);
+    parallel_for(
+        n, threads,
+        [&](size_t b, size_t e, int) {
+          CellSet& local = out.at(b);
+          std::vector<uint32_t> scratch;
+          for (size_t i = b; i < e; ++i) {
+            if (!split[i]) continue;
+            split_cell(g, current.codes[i], level, current.pool.data() + current.begin[i],
+                       current.pool.data() + current.begin[i + 1], scratch,
+                       [&](uint64_t cc, const std::vector<uint32_t>& list) {
+                         if (!list.empty()) local.add(cc, list);
+                       });
+          }
+        },
+        grain);
+    CellSet next;
+    for (const CellSet& c : out.chunks) next.append(c);
+    current = std::move(next);
+  }
+  return internal;
+}
+
+// Adds every ancestor of the internal nodes (keeps the sets closed upwards).
+void close_upwards(int dim, InternalSets& internal) {
+  for (int level = static_cast<int>(internal.size()) - 1; level >= 1; --level) {
+    std::vector<uint64_t> parents;
+    internal[level].for_each(
+        [&](uint64_t code, uint32_t) { parents.push_back(parent_code(dim, code, level)); });
+    for (uint64_t p : parents) internal[level - 1].insert(p, 0);
+  }
+}
+
+// 2:1 balance over faces, edges and corners: every neighbour of an internal node must exist,
+// i.e. its parent must be internal. Deepest level first, so splits ripple upwards.
+void balance(int dim, InternalSets& internal) {
+  const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
+  for (int level = static_cast<int>(internal.size()) - 1; level >= 1; --level) {
+    std::vector<uint64_t> required;
+    const int64_t size = static_cast<int64_t>(lattice::cell_size(dim, level));
+    internal[level].for_each([&](uint64_t code, uint32_t) {
+      const Coord c = lattice::morton_decode(dim, code);
+      const int dz_lo = dim == 3 ? -1 : 0, dz_hi = dim == 3 ? 1 : 0;
+      for (int dz = dz_lo; dz <= dz_hi; ++dz) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size,
+                          z = c.c[2] + dz * size;
+            if (x < 0 || y < 0 || z < 0 || x >= limit || y >= limit || (dim == 3 && z >= limit))
+              continue;
+            Coord n{{static_cast<uint32_t>(x), static_cast<uint32_t>(y),
+                     static_cast<uint32_t>(z)}};
+            required.push_back(parent_code(dim, lattice::morton(dim, n), level));
+          }
+        }
+      }
+    });
+    for (uint64_t p : required) internal[level - 1].insert(p, 0);
+  }
+}
+
+// Phase 2: walk the tree top-down through the internal sets and emit the leaves with their
+// simplex lists, sorted by Morton code.
+Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_depth,
+                   const OctreeOptions& options, int threads) {
+  const int dim = g.dimension;
+  struct Leaves {
+    std::vector<uint64_t> code;
+    std::vector<uint8_t> level;
+    std::vector<ObjectId> object;
+    CellSet lists;  // codes unused; begin/pool hold the simplex lists
+  };
+  std::vector<Leaves> per_level;
+  CellSet current;
+  {
+    std::vector<uint32_t> all(g.simplices.size());
+    std::iota(all.begin(), all.end(), 0u);
+    current.add(0, all);
+  }
+  uint64_t leaf_count = 0;
+  for (int level = 0; current.size() > 0; ++level) {
+    check_cancel(options);
+    const size_t n = current.size();
+    const bool has_internal = level < static_cast<int>(internal.size()) && level < max_depth;
+    const size_t grain = 256;
+    ChunkResults<CellSet> next_chunks(n, grain);
+    ChunkResults<Leaves> leaf_chunks(n, grain);
+    parallel_for(
+        n, threads,
+        [&](size_t b, size_t e, int) {
+          CellSet& next = next_chunks.at(b);
+          Leaves& leaves = leaf_chunks.at(b);
+          std::vector<uint32_t> scratch;
+          for (size_t i = b; i < e; ++i) {
+            const uint64_t code = current.codes[i];
+            const uint32_t* lb = current.pool.data() + current.begin[i];
+            const uint32_t* le = current.pool.data() + current.begin[i + 1];
+            if (has_internal && internal[level].contains(code)) {
+              split_cell(g, code, level, lb, le, scratch,
+                         [&](uint64_t cc, const std::vector<uint32_t>& list) {
+                           next.add(cc, list);
+                         });
+            } else {
+              leaves.code.push_back(code);
+              leaves.level.push_back(static_cast<uint8_t>(level));
+              leaves.object.push_back(tag_of(g, lb, le));
+              scratch.assign(lb, le);
+              leaves.lists.add(0, scratch);
+            }
+          }
+        },
+        grain);
+    CellSet next;
+    Leaves merged;
+    for (size_t c = 0; c < next_chunks.chunks.size(); ++c) {
+      next.append(next_chunks.chunks[c]);
+      Leaves& l = leaf_chunks.chunks[c];
+      merged.code.insert(merged.code.end(), l.code.begin(), l.code.end());
+      merged.level.insert(merged.level.end(), l.level.begin(), l.level.end());
+      merged.object.insert(merged.object.end(), l.object.begin(), l.object.end());
+      merged.lists.append(l.lists);
+    }
+    leaf_count += merged.code.size();
+    if (leaf_count + next.size() > options.max_leaves) {
+      throw Error(ErrorCode::kLimitExceeded,
+                  "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
+                      " at level " + std::to_string(level + 1) +
+                      " (raise --max-leaves or lower --max-depth)");
+    }
+    per_level.push_back(std::move(merged));
+    current = std::move(next);
+  }
+
+  // Concatenate and sort by Morton code.
+  Octree tree;
+  tree.dimension = dim;
+  tree.max_depth = max_depth;
+  std::vector<uint64_t> codes;
+  std::vector<uint8_t> levels;
+  std::vector<ObjectId> objects;
+  std::vector<uint32_t> begins{0};
+  std::vector<uint32_t> pool;
+  for (const Leaves& l : per_level) {
+    codes.insert(codes.end(), l.code.begin(), l.code.end());
+    levels.insert(levels.end(), l.level.begin(), l.level.end());
+    objects.insert(objects.end(), l.object.begin(), l.object.end());
+    const uint32_t off = static_cast<uint32_t>(pool.size());
+    pool.insert(pool.end(), l.lists.pool.begin(), l.lists.pool.end());
+    for (size_t i = 1; i < l.lists.begin.size(); ++i) begins.push_back(l.lists.begin[i] + off);
+  }
+  std::vector<uint32_t> order(codes.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return codes[a] < codes[b]; });
+  const size_t n = codes.size();
+  tree.code.resize(n);
+  tree.level.resize(n);
+  tree.object.resize(n);
+  tree.simplex_begin.assign(n + 1, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t o = order[i];
+    tree.code[i] = codes[o];
+    tree.level[i] = levels[o];
+    tree.object[i] = objects[o];
+    tree.simplex_begin[i + 1] = tree.simplex_begin[i] + (begins[o + 1] - begins[o]);
+    tree.depth = std::max<int>(tree.depth, levels[o]);
+  }
+  tree.simplex_index.resize(pool.size());
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t o = order[i];
+    std::copy(pool.begin() + begins[o], pool.begin() + begins[o + 1],
+              tree.simplex_index.begin() + tree.simplex_begin[i]);
+  }
+  return tree;
+}
+
+}  // namespace
+
+int resolve_max_depth(int dimension, int requested) {
+  const int limit = lattice_bits(dimension);
+  if (requested <= 0) return dimension == 2 ? 26 : 21;
+  if (requested > limit) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "max depth " + std::to_string(requested) + " exceeds the lattice limit " +
+                    std::to_string(limit) + " for " + std::to_string(dimension) + "D");
+  }
+  return requested;
+}
+
+uint32_t Octree::locate(Vec3 u) const {
+  const uint64_t m = lattice::morton(dimension, lattice::from_unit(dimension, u));
+  auto it = std::upper_bound(code.begin(), code.end(), m);
+  GVD_CHECK(it != code.begin(), "octree leaves must tile the domain");
+  return static_cast<uint32_t>(it - code.begin() - 1);
+}
+
+size_t Octree::structure_bytes() const {
+  return code.size() * (sizeof(uint64_t) + sizeof(uint8_t) + sizeof(ObjectId));
+}
+
+size_t Octree::incidence_bytes() const {
+  return (simplex_begin.size() + simplex_index.size()) * sizeof(uint32_t);
+}
+
+Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) {
+  const int dim = geometry.dimension;
+  GVD_CHECK(dim == 2 || dim == 3, "dimension must be 2 or 3");
+  const int max_depth = resolve_max_depth(dim, options.max_depth);
+  const int threads = resolve_threads(options.threads);
+  InternalSets internal = subdivide_by_rules(geometry, options, max_depth, threads);
+  close_upwards(dim, internal);
+  balance(dim, internal);
+  return materialize(geometry, internal, max_depth, options, threads);
+}
+
+Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
+                     std::span<const uint32_t> leaves_to_split, const OctreeOptions& options) {
+  const int dim = octree.dimension;
+  const int max_depth = octree.max_depth;
+  const int threads = resolve_threads(options.threads);
+  InternalSets internal(max_depth + 1);
+  for (size_t i = 0; i < octree.leaf_count(); ++i) {
+    const int level = octree.level[i];
+    if (level > 0) internal[level - 1].insert(parent_code(dim, octree.code[i], level), 0);
+  }
+  for (uint32_t leaf : leaves_to_split) {
+    GVD_CHECK(leaf < octree.leaf_count(), "leaf index out of range");
+    if (octree.level[leaf] < max_depth) internal[octree.level[leaf]].insert(octree.code[leaf], 0);
+  }
+  close_upwards(dim, internal);
+  balance(dim, internal);
+  return materialize(geometry, internal, max_depth, options, threads);
+}
+
+}  // namespace gvd

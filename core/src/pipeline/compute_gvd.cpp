@@ -1,0 +1,151 @@
+#include <chrono>
+#include <set>
+
+#include "gvd/common/error.h"
+#include "gvd/common/parallel.h"
+#include "gvd/pipeline/pipeline.h"
+#include "gvd/surface/extract_gvd.h"
+
+namespace gvd {
+namespace {
+
+class Stopwatch {
+ public:
+  Stopwatch() : start_(std::chrono::steady_clock::now()) {}
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace
+
+GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
+  if (options.backend != "cpu") {
+    throw Error(ErrorCode::kInvalidArgument,
+                "backend '" + options.backend + "' is not available (this build has: cpu)");
+  }
+  const Stopwatch total;
+  auto progress = [&](const std::string& stage, double f) {
+    if (options.progress) options.progress(stage, f);
+  };
+  GvdResult r;
+  r.stats.backend = "cpu";
+  r.stats.threads = resolve_threads(options.threads);
+  const int dim = scene.dimension;
+
+  progress("scene", 0);
+  Stopwatch sw;
+  r.domain = make_domain(scene, options.domain);
+  r.geometry = make_unit_geometry(scene, r.domain);
+  const SimplexBvh bvh(dim, r.geometry.points, r.geometry.simplices);
+  r.stats.stages.push_back({"scene", sw.seconds(),
+                            r.geometry.points.size() * sizeof(Vec3) +
+                                r.geometry.simplices.size() * sizeof(Simplex) + bvh.memory_bytes(),
+                            r.geometry.simplices.size()});
+
+  progress("octree", 0);
+  sw = Stopwatch();
+  OctreeOptions oo;
+  oo.max_depth = options.max_depth;
+  oo.max_leaves = options.max_leaves;
+  oo.threads = options.threads;
+  oo.cancel = options.cancel;
+  r.octree = build_octree(r.geometry, oo);
+  r.stats.stages.push_back({"octree", sw.seconds(), r.octree.structure_bytes(),
+                            r.octree.leaf_count()});
+
+  progress("distance", 0);
+  sw = Stopwatch();
+  DistanceOptions dopt;
+  dopt.threads = options.threads;
+  dopt.cancel = options.cancel;
+  r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
+  r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
+
+  // Ambiguity resolution (§5) and the separation guarantee: split, recompute, repeat.
+  progress("ambiguity", 0);
+  sw = Stopwatch();
+  RefineReport report;
+  int rounds = 0;
+  for (;;) {
+    report = find_cells_to_refine(r.octree, r.field, options.threads);
+    if (report.leaves.empty() || rounds >= options.max_refine_rounds) break;
+    ++rounds;
+    progress("ambiguity", std::min(0.99, rounds / 16.0));
+    r.octree = refine_octree(r.octree, r.geometry, report.leaves, oo);
+    DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field);
+    r.field = std::move(next);
+  }
+  r.stats.refine_rounds = rounds;
+  r.stats.ambiguous_at_limit = report.ambiguous_at_limit;
+  r.stats.touching_leaves = report.touching_leaves;
+  r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(rounds)});
+
+  progress("surface", 0);
+  sw = Stopwatch();
+  SurfaceOptions so;
+  so.threads = options.threads;
+  so.cancel = options.cancel;
+  r.gvd = extract_gvd(r.octree, r.field, r.geometry, bvh, r.domain, so);
+  uint64_t simplices = 0, gvd_bytes = 0;
+  for (const GvdCell& c : r.gvd.cells) {
+    simplices += c.indices.size() / (dim == 2 ? 2 : 3);
+    gvd_bytes += c.positions.size() * (sizeof(Vec3) + sizeof(ObjectId) + sizeof(double)) +
+                 c.indices.size() * sizeof(uint32_t);
+  }
+  r.stats.stages.push_back({"surface", sw.seconds(), gvd_bytes, simplices});
+
+  progress("graph", 0);
+  sw = Stopwatch();
+  r.graph = build_dual_graph(r.gvd);
+  r.stats.stages.push_back(
+      {"graph", sw.seconds(), r.graph.edges.size() * sizeof(DualEdge), r.graph.edges.size()});
+
+  // Warnings found by the computation itself.
+  if (report.touching_leaves > 0) {
+    std::set<std::pair<ObjectId, ObjectId>> pairs;
+    for (size_t i = 0; i < r.octree.leaf_count(); ++i) {
+      if (r.octree.object[i] != kManyObjects) continue;
+      std::set<ObjectId> objs;
+      for (uint32_t k = r.octree.simplex_begin[i]; k < r.octree.simplex_begin[i + 1]; ++k)
+        objs.insert(r.geometry.object_of[r.octree.simplex_index[k]]);
+      for (auto a = objs.begin(); a != objs.end(); ++a)
+        for (auto b = std::next(a); b != objs.end(); ++b) pairs.insert({*a, *b});
+    }
+    std::string detail = "objects closer than the finest cell (touching or intersecting):";
+    int listed = 0;
+    for (const auto& [a, b] : pairs) {
+      if (++listed > 20) {
+        detail += " ...";
+        break;
+      }
+      detail += " " + scene.objects[a].label + "/" + scene.objects[b].label;
+    }
+    scene.warnings.push_back({"objects_touch", "", pairs.size(), detail});
+  }
+  if (report.ambiguous_at_limit > 0) {
+    scene.warnings.push_back({"ambiguous_at_depth_limit", "", report.ambiguous_at_limit,
+                              "cells still ambiguous at the depth limit; their topology was "
+                              "decided by the centroid rule (§6)"});
+  }
+
+  r.stats.max_depth = r.octree.max_depth;
+  r.stats.depth = r.octree.depth;
+  r.stats.leaves = r.octree.leaf_count();
+  r.stats.vertices = r.field.size();
+  r.stats.octree_bytes = r.octree.structure_bytes() + r.field.vertices.key.size() * sizeof(uint64_t);
+  r.stats.bytes_per_leaf =
+      r.stats.leaves > 0 ? static_cast<double>(r.stats.octree_bytes) / r.stats.leaves : 0;
+  r.stats.distance_bytes = r.field.memory_bytes();
+  r.stats.gvd_simplices = simplices;
+  r.stats.graph_edges = r.graph.edges.size();
+  r.stats.total_seconds = total.seconds();
+  r.scene = std::move(scene);
+  progress("done", 1);
+  return r;
+}
+
+}  // namespace gvd

@@ -1,0 +1,339 @@
+#include "gvd/scene/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "gvd/common/error.h"
+
+namespace gvd {
+
+namespace {
+
+[[noreturn]] void invalid(std::string detail) {
+  throw Error(ErrorCode::kInvalidScene, std::move(detail));
+}
+
+std::string where(size_t index, const std::string& label) {
+  return "object " + std::to_string(index) + " (\"" + label + "\")";
+}
+
+/// Relative tolerance of the degeneracy tests: twice the area of a triangle must exceed
+/// this fraction of its longest squared edge (a height of 1e-14 of its length).
+constexpr double kDegenerateTolerance = 1e-14;
+
+bool is_degenerate(const SceneObject& object, const Simplex& s, int dimension) {
+  const std::vector<Vec3>& p = object.vertices;
+  if (dimension == 2) {
+    return s.v[0] == s.v[1] || p[s.v[0]] == p[s.v[1]];
+  }
+  if (s.v[0] == s.v[1] || s.v[1] == s.v[2] || s.v[0] == s.v[2]) return true;
+  const Vec3 a = p[s.v[0]], b = p[s.v[1]], c = p[s.v[2]];
+  const double longest = std::max({dist2(a, b), dist2(b, c), dist2(c, a)});
+  if (longest == 0.0) return true;
+  return norm(cross(b - a, c - a)) <= kDegenerateTolerance * longest;
+}
+
+struct UnionFind {
+  std::vector<uint32_t> parent;
+  explicit UnionFind(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
+  uint32_t find(uint32_t x) {
+    while (parent[x] != x) {
+      parent[x] = parent[parent[x]];
+      x = parent[x];
+    }
+    return x;
+  }
+  void unite(uint32_t a, uint32_t b) { parent[find(a)] = find(b); }
+};
+
+/// Structural warnings of one object (its simplices are valid and non-degenerate).
+void add_topology_warnings(const SceneObject& object, int dimension,
+                           std::vector<SceneWarning>& out) {
+  const int arity = dimension == 2 ? 2 : 3;
+  uint64_t open = 0, non_manifold = 0;
+  if (dimension == 2) {
+    std::vector<uint32_t> degree(object.vertices.size(), 0);
+    for (const Simplex& s : object.simplices) {
+      ++degree[s.v[0]];
+      ++degree[s.v[1]];
+    }
+    for (uint32_t d : degree) {
+      open += d == 1;
+      non_manifold += d > 2;
+    }
+  } else {
+    std::vector<std::pair<uint32_t, uint32_t>> edges;
+    edges.reserve(object.simplices.size() * 3);
+    for (const Simplex& s : object.simplices) {
+      for (int i = 0; i < 3; ++i) {
+        const uint32_t a = s.v[i], b = s.v[(i + 1) % 3];
+        edges.emplace_back(std::min(a, b), std::max(a, b));
+      }
+    }
+    std::sort(edges.begin(), edges.end());
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j] == edges[i]) ++j;
+      open += (j - i) == 1;
+      non_manifold += (j - i) > 2;
+      i = j;
+    }
+  }
+  const char* unit = dimension == 2 ? "vertices" : "edges";
+  if (open > 0) {
+    out.push_back({"open_mesh", object.label, open,
+                   "object \"" + object.label + "\": " + std::to_string(open) + " boundary " +
+                       unit + (dimension == 2 ? " (degree 1)" : " (used by one triangle)")});
+  }
+  if (non_manifold > 0) {
+    out.push_back({"non_manifold", object.label, non_manifold,
+                   "object \"" + object.label + "\": " + std::to_string(non_manifold) +
+                       " non-manifold " + unit +
+                       (dimension == 2 ? " (degree > 2)" : " (used by more than two triangles)")});
+  }
+
+  UnionFind uf(object.vertices.size());
+  std::vector<char> used(object.vertices.size(), 0);
+  for (const Simplex& s : object.simplices) {
+    for (int i = 0; i < arity; ++i) used[s.v[i]] = 1;
+    for (int i = 1; i < arity; ++i) uf.unite(s.v[0], s.v[i]);
+  }
+  uint64_t components = 0;
+  for (uint32_t v = 0; v < object.vertices.size(); ++v) components += used[v] && uf.find(v) == v;
+  if (components > 1) {
+    out.push_back({"multiple_components", object.label, components,
+                   "object \"" + object.label + "\" has " + std::to_string(components) +
+                       " connected components"});
+  }
+}
+
+bool is_topology_warning(const SceneWarning& w) {
+  return w.kind == "open_mesh" || w.kind == "non_manifold" || w.kind == "multiple_components";
+}
+
+}  // namespace
+
+uint64_t Scene::simplex_count() const {
+  uint64_t n = 0;
+  for (const SceneObject& o : objects) n += o.simplices.size();
+  return n;
+}
+
+uint64_t Scene::vertex_count() const {
+  uint64_t n = 0;
+  for (const SceneObject& o : objects) n += o.vertices.size();
+  return n;
+}
+
+std::optional<ObjectId> Scene::find(const std::string& label) const {
+  for (size_t i = 0; i < objects.size(); ++i) {
+    if (objects[i].label == label) return static_cast<ObjectId>(i);
+  }
+  return std::nullopt;
+}
+
+void validate_scene(Scene& scene, const SceneLimits& limits) {
+  if (scene.dimension != 2 && scene.dimension != 3) {
+    invalid("dimension must be 2 or 3, got " + std::to_string(scene.dimension));
+  }
+  if (scene.objects.empty()) invalid("the scene has no objects");
+  if (scene.objects.size() > limits.max_objects) {
+    throw Error(ErrorCode::kLimitExceeded, "the scene has " + std::to_string(scene.objects.size()) +
+                                               " objects, more than the limit of " +
+                                               std::to_string(limits.max_objects));
+  }
+  if (scene.objects.size() >= kManyObjects) invalid("too many objects");
+  const uint64_t simplices = scene.simplex_count();
+  if (simplices > limits.max_simplices) {
+    throw Error(ErrorCode::kLimitExceeded, "the scene has " + std::to_string(simplices) +
+                                               " simplices, more than the limit of " +
+                                               std::to_string(limits.max_simplices));
+  }
+
+  std::unordered_map<std::string, size_t> first_index;
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const std::string& label = scene.objects[i].label;
+    if (label.empty()) invalid("object " + std::to_string(i) + " has an empty label");
+    auto [it, inserted] = first_index.emplace(label, i);
+    if (!inserted) {
+      invalid("duplicate label \"" + label + "\": objects " + std::to_string(it->second) + " and " +
+              std::to_string(i));
+    }
+  }
+
+  const int dim = scene.dimension;
+  const int arity = dim == 2 ? 2 : 3;
+  std::erase_if(scene.warnings, is_topology_warning);
+  for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    SceneObject& object = scene.objects[oi];
+    if (object.vertices.size() > 0xFFFFFFFFull)
+      invalid(where(oi, object.label) + ": too many vertices");
+    for (size_t vi = 0; vi < object.vertices.size(); ++vi) {
+      Vec3& p = object.vertices[vi];
+      if (dim == 2) p.z = 0.0;
+      for (int c = 0; c < dim; ++c) {
+        if (!std::isfinite(p[c])) {
+          invalid(where(oi, object.label) + ": vertex " + std::to_string(vi) + " coordinate " +
+                  std::to_string(c) + " is not finite");
+        }
+        if (std::fabs(p[c]) > limits.max_abs_coordinate) {
+          invalid(where(oi, object.label) + ": vertex " + std::to_string(vi) + " coordinate " +
+                  std::to_string(c) + " = " + std::to_string(p[c]) + " exceeds the limit of +-" +
+                  std::to_string(limits.max_abs_coordinate));
+        }
+      }
+    }
+    if (object.simplices.empty()) {
+      invalid(where(oi, object.label) + " has no " + (dim == 2 ? "segments" : "triangles"));
+    }
+    for (size_t si = 0; si < object.simplices.size(); ++si) {
+      Simplex& s = object.simplices[si];
+      if (dim == 2) s.v[2] = 0;
+      for (int k = 0; k < arity; ++k) {
+        if (s.v[k] >= object.vertices.size()) {
+          invalid(where(oi, object.label) + ": " + (dim == 2 ? "segment " : "triangle ") +
+                  std::to_string(si) + " vertex index " + std::to_string(s.v[k]) +
+                  " is out of range (the object has " + std::to_string(object.vertices.size()) +
+                  " vertices)");
+        }
+      }
+    }
+    const size_t before = object.simplices.size();
+    std::erase_if(object.simplices,
+                  [&](const Simplex& s) { return is_degenerate(object, s, dim); });
+    const uint64_t removed = before - object.simplices.size();
+    if (object.simplices.empty()) {
+      invalid(where(oi, object.label) + ": all " + std::to_string(before) +
+              (dim == 2 ? " segments" : " triangles") + " are degenerate");
+    }
+    if (removed > 0) {
+      scene.warnings.push_back({"degenerate_simplices", object.label, removed,
+                                "object \"" + object.label + "\": removed " +
+                                    std::to_string(removed) + " degenerate " +
+                                    (dim == 2 ? "segments" : "triangles")});
+    }
+    add_topology_warnings(object, dim, scene.warnings);
+  }
+}
+
+Vec3 Domain::to_unit(Vec3 p) const {
+  Vec3 u = (p - origin) / side;
+  if (dimension == 2) u.z = 0.0;
+  return u;
+}
+
+Vec3 Domain::from_unit(Vec3 u) const {
+  Vec3 p = origin + u * side;
+  if (dimension == 2) p.z = 0.0;
+  return p;
+}
+
+Box Domain::box() const {
+  Box b;
+  b.lo = origin;
+  b.hi = origin + Vec3{side, side, dimension == 2 ? 0.0 : side};
+  if (dimension == 2) b.lo.z = b.hi.z = 0.0;
+  return b;
+}
+
+Domain make_domain(const Scene& scene, const DomainOptions& options) {
+  const int dim = scene.dimension;
+  Domain domain;
+  domain.dimension = dim;
+  if (!std::isfinite(options.padding) || options.padding < 0.0) {
+    throw Error(ErrorCode::kInvalidArgument, "domain padding must be a finite fraction >= 0, got " +
+                                                 std::to_string(options.padding));
+  }
+  if (options.box) {
+    const Box& user = *options.box;
+    double extent = 0.0;
+    for (int i = 0; i < dim; ++i) {
+      if (!std::isfinite(user.lo[i]) || !std::isfinite(user.hi[i]) || user.lo[i] > user.hi[i]) {
+        throw Error(ErrorCode::kInvalidArgument, "the domain box is empty or not finite");
+      }
+      extent = std::max(extent, user.hi[i] - user.lo[i]);
+    }
+    if (!(extent > 0.0)) {
+      throw Error(ErrorCode::kInvalidArgument, "the domain box has zero extent");
+    }
+    for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
+      const SceneObject& object = scene.objects[oi];
+      for (size_t vi = 0; vi < object.vertices.size(); ++vi) {
+        if (!user.contains(object.vertices[vi], dim)) {
+          throw Error(ErrorCode::kInvalidArgument, "the domain box does not contain " +
+                                                       where(oi, object.label) + " vertex " +
+                                                       std::to_string(vi));
+        }
+      }
+    }
+    const Vec3 c = user.center();
+    domain.side = extent;
+    domain.origin = c - Vec3{extent, extent, extent} * 0.5;
+  } else {
+    Box bounds;
+    for (const SceneObject& object : scene.objects) {
+      for (const Vec3& p : object.vertices) bounds.extend(p);
+    }
+    if (bounds.is_empty()) {
+      domain.origin = {};
+      domain.side = 1.0;
+    } else {
+      double extent = 0.0;
+      for (int i = 0; i < dim; ++i) extent = std::max(extent, bounds.hi[i] - bounds.lo[i]);
+      if (!(extent > 0.0)) extent = 1.0;
+      const double side = extent * (1.0 + 2.0 * options.padding);
+      domain.side = side;
+      domain.origin = bounds.center() - Vec3{side, side, side} * 0.5;
+    }
+  }
+  if (dim == 2) domain.origin.z = 0.0;
+  return domain;
+}
+
+UnitGeometry make_unit_geometry(const Scene& scene, const Domain& domain) {
+  // Slack for rounding in to_unit of vertices that lie exactly on the domain boundary.
+  constexpr double kSlack = 1e-12;
+  UnitGeometry g;
+  g.dimension = scene.dimension;
+  g.object_count = static_cast<uint32_t>(scene.objects.size());
+  g.points.reserve(scene.vertex_count());
+  g.simplices.reserve(scene.simplex_count());
+  g.object_of.reserve(scene.simplex_count());
+  for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    const SceneObject& object = scene.objects[oi];
+    const auto offset = static_cast<uint32_t>(g.points.size());
+    for (size_t vi = 0; vi < object.vertices.size(); ++vi) {
+      Vec3 u = domain.to_unit(object.vertices[vi]);
+      for (int c = 0; c < 3; ++c) {
+        if (c >= scene.dimension) {
+          u[c] = 0.0;
+          continue;
+        }
+        if (!(u[c] >= -kSlack && u[c] <= 1.0 + kSlack)) {
+          throw Error(ErrorCode::kInvalidArgument, where(oi, object.label) + " vertex " +
+                                                       std::to_string(vi) +
+                                                       " lies outside the domain");
+        }
+        const double snapped = std::ldexp(std::nearbyint(std::ldexp(u[c], 48)), -48);
+        u[c] = std::clamp(snapped, 0.0, 1.0);
+      }
+      g.points.push_back(u);
+    }
+    for (const Simplex& s : object.simplices) {
+      Simplex t = s;
+      t.v[0] += offset;
+      t.v[1] += offset;
+      t.v[2] = scene.dimension == 2 ? 0u : t.v[2] + offset;  // 2D keeps v[2] = 0 (scene.h)
+      g.simplices.push_back(t);
+      g.object_of.push_back(static_cast<ObjectId>(oi));
+    }
+  }
+  return g;
+}
+
+}  // namespace gvd

@@ -1,0 +1,200 @@
+// The native scene JSON of DESIGN.md ("File contracts"): parse, check the structure, validate;
+// and write it back.
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+
+#include "gvd/common/error.h"
+#include "gvd/scene/load_scene.h"
+
+namespace gvd {
+
+namespace {
+
+using Json = nlohmann::json;
+
+[[noreturn]] void invalid(std::string detail) {
+  throw Error(ErrorCode::kInvalidScene, std::move(detail));
+}
+
+std::string object_where(size_t index, const std::string& label) {
+  return label.empty() ? "objects[" + std::to_string(index) + "]"
+                       : "objects[" + std::to_string(index) + "] (\"" + label + "\")";
+}
+
+const char* type_name(const Json& j) { return j.type_name(); }
+
+/// An index of a simplex: a non-negative integral JSON number.
+uint32_t read_index(const Json& j, const std::string& where) {
+  if (j.is_number_unsigned()) {
+    const uint64_t v = j.get<uint64_t>();
+    if (v > 0xFFFFFFFFull) invalid(where + " = " + std::to_string(v) + " is out of range");
+    return static_cast<uint32_t>(v);
+  }
+  if (j.is_number_integer()) {
+    invalid(where + " = " + std::to_string(j.get<int64_t>()) + " is negative");
+  }
+  if (j.is_number_float()) {
+    const double v = j.get<double>();
+    if (v < 0) invalid(where + " = " + j.dump() + " is negative");
+    if (v != std::floor(v)) invalid(where + " = " + j.dump() + " is not an integer");
+    if (v > 4294967295.0) invalid(where + " = " + j.dump() + " is out of range");
+    return static_cast<uint32_t>(v);
+  }
+  invalid(where + " must be a vertex index (a non-negative integer), got " + type_name(j));
+}
+
+}  // namespace
+
+/// Builds and validates a scene from an already parsed native scene JSON document (shared with
+/// the format sniffer of load_scene.cpp, which parses the text once).
+Scene scene_from_json_value(const Json& doc, const SceneLimits& limits);
+
+Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
+  if (!doc.is_object())
+    invalid(std::string("the scene must be a JSON object, got ") + type_name(doc));
+  const auto dim_it = doc.find("dimension");
+  if (dim_it == doc.end()) invalid("missing \"dimension\" (2 or 3)");
+  if (!dim_it->is_number() || !(dim_it->get<double>() == 2.0 || dim_it->get<double>() == 3.0)) {
+    invalid("\"dimension\" must be the number 2 or 3, got " + dim_it->dump());
+  }
+  Scene scene;
+  scene.dimension = dim_it->get<double>() == 2.0 ? 2 : 3;
+  const int dim = scene.dimension;
+
+  const auto objects_it = doc.find("objects");
+  if (objects_it == doc.end()) invalid("missing \"objects\"");
+  if (!objects_it->is_array()) {
+    invalid(std::string("\"objects\" must be an array, got ") + type_name(*objects_it));
+  }
+  const Json& objects = *objects_it;
+  if (objects.empty()) invalid("\"objects\" is empty: the scene has no objects");
+  if (objects.size() > limits.max_objects) {
+    throw Error(ErrorCode::kLimitExceeded, "the scene has " + std::to_string(objects.size()) +
+                                               " objects, more than the limit of " +
+                                               std::to_string(limits.max_objects));
+  }
+  uint64_t total_simplices = 0;
+  const char* simplex_key = dim == 2 ? "segments" : "triangles";
+  const char* wrong_key = dim == 2 ? "triangles" : "segments";
+  const size_t arity = dim == 2 ? 2 : 3;
+
+  scene.objects.reserve(objects.size());
+  for (size_t oi = 0; oi < objects.size(); ++oi) {
+    const Json& o = objects[oi];
+    if (!o.is_object()) {
+      invalid(object_where(oi, "") + " must be a JSON object, got " + type_name(o));
+    }
+    SceneObject object;
+    const auto label_it = o.find("label");
+    if (label_it == o.end()) invalid(object_where(oi, "") + " has no \"label\"");
+    if (!label_it->is_string()) {
+      invalid(object_where(oi, "") + ": \"label\" must be a string, got " + label_it->dump());
+    }
+    object.label = label_it->get<std::string>();
+    if (object.label.empty()) invalid(object_where(oi, "") + " has an empty label");
+    const std::string where = object_where(oi, object.label);
+
+    if (o.contains(wrong_key)) {
+      invalid(where + " has \"" + wrong_key + "\" but the scene is " + std::to_string(dim) +
+              "D (expected \"" + simplex_key + "\")");
+    }
+    const auto verts_it = o.find("vertices");
+    if (verts_it == o.end()) invalid(where + " has no \"vertices\"");
+    if (!verts_it->is_array()) invalid(where + ": \"vertices\" must be an array");
+    object.vertices.reserve(verts_it->size());
+    for (size_t vi = 0; vi < verts_it->size(); ++vi) {
+      const Json& v = (*verts_it)[vi];
+      const std::string vwhere = where + ": vertices[" + std::to_string(vi) + "]";
+      if (!v.is_array() || v.size() != static_cast<size_t>(dim)) {
+        invalid(vwhere + " must be an array of " + std::to_string(dim) + " numbers, got " +
+                (v.is_array() ? std::to_string(v.size()) + " values" : type_name(v)));
+      }
+      Vec3 p;
+      for (int c = 0; c < dim; ++c) {
+        const Json& x = v[static_cast<size_t>(c)];
+        if (!x.is_number()) {
+          invalid(vwhere + "[" + std::to_string(c) + "] is not a number (" + x.dump() + ")");
+        }
+        p[c] = x.get<double>();
+        if (!std::isfinite(p[c])) {
+          invalid(vwhere + "[" + std::to_string(c) + "] is not finite");
+        }
+        if (std::fabs(p[c]) > limits.max_abs_coordinate) {
+          invalid(vwhere + "[" + std::to_string(c) + "] = " + x.dump() +
+                  " exceeds the limit of +-" + Json(limits.max_abs_coordinate).dump());
+        }
+      }
+      object.vertices.push_back(p);
+    }
+
+    const auto simp_it = o.find(simplex_key);
+    if (simp_it == o.end()) invalid(where + " has no \"" + simplex_key + "\"");
+    if (!simp_it->is_array()) invalid(where + ": \"" + simplex_key + "\" must be an array");
+    if (simp_it->empty()) invalid(where + " has no " + simplex_key + " (the array is empty)");
+    total_simplices += simp_it->size();
+    if (total_simplices > limits.max_simplices) {
+      throw Error(ErrorCode::kLimitExceeded, "the scene has more than the limit of " +
+                                                 std::to_string(limits.max_simplices) +
+                                                 " simplices (reached at " + where + ")");
+    }
+    object.simplices.reserve(simp_it->size());
+    for (size_t si = 0; si < simp_it->size(); ++si) {
+      const Json& s = (*simp_it)[si];
+      const std::string swhere = where + ": " + simplex_key + "[" + std::to_string(si) + "]";
+      if (!s.is_array() || s.size() != arity) {
+        invalid(swhere + " must be an array of " + std::to_string(arity) + " vertex indices");
+      }
+      Simplex simplex;
+      for (size_t k = 0; k < arity; ++k) {
+        simplex.v[k] = read_index(s[k], swhere + "[" + std::to_string(k) + "]");
+        if (simplex.v[k] >= object.vertices.size()) {
+          invalid(swhere + "[" + std::to_string(k) + "] = " + std::to_string(simplex.v[k]) +
+                  " is out of range (the object has " + std::to_string(object.vertices.size()) +
+                  " vertices)");
+        }
+      }
+      object.simplices.push_back(simplex);
+    }
+    scene.objects.push_back(std::move(object));
+  }
+  validate_scene(scene, limits);
+  return scene;
+}
+
+Scene parse_scene_json(std::string_view text, const SceneLimits& limits) {
+  Json doc;
+  try {
+    doc = Json::parse(text.begin(), text.end());
+  } catch (const Json::parse_error& e) {
+    invalid("JSON parse error at byte " + std::to_string(e.byte) + ": " + e.what());
+  } catch (const Json::exception& e) {  // e.g. a number literal that overflows a double
+    invalid(std::string("JSON parse error: ") + e.what());
+  }
+  return scene_from_json_value(doc, limits);
+}
+
+std::string scene_to_json(const Scene& scene) {
+  Json objects = Json::array();
+  const int dim = scene.dimension;
+  for (const SceneObject& object : scene.objects) {
+    Json vertices = Json::array();
+    for (const Vec3& p : object.vertices) {
+      vertices.push_back(dim == 2 ? Json::array({p.x, p.y}) : Json::array({p.x, p.y, p.z}));
+    }
+    Json simplices = Json::array();
+    for (const Simplex& s : object.simplices) {
+      simplices.push_back(dim == 2 ? Json::array({s.v[0], s.v[1]})
+                                   : Json::array({s.v[0], s.v[1], s.v[2]}));
+    }
+    objects.push_back({{"label", object.label},
+                       {"vertices", std::move(vertices)},
+                       {dim == 2 ? "segments" : "triangles", std::move(simplices)}});
+  }
+  Json doc = {{"dimension", dim}, {"objects", std::move(objects)}};
+  // Labels come from files and may not be valid UTF-8: replace rather than throw.
+  return doc.dump(-1, ' ', false, Json::error_handler_t::replace);
+}
+
+}  // namespace gvd

@@ -1,0 +1,88 @@
+#pragma once
+
+// Internal to core/surface: the boundary polygons of a leaf, shared by ambiguity detection
+// and surfacing so both see the same graph.
+
+#include <cstdint>
+
+#include "gvd/octree/octree.h"
+#include "gvd/octree/vertices.h"
+
+namespace gvd::detail {
+
+/// A boundary polygon of a leaf: its vertices in a canonical cyclic order that depends only on
+/// the face's position in the lattice (so both cells of a face see the same order). In 3D the
+/// order is counter-clockwise around +axis; in 2D (axis = 2) counter-clockwise in the plane.
+struct FacePolygon {
+  int n = 0;
+  uint32_t v[8] = {};
+  int axis = 2;           ///< normal axis of the face (2 for the 2D cell itself)
+  int side = 0;           ///< 0: face at the cell's lower coordinate, 2: upper (3D only)
+  bool on_domain = false; ///< 3D: the face lies on the domain box
+};
+
+inline int grid_index(int i, int j, int k) { return i + 3 * j + 9 * k; }
+
+// Cyclic order of a square's boundary on the half grid, starting at the lower corner.
+inline constexpr int kRing[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1},
+                                    {2, 2}, {1, 2}, {0, 2}, {0, 1}};
+
+/// Calls f(const FacePolygon&) for the polygons bounding `leaf`: in 2D the cell itself (4 to 8
+/// vertices); in 3D each face, or its four quarter faces when the neighbour across is finer.
+template <class F>
+void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t leaf, F&& f) {
+  const int dim = octree.dimension;
+  if (dim == 2) {
+    FacePolygon poly;
+    for (const auto& r : kRing) {
+      const uint32_t v = grid[grid_index(r[0], r[1], 0)];
+      if (v != kNoVertex) poly.v[poly.n++] = v;
+    }
+    f(poly);
+    return;
+  }
+  const lattice::Coord c = octree.corner(leaf);
+  const uint64_t size = lattice::cell_size(dim, octree.level[leaf]);
+  const uint64_t limit = lattice::side_units(dim);
+  for (int axis = 0; axis < 3; ++axis) {
+    const int au = (axis + 1) % 3, av = (axis + 2) % 3;
+    for (int side = 0; side <= 2; side += 2) {
+      auto at = [&](int iu, int iv) {
+        int l[3];
+        l[axis] = side;
+        l[au] = iu;
+        l[av] = iv;
+        return grid[grid_index(l[0], l[1], l[2])];
+      };
+      const bool on_domain = side == 0 ? c.c[axis] == 0 : c.c[axis] + size == limit;
+      if (at(1, 1) != kNoVertex) {
+        for (int qv = 0; qv <= 1; ++qv) {
+          for (int qu = 0; qu <= 1; ++qu) {
+            FacePolygon poly;
+            poly.axis = axis;
+            poly.side = side;
+            poly.on_domain = on_domain;
+            poly.n = 4;
+            poly.v[0] = at(qu, qv);
+            poly.v[1] = at(qu + 1, qv);
+            poly.v[2] = at(qu + 1, qv + 1);
+            poly.v[3] = at(qu, qv + 1);
+            f(poly);
+          }
+        }
+      } else {
+        FacePolygon poly;
+        poly.axis = axis;
+        poly.side = side;
+        poly.on_domain = on_domain;
+        for (const auto& r : kRing) {
+          const uint32_t v = at(r[0], r[1]);
+          if (v != kNoVertex) poly.v[poly.n++] = v;
+        }
+        f(poly);
+      }
+    }
+  }
+}
+
+}  // namespace gvd::detail

@@ -1,0 +1,311 @@
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <tuple>
+
+#include "cell_faces.h"
+#include "gvd/common/error.h"
+#include "gvd/common/parallel.h"
+#include "gvd/surface/extract_gvd.h"
+
+namespace gvd {
+namespace {
+
+// One oriented simplex of one object's cell boundary (2D uses p[0], p[1]).
+struct Piece {
+  Vec3 p[3];
+  ObjectId object;
+  ObjectId other;
+};
+
+// A bisector point on a polygon edge and the labels / positions of the edge's ends, in the
+// polygon's cyclic order.
+struct Spoke {
+  Vec3 p;
+  ObjectId label_a, label_b;
+  Vec3 pos_a;
+};
+
+struct PolygonGvd {
+  int n = 0;
+  Spoke spokes[8];
+  Vec3 centroid;
+};
+
+class CellSurfacer {
+ public:
+  CellSurfacer(const Octree& octree, const DistanceField& field)
+      : octree_(octree), field_(field), dim_(octree.dimension) {}
+
+  // Eq. (1) of the paper in vector form: the point of edge [x0, x1] equidistant from the
+  // closest points a and b of its ends, clamped to the edge. Computed from the endpoint with
+  // the smaller index so that every cell sharing the edge gets the identical point.
+  Vec3 bisector(uint32_t v0, uint32_t v1) const {
+    if (v0 > v1) std::swap(v0, v1);
+    const Vec3 x0 = field_.vertices.position(v0);
+    const Vec3 x1 = field_.vertices.position(v1);
+    const Vec3 a = field_.closest[field_.point[v0]];
+    const Vec3 b = field_.closest[field_.point[v1]];
+    const Vec3 ba = b - a;
+    const Vec3 d = x1 - x0;
+    const double den = dot(d, ba);
+    double t = 0.5;
+    if (den != 0) t = dot((a + b) * 0.5 - x0, ba) / den;
+    if (!(t >= 0)) t = 0;  // also NaN
+    if (t > 1) t = 1;
+    return x0 + d * t;
+  }
+
+  PolygonGvd polygon(const detail::FacePolygon& poly) const {
+    PolygonGvd out;
+    Vec3 sum;
+    for (int i = 0; i < poly.n; ++i) {
+      const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
+      const ObjectId la = field_.label[v], lb = field_.label[w];
+      if (la == lb) continue;
+      Spoke& s = out.spokes[out.n++];
+      s.p = bisector(v, w);
+      s.label_a = la;
+      s.label_b = lb;
+      s.pos_a = field_.vertices.position(v);
+      sum = sum + s.p;
+    }
+    if (out.n > 0) out.centroid = sum / out.n;
+    return out;
+  }
+
+  void cell(uint32_t leaf, std::vector<Piece>& out) const {
+    const LeafGrid grid = leaf_grid(octree_, field_.vertices, leaf);
+    bool mixed = false;
+    const ObjectId first = field_.label[grid[0]];
+    for (uint32_t v : grid)
+      if (v != kNoVertex && field_.label[v] != first) mixed = true;
+    if (dim_ == 2) {
+      cell_2d(leaf, grid, mixed, out);
+    } else {
+      cell_3d(leaf, grid, mixed, out);
+    }
+  }
+
+ private:
+  static void emit(std::vector<Piece>& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {
+    if (obj == kNoObject || obj == kManyObjects) return;
+    if (a == b || b == c || a == c) return;  // collapsed: removing it keeps the surface closed
+    out.push_back({{a, b, c}, obj, other});
+  }
+  static void emit(std::vector<Piece>& out, Vec3 a, Vec3 b, ObjectId obj, ObjectId other) {
+    if (obj == kNoObject || obj == kManyObjects) return;
+    if (a == b) return;
+    out.push_back({{a, b, Vec3{}}, obj, other});
+  }
+
+  void cell_2d(uint32_t leaf, const LeafGrid& grid, bool mixed, std::vector<Piece>& out) const {
+    detail::FacePolygon poly;
+    detail::for_each_face_polygon(octree_, grid, leaf,
+                                  [&](const detail::FacePolygon& p) { poly = p; });
+    const PolygonGvd g = mixed ? polygon(poly) : PolygonGvd{};
+    for (int i = 0; i < g.n; ++i) {
+      const Spoke& s = g.spokes[i];
+      const Vec3 d = g.centroid - s.p;
+      const Vec3 left{-d.y, d.x, 0};
+      if (dot(left, s.pos_a - s.p) >= 0) {
+        emit(out, s.p, g.centroid, s.label_a, s.label_b);
+        emit(out, g.centroid, s.p, s.label_b, s.label_a);
+      } else {
+        emit(out, g.centroid, s.p, s.label_a, s.label_b);
+        emit(out, s.p, g.centroid, s.label_b, s.label_a);
+      }
+    }
+    // Domain box: polygon edges on the boundary, split at their bisector. The polygon runs
+    // counter-clockwise, so the cell interior stays on the left.
+    const uint32_t limit = static_cast<uint32_t>(lattice::side_units(2));
+    for (int i = 0; i < poly.n; ++i) {
+      const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
+      const lattice::Coord cv = lattice::vertex_coord(2, field_.vertices.key[v]);
+      const lattice::Coord cw = lattice::vertex_coord(2, field_.vertices.key[w]);
+      bool boundary = false;
+      for (int a = 0; a < 2; ++a) {
+        if (cv.c[a] == cw.c[a] && (cv.c[a] == 0 || cv.c[a] == limit)) boundary = true;
+      }
+      if (!boundary) continue;
+      const Vec3 pv = field_.vertices.position(v), pw = field_.vertices.position(w);
+      const ObjectId lv = field_.label[v], lw = field_.label[w];
+      if (lv == lw) {
+        emit(out, pv, pw, lv, kNoObject);
+      } else {
+        const Vec3 m = bisector(v, w);
+        emit(out, pv, m, lv, kNoObject);
+        emit(out, m, pw, lw, kNoObject);
+      }
+    }
+  }
+
+  void cell_3d(uint32_t leaf, const LeafGrid& grid, bool mixed, std::vector<Piece>& out) const {
+    detail::FacePolygon polys[24];
+    PolygonGvd gvds[24];
+    int np = 0;
+    bool any_domain = false;
+    detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
+      if (!mixed && !p.on_domain) return;
+      polys[np] = p;
+      gvds[np] = mixed ? polygon(p) : PolygonGvd{};
+      any_domain |= p.on_domain;
+      ++np;
+    });
+    if (!mixed && !any_domain) return;
+    Vec3 sum;
+    int count = 0;
+    for (int f = 0; f < np; ++f) {
+      for (int i = 0; i < gvds[f].n; ++i) {
+        sum = sum + gvds[f].spokes[i].p;
+        ++count;
+      }
+    }
+    const Vec3 rc = count > 0 ? sum / count : Vec3{};
+    for (int f = 0; f < np; ++f) {
+      const PolygonGvd& g = gvds[f];
+      for (int i = 0; i < g.n; ++i) {
+        const Spoke& s = g.spokes[i];
+        const Vec3 n = cross(g.centroid - s.p, rc - s.p);
+        double side = dot(n, s.pos_a - s.p);
+        if (side == 0) side = dot(n, s.pos_a - rc);
+        if (side >= 0) {
+          emit(out, s.p, g.centroid, rc, s.label_a, s.label_b);
+          emit(out, g.centroid, s.p, rc, s.label_b, s.label_a);
+        } else {
+          emit(out, g.centroid, s.p, rc, s.label_a, s.label_b);
+          emit(out, s.p, g.centroid, rc, s.label_b, s.label_a);
+        }
+      }
+      if (polys[f].on_domain) domain_face(polys[f], g, out);
+    }
+  }
+
+  // The part of a domain face nearer to each object closes that object's cell: a fan from the
+  // face's bisector centroid (or its centre) over the polygon edges, split at bisectors,
+  // oriented into the domain.
+  void domain_face(const detail::FacePolygon& poly, const PolygonGvd& g,
+                   std::vector<Piece>& out) const {
+    Vec3 centre;
+    if (g.n > 0) {
+      centre = g.centroid;
+    } else {
+      for (int i = 0; i < poly.n; ++i) centre = centre + field_.vertices.position(poly.v[i]);
+      centre = centre / poly.n;
+    }
+    const bool flip = poly.side == 2;  // the ring runs counter-clockwise around +axis
+    auto tri = [&](Vec3 a, Vec3 b, ObjectId obj) {
+      if (flip) std::swap(a, b);
+      emit(out, a, b, centre, obj, kNoObject);
+    };
+    for (int i = 0; i < poly.n; ++i) {
+      const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
+      const Vec3 pv = field_.vertices.position(v), pw = field_.vertices.position(w);
+      const ObjectId lv = field_.label[v], lw = field_.label[w];
+      if (lv == lw) {
+        tri(pv, pw, lv);
+      } else {
+        const Vec3 m = bisector(v, w);
+        tri(pv, m, lv);
+        tri(m, pw, lw);
+      }
+    }
+  }
+
+  const Octree& octree_;
+  const DistanceField& field_;
+  int dim_;
+};
+
+struct Corner {
+  ObjectId object, other;
+  Vec3 p;
+  uint32_t piece;
+  uint8_t k;
+};
+
+bool corner_less(const Corner& a, const Corner& b) {
+  return std::tie(a.object, a.other, a.p.x, a.p.y, a.p.z) <
+         std::tie(b.object, b.other, b.p.x, b.p.y, b.p.z);
+}
+bool corner_same(const Corner& a, const Corner& b) {
+  return a.object == b.object && a.other == b.other && a.p == b.p;
+}
+
+}  // namespace
+
+Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
+                const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
+  const int dim = octree.dimension;
+  const int threads = resolve_threads(options.threads);
+  const size_t n = octree.leaf_count();
+  const size_t grain = 512;
+  std::vector<std::vector<Piece>> chunks((n + grain - 1) / grain + 1);
+  CellSurfacer surfacer(octree, field);
+  parallel_for(
+      n, threads,
+      [&](size_t b, size_t e, int) {
+        if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
+          throw Error(ErrorCode::kCancelled, "surfacing cancelled");
+        }
+        std::vector<Piece>& out = chunks[b / grain];
+        for (size_t i = b; i < e; ++i) surfacer.cell(static_cast<uint32_t>(i), out);
+      },
+      grain);
+  std::vector<Piece> pieces;
+  {
+    size_t total = 0;
+    for (const auto& c : chunks) total += c.size();
+    pieces.reserve(total);
+    for (auto& c : chunks) {
+      pieces.insert(pieces.end(), c.begin(), c.end());
+      std::vector<Piece>().swap(c);
+    }
+  }
+
+  // Vertices: one per (object, other object, exact position).
+  const int arity = dim == 2 ? 2 : 3;
+  std::vector<Corner> corners;
+  corners.reserve(pieces.size() * arity);
+  for (uint32_t i = 0; i < pieces.size(); ++i) {
+    for (int k = 0; k < arity; ++k) {
+      corners.push_back({pieces[i].object, pieces[i].other, pieces[i].p[k], i,
+                         static_cast<uint8_t>(k)});
+    }
+  }
+  std::sort(corners.begin(), corners.end(), corner_less);
+
+  Gvd gvd;
+  gvd.dimension = dim;
+  gvd.cells.resize(geometry.object_count);
+  for (uint32_t o = 0; o < geometry.object_count; ++o) gvd.cells[o].object = o;
+  std::vector<uint32_t> index_of(pieces.size() * arity);
+  for (size_t i = 0; i < corners.size(); ++i) {
+    const Corner& c = corners[i];
+    GvdCell& cell = gvd.cells[c.object];
+    if (i == 0 || !corner_same(c, corners[i - 1])) {
+      cell.positions.push_back(c.p);  // unit coordinates for now
+      cell.other.push_back(c.other);
+    }
+    index_of[c.piece * arity + c.k] = static_cast<uint32_t>(cell.positions.size() - 1);
+  }
+  for (uint32_t i = 0; i < pieces.size(); ++i) {
+    GvdCell& cell = gvd.cells[pieces[i].object];
+    for (int k = 0; k < arity; ++k) cell.indices.push_back(index_of[i * arity + k]);
+  }
+
+  // Exact clearance at every vertex, then user units.
+  for (GvdCell& cell : gvd.cells) {
+    cell.clearance.resize(cell.positions.size());
+    parallel_for(cell.positions.size(), threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) {
+        const ClosestHit hit = bvh.nearest(cell.positions[i]);
+        cell.clearance[i] = std::sqrt(hit.dist2) * domain.side;
+        cell.positions[i] = domain.from_unit(cell.positions[i]);
+      }
+    });
+  }
+  return gvd;
+}
+
+}  // namespace gvd

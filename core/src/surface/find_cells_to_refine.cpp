@@ -1,0 +1,110 @@
+#include <algorithm>
+#include <numeric>
+
+#include "cell_faces.h"
+#include "gvd/common/parallel.h"
+#include "gvd/surface/extract_gvd.h"
+
+namespace gvd {
+namespace {
+
+// Paper §5: collapse boundary-graph edges with equal labels; the cell is unambiguous when
+// what is left is a complete graph on at most D + 1 nodes (a simplex).
+bool is_ambiguous(const Octree& octree, const DistanceField& field, const LeafGrid& grid,
+                  uint32_t leaf) {
+  const int dim = octree.dimension;
+  // Local union-find over the <= 26 grid slots.
+  int parent[27];
+  std::iota(parent, parent + 27, 0);
+  auto find = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  // Map vertex ids back to grid slots.
+  auto slot = [&](uint32_t v) {
+    for (int s = 0; s < 27; ++s)
+      if (grid[s] == v) return s;
+    return -1;
+  };
+  struct Edge {
+    int a, b;
+  };
+  Edge edges[96];
+  int ne = 0;
+  bool mixed = false;
+  const ObjectId first = field.label[grid[0]];
+  detail::for_each_face_polygon(octree, grid, leaf, [&](const detail::FacePolygon& poly) {
+    for (int i = 0; i < poly.n; ++i) {
+      const int a = slot(poly.v[i]);
+      const int b = slot(poly.v[(i + 1) % poly.n]);
+      if (ne < 96) edges[ne++] = {a, b};
+      if (field.label[poly.v[i]] != first) mixed = true;
+    }
+  });
+  if (!mixed) return false;
+  for (int e = 0; e < ne; ++e) {
+    if (field.label[grid[edges[e].a]] == field.label[grid[edges[e].b]]) {
+      parent[find(edges[e].a)] = find(edges[e].b);
+    }
+  }
+  int roots[27];
+  int nr = 0;
+  for (int s = 0; s < 27; ++s) {
+    if (grid[s] == kNoVertex) continue;
+    const int r = find(s);
+    if (std::find(roots, roots + nr, r) == roots + nr) roots[nr++] = r;
+  }
+  if (nr > dim + 1) return true;
+  // Complete: every pair of collapsed nodes joined by an edge.
+  bool adjacent[27][27] = {};
+  for (int e = 0; e < ne; ++e) {
+    const int ra = find(edges[e].a), rb = find(edges[e].b);
+    adjacent[ra][rb] = adjacent[rb][ra] = true;
+  }
+  for (int i = 0; i < nr; ++i)
+    for (int j = i + 1; j < nr; ++j)
+      if (!adjacent[roots[i]][roots[j]]) return true;
+  return false;
+}
+
+}  // namespace
+
+RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field, int threads) {
+  threads = resolve_threads(threads);
+  const size_t n = octree.leaf_count();
+  // 0 = fine, 1 = ambiguous, 2 = foreign label in a non-empty leaf; +4 when at the limit.
+  std::vector<uint8_t> flag(n, 0);
+  parallel_for(n, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      const uint32_t leaf = static_cast<uint32_t>(i);
+      const LeafGrid grid = leaf_grid(octree, field.vertices, leaf);
+      const ObjectId obj = octree.object[leaf];
+      uint8_t f = 0;
+      if (obj != kNoObject && obj != kManyObjects) {
+        for (uint32_t v : grid)
+          if (v != kNoVertex && field.label[v] != obj) f = 2;
+      }
+      if (f == 0 && obj != kManyObjects && is_ambiguous(octree, field, grid, leaf)) f = 1;
+      if (f != 0 && octree.level[leaf] >= octree.max_depth) f |= 4;
+      flag[i] = f;
+    }
+  });
+  RefineReport report;
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t f = flag[i];
+    if (octree.object[i] == kManyObjects) ++report.touching_leaves;
+    if (f == 0) continue;
+    const bool at_limit = f & 4;
+    if ((f & 3) == 1) {
+      ++report.ambiguous;
+      report.ambiguous_at_limit += at_limit;
+    } else {
+      ++report.foreign_label;
+      report.foreign_at_limit += at_limit;
+    }
+    if (!at_limit) report.leaves.push_back(static_cast<uint32_t>(i));
+  }
+  return report;
+}
+
+}  // namespace gvd

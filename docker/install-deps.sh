@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Installs every build, test and benchmark dependency of gvd from Debian packages (and the
+# npm registry for the JavaScript test tools). Idempotent: installs only what is missing.
+# Used by `make run`, `make test`, CI and docker/. Needs root (or sudo) for apt-get.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config ccache git
+  libcpp-httplib-dev nlohmann-json3-dev libtinygltf-dev
+  opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd clinfo
+  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev
+  clang-format clang-tidy
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+    missing+=("$p")
+  fi
+done
+# Node.js + npm: any installed node with npm will do (Debian's nodejs + npm otherwise).
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  missing+=(nodejs npm)
+fi
+
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "install-deps: installing ${missing[*]}"
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "install-deps: all Debian packages present"
+fi
+
+# JavaScript test tools (glTF validator), pinned by package-lock.json in tests/js.
+here=$(cd "$(dirname "$0")/.." && pwd)
+if [ -f "$here/tests/js/package.json" ] && [ ! -d "$here/tests/js/node_modules/gltf-validator" ]; then
+  echo "install-deps: npm ci in tests/js"
+  (cd "$here/tests/js" && npm ci --no-audit --no-fund --loglevel=error)
+fi

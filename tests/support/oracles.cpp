@@ -1,0 +1,141 @@
+#include "support/oracles.h"
+
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "gvd/geometry/primitives.h"
+
+namespace gvd::test {
+
+double brute_distance(const Scene& scene, ObjectId o, Vec3 p) {
+  const SceneObject& obj = scene.objects[o];
+  double best = 1e300;
+  for (const Simplex& s : obj.simplices) {
+    const Vec3 q = scene.dimension == 2
+                       ? closest_point_on_segment(p, obj.vertices[s.v[0]], obj.vertices[s.v[1]])
+                       : closest_point_on_triangle(p, obj.vertices[s.v[0]], obj.vertices[s.v[1]],
+                                                   obj.vertices[s.v[2]]);
+    best = std::min(best, dist(p, q));
+  }
+  return best;
+}
+
+NearestAnswer brute_nearest(const Scene& scene, Vec3 p) {
+  NearestAnswer a;
+  for (ObjectId o = 0; o < scene.objects.size(); ++o) {
+    const double d = brute_distance(scene, o, p);
+    if (d < a.distance) {
+      a.second = a.object;
+      a.second_distance = a.distance;
+      a.object = o;
+      a.distance = d;
+    } else if (d < a.second_distance) {
+      a.second = o;
+      a.second_distance = d;
+    }
+  }
+  return a;
+}
+
+bool segment_hits_triangle(Vec3 a, Vec3 b, Vec3 t0, Vec3 t1, Vec3 t2) {
+  const Vec3 d = b - a;
+  const Vec3 e1 = t1 - t0, e2 = t2 - t0;
+  const Vec3 h = cross(d, e2);
+  const double det = dot(e1, h);
+  const double scale = norm(d) * norm(e1) * norm(e2);
+  if (std::fabs(det) <= 1e-14 * scale) return false;  // parallel: not a crossing
+  const double inv = 1.0 / det;
+  const Vec3 s = a - t0;
+  const double u = dot(s, h) * inv;
+  if (u < 0 || u > 1) return false;
+  const Vec3 q = cross(s, e1);
+  const double v = dot(d, q) * inv;
+  if (v < 0 || u + v > 1) return false;
+  const double t = dot(e2, q) * inv;
+  return t >= 0 && t <= 1;
+}
+
+bool segments_intersect_2d(Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
+  auto orient = [](Vec3 p, Vec3 q, Vec3 r) {
+    const double v = (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x);
+    return (v > 0) - (v < 0);
+  };
+  auto on_segment = [](Vec3 p, Vec3 q, Vec3 r) {
+    return std::min(p.x, q.x) <= r.x && r.x <= std::max(p.x, q.x) && std::min(p.y, q.y) <= r.y &&
+           r.y <= std::max(p.y, q.y);
+  };
+  const int o1 = orient(a, b, c), o2 = orient(a, b, d), o3 = orient(c, d, a), o4 = orient(c, d, b);
+  if (o1 != o2 && o3 != o4) return true;
+  if (o1 == 0 && on_segment(a, b, c)) return true;
+  if (o2 == 0 && on_segment(a, b, d)) return true;
+  if (o3 == 0 && on_segment(c, d, a)) return true;
+  if (o4 == 0 && on_segment(c, d, b)) return true;
+  return false;
+}
+
+size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd) {
+  size_t crossings = 0;
+  const int dim = scene.dimension;
+  const int arity = dim == 2 ? 2 : 3;
+  for (const GvdCell& cell : gvd.cells) {
+    for (size_t s = 0; s + arity <= cell.indices.size(); s += arity) {
+      const Vec3 g0 = cell.positions[cell.indices[s]];
+      const Vec3 g1 = cell.positions[cell.indices[s + 1]];
+      const Vec3 g2 = arity == 3 ? cell.positions[cell.indices[s + 2]] : Vec3{};
+      bool hit = false;
+      for (const SceneObject& o : scene.objects) {
+        for (const Simplex& t : o.simplices) {
+          const Vec3 a = o.vertices[t.v[0]], b = o.vertices[t.v[1]];
+          if (dim == 2) {
+            hit = segments_intersect_2d(g0, g1, a, b);
+          } else {
+            const Vec3 c = o.vertices[t.v[2]];
+            hit = segment_hits_triangle(g0, g1, a, b, c) || segment_hits_triangle(g1, g2, a, b, c) ||
+                  segment_hits_triangle(g2, g0, a, b, c) || segment_hits_triangle(a, b, g0, g1, g2) ||
+                  segment_hits_triangle(b, c, g0, g1, g2) || segment_hits_triangle(c, a, g0, g1, g2);
+          }
+          if (hit) break;
+        }
+        if (hit) break;
+      }
+      crossings += hit;
+    }
+  }
+  return crossings;
+}
+
+size_t count_open_edges(const GvdCell& cell, int dimension) {
+  using Key = std::tuple<double, double, double>;
+  auto key = [&](uint32_t i) {
+    const Vec3 p = cell.positions[i];
+    return Key{p.x, p.y, p.z};
+  };
+  if (dimension == 2) {
+    std::map<Key, int> balance;
+    for (size_t s = 0; s + 2 <= cell.indices.size(); s += 2) {
+      balance[key(cell.indices[s])] -= 1;
+      balance[key(cell.indices[s + 1])] += 1;
+    }
+    size_t open = 0;
+    for (const auto& [k, b] : balance) open += b != 0;
+    return open;
+  }
+  std::map<std::pair<Key, Key>, int> edges;
+  for (size_t s = 0; s + 3 <= cell.indices.size(); s += 3) {
+    for (int e = 0; e < 3; ++e) {
+      const Key a = key(cell.indices[s + e]);
+      const Key b = key(cell.indices[s + (e + 1) % 3]);
+      if (a < b) {
+        edges[{a, b}] += 1;
+      } else {
+        edges[{b, a}] -= 1;
+      }
+    }
+  }
+  size_t open = 0;
+  for (const auto& [k, b] : edges) open += b != 0;
+  return open;
+}
+
+}  // namespace gvd::test

@@ -1,0 +1,40 @@
+#pragma once
+
+// Independent oracles: brute force over every simplex of a scene, no octree involved.
+
+#include <vector>
+
+#include "gvd/scene/scene.h"
+#include "gvd/surface/gvd.h"
+
+namespace gvd::test {
+
+struct NearestAnswer {
+  ObjectId object = kNoObject;
+  double distance = 1e300;
+  ObjectId second = kNoObject;   ///< the nearest other object
+  double second_distance = 1e300;
+};
+
+/// Nearest and second-nearest object to p (user coordinates) by brute force.
+NearestAnswer brute_nearest(const Scene& scene, Vec3 p);
+
+/// Distance from p to object o by brute force.
+double brute_distance(const Scene& scene, ObjectId o, Vec3 p);
+
+/// True when segment [a, b] crosses or touches triangle (t0, t1, t2) (3D, Möller–Trumbore
+/// with the segment parameter restricted to [0, 1]).
+bool segment_hits_triangle(Vec3 a, Vec3 b, Vec3 t0, Vec3 t1, Vec3 t2);
+
+/// True when 2D segments [a, b] and [c, d] intersect (proper or touching).
+bool segments_intersect_2d(Vec3 a, Vec3 b, Vec3 c, Vec3 d);
+
+/// Number of GVD simplices (of all cells) that cross some object simplex.
+size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd);
+
+/// Watertightness of one 3D cell: every directed edge (by vertex position) is matched by the
+/// opposite directed edge as often as it occurs. 2D: every position is entered as often as
+/// it is left. Returns the number of unmatched edges / vertices.
+size_t count_open_edges(const GvdCell& cell, int dimension);
+
+}  // namespace gvd::test

@@ -1,0 +1,113 @@
+#include "support/scenes.h"
+
+#include <cmath>
+#include <numbers>
+
+namespace gvd::test {
+
+SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi) {
+  SceneObject o;
+  o.label = label;
+  for (int k = 0; k < 8; ++k)
+    o.vertices.push_back({k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z});
+  // Outward-facing quads (corner bit order x=1, y=2, z=4).
+  const uint32_t quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    o.simplices.push_back({{q[0], q[1], q[2]}});
+    o.simplices.push_back({{q[0], q[2], q[3]}});
+  }
+  return o;
+}
+
+SceneObject make_sphere(const std::string& label, Vec3 c, double r, int rings, int segments) {
+  SceneObject o;
+  o.label = label;
+  const double pi = std::numbers::pi;
+  o.vertices.push_back(c + Vec3{0, 0, r});
+  for (int i = 1; i < rings; ++i) {
+    const double th = pi * i / rings;
+    for (int j = 0; j < segments; ++j) {
+      const double ph = 2 * pi * j / segments;
+      o.vertices.push_back(
+          c + Vec3{r * std::sin(th) * std::cos(ph), r * std::sin(th) * std::sin(ph), r * std::cos(th)});
+    }
+  }
+  o.vertices.push_back(c + Vec3{0, 0, -r});
+  const uint32_t south = static_cast<uint32_t>(o.vertices.size() - 1);
+  auto ring = [&](int i, int j) {
+    return static_cast<uint32_t>(1 + (i - 1) * segments + (j % segments));
+  };
+  for (int j = 0; j < segments; ++j) o.simplices.push_back({{0, ring(1, j), ring(1, j + 1)}});
+  for (int i = 1; i + 1 < rings; ++i) {
+    for (int j = 0; j < segments; ++j) {
+      o.simplices.push_back({{ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)}});
+      o.simplices.push_back({{ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)}});
+    }
+  }
+  for (int j = 0; j < segments; ++j)
+    o.simplices.push_back({{south, ring(rings - 1, j + 1), ring(rings - 1, j)}});
+  return o;
+}
+
+SceneObject make_point3(const std::string& label, Vec3 c, double size) {
+  SceneObject o;
+  o.label = label;
+  o.vertices = {c + Vec3{size, 0, 0}, c + Vec3{-size / 2, size, 0}, c + Vec3{-size / 2, -size, 0}};
+  o.simplices = {{{0, 1, 2}}};
+  return o;
+}
+
+SceneObject make_circle(const std::string& label, Vec3 c, double r, int n) {
+  SceneObject o;
+  o.label = label;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * std::numbers::pi * i / n;
+    o.vertices.push_back(c + Vec3{r * std::cos(a), r * std::sin(a), 0});
+    o.simplices.push_back({{static_cast<uint32_t>(i), static_cast<uint32_t>((i + 1) % n), 0}});
+  }
+  return o;
+}
+
+SceneObject make_rect(const std::string& label, Vec3 lo, Vec3 hi) {
+  SceneObject o;
+  o.label = label;
+  o.vertices = {{lo.x, lo.y, 0}, {hi.x, lo.y, 0}, {hi.x, hi.y, 0}, {lo.x, hi.y, 0}};
+  o.simplices = {{{0, 1, 0}}, {{1, 2, 0}}, {{2, 3, 0}}, {{3, 0, 0}}};
+  return o;
+}
+
+SceneObject make_segment(const std::string& label, Vec3 a, Vec3 b) {
+  SceneObject o;
+  o.label = label;
+  o.vertices = {a, b};
+  o.simplices = {{{0, 1, 0}}};
+  return o;
+}
+
+SceneObject make_gear2d(const std::string& label, Vec3 c, double r_in, double r_out, int teeth,
+                        double phase, int samples) {
+  SceneObject o;
+  o.label = label;
+  const int n = teeth * samples;
+  for (int i = 0; i < n; ++i) {
+    const double a = phase + 2 * std::numbers::pi * i / n;
+    const double t = std::fmod(static_cast<double>(i) / samples, 1.0);
+    // Trapezoidal tooth profile: low, rise, high, fall.
+    double r = r_in;
+    if (t >= 0.25 && t < 0.75) r = r_out;
+    o.vertices.push_back(c + Vec3{r * std::cos(a), r * std::sin(a), 0});
+    o.simplices.push_back({{static_cast<uint32_t>(i), static_cast<uint32_t>((i + 1) % n), 0}});
+  }
+  return o;
+}
+
+Scene make_scene(int dimension, std::vector<SceneObject> objects) {
+  Scene s;
+  s.dimension = dimension;
+  s.objects = std::move(objects);
+  validate_scene(s);
+  return s;
+}
+
+}  // namespace gvd::test

@@ -1,0 +1,234 @@
+#include "gvd/pipeline/pipeline.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "support/oracles.h"
+#include "support/scenes.h"
+
+namespace gvd {
+namespace {
+
+using test::brute_nearest;
+
+GvdResult run(Scene scene, int max_depth = 0) {
+  PipelineOptions o;
+  o.max_depth = max_depth;
+  o.threads = 2;
+  return compute_gvd(std::move(scene), o);
+}
+
+// Size of the finest octree cell next to a point, in user units.
+double local_cell(const GvdResult& r, Vec3 p) {
+  const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
+  return std::ldexp(r.domain.side, -r.octree.level[leaf]);
+}
+
+// Properties every result must have (DESIGN.md "Correctness").
+void expect_valid(const GvdResult& r) {
+  const int dim = r.scene.dimension;
+  for (const GvdCell& cell : r.gvd.cells) {
+    EXPECT_EQ(test::count_open_edges(cell, dim), 0u) << "cell " << cell.object << " is not closed";
+  }
+  EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd), 0u);
+  // Equidistance at interface vertices, and the two nearest objects are the claimed ones.
+  size_t checked = 0, wrong_pair = 0;
+  for (const GvdCell& cell : r.gvd.cells) {
+    for (size_t v = 0; v < cell.positions.size(); ++v) {
+      if (cell.other[v] == kNoObject) continue;
+      const Vec3 p = cell.positions[v];
+      const double h = local_cell(r, p);
+      const double da = test::brute_distance(r.scene, cell.object, p);
+      const double db = test::brute_distance(r.scene, cell.other[v], p);
+      EXPECT_NEAR(da, db, 2.0 * h) << "vertex " << v << " of cell " << cell.object;
+      const auto nn = brute_nearest(r.scene, p);
+      const std::set<ObjectId> claimed{cell.object, cell.other[v]};
+      if (!claimed.count(nn.object)) {
+        // Allowed only where a third object is within the local resolution.
+        if (nn.distance < std::min(da, db) - 2.0 * h) ++wrong_pair;
+      }
+      ++checked;
+    }
+  }
+  EXPECT_EQ(wrong_pair, 0u) << "of " << checked;
+  // Orientation: a step along each triangle's normal (into the cell) is nearer to the cell's
+  // object than to the object across. 2D: a step to the left of each segment.
+  size_t tested = 0, flipped = 0;
+  for (const GvdCell& cell : r.gvd.cells) {
+    const int arity = dim == 2 ? 2 : 3;
+    for (size_t s = 0; s + arity <= cell.indices.size(); s += arity) {
+      const ObjectId other = cell.other[cell.indices[s]];
+      if (other == kNoObject) continue;
+      const Vec3 a = cell.positions[cell.indices[s]];
+      const Vec3 b = cell.positions[cell.indices[s + 1]];
+      Vec3 n, c;
+      double size;
+      if (dim == 2) {
+        n = Vec3{-(b - a).y, (b - a).x, 0};
+        c = (a + b) * 0.5;
+        size = norm(b - a);
+      } else {
+        const Vec3 d = cell.positions[cell.indices[s + 2]];
+        n = cross(b - a, d - a);
+        c = (a + b + d) / 3.0;
+        size = std::sqrt(0.5 * norm(n));
+      }
+      if (norm(n) == 0 || size < 1e-3 * local_cell(r, c)) {
+        continue;
+      }
+      const double step = 0.25 * local_cell(r, c);
+      const Vec3 in = c + n / norm(n) * step;
+      const Vec3 out = c - n / norm(n) * step;
+      const double din = test::brute_distance(r.scene, cell.object, in) -
+                         test::brute_distance(r.scene, other, in);
+      const double dout = test::brute_distance(r.scene, cell.object, out) -
+                          test::brute_distance(r.scene, other, out);
+      ++tested;
+      if (!(din < dout)) ++flipped;
+    }
+  }
+  EXPECT_LE(flipped, tested / 100) << flipped << " of " << tested << " simplices face the wrong way";
+  // Distance field at octree vertices: never below the true distance, within the 3/2 factor.
+  for (uint32_t v = 0; v < r.field.size(); ++v) {
+    const Vec3 p = r.domain.from_unit(r.field.vertices.position(v));
+    const double truth = brute_nearest(r.scene, p).distance;
+    const double got = r.field.distance(v) * r.domain.side;
+    ASSERT_GE(got, truth - 1e-9 * r.domain.side);
+    ASSERT_LE(got, 1.5 * truth + 1e-9 * r.domain.side) << "vertex " << v;
+    if (r.field.exact[v]) {
+      ASSERT_NEAR(got, truth, 1e-9 * r.domain.side);
+    }
+  }
+}
+
+std::set<std::pair<ObjectId, ObjectId>> graph_pairs(const DualGraph& g) {
+  std::set<std::pair<ObjectId, ObjectId>> s;
+  for (const DualEdge& e : g.edges) s.insert({e.a, e.b});
+  return s;
+}
+
+TEST(ComputeGvd, TwoSegmentsGiveTheirBisector2D) {
+  auto r = run(test::make_scene(2, {test::make_segment("a", {0, 0, 0}, {0, 1, 0}),
+                                    test::make_segment("b", {1, 0, 0}, {1, 1, 0})}));
+  expect_valid(r);
+  // Between the segments the interface is the line x = 0.5.
+  const GvdCell& a = r.gvd.cells[0];
+  size_t on_mid = 0;
+  for (size_t v = 0; v < a.positions.size(); ++v) {
+    const Vec3 p = a.positions[v];
+    if (a.other[v] != 1 || p.y < 0.05 || p.y > 0.95) continue;
+    EXPECT_NEAR(p.x, 0.5, 1e-9);
+    ++on_mid;
+  }
+  EXPECT_GT(on_mid, 0u);
+  EXPECT_EQ(graph_pairs(r.graph), (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}}));
+}
+
+TEST(ComputeGvd, TwoPointsGiveTheBisectorPlane3D) {
+  auto r = run(test::make_scene(3, {test::make_point3("a", {0.2, 0.5, 0.5}, 1e-3),
+                                    test::make_point3("b", {0.8, 0.5, 0.5}, 1e-3)}));
+  expect_valid(r);
+  size_t n = 0;
+  for (const GvdCell& cell : r.gvd.cells) {
+    for (size_t v = 0; v < cell.positions.size(); ++v) {
+      if (cell.other[v] == kNoObject) continue;
+      EXPECT_NEAR(cell.positions[v].x, 0.5, 2e-3);
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 0u);
+  ASSERT_EQ(r.graph.edges.size(), 1u);
+  // The bisector plane clipped to the domain cube (side 0.6 * 1.1 = 0.66 around y, z).
+  EXPECT_NEAR(r.graph.edges[0].area, 0.66 * 0.66, 1e-6);
+}
+
+TEST(ComputeGvd, ParallelPlatesGiveTheMidPlane) {
+  auto r = run(test::make_scene(3, {test::make_box("low", {0, 0, 0}, {1, 1, 0.1}),
+                                    test::make_box("high", {0, 0, 0.1 + 1e-3}, {1, 1, 0.2})}));
+  expect_valid(r);
+  const double mid = 0.1 + 0.5e-3;
+  size_t n = 0;
+  for (size_t v = 0; v < r.gvd.cells[0].positions.size(); ++v) {
+    const Vec3 p = r.gvd.cells[0].positions[v];
+    if (r.gvd.cells[0].other[v] != 1) continue;
+    if (p.x < 0.05 || p.x > 0.95 || p.y < 0.05 || p.y > 0.95) continue;
+    EXPECT_NEAR(p.z, mid, 1e-9);
+    ++n;
+  }
+  EXPECT_GT(n, 0u);
+  EXPECT_NEAR(r.graph.edges.at(0).min_clearance, 0.5e-3, 1e-9);
+}
+
+TEST(ComputeGvd, SphereInShellGivesTheMidRadiusSphere) {
+  SceneObject inner = test::make_sphere("inner", {0, 0, 0}, 0.5, 16, 32);
+  SceneObject shell = test::make_sphere("shell", {0, 0, 0}, 1.0, 16, 32);
+  auto r = run(test::make_scene(3, {inner, shell}), 7);
+  expect_valid(r);
+  size_t n = 0;
+  for (size_t v = 0; v < r.gvd.cells[0].positions.size(); ++v) {
+    if (r.gvd.cells[0].other[v] != 1) continue;
+    const Vec3 p = r.gvd.cells[0].positions[v];
+    // Between two tessellated spheres the bisector is at the mid radius up to the
+    // tessellation error (~1 - cos(pi/16) of the radius) and the cell size.
+    EXPECT_NEAR(norm(p), 0.75, 0.03 + local_cell(r, p));
+    ++n;
+  }
+  EXPECT_GT(n, 0u);
+  // The inner object's cell is closed and lies entirely inside the shell.
+  EXPECT_EQ(graph_pairs(r.graph), (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}}));
+}
+
+TEST(ComputeGvd, ClosePackedSpheres3D) {
+  std::vector<SceneObject> objects;
+  int k = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 2; ++j)
+      objects.push_back(test::make_sphere(std::to_string(k++),
+                                          {i * (1.0 + 1e-3 * (i + 1)), j * 1.0005, 0}, 0.5, 8, 16));
+  auto r = run(test::make_scene(3, objects));
+  expect_valid(r);
+  // Side by side neighbours must be adjacent in the dual graph.
+  const auto pairs = graph_pairs(r.graph);
+  EXPECT_TRUE(pairs.count({0, 1}));
+  EXPECT_TRUE(pairs.count({0, 2}));
+  EXPECT_TRUE(pairs.count({2, 4}));
+}
+
+TEST(ComputeGvd, GearsIn2DWithTinyGaps) {
+  auto r = run(test::make_scene(
+      2, {test::make_gear2d("g1", {0, 0, 0}, 0.8, 1.0, 12, 0.0),
+          test::make_gear2d("g2", {1.9 + 1e-5, 0, 0}, 0.8, 1.0, 12, 3.14159265358979 / 12),
+          test::make_rect("frame", {-1.2, -1.2, 0}, {3.2, 1.2, 0})}));
+  expect_valid(r);
+  EXPECT_EQ(graph_pairs(r.graph),
+            (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {0, 2}, {1, 2}}));
+}
+
+TEST(ComputeGvd, IntersectingBoxesStayClosed) {
+  auto r = run(test::make_scene(3, {test::make_box("a", {0, 0, 0}, {1, 1, 1}),
+                                    test::make_box("b", {0.5, 0.5, 0.5}, {1.5, 1.5, 1.5})}),
+               6);
+  for (const GvdCell& cell : r.gvd.cells) EXPECT_EQ(test::count_open_edges(cell, 3), 0u);
+  bool warned = false;
+  for (const auto& w : r.scene.warnings) warned |= w.kind == "objects_touch";
+  EXPECT_TRUE(warned);
+}
+
+TEST(ComputeGvd, SingleObjectCellIsTheDomainBox) {
+  auto r = run(test::make_scene(3, {test::make_sphere("only", {0, 0, 0}, 1)}));
+  expect_valid(r);
+  EXPECT_TRUE(r.graph.edges.empty());
+  // Closed by the box: 6 faces of the padded cube, area 6 * (2 * 1.1)^2.
+  double area = 0;
+  const GvdCell& c = r.gvd.cells[0];
+  for (size_t s = 0; s < c.indices.size(); s += 3) {
+    area += 0.5 * norm(cross(c.positions[c.indices[s + 1]] - c.positions[c.indices[s]],
+                             c.positions[c.indices[s + 2]] - c.positions[c.indices[s]]));
+  }
+  EXPECT_NEAR(area, 6 * 2.2 * 2.2, 1e-9);
+}
+
+}  // namespace
+}  // namespace gvd

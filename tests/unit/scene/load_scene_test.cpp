@@ -1,0 +1,343 @@
+// parse_scene_bytes / load_scene on the fixtures of tests/data/formats and the malformed corpus
+// of tests/data/malformed (expected.json lists the code and a detail fragment per file).
+#include "gvd/scene/load_scene.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "gvd/common/error.h"
+
+namespace gvd {
+namespace {
+
+const std::string kData = GVD_TEST_DATA_DIR;
+
+std::vector<uint8_t> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  EXPECT_TRUE(in) << path;
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::vector<uint8_t> bytes_of(const std::string& text) { return {text.begin(), text.end()}; }
+
+Scene parse_file(const std::string& relative, SceneFormat format = SceneFormat::kAuto) {
+  const std::string path = kData + "/" + relative;
+  return parse_scene_bytes(read_bytes(path), format, std::filesystem::path(path).stem().string());
+}
+
+template <class F>
+void expect_error(F&& f, ErrorCode code, const std::string& part) {
+  try {
+    f();
+    ADD_FAILURE() << "no error; expected one containing \"" << part << "\"";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    EXPECT_NE(e.detail().find(part), std::string::npos) << e.detail();
+  }
+}
+
+const SceneWarning* find_warning(const Scene& s, const std::string& kind) {
+  for (const SceneWarning& w : s.warnings) {
+    if (w.kind == kind) return &w;
+  }
+  return nullptr;
+}
+
+void expect_closed_cube(const SceneObject& o) {
+  EXPECT_EQ(o.vertices.size(), 8u);
+  EXPECT_EQ(o.simplices.size(), 12u);
+}
+
+// ---------------------------------------------------------------------------------- OBJ
+
+TEST(ObjLoad, GroupsBecomeObjects) {
+  const Scene s = parse_file("formats/groups.obj");
+  EXPECT_EQ(s.dimension, 3);
+  ASSERT_EQ(s.objects.size(), 2u);
+  EXPECT_EQ(s.objects[0].label, "tet");  // `o tet_object` renamed by the `g tet` right after
+  EXPECT_EQ(s.objects[0].vertices.size(), 4u);
+  EXPECT_EQ(s.objects[0].simplices.size(), 4u);
+  EXPECT_EQ(s.objects[1].label, "cube");
+  expect_closed_cube(s.objects[1]);
+  EXPECT_EQ(s.objects[1].vertices[0], (Vec3{3, 0, 0}));  // re-indexed: only used vertices
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings.front().detail;
+}
+
+TEST(ObjLoad, FacesBeforeAnyGroupAreNamedAfterTheFile) {
+  const Scene s = parse_file("formats/loose_faces.obj");
+  ASSERT_EQ(s.objects.size(), 2u);
+  EXPECT_EQ(s.objects[0].label, "loose_faces");
+  EXPECT_EQ(s.objects[0].simplices.size(), 4u);
+  EXPECT_EQ(s.objects[1].label, "other");
+  EXPECT_EQ(s.objects[1].vertices.size(), 3u);
+  ASSERT_NE(find_warning(s, "open_mesh"), nullptr);
+  EXPECT_EQ(find_warning(s, "open_mesh")->object, "other");
+}
+
+TEST(ObjLoad, ReopenedGroupAppends) {
+  const Scene s = parse_scene_bytes(
+      bytes_of("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\ng a\nf 1 3 2\ng b\nf 1 2 4\ng a\nf 2 3 4\n"),
+      SceneFormat::kObj, "x");
+  ASSERT_EQ(s.objects.size(), 2u);
+  EXPECT_EQ(s.objects[0].simplices.size(), 2u);
+}
+
+TEST(ObjLoad, NoFacesIsAnError) {
+  expect_error(
+      [] { parse_scene_bytes(bytes_of("v 0 0 0\nv 1 0 0\nl 1 2\n"), SceneFormat::kObj, "lines"); },
+      ErrorCode::kInvalidScene, "no faces");
+}
+
+TEST(ObjLoad, BadIndexNamesTheLine) {
+  expect_error(
+      [] {
+        parse_scene_bytes(bytes_of("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 3\nf 1 2 4\n"),
+                          SceneFormat::kObj, "bad");
+      },
+      ErrorCode::kInvalidScene, "line 6");
+  expect_error(
+      [] { parse_scene_bytes(bytes_of("v 0 0 0\nf -1 -2 -3\n"), SceneFormat::kObj, "bad"); },
+      ErrorCode::kInvalidScene, "line 2");
+}
+
+// ---------------------------------------------------------------------------------- PLY
+
+TEST(PlyLoad, AsciiWithExtraPropertiesAndElements) {
+  const Scene s = parse_file("formats/tetra_ascii.ply");
+  ASSERT_EQ(s.objects.size(), 1u);
+  EXPECT_EQ(s.objects[0].label, "tetra_ascii");
+  EXPECT_EQ(s.objects[0].vertices.size(), 4u);
+  EXPECT_EQ(s.objects[0].simplices.size(), 4u);
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(PlyLoad, BinaryLittleEndian) {
+  const Scene s = parse_file("formats/cube_binary_le.ply");
+  ASSERT_EQ(s.objects.size(), 1u);
+  expect_closed_cube(s.objects[0]);
+  EXPECT_EQ(s.objects[0].vertices[6], (Vec3{1, 1, 1}));
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(PlyLoad, BinaryBigEndian) {
+  const Scene s = parse_file("formats/cube_binary_be.ply");
+  ASSERT_EQ(s.objects.size(), 1u);
+  EXPECT_EQ(s.objects[0].label, "cube_binary_be");
+  expect_closed_cube(s.objects[0]);
+  EXPECT_EQ(s.objects[0].vertices[6], (Vec3{1, 1, 1}));
+  EXPECT_EQ(s.objects[0].vertices[3], (Vec3{0, 1, 0}));
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(PlyLoad, TruncatedBinaryIsAnError) {
+  std::vector<uint8_t> bytes = read_bytes(kData + "/formats/cube_binary_be.ply");
+  bytes.resize(bytes.size() - 5);
+  expect_error([&] { parse_scene_bytes(bytes, SceneFormat::kAuto, "cut"); },
+               ErrorCode::kInvalidScene, "truncated");
+}
+
+// ---------------------------------------------------------------------------------- STL
+
+TEST(StlLoad, AsciiIsWelded) {
+  const Scene s = parse_file("formats/tetra_ascii.stl");
+  ASSERT_EQ(s.objects.size(), 1u);
+  EXPECT_EQ(s.objects[0].label, "tetra_ascii");
+  EXPECT_EQ(s.objects[0].vertices.size(), 4u);  // 12 corners welded (-0 == 0)
+  EXPECT_EQ(s.objects[0].simplices.size(), 4u);
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(StlLoad, BinaryWhoseHeaderStartsWithSolid) {
+  const std::vector<uint8_t> bytes = read_bytes(kData + "/formats/cube_binary_solid_header.stl");
+  ASSERT_EQ(std::string(bytes.begin(), bytes.begin() + 5), "solid");
+  const Scene s = parse_scene_bytes(bytes, SceneFormat::kAuto, "cube");
+  ASSERT_EQ(s.objects.size(), 1u);
+  expect_closed_cube(s.objects[0]);
+  EXPECT_TRUE(s.warnings.empty());
+  const Scene t = parse_scene_bytes(bytes, SceneFormat::kStl, "cube");
+  expect_closed_cube(t.objects[0]);
+}
+
+// ---------------------------------------------------------------------------------- OFF
+
+TEST(OffLoad, QuadsAreFanTriangulated) {
+  const Scene s = parse_file("formats/cube.off");
+  ASSERT_EQ(s.objects.size(), 1u);
+  EXPECT_EQ(s.objects[0].label, "cube");
+  expect_closed_cube(s.objects[0]);
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+// ---------------------------------------------------------------------------------- glTF
+
+void expect_two_nodes(const Scene& s) {
+  ASSERT_EQ(s.objects.size(), 2u);
+  EXPECT_EQ(s.objects[0].label, "tet_child");
+  EXPECT_EQ(s.objects[1].label, "node_2");
+  for (const SceneObject& o : s.objects) {
+    EXPECT_EQ(o.simplices.size(), 4u) << o.label;
+  }
+  EXPECT_EQ(s.objects[0].vertices.size(), 4u);
+  EXPECT_EQ(s.objects[1].vertices.size(), 12u);  // not indexed
+  // parent translation (10,0,0) then child scale 2: (1,0,0) -> (12,0,0)
+  EXPECT_EQ(s.objects[0].vertices[1], (Vec3{12, 0, 0}));
+  EXPECT_EQ(s.objects[0].vertices[3], (Vec3{10, 0, 2}));
+  // matrix with translation (0,0,5)
+  for (const Vec3& p : s.objects[1].vertices) {
+    EXPECT_GE(p.z, 5.0);
+    EXPECT_LE(p.z, 6.0);
+  }
+  ASSERT_NE(find_warning(s, "open_mesh"), nullptr);  // node_2 is a soup of 12 corners
+  EXPECT_EQ(find_warning(s, "open_mesh")->object, "node_2");
+}
+
+TEST(GltfLoad, BinaryGlb) { expect_two_nodes(parse_file("formats/two_nodes.glb")); }
+
+TEST(GltfLoad, AsciiGltfWithDataUri) { expect_two_nodes(parse_file("formats/two_nodes.gltf")); }
+
+TEST(GltfLoad, ExplicitFormats) {
+  expect_two_nodes(parse_file("formats/two_nodes.glb", SceneFormat::kGlb));
+  expect_two_nodes(parse_file("formats/two_nodes.gltf", SceneFormat::kGltf));
+}
+
+TEST(GltfLoad, TruncatedGlbIsAnErrorAtEveryLength) {
+  const std::vector<uint8_t> bytes = read_bytes(kData + "/formats/two_nodes.glb");
+  expect_error([&] { parse_scene_bytes(std::span(bytes).first(100), SceneFormat::kAuto, "cut"); },
+               ErrorCode::kInvalidScene, "truncated GLB");
+  for (size_t n = 0; n < bytes.size(); n += 7) {
+    try {
+      parse_scene_bytes(std::span(bytes).first(n), SceneFormat::kGlb, "cut");
+      ADD_FAILURE() << "accepted " << n << " bytes";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kInvalidScene) << n << ": " << e.what();
+    }
+  }
+}
+
+TEST(GltfLoad, CorruptedJsonChunkIsAnError) {
+  std::vector<uint8_t> bytes = read_bytes(kData + "/formats/two_nodes.glb");
+  bytes[25] = '#';
+  expect_error([&] { parse_scene_bytes(bytes, SceneFormat::kAuto, "bad"); },
+               ErrorCode::kInvalidScene, "GLB \"bad\"");
+}
+
+// ------------------------------------------------------------------------ sniffing, files
+
+TEST(LoadSceneSniff, JsonAndUnknown) {
+  const std::string json =
+      R"(  {"dimension": 2, "objects": [{"label": "w", "vertices": [[0,0],[1,0]], "segments": [[0,1]]}]})";
+  EXPECT_EQ(parse_scene_bytes(bytes_of(json), SceneFormat::kAuto, "x").dimension, 2);
+  expect_error([] { parse_scene_bytes(bytes_of("hello world\n"), SceneFormat::kAuto, "greeting"); },
+               ErrorCode::kUnsupportedFormat, "greeting");
+  expect_error([] { parse_scene_bytes(bytes_of(""), SceneFormat::kAuto, "nothing"); },
+               ErrorCode::kUnsupportedFormat, "nothing");
+}
+
+TEST(LoadScene, OneSceneFile) {
+  const std::vector<std::string> paths = {kData + "/formats/two_objects_2d.json"};
+  const Scene s = load_scene(paths);
+  EXPECT_EQ(s.dimension, 2);
+  ASSERT_EQ(s.objects.size(), 2u);
+  EXPECT_EQ(s.objects[1].label, "wall");
+}
+
+TEST(LoadScene, OneMeshFileIsAOneObjectScene) {
+  const std::vector<std::string> paths = {kData + "/formats/cube.off"};
+  const Scene s = load_scene(paths);
+  ASSERT_EQ(s.objects.size(), 1u);
+  EXPECT_EQ(s.objects[0].label, "cube");
+}
+
+TEST(LoadScene, SeveralFilesAreOneObjectEachLabelledByStem) {
+  const std::vector<std::string> paths = {
+      kData + "/formats/cube_binary_le.ply", kData + "/formats/tetra_ascii.stl",
+      kData + "/formats/groups.obj", kData + "/formats/two_nodes.glb"};
+  const Scene s = load_scene(paths);
+  ASSERT_EQ(s.objects.size(), 4u);
+  EXPECT_EQ(s.objects[0].label, "cube_binary_le");
+  EXPECT_EQ(s.objects[1].label, "tetra_ascii");
+  EXPECT_EQ(s.objects[2].label, "groups");
+  EXPECT_EQ(s.objects[2].simplices.size(), 16u);  // both OBJ groups merged
+  EXPECT_EQ(s.objects[2].vertices.size(), 12u);
+  EXPECT_EQ(s.objects[3].label, "two_nodes");
+  EXPECT_EQ(s.objects[3].simplices.size(), 8u);
+  const SceneWarning* w = find_warning(s, "multiple_components");
+  ASSERT_NE(w, nullptr);
+  EXPECT_EQ(w->object, "groups");
+}
+
+TEST(LoadScene, DuplicateStemsNameBothPaths) {
+  const std::vector<std::string> paths = {kData + "/formats/cube.off",
+                                          kData + "/formats/tetra_ascii.ply",
+                                          kData + "/formats/tetra_ascii.stl"};
+  expect_error([&] { load_scene(paths); }, ErrorCode::kInvalidScene,
+               "tetra_ascii.ply\" and \"" + kData + "/formats/tetra_ascii.stl");
+}
+
+TEST(LoadScene, UnreadableFileIsAnIoError) {
+  const std::vector<std::string> paths = {kData + "/formats/cube.off", "/nonexistent/x.stl"};
+  expect_error([&] { load_scene(paths); }, ErrorCode::kIo, "/nonexistent/x.stl");
+  const std::vector<std::string> dir = {kData + "/formats"};
+  expect_error([&] { load_scene(dir); }, ErrorCode::kIo, "formats");
+}
+
+TEST(LoadScene, MixingDimensionsIsAnError) {
+  const std::vector<std::string> paths = {kData + "/formats/cube.off",
+                                          kData + "/formats/two_objects_2d.json"};
+  expect_error([&] { load_scene(paths); }, ErrorCode::kInvalidScene, "2D");
+}
+
+TEST(LoadSceneRobustness, EveryPrefixOfEveryFixtureParsesOrFailsCleanly) {
+  for (const auto& entry : std::filesystem::directory_iterator(kData + "/formats")) {
+    if (entry.path().extension() == ".py") continue;
+    const std::vector<uint8_t> bytes = read_bytes(entry.path().string());
+    SCOPED_TRACE(entry.path().filename().string());
+    for (size_t n = 0; n <= bytes.size(); n += 1 + n / 64) {
+      try {
+        parse_scene_bytes(std::span(bytes).first(n), SceneFormat::kAuto, "prefix");
+      } catch (const Error& e) {
+        EXPECT_TRUE(e.code() == ErrorCode::kInvalidScene ||
+                    e.code() == ErrorCode::kUnsupportedFormat)
+            << n << ": " << e.what();
+      }
+    }
+  }
+}
+
+// ------------------------------------------------------------------------ malformed corpus
+
+TEST(SceneMalformedCorpus, EveryFileIsRejectedAsListed) {
+  const std::string dir = kData + "/malformed";
+  std::ifstream manifest_in(dir + "/expected.json");
+  ASSERT_TRUE(manifest_in);
+  const nlohmann::json manifest = nlohmann::json::parse(manifest_in);
+  const nlohmann::json& files = manifest.at("files");
+  size_t checked = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    const std::string file = entry.path().filename().string();
+    if (file == "expected.json") continue;
+    SCOPED_TRACE(file);
+    ASSERT_TRUE(files.contains(file)) << "not listed in expected.json";
+    const std::string code = files[file].at("code");
+    const std::string contains = files[file].at("contains");
+    try {
+      parse_scene_bytes(read_bytes(entry.path().string()), SceneFormat::kAuto,
+                        entry.path().stem().string());
+      ADD_FAILURE() << "accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(error_code_name(e.code()), code) << e.what();
+      EXPECT_NE(e.detail().find(contains), std::string::npos) << e.detail();
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, files.size());
+}
+
+}  // namespace
+}  // namespace gvd

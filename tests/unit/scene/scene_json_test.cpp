@@ -1,0 +1,219 @@
+// parse_scene_json rejections and the scene_to_json round trip.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "gvd/common/error.h"
+#include "gvd/scene/load_scene.h"
+
+namespace gvd {
+namespace {
+
+template <class F>
+void expect_error(F&& f, ErrorCode code, const std::string& part) {
+  try {
+    f();
+    ADD_FAILURE() << "no error; expected one containing \"" << part << "\"";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    EXPECT_NE(e.detail().find(part), std::string::npos) << e.detail();
+  }
+}
+
+void expect_invalid(const std::string& json, const std::string& part) {
+  expect_error([&] { parse_scene_json(json); }, ErrorCode::kInvalidScene, part);
+}
+
+const std::string kTet =
+    R"("vertices": [[0,0,0],[1,0,0],[0,1,0],[0,0,1]], "triangles": [[0,2,1],[0,1,3],[1,2,3],[0,3,2]])";
+
+std::string scene_with(const std::string& objects, const std::string& dimension = "3") {
+  return R"({"dimension": )" + dimension + R"(, "objects": [)" + objects + "]}";
+}
+
+std::string tet(const std::string& label, std::string body = kTet) {
+  return R"({"label": )" + label + ", " + body + "}";
+}
+
+std::string replace(std::string s, const std::string& from, const std::string& to) {
+  s.replace(s.find(from), from.size(), to);
+  return s;
+}
+
+TEST(SceneJson, ParsesAValidScene) {
+  const Scene s = parse_scene_json(scene_with(tet(R"("a")") + "," + tet(R"("b")")));
+  EXPECT_EQ(s.dimension, 3);
+  ASSERT_EQ(s.objects.size(), 2u);
+  EXPECT_EQ(s.objects[1].label, "b");
+  EXPECT_EQ(s.objects[1].simplices.size(), 4u);
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(SceneJson, IgnoresUnknownKeys) {
+  const Scene s = parse_scene_json(
+      R"({"dimension": 3, "units": "mm", "objects": [{"label": "a", "color": [1,0,0], )" + kTet +
+      "}]}");
+  EXPECT_EQ(s.objects.size(), 1u);
+}
+
+TEST(SceneJson, RejectsTruncatedJsonWithByteOffset) {
+  expect_invalid(R"({"dimension": 3, "objects": [{"label": "a", "vert)", "at byte");
+}
+
+TEST(SceneJson, RejectsMissingDimension) {
+  expect_invalid(R"({"objects": [)" + tet(R"("a")") + "]}", "dimension");
+}
+
+TEST(SceneJson, RejectsDimensionAsString) {
+  expect_invalid(scene_with(tet(R"("a")"), R"("3")"), "dimension");
+}
+
+TEST(SceneJson, RejectsDimensionFour) {
+  expect_invalid(scene_with(tet(R"("a")"), "4"), "dimension");
+}
+
+TEST(SceneJson, RejectsMissingObjects) { expect_invalid(R"({"dimension": 3})", "objects"); }
+
+TEST(SceneJson, RejectsEmptyObjects) { expect_invalid(scene_with(""), "objects"); }
+
+TEST(SceneJson, RejectsNonStringLabel) { expect_invalid(scene_with(tet("12")), "objects[0]"); }
+
+TEST(SceneJson, RejectsEmptyLabel) {
+  expect_invalid(scene_with(tet(R"("a")") + "," + tet(R"("")")), "objects[1]");
+}
+
+TEST(SceneJson, RejectsDuplicateLabelNamingBothIndices) {
+  expect_invalid(scene_with(tet(R"("a")") + "," + tet(R"("b")") + "," + tet(R"("b")")),
+                 "objects 1 and 2");
+}
+
+TEST(SceneJson, RejectsWrongVertexArity) {
+  expect_invalid(
+      scene_with(R"({"label": "a", "vertices": [[0,0,0],[1,0]], "segments": [[0,1]]})", "2"),
+      "objects[0] (\"a\"): vertices[0]");
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[1,0,0]", "[1,0,0,0]"))), "vertices[1]");
+}
+
+TEST(SceneJson, RejectsNonNumericCoordinates) {
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[0,1,0]", R"([0,"NaN",0])"))),
+                 "\"a\"): vertices[2][1]");
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[0,1,0]", "[0,null,0]"))),
+                 "vertices[2][1]");
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[0,1,0]", R"([0,"Infinity",0])"))),
+                 "vertices[2][1]");
+}
+
+TEST(SceneJson, RejectsOverflowingNumberLiteral) {
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[0,0,1]", "[0,0,1e999]"))), "");
+}
+
+TEST(SceneJson, RejectsTooLargeCoordinates) {
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[0,0,1]", "[0,0,-3e15]"))),
+                 "\"a\"): vertices[3][2]");
+  SceneLimits limits;
+  limits.max_abs_coordinate = 0.5;
+  expect_error([&] { parse_scene_json(scene_with(tet(R"("a")")), limits); },
+               ErrorCode::kInvalidScene, "vertices[1][0]");
+}
+
+TEST(SceneJson, RejectsIndexOutOfRange) {
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[1,2,3]", "[1,2,4]"))),
+                 "\"a\"): triangles[2][2]");
+}
+
+TEST(SceneJson, RejectsNegativeIndex) {
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[1,2,3]", "[1,-2,3]"))),
+                 "triangles[2][1] = -2 is negative");
+}
+
+TEST(SceneJson, RejectsFractionalIndex) {
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[1,2,3]", "[1,2.5,3]"))),
+                 "triangles[2][1]");
+}
+
+TEST(SceneJson, AcceptsIntegralFloatIndex) {
+  const Scene s =
+      parse_scene_json(scene_with(tet(R"("a")", replace(kTet, "[1,2,3]", "[1,2.0,3]"))));
+  EXPECT_EQ(s.objects[0].simplices[2].v[1], 2u);
+}
+
+TEST(SceneJson, RejectsNonIntegerIndex) {
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[1,2,3]", R"([1,"2",3])"))),
+                 "triangles[2][1]");
+  expect_invalid(scene_with(tet(R"("a")", replace(kTet, "[1,2,3]", "[1,2]"))), "triangles[2]");
+}
+
+TEST(SceneJson, RejectsTrianglesIn2D) {
+  expect_invalid(
+      scene_with(R"({"label": "w", "vertices": [[0,0],[1,0],[0,1]], "triangles": [[0,1,2]]})", "2"),
+      "objects[0] (\"w\")");
+}
+
+TEST(SceneJson, RejectsSegmentsIn3D) {
+  expect_invalid(
+      scene_with(R"({"label": "w", "vertices": [[0,0,0],[1,0,0]], "segments": [[0,1]]})"),
+      "objects[0] (\"w\")");
+}
+
+TEST(SceneJson, RejectsObjectWithoutSimplices) {
+  expect_invalid(
+      scene_with(tet(R"("a")") + "," + tet(R"("b")", R"("vertices": [[0,0,0]], "triangles": [])")),
+      "objects[1] (\"b\")");
+  expect_invalid(scene_with(tet(R"("b")", R"("vertices": [[0,0,0]])")), "\"b\"");
+}
+
+TEST(SceneJson, RejectsMoreObjectsThanTheLimit) {
+  SceneLimits limits;
+  limits.max_objects = 1;
+  expect_error([&] { parse_scene_json(scene_with(tet(R"("a")") + "," + tet(R"("b")")), limits); },
+               ErrorCode::kLimitExceeded, "limit");
+}
+
+TEST(SceneJson, RejectsMoreSimplicesThanTheLimit) {
+  SceneLimits limits;
+  limits.max_simplices = 6;
+  expect_error([&] { parse_scene_json(scene_with(tet(R"("a")") + "," + tet(R"("b")")), limits); },
+               ErrorCode::kLimitExceeded, "objects[1] (\"b\")");
+}
+
+TEST(SceneJson, RoundTrips3D) {
+  const std::string text = scene_with(
+      tet(R"("a")", replace(kTet, "[1,0,0]", "[0.1,-1e-300,123456789.123456789]")) + "," +
+      tet(R"("b \"quoted\" ü")",
+          replace(kTet, "[0,1,0]", "[0.30000000000000004,1.2345678901234e14,-0.0]")));
+  const Scene s = parse_scene_json(text);
+  const std::string once = scene_to_json(s);
+  const Scene t = parse_scene_json(once);
+  EXPECT_EQ(scene_to_json(t), once);
+  ASSERT_EQ(t.objects.size(), 2u);
+  EXPECT_EQ(t.objects[1].label, "b \"quoted\" ü");
+  for (size_t o = 0; o < 2; ++o) {
+    ASSERT_EQ(t.objects[o].vertices.size(), s.objects[o].vertices.size());
+    for (size_t v = 0; v < s.objects[o].vertices.size(); ++v) {
+      EXPECT_EQ(t.objects[o].vertices[v], s.objects[o].vertices[v]);
+    }
+    for (size_t k = 0; k < s.objects[o].simplices.size(); ++k) {
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(t.objects[o].simplices[k].v[c], s.objects[o].simplices[k].v[c]);
+      }
+    }
+  }
+  EXPECT_EQ(t.objects[0].vertices[1].y, -1e-300);
+  EXPECT_EQ(t.objects[1].vertices[2].x, 0.30000000000000004);
+}
+
+TEST(SceneJson, RoundTrips2D) {
+  const std::string text = scene_with(
+      R"({"label": "wall", "vertices": [[0,0],[1.5,0.25],[3,1]], "segments": [[0,1],[1,2]]})", "2");
+  const Scene s = parse_scene_json(text);
+  EXPECT_EQ(s.dimension, 2);
+  const std::string once = scene_to_json(s);
+  EXPECT_NE(once.find("\"segments\""), std::string::npos);
+  EXPECT_EQ(once.find("\"triangles\""), std::string::npos);
+  const Scene t = parse_scene_json(once);
+  EXPECT_EQ(scene_to_json(t), once);
+  EXPECT_EQ(t.objects[0].vertices[1], (Vec3{1.5, 0.25, 0}));
+}
+
+}  // namespace
+}  // namespace gvd

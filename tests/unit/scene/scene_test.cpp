@@ -1,0 +1,393 @@
+// validate_scene, make_domain, make_unit_geometry.
+#include "gvd/scene/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "gvd/common/error.h"
+
+namespace gvd {
+namespace {
+
+/// Runs f and checks that it throws gvd::Error with `code` and a detail containing `part`.
+template <class F>
+void expect_error(F&& f, ErrorCode code, const std::string& part) {
+  try {
+    f();
+    ADD_FAILURE() << "no error; expected one containing \"" << part << "\"";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    EXPECT_NE(e.detail().find(part), std::string::npos) << e.detail();
+  }
+}
+
+SceneObject tetrahedron(const std::string& label, Vec3 at = {}) {
+  SceneObject o;
+  o.label = label;
+  o.vertices = {at, at + Vec3{1, 0, 0}, at + Vec3{0, 1, 0}, at + Vec3{0, 0, 1}};
+  o.simplices = {{{0, 2, 1}}, {{0, 1, 3}}, {{1, 2, 3}}, {{0, 3, 2}}};
+  return o;
+}
+
+SceneObject square_2d(const std::string& label, Vec3 at = {}) {
+  SceneObject o;
+  o.label = label;
+  o.vertices = {at, at + Vec3{1, 0, 0}, at + Vec3{1, 1, 0}, at + Vec3{0, 1, 0}};
+  o.simplices = {{{0, 1, 0}}, {{1, 2, 0}}, {{2, 3, 0}}, {{3, 0, 0}}};
+  return o;
+}
+
+Scene scene3(std::vector<SceneObject> objects) {
+  Scene s;
+  s.dimension = 3;
+  s.objects = std::move(objects);
+  return s;
+}
+
+const SceneWarning* find_warning(const Scene& s, const std::string& kind) {
+  for (const SceneWarning& w : s.warnings) {
+    if (w.kind == kind) return &w;
+  }
+  return nullptr;
+}
+
+TEST(SceneValidate, ClosedTetrahedronHasNoWarnings) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("b", {3, 0, 0})});
+  validate_scene(s);
+  EXPECT_TRUE(s.warnings.empty());
+  EXPECT_EQ(s.simplex_count(), 8u);
+  EXPECT_EQ(s.vertex_count(), 8u);
+  EXPECT_EQ(s.find("b"), ObjectId{1});
+  EXPECT_FALSE(s.find("c").has_value());
+}
+
+TEST(SceneValidate, RejectsEmptyScene) {
+  Scene s;
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "no objects");
+}
+
+TEST(SceneValidate, RejectsBadDimension) {
+  Scene s = scene3({tetrahedron("a")});
+  s.dimension = 4;
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "dimension");
+}
+
+TEST(SceneValidate, RejectsDuplicateLabelNamingBothIndices) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("b"), tetrahedron("a")});
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "objects 0 and 2");
+}
+
+TEST(SceneValidate, RejectsEmptyLabel) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("")});
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "object 1");
+}
+
+TEST(SceneValidate, RejectsIndexOutOfRange) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("b")});
+  s.objects[1].simplices[2].v[1] = 4;
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "\"b\"): triangle 2");
+}
+
+TEST(SceneValidate, RejectsNonFiniteCoordinate) {
+  Scene s = scene3({tetrahedron("a")});
+  s.objects[0].vertices[3].y = std::nan("");
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "vertex 3");
+}
+
+TEST(SceneValidate, RejectsTooLargeCoordinate) {
+  Scene s = scene3({tetrahedron("a")});
+  s.objects[0].vertices[2].z = -2e15;
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "\"a\"): vertex 2");
+}
+
+TEST(SceneValidate, RejectsObjectWithoutSimplices) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("hollow")});
+  s.objects[1].simplices.clear();
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "\"hollow\"");
+}
+
+TEST(SceneValidate, RejectsMoreObjectsThanTheLimit) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("b", {2, 0, 0})});
+  SceneLimits limits;
+  limits.max_objects = 1;
+  expect_error([&] { validate_scene(s, limits); }, ErrorCode::kLimitExceeded, "2 objects");
+}
+
+TEST(SceneValidate, RejectsMoreSimplicesThanTheLimit) {
+  Scene s = scene3({tetrahedron("a")});
+  SceneLimits limits;
+  limits.max_simplices = 3;
+  expect_error([&] { validate_scene(s, limits); }, ErrorCode::kLimitExceeded, "4 simplices");
+}
+
+TEST(SceneValidate, RemovesAndCountsDegenerateTriangles) {
+  Scene s = scene3({tetrahedron("a")});
+  SceneObject& o = s.objects[0];
+  o.vertices.push_back({0.5, 0, 0});      // on the edge 0-1
+  o.vertices.push_back({0.5, 1e-17, 0});  // 1e-17 off it: zero area
+  o.simplices.push_back({{0, 0, 1}});     // repeated index
+  o.simplices.push_back({{0, 1, 4}});     // collinear
+  o.simplices.push_back({{0, 1, 5}});     // needle below tolerance
+  validate_scene(s);
+  ASSERT_EQ(o.simplices.size(), 4u);
+  const SceneWarning* w = find_warning(s, "degenerate_simplices");
+  ASSERT_NE(w, nullptr);
+  EXPECT_EQ(w->count, 3u);
+  EXPECT_EQ(w->object, "a");
+  EXPECT_EQ(find_warning(s, "open_mesh"), nullptr);
+}
+
+TEST(SceneValidate, KeepsThinButValidTriangle) {
+  Scene s = scene3({tetrahedron("a")});
+  s.objects[0].vertices.push_back({0.5, 1e-9, 0});
+  s.objects[0].simplices.push_back({{0, 1, 4}});
+  validate_scene(s);
+  EXPECT_EQ(s.objects[0].simplices.size(), 5u);
+  EXPECT_EQ(find_warning(s, "degenerate_simplices"), nullptr);
+}
+
+TEST(SceneValidate, AllDegenerateIsAnError) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("flat")});
+  s.objects[1].simplices = {{{0, 1, 1}}, {{2, 2, 2}}};
+  expect_error([&] { validate_scene(s); }, ErrorCode::kInvalidScene, "\"flat\"");
+}
+
+TEST(SceneValidate, WarnsAboutOpenMesh) {
+  Scene s = scene3({tetrahedron("a")});
+  s.objects[0].simplices.pop_back();  // three open edges
+  validate_scene(s);
+  const SceneWarning* w = find_warning(s, "open_mesh");
+  ASSERT_NE(w, nullptr);
+  EXPECT_EQ(w->count, 3u);
+  EXPECT_EQ(w->object, "a");
+}
+
+TEST(SceneValidate, WarnsAboutNonManifoldEdge) {
+  Scene s = scene3({tetrahedron("a")});
+  s.objects[0].vertices.push_back({0.3, 0.3, -1});
+  s.objects[0].simplices.push_back({{0, 1, 4}});  // a fin on edge 0-1
+  validate_scene(s);
+  const SceneWarning* w = find_warning(s, "non_manifold");
+  ASSERT_NE(w, nullptr);
+  EXPECT_EQ(w->count, 1u);
+  const SceneWarning* open = find_warning(s, "open_mesh");
+  ASSERT_NE(open, nullptr);
+  EXPECT_EQ(open->count, 2u);  // the fin's two free edges
+}
+
+TEST(SceneValidate, WarnsAboutMultipleComponents) {
+  SceneObject two = tetrahedron("pair");
+  const SceneObject other = tetrahedron("x", {5, 0, 0});
+  for (const Vec3& p : other.vertices) two.vertices.push_back(p);
+  for (Simplex t : other.simplices) {
+    for (uint32_t& v : t.v) v += 4;
+    two.simplices.push_back(t);
+  }
+  Scene s = scene3({two});
+  validate_scene(s);
+  const SceneWarning* w = find_warning(s, "multiple_components");
+  ASSERT_NE(w, nullptr);
+  EXPECT_EQ(w->count, 2u);
+  EXPECT_EQ(w->object, "pair");
+}
+
+TEST(SceneValidate, IsIdempotent) {
+  Scene s = scene3({tetrahedron("a")});
+  s.objects[0].simplices.pop_back();
+  s.objects[0].simplices.push_back({{1, 1, 2}});
+  validate_scene(s);
+  const size_t warnings = s.warnings.size();
+  validate_scene(s);
+  EXPECT_EQ(s.warnings.size(), warnings);
+}
+
+TEST(SceneValidate, TwoDimensionalDegreeWarningsAndZ) {
+  Scene s;
+  s.dimension = 2;
+  s.objects = {square_2d("sq")};
+  s.objects[0].vertices[1].z = 7;  // 2D: z is forced to 0
+  SceneObject path;
+  path.label = "path";
+  path.vertices = {{0, 3, 0}, {1, 3, 0}, {2, 3, 0}, {1, 4, 0}};
+  path.simplices = {{{0, 1, 0}}, {{1, 2, 0}}, {{1, 3, 0}}, {{2, 2, 0}}};
+  s.objects.push_back(path);
+  validate_scene(s);
+  EXPECT_EQ(s.objects[0].vertices[1].z, 0.0);
+  EXPECT_EQ(s.objects[1].simplices.size(), 3u);
+  const SceneWarning* open = find_warning(s, "open_mesh");
+  ASSERT_NE(open, nullptr);
+  EXPECT_EQ(open->object, "path");
+  EXPECT_EQ(open->count, 3u);
+  const SceneWarning* nm = find_warning(s, "non_manifold");
+  ASSERT_NE(nm, nullptr);
+  EXPECT_EQ(nm->count, 1u);
+  const SceneWarning* deg = find_warning(s, "degenerate_simplices");
+  ASSERT_NE(deg, nullptr);
+  EXPECT_EQ(deg->count, 1u);
+}
+
+// ------------------------------------------------------------------------------- Domain
+
+TEST(Domain, DefaultIsPaddedCubeAroundTheBoundingBox) {
+  Scene s = scene3({tetrahedron("a")});
+  s.objects[0].vertices = {{-1, 2, 0}, {3, 2, 0}, {-1, 4, 0}, {-1, 2, 1}};  // extents 4, 2, 1
+  const Domain d = make_domain(s);
+  EXPECT_DOUBLE_EQ(d.side, 4 * 1.1);
+  const Vec3 centre = d.origin + Vec3{d.side, d.side, d.side} * 0.5;
+  EXPECT_DOUBLE_EQ(centre.x, 1.0);
+  EXPECT_DOUBLE_EQ(centre.y, 3.0);
+  EXPECT_DOUBLE_EQ(centre.z, 0.5);
+  EXPECT_DOUBLE_EQ(d.origin.x, -1 - 0.05 * 4);
+  const Box b = d.box();
+  EXPECT_DOUBLE_EQ(b.hi.x - b.lo.x, d.side);
+  EXPECT_DOUBLE_EQ(b.hi.z - b.lo.z, d.side);
+}
+
+TEST(Domain, PaddingOption) {
+  Scene s = scene3({tetrahedron("a")});
+  DomainOptions options;
+  options.padding = 0.0;
+  const Domain d = make_domain(s, options);
+  EXPECT_DOUBLE_EQ(d.side, 1.0);
+  EXPECT_EQ(d.origin, (Vec3{0, 0, 0}));
+  options.padding = 0.25;
+  EXPECT_DOUBLE_EQ(make_domain(s, options).side, 1.5);
+}
+
+TEST(Domain, NegativePaddingIsAnError) {
+  Scene s = scene3({tetrahedron("a")});
+  DomainOptions options;
+  options.padding = -0.1;
+  expect_error([&] { make_domain(s, options); }, ErrorCode::kInvalidArgument, "padding");
+}
+
+TEST(Domain, CoincidentVerticesGetUnitSide) {
+  Scene s = scene3({tetrahedron("a")});
+  for (Vec3& p : s.objects[0].vertices) p = {2, 2, 2};
+  DomainOptions options;
+  options.padding = 0;
+  const Domain d = make_domain(s, options);
+  EXPECT_DOUBLE_EQ(d.side, 1.0);
+  EXPECT_EQ(d.origin, (Vec3{1.5, 1.5, 1.5}));
+}
+
+TEST(Domain, TwoDimensionalKeepsZZero) {
+  Scene s;
+  s.dimension = 2;
+  s.objects = {square_2d("sq", {1, 1, 0})};
+  const Domain d = make_domain(s);
+  EXPECT_EQ(d.origin.z, 0.0);
+  EXPECT_EQ(d.box().lo.z, 0.0);
+  EXPECT_EQ(d.box().hi.z, 0.0);
+  EXPECT_DOUBLE_EQ(d.side, 1.1);
+  EXPECT_EQ(d.to_unit({2, 2, 0}).z, 0.0);
+}
+
+TEST(Domain, ToUnitAndBackRoundTrip) {
+  Scene s = scene3({tetrahedron("a", {-3, 5, 7})});
+  const Domain d = make_domain(s);
+  const Vec3 p{-2.5, 5.25, 7.75};
+  const Vec3 u = d.to_unit(p);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_GT(u[i], 0.0);
+    EXPECT_LT(u[i], 1.0);
+  }
+  const Vec3 q = d.from_unit(u);
+  EXPECT_NEAR(q.x, p.x, 1e-12);
+  EXPECT_NEAR(q.y, p.y, 1e-12);
+  EXPECT_NEAR(q.z, p.z, 1e-12);
+}
+
+TEST(Domain, UserBoxIsMadeACubeWithoutPadding) {
+  Scene s = scene3({tetrahedron("a")});
+  DomainOptions options;
+  options.box = Box{{-1, -1, -1}, {3, 2, 1}};  // extents 4, 3, 2, centre (1, 0.5, 0)
+  const Domain d = make_domain(s, options);
+  EXPECT_DOUBLE_EQ(d.side, 4.0);
+  EXPECT_EQ(d.origin, (Vec3{-1, -1.5, -2}));
+}
+
+TEST(Domain, UserBoxMustContainAllVertices) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("far", {5, 0, 0})});
+  DomainOptions options;
+  options.box = Box{{-1, -1, -1}, {5.5, 2, 2}};
+  expect_error([&] { make_domain(s, options); }, ErrorCode::kInvalidArgument,
+               "object 1 (\"far\") vertex 1");
+}
+
+TEST(Domain, EmptyUserBoxIsAnError) {
+  Scene s = scene3({tetrahedron("a")});
+  DomainOptions options;
+  options.box = Box{};
+  expect_error([&] { make_domain(s, options); }, ErrorCode::kInvalidArgument, "box");
+}
+
+// ------------------------------------------------------------------------- UnitGeometry
+
+TEST(SceneUnitGeometry, FlattensObjectsAndSnapsToTheLattice) {
+  Scene s = scene3({tetrahedron("a", {0.1, 0.2, 0.3}), tetrahedron("b", {1.7, -0.3, 0.9})});
+  validate_scene(s);
+  const Domain d = make_domain(s);
+  const UnitGeometry g = make_unit_geometry(s, d);
+  EXPECT_EQ(g.dimension, 3);
+  EXPECT_EQ(g.object_count, 2u);
+  ASSERT_EQ(g.points.size(), 8u);
+  ASSERT_EQ(g.simplices.size(), 8u);
+  ASSERT_EQ(g.object_of.size(), 8u);
+  EXPECT_EQ(g.object_of[3], 0u);
+  EXPECT_EQ(g.object_of[4], 1u);
+  EXPECT_EQ(g.simplices[4].v[0], 4u);  // offset by the first object's 4 vertices
+  EXPECT_EQ(g.simplices[4].v[1], 6u);
+  for (const Vec3& p : g.points) {
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_GE(p[i], 0.0);
+      EXPECT_LE(p[i], 1.0);
+      const double scaled = std::ldexp(p[i], 48);
+      EXPECT_EQ(scaled, std::floor(scaled)) << p[i];
+    }
+  }
+  const Vec3 back = d.from_unit(g.points[5]);
+  EXPECT_NEAR(back.x, 2.7, 1e-12);
+}
+
+TEST(SceneUnitGeometry, BoundaryVerticesAreClampedIntoTheUnitCube) {
+  Scene s = scene3({tetrahedron("a", {0.1, 0.2, 0.3})});
+  DomainOptions options;
+  options.padding = 0;
+  const UnitGeometry g = make_unit_geometry(s, make_domain(s, options));
+  double lo = 1, hi = 0;
+  for (const Vec3& p : g.points) {
+    for (int i = 0; i < 3; ++i) {
+      lo = std::min(lo, p[i]);
+      hi = std::max(hi, p[i]);
+    }
+  }
+  EXPECT_EQ(lo, 0.0);
+  EXPECT_EQ(hi, 1.0);
+}
+
+TEST(SceneUnitGeometry, TwoDimensionalKeepsZZero) {
+  Scene s;
+  s.dimension = 2;
+  s.objects = {square_2d("sq"), square_2d("sq2", {3, 0.5, 0})};
+  validate_scene(s);
+  const UnitGeometry g = make_unit_geometry(s, make_domain(s));
+  for (const Vec3& p : g.points) EXPECT_EQ(p.z, 0.0);
+  EXPECT_EQ(g.simplices[4].v[0], 4u);
+  EXPECT_EQ(g.simplices[4].v[2], 0u);
+}
+
+TEST(SceneUnitGeometry, VertexOutsideTheDomainIsAnError) {
+  Scene s = scene3({tetrahedron("a"), tetrahedron("b", {4, 0, 0})});
+  Domain d;
+  d.dimension = 3;
+  d.origin = {0, 0, 0};
+  d.side = 2;
+  expect_error([&] { make_unit_geometry(s, d); }, ErrorCode::kInvalidArgument,
+               "object 1 (\"b\") vertex 0");
+}
+
+}  // namespace
+}  // namespace gvd
