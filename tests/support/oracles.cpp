@@ -1,7 +1,7 @@
 #include "support/oracles.h"
 
+#include <algorithm>
 #include <cmath>
-#include <map>
 #include <tuple>
 
 #include "gvd/geometry/primitives.h"
@@ -74,12 +74,14 @@ bool segments_intersect_2d(Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
   return false;
 }
 
-size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd) {
+size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd, size_t budget) {
   size_t crossings = 0;
   const int dim = scene.dimension;
   const int arity = dim == 2 ? 2 : 3;
   for (const GvdCell& cell : gvd.cells) {
-    for (size_t s = 0; s + arity <= cell.indices.size(); s += arity) {
+    const size_t count = cell.indices.size() / arity;
+    const size_t stride = budget == 0 || count <= budget ? 1 : count / budget;
+    for (size_t s = 0; s + arity <= cell.indices.size(); s += arity * stride) {
       const Vec3 g0 = cell.positions[cell.indices[s]];
       const Vec3 g1 = cell.positions[cell.indices[s + 1]];
       const Vec3 g2 = arity == 3 ? cell.positions[cell.indices[s + 2]] : Vec3{};
@@ -91,9 +93,10 @@ size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd) {
             hit = segments_intersect_2d(g0, g1, a, b);
           } else {
             const Vec3 c = o.vertices[t.v[2]];
-            hit = segment_hits_triangle(g0, g1, a, b, c) || segment_hits_triangle(g1, g2, a, b, c) ||
-                  segment_hits_triangle(g2, g0, a, b, c) || segment_hits_triangle(a, b, g0, g1, g2) ||
-                  segment_hits_triangle(b, c, g0, g1, g2) || segment_hits_triangle(c, a, g0, g1, g2);
+            hit =
+                segment_hits_triangle(g0, g1, a, b, c) || segment_hits_triangle(g1, g2, a, b, c) ||
+                segment_hits_triangle(g2, g0, a, b, c) || segment_hits_triangle(a, b, g0, g1, g2) ||
+                segment_hits_triangle(b, c, g0, g1, g2) || segment_hits_triangle(c, a, g0, g1, g2);
           }
           if (hit) break;
         }
@@ -106,35 +109,51 @@ size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd) {
 }
 
 size_t count_open_edges(const GvdCell& cell, int dimension) {
+  // Vertices are compared by exact position (a vertex may be stored once per neighbour).
   using Key = std::tuple<double, double, double>;
   auto key = [&](uint32_t i) {
     const Vec3 p = cell.positions[i];
     return Key{p.x, p.y, p.z};
   };
   if (dimension == 2) {
-    std::map<Key, int> balance;
+    std::vector<std::pair<Key, int>> ends;
     for (size_t s = 0; s + 2 <= cell.indices.size(); s += 2) {
-      balance[key(cell.indices[s])] -= 1;
-      balance[key(cell.indices[s + 1])] += 1;
+      ends.push_back({key(cell.indices[s]), -1});
+      ends.push_back({key(cell.indices[s + 1]), +1});
     }
+    std::sort(ends.begin(), ends.end());
     size_t open = 0;
-    for (const auto& [k, b] : balance) open += b != 0;
+    for (size_t i = 0; i < ends.size();) {
+      int balance = 0;
+      size_t j = i;
+      for (; j < ends.size() && ends[j].first == ends[i].first; ++j) balance += ends[j].second;
+      open += balance != 0;
+      i = j;
+    }
     return open;
   }
-  std::map<std::pair<Key, Key>, int> edges;
+  // Directed edges; an edge a->b cancels b->a.
+  std::vector<std::pair<std::pair<Key, Key>, int>> edges;
   for (size_t s = 0; s + 3 <= cell.indices.size(); s += 3) {
     for (int e = 0; e < 3; ++e) {
       const Key a = key(cell.indices[s + e]);
       const Key b = key(cell.indices[s + (e + 1) % 3]);
       if (a < b) {
-        edges[{a, b}] += 1;
+        edges.push_back({{a, b}, +1});
       } else {
-        edges[{b, a}] -= 1;
+        edges.push_back({{b, a}, -1});
       }
     }
   }
+  std::sort(edges.begin(), edges.end());
   size_t open = 0;
-  for (const auto& [k, b] : edges) open += b != 0;
+  for (size_t i = 0; i < edges.size();) {
+    int balance = 0;
+    size_t j = i;
+    for (; j < edges.size() && edges[j].first == edges[i].first; ++j) balance += edges[j].second;
+    open += balance != 0;
+    i = j;
+  }
   return open;
 }
 

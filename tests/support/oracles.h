@@ -12,7 +12,7 @@ namespace gvd::test {
 struct NearestAnswer {
   ObjectId object = kNoObject;
   double distance = 1e300;
-  ObjectId second = kNoObject;   ///< the nearest other object
+  ObjectId second = kNoObject;  ///< the nearest other object
   double second_distance = 1e300;
 };
 
@@ -29,8 +29,9 @@ bool segment_hits_triangle(Vec3 a, Vec3 b, Vec3 t0, Vec3 t1, Vec3 t2);
 /// True when 2D segments [a, b] and [c, d] intersect (proper or touching).
 bool segments_intersect_2d(Vec3 a, Vec3 b, Vec3 c, Vec3 d);
 
-/// Number of GVD simplices (of all cells) that cross some object simplex.
-size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd);
+/// Number of GVD simplices (of all cells) that cross some object simplex; with `budget`, an
+/// evenly spread sample of about that many simplices per cell is checked.
+size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd, size_t budget = 0);
 
 /// Watertightness of one 3D cell: every directed edge (by vertex position) is matched by the
 /// opposite directed edge as often as it occurs. 2D: every position is entered as often as

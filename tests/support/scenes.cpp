@@ -29,8 +29,8 @@ SceneObject make_sphere(const std::string& label, Vec3 c, double r, int rings, i
     const double th = pi * i / rings;
     for (int j = 0; j < segments; ++j) {
       const double ph = 2 * pi * j / segments;
-      o.vertices.push_back(
-          c + Vec3{r * std::sin(th) * std::cos(ph), r * std::sin(th) * std::sin(ph), r * std::cos(th)});
+      o.vertices.push_back(c + Vec3{r * std::sin(th) * std::cos(ph),
+                                    r * std::sin(th) * std::sin(ph), r * std::cos(th)});
     }
   }
   o.vertices.push_back(c + Vec3{0, 0, -r});

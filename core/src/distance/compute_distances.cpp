@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <queue>
@@ -157,6 +158,55 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
           queue.push({dw, w});
         }
       }
+    }
+  }
+  if (!options.exact_near_gvd) return field;
+
+  // Exact closest points on the vertices of leaves the GVD crosses (see DistanceOptions).
+  for (int pass = 0; pass < 16; ++pass) {
+    check_cancel(options);
+    std::vector<std::vector<uint32_t>> marked_chunks((nl + 1023) / 1024 + 1);
+    parallel_for(
+        nl, threads,
+        [&](size_t b, size_t e, int) {
+          std::vector<uint32_t>& marked = marked_chunks[b / 1024];
+          for (size_t l = b; l < e; ++l) {
+            const uint32_t* vb = leaf_verts.items.data() + leaf_verts.begin[l];
+            const uint32_t* ve = leaf_verts.items.data() + leaf_verts.begin[l + 1];
+            bool mixed = false;
+            for (const uint32_t* p = vb + 1; p < ve; ++p)
+              mixed |= field.label[*p] != field.label[*vb];
+            if (!mixed) continue;
+            for (const uint32_t* p = vb; p < ve; ++p)
+              if (!field.exact[*p]) marked.push_back(*p);
+          }
+        },
+        1024);
+    std::vector<uint32_t> marked;
+    for (auto& c : marked_chunks) marked.insert(marked.end(), c.begin(), c.end());
+    std::sort(marked.begin(), marked.end());
+    marked.erase(std::unique(marked.begin(), marked.end()), marked.end());
+    if (marked.empty()) break;
+    std::vector<ClosestHit> hits(marked.size());
+    parallel_for(
+        marked.size(), threads,
+        [&](size_t b, size_t e, int) {
+          for (size_t i = b; i < e; ++i) {
+            const uint32_t v = marked[i];
+            // The wavefront distance bounds the search (the exact one is never larger).
+            hits[i] = closest_for_vertex(bvh, position[v], d2[v] * (1 + 1e-9) + 1e-300);
+          }
+        },
+        256);
+    for (size_t i = 0; i < marked.size(); ++i) {
+      const uint32_t v = marked[i];
+      field.exact[v] = 1;
+      ++field.exact_near_gvd;
+      if (!hits[i].found()) continue;  // the wavefront point was already the closest
+      field.point[v] = static_cast<uint32_t>(field.closest.size());
+      field.closest.push_back(hits[i].point);
+      field.label[v] = geometry.object_of[hits[i].simplex];
+      d2[v] = hits[i].dist2;
     }
   }
   return field;

@@ -76,7 +76,8 @@ size_t SimplexBvh::memory_bytes() const {
 namespace gvd {
 
 ClosestHit SimplexBvh::nearest(Vec3 p, double max_dist2) const {
-  return nearest_if(p, [](uint32_t) { return true; }, max_dist2);
+  return nearest_if(
+      p, [](uint32_t) { return true; }, max_dist2);
 }
 
 }  // namespace gvd

@@ -121,8 +121,8 @@ struct ChunkResults {
 };
 
 // Phase 1: SHOULD_SUBDIVIDE, level by level over the non-empty cells; returns internal sets.
-InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& options,
-                                int max_depth, int threads) {
+InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& options, int max_depth,
+                                int threads) {
   const int dim = g.dimension;
   InternalSets internal(max_depth + 1);
   CellSet current;
@@ -158,10 +158,10 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     }
     internal_count += internal[level].size();
     if (internal_count * children_per_split + 1 > options.max_leaves) {
-      throw Error(ErrorCode::kLimitExceeded,
-                  "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
-                      " at level " + std::to_string(level + 1) +
-                      " (raise --max-leaves or lower --max-depth)");
+      throw Error(ErrorCode::kLimitExceeded, "octree exceeds the leaf limit of " +
+                                                 std::to_string(options.max_leaves) + " at level " +
+                                                 std::to_string(level + 1) +
+                                                 " (raise --max-leaves or lower --max-depth)");
     }
     const size_t grain = 256;
     ChunkResults<CellSet> out(n, grain);
@@ -210,12 +210,10 @@ void balance(int dim, InternalSets& internal) {
       for (int dz = dz_lo; dz <= dz_hi; ++dz) {
         for (int dy = -1; dy <= 1; ++dy) {
           for (int dx = -1; dx <= 1; ++dx) {
-            const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size,
-                          z = c.c[2] + dz * size;
+            const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size, z = c.c[2] + dz * size;
             if (x < 0 || y < 0 || z < 0 || x >= limit || y >= limit || (dim == 3 && z >= limit))
               continue;
-            Coord n{{static_cast<uint32_t>(x), static_cast<uint32_t>(y),
-                     static_cast<uint32_t>(z)}};
+            Coord n{{static_cast<uint32_t>(x), static_cast<uint32_t>(y), static_cast<uint32_t>(z)}};
             required.push_back(parent_code(dim, lattice::morton(dim, n), level));
           }
         }
@@ -262,10 +260,9 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
             const uint32_t* lb = current.pool.data() + current.begin[i];
             const uint32_t* le = current.pool.data() + current.begin[i + 1];
             if (has_internal && internal[level].contains(code)) {
-              split_cell(g, code, level, lb, le, scratch,
-                         [&](uint64_t cc, const std::vector<uint32_t>& list) {
-                           next.add(cc, list);
-                         });
+              split_cell(
+                  g, code, level, lb, le, scratch,
+                  [&](uint64_t cc, const std::vector<uint32_t>& list) { next.add(cc, list); });
             } else {
               leaves.code.push_back(code);
               leaves.level.push_back(static_cast<uint8_t>(level));
@@ -288,10 +285,10 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
     }
     leaf_count += merged.code.size();
     if (leaf_count + next.size() > options.max_leaves) {
-      throw Error(ErrorCode::kLimitExceeded,
-                  "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
-                      " at level " + std::to_string(level + 1) +
-                      " (raise --max-leaves or lower --max-depth)");
+      throw Error(ErrorCode::kLimitExceeded, "octree exceeds the leaf limit of " +
+                                                 std::to_string(options.max_leaves) + " at level " +
+                                                 std::to_string(level + 1) +
+                                                 " (raise --max-leaves or lower --max-depth)");
     }
     per_level.push_back(std::move(merged));
     current = std::move(next);
@@ -316,7 +313,8 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
   }
   std::vector<uint32_t> order(codes.size());
   std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return codes[a] < codes[b]; });
+  std::sort(order.begin(), order.end(),
+            [&](uint32_t a, uint32_t b) { return codes[a] < codes[b]; });
   const size_t n = codes.size();
   tree.code.resize(n);
   tree.level.resize(n);
@@ -378,8 +376,13 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
   return materialize(geometry, internal, max_depth, options, threads);
 }
 
+CellRef child_cell(int dimension, CellRef cell, uint32_t child) {
+  return {child_code(dimension, cell.code, cell.level, child),
+          static_cast<uint8_t>(cell.level + 1)};
+}
+
 Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
-                     std::span<const uint32_t> leaves_to_split, const OctreeOptions& options) {
+                     std::span<const CellRef> cells_to_split, const OctreeOptions& options) {
   const int dim = octree.dimension;
   const int max_depth = octree.max_depth;
   const int threads = resolve_threads(options.threads);
@@ -388,9 +391,8 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
     const int level = octree.level[i];
     if (level > 0) internal[level - 1].insert(parent_code(dim, octree.code[i], level), 0);
   }
-  for (uint32_t leaf : leaves_to_split) {
-    GVD_CHECK(leaf < octree.leaf_count(), "leaf index out of range");
-    if (octree.level[leaf] < max_depth) internal[octree.level[leaf]].insert(octree.code[leaf], 0);
+  for (const CellRef& c : cells_to_split) {
+    if (c.level < max_depth) internal[c.level].insert(c.code, 0);
   }
   close_upwards(dim, internal);
   balance(dim, internal);

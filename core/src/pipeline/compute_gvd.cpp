@@ -54,8 +54,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   oo.threads = options.threads;
   oo.cancel = options.cancel;
   r.octree = build_octree(r.geometry, oo);
-  r.stats.stages.push_back({"octree", sw.seconds(), r.octree.structure_bytes(),
-                            r.octree.leaf_count()});
+  r.stats.stages.push_back(
+      {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
 
   progress("distance", 0);
   sw = Stopwatch();
@@ -70,17 +70,31 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   sw = Stopwatch();
   RefineReport report;
   int rounds = 0;
+  const Octree base = r.octree;
+  RefineOptions ro;
+  ro.threads = options.threads;
+  ro.base = &base;
+  ro.ambiguity_levels = options.ambiguity_levels;
   for (;;) {
-    report = find_cells_to_refine(r.octree, r.field, options.threads);
-    if (report.leaves.empty() || rounds >= options.max_refine_rounds) break;
+    report = find_cells_to_refine(r.octree, r.field, ro);
+    const bool split_ambiguous = rounds < options.ambiguity_rounds;
+    if ((report.foreign.empty() && (!split_ambiguous || report.leaves.empty())) ||
+        rounds >= options.max_refine_rounds) {
+      break;
+    }
     ++rounds;
-    progress("ambiguity", std::min(0.99, rounds / 16.0));
-    r.octree = refine_octree(r.octree, r.geometry, report.leaves, oo);
+    progress("ambiguity", std::min(0.99, rounds / 8.0));
+    std::vector<CellRef> splits =
+        plan_separation_splits(r.octree, r.geometry, bvh, report.foreign, options.threads);
+    if (split_ambiguous) {
+      for (uint32_t leaf : report.leaves) splits.push_back(cell_of(r.octree, leaf));
+    }
+    r.octree = refine_octree(r.octree, r.geometry, splits, oo);
     DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field);
     r.field = std::move(next);
   }
   r.stats.refine_rounds = rounds;
-  r.stats.ambiguous_at_limit = report.ambiguous_at_limit;
+  r.stats.ambiguous_at_limit = report.ambiguous_at_limit + report.leaves.size();
   r.stats.touching_leaves = report.touching_leaves;
   r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(rounds)});
 
@@ -126,17 +140,19 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     }
     scene.warnings.push_back({"objects_touch", "", pairs.size(), detail});
   }
-  if (report.ambiguous_at_limit > 0) {
-    scene.warnings.push_back({"ambiguous_at_depth_limit", "", report.ambiguous_at_limit,
-                              "cells still ambiguous at the depth limit; their topology was "
-                              "decided by the centroid rule (§6)"});
+  if (r.stats.ambiguous_at_limit > 0) {
+    scene.warnings.push_back({"ambiguous_cells_left", "", r.stats.ambiguous_at_limit,
+                              "cells whose GVD topology is ambiguous (§5) after the allowed "
+                              "refinement (--ambiguity-levels/--ambiguity-rounds); surfaced by "
+                              "the centroid rule (§6), still closed and oriented"});
   }
 
   r.stats.max_depth = r.octree.max_depth;
   r.stats.depth = r.octree.depth;
   r.stats.leaves = r.octree.leaf_count();
   r.stats.vertices = r.field.size();
-  r.stats.octree_bytes = r.octree.structure_bytes() + r.field.vertices.key.size() * sizeof(uint64_t);
+  r.stats.octree_bytes =
+      r.octree.structure_bytes() + r.field.vertices.key.size() * sizeof(uint64_t);
   r.stats.bytes_per_leaf =
       r.stats.leaves > 0 ? static_cast<double>(r.stats.octree_bytes) / r.stats.leaves : 0;
   r.stats.distance_bytes = r.field.memory_bytes();

@@ -16,16 +16,15 @@ namespace gvd::detail {
 struct FacePolygon {
   int n = 0;
   uint32_t v[8] = {};
-  int axis = 2;           ///< normal axis of the face (2 for the 2D cell itself)
-  int side = 0;           ///< 0: face at the cell's lower coordinate, 2: upper (3D only)
-  bool on_domain = false; ///< 3D: the face lies on the domain box
+  int axis = 2;            ///< normal axis of the face (2 for the 2D cell itself)
+  int side = 0;            ///< 0: face at the cell's lower coordinate, 2: upper (3D only)
+  bool on_domain = false;  ///< 3D: the face lies on the domain box
 };
 
 inline int grid_index(int i, int j, int k) { return i + 3 * j + 9 * k; }
 
 // Cyclic order of a square's boundary on the half grid, starting at the lower corner.
-inline constexpr int kRing[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1},
-                                    {2, 2}, {1, 2}, {0, 2}, {0, 1}};
+inline constexpr int kRing[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1}, {2, 2}, {1, 2}, {0, 2}, {0, 1}};
 
 /// Calls f(const FacePolygon&) for the polygons bounding `leaf`: in 2D the cell itself (4 to 8
 /// vertices); in 3D each face, or its four quarter faces when the neighbour across is finer.

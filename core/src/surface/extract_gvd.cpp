@@ -1,3 +1,5 @@
+#include "gvd/surface/extract_gvd.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -6,7 +8,6 @@
 #include "cell_faces.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
-#include "gvd/surface/extract_gvd.h"
 
 namespace gvd {
 namespace {
@@ -23,7 +24,7 @@ struct Piece {
 struct Spoke {
   Vec3 p;
   ObjectId label_a, label_b;
-  Vec3 pos_a;
+  uint64_t edge;  // the octree edge (smaller vertex index << 32 | larger)
 };
 
 struct PolygonGvd {
@@ -39,7 +40,10 @@ class CellSurfacer {
 
   // Eq. (1) of the paper in vector form: the point of edge [x0, x1] equidistant from the
   // closest points a and b of its ends, clamped to the edge. Computed from the endpoint with
-  // the smaller index so that every cell sharing the edge gets the identical point.
+  // the smaller index so that every cell sharing the edge gets the identical point. The clamp
+  // keeps a hair inside the edge: where the GVD runs exactly through octree vertices (common
+  // in symmetric scenes) the vertex's label decides its side, and pieces of neighbouring cells
+  // never collapse onto a shared face.
   Vec3 bisector(uint32_t v0, uint32_t v1) const {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 x0 = field_.vertices.position(v0);
@@ -51,8 +55,9 @@ class CellSurfacer {
     const double den = dot(d, ba);
     double t = 0.5;
     if (den != 0) t = dot((a + b) * 0.5 - x0, ba) / den;
-    if (!(t >= 0)) t = 0;  // also NaN
-    if (t > 1) t = 1;
+    constexpr double kInside = 1e-6;
+    if (!(t >= kInside)) t = kInside;  // also NaN
+    if (t > 1 - kInside) t = 1 - kInside;
     return x0 + d * t;
   }
 
@@ -67,7 +72,7 @@ class CellSurfacer {
       s.p = bisector(v, w);
       s.label_a = la;
       s.label_b = lb;
-      s.pos_a = field_.vertices.position(v);
+      s.edge = v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v);
       sum = sum + s.p;
     }
     if (out.n > 0) out.centroid = sum / out.n;
@@ -104,17 +109,11 @@ class CellSurfacer {
     detail::for_each_face_polygon(octree_, grid, leaf,
                                   [&](const detail::FacePolygon& p) { poly = p; });
     const PolygonGvd g = mixed ? polygon(poly) : PolygonGvd{};
+    // The ring runs counter-clockwise, so label_a lies to the left of bisector -> centroid.
     for (int i = 0; i < g.n; ++i) {
       const Spoke& s = g.spokes[i];
-      const Vec3 d = g.centroid - s.p;
-      const Vec3 left{-d.y, d.x, 0};
-      if (dot(left, s.pos_a - s.p) >= 0) {
-        emit(out, s.p, g.centroid, s.label_a, s.label_b);
-        emit(out, g.centroid, s.p, s.label_b, s.label_a);
-      } else {
-        emit(out, g.centroid, s.p, s.label_a, s.label_b);
-        emit(out, s.p, g.centroid, s.label_b, s.label_a);
-      }
+      emit(out, s.p, g.centroid, s.label_a, s.label_b);
+      emit(out, g.centroid, s.p, s.label_b, s.label_a);
     }
     // Domain box: polygon edges on the boundary, split at their bisector. The polygon runs
     // counter-clockwise, so the cell interior stays on the left.
@@ -153,23 +152,44 @@ class CellSurfacer {
       ++np;
     });
     if (!mixed && !any_domain) return;
-    Vec3 sum;
-    int count = 0;
+    // The spokes form closed curves on the cell surface; faces sharing a bisector belong to
+    // the same curve. Each connected curve is coned to the centroid of its own bisectors
+    // (the paper's cell centroid when there is one curve), so two sheets crossing one cell
+    // stay two sheets instead of being pinched together.
+    int comp[24];
+    for (int f = 0; f < np; ++f) comp[f] = f;
+    auto find = [&](int x) {
+      while (comp[x] != x) x = comp[x] = comp[comp[x]];
+      return x;
+    };
+    for (int f = 0; f < np; ++f)
+      for (int i = 0; i < gvds[f].n; ++i)
+        for (int h = 0; h < f; ++h)
+          for (int j = 0; j < gvds[h].n; ++j)
+            if (gvds[f].spokes[i].edge == gvds[h].spokes[j].edge) comp[find(f)] = find(h);
+    Vec3 sum[24];
+    int count[24] = {};
     for (int f = 0; f < np; ++f) {
+      const int c = find(f);
       for (int i = 0; i < gvds[f].n; ++i) {
-        sum = sum + gvds[f].spokes[i].p;
-        ++count;
+        sum[c] = sum[c] + gvds[f].spokes[i].p;
+        ++count[c];
       }
     }
-    const Vec3 rc = count > 0 ? sum / count : Vec3{};
     for (int f = 0; f < np; ++f) {
       const PolygonGvd& g = gvds[f];
+      // Orientation is decided combinatorially, not from (possibly degenerate) geometry:
+      // seen from +axis, label_a lies left of bisector -> face centroid (the ring runs
+      // counter-clockwise). Walking the boundary of label_a's region on the cell surface with
+      // the region on the left as seen from outside, and coning to the cell centroid, gives
+      // triangles whose normals point into label_a's side; the cell across the face sees the
+      // face from the other side and so produces the opposite edge.
+      const bool outward_plus = polys[f].side == 2;
+      const int c = find(f);
+      const Vec3 rc = count[c] > 0 ? sum[c] / count[c] : Vec3{};
       for (int i = 0; i < g.n; ++i) {
         const Spoke& s = g.spokes[i];
-        const Vec3 n = cross(g.centroid - s.p, rc - s.p);
-        double side = dot(n, s.pos_a - s.p);
-        if (side == 0) side = dot(n, s.pos_a - rc);
-        if (side >= 0) {
+        if (outward_plus) {
           emit(out, s.p, g.centroid, rc, s.label_a, s.label_b);
           emit(out, g.centroid, s.p, rc, s.label_b, s.label_a);
         } else {
@@ -269,8 +289,8 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   corners.reserve(pieces.size() * arity);
   for (uint32_t i = 0; i < pieces.size(); ++i) {
     for (int k = 0; k < arity; ++k) {
-      corners.push_back({pieces[i].object, pieces[i].other, pieces[i].p[k], i,
-                         static_cast<uint8_t>(k)});
+      corners.push_back(
+          {pieces[i].object, pieces[i].other, pieces[i].p[k], i, static_cast<uint8_t>(k)});
     }
   }
   std::sort(corners.begin(), corners.end(), corner_less);

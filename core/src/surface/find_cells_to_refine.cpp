@@ -3,6 +3,7 @@
 
 #include "cell_faces.h"
 #include "gvd/common/parallel.h"
+#include "gvd/geometry/primitives.h"
 #include "gvd/surface/extract_gvd.h"
 
 namespace gvd {
@@ -69,8 +70,9 @@ bool is_ambiguous(const Octree& octree, const DistanceField& field, const LeafGr
 
 }  // namespace
 
-RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field, int threads) {
-  threads = resolve_threads(threads);
+RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field,
+                                  const RefineOptions& options) {
+  const int threads = resolve_threads(options.threads);
   const size_t n = octree.leaf_count();
   // 0 = fine, 1 = ambiguous, 2 = foreign label in a non-empty leaf; +4 when at the limit.
   std::vector<uint8_t> flag(n, 0);
@@ -85,7 +87,12 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
           if (v != kNoVertex && field.label[v] != obj) f = 2;
       }
       if (f == 0 && obj != kManyObjects && is_ambiguous(octree, field, grid, leaf)) f = 1;
-      if (f != 0 && octree.level[leaf] >= octree.max_depth) f |= 4;
+      int limit = octree.max_depth;
+      if (f == 1 && options.base != nullptr) {
+        const uint32_t base_leaf = options.base->locate(octree.box(leaf).center());
+        limit = std::min(limit, options.base->level[base_leaf] + options.ambiguity_levels);
+      }
+      if (f != 0 && octree.level[leaf] >= limit) f |= 4;
       flag[i] = f;
     }
   });
@@ -102,9 +109,70 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
       ++report.foreign_label;
       report.foreign_at_limit += at_limit;
     }
-    if (!at_limit) report.leaves.push_back(static_cast<uint32_t>(i));
+    if (!at_limit) {
+      ((f & 3) == 1 ? report.leaves : report.foreign).push_back(static_cast<uint32_t>(i));
+    }
   }
   return report;
+}
+
+std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
+                                            const SimplexBvh& bvh, std::span<const uint32_t> leaves,
+                                            int threads) {
+  threads = resolve_threads(threads);
+  const int dim = octree.dimension;
+  const uint32_t nchildren = 1u << dim;
+  std::vector<std::vector<CellRef>> per_leaf(leaves.size());
+  parallel_for(
+      leaves.size(), threads,
+      [&](size_t b, size_t e, int) {
+        std::vector<std::pair<CellRef, std::vector<uint32_t>>> stack;
+        for (size_t i = b; i < e; ++i) {
+          const uint32_t leaf = leaves[i];
+          const ObjectId obj = octree.object[leaf];
+          std::vector<uint32_t> list(octree.simplex_index.begin() + octree.simplex_begin[leaf],
+                                     octree.simplex_index.begin() + octree.simplex_begin[leaf + 1]);
+          stack.clear();
+          stack.push_back({cell_of(octree, leaf), std::move(list)});
+          while (!stack.empty()) {
+            auto [cell, simplices] = std::move(stack.back());
+            stack.pop_back();
+            if (cell.level >= octree.max_depth) continue;
+            per_leaf[i].push_back(cell);
+            const double slack = std::ldexp(1.0, -(cell.level + 1)) * 1e-9 + 1e-15;
+            for (uint32_t c = 0; c < nchildren; ++c) {
+              const CellRef child = child_cell(dim, cell, c);
+              const lattice::Coord lo = lattice::morton_decode(dim, child.code);
+              const Box box = lattice::cell_box(dim, lo, child.level);
+              std::vector<uint32_t> inside;
+              for (uint32_t s : simplices) {
+                const Simplex& t = geometry.simplices[s];
+                const bool touches =
+                    dim == 2
+                        ? segment_overlaps_box_2d(geometry.points[t.v[0]], geometry.points[t.v[1]],
+                                                  box, slack)
+                        : triangle_overlaps_box(geometry.points[t.v[0]], geometry.points[t.v[1]],
+                                                geometry.points[t.v[2]], box, slack);
+                if (touches) inside.push_back(s);
+              }
+              if (inside.empty()) continue;
+              bool foreign = false;
+              for (uint32_t k = 0; k < nchildren && !foreign; ++k) {
+                Vec3 corner = box.lo;
+                for (int a = 0; a < dim; ++a)
+                  if (k & (1u << a)) corner[a] = box.hi[a];
+                const ClosestHit hit = bvh.nearest(corner);
+                foreign = hit.found() && geometry.object_of[hit.simplex] != obj;
+              }
+              if (foreign) stack.push_back({child, std::move(inside)});
+            }
+          }
+        }
+      },
+      16);
+  std::vector<CellRef> out;
+  for (auto& v : per_leaf) out.insert(out.end(), v.begin(), v.end());
+  return out;
 }
 
 }  // namespace gvd

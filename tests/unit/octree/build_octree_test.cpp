@@ -1,5 +1,3 @@
-#include "gvd/octree/octree.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +6,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/flat_hash.h"
 #include "gvd/geometry/primitives.h"
+#include "gvd/octree/octree.h"
 #include "support/scenes.h"
 
 namespace gvd {
@@ -81,8 +80,8 @@ void expect_balanced(const Octree& t) {
           if (dx == 0 && dy == 0 && dz == 0) continue;
           // Probe just beyond the corner/edge/face, at a quarter of the cell size, so that
           // a finer neighbour is hit.
-          Vec3 p = box.center() + Vec3{dx * (0.5 * h + 1e-12), dy * (0.5 * h + 1e-12),
-                                       dz * (0.5 * h + 1e-12)};
+          Vec3 p = box.center() +
+                   Vec3{dx * (0.5 * h + 1e-12), dy * (0.5 * h + 1e-12), dz * (0.5 * h + 1e-12)};
           bool inside = true;
           for (int a = 0; a < dim; ++a) inside &= p[a] > 0 && p[a] < 1;
           if (!inside) continue;
@@ -103,8 +102,10 @@ void expect_incidence_complete(const Built& b) {
       for (int m = 0; m + k <= 10; ++m) {
         const double u = k / 10.0, v = m / 10.0;
         Vec3 p = g.points[x.v[0]] * (1 - u - v) + g.points[x.v[1]] * u;
-        if (g.dimension == 3) p = p + g.points[x.v[2]] * v;
-        else if (m > 0) continue;
+        if (g.dimension == 3)
+          p = p + g.points[x.v[2]] * v;
+        else if (m > 0)
+          continue;
         const uint32_t leaf = t.locate(p);
         bool found = false;
         for (uint32_t q = t.simplex_begin[leaf]; q < t.simplex_begin[leaf + 1]; ++q)
@@ -123,8 +124,8 @@ TEST(BuildOctree, SingleObjectIsOneLeaf) {
 }
 
 TEST(BuildOctree, TwoCirclesSeparatedWithBuffer2D) {
-  auto b = build(test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1),
-                                      test::make_circle("b", {2.001, 0, 0}, 1)}));
+  auto b = build(test::make_scene(
+      2, {test::make_circle("a", {0, 0, 0}, 1), test::make_circle("b", {2.001, 0, 0}, 1)}));
   expect_tiles_domain(b.octree);
   expect_separated(b);
   expect_balanced(b.octree);
@@ -135,9 +136,9 @@ TEST(BuildOctree, TwoCirclesSeparatedWithBuffer2D) {
 }
 
 TEST(BuildOctree, SpheresSeparatedWithBuffer3D) {
-  auto b = build(test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1),
-                                      test::make_sphere("b", {2.01, 0, 0}, 1),
-                                      test::make_sphere("c", {1, 1.8, 0}, 1)}));
+  auto b = build(test::make_scene(
+      3, {test::make_sphere("a", {0, 0, 0}, 1), test::make_sphere("b", {2.01, 0, 0}, 1),
+          test::make_sphere("c", {1, 1.8, 0}, 1)}));
   expect_tiles_domain(b.octree);
   expect_separated(b);
   expect_balanced(b.octree);
@@ -171,11 +172,11 @@ TEST(BuildOctree, SizeGrowsWithClosePlacesNotTriangles) {
 }
 
 TEST(BuildOctree, RefineSplitsAndRebalances) {
-  auto b = build(test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1),
-                                      test::make_circle("b", {2.5, 0, 0}, 1)}));
+  auto b = build(test::make_scene(
+      2, {test::make_circle("a", {0, 0, 0}, 1), test::make_circle("b", {2.5, 0, 0}, 1)}));
   const uint32_t leaf = b.octree.locate({0.5, 0.5, 0});
   const int before = b.octree.level[leaf];
-  std::vector<uint32_t> split{leaf};
+  std::vector<CellRef> split{cell_of(b.octree, leaf)};
   Octree r = refine_octree(b.octree, b.geometry, split);
   EXPECT_EQ(r.level[r.locate({0.5, 0.5, 0})], before + 1);
   expect_tiles_domain(r);
@@ -183,9 +184,11 @@ TEST(BuildOctree, RefineSplitsAndRebalances) {
 }
 
 TEST(BuildOctree, LeafLimitIsEnforced) {
-  Built b{test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1),
-                               test::make_circle("b", {2.0001, 0, 0}, 1)}),
-          {}, {}, {}};
+  Built b{test::make_scene(
+              2, {test::make_circle("a", {0, 0, 0}, 1), test::make_circle("b", {2.0001, 0, 0}, 1)}),
+          {},
+          {},
+          {}};
   b.domain = make_domain(b.scene);
   b.geometry = make_unit_geometry(b.scene, b.domain);
   OctreeOptions o;

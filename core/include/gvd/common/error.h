@@ -9,15 +9,15 @@ namespace gvd {
 /// Stable error codes of the core. The server maps each to an HTTP status and a problem
 /// type in one table; the CLI maps them to exit codes.
 enum class ErrorCode {
-  kInvalidScene,     ///< the input geometry is malformed (says which object and index)
-  kInvalidArgument,  ///< an option or query is malformed or out of range
-  kUnsupportedFormat,///< the input format is not recognised
-  kOutsideDomain,    ///< a query point lies outside the computed domain
-  kLimitExceeded,    ///< a configured limit (objects, simplices, leaves, time) was hit
-  kNotFound,         ///< an unknown label, file or result
-  kIo,               ///< reading or writing a file failed
-  kCancelled,        ///< the caller cancelled the computation
-  kInternal,         ///< a bug: an internal consistency check failed
+  kInvalidScene,       ///< the input geometry is malformed (says which object and index)
+  kInvalidArgument,    ///< an option or query is malformed or out of range
+  kUnsupportedFormat,  ///< the input format is not recognised
+  kOutsideDomain,      ///< a query point lies outside the computed domain
+  kLimitExceeded,      ///< a configured limit (objects, simplices, leaves, time) was hit
+  kNotFound,           ///< an unknown label, file or result
+  kIo,                 ///< reading or writing a file failed
+  kCancelled,          ///< the caller cancelled the computation
+  kInternal,           ///< a bug: an internal consistency check failed
 };
 
 /// Short machine name of a code ("invalid_scene", ...), stable across versions.

@@ -14,12 +14,13 @@ namespace gvd {
 /// Label and closest point of every octree vertex (paper §4), in unit-domain coordinates.
 struct DistanceField {
   OctreeVertices vertices;
-  std::vector<ObjectId> label;     ///< per vertex; kNoObject when no object was reached
-  std::vector<uint32_t> point;     ///< per vertex: index into `closest`, kNoVertex if none
-  std::vector<Vec3> closest;       ///< closest points on objects (shared between vertices)
-  std::vector<uint8_t> exact;      ///< per vertex: 1 = exact closest point (non-empty vertex)
-  uint64_t exact_count = 0;        ///< non-empty vertices initialised exactly
-  uint64_t exact_reused = 0;       ///< of those, taken from the previous field (refinement)
+  std::vector<ObjectId> label;  ///< per vertex; kNoObject when no object was reached
+  std::vector<uint32_t> point;  ///< per vertex: index into `closest`, kNoVertex if none
+  std::vector<Vec3> closest;    ///< closest points on objects (shared between vertices)
+  std::vector<uint8_t> exact;   ///< per vertex: 1 = exact closest point
+  uint64_t exact_count = 0;     ///< non-empty vertices initialised exactly
+  uint64_t exact_reused = 0;    ///< of those, taken from the previous field (refinement)
+  uint64_t exact_near_gvd = 0;  ///< empty vertices made exact because the GVD crosses their cell
 
   size_t size() const { return label.size(); }
   /// Distance from vertex v to its assigned closest point (unit domain; inf if none).
@@ -29,8 +30,13 @@ struct DistanceField {
 
 /// Options of the distance transform.
 struct DistanceOptions {
-  int threads = 0;                               ///< 0 = all cores
-  const std::atomic<bool>* cancel = nullptr;     ///< stop with gvd::Error{kCancelled}
+  int threads = 0;                            ///< 0 = all cores
+  const std::atomic<bool>* cancel = nullptr;  ///< stop with gvd::Error{kCancelled}
+  /// After the wavefront, give every vertex of a leaf with mixed labels (a leaf the GVD
+  /// crosses) its exact closest point, repeating while new leaves become mixed. The GVD is
+  /// then surfaced from exact points at both ends of every crossed edge, and ambiguity tests
+  /// see true labels instead of wavefront noise. Costs one bounded BVH query per such vertex.
+  bool exact_near_gvd = true;
 };
 
 /// The exact closest point of one vertex among all simplices (the per-item function of the

@@ -66,9 +66,7 @@ inline Coord morton_decode(int dim, uint64_t code) {
 inline uint64_t side_units(int dim) { return uint64_t{1} << lattice_bits(dim); }
 
 /// Side of a cell of `level` in lattice units.
-inline uint64_t cell_size(int dim, int level) {
-  return uint64_t{1} << (lattice_bits(dim) - level);
-}
+inline uint64_t cell_size(int dim, int level) { return uint64_t{1} << (lattice_bits(dim) - level); }
 
 /// Key of the lattice point p (coordinates in [0, 2^B]).
 inline uint64_t vertex_key(int dim, const Coord& p) {

@@ -37,8 +37,8 @@ int resolve_max_depth(int dimension, int requested);
 /// intersects (conservatively) and, for non-empty leaves, which simplices.
 struct Octree {
   int dimension = 3;
-  int max_depth = 0;        ///< the depth limit used
-  int depth = 0;            ///< deepest leaf level
+  int max_depth = 0;             ///< the depth limit used
+  int depth = 0;                 ///< deepest leaf level
   std::vector<uint64_t> code;    ///< per leaf: Morton code of the lower corner (lattice units)
   std::vector<uint8_t> level;    ///< per leaf
   std::vector<ObjectId> object;  ///< per leaf: kNoObject, an object, or kManyObjects
@@ -47,7 +47,9 @@ struct Octree {
   std::vector<uint32_t> simplex_index;
 
   size_t leaf_count() const { return code.size(); }
-  lattice::Coord corner(uint32_t leaf) const { return lattice::morton_decode(dimension, code[leaf]); }
+  lattice::Coord corner(uint32_t leaf) const {
+    return lattice::morton_decode(dimension, code[leaf]);
+  }
   Box box(uint32_t leaf) const { return lattice::cell_box(dimension, corner(leaf), level[leaf]); }
   /// The leaf containing unit point u (points on shared faces go to the upper cell); u must
   /// be inside [0,1]^D (it is clamped). O(log N).
@@ -66,9 +68,23 @@ struct Octree {
 /// O(sum over levels of non-empty cells x simplices per cell).
 Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options = {});
 
-/// Splits the given leaves once more (those at max_depth are kept), re-balances and
-/// recomputes the leaf -> simplex incidence. Used for ambiguity resolution (§5).
+/// A cell of the lattice octree, by the Morton code of its lower corner and its level.
+struct CellRef {
+  uint64_t code = 0;
+  uint8_t level = 0;
+};
+
+/// Splits the given cells (existing leaves, or cells inside leaves, whose ancestors are then
+/// split too; cells at max_depth are ignored), re-balances and recomputes the leaf -> simplex
+/// incidence. Used for ambiguity resolution (§5) and the separation guarantee.
 Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
-                     std::span<const uint32_t> leaves_to_split, const OctreeOptions& options = {});
+                     std::span<const CellRef> cells_to_split, const OctreeOptions& options = {});
+
+/// The cell of leaf `leaf` as a CellRef.
+inline CellRef cell_of(const Octree& octree, uint32_t leaf) {
+  return {octree.code[leaf], octree.level[leaf]};
+}
+/// Child `child` (0 .. 2^D - 1, bit a = upper half along axis a) of a cell.
+CellRef child_cell(int dimension, CellRef cell, uint32_t child);
 
 }  // namespace gvd

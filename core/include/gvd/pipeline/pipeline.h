@@ -20,12 +20,14 @@ inline constexpr uint32_t kAlgorithmVersion = 1;
 /// Options of the whole computation.
 struct PipelineOptions {
   DomainOptions domain;
-  int max_depth = 0;                    ///< 0 = default (2D 26, 3D 21)
-  uint64_t max_leaves = 30'000'000;     ///< limit on octree leaves
-  int max_refine_rounds = 48;           ///< ambiguity-resolution rounds (§5)
-  int threads = 0;                      ///< 0 = all cores
-  std::string backend = "cpu";          ///< "cpu" (OpenCL arrives with issue 4)
-  ProgressFn progress;                  ///< optional
+  int max_depth = 0;                 ///< 0 = default (2D 26, 3D 21)
+  uint64_t max_leaves = 30'000'000;  ///< limit on octree leaves
+  int max_refine_rounds = 48;        ///< refinement rounds for the separation guarantee
+  int ambiguity_rounds = 3;          ///< of those, rounds that also split ambiguous cells (§5)
+  int ambiguity_levels = 2;          ///< levels below the §3 octree to resolve ambiguity
+  int threads = 0;                   ///< 0 = all cores
+  std::string backend = "cpu";       ///< "cpu" (OpenCL arrives with issue 4)
+  ProgressFn progress;               ///< optional
   const std::atomic<bool>* cancel = nullptr;
 };
 
@@ -33,8 +35,8 @@ struct PipelineOptions {
 struct StageStats {
   std::string name;
   double seconds = 0;
-  uint64_t bytes = 0;   ///< size of the stage's output data
-  uint64_t items = 0;   ///< leaves, vertices, simplices... (stage specific)
+  uint64_t bytes = 0;  ///< size of the stage's output data
+  uint64_t items = 0;  ///< leaves, vertices, simplices... (stage specific)
 };
 
 /// Figures of a finished computation (what `gvd info` prints).
@@ -46,10 +48,10 @@ struct ResultStats {
   int depth = 0;
   uint64_t leaves = 0;
   uint64_t vertices = 0;
-  uint64_t octree_bytes = 0;     ///< leaves (code, level, object) + vertex keys
-  double bytes_per_leaf = 0;     ///< octree_bytes / leaves
-  uint64_t distance_bytes = 0;   ///< labels + closest points
-  uint64_t gvd_simplices = 0;    ///< per side, i.e. each interface simplex counted twice
+  uint64_t octree_bytes = 0;    ///< leaves (code, level, object) + vertex keys
+  double bytes_per_leaf = 0;    ///< octree_bytes / leaves
+  uint64_t distance_bytes = 0;  ///< labels + closest points
+  uint64_t gvd_simplices = 0;   ///< per side, i.e. each interface simplex counted twice
   uint64_t graph_edges = 0;
   int refine_rounds = 0;
   uint64_t ambiguous_at_limit = 0;

@@ -20,8 +20,8 @@ Scene parse_scene_json(std::string_view text, const SceneLimits& limits = {});
 /// for error messages and, for single-object formats (PLY/STL/OFF), as the label.
 /// OBJ: each `o`/`g` group is an object (faces before any group form an object named
 /// after `name`); 2D is never inferred from OBJ/PLY/STL/OFF/glTF: they are 3D.
-Scene parse_scene_bytes(std::span<const uint8_t> bytes, SceneFormat format,
-                        const std::string& name, const SceneLimits& limits = {});
+Scene parse_scene_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std::string& name,
+                        const SceneLimits& limits = {});
 
 /// Loads a scene from files: one scene file (JSON, OBJ, GLB/glTF), or several mesh files
 /// (PLY/STL/OFF/OBJ), one object each, labelled by file stem. Validated.

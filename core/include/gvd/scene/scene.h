@@ -95,7 +95,7 @@ constexpr int lattice_bits(int dimension) { return dimension == 2 ? 31 : 21; }
 struct UnitGeometry {
   int dimension = 3;
   std::vector<Vec3> points;
-  std::vector<Simplex> simplices;  ///< indices into `points`
+  std::vector<Simplex> simplices;   ///< indices into `points`
   std::vector<ObjectId> object_of;  ///< per simplex
   uint32_t object_count = 0;
 };

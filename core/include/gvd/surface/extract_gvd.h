@@ -14,7 +14,8 @@ namespace gvd {
 
 /// Why leaves must be split before surfacing (paper §5 and the separation guarantee).
 struct RefineReport {
-  std::vector<uint32_t> leaves;     ///< leaves to split (all below the depth limit)
+  std::vector<uint32_t> leaves;     ///< ambiguous leaves to split (all below their limit)
+  std::vector<uint32_t> foreign;    ///< non-empty leaves with a foreign label (below the limit)
   uint64_t ambiguous = 0;           ///< ambiguous cells found (any depth)
   uint64_t ambiguous_at_limit = 0;  ///< ambiguous cells already at the depth limit
   uint64_t foreign_label = 0;       ///< non-empty leaves with a vertex labelled by another object
@@ -27,7 +28,25 @@ struct RefineReport {
 /// <= D (a complete graph on at most D + 1 distinct labels). In addition, a leaf that
 /// intersects object o but has a vertex labelled with another object is split, so that the GVD
 /// never passes through a non-empty leaf (and so never crosses an object) above the depth limit.
-RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field, int threads = 0);
+/// Ambiguity is resolved at most `ambiguity_levels` levels below the level the leaf's region
+/// had in `base` (the octree of the rules of §3), so degenerate configurations (four or more
+/// cells meeting where three would be generic, e.g. symmetric arrays) do not refine to the
+/// depth limit; those cells count as `ambiguous_at_limit` and are surfaced by the centroid rule.
+struct RefineOptions {
+  int threads = 0;
+  const Octree* base = nullptr;  ///< null: ambiguity is resolved down to max_depth
+  int ambiguity_levels = 3;
+};
+RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field,
+                                  const RefineOptions& options = {});
+
+/// For non-empty leaves with a vertex labelled by another object: the cells to split below
+/// them, recursively, until no non-empty descendant has a corner whose exact nearest object
+/// (BVH) differs from the one it intersects, or max_depth is reached. Plans in one pass what
+/// would otherwise take one global refinement round per level.
+std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
+                                            const SimplexBvh& bvh, std::span<const uint32_t> leaves,
+                                            int threads = 0);
 
 /// Options of the surfacing stage.
 struct SurfaceOptions {

@@ -14,10 +14,10 @@ namespace gvd {
 /// other side, so a vertex's `other` is the other object of every simplex that uses it.
 struct GvdCell {
   ObjectId object = kNoObject;
-  std::vector<Vec3> positions;   ///< user units, double; z = 0 in 2D
-  std::vector<ObjectId> other;   ///< per vertex: object across the boundary, kNoObject = domain box
-  std::vector<double> clearance; ///< per vertex: distance to the nearest object (user units)
-  std::vector<uint32_t> indices; ///< 3 per triangle (3D) or 2 per segment (2D)
+  std::vector<Vec3> positions;  ///< user units, double; z = 0 in 2D
+  std::vector<ObjectId> other;  ///< per vertex: object across the boundary, kNoObject = domain box
+  std::vector<double> clearance;  ///< per vertex: distance to the nearest object (user units)
+  std::vector<uint32_t> indices;  ///< 3 per triangle (3D) or 2 per segment (2D)
 };
 
 /// The generalized Voronoi diagram: one closed, oriented cell boundary per object.
