@@ -4,7 +4,7 @@ BUILD      ?= build
 BUILD_ASAN ?= build-asan
 JOBS       ?= $(shell nproc)
 CMAKE_GEN  := $(shell command -v ninja >/dev/null 2>&1 && echo "-G Ninja")
-EXAMPLE    ?= tests/data/scenes/gears2d.json
+EXAMPLE    ?= tests/data/scenes/balls_on_plate.json
 OUT        ?= out
 
 .PHONY: all deps configure build run test test-asan bench format tidy clean

@@ -1,1 +1,255 @@
-int main() { return 0; }
+// `gvd`: compute generalized Voronoi diagrams from the command line and inspect results.
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "cli_options.h"
+#include "gvd/common/error.h"
+#include "gvd/common/parallel.h"
+#include "gvd/io/result_file.h"
+#include "gvd/io/write_outputs.h"
+#include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/load_scene.h"
+
+namespace gvd::cli {
+namespace {
+
+constexpr const char* kUsage = R"(gvd — generalized Voronoi diagrams of closely spaced objects
+
+Usage:
+  gvd compute SCENE... [options]   compute the GVD of a scene
+  gvd info RESULT.gvd [--json]     depth, leaves, bytes per leaf, stage timings, warnings
+  gvd --help | --version
+
+SCENE is the scene JSON ({"dimension":2|3,"objects":[...]}), an OBJ whose o/g groups are
+the objects, a GLB/glTF with one node per object, or several PLY/STL/OFF/OBJ files, one
+object each, labelled by file stem (gvd compute a.stl b.stl c.stl).
+
+compute options:
+  -o, --output FILE.glb      the GVD as binary glTF (one node per object, EXT_mesh_features)
+  --graph FILE.json          the dual graph (neighbouring objects, interface area, clearance)
+  --json FILE.json           the GVD with float64 coordinates (for gaps below float32 resolution)
+  --save FILE.gvd            the whole result (octree, distance field, GVD, graph), reloadable
+  --max-depth N              deepest octree level (default 26 in 2D, 21 in 3D = the limit)
+  --domain x0,y0[,z0],x1,y1[,z1]
+                             domain box (made a cube); default: bounding box + 5 % padding
+  --threads N                worker threads (default: all cores)
+  --backend cpu              compute backend (OpenCL arrives in a later release)
+  --max-leaves N             octree leaf limit (default 30000000)
+  --max-objects N            object limit (default 100000)
+  --max-simplices N          simplex limit (default 20000000)
+  --ambiguity-levels N       levels of ambiguity refinement below the §3 octree
+                             (default: unlimited in 2D, 2 in 3D)
+  --ambiguity-rounds N       rounds of ambiguity refinement (default: 48 in 2D, 3 in 3D)
+  -q, --quiet                no progress or summary on stderr
+
+Exit codes: 0 ok, 1 internal error, 2 bad command line, 3 invalid input (scene, option or
+format), 4 limit exceeded, 5 file not readable/writable or not found, 6 cancelled.
+)";
+
+int exit_code_for(ErrorCode code) {
+  switch (code) {
+    case ErrorCode::kInvalidScene:
+    case ErrorCode::kInvalidArgument:
+    case ErrorCode::kUnsupportedFormat:
+    case ErrorCode::kOutsideDomain:
+      return kExitBadInput;
+    case ErrorCode::kLimitExceeded:
+      return kExitLimit;
+    case ErrorCode::kNotFound:
+    case ErrorCode::kIo:
+      return kExitIo;
+    case ErrorCode::kCancelled:
+      return kExitCancelled;
+    case ErrorCode::kInternal:
+      return kExitInternal;
+  }
+  return kExitInternal;
+}
+
+// A one-line progress display on stderr: a bar on a terminal, one line per stage otherwise.
+class Progress {
+ public:
+  explicit Progress(bool enabled) : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0) {}
+  void operator()(const std::string& stage, double fraction) {
+    if (!enabled_) return;
+    if (tty_) {
+      const int width = 30;
+      const int filled = static_cast<int>(fraction * width + 0.5);
+      std::fprintf(stderr, "\r  %-10s [%s%s] %3d%%", stage.c_str(),
+                   std::string(filled, '#').c_str(), std::string(width - filled, '-').c_str(),
+                   static_cast<int>(fraction * 100));
+      if (stage == "done") std::fprintf(stderr, "\n");
+      std::fflush(stderr);
+    } else if (stage != last_) {
+      std::fprintf(stderr, "  stage: %s\n", stage.c_str());
+    }
+    last_ = stage;
+  }
+
+ private:
+  bool enabled_;
+  bool tty_;
+  std::string last_;
+};
+
+void print_summary(const GvdResult& r, std::FILE* out) {
+  const ResultStats& s = r.stats;
+  std::fprintf(out, "  objects %zu, simplices %llu, dimension %d\n", r.scene.objects.size(),
+               static_cast<unsigned long long>(r.scene.simplex_count()), r.scene.dimension);
+  std::fprintf(out, "  backend %s, %d threads\n", s.backend.c_str(), s.threads);
+  std::fprintf(out, "  octree: depth %d (limit %d), %llu leaves, %llu vertices, %.1f bytes/leaf\n",
+               s.depth, s.max_depth, static_cast<unsigned long long>(s.leaves),
+               static_cast<unsigned long long>(s.vertices), s.bytes_per_leaf);
+  std::fprintf(out,
+               "  gvd: %llu simplices (both sides), %llu neighbour pairs, %d refinement rounds\n",
+               static_cast<unsigned long long>(s.gvd_simplices),
+               static_cast<unsigned long long>(s.graph_edges), s.refine_rounds);
+  std::fprintf(out, "  stages:");
+  for (const StageStats& st : s.stages)
+    std::fprintf(out, " %s %.3f s;", st.name.c_str(), st.seconds);
+  std::fprintf(out, " total %.3f s\n", s.total_seconds);
+  for (const SceneWarning& w : r.scene.warnings) {
+    std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", w.kind.c_str(),
+                 w.object.empty() ? "" : " ", w.object.c_str(),
+                 static_cast<unsigned long long>(w.count), w.detail.c_str());
+  }
+}
+
+int cmd_compute(int argc, char** argv) {
+  const Args args =
+      parse_args(argc, argv, 2,
+                 {"-o", "--output", "--graph", "--json", "--save", "--max-depth", "--domain",
+                  "--threads", "--backend", "--max-leaves", "--max-objects", "--max-simplices",
+                  "--ambiguity-levels", "--ambiguity-rounds"},
+                 {"-q", "--quiet"});
+  if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
+  const bool quiet = args.has("-q") || args.has("--quiet");
+
+  SceneLimits limits;
+  limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
+  limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
+  Scene scene = load_scene(args.positional, limits);
+
+  PipelineOptions options;
+  options.max_depth = args.int_value("--max-depth", 0);
+  options.threads = args.int_value("--threads", 0);
+  options.max_leaves = args.u64_value("--max-leaves", options.max_leaves);
+  options.ambiguity_levels = args.int_value("--ambiguity-levels", options.ambiguity_levels);
+  options.ambiguity_rounds = args.int_value("--ambiguity-rounds", options.ambiguity_rounds);
+  options.backend = args.value("--backend").value_or("cpu");
+  if (options.max_depth < 0) throw UsageError{"--max-depth must be positive"};
+  if (options.threads < 0) throw UsageError{"--threads must be positive"};
+  if (const auto box = args.numbers("--domain")) {
+    const size_t d = static_cast<size_t>(scene.dimension);
+    if (box->size() != 2 * d) {
+      throw UsageError{"--domain expects " + std::to_string(2 * d) + " numbers for a " +
+                       std::to_string(d) + "D scene"};
+    }
+    Box b;
+    Vec3 lo, hi;
+    for (size_t i = 0; i < d; ++i) {
+      lo[static_cast<int>(i)] = (*box)[i];
+      hi[static_cast<int>(i)] = (*box)[d + i];
+    }
+    b.extend(lo);
+    b.extend(hi);
+    options.domain.box = b;
+  }
+  if (!quiet) {
+    std::fprintf(stderr,
+                 "gvd: %zu objects, %llu simplices, %dD; backend %s (CPU reference), %d threads\n",
+                 scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
+                 scene.dimension, options.backend.c_str(), resolve_threads(options.threads));
+  }
+  Progress progress(!quiet);
+  options.progress = [&](const std::string& stage, double f) { progress(stage, f); };
+
+  const GvdResult result = compute_gvd(std::move(scene), options);
+
+  std::vector<std::string> written;
+  const auto glb_path = args.value("-o") ? args.value("-o") : args.value("--output");
+  if (glb_path) {
+    const std::vector<uint8_t> glb = gvd_to_glb(result.gvd, result.scene);
+    write_file_atomic(*glb_path, glb.data(), glb.size());
+    written.push_back(*glb_path + " (GVD, binary glTF)");
+  }
+  if (const auto p = args.value("--graph")) {
+    write_file_atomic(*p, graph_to_json(result.graph, result.scene));
+    written.push_back(*p + " (dual graph)");
+  }
+  if (const auto p = args.value("--json")) {
+    write_file_atomic(*p, gvd_to_json(result.gvd, result.scene));
+    written.push_back(*p + " (GVD, float64 JSON)");
+  }
+  if (const auto p = args.value("--save")) {
+    save_result(result, *p);
+    written.push_back(*p + " (result, for gvd info and later queries)");
+  }
+  if (!quiet) {
+    print_summary(result, stderr);
+    for (const std::string& w : written) std::fprintf(stderr, "  wrote %s\n", w.c_str());
+    if (written.empty())
+      std::fprintf(stderr, "  (no output requested: use -o, --graph, --json or --save)\n");
+  }
+  return kExitOk;
+}
+
+int cmd_info(int argc, char** argv) {
+  const Args args = parse_args(argc, argv, 2, {}, {"--json"});
+  if (args.positional.size() != 1) throw UsageError{"info needs exactly one result file"};
+  const GvdResult result = load_result(args.positional[0]);
+  if (args.has("--json")) {
+    std::cout << result_info_json(result) << "\n";
+  } else {
+    std::printf("%s\n", args.positional[0].c_str());
+    print_summary(result, stdout);
+  }
+  return kExitOk;
+}
+
+int run(int argc, char** argv) {
+  if (argc < 2) {
+    std::fputs(kUsage, stderr);
+    return kExitUsage;
+  }
+  const std::string command = argv[1];
+  if (command == "--help" || command == "-h" || command == "help") {
+    std::fputs(kUsage, stdout);
+    return kExitOk;
+  }
+  if (command == "--version") {
+    std::printf("gvd %s (algorithm %u, backends: cpu)\n", GVD_VERSION, kAlgorithmVersion);
+    return kExitOk;
+  }
+  if (command == "compute") return cmd_compute(argc, argv);
+  if (command == "info") return cmd_info(argc, argv);
+  throw UsageError{"unknown command \"" + command + "\""};
+}
+
+}  // namespace
+}  // namespace gvd::cli
+
+int main(int argc, char** argv) {
+  using namespace gvd::cli;
+  try {
+    return run(argc, argv);
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "gvd: %s\n(see gvd --help)\n", e.message.c_str());
+    return kExitUsage;
+  } catch (const gvd::Error& e) {
+    std::fprintf(stderr, "gvd: error: %s\n", e.what());
+    return exit_code_for(e.code());
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "gvd: error: out of memory (lower --max-depth or --max-leaves)\n");
+    return kExitLimit;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "gvd: internal error: %s\n", e.what());
+    return kExitInternal;
+  }
+}

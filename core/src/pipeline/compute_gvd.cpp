@@ -74,11 +74,19 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   RefineOptions ro;
   ro.threads = options.threads;
   ro.base = &base;
-  ro.ambiguity_levels = options.ambiguity_levels;
+  const int ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
+                               : dim == 2                    ? options.max_refine_rounds
+                                                             : 3;
+  ro.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
+                        : dim == 2                    ? lattice_bits(2)
+                                                      : 2;
+  ro.geometry = &r.geometry;
+  ro.bvh = &bvh;
   for (;;) {
     report = find_cells_to_refine(r.octree, r.field, ro);
-    const bool split_ambiguous = rounds < options.ambiguity_rounds;
-    if ((report.foreign.empty() && (!split_ambiguous || report.leaves.empty())) ||
+    const bool split_ambiguous = rounds < ambiguity_rounds;
+    if ((report.foreign.empty() && report.unseen.empty() &&
+         (!split_ambiguous || report.leaves.empty())) ||
         rounds >= options.max_refine_rounds) {
       break;
     }
@@ -89,6 +97,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     if (split_ambiguous) {
       for (uint32_t leaf : report.leaves) splits.push_back(cell_of(r.octree, leaf));
     }
+    for (uint32_t leaf : report.unseen) splits.push_back(cell_of(r.octree, leaf));
     r.octree = refine_octree(r.octree, r.geometry, splits, oo);
     DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field);
     r.field = std::move(next);

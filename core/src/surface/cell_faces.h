@@ -4,7 +4,9 @@
 // and surfacing so both see the same graph.
 
 #include <cstdint>
+#include <utility>
 
+#include "gvd/distance/distance_field.h"
 #include "gvd/octree/octree.h"
 #include "gvd/octree/vertices.h"
 
@@ -22,6 +24,29 @@ struct FacePolygon {
 };
 
 inline int grid_index(int i, int j, int k) { return i + 3 * j + 9 * k; }
+
+/// Eq. (1) of the paper in vector form: the point of edge [x0, x1] equidistant from the
+/// closest points a and b of its ends, clamped to the edge. Computed from the endpoint with
+/// the smaller index so that every cell sharing the edge gets the identical point. The clamp
+/// keeps a hair inside the edge: where the GVD runs exactly through octree vertices (common
+/// in symmetric scenes) the vertex's label decides its side, and pieces of neighbouring cells
+/// never collapse onto a shared face.
+inline Vec3 bisector_point(const DistanceField& field, uint32_t v0, uint32_t v1) {
+  if (v0 > v1) std::swap(v0, v1);
+  const Vec3 x0 = field.vertices.position(v0);
+  const Vec3 x1 = field.vertices.position(v1);
+  const Vec3 a = field.closest[field.point[v0]];
+  const Vec3 b = field.closest[field.point[v1]];
+  const Vec3 ba = b - a;
+  const Vec3 d = x1 - x0;
+  const double den = dot(d, ba);
+  double t = 0.5;
+  if (den != 0) t = dot((a + b) * 0.5 - x0, ba) / den;
+  constexpr double kInside = 1e-6;
+  if (!(t >= kInside)) t = kInside;  // also NaN
+  if (t > 1 - kInside) t = 1 - kInside;
+  return x0 + d * t;
+}
 
 // Cyclic order of a square's boundary on the half grid, starting at the lower corner.
 inline constexpr int kRing[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1}, {2, 2}, {1, 2}, {0, 2}, {0, 1}};

@@ -38,28 +38,7 @@ class CellSurfacer {
   CellSurfacer(const Octree& octree, const DistanceField& field)
       : octree_(octree), field_(field), dim_(octree.dimension) {}
 
-  // Eq. (1) of the paper in vector form: the point of edge [x0, x1] equidistant from the
-  // closest points a and b of its ends, clamped to the edge. Computed from the endpoint with
-  // the smaller index so that every cell sharing the edge gets the identical point. The clamp
-  // keeps a hair inside the edge: where the GVD runs exactly through octree vertices (common
-  // in symmetric scenes) the vertex's label decides its side, and pieces of neighbouring cells
-  // never collapse onto a shared face.
-  Vec3 bisector(uint32_t v0, uint32_t v1) const {
-    if (v0 > v1) std::swap(v0, v1);
-    const Vec3 x0 = field_.vertices.position(v0);
-    const Vec3 x1 = field_.vertices.position(v1);
-    const Vec3 a = field_.closest[field_.point[v0]];
-    const Vec3 b = field_.closest[field_.point[v1]];
-    const Vec3 ba = b - a;
-    const Vec3 d = x1 - x0;
-    const double den = dot(d, ba);
-    double t = 0.5;
-    if (den != 0) t = dot((a + b) * 0.5 - x0, ba) / den;
-    constexpr double kInside = 1e-6;
-    if (!(t >= kInside)) t = kInside;  // also NaN
-    if (t > 1 - kInside) t = 1 - kInside;
-    return x0 + d * t;
-  }
+  Vec3 bisector(uint32_t v0, uint32_t v1) const { return detail::bisector_point(field_, v0, v1); }
 
   PolygonGvd polygon(const detail::FacePolygon& poly) const {
     PolygonGvd out;

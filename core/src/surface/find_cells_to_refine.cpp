@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 #include "cell_faces.h"
@@ -68,13 +69,71 @@ bool is_ambiguous(const Octree& octree, const DistanceField& field, const LeafGr
   return false;
 }
 
+// True when a GVD point of the leaf is nearer to an object it does not claim (see
+// RefineOptions): an edge bisector to an object other than the edge's two labels, a face or
+// cell centroid to an object that no vertex of the leaf carries.
+bool has_unseen_object(const Octree& octree, const DistanceField& field, const LeafGrid& grid,
+                       uint32_t leaf, const UnitGeometry& geometry, const SimplexBvh& bvh) {
+  ObjectId labels[27];
+  int nl = 0;
+  for (uint32_t v : grid) {
+    if (v == kNoVertex) continue;
+    const ObjectId l = field.label[v];
+    if (std::find(labels, labels + nl, l) == labels + nl) labels[nl++] = l;
+  }
+  if (nl < 2) return false;
+  // Unseen when another object is nearer than every object the point claims, by more than a
+  // margin: in 3D a twentieth of the leaf (thinner slivers along junction lines are below the
+  // resolution), in 2D a hair; exact ties (e.g. a bisector on an octree plane) never count.
+  const Box box = octree.box(leaf);
+  // In 2D junctions are points and cheap to resolve, so only exact ties are tolerated.
+  const double margin = (octree.dimension == 2 ? 1e-9 : 0.05) * (box.hi.x - box.lo.x);
+  // `allowed`: the objects the GVD point is supposed to be nearest to.
+  auto unseen = [&](Vec3 p, double claimed2, const ObjectId* allowed, int na) {
+    auto ok = [&](uint32_t s) {
+      return std::find(allowed, allowed + na, geometry.object_of[s]) != allowed + na;
+    };
+    const ClosestHit hit = bvh.nearest(p, claimed2);
+    if (!hit.found() || ok(hit.simplex)) return false;
+    const double d = std::sqrt(hit.dist2) + margin;
+    return !bvh.nearest_if(p, ok, d * d).found();
+  };
+  bool found = false;
+  Vec3 all;
+  int count = 0;
+  detail::for_each_face_polygon(octree, grid, leaf, [&](const detail::FacePolygon& poly) {
+    if (found) return;
+    Vec3 sum;
+    int n = 0;
+    for (int i = 0; i < poly.n && !found; ++i) {
+      const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
+      if (field.label[v] == field.label[w]) continue;
+      const Vec3 p = detail::bisector_point(field, v, w);
+      const double claimed = std::max(dist2(p, field.closest[field.point[v]]),
+                                      dist2(p, field.closest[field.point[w]]));
+      const ObjectId pair[2] = {field.label[v], field.label[w]};
+      found = unseen(p, claimed, pair, 2);
+      sum = sum + p;
+      ++n;
+    }
+    if (!found && n > 0) {
+      found = unseen(sum / n, 1e300, labels, nl);
+      all = all + sum;
+      count += n;
+    }
+  });
+  if (!found && octree.dimension == 3 && count > 0) found = unseen(all / count, 1e300, labels, nl);
+  return found;
+}
+
 }  // namespace
 
 RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field,
                                   const RefineOptions& options) {
   const int threads = resolve_threads(options.threads);
   const size_t n = octree.leaf_count();
-  // 0 = fine, 1 = ambiguous, 2 = foreign label in a non-empty leaf; +4 when at the limit.
+  // 0 = fine, 1 = ambiguous, 2 = foreign label in a non-empty leaf, 3 = unseen object;
+  // +4 when at the limit.
   std::vector<uint8_t> flag(n, 0);
   parallel_for(n, threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) {
@@ -87,6 +146,10 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
           if (v != kNoVertex && field.label[v] != obj) f = 2;
       }
       if (f == 0 && obj != kManyObjects && is_ambiguous(octree, field, grid, leaf)) f = 1;
+      if (f == 0 && obj == kNoObject && options.geometry != nullptr && options.bvh != nullptr &&
+          has_unseen_object(octree, field, grid, leaf, *options.geometry, *options.bvh)) {
+        f = 3;
+      }
       int limit = octree.max_depth;
       if (f == 1 && options.base != nullptr) {
         const uint32_t base_leaf = options.base->locate(octree.box(leaf).center());
@@ -102,15 +165,23 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
     if (octree.object[i] == kManyObjects) ++report.touching_leaves;
     if (f == 0) continue;
     const bool at_limit = f & 4;
-    if ((f & 3) == 1) {
-      ++report.ambiguous;
-      report.ambiguous_at_limit += at_limit;
-    } else {
-      ++report.foreign_label;
-      report.foreign_at_limit += at_limit;
-    }
-    if (!at_limit) {
-      ((f & 3) == 1 ? report.leaves : report.foreign).push_back(static_cast<uint32_t>(i));
+    const uint32_t leaf = static_cast<uint32_t>(i);
+    switch (f & 3) {
+      case 1:
+        ++report.ambiguous;
+        report.ambiguous_at_limit += at_limit;
+        if (!at_limit) report.leaves.push_back(leaf);
+        break;
+      case 2:
+        ++report.foreign_label;
+        report.foreign_at_limit += at_limit;
+        if (!at_limit) report.foreign.push_back(leaf);
+        break;
+      default:
+        ++report.misplaced;
+        report.misplaced_at_limit += at_limit;
+        if (!at_limit) report.unseen.push_back(leaf);
+        break;
     }
   }
   return report;

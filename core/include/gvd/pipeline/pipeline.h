@@ -23,11 +23,15 @@ struct PipelineOptions {
   int max_depth = 0;                 ///< 0 = default (2D 26, 3D 21)
   uint64_t max_leaves = 30'000'000;  ///< limit on octree leaves
   int max_refine_rounds = 48;        ///< refinement rounds for the separation guarantee
-  int ambiguity_rounds = 3;          ///< of those, rounds that also split ambiguous cells (§5)
-  int ambiguity_levels = 2;          ///< levels below the §3 octree to resolve ambiguity
-  int threads = 0;                   ///< 0 = all cores
-  std::string backend = "cpu";       ///< "cpu" (OpenCL arrives with issue 4)
-  ProgressFn progress;               ///< optional
+  /// Rounds that also split ambiguous cells (§5); < 0 picks the default: all rounds in 2D
+  /// (junctions are points, cheap to resolve), 3 in 3D (junctions are lines).
+  int ambiguity_rounds = -1;
+  /// Levels below the §3 octree to which ambiguity is resolved; < 0 picks the default: down
+  /// to max_depth in 2D, 2 in 3D.
+  int ambiguity_levels = -1;
+  int threads = 0;              ///< 0 = all cores
+  std::string backend = "cpu";  ///< "cpu" (OpenCL arrives with issue 4)
+  ProgressFn progress;          ///< optional
   const std::atomic<bool>* cancel = nullptr;
 };
 

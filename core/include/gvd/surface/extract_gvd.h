@@ -16,11 +16,14 @@ namespace gvd {
 struct RefineReport {
   std::vector<uint32_t> leaves;     ///< ambiguous leaves to split (all below their limit)
   std::vector<uint32_t> foreign;    ///< non-empty leaves with a foreign label (below the limit)
+  std::vector<uint32_t> unseen;     ///< leaves hiding an object's region (below the limit)
   uint64_t ambiguous = 0;           ///< ambiguous cells found (any depth)
   uint64_t ambiguous_at_limit = 0;  ///< ambiguous cells already at the depth limit
   uint64_t foreign_label = 0;       ///< non-empty leaves with a vertex labelled by another object
   uint64_t foreign_at_limit = 0;    ///< of those, at the depth limit
   uint64_t touching_leaves = 0;     ///< leaves that intersect several objects (at the limit)
+  uint64_t misplaced = 0;           ///< cells whose GVD points are nearest to an unseen object
+  uint64_t misplaced_at_limit = 0;
 };
 
 /// Finds the leaves to subdivide (paper §5): a cell is ambiguous when collapsing the edges of
@@ -36,6 +39,13 @@ struct RefineOptions {
   int threads = 0;
   const Octree* base = nullptr;  ///< null: ambiguity is resolved down to max_depth
   int ambiguity_levels = 3;
+  /// With both set, a leaf the GVD crosses is also split when one of its GVD points has an
+  /// exact nearest object it does not claim — an edge bisector one other than the edge's two
+  /// labels, a face or cell centroid one that no vertex of the leaf carries — by more than a
+  /// twentieth of the leaf: a region hides between the vertices, and the dual graph would
+  /// otherwise gain a false edge or miss one. Such leaves go to `unseen`.
+  const UnitGeometry* geometry = nullptr;
+  const SimplexBvh* bvh = nullptr;
 };
 RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field,
                                   const RefineOptions& options = {});

@@ -1,0 +1,348 @@
+// Benchmarks of compute_gvd on scenes like the paper's Table 1 (Edwards et al. 2015, §7.1),
+// plus the exact Boost.Polygon segment Voronoi diagram of the 2D scene as ground truth for
+// the dual graph. Prints Google Benchmark's report, then a plain summary table.
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "bench/boost_voronoi.h"
+#include "bench/table1_scenes.h"
+#include "gvd/pipeline/pipeline.h"
+
+namespace {
+
+using gvd::Scene;
+
+constexpr int kThreads = 2;
+const char* const kStages[] = {"scene", "octree", "distance", "ambiguity", "surface", "graph"};
+
+/// The paper's Table 1 row a scene stands in for (MacBook Pro, dual-core 2.9 GHz).
+struct PaperRow {
+  const char* figure = "-";
+  int objects = 0;
+  double simplices_k = 0;
+  int depth = 0;
+  double cells_k = 0;
+  double memory_mb = 0;
+  double seconds = 0;  ///< 0 = no counterpart
+  double gvd_simplices_k = 0;
+};
+
+struct SceneCase {
+  const char* name;
+  std::function<Scene()> make;
+  PaperRow paper;
+};
+
+const std::vector<SceneCase>& cases() {
+  static const std::vector<SceneCase> all = {
+      {"gears3d", [] { return gvd::bench::make_gears3d(); }, {"Fig. 1b", 3, 7, 8, 54, 3, 0.9, 83}},
+      {"blades",
+       [] { return gvd::bench::make_blades(); },
+       {"Fig. 1c", 4, 15, 12, 146, 9, 3.9, 232}},
+      {"polygons2d",
+       [] { return gvd::bench::make_polygons2d(); },
+       {"Fig. 13", 470, 5, 24, 158, 8, 2.0, 151}},
+      {"spheres", [] { return gvd::bench::make_spheres(); }, {}},
+  };
+  return all;
+}
+
+/// Scenes are generated once, outside any timing.
+const Scene& scene_of(const SceneCase& c) {
+  static std::map<std::string, Scene> cache;
+  auto it = cache.find(c.name);
+  if (it == cache.end()) it = cache.emplace(c.name, c.make()).first;
+  return it->second;
+}
+
+/// Resets the peak resident set size (Linux >= 4.0: "5" > /proc/self/clear_refs).
+bool reset_peak_rss() {
+  std::ofstream f("/proc/self/clear_refs");
+  f << "5";
+  f.flush();
+  return static_cast<bool>(f);
+}
+
+/// VmHWM of this process in MiB, 0 when unavailable.
+double peak_rss_mib() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
+  }
+  return 0;
+}
+
+/// What the summary prints for one scene (the last iteration's figures).
+struct SceneRun {
+  std::string name;
+  PaperRow paper;
+  uint64_t objects = 0, simplices = 0;
+  gvd::ResultStats stats;
+  double peak_rss_mib = 0;
+  bool peak_is_per_run = false;
+  std::vector<gvd::SceneWarning> warnings;
+  std::string error;
+};
+
+std::vector<SceneRun>& runs() {
+  static std::vector<SceneRun> all;
+  return all;
+}
+std::vector<gvd::DualEdge>& polygons_graph() {
+  static std::vector<gvd::DualEdge> edges;
+  return edges;
+}
+std::optional<gvd::Box>& polygons_domain() {
+  static std::optional<gvd::Box> box;
+  return box;
+}
+std::optional<gvd::bench::BoostAdjacency>& boost_result() {
+  static std::optional<gvd::bench::BoostAdjacency> r;
+  return r;
+}
+double& boost_seconds() {
+  static double s = 0;
+  return s;
+}
+
+double stage_seconds(const gvd::ResultStats& s, const std::string& name) {
+  for (const gvd::StageStats& st : s.stages)
+    if (st.name == name) return st.seconds;
+  return 0;
+}
+
+void BM_Gvd(benchmark::State& state, const SceneCase* c) {
+  const Scene& scene = scene_of(*c);
+  gvd::PipelineOptions options;
+  options.threads = kThreads;
+  SceneRun run;
+  run.name = c->name;
+  run.paper = c->paper;
+  run.objects = scene.objects.size();
+  run.simplices = scene.simplex_count();
+  run.peak_is_per_run = reset_peak_rss();
+  for (auto _ : state) {
+    state.PauseTiming();
+    Scene copy = scene;
+    state.ResumeTiming();
+    try {
+      gvd::GvdResult r = gvd::compute_gvd(std::move(copy), options);
+      state.PauseTiming();
+      run.stats = r.stats;
+      run.warnings = r.scene.warnings;
+      if (std::string(c->name) == "polygons2d") {
+        polygons_graph() = r.graph.edges;
+        polygons_domain() = r.domain.box();
+      }
+      state.ResumeTiming();
+    } catch (const std::exception& e) {
+      run.error = e.what();
+      state.SkipWithError(run.error.c_str());
+      break;
+    }
+  }
+  run.peak_rss_mib = peak_rss_mib();
+  if (run.error.empty()) {
+    const gvd::ResultStats& s = run.stats;
+    auto& k = state.counters;
+    k["total_s"] = s.total_seconds;
+    for (const char* st : kStages) k[std::string(st) + "_s"] = stage_seconds(s, st);
+    k["depth"] = s.depth;
+    k["leaves"] = static_cast<double>(s.leaves);
+    k["B_per_leaf"] = s.bytes_per_leaf;
+    k["gvd_simplices"] = static_cast<double>(s.gvd_simplices);
+    k["graph_edges"] = static_cast<double>(s.graph_edges);
+    k["peak_rss_MiB"] = run.peak_rss_mib;
+  }
+  runs().push_back(std::move(run));
+}
+
+void BM_BoostVoronoi(benchmark::State& state) {
+  const SceneCase* c = nullptr;
+  for (const SceneCase& sc : cases())
+    if (std::string(sc.name) == "polygons2d") c = &sc;
+  const Scene& scene = scene_of(*c);
+  // The GVD's domain if that benchmark ran, else the same default domain.
+  const gvd::Box box = polygons_domain() ? *polygons_domain() : gvd::make_domain(scene).box();
+  for (auto _ : state) {
+    try {
+      boost_result() = gvd::bench::boost_voronoi_adjacency(scene, box);
+    } catch (const std::exception& e) {
+      state.SkipWithError(e.what());
+      break;
+    }
+  }
+  if (boost_result()) {
+    const auto& b = *boost_result();
+    boost_seconds() = b.input_seconds + b.voronoi_seconds + b.adjacency_seconds;
+    state.counters["voronoi_s"] = b.voronoi_seconds;
+    state.counters["adjacency_s"] = b.adjacency_seconds;
+    state.counters["check_input_s"] = b.input_seconds;
+    state.counters["pairs"] = static_cast<double>(b.pairs.size());
+  }
+}
+
+void register_benchmarks() {
+  for (const SceneCase& c : cases()) {
+    benchmark::RegisterBenchmark((std::string("BM_Gvd/") + c.name).c_str(), BM_Gvd, &c)
+        ->Iterations(1)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  }
+  benchmark::RegisterBenchmark("BM_BoostVoronoi/polygons2d", BM_BoostVoronoi)
+      ->Iterations(1)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+}
+
+void print_summary() {
+  std::printf("\n== Summary (threads = %d; stage and total times in ms) ==\n", kThreads);
+  std::printf("%-11s %7s %8s %5s %9s %7s %9s %6s %7s %7s %8s %9s %8s %7s %8s %9s %8s %7s\n",
+              "scene", "objects", "simplices", "depth", "leaves", "B/leaf", "gvd_simp", "edges",
+              "scene", "octree", "distance", "ambiguity", "surface", "graph", "total", "paper",
+              "speedup", "RSS_MiB");
+  for (const SceneRun& r : runs()) {
+    if (!r.error.empty()) {
+      std::printf("%-11s FAILED: %s\n", r.name.c_str(), r.error.c_str());
+      continue;
+    }
+    const gvd::ResultStats& s = r.stats;
+    char paper[32] = "-", speedup[32] = "-";
+    if (r.paper.seconds > 0) {
+      std::snprintf(paper, sizeof paper, "%.1f s", r.paper.seconds);
+      std::snprintf(speedup, sizeof speedup, "%.1fx", r.paper.seconds / s.total_seconds);
+    }
+    std::printf(
+        "%-11s %7llu %8llu %5d %9llu %7.1f %9llu %6llu %7.0f %7.0f %8.0f %9.0f %8.0f %7.0f %8.0f "
+        "%9s %8s %7.0f%s\n",
+        r.name.c_str(), static_cast<unsigned long long>(r.objects),
+        static_cast<unsigned long long>(r.simplices), s.depth,
+        static_cast<unsigned long long>(s.leaves), s.bytes_per_leaf,
+        static_cast<unsigned long long>(s.gvd_simplices),
+        static_cast<unsigned long long>(s.graph_edges), 1e3 * stage_seconds(s, "scene"),
+        1e3 * stage_seconds(s, "octree"), 1e3 * stage_seconds(s, "distance"),
+        1e3 * stage_seconds(s, "ambiguity"), 1e3 * stage_seconds(s, "surface"),
+        1e3 * stage_seconds(s, "graph"), 1e3 * s.total_seconds, paper, speedup, r.peak_rss_mib,
+        r.peak_is_per_run ? "" : "*");
+  }
+  std::printf("(gvd_simp counts each interface simplex once per side; RSS = VmHWM%s)\n",
+              runs().empty() || runs().front().peak_is_per_run ? ", reset before each scene"
+                                                               : ", process peak (*)");
+
+  std::printf("\n== Next to the paper's Table 1 (paper | ours) ==\n");
+  std::printf("%-11s %-8s %13s %13s %11s %17s %15s %15s %17s\n", "scene", "figure", "objects",
+              "simplices_k", "depth", "leaves_k", "octree_MB", "GVD_s", "gvd_simplices_k");
+  for (const SceneRun& r : runs()) {
+    if (!r.error.empty()) continue;
+    const gvd::ResultStats& s = r.stats;
+    const PaperRow& p = r.paper;
+    std::printf(
+        "%-11s %-8s %6d|%-6llu %6.0f|%-6.1f %4d|%-6d %8.0f|%-8.1f %7.0f|%-7.1f %7.1f|%-7.2f "
+        "%8.0f|%-8.1f\n",
+        r.name.c_str(), p.figure, p.objects, static_cast<unsigned long long>(r.objects),
+        p.simplices_k, r.simplices / 1e3, p.depth, s.depth, p.cells_k, s.leaves / 1e3, p.memory_mb,
+        s.octree_bytes / 1e6, p.seconds, s.total_seconds, p.gvd_simplices_k, s.gvd_simplices / 1e3);
+  }
+
+  for (const SceneRun& r : runs()) {
+    for (const gvd::SceneWarning& w : r.warnings) {
+      std::printf("warning [%s] %s (%llu): %.200s\n", r.name.c_str(), w.kind.c_str(),
+                  static_cast<unsigned long long>(w.count), w.detail.c_str());
+    }
+    if (r.error.empty() && (r.stats.ambiguous_at_limit > 0 || r.stats.touching_leaves > 0)) {
+      std::printf("note [%s]: refine_rounds %d, ambiguous_at_limit %llu, touching_leaves %llu\n",
+                  r.name.c_str(), r.stats.refine_rounds,
+                  static_cast<unsigned long long>(r.stats.ambiguous_at_limit),
+                  static_cast<unsigned long long>(r.stats.touching_leaves));
+    }
+  }
+
+  if (!boost_result()) return;
+  const auto& b = *boost_result();
+  std::printf("\n== polygons2d: dual graph vs Boost.Polygon segment Voronoi (ground truth) ==\n");
+  std::printf(
+      "boost: %llu segments on a 2^30 grid, %llu primary edges, input check %.0f ms, "
+      "construct_voronoi %.0f ms, adjacency %.0f ms, total %.0f ms; %llu cross-object "
+      "edges entirely outside the domain skipped\n",
+      static_cast<unsigned long long>(b.segments), static_cast<unsigned long long>(b.voronoi_edges),
+      1e3 * b.input_seconds, 1e3 * b.voronoi_seconds, 1e3 * b.adjacency_seconds,
+      1e3 * boost_seconds(), static_cast<unsigned long long>(b.edges_outside));
+  const SceneRun* ours = nullptr;
+  for (const SceneRun& r : runs())
+    if (r.name == "polygons2d" && r.error.empty()) ours = &r;
+  if (!ours) {
+    std::printf("(our polygons2d run is missing: no comparison)\n");
+    return;
+  }
+  std::printf("gvd:   total %.0f ms (%.1fx the Boost time)\n", 1e3 * ours->stats.total_seconds,
+              ours->stats.total_seconds / std::max(1e-9, boost_seconds()));
+  std::map<std::pair<uint32_t, uint32_t>, const gvd::DualEdge*> mine;
+  for (const gvd::DualEdge& e : polygons_graph()) mine[{e.a, e.b}] = &e;
+  std::map<std::pair<uint32_t, uint32_t>, const gvd::bench::BoostAdjacentPair*> truth;
+  for (const auto& p : b.pairs) truth[{p.a, p.b}] = &p;
+  std::vector<const gvd::DualEdge*> only_ours;
+  std::vector<const gvd::bench::BoostAdjacentPair*> only_boost;
+  size_t both = 0;
+  for (const auto& [ab, e] : mine) {
+    if (truth.count(ab))
+      ++both;
+    else
+      only_ours.push_back(e);
+  }
+  for (const auto& [ab, p] : truth)
+    if (!mine.count(ab)) only_boost.push_back(p);
+  std::printf("pairs: ours %zu, boost %zu, in both %zu, only ours %zu, only boost %zu\n",
+              mine.size(), truth.size(), both, only_ours.size(), only_boost.size());
+  const Scene& scene = scene_of(cases()[2]);
+  auto label = [&](uint32_t i) { return scene.objects[i].label.c_str(); };
+  std::sort(only_boost.begin(), only_boost.end(),
+            [](auto* x, auto* y) { return x->length > y->length; });
+  int shown = 0;
+  for (const auto* p : only_boost) {
+    if (shown++ == 12) break;
+    std::printf("  only boost: %-9s %-9s boundary length %.3g, object gap %.3g\n", label(p->a),
+                label(p->b), p->length,
+                gvd::bench::polyline_distance_2d(scene.objects[p->a], scene.objects[p->b]));
+  }
+  std::sort(only_ours.begin(), only_ours.end(), [](auto* x, auto* y) { return x->area > y->area; });
+  shown = 0;
+  for (const auto* e : only_ours) {
+    if (shown++ == 12) break;
+    std::printf("  only ours:  %-9s %-9s boundary length %.3g, clearance %.3g, object gap %.3g\n",
+                label(e->a), label(e->b), e->area, e->min_clearance,
+                gvd::bench::polyline_distance_2d(scene.objects[e->a], scene.objects[e->b]));
+  }
+  // Length distribution of the missed boundaries: are they short slivers or real faces?
+  const double bins[] = {1e-9, 1e-7, 1e-5, 1e-3, 1e-1, 1e9};
+  std::printf("  only-boost boundary lengths:");
+  for (int i = 0; i + 1 < 6; ++i) {
+    const auto n = std::count_if(only_boost.begin(), only_boost.end(), [&](auto* p) {
+      return p->length >= (i == 0 ? 0 : bins[i]) && p->length < bins[i + 1];
+    });
+    std::printf(" [%.0e,%.0e): %td", i == 0 ? 0 : bins[i], bins[i + 1], n);
+  }
+  std::printf("\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  register_benchmarks();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  print_summary();
+  return 0;
+}

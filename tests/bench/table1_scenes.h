@@ -1,0 +1,68 @@
+#pragma once
+
+// Deterministic generators for scenes like the paper's Table 1 (Edwards et al. 2015, §7.1):
+// meshing gears (Fig. 1b), blades in slots (Fig. 1c), many 2D polygons at widely varying
+// spacings (Fig. 13), plus a packed-spheres scene of our own. Every generator is seeded and
+// checks the property it promises (closed meshes, no two objects intersecting) and throws
+// std::runtime_error when violated, so a benchmark never runs on a broken scene.
+
+#include <cstdint>
+#include <string>
+
+#include "gvd/scene/scene.h"
+
+namespace gvd::bench {
+
+/// Two meshing spur gears (extruded trapezoidal tooth profiles, closed triangle meshes) and a
+/// shaft through a bore of the larger gear. Lengths in scene units; the scene spans ~4.2.
+struct Gears3dOptions {
+  double tooth_gap = 0.02;  ///< least distance between the two gears' profiles
+  double shaft_gap = 0.02;  ///< radial clearance between shaft and bore
+  int samples_per_tooth = 20;
+};
+Scene make_gears3d(const Gears3dOptions& options = {});
+
+/// A block with three through-slots, a thin blade (knife) standing in each slot with
+/// `clearance` on both sides and below. The scene spans 4 units (x), so clearance 4e-4 is 1e-4
+/// of the scene size. `cell` is the tessellation size of the block and blade faces.
+struct BladesOptions {
+  double clearance = 4e-4;
+  double blade_thickness = 0.02;
+  double cell = 0.075;
+};
+Scene make_blades(const BladesOptions& options = {});
+
+/// 2D: `grid` x `grid` cells of the unit square, one random convex or star polygon per cell;
+/// `pairs` cells hold two polygons instead, pushed together until their gap is log-uniform in
+/// [min_gap, max_gap] (unit square = scene size). Throws if any two segments of different
+/// polygons (or non-adjacent segments of one polygon) intersect.
+struct Polygons2dOptions {
+  uint64_t seed = 13;
+  int grid = 20;
+  int pairs = 70;
+  double min_gap = 1e-7;
+  double max_gap = 1e-2;
+  int min_sides = 5;
+  int max_sides = 16;
+};
+Scene make_polygons2d(const Polygons2dOptions& options = {});
+
+/// 3D: UV spheres (`rings` x `segments`, 324 triangles by default) in vertical columns on a
+/// jittered square lattice of pitch 1. Within a column the spheres are pole to pole, so the
+/// mesh gap is exactly the vertical gap, log-uniform in [min_gap, max_gap] (scene units; the
+/// scene spans ~5.5). Spheres of different columns are checked by bounding spheres.
+struct SpheresOptions {
+  uint64_t seed = 7;
+  int columns = 5;  ///< columns x columns columns
+  int per_column = 8;
+  int rings = 10;
+  int segments = 18;
+  double min_gap = 5e-5;
+  double max_gap = 5e-2;
+};
+Scene make_spheres(const SpheresOptions& options = {});
+
+/// Least distance between two closed 2D polylines (vertex lists, implicitly closed). O(n m).
+double polyline_distance_2d(const SceneObject& a, const SceneObject& b);
+
+}  // namespace gvd::bench

@@ -1,0 +1,55 @@
+# End-to-end check of the `gvd` CLI: compute the bundled examples with every output, read the
+# saved result back with `gvd info`, validate the GLB, and check the exit code of bad input.
+# Invoked by CTest with -DGVD=<gvd binary> -DDATA=<tests/data> -DOUT=<output dir>.
+
+function(run_ok)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "command failed (${rc}): ${ARGN}\n${out}\n${err}")
+  endif()
+  set(LAST_OUT "${out}" PARENT_SCOPE)
+  set(LAST_ERR "${err}" PARENT_SCOPE)
+endfunction()
+
+foreach(scene gears2d balls_on_plate)
+  set(prefix ${OUT}/cli_${scene})
+  run_ok(${GVD} compute ${DATA}/scenes/${scene}.json -o ${prefix}.glb --graph ${prefix}_graph.json
+         --json ${prefix}_gvd.json --save ${prefix}.gvd)
+  foreach(f ${prefix}.glb ${prefix}_graph.json ${prefix}_gvd.json ${prefix}.gvd)
+    if(NOT EXISTS ${f})
+      message(FATAL_ERROR "missing output ${f}")
+    endif()
+  endforeach()
+  if(NOT LAST_ERR MATCHES "backend cpu")
+    message(FATAL_ERROR "the log does not say which backend ran:\n${LAST_ERR}")
+  endif()
+  run_ok(${GVD} info ${prefix}.gvd --json)
+  string(JSON depth GET "${LAST_OUT}" depth)
+  string(JSON leaves GET "${LAST_OUT}" leaves)
+  string(JSON bpl GET "${LAST_OUT}" bytes_per_leaf)
+  if(depth LESS 1 OR leaves LESS 2 OR bpl LESS_EQUAL 0)
+    message(FATAL_ERROR "gvd info reports implausible figures: ${LAST_OUT}")
+  endif()
+  # The dual graph must name every object pair that touches in the example.
+  file(READ ${prefix}_graph.json graph)
+  string(JSON nedges LENGTH "${graph}" edges)
+  if(nedges LESS 2)
+    message(FATAL_ERROR "dual graph of ${scene} has ${nedges} edges")
+  endif()
+  find_program(NODE node)
+  if(NODE)
+    run_ok(${NODE} ${DATA}/../js/validate_glb.mjs ${prefix}.glb)
+  endif()
+endforeach()
+
+# Bad input: a clear message and exit code 3, not a crash.
+execute_process(COMMAND ${GVD} compute ${DATA}/malformed/json_duplicate_label.json
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 3)
+  message(FATAL_ERROR "bad scene should exit with 3, got ${rc}: ${err}")
+endif()
+# Usage errors exit with 2.
+execute_process(COMMAND ${GVD} compute RESULT_VARIABLE rc OUTPUT_QUIET ERROR_QUIET)
+if(NOT rc EQUAL 2)
+  message(FATAL_ERROR "usage error should exit with 2, got ${rc}")
+endif()

@@ -1,0 +1,148 @@
+// Scenario tests of the surfaced GVD against independent oracles: a sampled 2D nearest-object
+// map for the dual graph, and the Khronos validator on the GLB of real results.
+
+#include "gvd/surface/extract_gvd.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "gvd/io/write_outputs.h"
+#include "gvd/pipeline/pipeline.h"
+#include "support/gltf_validate.h"
+#include "support/oracles.h"
+#include "support/scenes.h"
+
+namespace gvd {
+namespace {
+
+using Pairs = std::set<std::pair<ObjectId, ObjectId>>;
+
+// Random disjoint circles (2D polygons) of radii spanning two decades, some pairs placed at
+// tiny gaps. Deterministic.
+Scene random_circles(int count, unsigned seed, double tiny_gap) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> pos(0.0, 10.0), rad(0.05, 0.8);
+  std::vector<SceneObject> objects;
+  std::vector<std::pair<Vec3, double>> placed;
+  while (static_cast<int>(placed.size()) < count) {
+    Vec3 c{pos(rng), pos(rng), 0};
+    double r = rad(rng);
+    // Every third circle is put next to the previous one, at a tiny gap.
+    if (!placed.empty() && placed.size() % 3 == 2) {
+      const auto& [pc, pr] = placed.back();
+      const double a = pos(rng);
+      c = pc + Vec3{std::cos(a), std::sin(a), 0} * (pr + r + tiny_gap);
+    }
+    bool ok = true;
+    for (const auto& [pc, pr] : placed) ok &= dist(pc, c) > pr + r + 0.5 * tiny_gap;
+    if (!ok) continue;
+    placed.push_back({c, r});
+    objects.push_back(test::make_circle("c" + std::to_string(placed.size()), c, r, 24));
+  }
+  return test::make_scene(2, objects);
+}
+
+// Adjacency of the nearest-object map sampled on an n x n grid of the domain: two objects are
+// adjacent when grid neighbours have them as nearest objects. A subset of the true adjacency
+// (short interfaces may fall between samples).
+Pairs sampled_adjacency(const Scene& scene, const Domain& domain, int n) {
+  std::vector<ObjectId> nearest(static_cast<size_t>(n) * n);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const Vec3 u{(i + 0.5) / n, (j + 0.5) / n, 0};
+      nearest[j * n + i] = test::brute_nearest(scene, domain.from_unit(u)).object;
+    }
+  Pairs pairs;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const ObjectId a = nearest[j * n + i];
+      for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{0, 1}}) {
+        if (i + di >= n || j + dj >= n) continue;
+        const ObjectId b = nearest[(j + dj) * n + i + di];
+        if (a != b) pairs.insert({std::min(a, b), std::max(a, b)});
+      }
+    }
+  return pairs;
+}
+
+TEST(ExtractGvdScenario, DualGraph2DAgreesWithTheSampledVoronoiMap) {
+  const Scene scene = random_circles(24, 7, 1e-6);
+  PipelineOptions o;
+  o.threads = 2;
+  const GvdResult r = compute_gvd(scene, o);
+  const Pairs sampled = sampled_adjacency(r.scene, r.domain, 300);
+  Pairs ours;
+  for (const DualEdge& e : r.graph.edges) ours.insert({e.a, e.b});
+  // Every adjacency seen in the samples is in our graph.
+  for (const auto& p : sampled) EXPECT_TRUE(ours.count(p)) << p.first << "-" << p.second;
+  // Every interface of ours longer than a few sample spacings is seen by the samples.
+  const double spacing = r.domain.side / 300;
+  for (const DualEdge& e : r.graph.edges) {
+    if (e.area > 4 * spacing) {
+      EXPECT_TRUE(sampled.count({e.a, e.b})) << e.a << "-" << e.b;
+    }
+  }
+}
+
+TEST(ExtractGvdScenario, GlbOfRealResultsPassesTheValidator) {
+  for (int dim : {2, 3}) {
+    const Scene scene =
+        dim == 2 ? random_circles(9, 3, 1e-4)
+                 : test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                        test::make_sphere("b", {2.001, 0, 0}, 1, 8, 16),
+                                        test::make_box("c", {-1, 1.01, -1}, {3, 1.5, 1})});
+    PipelineOptions o;
+    o.threads = 2;
+    const GvdResult r = compute_gvd(scene, o);
+    const std::vector<uint8_t> glb = gvd_to_glb(r.gvd, r.scene);
+    const std::string path =
+        std::string(GVD_TEST_OUTPUT_DIR) + "/real_result_" + std::to_string(dim) + "d.glb";
+    write_file_atomic(path, glb.data(), glb.size());
+    const test::GltfReport report = test::validate_glb_file(path);
+    ASSERT_TRUE(report.ran) << report.output;
+    EXPECT_EQ(report.errors, 0) << report.output;
+    // Feature ids name the object across: check them against the cells.
+    const test::GlbFile file = test::parse_glb(glb);
+    size_t nodes_with_mesh = 0;
+    for (const GvdCell& c : r.gvd.cells) nodes_with_mesh += !c.indices.empty();
+    EXPECT_EQ(file.json["nodes"].size(), nodes_with_mesh);
+  }
+}
+
+TEST(ExtractGvdScenario, NestedAndMultiComponentObjects2D) {
+  // A ring (two concentric circles = one object with two components) around a disc, and a
+  // second disc outside: the inner disc's cell is enclosed by the ring's.
+  SceneObject ring = test::make_circle("ring", {0, 0, 0}, 2.0, 48);
+  const SceneObject inner_circle = test::make_circle("x", {0, 0, 0}, 1.5, 48);
+  const uint32_t offset = static_cast<uint32_t>(ring.vertices.size());
+  for (const Vec3& v : inner_circle.vertices) ring.vertices.push_back(v);
+  for (Simplex s : inner_circle.simplices) {
+    s.v[0] += offset;
+    s.v[1] += offset;
+    ring.simplices.push_back(s);
+  }
+  const Scene scene = test::make_scene(2, {ring, test::make_circle("core", {0, 0, 0}, 0.5, 32),
+                                           test::make_circle("out", {3.5, 0, 0}, 0.5, 32)});
+  PipelineOptions o;
+  o.threads = 2;
+  const GvdResult r = compute_gvd(scene, o);
+  for (const GvdCell& c : r.gvd.cells) EXPECT_EQ(test::count_open_edges(c, 2), 0u);
+  EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd), 0u);
+  Pairs ours;
+  for (const DualEdge& e : r.graph.edges) ours.insert({e.a, e.b});
+  EXPECT_EQ(ours, (Pairs{{0, 1}, {0, 2}}));
+  // The core's cell boundary lies between radius 0.5 and 1.5, at 1.0, up to the polygons'
+  // tessellation (~0.003) and the chords of the local cells (these are large here: nothing is
+  // close).
+  for (const Vec3& p : r.gvd.cells[1].positions) {
+    const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
+    const double h = std::ldexp(r.domain.side, -r.octree.level[leaf]);
+    EXPECT_NEAR(norm(p), 1.0, 0.005 + 0.1 * h);
+  }
+}
+
+}  // namespace
+}  // namespace gvd
