@@ -296,30 +296,34 @@ Scene make_gears3d(const Gears3dOptions& options) {
 
 Scene make_blades(const BladesOptions& options) {
   const double c = options.clearance, t = options.blade_thickness;
-  const double slot_w = t + 2 * c, slot_bottom = 0.8, top = 2.0;
+  const double lip_w = t + 2 * c, cavity_w = t + 2 * options.cavity_clearance;
+  const double slot_bottom = 0.8, top = 2.0, lip_bottom = top - options.lip_height;
   const double centres[3] = {1.0, 2.0, 3.0};
   std::vector<double> xkeys{0.0, 4.0};
   for (double xc : centres) {
-    xkeys.push_back(xc - slot_w / 2);
-    xkeys.push_back(xc + slot_w / 2);
+    for (double w : {lip_w, cavity_w}) {
+      xkeys.push_back(xc - w / 2);
+      xkeys.push_back(xc + w / 2);
+    }
   }
   const auto xs = grid_lines(xkeys, options.cell);
-  const auto ys = grid_lines({0.0, slot_bottom, top}, options.cell);
+  const auto ys = grid_lines({0.0, slot_bottom, lip_bottom, top}, options.cell);
   const auto zs = grid_lines({0.0, 1.0}, options.cell);
-  auto in_slot = [&](int i, int j, int) {
+  auto in_slot = [&](int i, int j) {
     const double xm = 0.5 * (xs[i] + xs[i + 1]), ym = 0.5 * (ys[j] + ys[j + 1]);
     if (ym < slot_bottom) return false;
+    const double half = (ym > lip_bottom ? lip_w : cavity_w) / 2;
     for (double xc : centres)
-      if (std::abs(xm - xc) < slot_w / 2) return true;
+      if (std::abs(xm - xc) < half) return true;
     return false;
   };
   std::vector<SceneObject> objects;
   objects.push_back(rectilinear_solid("block", xs, ys, zs,
-                                      [&](int i, int j, int k) { return !in_slot(i, j, k); }));
+                                      [&](int i, int j, int) { return !in_slot(i, j); }));
   int b = 0;
   for (double xc : centres) {
     const auto bx = grid_lines({xc - t / 2, xc + t / 2}, options.cell);
-    const auto by = grid_lines({slot_bottom + c, 3.0}, options.cell);
+    const auto by = grid_lines({slot_bottom + options.floor_clearance, top, 3.0}, options.cell);
     const auto bz = grid_lines({0.05, 0.95}, options.cell);
     objects.push_back(rectilinear_solid("blade_" + std::to_string(b++), bx, by, bz,
                                         [](int, int, int) { return true; }));

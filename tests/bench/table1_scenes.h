@@ -22,13 +22,19 @@ struct Gears3dOptions {
 };
 Scene make_gears3d(const Gears3dOptions& options = {});
 
-/// A block with three through-slots, a thin blade (knife) standing in each slot with
-/// `clearance` on both sides and below. The scene spans 4 units (x), so clearance 4e-4 is 1e-4
-/// of the scene size. `cell` is the tessellation size of the block and blade faces.
+/// A block with three slots along z, a thin blade (knife, a plate) standing in each. A slot is
+/// a narrow lip at the block's top (`lip_height` high, `clearance` on each side of the blade)
+/// over a wider cavity (`cavity_clearance`); the blade ends `floor_clearance` above the cavity
+/// floor. So the tight places are the lips, not whole faces (whose area would make the leaf
+/// count explode as area / clearance^2). The block spans 4 units in x (the scene 4 x 3
+/// x 1), so clearance 4e-4 is 1e-4 of the scene size. `cell` is the tessellation size.
 struct BladesOptions {
   double clearance = 4e-4;
   double blade_thickness = 0.02;
-  double cell = 0.075;
+  double lip_height = 0.005;
+  double floor_clearance = 0.02;
+  double cavity_clearance = 0.25;
+  double cell = 0.09;
 };
 Scene make_blades(const BladesOptions& options = {});
 

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <queue>
@@ -45,6 +46,11 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
   DistanceField field;
+  auto now = [] { return std::chrono::steady_clock::now(); };
+  auto since = [&](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(now() - t).count();
+  };
+  auto t0 = now();
   field.vertices = enumerate_vertices(octree, threads);
   const size_t nv = field.vertices.size();
   const size_t nl = octree.leaf_count();
@@ -95,6 +101,8 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     if (field.exact[v]) nonempty.push_back(static_cast<uint32_t>(v));
   field.exact_count = nonempty.size();
 
+  field.seconds_topology = since(t0);
+  t0 = now();
   // Initialisation: exact closest point of every non-empty vertex.
   field.label.assign(nv, kNoObject);
   field.point.assign(nv, kNoVertex);
@@ -126,6 +134,8 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       512);
   for (uint8_t r : reused) field.exact_reused += r;
 
+  field.seconds_init = since(t0);
+  t0 = now();
   // Wavefront expansion (Algorithm 1): Dijkstra-like in the distance to the assigned point.
   check_cancel(options);
   std::vector<double> d2(nv, std::numeric_limits<double>::infinity());
@@ -160,6 +170,8 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       }
     }
   }
+  field.seconds_wavefront = since(t0);
+  t0 = now();
   if (!options.exact_near_gvd) return field;
 
   // Exact closest points on the vertices of leaves the GVD crosses (see DistanceOptions).
@@ -209,6 +221,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       d2[v] = hits[i].dist2;
     }
   }
+  field.seconds_exact = since(t0);
   return field;
 }
 

@@ -17,6 +17,13 @@ struct Piece {
   Vec3 p[3];
   ObjectId object;
   ObjectId other;
+  Vec3 witness;  // a point on an object near the piece: bounds the clearance search
+};
+
+// Where a cell's pieces go, with the witness for all of them.
+struct Sink {
+  std::vector<Piece>& out;
+  Vec3 witness;
 };
 
 // A bisector point on a polygon edge and the labels / positions of the edge's ends, in the
@@ -58,8 +65,9 @@ class CellSurfacer {
     return out;
   }
 
-  void cell(uint32_t leaf, std::vector<Piece>& out) const {
+  void cell(uint32_t leaf, std::vector<Piece>& pieces) const {
     const LeafGrid grid = leaf_grid(octree_, field_.vertices, leaf);
+    Sink out{pieces, field_.closest[field_.point[grid[0]]]};
     bool mixed = false;
     const ObjectId first = field_.label[grid[0]];
     for (uint32_t v : grid)
@@ -72,18 +80,18 @@ class CellSurfacer {
   }
 
  private:
-  static void emit(std::vector<Piece>& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {
+  static void emit(Sink& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {
     if (obj == kNoObject || obj == kManyObjects) return;
     if (a == b || b == c || a == c) return;  // collapsed: removing it keeps the surface closed
-    out.push_back({{a, b, c}, obj, other});
+    out.out.push_back({{a, b, c}, obj, other, out.witness});
   }
-  static void emit(std::vector<Piece>& out, Vec3 a, Vec3 b, ObjectId obj, ObjectId other) {
+  static void emit(Sink& out, Vec3 a, Vec3 b, ObjectId obj, ObjectId other) {
     if (obj == kNoObject || obj == kManyObjects) return;
     if (a == b) return;
-    out.push_back({{a, b, Vec3{}}, obj, other});
+    out.out.push_back({{a, b, Vec3{}}, obj, other, out.witness});
   }
 
-  void cell_2d(uint32_t leaf, const LeafGrid& grid, bool mixed, std::vector<Piece>& out) const {
+  void cell_2d(uint32_t leaf, const LeafGrid& grid, bool mixed, Sink& out) const {
     detail::FacePolygon poly;
     detail::for_each_face_polygon(octree_, grid, leaf,
                                   [&](const detail::FacePolygon& p) { poly = p; });
@@ -118,7 +126,7 @@ class CellSurfacer {
     }
   }
 
-  void cell_3d(uint32_t leaf, const LeafGrid& grid, bool mixed, std::vector<Piece>& out) const {
+  void cell_3d(uint32_t leaf, const LeafGrid& grid, bool mixed, Sink& out) const {
     detail::FacePolygon polys[24];
     PolygonGvd gvds[24];
     int np = 0;
@@ -183,8 +191,7 @@ class CellSurfacer {
   // The part of a domain face nearer to each object closes that object's cell: a fan from the
   // face's bisector centroid (or its centre) over the polygon edges, split at bisectors,
   // oriented into the domain.
-  void domain_face(const detail::FacePolygon& poly, const PolygonGvd& g,
-                   std::vector<Piece>& out) const {
+  void domain_face(const detail::FacePolygon& poly, const PolygonGvd& g, Sink& out) const {
     Vec3 centre;
     if (g.n > 0) {
       centre = g.centroid;
@@ -217,18 +224,17 @@ class CellSurfacer {
 };
 
 struct Corner {
-  ObjectId object, other;
   Vec3 p;
+  ObjectId object, other;
   uint32_t piece;
   uint8_t k;
 };
 
+// Sorted by position first, so every distinct point is one run (its clearance is computed
+// once) and, within it, one vertex per (object, other object).
 bool corner_less(const Corner& a, const Corner& b) {
-  return std::tie(a.object, a.other, a.p.x, a.p.y, a.p.z) <
-         std::tie(b.object, b.other, b.p.x, b.p.y, b.p.z);
-}
-bool corner_same(const Corner& a, const Corner& b) {
-  return a.object == b.object && a.other == b.other && a.p == b.p;
+  return std::tie(a.p.x, a.p.y, a.p.z, a.object, a.other) <
+         std::tie(b.p.x, b.p.y, b.p.z, b.object, b.other);
 }
 
 }  // namespace
@@ -269,40 +275,55 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   for (uint32_t i = 0; i < pieces.size(); ++i) {
     for (int k = 0; k < arity; ++k) {
       corners.push_back(
-          {pieces[i].object, pieces[i].other, pieces[i].p[k], i, static_cast<uint8_t>(k)});
+          {pieces[i].p[k], pieces[i].object, pieces[i].other, i, static_cast<uint8_t>(k)});
     }
   }
   std::sort(corners.begin(), corners.end(), corner_less);
+
+  // Exact clearance once per distinct point; the pieces' witnesses bound the search.
+  std::vector<size_t> run_start;
+  for (size_t i = 0; i < corners.size(); ++i) {
+    if (i == 0 || corners[i].p != corners[i - 1].p) run_start.push_back(i);
+  }
+  run_start.push_back(corners.size());
+  const size_t runs = run_start.size() - 1;
+  std::vector<double> run_clearance(runs);
+  parallel_for(
+      runs, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t r = b; r < e; ++r) {
+          const Vec3 p = corners[run_start[r]].p;
+          double bound2 = 1e300;
+          for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
+            bound2 = std::min(bound2, dist2(p, pieces[corners[i].piece].witness));
+          const ClosestHit hit = bvh.nearest(p, bound2);
+          run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
+        }
+      },
+      1024);
 
   Gvd gvd;
   gvd.dimension = dim;
   gvd.cells.resize(geometry.object_count);
   for (uint32_t o = 0; o < geometry.object_count; ++o) gvd.cells[o].object = o;
   std::vector<uint32_t> index_of(pieces.size() * arity);
-  for (size_t i = 0; i < corners.size(); ++i) {
-    const Corner& c = corners[i];
-    GvdCell& cell = gvd.cells[c.object];
-    if (i == 0 || !corner_same(c, corners[i - 1])) {
-      cell.positions.push_back(c.p);  // unit coordinates for now
-      cell.other.push_back(c.other);
+  for (size_t r = 0; r < runs; ++r) {
+    const Vec3 user = domain.from_unit(corners[run_start[r]].p);
+    for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
+      const Corner& c = corners[i];
+      GvdCell& cell = gvd.cells[c.object];
+      if (i == run_start[r] || c.object != corners[i - 1].object ||
+          c.other != corners[i - 1].other) {
+        cell.positions.push_back(user);
+        cell.other.push_back(c.other);
+        cell.clearance.push_back(run_clearance[r]);
+      }
+      index_of[c.piece * arity + c.k] = static_cast<uint32_t>(cell.positions.size() - 1);
     }
-    index_of[c.piece * arity + c.k] = static_cast<uint32_t>(cell.positions.size() - 1);
   }
   for (uint32_t i = 0; i < pieces.size(); ++i) {
     GvdCell& cell = gvd.cells[pieces[i].object];
     for (int k = 0; k < arity; ++k) cell.indices.push_back(index_of[i * arity + k]);
-  }
-
-  // Exact clearance at every vertex, then user units.
-  for (GvdCell& cell : gvd.cells) {
-    cell.clearance.resize(cell.positions.size());
-    parallel_for(cell.positions.size(), threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i) {
-        const ClosestHit hit = bvh.nearest(cell.positions[i]);
-        cell.clearance[i] = std::sqrt(hit.dist2) * domain.side;
-        cell.positions[i] = domain.from_unit(cell.positions[i]);
-      }
-    });
   }
   return gvd;
 }

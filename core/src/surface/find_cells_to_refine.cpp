@@ -69,11 +69,30 @@ bool is_ambiguous(const Octree& octree, const DistanceField& field, const LeafGr
   return false;
 }
 
-// True when a GVD point of the leaf is nearer to an object it does not claim (see
-// RefineOptions): an edge bisector to an object other than the edge's two labels, a face or
-// cell centroid to an object that no vertex of the leaf carries.
+// Unseen when another object is nearer to p than every object p claims (`allowed`), by more
+// than `margin`: in 3D a twentieth of the cell (thinner slivers along junction lines are below
+// the resolution), in 2D a hair (junctions are points, cheap to resolve); exact ties (e.g. a
+// bisector on an octree plane) never count. `claimed2` bounds the search.
+bool nearer_unclaimed(const UnitGeometry& geometry, const SimplexBvh& bvh, Vec3 p, double claimed2,
+                      const ObjectId* allowed, int na, double margin) {
+  auto ok = [&](uint32_t s) {
+    return std::find(allowed, allowed + na, geometry.object_of[s]) != allowed + na;
+  };
+  const ClosestHit hit = bvh.nearest(p, claimed2);
+  if (!hit.found() || ok(hit.simplex)) return false;
+  const double d = std::sqrt(hit.dist2) + margin;
+  return !bvh.nearest_if(p, ok, d * d).found();
+}
+
+double unseen_margin(int dimension, double size) { return (dimension == 2 ? 1e-9 : 0.05) * size; }
+
+// The per-cell part of the unseen test (RefineOptions): true when a face or cell centroid of
+// the GVD is nearer to an object that no vertex of the leaf carries. The edge bisectors are
+// tested once per edge by the caller: their edges (smaller vertex << 32 | larger) are appended
+// to `edges`.
 bool has_unseen_object(const Octree& octree, const DistanceField& field, const LeafGrid& grid,
-                       uint32_t leaf, const UnitGeometry& geometry, const SimplexBvh& bvh) {
+                       uint32_t leaf, const UnitGeometry& geometry, const SimplexBvh& bvh,
+                       std::vector<uint64_t>& edges) {
   ObjectId labels[27];
   int nl = 0;
   for (uint32_t v : grid) {
@@ -82,21 +101,14 @@ bool has_unseen_object(const Octree& octree, const DistanceField& field, const L
     if (std::find(labels, labels + nl, l) == labels + nl) labels[nl++] = l;
   }
   if (nl < 2) return false;
-  // Unseen when another object is nearer than every object the point claims, by more than a
-  // margin: in 3D a twentieth of the leaf (thinner slivers along junction lines are below the
-  // resolution), in 2D a hair; exact ties (e.g. a bisector on an octree plane) never count.
   const Box box = octree.box(leaf);
-  // In 2D junctions are points and cheap to resolve, so only exact ties are tolerated.
-  const double margin = (octree.dimension == 2 ? 1e-9 : 0.05) * (box.hi.x - box.lo.x);
-  // `allowed`: the objects the GVD point is supposed to be nearest to.
-  auto unseen = [&](Vec3 p, double claimed2, const ObjectId* allowed, int na) {
-    auto ok = [&](uint32_t s) {
-      return std::find(allowed, allowed + na, geometry.object_of[s]) != allowed + na;
-    };
-    const ClosestHit hit = bvh.nearest(p, claimed2);
-    if (!hit.found() || ok(hit.simplex)) return false;
-    const double d = std::sqrt(hit.dist2) + margin;
-    return !bvh.nearest_if(p, ok, d * d).found();
+  const double margin = unseen_margin(octree.dimension, box.hi.x - box.lo.x);
+  // The cell's vertices' closest points bound the nearest-object search at a centroid.
+  auto bound_at = [&](Vec3 q) {
+    double b = 1e300;
+    for (uint32_t v : grid)
+      if (v != kNoVertex) b = std::min(b, dist2(q, field.closest[field.point[v]]));
+    return b;
   };
   bool found = false;
   Vec3 all;
@@ -105,24 +117,22 @@ bool has_unseen_object(const Octree& octree, const DistanceField& field, const L
     if (found) return;
     Vec3 sum;
     int n = 0;
-    for (int i = 0; i < poly.n && !found; ++i) {
+    for (int i = 0; i < poly.n; ++i) {
       const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
       if (field.label[v] == field.label[w]) continue;
-      const Vec3 p = detail::bisector_point(field, v, w);
-      const double claimed = std::max(dist2(p, field.closest[field.point[v]]),
-                                      dist2(p, field.closest[field.point[w]]));
-      const ObjectId pair[2] = {field.label[v], field.label[w]};
-      found = unseen(p, claimed, pair, 2);
-      sum = sum + p;
+      edges.push_back(v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v));
+      sum = sum + detail::bisector_point(field, v, w);
       ++n;
     }
-    if (!found && n > 0) {
-      found = unseen(sum / n, 1e300, labels, nl);
+    if (n > 0) {
+      found = nearer_unclaimed(geometry, bvh, sum / n, bound_at(sum / n), labels, nl, margin);
       all = all + sum;
       count += n;
     }
   });
-  if (!found && octree.dimension == 3 && count > 0) found = unseen(all / count, 1e300, labels, nl);
+  if (!found && octree.dimension == 3 && count > 0) {
+    found = nearer_unclaimed(geometry, bvh, all / count, bound_at(all / count), labels, nl, margin);
+  }
   return found;
 }
 
@@ -135,30 +145,79 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
   // 0 = fine, 1 = ambiguous, 2 = foreign label in a non-empty leaf, 3 = unseen object;
   // +4 when at the limit.
   std::vector<uint8_t> flag(n, 0);
-  parallel_for(n, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) {
-      const uint32_t leaf = static_cast<uint32_t>(i);
-      const LeafGrid grid = leaf_grid(octree, field.vertices, leaf);
-      const ObjectId obj = octree.object[leaf];
-      uint8_t f = 0;
-      if (obj != kNoObject && obj != kManyObjects) {
-        for (uint32_t v : grid)
-          if (v != kNoVertex && field.label[v] != obj) f = 2;
+  const bool check_unseen = options.geometry != nullptr && options.bvh != nullptr;
+  // (edge, leaf) pairs of the leaves whose bisectors still need the unseen test.
+  const size_t grain = 1024;
+  std::vector<std::vector<std::pair<uint64_t, uint32_t>>> edge_chunks((n + grain - 1) / grain + 1);
+  parallel_for(
+      n, threads,
+      [&](size_t b, size_t e, int) {
+        std::vector<uint64_t> edges;
+        auto& pairs = edge_chunks[b / grain];
+        for (size_t i = b; i < e; ++i) {
+          const uint32_t leaf = static_cast<uint32_t>(i);
+          const LeafGrid grid = leaf_grid(octree, field.vertices, leaf);
+          const ObjectId obj = octree.object[leaf];
+          uint8_t f = 0;
+          if (obj != kNoObject && obj != kManyObjects) {
+            for (uint32_t v : grid)
+              if (v != kNoVertex && field.label[v] != obj) f = 2;
+          }
+          if (f == 0 && obj != kManyObjects && is_ambiguous(octree, field, grid, leaf)) f = 1;
+          if (f == 0 && obj == kNoObject && check_unseen) {
+            edges.clear();
+            if (has_unseen_object(octree, field, grid, leaf, *options.geometry, *options.bvh,
+                                  edges)) {
+              f = 3;
+            } else {
+              for (uint64_t edge : edges) pairs.push_back({edge, leaf});
+            }
+          }
+          int limit = octree.max_depth;
+          if (f == 1 && options.base != nullptr) {
+            const uint32_t base_leaf = options.base->locate(octree.box(leaf).center());
+            limit = std::min(limit, options.base->level[base_leaf] + options.ambiguity_levels);
+          }
+          if (f != 0 && octree.level[leaf] >= limit) f |= 4;
+          flag[i] = f;
+        }
+      },
+      grain);
+  if (check_unseen) {
+    // Each transition edge is shared by up to 4 leaves and 2 faces of each: test it once.
+    std::vector<std::pair<uint64_t, uint32_t>> pairs;
+    for (auto& c : edge_chunks) pairs.insert(pairs.end(), c.begin(), c.end());
+    std::sort(pairs.begin(), pairs.end());
+    std::vector<size_t> starts;
+    for (size_t i = 0; i < pairs.size(); ++i)
+      if (i == 0 || pairs[i].first != pairs[i - 1].first) starts.push_back(i);
+    starts.push_back(pairs.size());
+    std::vector<uint8_t> flagged(starts.size() - 1, 0);
+    parallel_for(
+        flagged.size(), threads,
+        [&](size_t b, size_t e, int) {
+          for (size_t k = b; k < e; ++k) {
+            const uint64_t edge = pairs[starts[k]].first;
+            const uint32_t v = static_cast<uint32_t>(edge >> 32);
+            const uint32_t w = static_cast<uint32_t>(edge);
+            const Vec3 p = detail::bisector_point(field, v, w);
+            const double claimed = std::max(dist2(p, field.closest[field.point[v]]),
+                                            dist2(p, field.closest[field.point[w]]));
+            const ObjectId pair[2] = {field.label[v], field.label[w]};
+            const double length = dist(field.vertices.position(v), field.vertices.position(w));
+            flagged[k] = nearer_unclaimed(*options.geometry, *options.bvh, p, claimed, pair, 2,
+                                          unseen_margin(octree.dimension, length));
+          }
+        },
+        256);
+    for (size_t k = 0; k < flagged.size(); ++k) {
+      if (!flagged[k]) continue;
+      for (size_t i = starts[k]; i < starts[k + 1]; ++i) {
+        const uint32_t leaf = pairs[i].second;
+        if (flag[leaf] == 0) flag[leaf] = octree.level[leaf] >= octree.max_depth ? 3 | 4 : 3;
       }
-      if (f == 0 && obj != kManyObjects && is_ambiguous(octree, field, grid, leaf)) f = 1;
-      if (f == 0 && obj == kNoObject && options.geometry != nullptr && options.bvh != nullptr &&
-          has_unseen_object(octree, field, grid, leaf, *options.geometry, *options.bvh)) {
-        f = 3;
-      }
-      int limit = octree.max_depth;
-      if (f == 1 && options.base != nullptr) {
-        const uint32_t base_leaf = options.base->locate(octree.box(leaf).center());
-        limit = std::min(limit, options.base->level[base_leaf] + options.ambiguity_levels);
-      }
-      if (f != 0 && octree.level[leaf] >= limit) f |= 4;
-      flag[i] = f;
     }
-  });
+  }
   RefineReport report;
   for (size_t i = 0; i < n; ++i) {
     const uint8_t f = flag[i];
