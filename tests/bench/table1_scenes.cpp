@@ -339,9 +339,12 @@ Scene make_polygons2d(const Polygons2dOptions& options) {
   std::vector<int> cells(static_cast<size_t>(g) * g);
   for (size_t i = 0; i < cells.size(); ++i) cells[i] = static_cast<int>(i);
   std::shuffle(cells.begin(), cells.end(), rng);
-  std::vector<bool> is_pair(cells.size(), false);
-  for (int i = 0; i < options.pairs && i < static_cast<int>(cells.size()); ++i)
-    is_pair[cells[i]] = true;
+  if (options.pairs + options.empty > static_cast<int>(cells.size()))
+    throw std::runtime_error("polygons2d: more pairs and empty cells than cells");
+  enum Kind : uint8_t { kSingle, kPair, kEmpty };
+  std::vector<Kind> kind(cells.size(), kSingle);
+  for (int i = 0; i < options.pairs; ++i) kind[cells[i]] = kPair;
+  for (int i = 0; i < options.empty; ++i) kind[cells[options.pairs + i]] = kEmpty;
 
   // A random polygon around c of radius <= r: convex (on a circle) or star-shaped.
   auto random_polygon = [&](const std::string& label, Vec3 c, double r) {
@@ -359,13 +362,14 @@ Scene make_polygons2d(const Polygons2dOptions& options) {
   };
 
   std::vector<SceneObject> objects;
-  std::vector<double> pair_gaps;
   int pair_index = 0;
   for (int cy = 0; cy < g; ++cy) {
     for (int cx = 0; cx < g; ++cx) {
       const Vec3 lo{cx * s, cy * s, 0};
       const std::string base = "p" + std::to_string(cy) + "_" + std::to_string(cx);
-      if (!is_pair[static_cast<size_t>(cy) * g + cx]) {
+      const Kind k = kind[static_cast<size_t>(cy) * g + cx];
+      if (k == kEmpty) continue;
+      if (k == kSingle) {
         const double r = s * uniform(rng, 0.2, 0.42);
         const double slack = 0.46 * s - r;
         const Vec3 c = lo + Vec3{0.5 * s + uniform(rng, -slack, slack),
@@ -374,23 +378,23 @@ Scene make_polygons2d(const Polygons2dOptions& options) {
         continue;
       }
       // Two polygons side by side, the right one pushed left until the gap is reached.
-      // Gaps are log-spaced over the pairs (in seeded cell order), largest first.
+      // Gaps are log-spaced over the pairs (in raster order of the cells), largest first.
       const double f =
           options.pairs > 1 ? static_cast<double>(pair_index) / (options.pairs - 1) : 1;
       ++pair_index;
       const double target = options.max_gap * std::pow(options.min_gap / options.max_gap, f);
       const double cyy = 0.5 * s + uniform(rng, -0.1, 0.1) * s;
       SceneObject left =
-          random_polygon(base + "a", lo + Vec3{0.27 * s, cyy, 0}, s * uniform(rng, 0.15, 0.22));
+          random_polygon(base + "a", lo + Vec3{0.25 * s, cyy, 0}, s * uniform(rng, 0.12, 0.2));
       SceneObject right =
-          random_polygon(base + "b", lo + Vec3{0.73 * s, cyy, 0}, s * uniform(rng, 0.15, 0.22));
+          random_polygon(base + "b", lo + Vec3{0.75 * s, cyy, 0}, s * uniform(rng, 0.12, 0.2));
       double d = polyline_distance_2d(left, right);
+      if (d < target) throw std::runtime_error("polygons2d: max_gap larger than a pair's gap");
       for (int it = 0; it < 2000 && d > target * 1.01; ++it) {
         translate(right, {-(d - target), 0, 0});  // moves by d - target: never closer than target
         d = polyline_distance_2d(left, right);
       }
       if (!(d >= target * 0.999)) throw std::runtime_error("polygons2d: pair pushed too far");
-      pair_gaps.push_back(d);
       objects.push_back(std::move(left));
       objects.push_back(std::move(right));
     }

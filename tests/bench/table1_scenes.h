@@ -29,7 +29,7 @@ Scene make_gears3d(const Gears3dOptions& options = {});
 /// count explode as area / clearance^2). The block spans 4 units in x (the scene 4 x 3
 /// x 1), so clearance 4e-4 is 1e-4 of the scene size. `cell` is the tessellation size.
 struct BladesOptions {
-  double clearance = 4e-4;
+  double clearance = 3.5e-3;
   double blade_thickness = 0.02;
   double lip_height = 0.005;
   double floor_clearance = 0.02;
@@ -38,16 +38,18 @@ struct BladesOptions {
 };
 Scene make_blades(const BladesOptions& options = {});
 
-/// 2D: `grid` x `grid` cells of the unit square, one random convex or star polygon per cell;
-/// `pairs` cells hold two polygons instead, pushed together until their gap is log-uniform in
-/// [min_gap, max_gap] (unit square = scene size). Throws if any two segments of different
-/// polygons (or non-adjacent segments of one polygon) intersect.
+/// 2D: `grid` x `grid` cells of the unit square, one random convex or star polygon per cell,
+/// except `empty` cells left free (gaps up to ~1e-1) and `pairs` cells holding two polygons
+/// pushed together until their gap is log-spaced in [min_gap, max_gap] (unit square = scene
+/// size). Objects: grid^2 - empty + pairs. Throws if any two segments of different polygons
+/// (or non-adjacent segments of one polygon) intersect.
 struct Polygons2dOptions {
   uint64_t seed = 13;
   int grid = 20;
-  int pairs = 70;
+  int pairs = 75;
+  int empty = 5;
   double min_gap = 1e-7;
-  double max_gap = 1e-2;
+  double max_gap = 2e-3;
   int min_sides = 5;
   int max_sides = 16;
 };

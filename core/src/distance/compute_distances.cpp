@@ -134,21 +134,60 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       512);
   for (uint8_t r : reused) field.exact_reused += r;
 
+  // Warm start from the previous field (refinement): every vertex that existed keeps its
+  // closest point, and only the neighbourhood of new vertices is expanded again. Old values
+  // are valid upper bounds (real points on objects), so the expansion only improves them.
+  std::vector<uint32_t> prev_of;
+  if (previous != nullptr) {
+    prev_of.assign(nv, kNoVertex);
+    const uint32_t offset = static_cast<uint32_t>(field.closest.size());
+    field.closest.insert(field.closest.end(), previous->closest.begin(), previous->closest.end());
+    parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+      for (size_t v = b; v < e; ++v) {
+        const uint32_t pv = previous->vertices.find(field.vertices.key[v]);
+        prev_of[v] = pv;
+        if (pv == kNoVertex || field.point[v] != kNoVertex) continue;
+        if (previous->point[pv] == kNoVertex) continue;
+        field.point[v] = offset + previous->point[pv];
+        field.label[v] = previous->label[pv];
+        field.exact[v] = previous->exact[pv];
+      }
+    });
+  }
+
   field.seconds_init = since(t0);
   t0 = now();
   // Wavefront expansion (Algorithm 1): Dijkstra-like in the distance to the assigned point.
   check_cancel(options);
   std::vector<double> d2(nv, std::numeric_limits<double>::infinity());
-  using Item = std::pair<double, uint32_t>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
-  for (uint32_t v : nonempty) {
-    d2[v] = dist2(field.vertices.position(v), field.closest[field.point[v]]);
-    queue.push({d2[v], v});
-  }
   std::vector<Vec3> position(nv);
   parallel_for(nv, threads, [&](size_t b, size_t e, int) {
-    for (size_t v = b; v < e; ++v) position[v] = field.vertices.position(static_cast<uint32_t>(v));
+    for (size_t v = b; v < e; ++v) {
+      position[v] = field.vertices.position(static_cast<uint32_t>(v));
+      if (field.point[v] != kNoVertex) d2[v] = dist2(position[v], field.closest[field.point[v]]);
+    }
   });
+  using Item = std::pair<double, uint32_t>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  if (previous == nullptr) {
+    for (uint32_t v : nonempty) queue.push({d2[v], v});
+  } else {
+    // Seeds: the boundary vertices of every leaf that has a new vertex.
+    std::vector<uint8_t> seeded(nv, 0);
+    for (size_t l = 0; l < nl; ++l) {
+      bool fresh = false;
+      for (uint32_t k = leaf_verts.begin[l]; k < leaf_verts.begin[l + 1] && !fresh; ++k)
+        fresh = prev_of[leaf_verts.items[k]] == kNoVertex;
+      if (!fresh) continue;
+      for (uint32_t k = leaf_verts.begin[l]; k < leaf_verts.begin[l + 1]; ++k) {
+        const uint32_t v = leaf_verts.items[k];
+        if (!seeded[v] && field.point[v] != kNoVertex) {
+          seeded[v] = 1;
+          queue.push({d2[v], v});
+        }
+      }
+    }
+  }
   uint64_t pops = 0;
   while (!queue.empty()) {
     const auto [dv, v] = queue.top();
@@ -222,6 +261,33 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     }
   }
   field.seconds_exact = since(t0);
+
+  // Which vertices differ from the previous field (new, or another closest point), so that
+  // later passes can skip untouched leaves; then drop closest points nobody references.
+  field.changed.assign(nv, 1);
+  if (previous != nullptr) {
+    parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+      for (size_t v = b; v < e; ++v) {
+        const uint32_t pv = prev_of[v];
+        if (pv == kNoVertex || field.point[v] == kNoVertex || previous->point[pv] == kNoVertex)
+          continue;
+        field.changed[v] = field.label[v] != previous->label[pv] ||
+                           field.closest[field.point[v]] != previous->closest[previous->point[pv]];
+      }
+    });
+  }
+  std::vector<uint32_t> remap(field.closest.size(), kNoVertex);
+  for (size_t v = 0; v < nv; ++v)
+    if (field.point[v] != kNoVertex) remap[field.point[v]] = 0;
+  uint32_t used = 0;
+  for (uint32_t& r : remap)
+    if (r != kNoVertex) r = used++;
+  std::vector<Vec3> compact(used);
+  for (size_t i = 0; i < remap.size(); ++i)
+    if (remap[i] != kNoVertex) compact[remap[i]] = field.closest[i];
+  for (size_t v = 0; v < nv; ++v)
+    if (field.point[v] != kNoVertex) field.point[v] = remap[field.point[v]];
+  field.closest = std::move(compact);
   return field;
 }
 

@@ -83,6 +83,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   ro.geometry = &r.geometry;
   ro.bvh = &bvh;
   for (;;) {
+    ro.changed_only = rounds > 0;
     report = find_cells_to_refine(r.octree, r.field, ro);
     const bool split_ambiguous = rounds < ambiguity_rounds;
     if ((report.foreign.empty() && report.unseen.empty() &&
@@ -98,9 +99,21 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
       for (uint32_t leaf : report.leaves) splits.push_back(cell_of(r.octree, leaf));
     }
     for (uint32_t leaf : report.unseen) splits.push_back(cell_of(r.octree, leaf));
+    if (dim == 2) {
+      // Junctions are points in 2D: splitting two levels at once halves the rounds and costs
+      // little (the flagged leaves are few).
+      const size_t first_level = splits.size();
+      for (size_t i = 0; i < first_level; ++i)
+        for (uint32_t c = 0; c < 4; ++c) splits.push_back(child_cell(2, splits[i], c));
+    }
     r.octree = refine_octree(r.octree, r.geometry, splits, oo);
     DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field);
     r.field = std::move(next);
+  }
+  if (rounds > 0) {
+    // The last rounds looked only at changed leaves: count what is left over all of them.
+    ro.changed_only = false;
+    report = find_cells_to_refine(r.octree, r.field, ro);
   }
   r.stats.refine_rounds = rounds;
   r.stats.ambiguous_at_limit = report.ambiguous_at_limit + report.leaves.size();

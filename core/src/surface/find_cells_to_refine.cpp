@@ -157,6 +157,11 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
         for (size_t i = b; i < e; ++i) {
           const uint32_t leaf = static_cast<uint32_t>(i);
           const LeafGrid grid = leaf_grid(octree, field.vertices, leaf);
+          if (options.changed_only) {
+            bool changed = false;
+            for (uint32_t v : grid) changed |= v != kNoVertex && field.changed[v];
+            if (!changed) continue;
+          }
           const ObjectId obj = octree.object[leaf];
           uint8_t f = 0;
           if (obj != kNoObject && obj != kManyObjects) {

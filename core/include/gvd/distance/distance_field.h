@@ -18,6 +18,8 @@ struct DistanceField {
   std::vector<uint32_t> point;  ///< per vertex: index into `closest`, kNoVertex if none
   std::vector<Vec3> closest;    ///< closest points on objects (shared between vertices)
   std::vector<uint8_t> exact;   ///< per vertex: 1 = exact closest point
+  /// Per vertex: 1 when new or changed since the `previous` field (all 1 without one).
+  std::vector<uint8_t> changed;
   uint64_t exact_count = 0;     ///< non-empty vertices initialised exactly
   uint64_t exact_reused = 0;    ///< of those, taken from the previous field (refinement)
   uint64_t exact_near_gvd = 0;  ///< empty vertices made exact because the GVD crosses their cell

@@ -46,6 +46,9 @@ struct RefineOptions {
   /// otherwise gain a false edge or miss one. Such leaves go to `unseen`.
   const UnitGeometry* geometry = nullptr;
   const SimplexBvh* bvh = nullptr;
+  /// Only examine leaves with a vertex whose `DistanceField::changed` flag is set (between
+  /// refinement rounds: untouched leaves were already examined). Counts then cover only those.
+  bool changed_only = false;
 };
 RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field,
                                   const RefineOptions& options = {});
