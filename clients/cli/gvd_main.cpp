@@ -40,6 +40,8 @@ compute options:
                              domain box (made a cube); default: bounding box + 5 % padding
   --threads N                worker threads (default: all cores)
   --backend cpu              compute backend (OpenCL arrives in a later release)
+    --contact-depth N          depth at which refinement between touching or intersecting
+                             objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 30000000)
   --max-objects N            object limit (default 100000)
   --max-simplices N          simplex limit (default 20000000)
@@ -126,7 +128,7 @@ int cmd_compute(int argc, char** argv) {
       parse_args(argc, argv, 2,
                  {"-o", "--output", "--graph", "--json", "--save", "--max-depth", "--domain",
                   "--threads", "--backend", "--max-leaves", "--max-objects", "--max-simplices",
-                  "--ambiguity-levels", "--ambiguity-rounds"},
+                  "--ambiguity-levels", "--ambiguity-rounds", "--contact-depth"},
                  {"-q", "--quiet"});
   if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
   const bool quiet = args.has("-q") || args.has("--quiet");
@@ -138,6 +140,7 @@ int cmd_compute(int argc, char** argv) {
 
   PipelineOptions options;
   options.max_depth = args.int_value("--max-depth", 0);
+  options.contact_depth = args.int_value("--contact-depth", 0);
   options.threads = args.int_value("--threads", 0);
   options.max_leaves = args.u64_value("--max-leaves", options.max_leaves);
   options.ambiguity_levels = args.int_value("--ambiguity-levels", options.ambiguity_levels);

@@ -318,8 +318,8 @@ Scene make_blades(const BladesOptions& options) {
     return false;
   };
   std::vector<SceneObject> objects;
-  objects.push_back(rectilinear_solid("block", xs, ys, zs,
-                                      [&](int i, int j, int) { return !in_slot(i, j); }));
+  objects.push_back(
+      rectilinear_solid("block", xs, ys, zs, [&](int i, int j, int) { return !in_slot(i, j); }));
   int b = 0;
   for (double xc : centres) {
     const auto bx = grid_lines({xc - t / 2, xc + t / 2}, options.cell);

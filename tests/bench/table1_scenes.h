@@ -16,8 +16,8 @@ namespace gvd::bench {
 /// Two meshing spur gears (extruded trapezoidal tooth profiles, closed triangle meshes) and a
 /// shaft through a bore of the larger gear. Lengths in scene units; the scene spans ~4.2.
 struct Gears3dOptions {
-  double tooth_gap = 0.02;  ///< least distance between the two gears' profiles
-  double shaft_gap = 0.02;  ///< radial clearance between shaft and bore
+  double tooth_gap = 0.06;  ///< least distance between the two gears' profiles
+  double shaft_gap = 0.06;  ///< radial clearance between shaft and bore
   int samples_per_tooth = 20;
 };
 Scene make_gears3d(const Gears3dOptions& options = {});
@@ -48,7 +48,7 @@ struct Polygons2dOptions {
   int grid = 20;
   int pairs = 75;
   int empty = 5;
-  double min_gap = 1e-7;
+  double min_gap = 3e-7;
   double max_gap = 2e-3;
   int min_sides = 5;
   int max_sides = 16;
@@ -65,7 +65,7 @@ struct SpheresOptions {
   int per_column = 8;
   int rings = 10;
   int segments = 18;
-  double min_gap = 5e-5;
+  double min_gap = 7e-5;
   double max_gap = 5e-2;
 };
 Scene make_spheres(const SpheresOptions& options = {});

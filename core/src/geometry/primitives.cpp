@@ -144,4 +144,71 @@ bool segment_overlaps_box_3d(Vec3 a, Vec3 b, const Box& box, double slack) {
   return true;
 }
 
+double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
+  // Ericson, Real-Time Collision Detection §5.1.9, with degenerate segments handled.
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = dot(d1, d1), e = dot(d2, d2), f = dot(d2, r);
+  double s = 0, t = 0;
+  if (a <= 0 && e <= 0) return dist2(p0, q0);
+  if (a <= 0) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = dot(d1, r);
+    if (e <= 0) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = dot(d1, d2);
+      const double denom = a * e - b * b;
+      s = denom > 0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) {
+        t = 0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return dist2(p0 + d1 * s, q0 + d2 * t);
+}
+
+namespace {
+
+// Does segment [p, q] cross triangle t (Möller–Trumbore, segment parameter in [0, 1])?
+bool segment_crosses_triangle(Vec3 p, Vec3 q, const Vec3 t[3]) {
+  const Vec3 d = q - p;
+  const Vec3 e1 = t[1] - t[0], e2 = t[2] - t[0];
+  const Vec3 h = cross(d, e2);
+  const double det = dot(e1, h);
+  if (det == 0) return false;
+  const double inv = 1.0 / det;
+  const Vec3 s = p - t[0];
+  const double u = dot(s, h) * inv;
+  if (u < 0 || u > 1) return false;
+  const Vec3 w = cross(s, e1);
+  const double v = dot(d, w) * inv;
+  if (v < 0 || u + v > 1) return false;
+  const double x = dot(e2, w) * inv;
+  return x >= 0 && x <= 1;
+}
+
+}  // namespace
+
+double triangle_triangle_dist2(const Vec3 a[3], const Vec3 b[3]) {
+  for (int i = 0; i < 3; ++i) {
+    if (segment_crosses_triangle(a[i], a[(i + 1) % 3], b)) return 0;
+    if (segment_crosses_triangle(b[i], b[(i + 1) % 3], a)) return 0;
+  }
+  double best = 1e300;
+  for (int i = 0; i < 3; ++i) {
+    best = std::min(best, dist2(a[i], closest_point_on_triangle(a[i], b[0], b[1], b[2])));
+    best = std::min(best, dist2(b[i], closest_point_on_triangle(b[i], a[0], a[1], a[2])));
+    for (int j = 0; j < 3; ++j) {
+      best = std::min(best, segment_segment_dist2(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3]));
+    }
+  }
+  return best;
+}
+
 }  // namespace gvd

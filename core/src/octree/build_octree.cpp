@@ -5,6 +5,7 @@
 #include "gvd/common/flat_hash.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
+#include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 
 namespace gvd {
@@ -53,6 +54,39 @@ ObjectId tag_of(const UnitGeometry& g, const uint32_t* begin, const uint32_t* en
     if (g.object_of[*p] != first) return kManyObjects;
   }
   return first;
+}
+
+// Several objects that all touch each other pairwise (an internal tag of the build).
+constexpr ObjectId kTouchingObjects = 0xFFFFFFFDu;
+
+// The objects of a cell with several: up to four, enough to decide contacts exactly in the
+// common cases (more are treated as not all touching).
+struct ObjectSet {
+  ObjectId o[4];
+  int n = 0;
+};
+
+// Tag of a cell from its simplices: kNoObject, the object, kTouchingObjects or kManyObjects.
+ObjectId tag_with_contacts(const UnitGeometry& g, const uint32_t* begin, const uint32_t* end,
+                           const ContactPairs* contacts, ObjectSet& s) {
+  s.n = 0;
+  if (begin == end) return kNoObject;
+  bool overflow = false;
+  for (const uint32_t* p = begin; p != end; ++p) {
+    const ObjectId o = g.object_of[*p];
+    if (std::find(s.o, s.o + s.n, o) != s.o + s.n) continue;
+    if (s.n == 4) {
+      overflow = true;
+      break;
+    }
+    s.o[s.n++] = o;
+  }
+  if (s.n == 1) return s.o[0];
+  if (contacts == nullptr || overflow) return kManyObjects;
+  for (int i = 0; i < s.n; ++i)
+    for (int j = i + 1; j < s.n; ++j)
+      if (!contacts->touching(s.o[i], s.o[j])) return kManyObjects;
+  return kTouchingObjects;
 }
 
 // A set of cells of one level with their simplex lists (CSR).
@@ -124,6 +158,7 @@ struct ChunkResults {
 InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& options, int max_depth,
                                 int threads) {
   const int dim = g.dimension;
+  const int contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
   InternalSets internal(max_depth + 1);
   CellSet current;
   {
@@ -137,20 +172,36 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     check_cancel(options);
     const size_t n = current.size();
     std::vector<ObjectId> tags(n);
-    FlatMap64 tag_of_code(n);
+    std::vector<ObjectSet> sets(n);
+    FlatMap64 index_of_code(n);
     for (size_t i = 0; i < n; ++i) {
-      tags[i] = tag_of(g, current.pool.data() + current.begin[i],
-                       current.pool.data() + current.begin[i + 1]);
-      tag_of_code.set(current.codes[i], tags[i]);
+      tags[i] =
+          tag_with_contacts(g, current.pool.data() + current.begin[i],
+                            current.pool.data() + current.begin[i + 1], options.contacts, sets[i]);
+      index_of_code.set(current.codes[i], static_cast<uint32_t>(i));
     }
     if (level == max_depth) break;
+    const bool at_contact = level >= contact_depth;
+    // Does object a need separating from the objects of cell j? Not when they all touch a and
+    // the contact depth is reached.
+    auto must_separate = [&](ObjectId a, size_t j) {
+      const ObjectId t = tags[j];
+      if (t == a) return false;
+      if (!at_contact || options.contacts == nullptr || t == kManyObjects) return true;
+      if (t == kTouchingObjects) {
+        for (int k = 0; k < sets[j].n; ++k)
+          if (sets[j].o[k] != a && !options.contacts->touching(a, sets[j].o[k])) return true;
+        return false;
+      }
+      return !options.contacts->touching(a, t);
+    };
     std::vector<uint8_t> split(n, 0);
     for (size_t i = 0; i < n; ++i) {
-      bool s = tags[i] == kManyObjects;
-      if (!s) {
+      bool s = tags[i] == kManyObjects || (tags[i] == kTouchingObjects && !at_contact);
+      if (!s && tags[i] != kTouchingObjects) {
         for_each_face_neighbour(dim, current.codes[i], level, [&](uint64_t nc) {
-          const uint32_t t = tag_of_code.find(nc);
-          if (t != FlatMap64::kMissing && t != tags[i]) s = true;
+          const uint32_t j = index_of_code.find(nc);
+          if (j != FlatMap64::kMissing && must_separate(tags[i], j)) s = true;
         });
       }
       split[i] = s ? 1 : 0;
@@ -348,6 +399,11 @@ int resolve_max_depth(int dimension, int requested) {
                     std::to_string(limit) + " for " + std::to_string(dimension) + "D");
   }
   return requested;
+}
+
+int resolve_contact_depth(int dimension, int requested, int max_depth) {
+  const int depth = requested > 0 ? requested : (dimension == 2 ? 14 : 8);
+  return std::min(depth, max_depth);
 }
 
 uint32_t Octree::locate(Vec3 u) const {

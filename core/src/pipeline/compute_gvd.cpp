@@ -1,8 +1,10 @@
 #include <chrono>
+#include <cmath>
 #include <set>
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/surface/extract_gvd.h"
 
@@ -48,7 +50,14 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
 
   progress("octree", 0);
   sw = Stopwatch();
+  // Objects closer than a couple of finest cells cannot be separated: find those pairs first,
+  // so that refinement between them stops at the contact depth.
+  const int max_depth = resolve_max_depth(dim, options.max_depth);
+  const ContactPairs contacts = find_contact_pairs(
+      r.geometry, bvh, 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth), options.threads);
   OctreeOptions oo;
+  oo.contacts = &contacts;
+  oo.contact_depth = options.contact_depth;
   oo.max_depth = options.max_depth;
   oo.max_leaves = options.max_leaves;
   oo.threads = options.threads;
@@ -82,6 +91,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
                                                       : 2;
   ro.geometry = &r.geometry;
   ro.bvh = &bvh;
+  ro.contacts = &contacts;
+  ro.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
   for (;;) {
     ro.changed_only = rounds > 0;
     report = find_cells_to_refine(r.octree, r.field, ro);
@@ -93,8 +104,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     }
     ++rounds;
     progress("ambiguity", std::min(0.99, rounds / 8.0));
-    std::vector<CellRef> splits =
-        plan_separation_splits(r.octree, r.geometry, bvh, report.foreign, options.threads);
+    std::vector<CellRef> splits = plan_separation_splits(
+        r.octree, r.geometry, bvh, report.foreign, options.threads, &contacts, ro.contact_depth);
     if (split_ambiguous) {
       for (uint32_t leaf : report.leaves) splits.push_back(cell_of(r.octree, leaf));
     }
@@ -141,26 +152,19 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
       {"graph", sw.seconds(), r.graph.edges.size() * sizeof(DualEdge), r.graph.edges.size()});
 
   // Warnings found by the computation itself.
-  if (report.touching_leaves > 0) {
-    std::set<std::pair<ObjectId, ObjectId>> pairs;
-    for (size_t i = 0; i < r.octree.leaf_count(); ++i) {
-      if (r.octree.object[i] != kManyObjects) continue;
-      std::set<ObjectId> objs;
-      for (uint32_t k = r.octree.simplex_begin[i]; k < r.octree.simplex_begin[i + 1]; ++k)
-        objs.insert(r.geometry.object_of[r.octree.simplex_index[k]]);
-      for (auto a = objs.begin(); a != objs.end(); ++a)
-        for (auto b = std::next(a); b != objs.end(); ++b) pairs.insert({*a, *b});
-    }
-    std::string detail = "objects closer than the finest cell (touching or intersecting):";
+  if (!contacts.empty()) {
+    std::string detail =
+        "objects that touch or intersect (closer than the finest cells can separate); their "
+        "cells are separated only down to the contact depth:";
     int listed = 0;
-    for (const auto& [a, b] : pairs) {
+    for (const auto& [a, b] : contacts.pairs()) {
       if (++listed > 20) {
         detail += " ...";
         break;
       }
       detail += " " + scene.objects[a].label + "/" + scene.objects[b].label;
     }
-    scene.warnings.push_back({"objects_touch", "", pairs.size(), detail});
+    scene.warnings.push_back({"objects_touch", "", contacts.pairs().size(), detail});
   }
   if (r.stats.ambiguous_at_limit > 0) {
     scene.warnings.push_back({"ambiguous_cells_left", "", r.stats.ambiguous_at_limit,

@@ -165,8 +165,13 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
           const ObjectId obj = octree.object[leaf];
           uint8_t f = 0;
           if (obj != kNoObject && obj != kManyObjects) {
-            for (uint32_t v : grid)
-              if (v != kNoVertex && field.label[v] != obj) f = 2;
+            const bool at_contact =
+                options.contacts != nullptr && octree.level[leaf] >= options.contact_depth;
+            for (uint32_t v : grid) {
+              if (v == kNoVertex || field.label[v] == obj) continue;
+              if (at_contact && options.contacts->touching(obj, field.label[v])) continue;
+              f = 2;
+            }
           }
           if (f == 0 && obj != kManyObjects && is_ambiguous(octree, field, grid, leaf)) f = 1;
           if (f == 0 && obj == kNoObject && check_unseen) {
@@ -253,7 +258,8 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
 
 std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
                                             const SimplexBvh& bvh, std::span<const uint32_t> leaves,
-                                            int threads) {
+                                            int threads, const ContactPairs* contacts,
+                                            int contact_depth) {
   threads = resolve_threads(threads);
   const int dim = octree.dimension;
   const uint32_t nchildren = 1u << dim;
@@ -297,7 +303,10 @@ std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeom
                 for (int a = 0; a < dim; ++a)
                   if (k & (1u << a)) corner[a] = box.hi[a];
                 const ClosestHit hit = bvh.nearest(corner);
-                foreign = hit.found() && geometry.object_of[hit.simplex] != obj;
+                if (!hit.found()) continue;
+                const ObjectId near = geometry.object_of[hit.simplex];
+                foreign = near != obj && !(contacts != nullptr && child.level >= contact_depth &&
+                                           contacts->touching(obj, near));
               }
               if (foreign) stack.push_back({child, std::move(inside)});
             }

@@ -235,6 +235,33 @@ TEST(ComputeGvd, IntersectingBoxesStayClosed) {
   EXPECT_TRUE(warned);
 }
 
+TEST(ComputeGvd, TouchingObjectsAtTheDefaultDepthStayCheapAndClosed) {
+  // Intersecting boxes, and boxes stacked face to face: refining to the depth limit (21)
+  // along the contact would need billions of cells; the contact depth bounds it.
+  for (int variant = 0; variant < 2; ++variant) {
+    std::vector<SceneObject> objects{test::make_box("a", {0, 0, 0}, {1, 1, 1})};
+    if (variant == 0) {
+      objects.push_back(test::make_box("b", {0.5, 0.5, 0.5}, {1.5, 1.5, 1.5}));
+    } else {
+      objects.push_back(test::make_box("b", {0, 0, 1}, {1, 1, 2}));
+    }
+    objects.push_back(test::make_box("c", {1.7, 0, 0}, {2.5, 1, 1}));
+    auto r = run(test::make_scene(3, objects));
+    EXPECT_LT(r.octree.leaf_count(), 300000u);
+    for (const GvdCell& cell : r.gvd.cells) EXPECT_EQ(test::count_open_edges(cell, 3), 0u);
+    std::string touching;
+    for (const auto& w : r.scene.warnings)
+      if (w.kind == "objects_touch") touching = w.detail;
+    EXPECT_NE(touching.find("a/b"), std::string::npos) << touching;
+    EXPECT_EQ(touching.find("/c"), std::string::npos) << touching;
+    // c is separate: its cell boundary crosses no object.
+    Gvd only_c;
+    only_c.dimension = 3;
+    only_c.cells.push_back(r.gvd.cells[2]);
+    EXPECT_EQ(test::count_gvd_object_crossings(r.scene, only_c), 0u);
+  }
+}
+
 TEST(ComputeGvd, SingleObjectCellIsTheDomainBox) {
   auto r = run(test::make_scene(3, {test::make_sphere("only", {0, 0, 0}, 1)}));
   expect_valid(r);

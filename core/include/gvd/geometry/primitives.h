@@ -22,6 +22,13 @@ bool triangle_overlaps_box(Vec3 a, Vec3 b, Vec3 c, const Box& box, double slack)
 /// Conservative overlap test of a closed 2D segment (z ignored) and a closed box (x, y).
 bool segment_overlaps_box_2d(Vec3 a, Vec3 b, const Box& box, double slack);
 
+/// Squared distance between segments [p0, p1] and [q0, q1] (3D; 2D data has z = 0).
+double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1);
+
+/// Squared distance between two triangles (0 when they intersect): the minimum over
+/// vertex-triangle and edge-edge pairs, with an exact crossing test for the intersecting case.
+double triangle_triangle_dist2(const Vec3 a[3], const Vec3 b[3]);
+
 /// Overlap of a segment and a box in 3D (slab test on the inflated box).
 bool segment_overlaps_box_3d(Vec3 a, Vec3 b, const Box& box, double slack);
 

@@ -12,6 +12,8 @@
 
 namespace gvd {
 
+class ContactPairs;
+
 /// Progress report of a long stage: stage name and fraction done in [0, 1].
 using ProgressFn = std::function<void(const std::string& stage, double fraction)>;
 
@@ -26,7 +28,14 @@ struct OctreeOptions {
   int threads = 0;
   /// Set to true by another thread to stop with gvd::Error{kCancelled}.
   const std::atomic<bool>* cancel = nullptr;
+  /// Object pairs that touch or intersect (find_contact_pairs). Splits that only separate
+  /// such a pair stop at `contact_depth` (<= 0: 14 in 2D, 8 in 3D; at most max_depth).
+  const ContactPairs* contacts = nullptr;
+  int contact_depth = 0;
 };
+
+/// Resolved contact depth (applies the defaults, clamps to the max depth).
+int resolve_contact_depth(int dimension, int requested, int max_depth);
 
 /// Resolved maximum depth for a dimension (applies the defaults, clamps to the lattice).
 int resolve_max_depth(int dimension, int requested);

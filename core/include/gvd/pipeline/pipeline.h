@@ -20,7 +20,10 @@ inline constexpr uint32_t kAlgorithmVersion = 1;
 /// Options of the whole computation.
 struct PipelineOptions {
   DomainOptions domain;
-  int max_depth = 0;                 ///< 0 = default (2D 26, 3D 21)
+  int max_depth = 0;  ///< 0 = default (2D 26, 3D 21)
+  /// Depth at which refinement between touching/intersecting objects stops (0 = default:
+  /// 14 in 2D, 8 in 3D).
+  int contact_depth = 0;
   uint64_t max_leaves = 30'000'000;  ///< limit on octree leaves
   int max_refine_rounds = 48;        ///< refinement rounds for the separation guarantee
   /// Rounds that also split ambiguous cells (§5); < 0 picks the default: all rounds in 2D

@@ -6,6 +6,7 @@
 
 #include "gvd/distance/distance_field.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"
 #include "gvd/surface/gvd.h"
@@ -49,6 +50,10 @@ struct RefineOptions {
   /// Only examine leaves with a vertex whose `DistanceField::changed` flag is set (between
   /// refinement rounds: untouched leaves were already examined). Counts then cover only those.
   bool changed_only = false;
+  /// Touching object pairs: a leaf of one of them is not split for a vertex labelled by the
+  /// other below `contact_depth` (they cannot be separated there).
+  const ContactPairs* contacts = nullptr;
+  int contact_depth = 0;
 };
 RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field,
                                   const RefineOptions& options = {});
@@ -59,7 +64,8 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
 /// would otherwise take one global refinement round per level.
 std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
                                             const SimplexBvh& bvh, std::span<const uint32_t> leaves,
-                                            int threads = 0);
+                                            int threads = 0, const ContactPairs* contacts = nullptr,
+                                            int contact_depth = 0);
 
 /// Options of the surfacing stage.
 struct SurfaceOptions {

@@ -1,0 +1,42 @@
+#pragma once
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "gvd/common/flat_hash.h"
+#include "gvd/geometry/simplex_bvh.h"
+#include "gvd/scene/scene.h"
+
+namespace gvd {
+
+/// Pairs of objects that touch or intersect: their surfaces come closer than a tolerance
+/// (normally the finest cell, which could never separate them). Refinement that only serves
+/// to separate such a pair stops at a contact depth instead of the depth limit, so touching
+/// objects cost cells along their contact, not 2^depth of them.
+class ContactPairs {
+ public:
+  ContactPairs() = default;
+  explicit ContactPairs(const std::vector<std::pair<ObjectId, ObjectId>>& pairs);
+
+  bool touching(ObjectId a, ObjectId b) const {
+    if (a == b || set_.size() == 0) return false;
+    if (a > b) std::swap(a, b);
+    return set_.contains(uint64_t{a} << 32 | b);
+  }
+  /// The pairs, a < b, sorted.
+  const std::vector<std::pair<ObjectId, ObjectId>>& pairs() const { return pairs_; }
+  bool empty() const { return pairs_.empty(); }
+
+ private:
+  std::vector<std::pair<ObjectId, ObjectId>> pairs_;
+  FlatMap64 set_;
+};
+
+/// Finds the object pairs whose simplices come within `tolerance` (unit domain) of each other,
+/// intersecting included. BVH candidates (boxes within the tolerance), then exact
+/// segment/triangle distances; each pair is confirmed once. O(M log M + candidate pairs).
+ContactPairs find_contact_pairs(const UnitGeometry& geometry, const SimplexBvh& bvh,
+                                double tolerance, int threads = 0);
+
+}  // namespace gvd
