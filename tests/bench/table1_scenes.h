@@ -14,7 +14,8 @@
 namespace gvd::bench {
 
 /// Two meshing spur gears (extruded trapezoidal tooth profiles, closed triangle meshes) and a
-/// shaft through a bore of the larger gear. Lengths in scene units; the scene spans ~4.2.
+/// shaft through a bore of the larger gear. Lengths in scene units; the scene spans ~4.3 and
+/// its default domain 4.68, so the default gaps are 1.3e-2 of the domain: depth 8 (Table 1).
 struct Gears3dOptions {
   double tooth_gap = 0.06;  ///< least distance between the two gears' profiles
   double shaft_gap = 0.06;  ///< radial clearance between shaft and bore
@@ -26,8 +27,9 @@ Scene make_gears3d(const Gears3dOptions& options = {});
 /// a narrow lip at the block's top (`lip_height` high, `clearance` on each side of the blade)
 /// over a wider cavity (`cavity_clearance`); the blade ends `floor_clearance` above the cavity
 /// floor. So the tight places are the lips, not whole faces (whose area would make the leaf
-/// count explode as area / clearance^2). The block spans 4 units in x (the scene 4 x 3
-/// x 1), so clearance 4e-4 is 1e-4 of the scene size. `cell` is the tessellation size.
+/// count explode as area / clearance^2). The scene is 4 x 3 x 1 (domain 4.4). The default
+/// clearance, 8e-4 of the domain, gives depth 12 (Table 1); clearance 4e-4 (1e-4 of the scene)
+/// gives depth 15 and ~4.6M leaves. `cell` is the tessellation size (~14k triangles).
 struct BladesOptions {
   double clearance = 3.5e-3;
   double blade_thickness = 0.02;
@@ -41,8 +43,9 @@ Scene make_blades(const BladesOptions& options = {});
 /// 2D: `grid` x `grid` cells of the unit square, one random convex or star polygon per cell,
 /// except `empty` cells left free (gaps up to ~1e-1) and `pairs` cells holding two polygons
 /// pushed together until their gap is log-spaced in [min_gap, max_gap] (unit square = scene
-/// size). Objects: grid^2 - empty + pairs. Throws if any two segments of different polygons
-/// (or non-adjacent segments of one polygon) intersect.
+/// size; the domain is 1.093). Objects: grid^2 - empty + pairs. The default min_gap (2.7e-7 of
+/// the domain) gives depth 24 (Table 1). Throws if any two segments of different polygons (or
+/// non-adjacent segments of one polygon) intersect.
 struct Polygons2dOptions {
   uint64_t seed = 13;
   int grid = 20;
@@ -57,8 +60,9 @@ Scene make_polygons2d(const Polygons2dOptions& options = {});
 
 /// 3D: UV spheres (`rings` x `segments`, 324 triangles by default) in vertical columns on a
 /// jittered square lattice of pitch 1. Within a column the spheres are pole to pole, so the
-/// mesh gap is exactly the vertical gap, log-uniform in [min_gap, max_gap] (scene units; the
-/// scene spans ~5.5). Spheres of different columns are checked by bounding spheres.
+/// mesh gap is exactly the vertical gap, log-spaced in [min_gap, max_gap] and shuffled (scene
+/// units; the domain is ~7.0, so the default min_gap is 1e-5 of it). Spheres of different
+/// columns are checked by their bounding spheres.
 struct SpheresOptions {
   uint64_t seed = 7;
   int columns = 5;  ///< columns x columns columns
@@ -70,7 +74,7 @@ struct SpheresOptions {
 };
 Scene make_spheres(const SpheresOptions& options = {});
 
-/// Least distance between two closed 2D polylines (vertex lists, implicitly closed). O(n m).
+/// Least distance between two 2D objects (their segments). O(n m).
 double polyline_distance_2d(const SceneObject& a, const SceneObject& b);
 
 }  // namespace gvd::bench

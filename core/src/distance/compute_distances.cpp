@@ -10,6 +10,15 @@
 
 namespace gvd {
 
+LeafGrid DistanceField::grid(const Octree& octree, uint32_t leaf) const {
+  if (leaf_begin.empty()) return leaf_grid(octree, vertices, leaf);
+  LeafGrid g;
+  g.fill(kNoVertex);
+  for (uint32_t k = leaf_begin[leaf]; k < leaf_begin[leaf + 1]; ++k)
+    g[leaf_slot[k]] = leaf_vertex[k];
+  return g;
+}
+
 double DistanceField::distance(uint32_t v) const {
   if (point[v] == kNoVertex) return std::numeric_limits<double>::infinity();
   return gvd::dist(vertices.position(v), closest[point[v]]);
@@ -56,7 +65,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   const size_t nl = octree.leaf_count();
   const int grid_points = dim == 3 ? 27 : 9;
 
-  // Leaf -> boundary vertices (CSR), and its transpose vertex -> incident leaves.
+  // Leaf -> boundary vertices (CSR, kept in the field), and its transpose vertex -> leaves.
   Csr leaf_verts;
   leaf_verts.begin.assign(nl + 1, 0);
   {
@@ -71,11 +80,17 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       leaf_verts.begin[i + 1] = leaf_verts.begin[i] + count;
     }
     leaf_verts.items.resize(leaf_verts.begin[nl]);
-    for (size_t i = 0; i < nl; ++i) {
-      uint32_t pos = leaf_verts.begin[i];
-      for (int k = 0; k < grid_points; ++k)
-        if (grids[i][k] != kNoVertex) leaf_verts.items[pos++] = grids[i][k];
-    }
+    field.leaf_slot.resize(leaf_verts.begin[nl]);
+    parallel_for(nl, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) {
+        uint32_t pos = leaf_verts.begin[i];
+        for (int k = 0; k < grid_points; ++k) {
+          if (grids[i][k] == kNoVertex) continue;
+          field.leaf_slot[pos] = static_cast<uint8_t>(k);
+          leaf_verts.items[pos++] = grids[i][k];
+        }
+      }
+    });
   }
   Csr vert_leaves;
   vert_leaves.begin.assign(nv + 1, 0);
@@ -211,10 +226,10 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   }
   field.seconds_wavefront = since(t0);
   t0 = now();
-  if (!options.exact_near_gvd) return field;
+  const int exact_passes = options.exact_near_gvd ? 16 : 0;
 
   // Exact closest points on the vertices of leaves the GVD crosses (see DistanceOptions).
-  for (int pass = 0; pass < 16; ++pass) {
+  for (int pass = 0; pass < exact_passes; ++pass) {
     check_cancel(options);
     std::vector<std::vector<uint32_t>> marked_chunks((nl + 1023) / 1024 + 1);
     parallel_for(
@@ -288,6 +303,8 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   for (size_t v = 0; v < nv; ++v)
     if (field.point[v] != kNoVertex) field.point[v] = remap[field.point[v]];
   field.closest = std::move(compact);
+  field.leaf_begin = std::move(leaf_verts.begin);
+  field.leaf_vertex = std::move(leaf_verts.items);
   return field;
 }
 

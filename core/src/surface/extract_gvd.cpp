@@ -66,7 +66,7 @@ class CellSurfacer {
   }
 
   void cell(uint32_t leaf, std::vector<Piece>& pieces) const {
-    const LeafGrid grid = leaf_grid(octree_, field_.vertices, leaf);
+    const LeafGrid grid = field_.grid(octree_, leaf);
     Sink out{pieces, field_.closest[field_.point[grid[0]]]};
     bool mixed = false;
     const ObjectId first = field_.label[grid[0]];

@@ -57,6 +57,18 @@ bool is_ambiguous(const Octree& octree, const DistanceField& field, const LeafGr
     if (std::find(roots, roots + nr, r) == roots + nr) roots[nr++] = r;
   }
   if (nr > dim + 1) return true;
+  // In 3D a cell seen by only two objects cannot hide a wrong adjacency: two separate sheets
+  // of one interface are coned separately (one cone per spoke curve), so only junction cells
+  // (three or more objects) are worth refining there.
+  if (dim == 3) {
+    ObjectId seen[27];
+    int ns = 0;
+    for (int i = 0; i < nr; ++i) {
+      const ObjectId l = field.label[grid[roots[i]]];
+      if (std::find(seen, seen + ns, l) == seen + ns) seen[ns++] = l;
+    }
+    if (ns < 3) return false;
+  }
   // Complete: every pair of collapsed nodes joined by an edge.
   bool adjacent[27][27] = {};
   for (int e = 0; e < ne; ++e) {
@@ -156,7 +168,7 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
         auto& pairs = edge_chunks[b / grain];
         for (size_t i = b; i < e; ++i) {
           const uint32_t leaf = static_cast<uint32_t>(i);
-          const LeafGrid grid = leaf_grid(octree, field.vertices, leaf);
+          const LeafGrid grid = field.grid(octree, leaf);
           if (options.changed_only) {
             bool changed = false;
             for (uint32_t v : grid) changed |= v != kNoVertex && field.changed[v];

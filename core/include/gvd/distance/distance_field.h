@@ -27,7 +27,16 @@ struct DistanceField {
   /// exact points near the GVD.
   double seconds_topology = 0, seconds_init = 0, seconds_wavefront = 0, seconds_exact = 0;
 
+  /// The boundary vertices of every leaf (CSR over leaves: vertex ids and their slots in
+  /// the leaf's LeafGrid). Built by compute_distances and kept for the refinement checks and
+  /// the surfacing; empty in a field loaded from disk.
+  std::vector<uint32_t> leaf_begin;
+  std::vector<uint32_t> leaf_vertex;
+  std::vector<uint8_t> leaf_slot;
+
   size_t size() const { return label.size(); }
+  /// The LeafGrid of a leaf, from the CSR when present, else by hash lookups.
+  LeafGrid grid(const Octree& octree, uint32_t leaf) const;
   /// Distance from vertex v to its assigned closest point (unit domain; inf if none).
   double distance(uint32_t v) const;
   size_t memory_bytes() const;
