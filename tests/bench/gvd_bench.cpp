@@ -353,11 +353,21 @@ void print_summary() {
   // Shared-boundary lengths of the matched pairs: ours (polyline in the quadtree) vs exact.
   std::vector<double> rel;
   double shortest = 1e300;
+  std::vector<std::pair<double, std::pair<uint32_t, uint32_t>>> worst;
   for (const auto& [ab, e] : mine) {
     auto it = truth.find(ab);
     if (it == truth.end()) continue;
     shortest = std::min(shortest, it->second->length);
     rel.push_back(std::abs(e->area - it->second->length) / it->second->length);
+    worst.push_back({rel.back(), ab});
+  }
+  std::sort(worst.rbegin(), worst.rend());
+  for (size_t i = 0; i < worst.size() && i < 5; ++i) {
+    const auto ab = worst[i].second;
+    std::fprintf(stderr, "DEBUG %s %s ours %.4g exact %.4g\n",
+                 scene_of(cases()[2]).objects[ab.first].label.c_str(),
+                 scene_of(cases()[2]).objects[ab.second].label.c_str(), mine[ab]->area,
+                 truth[ab]->length);
   }
   if (!rel.empty()) {
     std::sort(rel.begin(), rel.end());
