@@ -350,6 +350,8 @@ void print_summary() {
     if (!mine.count(ab)) only_boost.push_back(p);
   std::printf("pairs: ours %zu, boost %zu, in both %zu, only ours %zu, only boost %zu\n",
               mine.size(), truth.size(), both, only_ours.size(), only_boost.size());
+  const Scene& scene = scene_of(cases()[2]);
+  auto label = [&](uint32_t i) { return scene.objects[i].label.c_str(); };
   // Shared-boundary lengths of the matched pairs: ours (polyline in the quadtree) vs exact.
   std::vector<double> rel;
   double shortest = 1e300;
@@ -361,23 +363,19 @@ void print_summary() {
     rel.push_back(std::abs(e->area - it->second->length) / it->second->length);
     worst.push_back({rel.back(), ab});
   }
-  std::sort(worst.rbegin(), worst.rend());
-  for (size_t i = 0; i < worst.size() && i < 5; ++i) {
-    const auto ab = worst[i].second;
-    std::fprintf(stderr, "DEBUG %s %s ours %.4g exact %.4g\n",
-                 scene_of(cases()[2]).objects[ab.first].label.c_str(),
-                 scene_of(cases()[2]).objects[ab.second].label.c_str(), mine[ab]->area,
-                 truth[ab]->length);
-  }
   if (!rel.empty()) {
     std::sort(rel.begin(), rel.end());
     std::printf(
         "matched pairs: shortest exact shared boundary %.3g; |our length - exact| / exact: "
         "median %.3g, 90%% %.3g, max %.3g\n",
         shortest, rel[rel.size() / 2], rel[rel.size() * 9 / 10], rel.back());
+    std::sort(worst.rbegin(), worst.rend());
+    for (size_t i = 0; i < worst.size() && i < 3; ++i) {
+      const auto ab = worst[i].second;
+      std::printf("  worst length: %-9s %-9s ours %.3g, exact %.3g\n", label(ab.first),
+                  label(ab.second), mine[ab]->area, truth[ab]->length);
+    }
   }
-  const Scene& scene = scene_of(cases()[2]);
-  auto label = [&](uint32_t i) { return scene.objects[i].label.c_str(); };
   std::sort(only_boost.begin(), only_boost.end(),
             [](auto* x, auto* y) { return x->length > y->length; });
   int shown = 0;

@@ -262,6 +262,31 @@ TEST(ComputeGvd, TouchingObjectsAtTheDefaultDepthStayCheapAndClosed) {
   }
 }
 
+TEST(ComputeGvd, NonManifoldAndOpenObjects3D) {
+  // "bowtie": two boxes sharing only an edge, as one object (non-manifold, two components of
+  // faces meeting at the edge); "sheet": a single open quad; "ball" a sphere between them.
+  SceneObject bowtie = test::make_box("bowtie", {0, 0, 0}, {1, 1, 1});
+  const SceneObject second = test::make_box("x", {1, 1, 0}, {2, 2, 1});
+  const uint32_t offset = static_cast<uint32_t>(bowtie.vertices.size());
+  for (const Vec3& v : second.vertices) bowtie.vertices.push_back(v);
+  for (Simplex t : second.simplices) {
+    for (uint32_t& i : t.v) i += offset;
+    bowtie.simplices.push_back(t);
+  }
+  SceneObject sheet;
+  sheet.label = "sheet";
+  sheet.vertices = {{-0.5, -0.5, 1.3}, {2.5, -0.5, 1.3}, {2.5, 2.5, 1.3}, {-0.5, 2.5, 1.3}};
+  sheet.simplices = {{{0, 1, 2}}, {{0, 2, 3}}};
+  auto r =
+      run(test::make_scene(3, {bowtie, sheet, test::make_sphere("ball", {1.8, 0.2, 0.5}, 0.25)}));
+  expect_valid(r);
+  std::set<std::string> kinds;
+  for (const auto& w : r.scene.warnings) kinds.insert(w.kind);
+  EXPECT_TRUE(kinds.count("open_mesh"));
+  EXPECT_EQ(graph_pairs(r.graph),
+            (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {0, 2}, {1, 2}}));
+}
+
 TEST(ComputeGvd, SingleObjectCellIsTheDomainBox) {
   auto r = run(test::make_scene(3, {test::make_sphere("only", {0, 0, 0}, 1)}));
   expect_valid(r);
