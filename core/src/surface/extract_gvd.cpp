@@ -32,6 +32,7 @@ struct Spoke {
   Vec3 p;
   ObjectId label_a, label_b;
   uint64_t edge;  // the octree edge (smaller vertex index << 32 | larger)
+  int ring_edge;  // index i of the polygon edge (v[i], v[i+1]) it lies on
 };
 
 struct PolygonGvd {
@@ -59,6 +60,7 @@ class CellSurfacer {
       s.label_a = la;
       s.label_b = lb;
       s.edge = v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v);
+      s.ring_edge = i;
       sum = sum + s.p;
     }
     if (out.n > 0) out.centroid = sum / out.n;
@@ -97,10 +99,16 @@ class CellSurfacer {
                                   [&](const detail::FacePolygon& p) { poly = p; });
     const PolygonGvd g = mixed ? polygon(poly) : PolygonGvd{};
     // The ring runs counter-clockwise, so label_a lies to the left of bisector -> centroid.
-    for (int i = 0; i < g.n; ++i) {
-      const Spoke& s = g.spokes[i];
-      emit(out, s.p, g.centroid, s.label_a, s.label_b);
-      emit(out, g.centroid, s.p, s.label_b, s.label_a);
+    // Two spokes through their midpoint are one straight segment: emit it whole.
+    if (g.n == 2) {
+      emit(out, g.spokes[0].p, g.spokes[1].p, g.spokes[0].label_a, g.spokes[0].label_b);
+      emit(out, g.spokes[1].p, g.spokes[0].p, g.spokes[0].label_b, g.spokes[0].label_a);
+    } else {
+      for (int i = 0; i < g.n; ++i) {
+        const Spoke& s = g.spokes[i];
+        emit(out, s.p, g.centroid, s.label_a, s.label_b);
+        emit(out, g.centroid, s.p, s.label_b, s.label_a);
+      }
     }
     // Domain box: polygon edges on the boundary, split at their bisector. The polygon runs
     // counter-clockwise, so the cell interior stays on the left.
@@ -174,6 +182,21 @@ class CellSurfacer {
       const bool outward_plus = polys[f].side == 2;
       const int c = find(f);
       const Vec3 rc = count[c] > 0 ? sum[c] / count[c] : Vec3{};
+      if (g.n == 2) {
+        // Two spokes meet at their midpoint in a straight line: one triangle per side instead
+        // of two, with the same edges as the cell across (which merges the same face).
+        const Spoke& s0 = g.spokes[0];
+        const Spoke& s1 = g.spokes[1];
+        if (outward_plus) {
+          emit(out, s0.p, s1.p, rc, s0.label_a, s0.label_b);
+          emit(out, s1.p, s0.p, rc, s0.label_b, s0.label_a);
+        } else {
+          emit(out, s1.p, s0.p, rc, s0.label_a, s0.label_b);
+          emit(out, s0.p, s1.p, rc, s0.label_b, s0.label_a);
+        }
+        if (polys[f].on_domain) domain_face(polys[f], g, out);
+        continue;
+      }
       for (int i = 0; i < g.n; ++i) {
         const Spoke& s = g.spokes[i];
         if (outward_plus) {
@@ -192,6 +215,31 @@ class CellSurfacer {
   // face's bisector centroid (or its centre) over the polygon edges, split at bisectors,
   // oriented into the domain.
   void domain_face(const detail::FacePolygon& poly, const PolygonGvd& g, Sink& out) const {
+    const bool flip = poly.side == 2;  // the ring runs counter-clockwise around +axis
+    if (g.n == 2) {
+      // The straight GVD segment p0 -> p1 splits the face into two convex parts; fan each
+      // from its first point so that the segment itself is an edge (as in the GVD triangles).
+      const Spoke& s0 = g.spokes[0];
+      const Spoke& s1 = g.spokes[1];
+      auto fan = [&](Vec3 from, int first, int last, Vec3 to, ObjectId obj) {
+        Vec3 prev = field_.vertices.position(poly.v[first]);
+        auto tri = [&](Vec3 b, Vec3 c) {
+          if (flip) std::swap(b, c);
+          emit(out, from, b, c, obj, kNoObject);
+        };
+        for (int k = (first + 1) % poly.n;; k = (k + 1) % poly.n) {
+          if (k == (last + 1) % poly.n) break;
+          const Vec3 cur = field_.vertices.position(poly.v[k]);
+          tri(prev, cur);
+          prev = cur;
+        }
+        tri(prev, to);
+      };
+      // Region after spoke 0 (label_b of s0): vertices ring_edge0 + 1 .. ring_edge1.
+      fan(s0.p, (s0.ring_edge + 1) % poly.n, s1.ring_edge, s1.p, s0.label_b);
+      fan(s1.p, (s1.ring_edge + 1) % poly.n, s0.ring_edge, s0.p, s1.label_b);
+      return;
+    }
     Vec3 centre;
     if (g.n > 0) {
       centre = g.centroid;
@@ -199,7 +247,6 @@ class CellSurfacer {
       for (int i = 0; i < poly.n; ++i) centre = centre + field_.vertices.position(poly.v[i]);
       centre = centre / poly.n;
     }
-    const bool flip = poly.side == 2;  // the ring runs counter-clockwise around +axis
     auto tri = [&](Vec3 a, Vec3 b, ObjectId obj) {
       if (flip) std::swap(a, b);
       emit(out, a, b, centre, obj, kNoObject);
