@@ -139,7 +139,22 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
               continue;
             }
           }
-          const ClosestHit hit = closest_for_vertex(bvh, field.vertices.position(v));
+          // The simplices of an incident non-empty leaf bound the search (the paper searches
+          // only cells within reach of them); the BVH then finds the exact closest point.
+          const Vec3 pos = field.vertices.position(v);
+          double bound2 = 1e300;
+          for (uint32_t a = vert_leaves.begin[v]; a < vert_leaves.begin[v + 1]; ++a) {
+            const uint32_t leaf = vert_leaves.items[a];
+            if (octree.simplex_begin.size() <= leaf + 1) break;
+            for (uint32_t k = octree.simplex_begin[leaf]; k < octree.simplex_begin[leaf + 1]; ++k) {
+              const Simplex& t = geometry.simplices[octree.simplex_index[k]];
+              bound2 =
+                  std::min(bound2, dist2(pos, closest_point_on_simplex(geometry.dimension,
+                                                                       geometry.points, t, pos)));
+            }
+            if (bound2 < 1e300) break;
+          }
+          const ClosestHit hit = closest_for_vertex(bvh, pos, bound2 * (1 + 1e-12) + 1e-300);
           GVD_CHECK(hit.found(), "a non-empty vertex must find a closest simplex");
           field.closest[i] = hit.point;
           field.label[v] = geometry.object_of[hit.simplex];
@@ -214,6 +229,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       const uint32_t leaf = vert_leaves.items[a];
       for (uint32_t k = leaf_verts.begin[leaf]; k < leaf_verts.begin[leaf + 1]; ++k) {
         const uint32_t w = leaf_verts.items[k];
+        if (field.exact[w]) continue;  // already holds its true closest point
         const double dw = dist2(position[w], p);
         if (dw < d2[w]) {
           d2[w] = dw;

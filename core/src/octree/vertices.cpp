@@ -47,7 +47,7 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
       keys.push_back(lattice::vertex_key(dim, p));
     }
   }
-    radix_sort(keys);
+  radix_sort(keys);
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   out.index = FlatMap64(keys.size());
   for (size_t i = 0; i < keys.size(); ++i) out.index.set(keys[i], static_cast<uint32_t>(i));

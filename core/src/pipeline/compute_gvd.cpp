@@ -122,8 +122,11 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     r.field = std::move(next);
   }
   if (rounds > 0) {
-    // The last rounds looked only at changed leaves: count what is left over all of them.
+    // The last rounds looked only at changed leaves: count the ambiguity left over all of
+    // them (the other checks have nothing left to find).
     ro.changed_only = false;
+    ro.geometry = nullptr;
+    ro.bvh = nullptr;
     report = find_cells_to_refine(r.octree, r.field, ro);
   }
   r.stats.refine_rounds = rounds;
