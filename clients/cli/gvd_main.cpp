@@ -47,7 +47,9 @@ compute options:
   --max-simplices N          simplex limit (default 20000000)
   --ambiguity-levels N       levels of ambiguity refinement below the §3 octree
                              (default: unlimited in 2D, 2 in 3D)
-  --ambiguity-rounds N       rounds of ambiguity refinement (default: 48 in 2D, 3 in 3D)
+    --ambiguity-rounds N       rounds of ambiguity refinement (default: 48 in 2D, 3 in 3D)
+  --unseen-rounds N          rounds that refine cells hiding a thin region of another object
+                             (default: 48 in 2D, 4 in 3D)
   -q, --quiet                no progress or summary on stderr
 
 Exit codes: 0 ok, 1 internal error, 2 bad command line, 3 invalid input (scene, option or
@@ -128,7 +130,7 @@ int cmd_compute(int argc, char** argv) {
       parse_args(argc, argv, 2,
                  {"-o", "--output", "--graph", "--json", "--save", "--max-depth", "--domain",
                   "--threads", "--backend", "--max-leaves", "--max-objects", "--max-simplices",
-                  "--ambiguity-levels", "--ambiguity-rounds", "--contact-depth"},
+                  "--ambiguity-levels", "--ambiguity-rounds", "--contact-depth", "--unseen-rounds"},
                  {"-q", "--quiet"});
   if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
   const bool quiet = args.has("-q") || args.has("--quiet");
@@ -141,6 +143,7 @@ int cmd_compute(int argc, char** argv) {
   PipelineOptions options;
   options.max_depth = args.int_value("--max-depth", 0);
   options.contact_depth = args.int_value("--contact-depth", 0);
+  options.unseen_rounds = args.int_value("--unseen-rounds", options.unseen_rounds);
   options.threads = args.int_value("--threads", 0);
   options.max_leaves = args.u64_value("--max-leaves", options.max_leaves);
   options.ambiguity_levels = args.int_value("--ambiguity-levels", options.ambiguity_levels);

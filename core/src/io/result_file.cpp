@@ -177,6 +177,7 @@ Json stats_to_value(const ResultStats& s) {
           {"graph_edges", s.graph_edges},
           {"refine_rounds", s.refine_rounds},
           {"ambiguous_at_limit", s.ambiguous_at_limit},
+          {"unseen_left", s.unseen_left},
           {"touching_leaves", s.touching_leaves},
           {"total_seconds", s.total_seconds}};
 }
@@ -761,6 +762,7 @@ ResultStats stats_from_json(std::string_view text) {
     s.graph_edges = j.value("graph_edges", s.graph_edges);
     s.refine_rounds = j.value("refine_rounds", s.refine_rounds);
     s.ambiguous_at_limit = j.value("ambiguous_at_limit", s.ambiguous_at_limit);
+    s.unseen_left = j.value("unseen_left", s.unseen_left);
     s.touching_leaves = j.value("touching_leaves", s.touching_leaves);
     s.total_seconds = j.value("total_seconds", s.total_seconds);
     if (const auto it = j.find("stages"); it != j.end()) {
@@ -809,6 +811,7 @@ std::string result_info_json(const GvdResult& r) {
       {"graph_edges", s.graph_edges},
       {"refine_rounds", s.refine_rounds},
       {"ambiguous_cells_left", s.ambiguous_at_limit},
+      {"thin_regions_left", s.unseen_left},
       {"touching_leaves", s.touching_leaves},
       {"total_seconds", s.total_seconds},
       {"stages", std::move(stages)},

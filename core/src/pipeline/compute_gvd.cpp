@@ -89,6 +89,9 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   ro.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
                         : dim == 2                    ? lattice_bits(2)
                                                       : 2;
+  const int unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
+                            : dim == 2                 ? options.max_refine_rounds
+                                                       : 4;
   ro.geometry = &r.geometry;
   ro.bvh = &bvh;
   ro.contacts = &contacts;
@@ -97,7 +100,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     ro.changed_only = rounds > 0;
     report = find_cells_to_refine(r.octree, r.field, ro);
     const bool split_ambiguous = rounds < ambiguity_rounds;
-    if ((report.foreign.empty() && report.unseen.empty() &&
+    const bool split_unseen = rounds < unseen_rounds;
+    if ((report.foreign.empty() && (!split_unseen || report.unseen.empty()) &&
          (!split_ambiguous || report.leaves.empty())) ||
         rounds >= options.max_refine_rounds) {
       break;
@@ -106,21 +110,24 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     progress("ambiguity", std::min(0.99, rounds / 8.0));
     std::vector<CellRef> splits = plan_separation_splits(
         r.octree, r.geometry, bvh, report.foreign, options.threads, &contacts, ro.contact_depth);
+    // Ambiguous and unseen leaves are split two levels at once: that halves the rounds, and
+    // the flagged leaves are few (in 2D junctions are points; in 3D only junction cells).
+    const size_t planned = splits.size();
     if (split_ambiguous) {
       for (uint32_t leaf : report.leaves) splits.push_back(cell_of(r.octree, leaf));
     }
-    for (uint32_t leaf : report.unseen) splits.push_back(cell_of(r.octree, leaf));
-    if (dim == 2) {
-      // Junctions are points in 2D: splitting two levels at once halves the rounds and costs
-      // little (the flagged leaves are few).
-      const size_t first_level = splits.size();
-      for (size_t i = 0; i < first_level; ++i)
-        for (uint32_t c = 0; c < 4; ++c) splits.push_back(child_cell(2, splits[i], c));
+    if (split_unseen) {
+      for (uint32_t leaf : report.unseen) splits.push_back(cell_of(r.octree, leaf));
     }
+    const size_t flagged_end = splits.size();
+    for (size_t i = planned; i < flagged_end; ++i)
+      for (uint32_t c = 0; c < (1u << dim); ++c) splits.push_back(child_cell(dim, splits[i], c));
     r.octree = refine_octree(r.octree, r.geometry, splits, oo);
     DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field);
     r.field = std::move(next);
   }
+  // The last report holds the thin regions no round resolved (earlier ones were split).
+  r.stats.unseen_left = report.misplaced;
   if (rounds > 0) {
     // The last rounds looked only at changed leaves: count the ambiguity left over all of
     // them (the other checks have nothing left to find).
@@ -168,6 +175,12 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
       detail += " " + scene.objects[a].label + "/" + scene.objects[b].label;
     }
     scene.warnings.push_back({"objects_touch", "", contacts.pairs().size(), detail});
+  }
+  if (r.stats.unseen_left > 0) {
+    scene.warnings.push_back(
+        {"thin_regions_left", "", r.stats.unseen_left,
+         "cells where a GVD point is nearer to an object the cell does not see (a region "
+         "thinner than the cell) after the allowed refinement rounds (--unseen-rounds)"});
   }
   if (r.stats.ambiguous_at_limit > 0) {
     scene.warnings.push_back({"ambiguous_cells_left", "", r.stats.ambiguous_at_limit,

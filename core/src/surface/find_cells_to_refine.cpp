@@ -132,7 +132,13 @@ bool has_unseen_object(const Octree& octree, const DistanceField& field, const L
     for (int i = 0; i < poly.n; ++i) {
       const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
       if (field.label[v] == field.label[w]) continue;
-      edges.push_back(v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v));
+      // Per-edge claims are checked in 2D only: there junctions are points and refining them
+      // converges, while along 3D junction lines a third object's wedge intrudes into a/b
+      // edges at every scale (the check would refine forever); the centroid checks below
+      // still catch regions that no vertex of the cell sees.
+      if (octree.dimension == 2) {
+        edges.push_back(v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v));
+      }
       sum = sum + detail::bisector_point(field, v, w);
       ++n;
     }

@@ -29,6 +29,9 @@ struct PipelineOptions {
   /// Rounds that also split ambiguous cells (§5); < 0 picks the default: all rounds in 2D
   /// (junctions are points, cheap to resolve), 3 in 3D (junctions are lines).
   int ambiguity_rounds = -1;
+  /// Rounds that also split cells hiding an object's thin region (RefineOptions); < 0 picks
+  /// the default: all rounds in 2D (the dual graph is then exact), 4 in 3D.
+  int unseen_rounds = -1;
   /// Levels below the §3 octree to which ambiguity is resolved; < 0 picks the default: down
   /// to max_depth in 2D, 2 in 3D.
   int ambiguity_levels = -1;
@@ -62,6 +65,7 @@ struct ResultStats {
   uint64_t graph_edges = 0;
   int refine_rounds = 0;
   uint64_t ambiguous_at_limit = 0;
+  uint64_t unseen_left = 0;  ///< cells still hiding a thin region (see PipelineOptions)
   uint64_t touching_leaves = 0;
   double total_seconds = 0;
 };

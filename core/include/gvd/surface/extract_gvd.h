@@ -41,10 +41,10 @@ struct RefineOptions {
   const Octree* base = nullptr;  ///< null: ambiguity is resolved down to max_depth
   int ambiguity_levels = 3;
   /// With both set, a leaf the GVD crosses is also split when one of its GVD points has an
-  /// exact nearest object it does not claim — an edge bisector one other than the edge's two
-  /// labels, a face or cell centroid one that no vertex of the leaf carries — by more than a
-  /// twentieth of the leaf: a region hides between the vertices, and the dual graph would
-  /// otherwise gain a false edge or miss one. Such leaves go to `unseen`.
+  /// exact nearest object it does not claim — in 2D an edge bisector one other than the edge's
+  /// two labels; a face or cell centroid one that no vertex of the leaf carries — by more than
+  /// a margin (2D: a hair; 3D: a twentieth of the leaf): a region hides between the vertices, and
+  /// the dual graph would otherwise gain a false edge or miss one. Such leaves go to `unseen`.
   const UnitGeometry* geometry = nullptr;
   const SimplexBvh* bvh = nullptr;
   /// Only examine leaves with a vertex whose `DistanceField::changed` flag is set (between
