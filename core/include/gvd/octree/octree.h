@@ -23,7 +23,7 @@ struct OctreeOptions {
   /// ~1e-7 of the domain), 21 in 3D (~1e-6 of the domain; 21 is also the lattice limit).
   int max_depth = 0;
   /// Upper bound on leaves; exceeding it is gvd::Error{kLimitExceeded} (checked per level).
-  uint64_t max_leaves = 30'000'000;
+  uint64_t max_leaves = 12'000'000;
   /// Worker threads (0 = all cores).
   int threads = 0;
   /// Set to true by another thread to stop with gvd::Error{kCancelled}.
