@@ -1,11 +1,11 @@
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <queue>
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/stopwatch.h"
 #include "gvd/distance/distance_field.h"
 
 namespace gvd {
@@ -55,11 +55,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
   DistanceField field;
-  auto now = [] { return std::chrono::steady_clock::now(); };
-  auto since = [&](std::chrono::steady_clock::time_point t) {
-    return std::chrono::duration<double>(now() - t).count();
-  };
-  auto t0 = now();
+  Stopwatch part;
   field.vertices = enumerate_vertices(octree, threads);
   const size_t nv = field.vertices.size();
   const size_t nl = octree.leaf_count();
@@ -116,8 +112,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     if (field.exact[v]) nonempty.push_back(static_cast<uint32_t>(v));
   field.exact_count = nonempty.size();
 
-  field.seconds_topology = since(t0);
-  t0 = now();
+  field.seconds_topology = part.lap();
   // Initialisation: exact closest point of every non-empty vertex.
   field.label.assign(nv, kNoObject);
   field.point.assign(nv, kNoVertex);
@@ -185,8 +180,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     });
   }
 
-  field.seconds_init = since(t0);
-  t0 = now();
+  field.seconds_init = part.lap();
   // Wavefront expansion (Algorithm 1): Dijkstra-like in the distance to the assigned point.
   check_cancel(options);
   std::vector<double> d2(nv, std::numeric_limits<double>::infinity());
@@ -240,8 +234,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       }
     }
   }
-  field.seconds_wavefront = since(t0);
-  t0 = now();
+  field.seconds_wavefront = part.lap();
   const int exact_passes = options.exact_near_gvd ? 16 : 0;
 
   // Exact closest points on the vertices of leaves the GVD crosses (see DistanceOptions).
@@ -291,7 +284,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       d2[v] = hits[i].dist2;
     }
   }
-  field.seconds_exact = since(t0);
+  field.seconds_exact = part.lap();
 
   // Which vertices differ from the previous field (new, or another closest point), so that
   // later passes can skip untouched leaves; then drop closest points nobody references.

@@ -125,25 +125,6 @@ bool segment_overlaps_box_2d(Vec3 a, Vec3 b, const Box& box, double slack) {
   return std::fabs(s) <= r + eps;
 }
 
-bool segment_overlaps_box_3d(Vec3 a, Vec3 b, const Box& box, double slack) {
-  double t0 = 0, t1 = 1;
-  const Vec3 d = b - a;
-  for (int i = 0; i < 3; ++i) {
-    const double lo = box.lo[i] - slack, hi = box.hi[i] + slack;
-    if (d[i] == 0) {
-      if (a[i] < lo || a[i] > hi) return false;
-      continue;
-    }
-    double ta = (lo - a[i]) / d[i];
-    double tb = (hi - a[i]) / d[i];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-    if (t0 > t1 + 1e-12) return false;
-  }
-  return true;
-}
-
 double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
   // Ericson, Real-Time Collision Detection §5.1.9, with degenerate segments handled.
   const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;

@@ -417,10 +417,6 @@ size_t Octree::structure_bytes() const {
   return code.size() * (sizeof(uint64_t) + sizeof(uint8_t) + sizeof(ObjectId));
 }
 
-size_t Octree::incidence_bytes() const {
-  return (simplex_begin.size() + simplex_index.size()) * sizeof(uint32_t);
-}
-
 Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) {
   const int dim = geometry.dimension;
   GVD_CHECK(dim == 2 || dim == 3, "dimension must be 2 or 3");

@@ -4,25 +4,12 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/stopwatch.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/surface/extract_gvd.h"
 
 namespace gvd {
-namespace {
-
-class Stopwatch {
- public:
-  Stopwatch() : start_(std::chrono::steady_clock::now()) {}
-  double seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
-
- private:
-  std::chrono::steady_clock::time_point start_;
-};
-
-}  // namespace
 
 GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   if (options.backend != "cpu") {

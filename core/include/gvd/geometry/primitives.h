@@ -29,7 +29,4 @@ double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1);
 /// vertex-triangle and edge-edge pairs, with an exact crossing test for the intersecting case.
 double triangle_triangle_dist2(const Vec3 a[3], const Vec3 b[3]);
 
-/// Overlap of a segment and a box in 3D (slab test on the inflated box).
-bool segment_overlaps_box_3d(Vec3 a, Vec3 b, const Box& box, double slack);
-
 }  // namespace gvd

@@ -65,8 +65,6 @@ struct Octree {
   uint32_t locate(Vec3 u) const;
   /// Bytes of the leaf arrays (code, level, object) — the octree proper.
   size_t structure_bytes() const;
-  /// Bytes of the leaf -> simplex incidence (depends on object complexity).
-  size_t incidence_bytes() const;
 };
 
 /// Builds the octree with the paper's SHOULD_SUBDIVIDE (§3): a cell is split when it
