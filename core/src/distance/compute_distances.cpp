@@ -2,11 +2,13 @@
 #include <cmath>
 #include <limits>
 #include <queue>
+#include <tuple>
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/stopwatch.h"
 #include "gvd/distance/distance_field.h"
+#include "gvd/octree/lattice.h"
 
 namespace gvd {
 
@@ -51,24 +53,93 @@ void check_cancel(const DistanceOptions& options) {
 
 DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options,
-                                const DistanceField* previous) {
+                                const DistanceField* previous, const Octree* previous_octree) {
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
   DistanceField field;
   Stopwatch part;
-  field.vertices = enumerate_vertices(octree, threads);
-  const size_t nv = field.vertices.size();
   const size_t nl = octree.leaf_count();
   const int grid_points = dim == 3 ? 27 : 9;
+
+  // Incremental topology after a refinement: the previous vertices keep their indices (new
+  // ones are appended), and leaves that did not change keep their boundary vertices unless a
+  // new vertex appeared on them.
+  const bool incremental = previous != nullptr && previous_octree != nullptr &&
+                           !previous->leaf_begin.empty() &&
+                           previous->leaf_begin.size() == previous_octree->leaf_count() + 1;
+  std::vector<uint32_t> old_leaf;  // per leaf: the same leaf in previous_octree, or kNoVertex
+  uint32_t old_count = 0;
+  if (incremental) {
+    old_leaf.assign(nl, kNoVertex);
+    const Octree& po = *previous_octree;
+    for (size_t i = 0, j = 0; i < nl && j < po.leaf_count();) {
+      if (octree.code[i] < po.code[j]) {
+        ++i;
+      } else if (octree.code[i] > po.code[j]) {
+        ++j;
+      } else {
+        if (octree.level[i] == po.level[j]) old_leaf[i] = static_cast<uint32_t>(j);
+        ++i;
+        ++j;
+      }
+    }
+    field.vertices = previous->vertices;
+    old_count = static_cast<uint32_t>(field.vertices.size());
+    const uint32_t corners = 1u << dim;
+    for (size_t i = 0; i < nl; ++i) {
+      if (old_leaf[i] != kNoVertex) continue;
+      const lattice::Coord c = octree.corner(static_cast<uint32_t>(i));
+      const uint32_t size = static_cast<uint32_t>(lattice::cell_size(dim, octree.level[i]));
+      for (uint32_t k = 0; k < corners; ++k) {
+        lattice::Coord p = c;
+        for (int a = 0; a < dim; ++a)
+          if (k & (1u << a)) p.c[a] += size;
+        const uint64_t key = lattice::vertex_key(dim, p);
+        const uint32_t next = static_cast<uint32_t>(field.vertices.key.size());
+        if (field.vertices.index.insert(key, next) == next) field.vertices.key.push_back(key);
+      }
+    }
+  } else {
+    field.vertices = enumerate_vertices(octree, threads);
+  }
+  const size_t nv = field.vertices.size();
 
   // Leaf -> boundary vertices (CSR, kept in the field), and its transpose vertex -> leaves.
   Csr leaf_verts;
   leaf_verts.begin.assign(nl + 1, 0);
   {
+    // Leaves whose grid must be looked up: all, or after a refinement the new ones and those
+    // touching a new vertex (found by locating the cells around it).
+    std::vector<uint8_t> recompute(nl, 1);
+    if (incremental) {
+      for (size_t i = 0; i < nl; ++i) recompute[i] = old_leaf[i] == kNoVertex;
+      const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
+      for (size_t v = old_count; v < nv; ++v) {
+        const lattice::Coord p = lattice::vertex_coord(dim, field.vertices.key[v]);
+        for (uint32_t o = 0; o < (1u << dim); ++o) {
+          lattice::Coord q = p;
+          bool inside = true;
+          for (int a = 0; a < dim; ++a) {
+            const int64_t x = static_cast<int64_t>(p.c[a]) - ((o >> a) & 1 ? 0 : 1);
+            inside &= x >= 0 && x < limit;
+            q.c[a] = static_cast<uint32_t>(x);
+          }
+          if (inside) recompute[octree.locate_lattice(q)] = 1;
+        }
+      }
+    }
     std::vector<LeafGrid> grids(nl);
     parallel_for(nl, threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i)
-        grids[i] = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
+      for (size_t i = b; i < e; ++i) {
+        if (recompute[i]) {
+          grids[i] = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
+          continue;
+        }
+        const uint32_t ol = old_leaf[i];
+        grids[i].fill(kNoVertex);
+        for (uint32_t k = previous->leaf_begin[ol]; k < previous->leaf_begin[ol + 1]; ++k)
+          grids[i][previous->leaf_slot[k]] = previous->leaf_vertex[k];
+      }
     });
     for (size_t i = 0; i < nl; ++i) {
       uint32_t count = 0;
@@ -125,7 +196,8 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
         for (size_t i = b; i < e; ++i) {
           const uint32_t v = nonempty[i];
           if (previous != nullptr) {
-            const uint32_t pv = previous->vertices.find(field.vertices.key[v]);
+            const uint32_t pv = incremental ? (v < old_count ? v : kNoVertex)
+                                            : previous->vertices.find(field.vertices.key[v]);
             if (pv != kNoVertex && previous->exact[pv]) {
               field.closest[i] = previous->closest[previous->point[pv]];
               field.label[v] = previous->label[pv];
@@ -169,7 +241,8 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     field.closest.insert(field.closest.end(), previous->closest.begin(), previous->closest.end());
     parallel_for(nv, threads, [&](size_t b, size_t e, int) {
       for (size_t v = b; v < e; ++v) {
-        const uint32_t pv = previous->vertices.find(field.vertices.key[v]);
+        const uint32_t pv = incremental ? (v < old_count ? static_cast<uint32_t>(v) : kNoVertex)
+                                        : previous->vertices.find(field.vertices.key[v]);
         prev_of[v] = pv;
         if (pv == kNoVertex || field.point[v] != kNoVertex) continue;
         if (previous->point[pv] == kNoVertex) continue;
@@ -191,10 +264,12 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       if (field.point[v] != kNoVertex) d2[v] = dist2(position[v], field.closest[field.point[v]]);
     }
   });
-  using Item = std::pair<double, uint32_t>;
+  // Ties are broken by the vertex key, not its index, so the result does not depend on how
+  // the vertices happen to be numbered (a fresh enumeration or an incremental update).
+  using Item = std::tuple<double, uint64_t, uint32_t>;
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   if (previous == nullptr) {
-    for (uint32_t v : nonempty) queue.push({d2[v], v});
+    for (uint32_t v : nonempty) queue.push({d2[v], field.vertices.key[v], v});
   } else {
     // Seeds: the boundary vertices of every leaf that has a new vertex.
     std::vector<uint8_t> seeded(nv, 0);
@@ -207,14 +282,14 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
         const uint32_t v = leaf_verts.items[k];
         if (!seeded[v] && field.point[v] != kNoVertex) {
           seeded[v] = 1;
-          queue.push({d2[v], v});
+          queue.push({d2[v], field.vertices.key[v], v});
         }
       }
     }
   }
   uint64_t pops = 0;
   while (!queue.empty()) {
-    const auto [dv, v] = queue.top();
+    const auto [dv, key, v] = queue.top();
     queue.pop();
     if (dv > d2[v]) continue;  // stale entry
     if ((++pops & 0xfffff) == 0) check_cancel(options);
@@ -229,7 +304,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
           d2[w] = dw;
           field.point[w] = field.point[v];
           field.label[w] = field.label[v];
-          queue.push({dw, w});
+          queue.push({dw, field.vertices.key[w], w});
         }
       }
     }
@@ -315,6 +390,34 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   field.leaf_begin = std::move(leaf_verts.begin);
   field.leaf_vertex = std::move(leaf_verts.items);
   return field;
+}
+
+}  // namespace gvd
+
+namespace gvd {
+
+void sort_vertices(DistanceField& field) {
+  const size_t nv = field.vertices.size();
+  std::vector<uint32_t> order(nv);
+  for (size_t i = 0; i < nv; ++i) order[i] = static_cast<uint32_t>(i);
+  const std::vector<uint64_t>& key = field.vertices.key;
+  if (std::is_sorted(key.begin(), key.end())) return;
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+  std::vector<uint32_t> new_index(nv);
+  for (size_t i = 0; i < nv; ++i) new_index[order[i]] = static_cast<uint32_t>(i);
+  auto permute = [&](auto& values) {
+    if (values.size() != nv) return;
+    auto copy = values;
+    for (size_t i = 0; i < nv; ++i) values[i] = copy[order[i]];
+  };
+  permute(field.vertices.key);
+  permute(field.label);
+  permute(field.point);
+  permute(field.exact);
+  permute(field.changed);
+  for (size_t i = 0; i < nv; ++i)
+    field.vertices.index.set(field.vertices.key[i], static_cast<uint32_t>(i));
+  for (uint32_t& v : field.leaf_vertex) v = new_index[v];
 }
 
 }  // namespace gvd

@@ -406,6 +406,13 @@ int resolve_contact_depth(int dimension, int requested, int max_depth) {
   return std::min(depth, max_depth);
 }
 
+uint32_t Octree::locate_lattice(const lattice::Coord& p) const {
+  const uint64_t m = lattice::morton(dimension, p);
+  auto it = std::upper_bound(code.begin(), code.end(), m);
+  GVD_CHECK(it != code.begin(), "octree leaves must tile the domain");
+  return static_cast<uint32_t>(it - code.begin() - 1);
+}
+
 uint32_t Octree::locate(Vec3 u) const {
   const uint64_t m = lattice::morton(dimension, lattice::from_unit(dimension, u));
   auto it = std::upper_bound(code.begin(), code.end(), m);

@@ -109,10 +109,12 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     const size_t flagged_end = splits.size();
     for (size_t i = planned; i < flagged_end; ++i)
       for (uint32_t c = 0; c < (1u << dim); ++c) splits.push_back(child_cell(dim, splits[i], c));
-    r.octree = refine_octree(r.octree, r.geometry, splits, oo);
-    DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field);
+    Octree previous = std::move(r.octree);
+    r.octree = refine_octree(previous, r.geometry, splits, oo);
+    DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field, &previous);
     r.field = std::move(next);
   }
+  sort_vertices(r.field);  // incremental rounds appended vertices
   // The last report holds the thin regions no round resolved (earlier ones were split).
   r.stats.unseen_left = report.misplaced;
   if (rounds > 0) {

@@ -62,8 +62,16 @@ ClosestHit closest_for_vertex(const SimplexBvh& bvh, Vec3 position, double upper
 /// pushes closest points to visible vertices (vertices on the boundary of a common leaf).
 /// `previous` (optional) supplies exact points already computed for the same vertex keys.
 /// Initialisation O(V log M) with the BVH; expansion O(V log V) on a 2:1-balanced tree.
+/// With `previous_octree` (the octree `previous` was computed on, which `octree` refines), the
+/// topology is updated incrementally: vertices keep their indices (new ones are appended, so
+/// keys are no longer sorted — see sort_vertices) and only changed leaves are looked up again.
 DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options = {},
-                                const DistanceField* previous = nullptr);
+                                const DistanceField* previous = nullptr,
+                                const Octree* previous_octree = nullptr);
+
+/// Puts the vertices in key order (as a fresh compute_distances has them), permuting every
+/// per-vertex array and the leaf CSR. O(V log V).
+void sort_vertices(DistanceField& field);
 
 }  // namespace gvd

@@ -63,6 +63,8 @@ struct Octree {
   /// The leaf containing unit point u (points on shared faces go to the upper cell); u must
   /// be inside [0,1]^D (it is clamped). O(log N).
   uint32_t locate(Vec3 u) const;
+  /// The leaf containing the finest lattice cell with lower corner p. O(log N).
+  uint32_t locate_lattice(const lattice::Coord& p) const;
   /// Bytes of the leaf arrays (code, level, object) — the octree proper.
   size_t structure_bytes() const;
 };

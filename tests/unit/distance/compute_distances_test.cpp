@@ -1,0 +1,84 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+
+#include "gvd/distance/distance_field.h"
+#include "support/oracles.h"
+#include "support/scenes.h"
+
+namespace gvd {
+namespace {
+
+struct Setup {
+  Scene scene;
+  Domain domain;
+  UnitGeometry geometry;
+  SimplexBvh bvh;
+  Octree octree;
+};
+
+std::unique_ptr<Setup> setup(Scene scene) {
+  auto s = std::make_unique<Setup>();
+  s->scene = std::move(scene);
+  s->domain = make_domain(s->scene);
+  s->geometry = make_unit_geometry(s->scene, s->domain);
+  s->bvh = SimplexBvh(s->geometry.dimension, s->geometry.points, s->geometry.simplices);
+  s->octree = build_octree(s->geometry);
+  return s;
+}
+
+TEST(ComputeDistances, ExactVerticesMatchBruteForceAndOthersStayWithinThreeHalves) {
+  auto s = setup(test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1, 40),
+                                      test::make_rect("b", {1.01, -0.5, 0}, {2, 0.5, 0})}));
+  const DistanceField f = compute_distances(s->octree, s->geometry, s->bvh);
+  size_t exact = 0;
+  for (uint32_t v = 0; v < f.size(); ++v) {
+    const Vec3 p = s->domain.from_unit(f.vertices.position(v));
+    const auto truth = test::brute_nearest(s->scene, p);
+    const double got = f.distance(v) * s->domain.side;
+    EXPECT_GE(got, truth.distance - 1e-12);
+    EXPECT_LE(got, 1.5 * truth.distance + 1e-12);
+    if (f.exact[v]) {
+      EXPECT_NEAR(got, truth.distance, 1e-12);
+      ++exact;
+    }
+  }
+  EXPECT_GT(exact, 0u);
+}
+
+TEST(ComputeDistances, IncrementalRefinementEqualsAFullRecomputation) {
+  for (int dim : {2, 3}) {
+    auto s =
+        setup(dim == 2 ? test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1, 32),
+                                              test::make_circle("b", {2.01, 0, 0}, 1, 32),
+                                              test::make_circle("c", {1, 1.8, 0}, 0.7, 32)})
+                       : test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                              test::make_sphere("b", {2.02, 0, 0}, 1, 8, 16)}));
+    const DistanceField first = compute_distances(s->octree, s->geometry, s->bvh);
+    // Split every fifth leaf.
+    std::vector<CellRef> splits;
+    for (uint32_t l = 0; l < s->octree.leaf_count(); l += 5)
+      splits.push_back(cell_of(s->octree, l));
+    const Octree refined = refine_octree(s->octree, s->geometry, splits);
+    DistanceField incremental =
+        compute_distances(refined, s->geometry, s->bvh, {}, &first, &s->octree);
+    const DistanceField full = compute_distances(refined, s->geometry, s->bvh, {}, &first);
+    ASSERT_EQ(incremental.size(), full.size());
+    sort_vertices(incremental);
+    for (uint32_t v = 0; v < full.size(); ++v) {
+      ASSERT_EQ(incremental.vertices.key[v], full.vertices.key[v]);
+      EXPECT_EQ(incremental.label[v], full.label[v]) << "vertex " << v;
+      EXPECT_EQ(incremental.exact[v], full.exact[v]) << "vertex " << v;
+      EXPECT_EQ(incremental.closest[incremental.point[v]], full.closest[full.point[v]]);
+    }
+    for (uint32_t l = 0; l < refined.leaf_count(); ++l) {
+      const LeafGrid a = incremental.grid(refined, l);
+      const LeafGrid b = full.grid(refined, l);
+      ASSERT_EQ(a, b) << "leaf " << l;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace gvd
