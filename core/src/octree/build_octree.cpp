@@ -442,20 +442,119 @@ CellRef child_cell(int dimension, CellRef cell, uint32_t child) {
 
 Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
                      std::span<const CellRef> cells_to_split, const OctreeOptions& options) {
+  // Incremental: only the cells that become internal are found (the requested ones, the
+  // ancestors between them and the leaf that holds them, and what 2:1 balance then requires,
+  // rippling outwards), and only the leaves they replace are re-subdivided; every other leaf
+  // is copied with its simplices. O(N) copying + O(new cells x simplices per cell).
   const int dim = octree.dimension;
   const int max_depth = octree.max_depth;
-  const int threads = resolve_threads(options.threads);
-  InternalSets internal(max_depth + 1);
-  for (size_t i = 0; i < octree.leaf_count(); ++i) {
+  check_cancel(options);
+  InternalSets added(max_depth + 1);
+  const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
+  auto internal = [&](uint64_t code, int level) {
+    if (added[level].contains(code)) return true;
+    const uint32_t leaf = octree.locate_lattice(lattice::morton_decode(dim, code));
+    return octree.level[leaf] > level;
+  };
+  std::vector<CellRef> work;
+  auto request = [&](uint64_t code, int level) {
+    if (level >= max_depth || internal(code, level)) return;
+    // The cells between the leaf that holds this one and it become internal too.
+    const uint32_t leaf = octree.locate_lattice(lattice::morton_decode(dim, code));
+    for (int l = octree.level[leaf]; l <= level; ++l) {
+      const uint64_t c = (l == level) ? code : parent_code(dim, code, l + 1);
+      // parent_code(code, l + 1) clears the bits below level l.
+      if (added[l].contains(c)) continue;
+      added[l].insert(c, 0);
+      work.push_back({c, static_cast<uint8_t>(l)});
+    }
+  };
+  for (const CellRef& c : cells_to_split) request(c.code, c.level);
+  while (!work.empty()) {
+    const CellRef p = work.back();
+    work.pop_back();
+    if (p.level == 0) continue;
+    // 2:1 balance: every neighbour of an internal cell must exist, i.e. its parent is internal.
+    const lattice::Coord c = lattice::morton_decode(dim, p.code);
+    const int64_t size = static_cast<int64_t>(lattice::cell_size(dim, p.level));
+    const int kz = dim == 3 ? 1 : 0;
+    for (int dz = -kz; dz <= kz; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size, z = c.c[2] + dz * size;
+          if (x < 0 || y < 0 || z < 0 || x >= limit || y >= limit || (dim == 3 && z >= limit))
+            continue;
+          const lattice::Coord q{
+              {static_cast<uint32_t>(x), static_cast<uint32_t>(y), static_cast<uint32_t>(z)}};
+          request(parent_code(dim, lattice::morton(dim, q), p.level), p.level - 1);
+        }
+  }
+
+  // Copy the leaves that stay; subdivide (depth first, so in Morton order) those that split.
+  Octree tree;
+  tree.dimension = dim;
+  tree.max_depth = max_depth;
+  const size_t n = octree.leaf_count();
+  tree.code.reserve(n);
+  tree.level.reserve(n);
+  tree.object.reserve(n);
+  tree.simplex_begin.reserve(n + 1);
+  tree.simplex_begin.push_back(0);
+  tree.simplex_index.reserve(octree.simplex_index.size());
+  auto emit = [&](uint64_t code, int level, const uint32_t* lb, const uint32_t* le) {
+    tree.code.push_back(code);
+    tree.level.push_back(static_cast<uint8_t>(level));
+    tree.object.push_back(tag_of(geometry, lb, le));
+    tree.simplex_index.insert(tree.simplex_index.end(), lb, le);
+    tree.simplex_begin.push_back(static_cast<uint32_t>(tree.simplex_index.size()));
+    tree.depth = std::max(tree.depth, level);
+  };
+  struct Frame {
+    uint64_t code;
+    int level;
+    std::vector<uint32_t> simplices;
+  };
+  std::vector<Frame> stack;
+  std::vector<uint32_t> scratch;
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t* lb = octree.simplex_index.data() + octree.simplex_begin[i];
+    const uint32_t* le = octree.simplex_index.data() + octree.simplex_begin[i + 1];
     const int level = octree.level[i];
-    if (level > 0) internal[level - 1].insert(parent_code(dim, octree.code[i], level), 0);
+    if (level >= max_depth || !added[level].contains(octree.code[i])) {
+      tree.code.push_back(octree.code[i]);
+      tree.level.push_back(octree.level[i]);
+      tree.object.push_back(octree.object[i]);
+      tree.simplex_index.insert(tree.simplex_index.end(), lb, le);
+      tree.simplex_begin.push_back(static_cast<uint32_t>(tree.simplex_index.size()));
+      tree.depth = std::max(tree.depth, level);
+      continue;
+    }
+    stack.push_back({octree.code[i], level, std::vector<uint32_t>(lb, le)});
+    while (!stack.empty()) {
+      Frame f = std::move(stack.back());
+      stack.pop_back();
+      const bool split = f.level < max_depth && added[f.level].contains(f.code);
+      if (!split) {
+        emit(f.code, f.level, f.simplices.data(), f.simplices.data() + f.simplices.size());
+        continue;
+      }
+      // Children pushed in reverse so that they pop in Morton order.
+      std::vector<Frame> children;
+      split_cell(geometry, f.code, f.level, f.simplices.data(),
+                 f.simplices.data() + f.simplices.size(), scratch,
+                 [&](uint64_t cc, const std::vector<uint32_t>& list) {
+                   children.push_back({cc, f.level + 1, list});
+                 });
+      for (auto it = children.rbegin(); it != children.rend(); ++it)
+        stack.push_back(std::move(*it));
+    }
+    if (tree.code.size() > options.max_leaves) {
+      throw Error(ErrorCode::kLimitExceeded,
+                  "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
+                      " during refinement (raise --max-leaves or lower --max-depth)");
+    }
   }
-  for (const CellRef& c : cells_to_split) {
-    if (c.level < max_depth) internal[c.level].insert(c.code, 0);
-  }
-  close_upwards(dim, internal);
-  balance(dim, internal);
-  return materialize(geometry, internal, max_depth, options, threads);
+  return tree;
 }
 
 }  // namespace gvd

@@ -183,6 +183,34 @@ TEST(BuildOctree, RefineSplitsAndRebalances) {
   expect_balanced(r);
 }
 
+TEST(BuildOctree, ManyRefinementsStayBalancedTiledAndComplete) {
+  for (int dim : {2, 3}) {
+    auto b =
+        build(dim == 2 ? test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1),
+                                              test::make_circle("b", {2.05, 0, 0}, 1)})
+                       : test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                              test::make_sphere("b", {2.05, 0, 0}, 1, 8, 16)}));
+    // Every seventh leaf, plus a cell three levels inside another leaf (its ancestors and the
+    // balance they need must follow).
+    std::vector<CellRef> split;
+    for (uint32_t l = 0; l < b.octree.leaf_count(); l += 7) split.push_back(cell_of(b.octree, l));
+    const uint32_t host = b.octree.locate({0.9, 0.9, dim == 3 ? 0.9 : 0.0});
+    CellRef deep = cell_of(b.octree, host);
+    for (int k = 0; k < 3; ++k) deep = child_cell(dim, deep, (1u << dim) - 1);
+    split.push_back(deep);
+    const Octree r = refine_octree(b.octree, b.geometry, split);
+    expect_tiles_domain(r);
+    expect_balanced(r);
+    Built refined{b.scene, b.domain, b.geometry, r};
+    expect_incidence_complete(refined);
+    for (const CellRef& c : split) {
+      if (c.level >= r.max_depth) continue;
+      const uint32_t leaf = r.locate_lattice(lattice::morton_decode(dim, c.code));
+      EXPECT_GT(r.level[leaf], c.level) << "a requested cell was not split";
+    }
+  }
+}
+
 TEST(BuildOctree, LeafLimitIsEnforced) {
   Built b{test::make_scene(
               2, {test::make_circle("a", {0, 0, 0}, 1), test::make_circle("b", {2.0001, 0, 0}, 1)}),
