@@ -119,6 +119,11 @@ void print_summary(const GvdResult& r, std::FILE* out) {
   for (const StageStats& st : s.stages)
     std::fprintf(out, " %s %.3f s;", st.name.c_str(), st.seconds);
   std::fprintf(out, " total %.3f s\n", s.total_seconds);
+  std::fprintf(out, "  memory:");
+  for (const StageStats& st : s.stages) {
+    if (st.bytes > 0) std::fprintf(out, " %s %.1f MB;", st.name.c_str(), st.bytes / 1e6);
+  }
+  std::fprintf(out, " (data each stage produced)\n");
   for (const SceneWarning& w : r.scene.warnings) {
     std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", w.kind.c_str(),
                  w.object.empty() ? "" : " ", w.object.c_str(),
