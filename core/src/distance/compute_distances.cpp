@@ -85,19 +85,12 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     }
     field.vertices = previous->vertices;
     old_count = static_cast<uint32_t>(field.vertices.size());
-    const uint32_t corners = 1u << dim;
     for (size_t i = 0; i < nl; ++i) {
       if (old_leaf[i] != kNoVertex) continue;
-      const lattice::Coord c = octree.corner(static_cast<uint32_t>(i));
-      const uint32_t size = static_cast<uint32_t>(lattice::cell_size(dim, octree.level[i]));
-      for (uint32_t k = 0; k < corners; ++k) {
-        lattice::Coord p = c;
-        for (int a = 0; a < dim; ++a)
-          if (k & (1u << a)) p.c[a] += size;
-        const uint64_t key = lattice::vertex_key(dim, p);
+      for_each_corner_key(octree, static_cast<uint32_t>(i), [&](uint64_t key) {
         const uint32_t next = static_cast<uint32_t>(field.vertices.key.size());
         if (field.vertices.index.insert(key, next) == next) field.vertices.key.push_back(key);
-      }
+      });
     }
   } else {
     field.vertices = enumerate_vertices(octree, threads);

@@ -176,8 +176,8 @@ Json stats_to_value(const ResultStats& s) {
           {"gvd_simplices", s.gvd_simplices},
           {"graph_edges", s.graph_edges},
           {"refine_rounds", s.refine_rounds},
-          {"ambiguous_at_limit", s.ambiguous_at_limit},
-          {"unseen_left", s.unseen_left},
+          {"ambiguous_cells_left", s.ambiguous_at_limit},
+          {"thin_regions_left", s.unseen_left},
           {"touching_leaves", s.touching_leaves},
           {"total_seconds", s.total_seconds}};
 }
@@ -761,8 +761,8 @@ ResultStats stats_from_json(std::string_view text) {
     s.gvd_simplices = j.value("gvd_simplices", s.gvd_simplices);
     s.graph_edges = j.value("graph_edges", s.graph_edges);
     s.refine_rounds = j.value("refine_rounds", s.refine_rounds);
-    s.ambiguous_at_limit = j.value("ambiguous_at_limit", s.ambiguous_at_limit);
-    s.unseen_left = j.value("unseen_left", s.unseen_left);
+    s.ambiguous_at_limit = j.value("ambiguous_cells_left", s.ambiguous_at_limit);
+    s.unseen_left = j.value("thin_regions_left", s.unseen_left);
     s.touching_leaves = j.value("touching_leaves", s.touching_leaves);
     s.total_seconds = j.value("total_seconds", s.total_seconds);
     if (const auto it = j.find("stages"); it != j.end()) {
@@ -778,45 +778,21 @@ ResultStats stats_from_json(std::string_view text) {
 }
 
 std::string result_info_json(const GvdResult& r) {
-  const ResultStats& s = r.stats;
+  // The stats as stored, plus what describes the scene and domain, and the warnings.
+  Json doc = stats_to_value(r.stats);
   const int dim = r.scene.dimension;
   const Vec3 o = r.domain.origin;
-  Json stages = Json::array();
-  for (const StageStats& st : s.stages) {
-    stages.push_back(
-        {{"name", st.name}, {"seconds", st.seconds}, {"bytes", st.bytes}, {"items", st.items}});
-  }
+  doc["dimension"] = dim;
+  doc["objects"] = r.scene.objects.size();
+  doc["simplices"] = r.scene.simplex_count();
+  doc["domain"] = {{"origin", dim == 2 ? Json::array({o.x, o.y}) : Json::array({o.x, o.y, o.z})},
+                   {"side", r.domain.side}};
   Json warnings = Json::array();
   for (const SceneWarning& w : r.scene.warnings) {
     warnings.push_back(
         {{"kind", w.kind}, {"object", w.object}, {"count", w.count}, {"detail", w.detail}});
   }
-  const Json doc = {
-      {"dimension", dim},
-      {"objects", r.scene.objects.size()},
-      {"simplices", r.scene.simplex_count()},
-      {"domain",
-       {{"origin", dim == 2 ? Json::array({o.x, o.y}) : Json::array({o.x, o.y, o.z})},
-        {"side", r.domain.side}}},
-      {"backend", s.backend},
-      {"threads", s.threads},
-      {"max_depth", s.max_depth},
-      {"depth", s.depth},
-      {"leaves", s.leaves},
-      {"vertices", s.vertices},
-      {"octree_bytes", s.octree_bytes},
-      {"bytes_per_leaf", s.bytes_per_leaf},
-      {"distance_bytes", s.distance_bytes},
-      {"gvd_simplices", s.gvd_simplices},
-      {"graph_edges", s.graph_edges},
-      {"refine_rounds", s.refine_rounds},
-      {"ambiguous_cells_left", s.ambiguous_at_limit},
-      {"thin_regions_left", s.unseen_left},
-      {"touching_leaves", s.touching_leaves},
-      {"total_seconds", s.total_seconds},
-      {"stages", std::move(stages)},
-      {"warnings", std::move(warnings)},
-  };
+  doc["warnings"] = std::move(warnings);
   return doc.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 

@@ -38,14 +38,8 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
   std::vector<uint64_t> keys;
   keys.reserve(octree.leaf_count() * corners);
   for (size_t i = 0; i < octree.leaf_count(); ++i) {
-    const lattice::Coord c = octree.corner(static_cast<uint32_t>(i));
-    const uint32_t size = static_cast<uint32_t>(lattice::cell_size(dim, octree.level[i]));
-    for (uint32_t k = 0; k < corners; ++k) {
-      lattice::Coord p = c;
-      for (int a = 0; a < dim; ++a)
-        if (k & (1u << a)) p.c[a] += size;
-      keys.push_back(lattice::vertex_key(dim, p));
-    }
+    for_each_corner_key(octree, static_cast<uint32_t>(i),
+                        [&](uint64_t key) { keys.push_back(key); });
   }
   radix_sort(keys);
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());

@@ -26,6 +26,20 @@ struct OctreeVertices {
   size_t memory_bytes() const { return key.size() * sizeof(uint64_t) + index.memory_bytes(); }
 };
 
+/// Calls f(key) with the lattice keys of the 2^D corners of a leaf.
+template <class F>
+void for_each_corner_key(const Octree& octree, uint32_t leaf, F&& f) {
+  const int dim = octree.dimension;
+  const lattice::Coord c = octree.corner(leaf);
+  const uint32_t size = static_cast<uint32_t>(lattice::cell_size(dim, octree.level[leaf]));
+  for (uint32_t k = 0; k < (1u << dim); ++k) {
+    lattice::Coord p = c;
+    for (int a = 0; a < dim; ++a)
+      if (k & (1u << a)) p.c[a] += size;
+    f(lattice::vertex_key(dim, p));
+  }
+}
+
 /// Enumerates the vertices of a balanced octree. O(N) expected.
 OctreeVertices enumerate_vertices(const Octree& octree, int threads = 0);
 
