@@ -142,8 +142,12 @@ bool has_unseen_object(const Octree& octree, const DistanceField& field, const L
       sum = sum + detail::bisector_point(field, v, w);
       ++n;
     }
+    // Face centroids in 2D (the cell is the face); in 3D one check at the cell centroid
+    // below is enough to see a region hidden inside, at a sixth of the cost.
     if (n > 0) {
-      found = nearer_unclaimed(geometry, bvh, sum / n, bound_at(sum / n), labels, nl, margin);
+      if (octree.dimension == 2) {
+        found = nearer_unclaimed(geometry, bvh, sum / n, bound_at(sum / n), labels, nl, margin);
+      }
       all = all + sum;
       count += n;
     }
