@@ -3,31 +3,9 @@
 #include <algorithm>
 
 #include "gvd/common/parallel.h"
+#include "gvd/common/radix_sort.h"
 
 namespace gvd {
-
-namespace {
-
-// LSD radix sort of 64-bit keys, 16 bits per pass (4 passes over the data instead of
-// n log n comparisons; the keys are the 8 corners of every leaf, so n is large).
-void radix_sort(std::vector<uint64_t>& keys) {
-  std::vector<uint64_t> tmp(keys.size());
-  std::vector<size_t> count(1 << 16);
-  for (int shift = 0; shift < 64; shift += 16) {
-    std::fill(count.begin(), count.end(), 0);
-    for (uint64_t k : keys) ++count[(k >> shift) & 0xffff];
-    size_t sum = 0;
-    for (size_t& c : count) {
-      const size_t n = c;
-      c = sum;
-      sum += n;
-    }
-    for (uint64_t k : keys) tmp[count[(k >> shift) & 0xffff]++] = k;
-    keys.swap(tmp);
-  }
-}
-
-}  // namespace
 
 OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
   (void)threads;
@@ -41,7 +19,7 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
     for_each_corner_key(octree, static_cast<uint32_t>(i),
                         [&](uint64_t key) { keys.push_back(key); });
   }
-  radix_sort(keys);
+  radix_sort(keys, [](uint64_t k) { return k; });
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   out.index = FlatMap64(keys.size());
   for (size_t i = 0; i < keys.size(); ++i) out.index.set(keys[i], static_cast<uint32_t>(i));

@@ -8,6 +8,7 @@
 #include "cell_faces.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/radix_sort.h"
 
 namespace gvd {
 namespace {
@@ -47,6 +48,12 @@ class CellSurfacer {
       : octree_(octree), field_(field), dim_(octree.dimension) {}
 
   Vec3 bisector(uint32_t v0, uint32_t v1) const { return detail::bisector_point(field_, v0, v1); }
+
+  // The closest point of a spoke's edge end: a point on an object right next to the spoke,
+  // which bounds the clearance search at the pieces made from it.
+  Vec3 witness(const Spoke& s) const {
+    return field_.closest[field_.point[static_cast<uint32_t>(s.edge >> 32)]];
+  }
 
   PolygonGvd polygon(const detail::FacePolygon& poly) const {
     PolygonGvd out;
@@ -101,11 +108,13 @@ class CellSurfacer {
     // The ring runs counter-clockwise, so label_a lies to the left of bisector -> centroid.
     // Two spokes through their midpoint are one straight segment: emit it whole.
     if (g.n == 2) {
+      out.witness = witness(g.spokes[0]);
       emit(out, g.spokes[0].p, g.spokes[1].p, g.spokes[0].label_a, g.spokes[0].label_b);
       emit(out, g.spokes[1].p, g.spokes[0].p, g.spokes[0].label_b, g.spokes[0].label_a);
     } else {
       for (int i = 0; i < g.n; ++i) {
         const Spoke& s = g.spokes[i];
+        out.witness = witness(s);
         emit(out, s.p, g.centroid, s.label_a, s.label_b);
         emit(out, g.centroid, s.p, s.label_b, s.label_a);
       }
@@ -186,6 +195,8 @@ class CellSurfacer {
         // Two spokes meet at their midpoint in a straight line: one triangle per side instead
         // of two, with the same edges as the cell across (which merges the same face).
         const Spoke& s0 = g.spokes[0];
+        out.witness = witness(s0);
+        out.witness = witness(s0);
         const Spoke& s1 = g.spokes[1];
         if (outward_plus) {
           emit(out, s0.p, s1.p, rc, s0.label_a, s0.label_b);
@@ -199,6 +210,7 @@ class CellSurfacer {
       }
       for (int i = 0; i < g.n; ++i) {
         const Spoke& s = g.spokes[i];
+        out.witness = witness(s);
         if (outward_plus) {
           emit(out, s.p, g.centroid, rc, s.label_a, s.label_b);
           emit(out, g.centroid, s.p, rc, s.label_b, s.label_a);
@@ -220,6 +232,7 @@ class CellSurfacer {
       // The straight GVD segment p0 -> p1 splits the face into two convex parts; fan each
       // from its first point so that the segment itself is an edge (as in the GVD triangles).
       const Spoke& s0 = g.spokes[0];
+      out.witness = witness(s0);
       const Spoke& s1 = g.spokes[1];
       auto fan = [&](Vec3 from, int first, int last, Vec3 to, ObjectId obj) {
         Vec3 prev = field_.vertices.position(poly.v[first]);
@@ -277,8 +290,21 @@ struct Corner {
   uint8_t k;
 };
 
-// Sorted by position first, so every distinct point is one run (its clearance is computed
-// once) and, within it, one vertex per (object, other object).
+uint64_t position_hash(Vec3 p) {
+  uint64_t h = 0x9e3779b97f4a7c15ull;
+  for (double d : {p.x, p.y, p.z}) {
+    if (d == 0) d = 0.0;  // -0 and +0 are the same point
+    uint64_t bits;
+    std::memcpy(&bits, &d, sizeof bits);
+    h ^= bits + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+    h *= 0xff51afd7ed558ccdull;
+    h ^= h >> 33;
+  }
+  return h;
+}
+
+// Within a run of equal hashes: by position, so every distinct point is one run (its clearance
+// is computed once) and, within it, one vertex per (object, other object).
 bool corner_less(const Corner& a, const Corner& b) {
   return std::tie(a.p.x, a.p.y, a.p.z, a.object, a.other) <
          std::tie(b.p.x, b.p.y, b.p.z, b.object, b.other);
@@ -325,7 +351,29 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
           {pieces[i].p[k], pieces[i].object, pieces[i].other, i, static_cast<uint8_t>(k)});
     }
   }
-  std::sort(corners.begin(), corners.end(), corner_less);
+  {
+    // Make identical points contiguous: radix sort by a hash of the position, then order each
+    // (tiny) run of equal hashes exactly — much cheaper than sorting the corners themselves.
+    std::vector<std::pair<uint64_t, uint32_t>> keyed(corners.size());
+    parallel_for(corners.size(), threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i)
+        keyed[i] = {position_hash(corners[i].p), static_cast<uint32_t>(i)};
+    });
+    radix_sort(keyed, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; });
+    for (size_t i = 0; i < keyed.size();) {
+      size_t j = i + 1;
+      while (j < keyed.size() && keyed[j].first == keyed[i].first) ++j;
+      if (j - i > 1) {
+        std::sort(keyed.begin() + i, keyed.begin() + j, [&](const auto& a, const auto& b) {
+          return corner_less(corners[a.second], corners[b.second]);
+        });
+      }
+      i = j;
+    }
+    std::vector<Corner> ordered(corners.size());
+    for (size_t i = 0; i < keyed.size(); ++i) ordered[i] = corners[keyed[i].second];
+    corners = std::move(ordered);
+  }
 
   // Exact clearance once per distinct point; the pieces' witnesses bound the search.
   std::vector<size_t> run_start;
