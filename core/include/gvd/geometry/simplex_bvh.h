@@ -61,14 +61,19 @@ template <class Accept>
 ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) const {
   ClosestHit best;
   best.dist2 = max_dist2;
-  if (nodes_.empty()) return best;
-  uint32_t stack[128];
+  if (nodes_.empty() || box_distance2(p, nodes_[0].box) > best.dist2) return best;
+  // Each stack entry carries its box distance, computed once when the parent was visited.
+  struct Entry {
+    uint32_t node;
+    double dist2;
+  };
+  Entry stack[128];
   int top = 0;
-  stack[top++] = 0;
+  stack[top++] = {0, 0.0};
   while (top > 0) {
-    const uint32_t ni = stack[--top];
-    const Node& n = nodes_[ni];
-    if (box_distance2(p, n.box) > best.dist2) continue;
+    const Entry entry = stack[--top];
+    if (entry.dist2 > best.dist2) continue;
+    const Node& n = nodes_[entry.node];
     if (n.count > 0) {
       for (uint32_t k = n.first; k < n.first + n.count; ++k) {
         const uint32_t s = order_[k];
@@ -81,16 +86,16 @@ ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) con
       }
       continue;
     }
-    const uint32_t l = ni + 1, r = n.first;
+    const uint32_t l = entry.node + 1, r = n.first;
     const double dl = box_distance2(p, nodes_[l].box);
     const double dr = box_distance2(p, nodes_[r].box);
     // Push the farther child first so the nearer one is searched first.
     if (dl <= dr) {
-      stack[top++] = r;
-      stack[top++] = l;
+      if (dr <= best.dist2) stack[top++] = {r, dr};
+      if (dl <= best.dist2) stack[top++] = {l, dl};
     } else {
-      stack[top++] = l;
-      stack[top++] = r;
+      if (dl <= best.dist2) stack[top++] = {l, dl};
+      if (dr <= best.dist2) stack[top++] = {r, dr};
     }
   }
   return best;
