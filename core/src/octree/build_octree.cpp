@@ -154,9 +154,17 @@ struct ChunkResults {
   T& at(size_t begin) { return chunks[begin / grain]; }
 };
 
+// The non-empty cells phase 1 visited on each level, with their simplex lists, and which of
+// them it split: phase 2 takes the children's lists from here instead of filtering again.
+struct LevelCache {
+  std::vector<CellSet> sets;
+  std::vector<FlatMap64> index;  // code -> position in sets[level]
+  InternalSets split;            // the cells phase 1 split (before closure and balance)
+};
+
 // Phase 1: SHOULD_SUBDIVIDE, level by level over the non-empty cells; returns internal sets.
 InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& options, int max_depth,
-                                int threads) {
+                                int threads, LevelCache& cache) {
   const int dim = g.dimension;
   const int contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
   InternalSets internal(max_depth + 1);
@@ -233,6 +241,9 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
         grain);
     CellSet next;
     for (const CellSet& c : out.chunks) next.append(c);
+    cache.sets.push_back(std::move(current));
+    cache.index.push_back(std::move(index_of_code));
+    cache.split.push_back(internal[level]);
     current = std::move(next);
   }
   return internal;
@@ -277,7 +288,7 @@ void balance(int dim, InternalSets& internal) {
 // Phase 2: walk the tree top-down through the internal sets and emit the leaves with their
 // simplex lists, sorted by Morton code.
 Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_depth,
-                   const OctreeOptions& options, int threads) {
+                   const OctreeOptions& options, int threads, const LevelCache* cache) {
   const int dim = g.dimension;
   struct Leaves {
     std::vector<uint64_t> code;
@@ -311,6 +322,24 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
             const uint32_t* lb = current.pool.data() + current.begin[i];
             const uint32_t* le = current.pool.data() + current.begin[i + 1];
             if (has_internal && internal[level].contains(code)) {
+              const bool cached = cache != nullptr &&
+                                  level + 1 < static_cast<int>(cache->sets.size()) &&
+                                  cache->split[level].contains(code);
+              if (cached) {
+                // Phase 1 split this cell: its non-empty children and their lists are known.
+                const CellSet& below = cache->sets[level + 1];
+                for (uint32_t c = 0; c < (1u << g.dimension); ++c) {
+                  const uint64_t cc = child_code(g.dimension, code, level, c);
+                  const uint32_t j = cache->index[level + 1].find(cc);
+                  scratch.clear();
+                  if (j != FlatMap64::kMissing) {
+                    scratch.assign(below.pool.begin() + below.begin[j],
+                                   below.pool.begin() + below.begin[j + 1]);
+                  }
+                  next.add(cc, scratch);
+                }
+                continue;
+              }
               split_cell(
                   g, code, level, lb, le, scratch,
                   [&](uint64_t cc, const std::vector<uint32_t>& list) { next.add(cc, list); });
@@ -429,10 +458,11 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
   GVD_CHECK(dim == 2 || dim == 3, "dimension must be 2 or 3");
   const int max_depth = resolve_max_depth(dim, options.max_depth);
   const int threads = resolve_threads(options.threads);
-  InternalSets internal = subdivide_by_rules(geometry, options, max_depth, threads);
+  LevelCache cache;
+  InternalSets internal = subdivide_by_rules(geometry, options, max_depth, threads, cache);
   close_upwards(dim, internal);
   balance(dim, internal);
-  return materialize(geometry, internal, max_depth, options, threads);
+  return materialize(geometry, internal, max_depth, options, threads, &cache);
 }
 
 CellRef child_cell(int dimension, CellRef cell, uint32_t child) {
