@@ -262,7 +262,22 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   using Item = std::tuple<double, uint64_t, uint32_t>;
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   if (previous == nullptr) {
-    for (uint32_t v : nonempty) queue.push({d2[v], field.vertices.key[v], v});
+    // Seeds: the exact vertices that share a leaf with a vertex still to be reached (the
+    // others could only offer their points to exact vertices, which never take them).
+    std::vector<uint8_t> seeded(nv, 0);
+    for (size_t l = 0; l < nl; ++l) {
+      bool open = false;
+      for (uint32_t k = leaf_verts.begin[l]; k < leaf_verts.begin[l + 1] && !open; ++k)
+        open = !field.exact[leaf_verts.items[k]];
+      if (!open) continue;
+      for (uint32_t k = leaf_verts.begin[l]; k < leaf_verts.begin[l + 1]; ++k) {
+        const uint32_t v = leaf_verts.items[k];
+        if (field.exact[v] && !seeded[v]) {
+          seeded[v] = 1;
+          queue.push({d2[v], field.vertices.key[v], v});
+        }
+      }
+    }
   } else {
     // Seeds: the boundary vertices of every leaf that has a new vertex.
     std::vector<uint8_t> seeded(nv, 0);

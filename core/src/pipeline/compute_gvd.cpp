@@ -83,9 +83,11 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   ro.bvh = &bvh;
   ro.contacts = &contacts;
   ro.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
+  uint64_t ambiguity_seen = 0;  // ambiguous cells found by any pass
   for (;;) {
     ro.changed_only = rounds > 0;
     report = find_cells_to_refine(r.octree, r.field, ro);
+    ambiguity_seen += report.ambiguous;
     const bool split_ambiguous = rounds < ambiguity_rounds;
     const bool split_unseen = rounds < unseen_rounds;
     if ((report.foreign.empty() && (!split_unseen || report.unseen.empty()) &&
@@ -117,9 +119,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   sort_vertices(r.field);  // incremental rounds appended vertices
   // The last report holds the thin regions no round resolved (earlier ones were split).
   r.stats.unseen_left = report.misplaced;
-  if (rounds > 0) {
+  if (rounds > 0 && ambiguity_seen > 0) {
     // The last rounds looked only at changed leaves: count the ambiguity left over all of
-    // them (the other checks have nothing left to find).
+    // them (the other checks have nothing left to find). Not needed when no pass found any:
+    // the first looked at every leaf, the later ones at every leaf that changed.
     ro.changed_only = false;
     ro.geometry = nullptr;
     ro.bvh = nullptr;
