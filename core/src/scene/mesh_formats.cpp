@@ -553,7 +553,8 @@ Scene parse_stl(std::span<const uint8_t> bytes, const std::string& name,
       for (int c = 0; c < 3; ++c) {
         Vec3 p;
         for (int k = 0; k < 3; ++k) {
-          const uint32_t bits = read_le32(rec + 12 + 12 * static_cast<size_t>(c) + 4 * static_cast<size_t>(k));
+          const uint32_t bits =
+              read_le32(rec + 12 + 12 * static_cast<size_t>(c) + 4 * static_cast<size_t>(k));
           p[k] = std::bit_cast<float>(bits);
         }
         s.v[c] = welder.add(p);
