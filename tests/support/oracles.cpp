@@ -108,6 +108,23 @@ size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd, size_t bud
   return crossings;
 }
 
+bool inside_cell(const GvdCell& cell, Vec3 p) {
+  const Vec3 dirs[3] = {
+      {0.5773, 0.5774, 0.5771}, {-0.8121, 0.3147, 0.4913}, {0.1234, -0.9012, 0.4153}};
+  int inside_votes = 0;
+  for (const Vec3& d : dirs) {
+    const Vec3 far = p + d * 1e6;
+    int crossings = 0;
+    for (size_t s = 0; s + 3 <= cell.indices.size(); s += 3) {
+      crossings += segment_hits_triangle(p, far, cell.positions[cell.indices[s]],
+                                         cell.positions[cell.indices[s + 1]],
+                                         cell.positions[cell.indices[s + 2]]);
+    }
+    inside_votes += crossings % 2;
+  }
+  return inside_votes >= 2;
+}
+
 size_t count_open_edges(const GvdCell& cell, int dimension) {
   // Vertices are compared by exact position (a vertex may be stored once per neighbour).
   using Key = std::tuple<double, double, double>;

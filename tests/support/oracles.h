@@ -33,6 +33,11 @@ bool segments_intersect_2d(Vec3 a, Vec3 b, Vec3 c, Vec3 d);
 /// evenly spread sample of about that many simplices per cell is checked.
 size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd, size_t budget = 0);
 
+/// Whether p lies inside a closed 3D cell boundary: parity of the crossings of three rays in
+/// skew directions with the cell's triangles, decided by majority (a ray grazing an edge can
+/// miscount, three rarely do together).
+bool inside_cell(const GvdCell& cell, Vec3 p);
+
 /// Watertightness of one 3D cell: every directed edge (by vertex position) is matched by the
 /// opposite directed edge as often as it occurs. 2D: every position is entered as often as
 /// it is left. Returns the number of unmatched edges / vertices.

@@ -195,6 +195,16 @@ TEST(ComputeGvd, SphereInShellGivesTheMidRadiusSphere) {
     ++n;
   }
   EXPECT_GT(n, 0u);
+  // Each sphere lies in its own cell only: the inner one inside the cell bounded at mid radius.
+  for (ObjectId o = 0; o < 2; ++o) {
+    const SceneObject& obj = r.scene.objects[o];
+    for (size_t t = 0; t < obj.simplices.size(); t += 13) {
+      const Simplex& x = obj.simplices[t];
+      const Vec3 c = (obj.vertices[x.v[0]] + obj.vertices[x.v[1]] + obj.vertices[x.v[2]]) / 3.0;
+      EXPECT_TRUE(test::inside_cell(r.gvd.cells[o], c)) << "object " << o;
+      EXPECT_FALSE(test::inside_cell(r.gvd.cells[1 - o], c)) << "object " << o;
+    }
+  }
   // The inner object's cell is closed and lies entirely inside the shell.
   EXPECT_EQ(graph_pairs(r.graph), (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}}));
 }
@@ -208,6 +218,18 @@ TEST(ComputeGvd, ClosePackedSpheres3D) {
                                           {i * (1.0 + 1e-3 * (i + 1)), j * 1.0005, 0}, 0.5, 8, 16));
   auto r = run(test::make_scene(3, objects));
   expect_valid(r);
+  // Every object lies inside its own cell and in no other (sampled on its triangles).
+  for (ObjectId o = 0; o < r.scene.objects.size(); ++o) {
+    const SceneObject& obj = r.scene.objects[o];
+    for (size_t t = 0; t < obj.simplices.size(); t += 9) {
+      const Simplex& x = obj.simplices[t];
+      const Vec3 c = (obj.vertices[x.v[0]] + obj.vertices[x.v[1]] + obj.vertices[x.v[2]]) / 3.0;
+      for (ObjectId q = 0; q < r.gvd.cells.size(); ++q) {
+        EXPECT_EQ(test::inside_cell(r.gvd.cells[q], c), q == o)
+            << "object " << o << " triangle " << t << " vs cell " << q;
+      }
+    }
+  }
   // Side by side neighbours must be adjacent in the dual graph.
   const auto pairs = graph_pairs(r.graph);
   EXPECT_TRUE(pairs.count({0, 1}));
