@@ -44,8 +44,9 @@ struct PolygonGvd {
 
 class CellSurfacer {
  public:
-  CellSurfacer(const Octree& octree, const DistanceField& field)
-      : octree_(octree), field_(field), dim_(octree.dimension) {}
+  CellSurfacer(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
+               const SimplexBvh& bvh)
+      : octree_(octree), field_(field), geometry_(geometry), bvh_(bvh), dim_(octree.dimension) {}
 
   Vec3 bisector(uint32_t v0, uint32_t v1) const { return detail::bisector_point(field_, v0, v1); }
 
@@ -71,7 +72,56 @@ class CellSurfacer {
       sum = sum + s.p;
     }
     if (out.n > 0) out.centroid = sum / out.n;
+    if (out.n >= 3) out.centroid = junction_point(poly, out);
     return out;
+  }
+
+  // Where three objects' regions meet on a face, the paper joins the spokes at the centroid of
+  // the bisectors, which can sit a good part of the cell away from the true junction. Instead:
+  // the point of the face plane equidistant from the three objects' closest points, refined
+  // once from there; kept only if it lies in the face, else the centroid. Computed from the
+  // face's own data, so both cells of a face get the same point.
+  Vec3 junction_point(const detail::FacePolygon& poly, const PolygonGvd& g) const {
+    ObjectId labels[3];
+    int nl = 0;
+    for (int i = 0; i < g.n; ++i) {
+      for (ObjectId l : {g.spokes[i].label_a, g.spokes[i].label_b}) {
+        bool seen = false;
+        for (int k = 0; k < nl; ++k) seen |= labels[k] == l;
+        if (seen) continue;
+        if (nl == 3) return g.centroid;  // four or more objects: keep the centroid
+        labels[nl++] = l;
+      }
+    }
+    if (nl != 3) return g.centroid;
+    const int w = poly.axis;  // the face's normal axis (2 for 2D cells: z)
+    const int u = (w + 1) % 3, v = (w + 2) % 3;
+    Box face;
+    for (int i = 0; i < poly.n; ++i) face.extend(field_.vertices.position(poly.v[i]));
+    Vec3 r = g.centroid;
+    for (int iteration = 0; iteration < 2; ++iteration) {
+      Vec3 p[3];
+      for (int k = 0; k < 3; ++k) {
+        const ClosestHit hit =
+            bvh_.nearest_if(r, [&](uint32_t s) { return geometry_.object_of[s] == labels[k]; });
+        if (!hit.found()) return g.centroid;
+        p[k] = hit.point;
+      }
+      // 2 x . (p1 - p0) = |p1|^2 - |p0|^2 and the same for p2, with x[w] = r[w] fixed.
+      const Vec3 d1 = p[1] - p[0], d2 = p[2] - p[0];
+      const double c1 = 0.5 * (norm2(p[1]) - norm2(p[0])) - r[w] * d1[w];
+      const double c2 = 0.5 * (norm2(p[2]) - norm2(p[0])) - r[w] * d2[w];
+      const double det = d1[u] * d2[v] - d1[v] * d2[u];
+      const double scale = (norm2(d1) + norm2(d2)) + 1e-300;
+      if (!(std::fabs(det) > 1e-12 * scale)) return g.centroid;
+      Vec3 x = r;
+      x[u] = (c1 * d2[v] - c2 * d1[v]) / det;
+      x[v] = (d1[u] * c2 - d2[u] * c1) / det;
+      if (!(x[u] >= face.lo[u] && x[u] <= face.hi[u] && x[v] >= face.lo[v] && x[v] <= face.hi[v]))
+        return g.centroid;
+      r = x;
+    }
+    return r;
   }
 
   void cell(uint32_t leaf, std::vector<Piece>& pieces) const {
@@ -280,6 +330,8 @@ class CellSurfacer {
 
   const Octree& octree_;
   const DistanceField& field_;
+  const UnitGeometry& geometry_;
+  const SimplexBvh& bvh_;
   int dim_;
 };
 
@@ -319,7 +371,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   const size_t n = octree.leaf_count();
   const size_t grain = 512;
   std::vector<std::vector<Piece>> chunks((n + grain - 1) / grain + 1);
-  CellSurfacer surfacer(octree, field);
+  CellSurfacer surfacer(octree, field, geometry, bvh);
   parallel_for(
       n, threads,
       [&](size_t b, size_t e, int) {
