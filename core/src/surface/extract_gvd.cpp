@@ -76,6 +76,55 @@ class CellSurfacer {
     return out;
   }
 
+  // The cone apex of one spoke curve of a 3D cell: where the curve's spokes separate exactly
+  // three objects, the point nearest the bisector centroid on the line equidistant from them
+  // (refined once); else, or if it leaves the cell, the centroid (the paper's rule).
+  Vec3 cell_junction_point(uint32_t leaf, const PolygonGvd* gvds, int np, const int* comp_of,
+                           int component, Vec3 centroid) const {
+    ObjectId labels[3];
+    int nl = 0;
+    for (int f = 0; f < np; ++f) {
+      if (comp_of[f] != component) continue;
+      for (int i = 0; i < gvds[f].n; ++i) {
+        for (ObjectId l : {gvds[f].spokes[i].label_a, gvds[f].spokes[i].label_b}) {
+          bool seen = false;
+          for (int k = 0; k < nl; ++k) seen |= labels[k] == l;
+          if (seen) continue;
+          if (nl == 3) return centroid;
+          labels[nl++] = l;
+        }
+      }
+    }
+    if (nl != 3) return centroid;
+    const Box box = octree_.box(leaf);
+    Vec3 x = centroid;
+    for (int iteration = 0; iteration < 2; ++iteration) {
+      Vec3 p[3];
+      for (int k = 0; k < 3; ++k) {
+        const ClosestHit hit =
+            bvh_.nearest_if(x, [&](uint32_t s) { return geometry_.object_of[s] == labels[k]; });
+        if (!hit.found()) return centroid;
+        p[k] = hit.point;
+      }
+      // Nearest point to the centroid with x.n1 = k1, x.n2 = k2 (equidistant from p0, p1, p2):
+      // x = c + a n1 + b n2.
+      const Vec3 n1 = p[1] - p[0], n2 = p[2] - p[0];
+      const double k1 = 0.5 * (norm2(p[1]) - norm2(p[0]));
+      const double k2 = 0.5 * (norm2(p[2]) - norm2(p[0]));
+      const double a11 = dot(n1, n1), a12 = dot(n1, n2), a22 = dot(n2, n2);
+      const double det = a11 * a22 - a12 * a12;
+      if (!(det > 1e-12 * a11 * a22)) return centroid;
+      const double r1 = k1 - dot(centroid, n1), r2 = k2 - dot(centroid, n2);
+      const double a = (r1 * a22 - r2 * a12) / det;
+      const double b = (a11 * r2 - a12 * r1) / det;
+      const Vec3 next = centroid + n1 * a + n2 * b;
+      for (int i = 0; i < 3; ++i)
+        if (!(next[i] >= box.lo[i] && next[i] <= box.hi[i])) return centroid;
+      x = next;
+    }
+    return x;
+  }
+
   // Where three objects' regions meet on a face, the paper joins the spokes at the centroid of
   // the bisectors, which can sit a good part of the cell away from the true junction. Instead:
   // the point of the face plane equidistant from the three objects' closest points, refined
@@ -223,6 +272,10 @@ class CellSurfacer {
             if (gvds[f].spokes[i].edge == gvds[h].spokes[j].edge) comp[find(f)] = find(h);
     Vec3 sum[24];
     int count[24] = {};
+    Vec3 centre[24];
+    bool placed[24] = {};
+    int comp_of[24];
+    for (int f = 0; f < np; ++f) comp_of[f] = find(f);
     for (int f = 0; f < np; ++f) {
       const int c = find(f);
       for (int i = 0; i < gvds[f].n; ++i) {
@@ -240,7 +293,11 @@ class CellSurfacer {
       // face from the other side and so produces the opposite edge.
       const bool outward_plus = polys[f].side == 2;
       const int c = find(f);
-      const Vec3 rc = count[c] > 0 ? sum[c] / count[c] : Vec3{};
+      if (count[c] > 0 && !placed[c]) {
+        centre[c] = cell_junction_point(leaf, gvds, np, comp_of, c, sum[c] / count[c]);
+        placed[c] = true;
+      }
+      const Vec3 rc = count[c] > 0 ? centre[c] : Vec3{};
       if (g.n == 2) {
         // Two spokes meet at their midpoint in a straight line: one triangle per side instead
         // of two, with the same edges as the cell across (which merges the same face).

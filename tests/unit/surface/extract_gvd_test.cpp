@@ -6,8 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
@@ -109,6 +111,46 @@ TEST(ExtractGvdScenario, GlbOfRealResultsPassesTheValidator) {
     size_t nodes_with_mesh = 0;
     for (const GvdCell& c : r.gvd.cells) nodes_with_mesh += !c.indices.empty();
     EXPECT_EQ(file.json["nodes"].size(), nodes_with_mesh);
+  }
+}
+
+TEST(ExtractGvdScenario, JunctionsAreEquidistantFromTheirThreeObjects) {
+  // Three circles around a common junction (2D) and three spheres (3D): the GVD vertices
+  // shared by all three cells are where the cells meet; they must be (nearly) equidistant
+  // from the three objects, not just from two.
+  for (int dim : {2, 3}) {
+    const Scene scene =
+        dim == 2 ? test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1, 64),
+                                        test::make_circle("b", {2.3, 0.1, 0}, 1, 64),
+                                        test::make_circle("c", {1.0, 2.1, 0}, 1, 64)})
+                 : test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 16, 32),
+                                        test::make_sphere("b", {2.3, 0.1, 0}, 1, 16, 32),
+                                        test::make_sphere("c", {1.0, 2.1, 0}, 1, 16, 32)});
+    PipelineOptions o;
+    o.threads = 2;
+    const GvdResult r = compute_gvd(scene, o);
+    std::map<std::tuple<double, double, double>, std::set<ObjectId>> cells_at;
+    for (const GvdCell& c : r.gvd.cells)
+      for (const Vec3& p : c.positions) cells_at[{p.x, p.y, p.z}].insert(c.object);
+    size_t junctions = 0;
+    double worst = 0;
+    for (const auto& [key, objects] : cells_at) {
+      if (objects.size() < 3) continue;
+      const Vec3 p{std::get<0>(key), std::get<1>(key), std::get<2>(key)};
+      double lo = 1e300, hi = 0;
+      for (ObjectId q : objects) {
+        const double d = test::brute_distance(r.scene, q, p);
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+      }
+      const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
+      const double h = std::ldexp(r.domain.side, -r.octree.level[leaf]);
+      worst = std::max(worst, (hi - lo) / h);
+      ++junctions;
+    }
+    EXPECT_GT(junctions, 0u) << dim << "D";
+    // The centroid rule of the paper leaves spreads of a good fraction of the cell here.
+    EXPECT_LT(worst, 0.02) << dim << "D: distance spread at a junction, in cell sizes";
   }
 }
 
