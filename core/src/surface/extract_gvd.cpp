@@ -76,6 +76,21 @@ class CellSurfacer {
     return out;
   }
 
+  // Adds the distinct objects a polygon's spokes separate to labels[0..nl); nl becomes 4 (and
+  // stays) once a fourth one is seen, which callers treat as "not a three-object junction".
+  static void add_spoke_labels(const PolygonGvd& g, ObjectId (&labels)[3], int& nl) {
+    for (int i = 0; i < g.n && nl <= 3; ++i) {
+      for (ObjectId l : {g.spokes[i].label_a, g.spokes[i].label_b}) {
+        if (std::find(labels, labels + std::min(nl, 3), l) != labels + std::min(nl, 3)) continue;
+        if (nl >= 3) {
+          nl = 4;
+          return;
+        }
+        labels[nl++] = l;
+      }
+    }
+  }
+
   // The cone apex of one spoke curve of a 3D cell: where the curve's spokes separate exactly
   // three objects, the point nearest the bisector centroid on the line equidistant from them
   // (refined once); else, or if it leaves the cell, the centroid (the paper's rule).
@@ -83,18 +98,8 @@ class CellSurfacer {
                            int component, Vec3 centroid) const {
     ObjectId labels[3];
     int nl = 0;
-    for (int f = 0; f < np; ++f) {
-      if (comp_of[f] != component) continue;
-      for (int i = 0; i < gvds[f].n; ++i) {
-        for (ObjectId l : {gvds[f].spokes[i].label_a, gvds[f].spokes[i].label_b}) {
-          bool seen = false;
-          for (int k = 0; k < nl; ++k) seen |= labels[k] == l;
-          if (seen) continue;
-          if (nl == 3) return centroid;
-          labels[nl++] = l;
-        }
-      }
-    }
+    for (int f = 0; f < np; ++f)
+      if (comp_of[f] == component) add_spoke_labels(gvds[f], labels, nl);
     if (nl != 3) return centroid;
     const Box box = octree_.box(leaf);
     Vec3 x = centroid;
@@ -133,17 +138,9 @@ class CellSurfacer {
   Vec3 junction_point(const detail::FacePolygon& poly, const PolygonGvd& g) const {
     ObjectId labels[3];
     int nl = 0;
-    for (int i = 0; i < g.n; ++i) {
-      for (ObjectId l : {g.spokes[i].label_a, g.spokes[i].label_b}) {
-        bool seen = false;
-        for (int k = 0; k < nl; ++k) seen |= labels[k] == l;
-        if (seen) continue;
-        if (nl == 3) return g.centroid;  // four or more objects: keep the centroid
-        labels[nl++] = l;
-      }
-    }
-    if (nl != 3) return g.centroid;
-    const int w = poly.axis;  // the face's normal axis (2 for 2D cells: z)
+    add_spoke_labels(g, labels, nl);
+    if (nl != 3) return g.centroid;  // two objects, or four or more: keep the centroid
+    const int w = poly.axis;         // the face's normal axis (2 for 2D cells: z)
     const int u = (w + 1) % 3, v = (w + 2) % 3;
     Box face;
     for (int i = 0; i < poly.n; ++i) face.extend(field_.vertices.position(poly.v[i]));
@@ -302,7 +299,6 @@ class CellSurfacer {
         // Two spokes meet at their midpoint in a straight line: one triangle per side instead
         // of two, with the same edges as the cell across (which merges the same face).
         const Spoke& s0 = g.spokes[0];
-        out.witness = witness(s0);
         out.witness = witness(s0);
         const Spoke& s1 = g.spokes[1];
         if (outward_plus) {
