@@ -80,4 +80,43 @@ ClosestHit SimplexBvh::nearest(Vec3 p, double max_dist2) const {
       p, [](uint32_t) { return true; }, max_dist2);
 }
 
+double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
+  double best = max_dist2;
+  if (nodes_.empty()) return best;
+  struct Entry {
+    uint32_t node;
+    double dist2;
+  };
+  Entry stack[128];
+  int top = 0;
+  stack[top++] = {0, segment_box_distance2_bound(a, b, nodes_[0].box)};
+  while (top > 0 && best > 0) {
+    const Entry entry = stack[--top];
+    if (entry.dist2 >= best) continue;
+    const Node& n = nodes_[entry.node];
+    if (n.count > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+        const Simplex& s = simplices_[order_[k]];
+        const double d2 =
+            dimension_ == 2
+                ? segment_segment_dist2_2d(a, b, points_[s.v[0]], points_[s.v[1]])
+                : segment_triangle_dist2(a, b, points_[s.v[0]], points_[s.v[1]], points_[s.v[2]]);
+        best = std::min(best, d2);
+      }
+      continue;
+    }
+    const uint32_t l = entry.node + 1, r = n.first;
+    const double dl = segment_box_distance2_bound(a, b, nodes_[l].box);
+    const double dr = segment_box_distance2_bound(a, b, nodes_[r].box);
+    if (dl <= dr) {
+      if (dr < best) stack[top++] = {r, dr};
+      if (dl < best) stack[top++] = {l, dl};
+    } else {
+      if (dl < best) stack[top++] = {l, dl};
+      if (dr < best) stack[top++] = {r, dr};
+    }
+  }
+  return best;
+}
+
 }  // namespace gvd

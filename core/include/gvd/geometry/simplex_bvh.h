@@ -38,6 +38,10 @@ class SimplexBvh {
   template <class Accept>
   ClosestHit nearest_if(Vec3 p, Accept&& accept, double max_dist2 = 1e300) const;
 
+  /// The least squared distance between segment [a, b] and any simplex (0 when the segment
+  /// touches or crosses one), searching only boxes nearer than `max_dist2`; returns
+  /// `max_dist2` when nothing is nearer. Exact up to rounding.
+  double segment_distance2(Vec3 a, Vec3 b, double max_dist2 = 1e300) const;
   /// Calls `visit(simplex)` for every simplex whose bounding box overlaps `box`.
   template <class Visit>
   void for_each_overlapping(const Box& box, Visit&& visit) const;
