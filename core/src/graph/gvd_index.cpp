@@ -527,10 +527,10 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
   }
   if (parent[goal] == kNoVertex) {
     if (start_links.empty()) {
-      answer.reason = "start cannot reach the GVD without crossing an object (enclosed by '" +
+      answer.reason = "start cannot reach the GVD without crossing an object (is it inside '" +
                       scene.objects[start_object].label + "'?)";
     } else if (goal_links.empty()) {
-      answer.reason = "goal cannot reach the GVD without crossing an object (enclosed by '" +
+      answer.reason = "goal cannot reach the GVD without crossing an object (is it inside '" +
                       scene.objects[goal_object].label + "'?)";
     } else {
       answer.reason = need > 0 ? "no path joins start and goal with the required clearance"

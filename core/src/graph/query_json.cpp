@@ -2,6 +2,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "gvd/common/error.h"
 #include "gvd/graph/gvd_index.h"
 
 namespace gvd {
@@ -21,6 +22,47 @@ const std::string& label(const GvdIndex& index, ObjectId object) {
 json number(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
 
 }  // namespace
+
+std::vector<Vec3> parse_points_json(std::string_view text, int dimension) {
+  const json doc = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) {
+    throw Error(ErrorCode::kInvalidArgument, "points: not valid JSON");
+  }
+  const json* list = &doc;
+  if (doc.is_object()) {
+    if (!doc.contains("points")) {
+      throw Error(ErrorCode::kInvalidArgument, "points: expected an array or {\"points\": [...]}");
+    }
+    list = &doc["points"];
+  }
+  if (!list->is_array()) {
+    throw Error(ErrorCode::kInvalidArgument, "points: expected an array of points");
+  }
+  std::vector<Vec3> out;
+  out.reserve(list->size());
+  for (size_t i = 0; i < list->size(); ++i) {
+    const json& p = (*list)[i];
+    const std::string where = "point " + std::to_string(i);
+    const size_t n = p.is_array() ? p.size() : 0;
+    if (!p.is_array() || (n != static_cast<size_t>(dimension) && !(dimension == 2 && n == 3))) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  where + ": expected an array of " + std::to_string(dimension) + " numbers");
+    }
+    Vec3 v;
+    for (size_t a = 0; a < n; ++a) {
+      if (!p[a].is_number() || !std::isfinite(p[a].get<double>())) {
+        throw Error(ErrorCode::kInvalidArgument,
+                    where + ": coordinate " + std::to_string(a) + " is not a finite number");
+      }
+      v[static_cast<int>(a)] = p[a].get<double>();
+    }
+    if (dimension == 2 && v.z != 0) {
+      throw Error(ErrorCode::kInvalidArgument, where + ": a 2D point has z = 0");
+    }
+    out.push_back(v);
+  }
+  return out;
+}
 
 std::string nearest_to_json(const GvdIndex& index, const NearestAnswer& answer) {
   const int dim = index.dimension();

@@ -11,6 +11,8 @@
 
 #include "gvd/common/error.h"
 #include "gvd/io/result_file.h"
+#include "gvd/io/write_outputs.h"
+#include "support/gltf_validate.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
 
@@ -352,6 +354,64 @@ TEST(GvdIndexExplode, TwoDimensionalNormalsPointAway) {
   EXPECT_GT(up.y, 0.9);
   EXPECT_GT(right.x, 0.9);
   EXPECT_LE(norm(up), 1.0 + 1e-12);
+}
+
+TEST(GvdIndexExplode, AnimatedGlbMovesEveryObjectAlongItsVector) {
+  const GvdIndex index(run(test::make_scene(
+      3, {test::make_sphere("a", {0, 0, 0}, 1), test::make_box("b", {1.5, -1, -1}, {2.5, 1, 1}),
+          test::make_sphere("c", {0, 2.6, 0}, 1)})));
+  const ExplodedView view = index.explode(index.object("a"), {.scale = 0.7});
+  std::vector<Vec3> displacement;
+  for (const ExplodedObject& o : view.objects) displacement.push_back(o.displacement);
+  const std::vector<uint8_t> bytes = exploded_to_glb(index.result().scene, displacement, 3.0);
+  const std::string path = std::string(GVD_TEST_OUTPUT_DIR) + "/exploded_three.glb";
+  write_file_atomic(path, bytes.data(), bytes.size());
+  const test::GltfReport report = test::validate_glb_file(path);
+  ASSERT_TRUE(report.ran) << report.output;
+  EXPECT_EQ(report.errors, 0) << report.output;
+
+  // An independent read: one node per object, one channel per node whose last keyframe is
+  // the displacement (float32) reached at t = 3 s.
+  const test::GlbFile glb = test::parse_glb(bytes);
+  ASSERT_EQ(glb.json["nodes"].size(), 3u);
+  const auto& animation = glb.json["animations"][0];
+  ASSERT_EQ(animation["channels"].size(), 3u);
+  for (const auto& channel : animation["channels"]) {
+    EXPECT_EQ(channel["target"]["path"], "translation");
+    const int node = channel["target"]["node"];
+    const auto& sampler = animation["samplers"][channel["sampler"].get<int>()];
+    const std::vector<double> t = test::read_accessor(glb, sampler["input"]);
+    const std::vector<double> x = test::read_accessor(glb, sampler["output"]);
+    ASSERT_EQ(t.size(), 2u);
+    EXPECT_EQ(t[1], 3.0);
+    ASSERT_EQ(x.size(), 6u);
+    const std::string label = glb.json["nodes"][node]["name"];
+    const Vec3 d = view.objects[index.object(label)].displacement;
+    EXPECT_NEAR(x[3], d.x, 1e-6 * (1 + std::abs(d.x)));
+    EXPECT_NEAR(x[4], d.y, 1e-6 * (1 + std::abs(d.y)));
+    EXPECT_NEAR(x[5], d.z, 1e-6 * (1 + std::abs(d.z)));
+  }
+  EXPECT_GT(view.objects[index.object("b")].direction.x, 0.9);
+  EXPECT_GT(view.objects[index.object("c")].direction.y, 0.9);
+}
+
+TEST(GvdIndexJson, PointsAreParsedWithErrorsThatSayWhere) {
+  EXPECT_EQ(parse_points_json("[[1,2,3],[4,5,6]]", 3).size(), 2u);
+  EXPECT_EQ(parse_points_json(R"({"points":[[1,2]]})", 2)[0].y, 2.0);
+  for (const char* bad : {"[[1,2]]", "[[1,2,\"x\"]]", "{\"p\":[]}", "[1,2,3]", "nope"}) {
+    try {
+      parse_points_json(bad, 3);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument) << bad;
+    }
+  }
+  try {
+    parse_points_json("[[0,0,0],[1,2]]", 3);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(e.detail().find("point 1"), std::string::npos) << e.detail();
+  }
 }
 
 TEST(GvdIndexTight, ReportsOnlyPairsBelowTheBound) {

@@ -130,6 +130,11 @@ class GvdIndex {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Query points from JSON: an array of points or {"points": [...]}, each point an array of
+/// `dimension` numbers (a 2D point may also have a third coordinate 0). Throws
+/// gvd::Error{kInvalidArgument} saying which point is wrong and why.
+std::vector<Vec3> parse_points_json(std::string_view text, int dimension);
+
 /// JSON of the answers (DESIGN.md contracts); labels are added next to object indices.
 /// Nearest: {"point":[...],"object":i,"label":"...","distance":d}.
 std::string nearest_to_json(const GvdIndex& index, const NearestAnswer& answer);
