@@ -15,7 +15,7 @@ Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const
 
 SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
                        std::span<const Simplex> simplices)
-    : dimension_(dimension), points_(points), simplices_(simplices) {
+    : dimension_(dimension) {
   const uint32_t m = static_cast<uint32_t>(simplices.size());
   if (m == 0) return;
   const int arity = dimension == 2 ? 2 : 3;
@@ -65,10 +65,16 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
     stack.push_back({mid, f.end, self});
     stack.push_back({f.begin, mid, ~0u});
   }
+  arity_ = arity;
+  corners_.resize(static_cast<size_t>(m) * arity);
+  for (uint32_t k = 0; k < m; ++k) {
+    for (int j = 0; j < arity; ++j) corners_[static_cast<size_t>(k) * arity + j] = points[simplices[order_[k]].v[j]];
+  }
 }
 
 size_t SimplexBvh::memory_bytes() const {
-  return nodes_.size() * sizeof(Node) + order_.size() * sizeof(uint32_t);
+  return nodes_.size() * sizeof(Node) + order_.size() * sizeof(uint32_t) +
+         corners_.size() * sizeof(Vec3);
 }
 
 }  // namespace gvd
@@ -96,11 +102,9 @@ double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
     const Node& n = nodes_[entry.node];
     if (n.count > 0) {
       for (uint32_t k = n.first; k < n.first + n.count; ++k) {
-        const Simplex& s = simplices_[order_[k]];
-        const double d2 =
-            dimension_ == 2
-                ? segment_segment_dist2_2d(a, b, points_[s.v[0]], points_[s.v[1]])
-                : segment_triangle_dist2(a, b, points_[s.v[0]], points_[s.v[1]], points_[s.v[2]]);
+        const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
+        const double d2 = arity_ == 2 ? segment_segment_dist2_2d(a, b, c[0], c[1])
+                                      : segment_triangle_dist2(a, b, c[0], c[1], c[2]);
         best = std::min(best, d2);
       }
       continue;

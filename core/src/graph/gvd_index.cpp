@@ -62,6 +62,13 @@ struct GvdIndex::Impl {
   /// Per leaf and corner (2^D each): the exact distance of the corner vertex rounded down,
   /// or -1 when the corner only has a wavefront (approximate) closest point.
   std::vector<float> corner_exact;
+  /// Point location: the leaf holding the lower corner of every cell of level `table_level`
+  /// (Morton order), so a query binary-searches only the leaves of one such cell.
+  int table_level = 0;
+  int table_shift = 0;
+  std::vector<uint32_t> table;
+
+  uint32_t locate(Vec3 u) const;
 
   // Dual graph adjacency (entry weight = interface area, edge = index into graph.edges) and,
   // per edge, the summed area-weighted normals of its interface pointing into a and into b.
@@ -114,6 +121,21 @@ void GvdIndex::Impl::build_nearest() {
   const Octree& octree = result->octree;
   const DistanceField& field = result->field;
   const size_t leaves = octree.leaf_count();
+  // About one table cell per two leaves (at most level 8 in 3D, 12 in 2D: 16M entries).
+  const int dim = octree.dimension;
+  table_level = 0;
+  while (table_level < (dim == 3 ? 8 : 12) &&
+         (uint64_t{1} << (dim * (table_level + 1))) <= std::max<size_t>(leaves / 2, 1)) {
+    ++table_level;
+  }
+  table_shift = dim * (lattice_bits(dim) - table_level);
+  const uint64_t cells = uint64_t{1} << (dim * table_level);
+  table.resize(cells + 1);
+  for (uint64_t c = 0; c < cells; ++c) {
+    const auto it = std::upper_bound(octree.code.begin(), octree.code.end(), c << table_shift);
+    table[c] = static_cast<uint32_t>(it - octree.code.begin() - 1);
+  }
+  table[cells] = static_cast<uint32_t>(leaves - 1);
   point_object.assign(field.closest.size(), kNoObject);
   for (size_t v = 0; v < field.size(); ++v) {
     if (field.point[v] != kNoVertex) point_object[field.point[v]] = field.label[v];
@@ -148,6 +170,15 @@ void GvdIndex::Impl::build_nearest() {
     }
     if (pass == 0) leaf_point.resize(leaf_begin[leaves]);
   }
+}
+
+uint32_t GvdIndex::Impl::locate(Vec3 u) const {
+  const Octree& octree = result->octree;
+  const uint64_t m = lattice::morton(dimension, lattice::from_unit(dimension, u));
+  const uint64_t cell = m >> table_shift;
+  const auto first = octree.code.begin() + table[cell];
+  const auto last = octree.code.begin() + table[cell + 1] + 1;
+  return static_cast<uint32_t>(std::upper_bound(first, last, m) - octree.code.begin() - 1);
 }
 
 void GvdIndex::Impl::build_dual() {
@@ -360,7 +391,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
   Vec3 p = point;
   if (m.dimension == 2) p.z = 0;
   const Vec3 u = m.to_unit(p);
-  const uint32_t leaf = m.result->octree.locate(u);
+  const uint32_t leaf = m.locate(u);
   const std::vector<Vec3>& closest = m.result->field.closest;
   NearestAnswer answer;
   answer.point = point;
@@ -403,8 +434,10 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
       answer.object = m.result->geometry.object_of[hit.simplex];
       answer.distance = std::sqrt(hit.dist2) * side;
       answer.closest = m.result->domain.from_unit(hit.point);
+      answer.exact = true;
       return answer;
     }
+    answer.exact = true;  // nothing nearer than the corners' answer: it is exact
     GVD_CHECK(best_point != kNoVertex, "a scene has at least one simplex");
   }
   answer.object = m.point_object[best_point];

@@ -22,6 +22,9 @@ struct NearestAnswer {
   ObjectId object = kNoObject;
   double distance = 0;   ///< user units
   Vec3 closest;          ///< the point on `object` the distance is measured to
+  /// True when the leaf's vertices could not prove the 3/2 bound and the BVH answered
+  /// (exactly); false for the fast path of §4.
+  bool exact = false;
 };
 
 /// An object within k rings of another in the dual graph (paper §7.3).
