@@ -364,7 +364,8 @@ GvdIndex::GvdIndex(std::shared_ptr<const GvdResult> result) : impl_(std::make_un
   impl_->result = std::move(result);
   const GvdResult& r = *impl_->result;
   impl_->dimension = r.scene.dimension;
-  impl_->bvh = SimplexBvh(r.geometry.dimension, r.geometry.points, r.geometry.simplices);
+  impl_->bvh = SimplexBvh(r.geometry.dimension, r.geometry.points, r.geometry.simplices,
+                          r.geometry.object_of);
   impl_->build_nearest();
   impl_->build_dual();
   impl_->build_roadmap();
