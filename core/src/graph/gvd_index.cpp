@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "gvd/common/error.h"
+#include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/lattice.h"
 #include "gvd/octree/vertices.h"
@@ -54,13 +55,15 @@ struct GvdIndex::Impl {
   int dimension = 3;
   SimplexBvh bvh;
 
-  // Nearest: per leaf, the distinct closest points of its boundary vertices (indices into
-  // field.closest), and the object of every closest point.
+  // Nearest: the exact closest point of every octree vertex (`closest`, shared, with its
+  // object), and per leaf the distinct closest points of its boundary vertices.
+  std::vector<Vec3> closest;
+  std::vector<ObjectId> point_object;
+  std::vector<uint32_t> vertex_point;
   std::vector<uint32_t> leaf_begin;
   std::vector<uint32_t> leaf_point;
-  std::vector<ObjectId> point_object;
-  /// Per leaf and corner (2^D each): the exact distance of the corner vertex rounded down,
-  /// or -1 when the corner only has a wavefront (approximate) closest point.
+  /// Per leaf and corner (2^D each): the exact distance of the corner vertex rounded down
+  /// (-1 for a vertex no object reached).
   std::vector<float> corner_exact;
   /// Point location: the leaf holding the lower corner of every cell of level `table_level`
   /// (Morton order), so a query binary-searches only the leaves of one such cell.
@@ -136,40 +139,71 @@ void GvdIndex::Impl::build_nearest() {
     table[c] = static_cast<uint32_t>(it - octree.code.begin() - 1);
   }
   table[cells] = static_cast<uint32_t>(leaves - 1);
-  point_object.assign(field.closest.size(), kNoObject);
-  for (size_t v = 0; v < field.size(); ++v) {
+  // Every vertex gets its exact closest point (the distance transform made only the vertices
+  // near objects and near the GVD exact): better candidates, and exact corner distances for
+  // the 3/2 certificate of `nearest`.
+  const size_t nv = field.size();
+  std::vector<ClosestHit> hits(nv);
+  const int threads = resolve_threads(0);
+  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+    for (size_t v = b; v < e; ++v) {
+      if (field.exact[v] || field.point[v] == kNoVertex) continue;
+      const double d = field.distance(static_cast<uint32_t>(v));
+      hits[v] = bvh.nearest(field.vertices.position(static_cast<uint32_t>(v)), d * d);
+    }
+  });
+  closest = field.closest;
+  point_object.assign(closest.size(), kNoObject);
+  vertex_point.assign(field.point.begin(), field.point.end());
+  for (size_t v = 0; v < nv; ++v) {
     if (field.point[v] != kNoVertex) point_object[field.point[v]] = field.label[v];
   }
+  for (size_t v = 0; v < nv; ++v) {
+    if (!hits[v].found()) continue;
+    vertex_point[v] = static_cast<uint32_t>(closest.size());
+    closest.push_back(hits[v].point);
+    point_object.push_back(result->geometry.object_of[hits[v].simplex]);
+  }
+  hits = {};
   leaf_begin.assign(leaves + 1, 0);
   const int corners = 1 << octree.dimension;
   corner_exact.assign(leaves * static_cast<size_t>(corners), -1.0f);
-  // Two passes (count, fill) keep memory to the final CSR.
-  for (int pass = 0; pass < 2; ++pass) {
-    for (uint32_t leaf = 0; leaf < leaves; ++leaf) {
-      const LeafGrid grid = field.grid(octree, leaf);
-      uint32_t found[27];
-      uint32_t count = 0;
-      for (uint32_t v : grid) {
-        if (v == kNoVertex || field.point[v] == kNoVertex) continue;
-        const uint32_t p = field.point[v];
-        if (std::find(found, found + count, p) == found + count) found[count++] = p;
-      }
-      if (pass == 0) {
-        leaf_begin[leaf + 1] = leaf_begin[leaf] + count;
-        for (int k = 0; k < corners; ++k) {
-          // Corner k (bit a = upper side along axis a) is grid entry 2 (x) + 6 (y) + 18 (z).
-          const uint32_t v = grid[2 * (k & 1) + 6 * ((k >> 1) & 1) + 18 * ((k >> 2) & 1)];
-          if (v == kNoVertex || !field.exact[v] || field.point[v] == kNoVertex) continue;
-          const auto d = static_cast<float>(field.distance(v));
-          corner_exact[leaf * static_cast<size_t>(corners) + k] =
-              static_cast<double>(d) > field.distance(v) ? std::nextafter(d, 0.0f) : d;
-        }
-      } else {
-        std::copy(found, found + count, leaf_point.begin() + leaf_begin[leaf]);
+  // The distinct closest points of a leaf's boundary vertices; returns their count.
+  auto gather = [&](uint32_t leaf, uint32_t (&found)[27]) {
+    const LeafGrid grid = field.grid(octree, leaf);
+    uint32_t count = 0;
+    for (uint32_t v : grid) {
+      if (v == kNoVertex || vertex_point[v] == kNoVertex) continue;
+      const uint32_t p = vertex_point[v];
+      if (std::find(found, found + count, p) == found + count) found[count++] = p;
+    }
+    return std::pair{count, grid};
+  };
+  parallel_for(leaves, threads, [&](size_t b, size_t e, int) {
+    uint32_t found[27];
+    for (size_t leaf = b; leaf < e; ++leaf) {
+      const auto [count, grid] = gather(static_cast<uint32_t>(leaf), found);
+      leaf_begin[leaf + 1] = count;
+      for (int k = 0; k < corners; ++k) {
+        // Corner k (bit a = upper side along axis a) is grid entry 2 (x) + 6 (y) + 18 (z).
+        const uint32_t v = grid[2 * (k & 1) + 6 * ((k >> 1) & 1) + 18 * ((k >> 2) & 1)];
+        if (v == kNoVertex || vertex_point[v] == kNoVertex) continue;
+        const double exact = dist(field.vertices.position(v), closest[vertex_point[v]]);
+        const auto d = static_cast<float>(exact);
+        corner_exact[leaf * static_cast<size_t>(corners) + k] =
+            static_cast<double>(d) > exact ? std::nextafter(d, 0.0f) : d;
       }
     }
-    if (pass == 0) leaf_point.resize(leaf_begin[leaves]);
-  }
+  });
+  std::partial_sum(leaf_begin.begin(), leaf_begin.end(), leaf_begin.begin());
+  leaf_point.resize(leaf_begin[leaves]);
+  parallel_for(leaves, threads, [&](size_t b, size_t e, int) {
+    uint32_t found[27];
+    for (size_t leaf = b; leaf < e; ++leaf) {
+      const uint32_t count = gather(static_cast<uint32_t>(leaf), found).first;
+      std::copy(found, found + count, leaf_point.begin() + leaf_begin[leaf]);
+    }
+  });
 }
 
 uint32_t GvdIndex::Impl::locate(Vec3 u) const {
@@ -393,7 +427,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
   if (m.dimension == 2) p.z = 0;
   const Vec3 u = m.to_unit(p);
   const uint32_t leaf = m.locate(u);
-  const std::vector<Vec3>& closest = m.result->field.closest;
+  const std::vector<Vec3>& closest = m.closest;
   NearestAnswer answer;
   answer.point = point;
   double best = kInf;
