@@ -441,29 +441,39 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
     }
   }
   const double side = m.result->domain.side;
-  // A lower bound of the true distance: an empty leaf holds no object, so the objects are at
-  // least as far as the leaf's boundary; and an exact corner distance less the way to it.
+  // A lower bound of the true distance certifies the answer when 1.5 x bound >= answer: an
+  // empty leaf holds no object, so the objects are at least as far as the leaf's boundary;
+  // and an exact corner distance less the way to that corner. Tried cheapest first, the
+  // nearest corner before the others, stopping at the first that certifies.
   const Octree& octree = m.result->octree;
   const int dim = m.dimension;
-  const lattice::Coord corner = octree.corner(leaf);
-  const double size = std::ldexp(1.0, -octree.level[leaf]);
-  const Vec3 lo = lattice::to_unit(dim, corner);
-  double bound = 0;
-  if (octree.object[leaf] == kNoObject) {
-    bound = 1e300;
-    for (int a = 0; a < dim; ++a) bound = std::min({bound, u[a] - lo[a], lo[a] + size - u[a]});
-  }
-  const int corners = 1 << dim;
-  const float* exact = &m.corner_exact[leaf * static_cast<size_t>(corners)];
-  for (int k = 0; k < corners; ++k) {
-    if (exact[k] < 0) continue;
-    Vec3 c = lo;
-    for (int a = 0; a < dim; ++a) c[a] += ((k >> a) & 1) ? size : 0.0;
-    bound = std::max(bound, static_cast<double>(exact[k]) - dist(u, c));
+  const double answer_distance = best_point == kNoVertex ? 1e300 : std::sqrt(best);
+  const double need = answer_distance / 1.5;
+  bool certified = false;
+  if (best_point != kNoVertex) {
+    const double size = std::ldexp(1.0, -octree.level[leaf]);
+    const Vec3 lo = lattice::to_unit(dim, octree.corner(leaf));
+    int nearest_corner = 0;
+    double wall = 1e300;
+    for (int a = 0; a < dim; ++a) {
+      const double below = u[a] - lo[a], above = lo[a] + size - u[a];
+      wall = std::min({wall, below, above});
+      if (above < below) nearest_corner |= 1 << a;
+    }
+    certified = octree.object[leaf] == kNoObject && wall >= need;
+    const int corners = 1 << dim;
+    const float* exact = &m.corner_exact[leaf * static_cast<size_t>(corners)];
+    for (int i = 0; i < corners && !certified; ++i) {
+      const int k = i ^ nearest_corner;  // i = 0: the nearest corner
+      if (exact[k] < 0) continue;
+      Vec3 c = lo;
+      for (int a = 0; a < dim; ++a) c[a] += ((k >> a) & 1) ? size : 0.0;
+      certified = static_cast<double>(exact[k]) - dist(u, c) >= need;
+    }
   }
   // Unless the corners' answer is provably within 3/2 of the truth, ask the BVH for the exact
   // nearest point, searching only nearer than that answer.
-  if (best_point == kNoVertex || std::sqrt(best) > 1.5 * bound) {
+  if (!certified) {
     const ClosestHit hit = m.bvh.nearest(u, best_point == kNoVertex ? 1e300 : best * (1 + 1e-12));
     if (hit.found()) {
       answer.object = m.result->geometry.object_of[hit.simplex];
@@ -476,7 +486,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
     GVD_CHECK(best_point != kNoVertex, "a scene has at least one simplex");
   }
   answer.object = m.point_object[best_point];
-  answer.distance = std::sqrt(best) * side;
+  answer.distance = answer_distance * side;
   answer.closest = m.result->domain.from_unit(closest[best_point]);
   return answer;
 }
