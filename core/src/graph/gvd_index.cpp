@@ -568,20 +568,52 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
   const double c_max = std::max({m.max_clearance, start_distance, goal_distance});
   auto heuristic = [&](Vec3 p) { return shortest ? dist(p, to) : dist(p, to) / c_max; };
   auto position = [&](uint32_t v) { return v == start ? from : (v == goal ? to : m.road_position[v]); };
-  std::vector<double> g(n + 2, kInf);
-  std::vector<uint32_t> parent(n + 2, kNoVertex);
+  // Per-thread search state reused across queries; a generation stamp marks the entries this
+  // query wrote, so nothing is cleared per query (the roadmap can have millions of vertices).
+  struct Search {
+    std::vector<double> cost;
+    std::vector<uint32_t> from;
+    std::vector<uint32_t> stamp;
+    uint32_t generation = 0;
+  };
+  thread_local Search search;
+  if (search.stamp.size() < n + 2) {
+    search.cost.resize(n + 2);
+    search.from.resize(n + 2);
+    search.stamp.assign(n + 2, 0);
+    search.generation = 0;
+  }
+  if (++search.generation == 0) {
+    std::fill(search.stamp.begin(), search.stamp.end(), 0);
+    search.generation = 1;
+  }
+  const uint32_t generation = search.generation;
+  auto touch = [&](uint32_t v) {
+    if (search.stamp[v] != generation) {
+      search.stamp[v] = generation;
+      search.cost[v] = kInf;
+      search.from[v] = kNoVertex;
+    }
+  };
+  auto g_of = [&](uint32_t v) { return search.stamp[v] == generation ? search.cost[v] : kInf; };
+  auto parent_of = [&](uint32_t v) {
+    return search.stamp[v] == generation ? search.from[v] : kNoVertex;
+  };
   std::unordered_map<uint32_t, double> goal_weight;  // roadmap vertex -> weight of its link
   for (const auto& [v, c] : goal_links) goal_weight[v] = weight(dist(to, m.road_position[v]), c);
   using Entry = std::pair<double, uint32_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   auto relax = [&](uint32_t u, uint32_t v, double w) {
-    if (g[u] + w < g[v]) {
-      g[v] = g[u] + w;
-      parent[v] = u;
-      open.emplace(g[v] + heuristic(position(v)), v);
+    const double through = g_of(u) + w;
+    if (through < g_of(v)) {
+      touch(v);
+      search.cost[v] = through;
+      search.from[v] = u;
+      open.emplace(through + heuristic(position(v)), v);
     }
   };
-  g[start] = 0;
+  touch(start);
+  search.cost[start] = 0;
   const double direct = m.segment_clearance(from, to);
   if (direct > m.touching() && direct >= need) relax(start, goal, weight(dist(from, to), direct));
   for (const auto& [v, c] : start_links) relax(start, v, weight(dist(from, m.road_position[v]), c));
@@ -589,21 +621,21 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
     const auto [f, u] = open.top();
     open.pop();
     if (u == goal) break;
-    if (f > g[u] + heuristic(position(u)) + 1e-12 * std::abs(f)) continue;  // stale entry
+    if (f > g_of(u) + heuristic(position(u)) + 1e-12 * std::abs(f)) continue;  // stale entry
     if (const auto it = goal_weight.find(u); it != goal_weight.end()) relax(u, goal, it->second);
     for (uint32_t k = m.road.begin[u]; k < m.road.begin[u + 1]; ++k) {
       const uint32_t v = m.road.target[k];
       const double cv = m.road_clearance[v];
       if (cv < need) continue;
       const double c = std::min(m.road_clearance[u], cv);
-      if (need > 0 && g[u] + m.road.weight[k] < g[v] &&
+      if (need > 0 && g_of(u) + m.road.weight[k] < g_of(v) &&
           m.segment_clearance(m.road_position[u], m.road_position[v], need) < need) {
         continue;  // the edge dips below the required clearance between its ends
       }
       relax(u, v, weight(m.road.weight[k], c));
     }
   }
-  if (parent[goal] == kNoVertex) {
+  if (parent_of(goal) == kNoVertex) {
     if (start_links.empty()) {
       answer.reason = "start cannot reach the GVD without crossing an object (is it inside '" +
                       scene.objects[start_object].label + "'?)";
@@ -616,7 +648,7 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
     }
     return answer;
   }
-  for (uint32_t v = goal; v != kNoVertex; v = parent[v]) answer.points.push_back(position(v));
+  for (uint32_t v = goal; v != kNoVertex; v = parent_of(v)) answer.points.push_back(position(v));
   std::reverse(answer.points.begin(), answer.points.end());
   answer.points.front() = query.from;
   answer.points.back() = query.to;
