@@ -169,7 +169,7 @@ void GvdIndex::Impl::build_nearest() {
   const int corners = 1 << octree.dimension;
   corner_exact.assign(leaves * static_cast<size_t>(corners), -1.0f);
   // The distinct closest points of a leaf's boundary vertices; returns their count.
-  auto gather = [&](uint32_t leaf, uint32_t (&found)[27]) {
+  auto gather = [&](uint32_t leaf, uint32_t(&found)[27]) {
     const LeafGrid grid = field.grid(octree, leaf);
     uint32_t count = 0;
     for (uint32_t v : grid) {
@@ -249,15 +249,14 @@ void GvdIndex::Impl::build_dual() {
       const Vec3 p0 = cell.positions[cell.indices[s]];
       const Vec3 p1 = cell.positions[cell.indices[s + 1]];
       // n_t * A_t: half the cross product in 3D; the left normal times the length in 2D.
-      const Vec3 weighted =
-          arity == 3 ? cross(p1 - p0, cell.positions[cell.indices[s + 2]] - p0) * 0.5
-                     : Vec3{-(p1.y - p0.y), p1.x - p0.x, 0};
+      const Vec3 weighted = arity == 3
+                                ? cross(p1 - p0, cell.positions[cell.indices[s + 2]] - p0) * 0.5
+                                : Vec3{-(p1.y - p0.y), p1.x - p0.x, 0};
       const ObjectId lo = std::min(c, d), hi = std::max(c, d);
-      const auto it = std::lower_bound(
-          graph.edges.begin(), graph.edges.end(), std::pair{lo, hi},
-          [](const DualEdge& e, std::pair<ObjectId, ObjectId> key) {
-            return std::pair{e.a, e.b} < key;
-          });
+      const auto it = std::lower_bound(graph.edges.begin(), graph.edges.end(), std::pair{lo, hi},
+                                       [](const DualEdge& e, std::pair<ObjectId, ObjectId> key) {
+                                         return std::pair{e.a, e.b} < key;
+                                       });
       if (it == graph.edges.end() || it->a != lo || it->b != hi) continue;
       const size_t edge = static_cast<size_t>(it - graph.edges.begin());
       Vec3& into = d == lo ? normal_into_a[edge] : normal_into_b[edge];
@@ -282,7 +281,8 @@ void GvdIndex::Impl::build_roadmap() {
   copies.reserve(cell_offset.back());
   for (uint32_t c = 0; c < gvd.cells.size(); ++c) {
     const GvdCell& cell = gvd.cells[c];
-    for (uint32_t v = 0; v < cell.positions.size(); ++v) copies.push_back({cell.positions[v], c, v});
+    for (uint32_t v = 0; v < cell.positions.size(); ++v)
+      copies.push_back({cell.positions[v], c, v});
   }
   std::sort(copies.begin(), copies.end(),
             [](const Copy& a, const Copy& b) { return position_less(a.p, b.p); });
@@ -341,8 +341,7 @@ void GvdIndex::Impl::build_roadmap() {
   }
 
   std::sort(object_vertex.begin(), object_vertex.end());
-  object_vertex.erase(std::unique(object_vertex.begin(), object_vertex.end()),
-                      object_vertex.end());
+  object_vertex.erase(std::unique(object_vertex.begin(), object_vertex.end()), object_vertex.end());
   const size_t objects = result->scene.objects.size();
   object_road.begin.assign(objects + 1, 0);
   object_road.target.reserve(object_vertex.size());
@@ -363,12 +362,11 @@ double GvdIndex::Impl::segment_clearance(Vec3 a, Vec3 b, double stop) const {
 std::pair<double, ObjectId> GvdIndex::Impl::exact_nearest(Vec3 p) const {
   const ClosestHit hit = bvh.nearest(to_unit(p));
   if (!hit.found()) return {kInf, kNoObject};
-  return {std::sqrt(hit.dist2) * result->domain.side,
-          result->geometry.object_of[hit.simplex]};
+  return {std::sqrt(hit.dist2) * result->domain.side, result->geometry.object_of[hit.simplex]};
 }
 
 std::vector<std::pair<uint32_t, double>> GvdIndex::Impl::connect(Vec3 p, ObjectId object,
-                                                                  double min_clearance) const {
+                                                                 double min_clearance) const {
   constexpr size_t kWant = 4;     // connections kept
   constexpr size_t kTries = 256;  // segments tested at most
   std::vector<std::pair<double, uint32_t>> order;
@@ -604,8 +602,10 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
   const auto [goal_distance, goal_object] = m.exact_nearest(to);
   auto too_close = [&](double d, ObjectId o, const char* which) {
     if (d > m.touching() && d >= need) return false;
-    answer.reason = std::string(which) + (d <= m.touching() ? " lies on object '" : " is closer than min_clearance to object '") +
-                    scene.objects[o].label + "'";
+    answer.reason =
+        std::string(which) +
+        (d <= m.touching() ? " lies on object '" : " is closer than min_clearance to object '") +
+        scene.objects[o].label + "'";
     return true;
   };
   if (too_close(start_distance, start_object, "start") ||
@@ -624,7 +624,9 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
   const uint32_t start = n, goal = n + 1;
   const double c_max = std::max({m.max_clearance, start_distance, goal_distance});
   auto heuristic = [&](Vec3 p) { return shortest ? dist(p, to) : dist(p, to) / c_max; };
-  auto position = [&](uint32_t v) { return v == start ? from : (v == goal ? to : m.road_position[v]); };
+  auto position = [&](uint32_t v) {
+    return v == start ? from : (v == goal ? to : m.road_position[v]);
+  };
   // Per-thread search state reused across queries; a generation stamp marks the entries this
   // query wrote, so nothing is cleared per query (the roadmap can have millions of vertices).
   struct Search {
