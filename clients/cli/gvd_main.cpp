@@ -26,7 +26,7 @@ constexpr const char* kUsage = R"(gvd — generalized Voronoi diagrams of closel
 Usage:
   gvd compute SCENE... [options]   compute the GVD of a scene
   gvd info RESULT.gvd [--json]     depth, leaves, bytes per leaf, stage timings, warnings
-  gvd nearest INPUT (--points FILE.json | --point x,y[,z]...)
+  gvd nearest INPUT (--points FILE.json | --point x,y[,z]...) [--fast]
                                    nearest object and distance, one JSON line per point
   gvd neighbors INPUT --object LABEL [--ring K]
                                    objects within K rings of the dual graph (default 1)
@@ -70,6 +70,9 @@ compute options:
 query options:
   --points FILE.json         points as [[x,y,z],...] or {"points":[...]} ("-" = stdin)
   --point x,y[,z]            one point (repeatable)
+  --fast                     nearest: the paper's rule alone away from objects (faster; the
+                             distance may exceed 3/2 of the true one, the object may flip
+                             near a Voronoi boundary)
   --ring K                   rings around the object (default 1; large K = all reachable)
   --min-clearance R          passages narrower than R are not used (default 0)
   --cost shortest|clearance  path cost: length, or length / clearance (default shortest)

@@ -78,7 +78,7 @@ std::string read_text(const std::string& path) {
 }  // namespace
 
 int cmd_nearest(int argc, char** argv) {
-  const Args args = parse_query(argc, argv, {"--points", "--point"});
+  const Args args = parse_query(argc, argv, {"--points", "--point"}, {"--fast"});
   if (!args.has("--points") && !args.has("--point")) {
     throw UsageError{"nearest needs --points FILE.json or --point x,y[,z]"};
   }
@@ -94,7 +94,7 @@ int cmd_nearest(int argc, char** argv) {
   }
   std::string out;
   for (const Vec3& p : points) {
-    out += nearest_to_json(index, index.nearest(p));
+    out += nearest_to_json(index, index.nearest(p, args.has("--fast")));
     out += '\n';
   }
   std::fwrite(out.data(), 1, out.size(), stdout);

@@ -97,6 +97,17 @@ void BM_NearestIndexSplit(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
 }
 
+/// The paper's §4 rule alone (no exact fallback): the speed of the approximate mode.
+void BM_NearestIndexApproximate(benchmark::State& state) {
+  const QueryFixture& f = fixture();
+  size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(f.index->nearest(f.points[i], true).distance);
+    i = (i + 1) & (f.points.size() - 1);
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
+}
+
 void BM_NearestBvhExact(benchmark::State& state) {
   const QueryFixture& f = fixture();
   size_t i = 0;
@@ -124,7 +135,8 @@ void BM_NearestBruteForce(benchmark::State& state) {
 void BM_NearestAccuracy(benchmark::State& state) {
   const QueryFixture& f = fixture();
   const size_t samples = 50000;
-  size_t differ = 0, exact = 0, bvh_wrong = 0, exact_in_nonempty = 0;
+  size_t differ = 0, exact = 0, bvh_wrong = 0, exact_in_nonempty = 0, approx_differ = 0;
+  double approx_worst = 1;
   double worst_ratio = 1, sum_ratio = 0, worst_differ_gap = 0;
   for (auto _ : state) {
     for (size_t i = 0; i < samples; ++i) {
@@ -133,6 +145,9 @@ void BM_NearestAccuracy(benchmark::State& state) {
       const gvd::ClosestHit h = f.bvh.nearest(f.result->domain.to_unit(p));
       const double truth = std::sqrt(h.dist2) * f.result->domain.side;
       const gvd::ObjectId object = f.result->geometry.object_of[h.simplex];
+      const gvd::NearestAnswer fast = f.index->nearest(p, true);
+      approx_worst = std::max(approx_worst, truth > 0 ? fast.distance / truth : 1);
+      approx_differ += fast.object != object ? 1 : 0;
       const double ratio = truth > 0 ? a.distance / truth : 1;
       worst_ratio = std::max(worst_ratio, ratio);
       sum_ratio += ratio;
@@ -160,6 +175,8 @@ void BM_NearestAccuracy(benchmark::State& state) {
   state.counters["exact_nonempty_leaf_pct"] =
       100.0 * static_cast<double>(exact_in_nonempty) / samples;
   state.counters["bvh_vs_brute_wrong"] = static_cast<double>(bvh_wrong);
+  state.counters["approx_ratio_max"] = approx_worst;
+  state.counters["approx_differs_pct"] = 100.0 * static_cast<double>(approx_differ) / samples;
 }
 
 void BM_Neighbors(benchmark::State& state) {
@@ -303,6 +320,7 @@ void BM_PathUniformGrid(benchmark::State& state) {
 
 BENCHMARK(BM_NearestIndex)->MinTime(1.0);
 BENCHMARK(BM_NearestIndexSplit)->Arg(0)->Arg(1);
+BENCHMARK(BM_NearestIndexApproximate)->MinTime(1.0);
 BENCHMARK(BM_NearestBvhExact)->MinTime(1.0);
 BENCHMARK(BM_NearestBruteForce)->MinTime(1.0);
 BENCHMARK(BM_NearestAccuracy)->Iterations(1)->Unit(benchmark::kMillisecond);

@@ -52,17 +52,6 @@ Vec3 closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
   return a + ab * v + ac * w;
 }
 
-double box_distance2(Vec3 p, const Box& b) {
-  double d2 = 0;
-  for (int i = 0; i < 3; ++i) {
-    double d = 0;
-    if (p[i] < b.lo[i]) d = b.lo[i] - p[i];
-    if (p[i] > b.hi[i]) d = p[i] - b.hi[i];
-    d2 += d * d;
-  }
-  return d2;
-}
-
 namespace {
 
 // Projection interval of the triangle (relative to the box centre) on `axis` against the

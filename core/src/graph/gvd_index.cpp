@@ -418,7 +418,7 @@ ObjectId GvdIndex::object(std::string_view label) const {
   return *found;
 }
 
-NearestAnswer GvdIndex::nearest(Vec3 point) const {
+NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
   const Impl& m = *impl_;
   m.check_inside(point, "point");
   Vec3 p = point;
@@ -457,9 +457,8 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
   ObjectId best_object = have ? m.point_object[best_point] : kNoObject;
   Vec3 best_at = have ? closest[best_point] : Vec3{};
   // The GVD crosses this leaf (its corners are nearest to different objects) and the point is
-  // close to it: which object is nearest is decided by exact distances to each of them
-  // (bounded, one-object BVH queries), so answers do not flip sides of the Voronoi boundary
-  // by the corners' approximation.
+  // close to it: the exact query below decides, so answers do not flip sides of the Voronoi
+  // boundary by the corners' approximation.
   bool close_call = false;
   if (object_count >= 2 && object_count <= 3) {
     double first = kInf, second = kInf;
@@ -471,41 +470,21 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
         second = std::min(second, object_best[i]);
       }
     }
-    // Candidates of two objects within 5 % of each other: the point is near the boundary
+    // Candidates of two objects within 2 % of each other: the point is near the boundary
     // between them, where the corners' approximation could pick the wrong side.
-    constexpr double kClose = 0.05;
+    constexpr double kClose = 0.02;
     close_call = std::sqrt(second) - std::sqrt(first) < kClose * std::sqrt(first);
-  }
-  if (close_call) {
-    double exact_best = kInf;
-    ObjectId exact_object = kNoObject;
-    Vec3 exact_point;
-    for (int i = 0; i < object_count; ++i) {
-      const double bound = std::min(object_best[i], exact_best) * (1 + 1e-12);
-      const ClosestHit hit = m.bvh.nearest_in_object(u, objects[i], bound);
-      if (hit.found() && hit.dist2 < exact_best) {
-        exact_best = hit.dist2;
-        exact_object = objects[i];
-        exact_point = hit.point;
-      }
-    }
-    if (exact_object != kNoObject && exact_best <= best) {
-      best = exact_best;
-      best_object = exact_object;
-      best_at = exact_point;
-      answer.exact = true;
-    }
   }
   // A lower bound of the true distance certifies the answer when 1.5 x bound >= answer: an
   // empty leaf holds no object, so the objects are at least as far as the leaf's boundary;
   // and an exact corner distance less the way to that corner. Tried cheapest first, the
   // nearest corner before the others, stopping at the first that certifies.
-  const Octree& octree = m.result->octree;
   const int dim = m.dimension;
   const double answer_distance = have ? std::sqrt(best) : 1e300;
   const double need = answer_distance / 1.5;
-  bool certified = false;
-  if (have) {
+  const Octree& octree = m.result->octree;
+  bool certified = have && approximate && octree.object[leaf] == kNoObject;
+  if (have && !close_call && !certified) {
     const double size = std::ldexp(1.0, -octree.level[leaf]);
     const Vec3 lo = lattice::to_unit(dim, octree.corner(leaf));
     int nearest_corner = 0;
@@ -526,8 +505,8 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
       certified = static_cast<double>(exact[k]) - dist(u, c) >= need;
     }
   }
-  // Unless the corners' answer is provably within 3/2 of the truth, ask the BVH for the exact
-  // nearest point, searching only nearer than that answer.
+  // Unless the answer is provably within 3/2 of the truth, ask the BVH for the exact nearest
+  // point, searching only nearer than the answer so far.
   if (!certified) {
     const ClosestHit hit = m.bvh.nearest(u, have ? best * (1 + 1e-12) : 1e300);
     if (hit.found()) {

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <algorithm>
+
 #include "gvd/geometry/vec.h"
 
 namespace gvd {
@@ -12,8 +14,13 @@ Vec3 closest_point_on_segment(Vec3 p, Vec3 a, Vec3 b);
 /// degenerate triangles fall back to their longest edge.
 Vec3 closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c);
 
-/// Squared distance from `p` to box `b` (0 inside).
-double box_distance2(Vec3 p, const Box& b);
+/// Squared distance from `p` to box `b` (0 inside). Inline: the BVH's inner loop.
+inline double box_distance2(Vec3 p, const Box& b) {
+  const double dx = std::max({b.lo.x - p.x, p.x - b.hi.x, 0.0});
+  const double dy = std::max({b.lo.y - p.y, p.y - b.hi.y, 0.0});
+  const double dz = std::max({b.lo.z - p.z, p.z - b.hi.z, 0.0});
+  return dx * dx + dy * dy + dz * dz;
+}
 
 /// Conservative overlap test of a closed 3D triangle and a closed box: never false when they
 /// touch. Separating axis test (Akenine-Möller) on the box inflated by `slack` (absolute).

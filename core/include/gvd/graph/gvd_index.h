@@ -106,8 +106,14 @@ class GvdIndex {
   /// The object with this label; throws kNotFound naming the label.
   ObjectId object(std::string_view label) const;
 
-  /// Nearest object at a point (user units). O(log leaves + vertices of the leaf).
-  NearestAnswer nearest(Vec3 point) const;
+  /// Nearest object at a point (user units). O(log leaves + vertices of the leaf), plus one
+  /// bounded exact BVH query where the leaf's vertices cannot prove the answer within 3/2 of
+  /// the true distance, or the point is near a Voronoi boundary. With `approximate`, the
+  /// paper's §4 rule (the closest of the leaf vertices' closest points) in every leaf that
+  /// holds no object (exact only in leaves that do): faster; the distance is still never
+  /// below the true one, but its 3/2 bound is only the paper's conjecture there, and the
+  /// object may flip within a cell of a Voronoi boundary.
+  NearestAnswer nearest(Vec3 point, bool approximate = false) const;
 
   /// Objects within `ring` rings of `object` (1 <= ring; rings beyond the graph's reach just
   /// return everything connected), sorted by (ring, object). Breadth-first on the dual graph.
