@@ -90,7 +90,7 @@ std::string json_text(const Json& j) { return j.dump(-1, ' ', false, Json::error
 
 struct HttpServer::Impl {
   explicit Impl(const ServerOptions& o)
-      : options(o), jobs(o, metrics), queries(jobs, metrics) {}
+      : options(o), jobs(o, metrics), queries(jobs) {}
 
   ServerOptions options;
   Metrics metrics;

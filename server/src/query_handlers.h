@@ -8,14 +8,13 @@ struct Response;
 namespace gvd::server {
 
 class JobManager;
-class Metrics;
 
 /// The query endpoints on a finished job (neighbours, nearest, paths, exploded view,
 /// clearance report): parse the request, ask the job's GvdIndex, write its JSON. Throw
 /// ProblemError / gvd::Error for the catch boundary of the HTTP layer.
 class QueryHandlers {
  public:
-  QueryHandlers(JobManager& jobs, Metrics& metrics) : jobs_(jobs), metrics_(metrics) {}
+  explicit QueryHandlers(JobManager& jobs) : jobs_(jobs) {}
   void neighbors(const httplib::Request& req, httplib::Response& res);
   void nearest(const httplib::Request& req, httplib::Response& res);
   void nearest_batch(const httplib::Request& req, httplib::Response& res);
@@ -25,7 +24,6 @@ class QueryHandlers {
 
  private:
   JobManager& jobs_;
-  Metrics& metrics_;
 };
 
 }  // namespace gvd::server

@@ -37,6 +37,11 @@ LoadedResult::Bytes LoadedResult::graph() const {
               [this] { return graph_to_json(result_->graph, result_->scene); });
 }
 
+const GvdIndex& LoadedResult::index() const {
+  std::call_once(index_once_, [this] { index_ = std::make_unique<GvdIndex>(result_); });
+  return *index_;
+}
+
 ResultCache::ResultCache(std::string dir, size_t capacity, std::function<void(bool)> on_lookup)
     : dir_(std::move(dir)), capacity_(std::max<size_t>(1, capacity)),
       on_lookup_(std::move(on_lookup)) {}

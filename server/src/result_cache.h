@@ -9,6 +9,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "gvd/graph/gvd_index.h"
 #include "gvd/pipeline/pipeline.h"
 
 namespace gvd::server {
@@ -27,6 +28,8 @@ class LoadedResult {
   Bytes gltf() const;   ///< the same as glTF JSON with the buffer embedded (data URI)
   Bytes json() const;   ///< gvd_to_json (float64)
   Bytes graph() const;  ///< graph_to_json
+  /// The query index (built on first use, O(result size); then shared, const, thread-safe).
+  const GvdIndex& index() const;
 
  private:
   Bytes once(std::once_flag& flag, Bytes& slot, const std::function<std::string()>& make) const;
@@ -34,6 +37,8 @@ class LoadedResult {
   std::shared_ptr<const GvdResult> result_;
   mutable std::once_flag glb_once_, gltf_once_, json_once_, graph_once_;
   mutable Bytes glb_, gltf_, json_, graph_;
+  mutable std::once_flag index_once_;
+  mutable std::unique_ptr<GvdIndex> index_;
 };
 
 /// An in-memory LRU of finished results in front of the on-disk store: `get` returns the

@@ -684,3 +684,151 @@ TEST(Service, OpenApiIsValidAndListsEveryRoute) {
 
 }  // namespace
 }  // namespace gvd::test
+
+namespace gvd::test {
+namespace {
+
+/// A finished gears2d job (gear_a, gear_b inside a rectangular frame) for the query tests.
+struct QueryFixture {
+  QueryFixture() : server(fresh_dir("queries")), c(client(server.port())) {
+    const Submitted s = submit(*c, data("scenes/gears2d.json"));
+    id = s.id;
+    const Json done = wait_for(*c, id, {"done", "failed"});
+    EXPECT_EQ(done.value("status", ""), "done");
+    graph = Json::parse(c->Get(("/v1/jobs/" + id + "/graph").c_str())->body);
+  }
+  std::string url(const std::string& tail) const { return "/v1/jobs/" + id + tail; }
+  ServerProcess server;
+  std::unique_ptr<httplib::Client> c;
+  std::string id;
+  Json graph;
+};
+
+TEST(ServiceQueries, NeighborsMatchTheDualGraph) {
+  QueryFixture f;
+  auto r = f.c->Get(f.url("/objects/gear_a/neighbors?ring=1").c_str());
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json doc = Json::parse(r->body);
+  std::set<std::string> got, want;
+  for (const Json& n : doc["neighbors"]) got.insert(n["label"]);
+  for (const Json& e : f.graph["edges"]) {
+    if (e["label_a"] == "gear_a") want.insert(e["label_b"]);
+    if (e["label_b"] == "gear_a") want.insert(e["label_a"]);
+  }
+  EXPECT_EQ(got, want);
+  EXPECT_FALSE(got.empty());
+  // Errors: unknown label, bad ring, unfinished/unknown job.
+  r = f.c->Get(f.url("/objects/no_such_gear/neighbors").c_str());
+  EXPECT_EQ(r->status, 404);
+  EXPECT_NE(Json::parse(r->body)["detail"].get<std::string>().find("no_such_gear"), std::string::npos);
+  EXPECT_EQ(f.c->Get(f.url("/objects/gear_a/neighbors?ring=0").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/objects/gear_a/neighbors?ring=x").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get("/v1/jobs/ffffffffffffffffffffffffffffffff/objects/a/neighbors")->status, 404);
+}
+
+TEST(ServiceQueries, NearestSingleAndBatch) {
+  QueryFixture f;
+  const Json scene = Json::parse(data("scenes/gears2d.json"));
+  // A vertex of each object: that object is the nearest, at distance ~0.
+  std::vector<std::pair<std::string, Json>> probes;
+  for (const Json& o : scene["objects"]) probes.emplace_back(o["label"], o["vertices"][0]);
+  Json points = Json::array();
+  for (const auto& [label, p] : probes) {
+    const std::string q = "?point=" + std::to_string(p[0].get<double>()) + "," + std::to_string(p[1].get<double>());
+    auto r = f.c->Get(f.url("/nearest" + q).c_str());
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+    const Json a = Json::parse(r->body);
+    EXPECT_EQ(a["label"], label);
+    EXPECT_LT(a["distance"].get<double>(), 1e-4);
+    points.push_back(p);
+  }
+  auto r = f.c->Post(f.url("/nearest").c_str(), Json{{"points", points}}.dump(), "application/json");
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json batch = Json::parse(r->body)["answers"];
+  ASSERT_EQ(batch.size(), probes.size());
+  for (size_t i = 0; i < probes.size(); ++i) {
+    EXPECT_EQ(batch[i]["label"], probes[i].first);
+    EXPECT_EQ(batch[i]["point"], probes[i].second);  // echoed as given
+  }
+  // Errors: outside the domain (422), wrong arity / not a number / missing (400), bad JSON,
+  // wrong content type.
+  r = f.c->Get(f.url("/nearest?point=100,0").c_str());
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/outside-domain");
+  EXPECT_EQ(f.c->Get(f.url("/nearest?point=1,2,3").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/nearest?point=a,b").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/nearest").c_str())->status, 400);
+  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[0,", "application/json")->status, 400);
+  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[\"x\",0]]}", "application/json")->status, 400);
+  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "text/plain")->status, 415);
+}
+
+TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
+  QueryFixture f;
+  auto r = f.c->Post(f.url("/paths").c_str(), R"({"from":[-1.3,-2.3],"to":[3.3,2.3]})", "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json path = Json::parse(r->body);
+  ASSERT_GE(path["points"].size(), 2u);
+  EXPECT_EQ(path["points"].front(), Json::parse("[-1.3,-2.3]"));
+  EXPECT_EQ(path["points"].back(), Json::parse("[3.3,2.3]"));
+  EXPECT_GE(path["length"].get<double>(), std::hypot(4.6, 4.6) - 1e-9);
+  EXPECT_GT(path["min_clearance"].get<double>(), 0.0);
+  // A start inside gear_a: no path; the problem carries the path document.
+  r = f.c->Post(f.url("/paths").c_str(), R"({"from":[0.5,0.5],"to":[3.3,2.3]})", "application/json");
+  ASSERT_EQ(r->status, 422) << r->body;
+  const Json problem = Json::parse(r->body);
+  EXPECT_EQ(problem["type"], "/problems/no-path");
+  EXPECT_TRUE(problem["path"]["points"].empty());
+  EXPECT_TRUE(problem["path"]["length"].is_null());
+  // Bad bodies.
+  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0]})", "application/json")->status, 400);
+  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0],"to":[1,1],"min_clearance":-1})", "application/json")->status, 400);
+  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"(not json)", "application/json")->status, 400);
+}
+
+TEST(ServiceQueries, ExplodeJsonAndGlbAndClearanceReport) {
+  QueryFixture f;
+  auto r = f.c->Get(f.url("/explode?anchor=frame").c_str());
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json view = Json::parse(r->body);
+  EXPECT_EQ(view["label"], "frame");
+  EXPECT_EQ(view["objects"].size(), 3u);
+  r = f.c->Get(f.url("/explode?anchor=frame&format=glb").c_str());
+  ASSERT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "model/gltf-binary");
+  const std::string glb_path = fresh_dir("explode-glb") + "/exploded.glb";
+  std::ofstream(glb_path, std::ios::binary) << r->body;
+  const GltfReport report = validate_glb_file(glb_path);
+  ASSERT_TRUE(report.ran) << report.output;
+  EXPECT_EQ(report.errors, 0) << report.output;
+  EXPECT_EQ(f.c->Get(f.url("/explode").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/explode?anchor=nobody").c_str())->status, 404);
+  EXPECT_EQ(f.c->Get(f.url("/explode?anchor=frame&format=obj").c_str())->status, 400);
+
+  r = f.c->Get(f.url("/tight?below=1e9").c_str());
+  ASSERT_EQ(r->status, 200);
+  EXPECT_EQ(Json::parse(r->body)["pairs"].size(), f.graph["edges"].size());
+  r = f.c->Get(f.url("/tight?below=0").c_str());
+  EXPECT_TRUE(Json::parse(r->body)["pairs"].empty());
+  EXPECT_EQ(f.c->Get(f.url("/tight").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/tight?below=-1").c_str())->status, 400);
+}
+
+TEST(ServiceQueries, UnfinishedJobsAnswer409) {
+  ServerProcess server(fresh_dir("queries-409"), {"--workers", "1"});
+  auto c = client(server.port());
+  const Submitted slow = submit(*c, slow_scene(), "?contact_depth=12");
+  ASSERT_EQ(wait_for(*c, slow.id, {"running"}).value("status", ""), "running");
+  auto r = c->Get(("/v1/jobs/" + slow.id + "/nearest?point=0,0,0").c_str());
+  EXPECT_EQ(r->status, 409);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/job-not-finished");
+  EXPECT_EQ(c->Get(("/v1/jobs/" + slow.id + "/gvd.glb").c_str())->status, 409);
+  c->Delete(("/v1/jobs/" + slow.id).c_str());
+  wait_for(*c, slow.id, {"cancelled"}, 10);
+}
+
+}  // namespace
+}  // namespace gvd::test
