@@ -10,7 +10,7 @@ HOST       ?= 127.0.0.1
 PORT       ?= 8080
 STORE      ?= gvd-store
 
-.PHONY: all deps configure build run example test test-asan bench format tidy clean
+.PHONY: all deps configure build run example test test-asan bench bench-server format tidy clean
 
 all: build
 
@@ -51,6 +51,11 @@ test-asan: deps
 
 bench: build
 	$(BUILD)/tests/gvd_bench
+	@$(MAKE) --no-print-directory bench-server
+
+# gvd-server under wrk on loopback (bounded runs, 127.0.0.1 only).
+bench-server: build
+	tests/service/bench_server.sh $(BUILD) 10 8
 
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h')
