@@ -172,13 +172,16 @@ std::string server_usage() {
        "Every option can also be set by its environment variable; a flag wins.\n\n";
   const ServerOptions defaults;
   for (const Spec& spec : specs()) {
-    std::string head = std::string("  ") + spec.flag + " V";
-    head.resize(std::max<size_t>(head.size() + 1, 24), ' ');
+    const std::string flag = spec.flag;
+    const char* metavar = flag == "--host" ? " ADDR" : flag == "--store" ? " DIR"
+                        : flag == "--backend" ? " NAME" : " N";
+    std::string head = "  " + flag + metavar;
+    head.resize(std::max<size_t>(head.size() + 1, 27), ' ');
     s << head << spec.meaning << " (" << env_name(spec.flag) << ", default " << spec.show(defaults)
       << ")\n";
   }
-  s << "  -q, --quiet             no request log on stderr (GVD_QUIET=1)\n"
-       "  -h, --help              this text\n\n"
+  s << "  -q, --quiet              no request log on stderr (GVD_QUIET=1)\n"
+       "  -h, --help               this text\n\n"
        "API: GET /openapi.json, docs/API.md. Stop with SIGTERM (drains: /readyz answers 503,\n"
        "running jobs get --grace-seconds to finish, unfinished jobs resume at the next start).\n";
   return s.str();

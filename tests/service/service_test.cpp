@@ -563,31 +563,50 @@ TEST(Service, SigtermDrainsThenExits) {
 TEST(Service, MultipartUploadOnePartPerObject) {
   ServerProcess server(fresh_dir("multipart"));
   auto c = client(server.port());
+  // Two tetrahedra 3 units apart, one as OFF and one as PLY; the part names are the labels.
+  const std::string off = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
+      "3 0 0\n4 0 0\n3 1 0\n3 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
   httplib::MultipartFormDataItems items = {
-      {"tetra", data("formats/tetra_ascii.ply"), "tetra.ply", "application/octet-stream"},
-      {"cube", data("formats/cube.off"), "cube.off", "application/octet-stream"},
+      {"left tet", off, "left.off", "application/octet-stream"},
+      {"right_tet", ply, "right.ply", "application/octet-stream"},
+      {"params", R"({"max_depth": 8})", "", "application/json"},
   };
-  // Move the cube away from the tetrahedron so that the scene is well separated.
   auto r = c->Post("/v1/jobs", items);
   ASSERT_TRUE(r);
-  ASSERT_TRUE(r->status == 202 || r->status == 422) << r->body;
-  if (r->status == 202) {
-    const std::string id = Json::parse(r->body)["id"];
-    const Json done = wait_for(*c, id, {"done", "failed"});
-    ASSERT_EQ(done.value("status", ""), "done") << done.dump();
-    const Json g = Json::parse(c->Get(("/v1/jobs/" + id + "/graph").c_str())->body);
-    std::set<std::string> labels;
-    for (const Json& n : g["nodes"]) labels.insert(n["label"]);
-    EXPECT_EQ(labels, (std::set<std::string>{"tetra", "cube"}));
-  }
-  // Duplicate part names are duplicate labels.
+  ASSERT_EQ(r->status, 202) << r->body;
+  const Json job = Json::parse(r->body);
+  EXPECT_EQ(job["params"]["max_depth"], 8);
+  EXPECT_EQ(job["scene"]["objects"], 2);
+  const std::string id = job["id"];
+  const Json done = wait_for(*c, id, {"done", "failed"});
+  ASSERT_EQ(done.value("status", ""), "done") << done.dump();
+  const Json g = Json::parse(c->Get(("/v1/jobs/" + id + "/graph").c_str())->body);
+  std::set<std::string> labels;
+  for (const Json& n : g["nodes"]) labels.insert(n["label"]);
+  EXPECT_EQ(labels, (std::set<std::string>{"left tet", "right_tet"}));
+  // A label with a space, URL-encoded in the path.
+  r = c->Get(("/v1/jobs/" + id + "/objects/left%20tet/neighbors").c_str());
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Json::parse(r->body)["neighbors"][0]["label"], "right_tet");
+  // Duplicate part names are duplicate labels; a bad part names itself.
   httplib::MultipartFormDataItems dup = {
-      {"a", data("formats/cube.off"), "a.off", "application/octet-stream"},
-      {"a", data("formats/tetra_ascii.ply"), "a.ply", "application/octet-stream"},
+      {"a", off, "a.off", "application/octet-stream"},
+      {"a", ply, "a.ply", "application/octet-stream"},
   };
   r = c->Post("/v1/jobs", dup);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422) << r->body;
+  httplib::MultipartFormDataItems broken = {
+      {"good", off, "good.off", "application/octet-stream"},
+      {"broken", "OFF\n4 1 0\n0 0 0\n", "broken.off", "application/octet-stream"},
+  };
+  r = c->Post("/v1/jobs", broken);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422) << r->body;
+  EXPECT_NE(r->body.find("broken"), std::string::npos) << r->body;
 }
 
 TEST(Service, ConcurrentClients) {
