@@ -188,7 +188,7 @@ void JobManager::recover() {
         job->simplices = r.scene.simplex_count();
         job->result_info = result_info_json(r);
         jobs_[id] = job;
-        persist_status_locked(*job, status_path);
+        write_file_atomic(status_path, status_json_locked(*job));
       } catch (const std::exception& e) {
         std::fprintf(stderr, "{\"level\":\"warn\",\"msg\":\"unreadable result %s: %s\"}\n",
                      p.string().c_str(), e.what());
@@ -254,16 +254,22 @@ void JobManager::start() {
 
 SubmitOutcome JobManager::submit(const JobRequest& request) {
   std::unique_lock lock(mutex_);
-  if (const auto it = jobs_.find(request.id); it != jobs_.end()) {
+  for (;;) {
+    const auto it = jobs_.find(request.id);
+    if (it == jobs_.end()) break;
     const Job& job = *it->second;
+    if (job.persisting) {  // the same job, being submitted by another request right now
+      changed_cv_.wait(lock);
+      continue;
+    }
     if (job.status == JobStatus::kQueued || job.status == JobStatus::kRunning ||
         job.status == JobStatus::kDone) {
       metrics_.count("gvd_job_cache_hits_total");
       return {false, job.status, status_json_locked(job)};
     }
-    // Failed or cancelled: computed again.
+    break;  // failed or cancelled: computed again
   }
-  if (queue_.size() >= static_cast<size_t>(options_.queue)) {
+  if (queue_.size() + persisting_ >= static_cast<size_t>(options_.queue)) {
     metrics_.count("gvd_jobs_rejected_total");
     throw QueueFull("the job queue is full (" + std::to_string(options_.queue) + " jobs)");
   }
@@ -274,21 +280,34 @@ SubmitOutcome JobManager::submit(const JobRequest& request) {
   job->objects = request.objects;
   job->simplices = request.simplices;
   job->submitted_at = unix_now();
-  // Persist before answering: scene first, then the request that points at it (recovery only
-  // trusts a request whose scene is complete). The lock is held so that a concurrent
-  // identical submission waits and then finds this job.
-  const std::string base = dir("requests") + "/" + request.id;
-  write_file_atomic(base + ".scene.json", request.scene_json);
-  const Json meta = {{"id", request.id},
-                     {"submitted_at", job->submitted_at},
-                     {"params", Json::parse(request.params_json)},
-                     {"warnings", Json::parse(request.warnings_json)},
-                     {"dimension", request.dimension},
-                     {"objects", request.objects},
-                     {"simplices", request.simplices}};
-  write_file_atomic(base + ".json", meta.dump());
-  remove_quietly(dir("failed") + "/" + request.id + ".json");
+  job->persisting = true;
   jobs_[request.id] = job;
+  ++persisting_;
+  lock.unlock();
+  // Persist before answering (outside the lock: the writes are fsynced): the scene first, then
+  // the request that points at it (recovery only trusts a request whose scene is complete).
+  try {
+    const std::string base = dir("requests") + "/" + request.id;
+    write_file_atomic(base + ".scene.json", request.scene_json);
+    const Json meta = {{"id", request.id},
+                       {"submitted_at", job->submitted_at},
+                       {"params", Json::parse(request.params_json)},
+                       {"warnings", Json::parse(request.warnings_json)},
+                       {"dimension", request.dimension},
+                       {"objects", request.objects},
+                       {"simplices", request.simplices}};
+    write_file_atomic(base + ".json", meta.dump());
+    remove_quietly(dir("failed") + "/" + request.id + ".json");
+  } catch (...) {
+    lock.lock();
+    --persisting_;
+    if (const auto it = jobs_.find(request.id); it != jobs_.end() && it->second == job) jobs_.erase(it);
+    changed_cv_.notify_all();
+    throw;
+  }
+  lock.lock();
+  --persisting_;
+  job->persisting = false;
   queue_.push_back(request.id);
   metrics_.count("gvd_jobs_submitted_total");
   ++version_;
@@ -311,37 +330,37 @@ std::optional<JobStatus> JobManager::status(const std::string& id) const {
   return it->second->status;
 }
 
-std::string JobManager::status_json_locked(const Job& job) const {
+std::string JobManager::status_json_locked(const Job& job, JobStatus shown) const {
   const std::string self = "/v1/jobs/" + job.id;
   Json s = {{"id", job.id},
-            {"status", job_status_name(job.status)},
+            {"status", job_status_name(shown)},
             {"submitted_at", iso_time(job.submitted_at)},
             {"started_at", iso_time(job.started_at)},
             {"finished_at", iso_time(job.finished_at)},
             {"scene", {{"dimension", job.dimension}, {"objects", job.objects}, {"simplices", job.simplices}}},
             {"params", Json::parse(job.params_json.empty() ? "{}" : job.params_json)}};
-  if (job.status == JobStatus::kQueued) {
+  if (shown == JobStatus::kQueued) {
     const auto pos = std::find(queue_.begin(), queue_.end(), job.id);
     s["queue_position"] = pos == queue_.end() ? 0 : (pos - queue_.begin()) + 1;
   }
   if (job.recovered) s["recovered"] = true;
   Json progress = {{"fraction", 0.0}, {"stage", nullptr}, {"stages", Json::array()}};
-  if (job.status == JobStatus::kRunning || job.status == JobStatus::kCancelled ||
-      job.status == JobStatus::kFailed) {
+  if (shown == JobStatus::kRunning || shown == JobStatus::kCancelled ||
+      shown == JobStatus::kFailed) {
     double overall = 0;
     for (const StageTime& st : job.stages) {
       progress["stages"].push_back(
           {{"name", st.name}, {"fraction", st.fraction}, {"seconds", st.seconds}});
       overall += stage_weight(st.name) * st.fraction;
     }
-    if (job.status == JobStatus::kRunning && !job.stages.empty()) {
+    if (shown == JobStatus::kRunning && !job.stages.empty()) {
       progress["stages"].back()["seconds"] =
           std::chrono::duration<double>(Clock::now() - job.stage_start).count();
       progress["stage"] = job.stages.back().name;
     }
     progress["fraction"] = std::min(0.99, overall);
   }
-  if (job.status == JobStatus::kDone) {
+  if (shown == JobStatus::kDone) {
     progress["fraction"] = 1.0;
     progress["stage"] = "done";
     s["result"] = Json::parse(job.result_info.empty() ? "{}" : job.result_info);
@@ -360,16 +379,18 @@ std::string JobManager::status_json_locked(const Job& job) const {
     s["links"] = {{"self", self}, {"events", self + "/events"}};
   }
   s["progress"] = progress;
-  if (!job.error.empty()) s["error"] = Json::parse(job.error);
+  if (!job.error.empty() && (shown == JobStatus::kFailed || shown == JobStatus::kCancelled)) {
+    s["error"] = Json::parse(job.error);
+  }
   return s.dump(-1, ' ', false, Json::error_handler_t::replace);
-}
-
-void JobManager::persist_status_locked(const Job& job, const std::string& path) const {
-  write_file_atomic(path, status_json_locked(job));
 }
 
 JobManager::DeleteOutcome JobManager::remove(const std::string& id) {
   std::unique_lock lock(mutex_);
+  changed_cv_.wait(lock, [&] {
+    const auto it = jobs_.find(id);
+    return it == jobs_.end() || !it->second->persisting;
+  });
   const auto it = jobs_.find(id);
   if (it == jobs_.end()) return DeleteOutcome::kUnknown;
   Job& job = *it->second;
@@ -378,6 +399,7 @@ JobManager::DeleteOutcome JobManager::remove(const std::string& id) {
       queue_.erase(std::remove(queue_.begin(), queue_.end(), id), queue_.end());
       job.error = problem_json(ProblemKind::kCancelled, "cancelled by DELETE before it started",
                                "/v1/jobs/" + id, "");
+      remove_request_files(id);  // unlinks only: quick enough under the lock
       finish_locked(job, JobStatus::kCancelled);
       return DeleteOutcome::kCancelled;
     }
@@ -463,19 +485,14 @@ std::string JobManager::list_json() const {
   return Json{{"jobs", list}}.dump();
 }
 
+void JobManager::remove_request_files(const std::string& id) const {
+  remove_quietly(dir("requests") + "/" + id + ".json");
+  remove_quietly(dir("requests") + "/" + id + ".scene.json");
+}
+
 void JobManager::finish_locked(Job& job, JobStatus status) {
   job.status = status;
-  job.finished_at = unix_now();
-  const std::string base = dir("requests") + "/" + job.id;
-  if (status == JobStatus::kFailed) {
-    try {
-      persist_status_locked(job, dir("failed") + "/" + job.id + ".json");
-    } catch (const std::exception&) {
-      // The status stays in memory; the failure is deterministic and recomputed otherwise.
-    }
-  }
-  remove_quietly(base + ".json");
-  remove_quietly(base + ".scene.json");
+  if (job.finished_at == 0) job.finished_at = unix_now();
   const double seconds = job.started_at > 0 ? job.finished_at - job.started_at : 0;
   metrics_.job_finished(std::string(job_status_name(status)), seconds);
   ++version_;
@@ -497,6 +514,8 @@ void JobManager::worker_loop() {
       job->stages.clear();
       job->cancel = false;
       job->reason = StopReason::kNone;
+      job->finished_at = 0;
+      job->error.clear();
       ++running_;
       ++version_;
       changed_cv_.notify_all();
@@ -554,17 +573,22 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
     const std::vector<uint8_t> bytes = result_to_bytes(*result);
     write_file_atomic(cache_.path_of(job->id), bytes.data(), bytes.size());
     const std::string info = result_info_json(*result);
-    cache_.put(job->id, result);
-    for (const StageStats& st : result->stats.stages) metrics_.stage(st.name, st.seconds);
-    std::lock_guard lock(mutex_);
-    job->result_info = info;
-    job->status = JobStatus::kDone;
-    job->finished_at = unix_now();
+    std::string doc;
+    {
+      std::lock_guard lock(mutex_);
+      job->result_info = info;
+      job->finished_at = unix_now();
+      doc = status_json_locked(*job, JobStatus::kDone);
+    }
     try {
-      persist_status_locked(*job, dir("results") + "/" + job->id + ".json");
+      write_file_atomic(dir("results") + "/" + job->id + ".json", doc);
     } catch (const std::exception&) {
       // Rebuilt from the result file at the next start.
     }
+    remove_request_files(job->id);
+    cache_.put(job->id, result);
+    for (const StageStats& st : result->stats.stages) metrics_.stage(st.name, st.seconds);
+    std::lock_guard lock(mutex_);
     finish_locked(*job, JobStatus::kDone);
     return;
   } catch (const Error& e) {
@@ -577,7 +601,7 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
     kind = ProblemKind::kInternal;
     detail = e.what();
   }
-  std::lock_guard lock(mutex_);
+  std::unique_lock lock(mutex_);
   if (kind == ProblemKind::kCancelled) {
     switch (job->reason) {
       case StopReason::kShutdown:
@@ -602,8 +626,23 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
         break;
     }
   }
+  const JobStatus final = kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed;
   job->error = problem_json(kind, detail, instance, "");
-  finish_locked(*job, kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed);
+  job->finished_at = unix_now();
+  const std::string doc = status_json_locked(*job, final);
+  lock.unlock();
+  // Files first, then the final status: once a job shows as failed or cancelled it may be
+  // submitted again, and its new request files must not be removed by this thread.
+  if (final == JobStatus::kFailed) {
+    try {
+      write_file_atomic(dir("failed") + "/" + job->id + ".json", doc);
+    } catch (const std::exception&) {
+      // The status stays in memory; a failure is deterministic and recomputed otherwise.
+    }
+  }
+  remove_request_files(job->id);
+  lock.lock();
+  finish_locked(*job, final);
 }
 
 void JobManager::watchdog_loop() {

@@ -123,19 +123,24 @@ class JobManager {
     std::string result_info;        ///< done: result_info_json
     std::string error;              ///< failed/cancelled: problem document
     bool recovered = false;
+    bool persisting = false;  ///< submitted, its request still being written to disk
     std::atomic<bool> cancel{false};
     StopReason reason = StopReason::kNone;
     std::chrono::steady_clock::time_point run_start;
     std::chrono::steady_clock::time_point stage_start;
   };
 
-  std::string status_json_locked(const Job& job) const;
-  void persist_status_locked(const Job& job, const std::string& path) const;
+  std::string status_json_locked(const Job& job) const { return status_json_locked(job, job.status); }
+  /// The document of `job` as if its status were `shown` (to persist a final document
+  /// before the final status becomes visible).
+  std::string status_json_locked(const Job& job, JobStatus shown) const;
   void recover();
   void worker_loop();
   void watchdog_loop();
   void run(const std::shared_ptr<Job>& job);
+  /// Makes a final status visible (no I/O: files are written before, outside the lock).
   void finish_locked(Job& job, JobStatus status);
+  void remove_request_files(const std::string& id) const;
   std::string dir(const char* sub) const { return options_.store + "/" + sub; }
 
   const ServerOptions options_;
@@ -148,6 +153,7 @@ class JobManager {
   std::map<std::string, std::shared_ptr<Job>> jobs_;
   std::deque<std::string> queue_;
   size_t running_ = 0;
+  size_t persisting_ = 0;  ///< submissions being written (count against the queue bound)
   uint64_t version_ = 0;
   bool draining_ = false;
   bool stopping_ = false;

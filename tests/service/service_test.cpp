@@ -634,6 +634,25 @@ TEST(Service, ConcurrentClients) {
   for (auto& th : threads) th.join();
   EXPECT_EQ(bad, 0);
   EXPECT_EQ(ok, 200);
+
+  // The same new scene submitted by 8 clients at once: one job, one computation.
+  std::atomic<int> misses{0};
+  std::vector<std::string> ids(8);
+  threads.clear();
+  for (int t = 0; t < 8; ++t) {
+    threads.emplace_back([&, t] {
+      auto tc = client(server.port());
+      auto r = tc->Post("/v1/jobs?max_depth=14", scene, "application/json");
+      if (!r) return;
+      if (r->get_header_value("X-Gvd-Cache") == "miss") ++misses;
+      ids[static_cast<size_t>(t)] = Json::parse(r->body).value("id", "");
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(misses, 1);
+  for (const std::string& id : ids) EXPECT_EQ(id, ids[0]);
+  auto m = c->Get("/metrics");
+  EXPECT_NE(m->body.find("gvd_jobs_submitted_total 2"), std::string::npos);
 }
 
 TEST(Service, HealthReadinessMetrics) {
