@@ -101,6 +101,7 @@ struct HttpServer::Impl {
   std::atomic<bool> closing{false};
   std::atomic<int> streams{0};
   int port = 0;
+  std::string backend;  ///< the backend the warm-up computation actually used
 
   // ---- helpers ------------------------------------------------------------------------------
 
@@ -552,7 +553,8 @@ struct HttpServer::Impl {
 
   void readyz(const httplib::Request&, httplib::Response& res) {
     const Json body = {{"status", draining ? "draining" : "ready"},
-                       {"backend", options.backend},
+                       {"backend", backend},
+                       {"backend_requested", options.backend},
                        {"algorithm_version", kAlgorithmVersion},
                        {"workers", options.workers},
                        {"queue_depth", jobs.queue_depth()},
@@ -725,6 +727,17 @@ void HttpServer::Impl::setup() {
 
 HttpServer::HttpServer(const ServerOptions& options) : impl_(std::make_unique<Impl>(options)) {
   impl_->setup();
+  // One small computation with the configured backend before serving: it fails early and
+  // loudly when the backend is unusable, and initialises it once on one thread (OpenCL
+  // platforms must not see their first calls from several workers at once).
+  const Scene probe = parse_scene_json(R"({"dimension":2,"objects":[
+      {"label":"a","vertices":[[0,0],[1,0]],"segments":[[0,1]]},
+      {"label":"b","vertices":[[0,1],[1,1]],"segments":[[0,1]]}]})");
+  PipelineOptions o;
+  o.backend = options.backend;
+  o.threads = 1;
+  o.max_depth = 6;
+  impl_->backend = compute_gvd(probe, o).stats.backend;
 }
 
 HttpServer::~HttpServer() {
@@ -732,6 +745,8 @@ HttpServer::~HttpServer() {
   impl_->http.stop();
   impl_->jobs.stop();
 }
+
+const std::string& HttpServer::backend() const { return impl_->backend; }
 
 int HttpServer::bind() {
   Impl& s = *impl_;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 
 #include "server_options.h"
 
@@ -12,6 +13,8 @@ namespace gvd::server {
 /// problem documents, request logs and metrics. Owns the JobManager.
 class HttpServer {
  public:
+  /// Opens the store (recovering its jobs) and runs one tiny computation with the configured
+  /// backend; throws gvd::Error when either fails.
   explicit HttpServer(const ServerOptions& options);
   ~HttpServer();
   HttpServer(const HttpServer&) = delete;
@@ -24,6 +27,8 @@ class HttpServer {
   /// Graceful stop (SIGTERM): /readyz and new jobs answer 503, running jobs get the grace
   /// period, then the listener closes and unfinished jobs stay persisted for the next start.
   void shutdown();
+  /// The compute backend in use (what the warm-up computation reported).
+  const std::string& backend() const;
 
  private:
   struct Impl;

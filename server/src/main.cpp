@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     std::printf("gvd-server listening on http://%s:%d (store %s, backend %s, %d workers)\n",
-                options.host.c_str(), port, options.store.c_str(), options.backend.c_str(),
+                options.host.c_str(), port, options.store.c_str(), server.backend().c_str(),
                 options.workers);
     std::fflush(stdout);
 
@@ -73,6 +73,9 @@ int main(int argc, char** argv) {
     return ok ? 0 : 1;
   } catch (const gvd::Error& e) {
     std::fprintf(stderr, "gvd-server: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "gvd-server: cannot start: %s\n", e.what());
     return 1;
   }
 }
