@@ -224,7 +224,7 @@ struct HttpServer::Impl {
                        {"path", req.path},
                        {"route", t_request.route},
                        {"status", res.status},
-                       {"bytes", res.body.size()},
+                       {"bytes", res.body.empty() ? res.content_length_ : res.body.size()},
                        {"ms", seconds * 1000}};
     std::fprintf(stderr, "%s\n", json_text(line).c_str());
   }

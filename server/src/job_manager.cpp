@@ -243,6 +243,7 @@ void JobManager::recover() {
     jobs_[job->id] = job;
     queue_.push_back(job->id);
     metrics_.count("gvd_jobs_recovered_total");
+    log_event("info", "job_recovered", job->id, 0);
   }
 }
 
@@ -310,6 +311,7 @@ SubmitOutcome JobManager::submit(const JobRequest& request) {
   job->persisting = false;
   queue_.push_back(request.id);
   metrics_.count("gvd_jobs_submitted_total");
+  log_event("info", "job_queued", request.id, 0);
   ++version_;
   work_cv_.notify_one();
   changed_cv_.notify_all();
@@ -485,6 +487,15 @@ std::string JobManager::list_json() const {
   return Json{{"jobs", list}}.dump();
 }
 
+void JobManager::log_event(const char* level, const char* event, const std::string& id,
+                           double seconds) const {
+  if (options_.quiet) return;
+  Json line = {{"ts", unix_now()}, {"level", level}, {"event", event}};
+  if (!id.empty()) line["job"] = id;
+  if (seconds > 0) line["seconds"] = seconds;
+  std::fprintf(stderr, "%s\n", line.dump().c_str());
+}
+
 void JobManager::remove_request_files(const std::string& id) const {
   remove_quietly(dir("requests") + "/" + id + ".json");
   remove_quietly(dir("requests") + "/" + id + ".scene.json");
@@ -495,6 +506,10 @@ void JobManager::finish_locked(Job& job, JobStatus status) {
   if (job.finished_at == 0) job.finished_at = unix_now();
   const double seconds = job.started_at > 0 ? job.finished_at - job.started_at : 0;
   metrics_.job_finished(std::string(job_status_name(status)), seconds);
+  log_event(status == JobStatus::kDone ? "info" : "warn",
+            status == JobStatus::kDone ? "job_done"
+            : status == JobStatus::kFailed ? "job_failed" : "job_cancelled",
+            job.id, seconds);
   ++version_;
   changed_cv_.notify_all();
 }
@@ -516,6 +531,7 @@ void JobManager::worker_loop() {
       job->reason = StopReason::kNone;
       job->finished_at = 0;
       job->error.clear();
+      log_event("info", "job_started", job->id, 0);
       ++running_;
       ++version_;
       changed_cv_.notify_all();
@@ -664,9 +680,15 @@ void JobManager::watchdog_loop() {
     }
     if (newest != nullptr && options_.max_memory_mb > 0 &&
         resident_memory_bytes() > options_.max_memory_mb * (1ull << 20)) {
-      // Over the limit: stop the job that started last (it has the least work to lose).
-      newest->reason = StopReason::kMemory;
-      newest->cancel = true;
+      if (cache_.size() > 0) {
+        // Cached results can be loaded again: drop them first and look again next tick.
+        cache_.clear();
+        log_event("warn", "memory_limit_cache_cleared", "", 0);
+      } else {
+        // Still over: stop the job that started last (it has the least work to lose).
+        newest->reason = StopReason::kMemory;
+        newest->cancel = true;
+      }
     }
   }
 }

@@ -141,6 +141,8 @@ class JobManager {
   /// Makes a final status visible (no I/O: files are written before, outside the lock).
   void finish_locked(Job& job, JobStatus status);
   void remove_request_files(const std::string& id) const;
+  /// One JSON line on stderr about a job (unless --quiet).
+  void log_event(const char* level, const char* event, const std::string& id, double seconds) const;
   std::string dir(const char* sub) const { return options_.store + "/" + sub; }
 
   const ServerOptions options_;

@@ -92,6 +92,12 @@ void ResultCache::erase(const std::string& id) {
   }
 }
 
+void ResultCache::clear() {
+  std::lock_guard lock(mutex_);
+  order_.clear();
+  index_.clear();
+}
+
 size_t ResultCache::size() const {
   std::lock_guard lock(mutex_);
   return order_.size();

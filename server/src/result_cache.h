@@ -56,6 +56,8 @@ class ResultCache {
   /// Caches a result just computed (already saved by the caller).
   void put(const std::string& id, std::shared_ptr<const GvdResult> result);
   void erase(const std::string& id);
+  /// Drops every cached result (those still in use by a request live on until it ends).
+  void clear();
   size_t size() const;
 
  private:

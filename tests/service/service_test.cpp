@@ -462,6 +462,16 @@ TEST(Service, JobLimitsAreCheckedWhileItRuns) {
   r = c2->Post("/v1/jobs", data("scenes/gears2d.json"), "application/json");
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(Json::parse(r->body)["code"], "limit_exceeded");
+  // Memory: the process's resident memory (and, through it, the leaves per job) is bounded.
+  ServerProcess mem(fresh_dir("limits3"), {"--max-memory-mb", "40"});
+  auto c3 = client(mem.port());
+  const Submitted hungry = submit(*c3, scene, "?contact_depth=12");
+  const Json stopped = wait_for(*c3, hungry.id, {"failed", "done"}, 20);
+  ASSERT_EQ(stopped.value("status", ""), "failed") << stopped.dump();
+  EXPECT_EQ(stopped["error"]["type"], "/problems/limit-exceeded");
+  const std::string why = stopped["error"]["detail"];
+  EXPECT_TRUE(why.find("memory") != std::string::npos || why.find("leaves") != std::string::npos) << why;
+  EXPECT_EQ(c3->Get("/healthz")->status, 200);
 }
 
 TEST(Service, EventStreamReportsProgressUntilDone) {
