@@ -681,7 +681,12 @@ TEST(Service, HealthReadinessMetrics) {
   const Submitted s = submit(*c, data("scenes/gears2d.json"));
   wait_for(*c, s.id, {"done"});
   c->Get(("/v1/jobs/" + s.id + "/graph").c_str());
-  r = c->Get("/metrics");
+  // A request is counted by the logger right after its answer is written: give it a moment.
+  for (int i = 0; i < 100; ++i) {
+    r = c->Get("/metrics");
+    if (r->body.find("route=\"GET /v1/jobs/{id}/graph\",le=\"+Inf\"} 1") != std::string::npos) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
   ASSERT_EQ(r->status, 200);
   EXPECT_TRUE(r->get_header_value("Content-Type").starts_with("text/plain; version=0.0.4"));
   for (const char* needle :
