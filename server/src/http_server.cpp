@@ -193,10 +193,13 @@ struct HttpServer::Impl {
                                "application/octet-stream (sniffed) or multipart/form-data (one "
                                "mesh per part, part name = label)"};
         }
-      } else if (type != "application/json") {
+      } else if (type != "application/json" && type != "text/plain" && !type.empty() &&
+                 type != "application/x-www-form-urlencoded") {
+        // The query routes read the body as JSON whatever it is labelled: `curl -d '{...}'`
+        // sends it as a form. Anything else (multipart, XML, ...) is a mistake.
         return Rejection{ProblemKind::kUnsupportedMediaType,
                          "Content-Type \"" + req.get_header_value("Content-Type") +
-                             "\": this route takes application/json"};
+                             "\": this route takes a JSON body (application/json)"};
       }
     }
     return std::nullopt;

@@ -71,7 +71,8 @@ std::string problem_json(ProblemKind kind, std::string_view detail, std::string_
   const ProblemInfo& info = problem_info(kind);
   nlohmann::json doc = {{"type", info.type},     {"title", info.title},
                         {"status", info.status}, {"detail", detail},
-                        {"instance", instance},  {"request_id", request_id}};
+                        {"instance", instance}};
+  if (!request_id.empty()) doc["request_id"] = request_id;  // absent for a job's own error
   if (kind <= ProblemKind::kInternal) {
     doc["code"] = error_code_name(static_cast<ErrorCode>(static_cast<int>(kind)));
   }

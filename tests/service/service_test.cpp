@@ -815,7 +815,9 @@ TEST(ServiceQueries, NearestSingleAndBatch) {
   EXPECT_EQ(f.c->Get(f.url("/nearest").c_str())->status, 400);
   EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[0,", "application/json")->status, 400);
   EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[\"x\",0]]}", "application/json")->status, 400);
-  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "text/plain")->status, 415);
+  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "application/xml")->status, 415);
+  // `curl -d` labels the JSON body as a form: still read as JSON.
+  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "application/x-www-form-urlencoded")->status, 200);
 }
 
 TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
@@ -836,6 +838,10 @@ TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
   EXPECT_EQ(problem["type"], "/problems/no-path");
   EXPECT_TRUE(problem["path"]["points"].empty());
   EXPECT_TRUE(problem["path"]["length"].is_null());
+  // As `curl -X POST .../paths -d '{...}'` sends it (a form content type).
+  r = f.c->Post(f.url("/paths").c_str(), R"({"from":[-1.3,-2.3],"to":[3.3,2.3]})",
+                "application/x-www-form-urlencoded");
+  EXPECT_EQ(r->status, 200) << r->body;
   // Bad bodies.
   EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0]})", "application/json")->status, 400);
   EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0],"to":[1,1],"min_clearance":-1})", "application/json")->status, 400);
