@@ -356,6 +356,9 @@ struct HttpServer::Impl {
     }
     for (const auto& [name, part] : req.files) {
       if (name == "params") {
+        if (!Json::accept(part.content)) {
+          throw Error(ErrorCode::kInvalidArgument, "the \"params\" part is not valid JSON");
+        }
         params_from_json("{\"params\":" + part.content + "}", params);
         continue;
       }

@@ -1,6 +1,8 @@
 #include "problem.h"
 
 #include <array>
+#include <charconv>
+#include <optional>
 #include <regex>
 
 #include <nlohmann/json.hpp>
@@ -38,6 +40,13 @@ constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
 static_assert(static_cast<int>(ErrorCode::kInternal) == static_cast<int>(ProblemKind::kInternal),
               "ProblemKind starts with the core error codes in their order");
 
+std::optional<uint64_t> to_u64(const std::string& digits) {
+  uint64_t v = 0;
+  const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v);
+  if (ec != std::errc() || ptr != digits.data() + digits.size()) return std::nullopt;
+  return v;
+}
+
 // Where in the input: the core's details say `object 3 ("gear_a")` or `objects[3] ("gear_a")`,
 // and `triangles[2][1]`, `vertices[4]`, `triangle 7`, `vertex 12`.
 void add_location(nlohmann::json& doc, std::string_view detail) {
@@ -47,8 +56,9 @@ void add_location(nlohmann::json& doc, std::string_view detail) {
   const std::string text(detail);
   std::smatch m;
   if (std::regex_search(text, m, object_re)) {
-    const std::string index = m[1].matched ? m[1].str() : m[2].str();
-    doc["object"] = {{"index", std::stoull(index)}, {"label", m[3].str()}};
+    if (const auto index = to_u64(m[1].matched ? m[1].str() : m[2].str())) {
+      doc["object"] = {{"index", *index}, {"label", m[3].str()}};
+    }
   }
   if (std::regex_search(text, m, element_re)) {
     std::string kind = m[1].matched ? m[1].str() : m[3].str();
@@ -56,7 +66,7 @@ void add_location(nlohmann::json& doc, std::string_view detail) {
     if (kind == "triangles") kind = "triangle";
     if (kind == "segments") kind = "segment";
     if (kind == "vertices") kind = "vertex";
-    doc["element"] = {{"kind", kind}, {"index", std::stoull(index)}};
+    if (const auto i = to_u64(index)) doc["element"] = {{"kind", kind}, {"index", *i}};
   }
 }
 

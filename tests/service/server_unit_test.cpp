@@ -69,6 +69,12 @@ TEST(ProblemJson, IsRfc9457AndSaysWhere) {
   EXPECT_EQ(v["object"]["label"], "wall");
   EXPECT_EQ(v["element"]["kind"], "vertex");
   EXPECT_EQ(v["element"]["index"], 5);
+  // Indices too large for 64 bits are left out rather than thrown on.
+  const Json huge = Json::parse(problem_json(ProblemKind::kInvalidScene,
+                                             "object 99999999999999999999999 (\"x\"): vertex "
+                                             "99999999999999999999999 is bad", "/", ""));
+  EXPECT_FALSE(huge.contains("object"));
+  EXPECT_FALSE(huge.contains("element"));
   // Invalid UTF-8 in a detail does not throw.
   EXPECT_NO_THROW(problem_json(ProblemKind::kInvalidArgument, "bad \xff byte", "/", ""));
   const Json extra = Json::parse(problem_json(ProblemKind::kNoPath, "none", "/", "", R"({"path":{"points":[]}})"));
