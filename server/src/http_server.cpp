@@ -674,9 +674,16 @@ void HttpServer::Impl::setup() {
     }
     return httplib::Server::HandlerResponse::Handled;
   }));
+  // Reached only when the catch boundary of `wrap` itself failed (or before routing): nothing
+  // may escape from here, it would end the HTTP thread.
   http.set_exception_handler([this](const httplib::Request& req, httplib::Response& res,
                                     std::exception_ptr) {
-    send_problem(req, res, ProblemKind::kInternal, "internal error (request " + t_request.id + ")");
+    try {
+      send_problem(req, res, ProblemKind::kInternal, "internal error (request " + t_request.id + ")");
+    } catch (...) {
+      res.status = 500;
+      res.body.clear();
+    }
   });
   http.set_logger([this](const httplib::Request& req, const httplib::Response& res) { log(req, res); });
 
