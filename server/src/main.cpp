@@ -55,6 +55,13 @@ int main(int argc, char** argv) {
                 options.host.c_str(), port, options.store.c_str(), server.backend().c_str(),
                 options.workers);
     std::fflush(stdout);
+    if (!options.quiet) {
+      std::fprintf(stderr,
+                   "{\"level\":\"info\",\"event\":\"listening\",\"port\":%d,\"workers\":%d,"
+                   "\"http_threads\":%d,\"queue\":%d,\"backend\":\"%s\"}\n",
+                   port, options.workers, options.http_threads, options.queue,
+                   server.backend().c_str());
+    }
 
     std::thread waiter([&] {
       int sig = 0;

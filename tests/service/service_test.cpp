@@ -549,6 +549,30 @@ TEST(Service, RestartAfterKill9KeepsResultsAndResumesTheInterruptedJob) {
   EXPECT_NE(m->body.find("gvd_jobs_recovered_total 2"), std::string::npos);
 }
 
+TEST(Service, RestartRebuildsAMissingStatusDocumentAndDropsTemporaryFiles) {
+  const std::string store = fresh_dir("restart-files");
+  std::string id;
+  {
+    ServerProcess server(store);
+    auto c = client(server.port());
+    id = submit(*c, data("scenes/gears2d.json")).id;
+    ASSERT_EQ(wait_for(*c, id, {"done"}).value("status", ""), "done");
+  }
+  // As if killed between writing the result and its status document, and during a write.
+  fs::remove(store + "/results/" + id + ".json");
+  std::ofstream(store + "/results/" + id + ".gvd.tmp.123.0") << "partial";
+  std::ofstream(store + "/requests/" + std::string(32, 'a') + ".scene.json") << "{}";  // orphan
+  ServerProcess server(store);
+  auto c = client(server.port());
+  const Json s = status_of(*c, id);
+  EXPECT_EQ(s.value("status", ""), "done");
+  EXPECT_GT(s["result"]["leaves"].get<uint64_t>(), 0u);
+  EXPECT_EQ(c->Get(("/v1/jobs/" + id + "/graph").c_str())->status, 200);
+  EXPECT_TRUE(fs::exists(store + "/results/" + id + ".json"));
+  EXPECT_FALSE(fs::exists(store + "/results/" + id + ".gvd.tmp.123.0"));
+  EXPECT_FALSE(fs::exists(store + "/requests/" + std::string(32, 'a') + ".scene.json"));
+}
+
 TEST(Service, SigtermDrainsThenExits) {
   const std::string store = fresh_dir("drain");
   ServerProcess server(store, {"--grace-seconds", "0.5", "--workers", "1"});
