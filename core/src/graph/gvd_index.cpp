@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "gvd/common/error.h"
+#include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/lattice.h"
 #include "gvd/octree/vertices.h"
@@ -54,13 +55,15 @@ struct GvdIndex::Impl {
   int dimension = 3;
   SimplexBvh bvh;
 
-  // Nearest: per leaf, the distinct closest points of its boundary vertices (indices into
-  // field.closest), and the object of every closest point.
+  // Nearest: the exact closest point of every octree vertex (`closest`, shared, with its
+  // object), and per leaf the distinct closest points of its boundary vertices.
+  std::vector<Vec3> closest;
+  std::vector<ObjectId> point_object;
+  std::vector<uint32_t> vertex_point;
   std::vector<uint32_t> leaf_begin;
   std::vector<uint32_t> leaf_point;
-  std::vector<ObjectId> point_object;
-  /// Per leaf and corner (2^D each): the exact distance of the corner vertex rounded down,
-  /// or -1 when the corner only has a wavefront (approximate) closest point.
+  /// Per leaf and corner (2^D each): the exact distance of the corner vertex rounded down
+  /// (-1 for a vertex no object reached).
   std::vector<float> corner_exact;
   /// Point location: the leaf holding the lower corner of every cell of level `table_level`
   /// (Morton order), so a query binary-searches only the leaves of one such cell.
@@ -136,40 +139,71 @@ void GvdIndex::Impl::build_nearest() {
     table[c] = static_cast<uint32_t>(it - octree.code.begin() - 1);
   }
   table[cells] = static_cast<uint32_t>(leaves - 1);
-  point_object.assign(field.closest.size(), kNoObject);
-  for (size_t v = 0; v < field.size(); ++v) {
+  // Every vertex gets its exact closest point (the distance transform made only the vertices
+  // near objects and near the GVD exact): better candidates, and exact corner distances for
+  // the 3/2 certificate of `nearest`.
+  const size_t nv = field.size();
+  std::vector<ClosestHit> hits(nv);
+  const int threads = resolve_threads(0);
+  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+    for (size_t v = b; v < e; ++v) {
+      if (field.exact[v] || field.point[v] == kNoVertex) continue;
+      const double d = field.distance(static_cast<uint32_t>(v));
+      hits[v] = bvh.nearest(field.vertices.position(static_cast<uint32_t>(v)), d * d);
+    }
+  });
+  closest = field.closest;
+  point_object.assign(closest.size(), kNoObject);
+  vertex_point.assign(field.point.begin(), field.point.end());
+  for (size_t v = 0; v < nv; ++v) {
     if (field.point[v] != kNoVertex) point_object[field.point[v]] = field.label[v];
   }
+  for (size_t v = 0; v < nv; ++v) {
+    if (!hits[v].found()) continue;
+    vertex_point[v] = static_cast<uint32_t>(closest.size());
+    closest.push_back(hits[v].point);
+    point_object.push_back(result->geometry.object_of[hits[v].simplex]);
+  }
+  hits = {};
   leaf_begin.assign(leaves + 1, 0);
   const int corners = 1 << octree.dimension;
   corner_exact.assign(leaves * static_cast<size_t>(corners), -1.0f);
-  // Two passes (count, fill) keep memory to the final CSR.
-  for (int pass = 0; pass < 2; ++pass) {
-    for (uint32_t leaf = 0; leaf < leaves; ++leaf) {
-      const LeafGrid grid = field.grid(octree, leaf);
-      uint32_t found[27];
-      uint32_t count = 0;
-      for (uint32_t v : grid) {
-        if (v == kNoVertex || field.point[v] == kNoVertex) continue;
-        const uint32_t p = field.point[v];
-        if (std::find(found, found + count, p) == found + count) found[count++] = p;
-      }
-      if (pass == 0) {
-        leaf_begin[leaf + 1] = leaf_begin[leaf] + count;
-        for (int k = 0; k < corners; ++k) {
-          // Corner k (bit a = upper side along axis a) is grid entry 2 (x) + 6 (y) + 18 (z).
-          const uint32_t v = grid[2 * (k & 1) + 6 * ((k >> 1) & 1) + 18 * ((k >> 2) & 1)];
-          if (v == kNoVertex || !field.exact[v] || field.point[v] == kNoVertex) continue;
-          const auto d = static_cast<float>(field.distance(v));
-          corner_exact[leaf * static_cast<size_t>(corners) + k] =
-              static_cast<double>(d) > field.distance(v) ? std::nextafter(d, 0.0f) : d;
-        }
-      } else {
-        std::copy(found, found + count, leaf_point.begin() + leaf_begin[leaf]);
+  // The distinct closest points of a leaf's boundary vertices; returns their count.
+  auto gather = [&](uint32_t leaf, uint32_t (&found)[27]) {
+    const LeafGrid grid = field.grid(octree, leaf);
+    uint32_t count = 0;
+    for (uint32_t v : grid) {
+      if (v == kNoVertex || vertex_point[v] == kNoVertex) continue;
+      const uint32_t p = vertex_point[v];
+      if (std::find(found, found + count, p) == found + count) found[count++] = p;
+    }
+    return std::pair{count, grid};
+  };
+  parallel_for(leaves, threads, [&](size_t b, size_t e, int) {
+    uint32_t found[27];
+    for (size_t leaf = b; leaf < e; ++leaf) {
+      const auto [count, grid] = gather(static_cast<uint32_t>(leaf), found);
+      leaf_begin[leaf + 1] = count;
+      for (int k = 0; k < corners; ++k) {
+        // Corner k (bit a = upper side along axis a) is grid entry 2 (x) + 6 (y) + 18 (z).
+        const uint32_t v = grid[2 * (k & 1) + 6 * ((k >> 1) & 1) + 18 * ((k >> 2) & 1)];
+        if (v == kNoVertex || vertex_point[v] == kNoVertex) continue;
+        const double exact = dist(field.vertices.position(v), closest[vertex_point[v]]);
+        const auto d = static_cast<float>(exact);
+        corner_exact[leaf * static_cast<size_t>(corners) + k] =
+            static_cast<double>(d) > exact ? std::nextafter(d, 0.0f) : d;
       }
     }
-    if (pass == 0) leaf_point.resize(leaf_begin[leaves]);
-  }
+  });
+  std::partial_sum(leaf_begin.begin(), leaf_begin.end(), leaf_begin.begin());
+  leaf_point.resize(leaf_begin[leaves]);
+  parallel_for(leaves, threads, [&](size_t b, size_t e, int) {
+    uint32_t found[27];
+    for (size_t leaf = b; leaf < e; ++leaf) {
+      const uint32_t count = gather(static_cast<uint32_t>(leaf), found).first;
+      std::copy(found, found + count, leaf_point.begin() + leaf_begin[leaf]);
+    }
+  });
 }
 
 uint32_t GvdIndex::Impl::locate(Vec3 u) const {
@@ -364,7 +398,8 @@ GvdIndex::GvdIndex(std::shared_ptr<const GvdResult> result) : impl_(std::make_un
   impl_->result = std::move(result);
   const GvdResult& r = *impl_->result;
   impl_->dimension = r.scene.dimension;
-  impl_->bvh = SimplexBvh(r.geometry.dimension, r.geometry.points, r.geometry.simplices);
+  impl_->bvh = SimplexBvh(r.geometry.dimension, r.geometry.points, r.geometry.simplices,
+                          r.geometry.object_of);
   impl_->build_nearest();
   impl_->build_dual();
   impl_->build_roadmap();
@@ -392,7 +427,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
   if (m.dimension == 2) p.z = 0;
   const Vec3 u = m.to_unit(p);
   const uint32_t leaf = m.locate(u);
-  const std::vector<Vec3>& closest = m.result->field.closest;
+  const std::vector<Vec3>& closest = m.closest;
   NearestAnswer answer;
   answer.point = point;
   double best = kInf;
@@ -406,29 +441,39 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
     }
   }
   const double side = m.result->domain.side;
-  // A lower bound of the true distance: an empty leaf holds no object, so the objects are at
-  // least as far as the leaf's boundary; and an exact corner distance less the way to it.
+  // A lower bound of the true distance certifies the answer when 1.5 x bound >= answer: an
+  // empty leaf holds no object, so the objects are at least as far as the leaf's boundary;
+  // and an exact corner distance less the way to that corner. Tried cheapest first, the
+  // nearest corner before the others, stopping at the first that certifies.
   const Octree& octree = m.result->octree;
   const int dim = m.dimension;
-  const lattice::Coord corner = octree.corner(leaf);
-  const double size = std::ldexp(1.0, -octree.level[leaf]);
-  const Vec3 lo = lattice::to_unit(dim, corner);
-  double bound = 0;
-  if (octree.object[leaf] == kNoObject) {
-    bound = 1e300;
-    for (int a = 0; a < dim; ++a) bound = std::min({bound, u[a] - lo[a], lo[a] + size - u[a]});
-  }
-  const int corners = 1 << dim;
-  const float* exact = &m.corner_exact[leaf * static_cast<size_t>(corners)];
-  for (int k = 0; k < corners; ++k) {
-    if (exact[k] < 0) continue;
-    Vec3 c = lo;
-    for (int a = 0; a < dim; ++a) c[a] += ((k >> a) & 1) ? size : 0.0;
-    bound = std::max(bound, static_cast<double>(exact[k]) - dist(u, c));
+  const double answer_distance = best_point == kNoVertex ? 1e300 : std::sqrt(best);
+  const double need = answer_distance / 1.5;
+  bool certified = false;
+  if (best_point != kNoVertex) {
+    const double size = std::ldexp(1.0, -octree.level[leaf]);
+    const Vec3 lo = lattice::to_unit(dim, octree.corner(leaf));
+    int nearest_corner = 0;
+    double wall = 1e300;
+    for (int a = 0; a < dim; ++a) {
+      const double below = u[a] - lo[a], above = lo[a] + size - u[a];
+      wall = std::min({wall, below, above});
+      if (above < below) nearest_corner |= 1 << a;
+    }
+    certified = octree.object[leaf] == kNoObject && wall >= need;
+    const int corners = 1 << dim;
+    const float* exact = &m.corner_exact[leaf * static_cast<size_t>(corners)];
+    for (int i = 0; i < corners && !certified; ++i) {
+      const int k = i ^ nearest_corner;  // i = 0: the nearest corner
+      if (exact[k] < 0) continue;
+      Vec3 c = lo;
+      for (int a = 0; a < dim; ++a) c[a] += ((k >> a) & 1) ? size : 0.0;
+      certified = static_cast<double>(exact[k]) - dist(u, c) >= need;
+    }
   }
   // Unless the corners' answer is provably within 3/2 of the truth, ask the BVH for the exact
   // nearest point, searching only nearer than that answer.
-  if (best_point == kNoVertex || std::sqrt(best) > 1.5 * bound) {
+  if (!certified) {
     const ClosestHit hit = m.bvh.nearest(u, best_point == kNoVertex ? 1e300 : best * (1 + 1e-12));
     if (hit.found()) {
       answer.object = m.result->geometry.object_of[hit.simplex];
@@ -441,7 +486,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
     GVD_CHECK(best_point != kNoVertex, "a scene has at least one simplex");
   }
   answer.object = m.point_object[best_point];
-  answer.distance = std::sqrt(best) * side;
+  answer.distance = answer_distance * side;
   answer.closest = m.result->domain.from_unit(closest[best_point]);
   return answer;
 }
@@ -523,20 +568,52 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
   const double c_max = std::max({m.max_clearance, start_distance, goal_distance});
   auto heuristic = [&](Vec3 p) { return shortest ? dist(p, to) : dist(p, to) / c_max; };
   auto position = [&](uint32_t v) { return v == start ? from : (v == goal ? to : m.road_position[v]); };
-  std::vector<double> g(n + 2, kInf);
-  std::vector<uint32_t> parent(n + 2, kNoVertex);
+  // Per-thread search state reused across queries; a generation stamp marks the entries this
+  // query wrote, so nothing is cleared per query (the roadmap can have millions of vertices).
+  struct Search {
+    std::vector<double> cost;
+    std::vector<uint32_t> from;
+    std::vector<uint32_t> stamp;
+    uint32_t generation = 0;
+  };
+  thread_local Search search;
+  if (search.stamp.size() < n + 2) {
+    search.cost.resize(n + 2);
+    search.from.resize(n + 2);
+    search.stamp.assign(n + 2, 0);
+    search.generation = 0;
+  }
+  if (++search.generation == 0) {
+    std::fill(search.stamp.begin(), search.stamp.end(), 0);
+    search.generation = 1;
+  }
+  const uint32_t generation = search.generation;
+  auto touch = [&](uint32_t v) {
+    if (search.stamp[v] != generation) {
+      search.stamp[v] = generation;
+      search.cost[v] = kInf;
+      search.from[v] = kNoVertex;
+    }
+  };
+  auto g_of = [&](uint32_t v) { return search.stamp[v] == generation ? search.cost[v] : kInf; };
+  auto parent_of = [&](uint32_t v) {
+    return search.stamp[v] == generation ? search.from[v] : kNoVertex;
+  };
   std::unordered_map<uint32_t, double> goal_weight;  // roadmap vertex -> weight of its link
   for (const auto& [v, c] : goal_links) goal_weight[v] = weight(dist(to, m.road_position[v]), c);
   using Entry = std::pair<double, uint32_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   auto relax = [&](uint32_t u, uint32_t v, double w) {
-    if (g[u] + w < g[v]) {
-      g[v] = g[u] + w;
-      parent[v] = u;
-      open.emplace(g[v] + heuristic(position(v)), v);
+    const double through = g_of(u) + w;
+    if (through < g_of(v)) {
+      touch(v);
+      search.cost[v] = through;
+      search.from[v] = u;
+      open.emplace(through + heuristic(position(v)), v);
     }
   };
-  g[start] = 0;
+  touch(start);
+  search.cost[start] = 0;
   const double direct = m.segment_clearance(from, to);
   if (direct > m.touching() && direct >= need) relax(start, goal, weight(dist(from, to), direct));
   for (const auto& [v, c] : start_links) relax(start, v, weight(dist(from, m.road_position[v]), c));
@@ -544,21 +621,21 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
     const auto [f, u] = open.top();
     open.pop();
     if (u == goal) break;
-    if (f > g[u] + heuristic(position(u)) + 1e-12 * std::abs(f)) continue;  // stale entry
+    if (f > g_of(u) + heuristic(position(u)) + 1e-12 * std::abs(f)) continue;  // stale entry
     if (const auto it = goal_weight.find(u); it != goal_weight.end()) relax(u, goal, it->second);
     for (uint32_t k = m.road.begin[u]; k < m.road.begin[u + 1]; ++k) {
       const uint32_t v = m.road.target[k];
       const double cv = m.road_clearance[v];
       if (cv < need) continue;
       const double c = std::min(m.road_clearance[u], cv);
-      if (need > 0 && g[u] + m.road.weight[k] < g[v] &&
+      if (need > 0 && g_of(u) + m.road.weight[k] < g_of(v) &&
           m.segment_clearance(m.road_position[u], m.road_position[v], need) < need) {
         continue;  // the edge dips below the required clearance between its ends
       }
       relax(u, v, weight(m.road.weight[k], c));
     }
   }
-  if (parent[goal] == kNoVertex) {
+  if (parent_of(goal) == kNoVertex) {
     if (start_links.empty()) {
       answer.reason = "start cannot reach the GVD without crossing an object (is it inside '" +
                       scene.objects[start_object].label + "'?)";
@@ -571,7 +648,7 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
     }
     return answer;
   }
-  for (uint32_t v = goal; v != kNoVertex; v = parent[v]) answer.points.push_back(position(v));
+  for (uint32_t v = goal; v != kNoVertex; v = parent_of(v)) answer.points.push_back(position(v));
   std::reverse(answer.points.begin(), answer.points.end());
   answer.points.front() = query.from;
   answer.points.back() = query.to;

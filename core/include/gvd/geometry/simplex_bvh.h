@@ -28,7 +28,10 @@ class SimplexBvh {
  public:
   SimplexBvh() = default;
   /// Copies the simplices' vertices (in tree order), so the inputs need not outlive it.
-  SimplexBvh(int dimension, std::span<const Vec3> points, std::span<const Simplex> simplices);
+  /// With `object_of` (the object of every simplex), nodes remember when all their simplices
+  /// belong to one object, which lets nearest_in_object skip other objects' subtrees.
+  SimplexBvh(int dimension, std::span<const Vec3> points, std::span<const Simplex> simplices,
+             std::span<const uint32_t> object_of = {});
 
   /// The exact closest point on any simplex to `p`, searching only boxes nearer than the best
   /// hit so far and than `max_dist2` (pass a known upper bound to prune harder).
@@ -42,6 +45,9 @@ class SimplexBvh {
   /// touches or crosses one), searching only boxes nearer than `max_dist2`; returns
   /// `max_dist2` when nothing is nearer. Exact up to rounding.
   double segment_distance2(Vec3 a, Vec3 b, double max_dist2 = 1e300) const;
+  /// The exact closest point on the simplices of one object (needs `object_of` at
+  /// construction).
+  ClosestHit nearest_in_object(Vec3 p, uint32_t object, double max_dist2 = 1e300) const;
   /// Calls `visit(simplex)` for every simplex whose bounding box overlaps `box`.
   template <class Visit>
   void for_each_overlapping(const Box& box, Visit&& visit) const;
@@ -53,13 +59,16 @@ class SimplexBvh {
     Box box;
     uint32_t first = 0;  // leaf: first index into order_; inner: right child (left = this+1)
     uint32_t count = 0;  // leaf: number of simplices; inner: 0
+    uint32_t object = kMixed;  // the one object of all simplices below, or kMixed
   };
+  static constexpr uint32_t kMixed = 0xFFFFFFFFu;
   int dimension_ = 3;
   std::vector<Node> nodes_;
   std::vector<uint32_t> order_;
   /// The simplices' vertices in `order_` sequence (`arity_` per simplex), so a leaf's
   /// simplices are contiguous in memory.
   std::vector<Vec3> corners_;
+  std::vector<uint32_t> object_in_order_;  ///< per simplex in `order_` sequence (if given)
   int arity_ = 3;
 
   Vec3 closest_in_order(uint32_t k, Vec3 p) const {
