@@ -7,10 +7,9 @@
 #include <chrono>
 #include <cstdio>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <regex>
-
-#include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
 #include "gvd/io/write_outputs.h"
@@ -73,8 +72,8 @@ std::string media_type(const httplib::Request& req) {
 /// Media types POST /v1/jobs accepts (the content itself is sniffed: scene JSON, OBJ, glTF,
 /// GLB, PLY, STL, OFF).
 bool is_scene_media_type(const std::string& type) {
-  return type == "application/json" || type == "application/octet-stream" ||
-         type == "text/plain" || type.starts_with("model/") || type == "application/sla" ||
+  return type == "application/json" || type == "application/octet-stream" || type == "text/plain" ||
+         type.starts_with("model/") || type == "application/sla" ||
          type == "application/vnd.ms-pki.stl" || type == "application/x-ply" ||
          type == "multipart/form-data";
 }
@@ -84,13 +83,14 @@ struct Rejection {
   std::string detail;
 };
 
-std::string json_text(const Json& j) { return j.dump(-1, ' ', false, Json::error_handler_t::replace); }
+std::string json_text(const Json& j) {
+  return j.dump(-1, ' ', false, Json::error_handler_t::replace);
+}
 
 }  // namespace
 
 struct HttpServer::Impl {
-  explicit Impl(const ServerOptions& o)
-      : options(o), jobs(o, metrics), queries(jobs) {}
+  explicit Impl(const ServerOptions& o) : options(o), jobs(o, metrics), queries(jobs) {}
 
   ServerOptions options;
   Metrics metrics;
@@ -138,19 +138,19 @@ struct HttpServer::Impl {
     const size_t header_count = req.headers.size() - req.get_header_value_count("REMOTE_ADDR") -
                                 req.get_header_value_count("REMOTE_PORT");
     if (header_count > static_cast<size_t>(options.max_headers)) {
-      return Rejection{ProblemKind::kHeadersTooLarge,
-                       std::to_string(header_count) + " headers, more than the limit of " +
-                           std::to_string(options.max_headers)};
+      return Rejection{ProblemKind::kHeadersTooLarge, std::to_string(header_count) +
+                                                          " headers, more than the limit of " +
+                                                          std::to_string(options.max_headers)};
     }
     uint64_t header_bytes = 0;
     for (const auto& [k, v] : req.headers) {
       if (k != "REMOTE_ADDR" && k != "REMOTE_PORT") header_bytes += k.size() + v.size() + 4;
     }
     if (header_bytes > options.max_header_bytes) {
-      return Rejection{ProblemKind::kHeadersTooLarge,
-                       "the headers take " + std::to_string(header_bytes) +
-                           " bytes, more than the limit of " +
-                           std::to_string(options.max_header_bytes)};
+      return Rejection{ProblemKind::kHeadersTooLarge, "the headers take " +
+                                                          std::to_string(header_bytes) +
+                                                          " bytes, more than the limit of " +
+                                                          std::to_string(options.max_header_bytes)};
     }
     if (req.has_header("Transfer-Encoding")) {
       return Rejection{ProblemKind::kLengthRequired,
@@ -163,7 +163,8 @@ struct HttpServer::Impl {
                        "Content-Encoding \"" + req.get_header_value("Content-Encoding") +
                            "\" is not accepted; send the body uncompressed"};
     }
-    const bool has_body_method = req.method == "POST" || req.method == "PUT" || req.method == "PATCH";
+    const bool has_body_method =
+        req.method == "POST" || req.method == "PUT" || req.method == "PATCH";
     if (req.get_header_value_count("Content-Length") > 1) {
       return Rejection{ProblemKind::kInvalidArgument, "more than one Content-Length header"};
     }
@@ -171,13 +172,14 @@ struct HttpServer::Impl {
       const std::string text = req.get_header_value("Content-Length");
       if (text.empty() || text.size() > 19 ||
           !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; })) {
-        return Rejection{ProblemKind::kInvalidArgument, "Content-Length \"" + text + "\" is not a number"};
+        return Rejection{ProblemKind::kInvalidArgument,
+                         "Content-Length \"" + text + "\" is not a number"};
       }
       const uint64_t length = std::stoull(text);
       if (length > options.max_body) {
-        return Rejection{ProblemKind::kBodyTooLarge,
-                         "the body has " + std::to_string(length) +
-                             " bytes, more than the limit of " + std::to_string(options.max_body)};
+        return Rejection{ProblemKind::kBodyTooLarge, "the body has " + std::to_string(length) +
+                                                         " bytes, more than the limit of " +
+                                                         std::to_string(options.max_body)};
       }
     } else if (has_body_method) {
       return Rejection{ProblemKind::kLengthRequired, req.method + " needs a Content-Length"};
@@ -217,18 +219,18 @@ struct HttpServer::Impl {
     const double seconds = std::chrono::duration<double>(Clock::now() - t_request.start).count();
     metrics.request(t_request.route, req.method, res.status, seconds);
     if (options.quiet) return;
-    const Json line = {{"ts", std::chrono::duration<double>(
-                                  std::chrono::system_clock::now().time_since_epoch())
-                                  .count()},
-                       {"level", res.status >= 500 ? "error" : "info"},
-                       {"request_id", t_request.id},
-                       {"remote", req.remote_addr},
-                       {"method", req.method},
-                       {"path", req.path},
-                       {"route", t_request.route},
-                       {"status", res.status},
-                       {"bytes", res.body.empty() ? res.content_length_ : res.body.size()},
-                       {"ms", seconds * 1000}};
+    const Json line = {
+        {"ts", std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+                   .count()},
+        {"level", res.status >= 500 ? "error" : "info"},
+        {"request_id", t_request.id},
+        {"remote", req.remote_addr},
+        {"method", req.method},
+        {"path", req.path},
+        {"route", t_request.route},
+        {"status", res.status},
+        {"bytes", res.body.empty() ? res.content_length_ : res.body.size()},
+        {"ms", seconds * 1000}};
     std::fprintf(stderr, "%s\n", json_text(line).c_str());
   }
 
@@ -248,7 +250,8 @@ struct HttpServer::Impl {
       } catch (const InternalError& e) {
         std::fprintf(stderr, "{\"level\":\"error\",\"request_id\":\"%s\",\"internal\":%s}\n",
                      t_request.id.c_str(), json_text(Json(e.what())).c_str());
-        send_problem(req, res, ProblemKind::kInternal, "internal error (request " + t_request.id + ")");
+        send_problem(req, res, ProblemKind::kInternal,
+                     "internal error (request " + t_request.id + ")");
       } catch (const Error& e) {
         send_problem(req, res, problem_kind(e.code()), e.detail());
       } catch (const Json::exception& e) {
@@ -259,7 +262,8 @@ struct HttpServer::Impl {
       } catch (const std::exception& e) {
         std::fprintf(stderr, "{\"level\":\"error\",\"request_id\":\"%s\",\"internal\":%s}\n",
                      t_request.id.c_str(), json_text(Json(e.what())).c_str());
-        send_problem(req, res, ProblemKind::kInternal, "internal error (request " + t_request.id + ")");
+        send_problem(req, res, ProblemKind::kInternal,
+                     "internal error (request " + t_request.id + ")");
       }
     };
   }
@@ -272,9 +276,12 @@ struct HttpServer::Impl {
     GVD_CHECK(found != nullptr, "route missing from routes.h");
     const std::string pattern(found->pattern);
     auto handler = wrap(std::string(method) + " " + std::string(openapi_path), std::move(fn));
-    if (method == "GET") http.Get(pattern, handler);
-    else if (method == "POST") http.Post(pattern, handler);
-    else if (method == "DELETE") http.Delete(pattern, handler);
+    if (method == "GET")
+      http.Get(pattern, handler);
+    else if (method == "POST")
+      http.Post(pattern, handler);
+    else if (method == "DELETE")
+      http.Delete(pattern, handler);
     registered.push_back(found);
   }
   std::vector<const Route*> registered;
@@ -337,7 +344,8 @@ struct HttpServer::Impl {
     const Json doc = Json::parse(body, nullptr, false);
     if (!doc.is_object() || !doc.contains("params")) return;
     const Json& p = doc["params"];
-    if (!p.is_object()) throw Error(ErrorCode::kInvalidArgument, "\"params\" must be a JSON object");
+    if (!p.is_object())
+      throw Error(ErrorCode::kInvalidArgument, "\"params\" must be a JSON object");
     for (const auto& [key, value] : p.items()) {
       if (value.is_array()) {
         std::string joined;
@@ -368,16 +376,19 @@ struct HttpServer::Impl {
         params_from_json("{\"params\":" + part.content + "}", params);
         continue;
       }
-      if (name.empty()) throw Error(ErrorCode::kInvalidScene, "a multipart part has no name (the name is the label)");
+      if (name.empty())
+        throw Error(ErrorCode::kInvalidScene,
+                    "a multipart part has no name (the name is the label)");
       const auto* data = reinterpret_cast<const uint8_t*>(part.content.data());
-      Scene piece = parse_scene_bytes({data, part.content.size()}, SceneFormat::kAuto, name, limits);
+      Scene piece =
+          parse_scene_bytes({data, part.content.size()}, SceneFormat::kAuto, name, limits);
       if (first) {
         scene.dimension = piece.dimension;
         first = false;
       } else if (piece.dimension != scene.dimension) {
-        throw Error(ErrorCode::kInvalidScene, "part \"" + name + "\" is " +
-                                                  std::to_string(piece.dimension) + "D, the others " +
-                                                  std::to_string(scene.dimension) + "D");
+        throw Error(ErrorCode::kInvalidScene,
+                    "part \"" + name + "\" is " + std::to_string(piece.dimension) +
+                        "D, the others " + std::to_string(scene.dimension) + "D");
       }
       // Several objects in one part (OBJ groups): one object named after the part.
       SceneObject merged;
@@ -430,7 +441,8 @@ struct HttpServer::Impl {
   }
 
   /// ETag = the job id (a job's outputs never change). True when the client's copy is current.
-  static bool not_modified(const httplib::Request& req, httplib::Response& res, const std::string& id) {
+  static bool not_modified(const httplib::Request& req, httplib::Response& res,
+                           const std::string& id) {
     const std::string etag = "\"" + id + "\"";
     res.set_header("ETag", etag);
     res.set_header("Cache-Control", "public, max-age=86400");
@@ -453,7 +465,8 @@ struct HttpServer::Impl {
     return false;
   }
 
-  static void send_bytes(httplib::Response& res, const LoadedResult::Bytes& bytes, const char* type) {
+  static void send_bytes(httplib::Response& res, const LoadedResult::Bytes& bytes,
+                         const char* type) {
     res.set_content_provider(bytes->size(), type,
                              [bytes](size_t offset, size_t length, httplib::DataSink& sink) {
                                const size_t n = std::min(length, bytes->size() - offset);
@@ -467,9 +480,13 @@ struct HttpServer::Impl {
     const std::string id = req.matches[1].str();
     if (what == Output::kGlb && req.has_param("format")) {
       const std::string f = req.get_param_value("format");
-      if (f == "json") what = Output::kJson;
-      else if (f == "gltf") what = Output::kGltf;
-      else if (f != "glb") throw Error(ErrorCode::kInvalidArgument, "format must be glb, gltf or json, got \"" + f + "\"");
+      if (f == "json")
+        what = Output::kJson;
+      else if (f == "gltf")
+        what = Output::kGltf;
+      else if (f != "glb")
+        throw Error(ErrorCode::kInvalidArgument,
+                    "format must be glb, gltf or json, got \"" + f + "\"");
     }
     if (jobs.status(id) == JobStatus::kDone && not_modified(req, res, id)) return;
     const std::shared_ptr<LoadedResult> r = jobs.result(id);
@@ -496,7 +513,8 @@ struct HttpServer::Impl {
     (void)jobs.result(id);  // the status checks
     const std::vector<uint8_t> bytes = read_file_bytes(jobs.result_path(id));
     res.set_header("Content-Disposition", "attachment; filename=\"" + id + ".gvd\"");
-    res.set_content(reinterpret_cast<const char*>(bytes.data()), bytes.size(), "application/octet-stream");
+    res.set_content(reinterpret_cast<const char*>(bytes.data()), bytes.size(),
+                    "application/octet-stream");
   }
 
   /// Server-sent events: one "status" event per change of the job (the status document as
@@ -647,7 +665,7 @@ void HttpServer::Impl::setup() {
     return 100;
   });
   http.set_error_handler(httplib::Server::HandlerWithResponse([this](const httplib::Request& req,
-                                                                      httplib::Response& res) {
+                                                                     httplib::Response& res) {
     if (!res.body.empty() || res.content_provider_) {
       return httplib::Server::HandlerResponse::Unhandled;
     }
@@ -682,23 +700,27 @@ void HttpServer::Impl::setup() {
   }));
   // Reached only when the catch boundary of `wrap` itself failed (or before routing): nothing
   // may escape from here, it would end the HTTP thread.
-  http.set_exception_handler([this](const httplib::Request& req, httplib::Response& res,
-                                    std::exception_ptr) {
-    try {
-      send_problem(req, res, ProblemKind::kInternal, "internal error (request " + t_request.id + ")");
-    } catch (...) {
-      res.status = 500;
-      res.body.clear();
-    }
-  });
-  http.set_logger([this](const httplib::Request& req, const httplib::Response& res) { log(req, res); });
+  http.set_exception_handler(
+      [this](const httplib::Request& req, httplib::Response& res, std::exception_ptr) {
+        try {
+          send_problem(req, res, ProblemKind::kInternal,
+                       "internal error (request " + t_request.id + ")");
+        } catch (...) {
+          res.status = 500;
+          res.body.clear();
+        }
+      });
+  http.set_logger(
+      [this](const httplib::Request& req, const httplib::Response& res) { log(req, res); });
 
   // cpp-httplib tries the routes in this order, one regex match each: the hot query routes
   // first (the patterns are anchored and disjoint, so the order changes nothing else).
   route("GET", "/v1/jobs/{id}/objects/{label}/neighbors",
         [this](const auto& req, auto& res) { queries.neighbors(req, res); });
-  route("GET", "/v1/jobs/{id}/nearest", [this](const auto& req, auto& res) { queries.nearest(req, res); });
-  route("GET", "/", [](const auto&, auto& res) { res.set_content(kIndexHtml, "text/html; charset=utf-8"); });
+  route("GET", "/v1/jobs/{id}/nearest",
+        [this](const auto& req, auto& res) { queries.nearest(req, res); });
+  route("GET", "/",
+        [](const auto&, auto& res) { res.set_content(kIndexHtml, "text/html; charset=utf-8"); });
   route("GET", "/healthz", [](const auto&, auto& res) {
     res.set_header("Cache-Control", "no-store");
     res.set_content("{\"status\":\"ok\"}", "application/json");
@@ -707,9 +729,8 @@ void HttpServer::Impl::setup() {
   route("GET", "/metrics", [this](const auto&, auto& res) {
     res.set_content(metrics.render(), "text/plain; version=0.0.4; charset=utf-8");
   });
-  route("GET", "/openapi.json", [](const auto&, auto& res) {
-    res.set_content(kOpenApiJson, "application/json");
-  });
+  route("GET", "/openapi.json",
+        [](const auto&, auto& res) { res.set_content(kOpenApiJson, "application/json"); });
   route("POST", "/v1/jobs", [this](const auto& req, auto& res) { submit(req, res); });
   route("GET", "/v1/jobs", [this](const auto&, auto& res) {
     res.set_header("Cache-Control", "no-store");
@@ -718,16 +739,24 @@ void HttpServer::Impl::setup() {
   route("GET", "/v1/jobs/{id}", [this](const auto& req, auto& res) { status(req, res); });
   route("DELETE", "/v1/jobs/{id}", [this](const auto& req, auto& res) { remove(req, res); });
   route("GET", "/v1/jobs/{id}/events", [this](const auto& req, auto& res) { events(req, res); });
-  route("GET", "/v1/jobs/{id}/gvd.glb", [this](const auto& req, auto& res) { output(req, res, Output::kGlb); });
-  route("GET", "/v1/jobs/{id}/gvd.gltf", [this](const auto& req, auto& res) { output(req, res, Output::kGltf); });
-  route("GET", "/v1/jobs/{id}/gvd.json", [this](const auto& req, auto& res) { output(req, res, Output::kJson); });
-  route("GET", "/v1/jobs/{id}/graph", [this](const auto& req, auto& res) { output(req, res, Output::kGraph); });
-  route("GET", "/v1/jobs/{id}/result.gvd", [this](const auto& req, auto& res) { result_file(req, res); });
+  route("GET", "/v1/jobs/{id}/gvd.glb",
+        [this](const auto& req, auto& res) { output(req, res, Output::kGlb); });
+  route("GET", "/v1/jobs/{id}/gvd.gltf",
+        [this](const auto& req, auto& res) { output(req, res, Output::kGltf); });
+  route("GET", "/v1/jobs/{id}/gvd.json",
+        [this](const auto& req, auto& res) { output(req, res, Output::kJson); });
+  route("GET", "/v1/jobs/{id}/graph",
+        [this](const auto& req, auto& res) { output(req, res, Output::kGraph); });
+  route("GET", "/v1/jobs/{id}/result.gvd",
+        [this](const auto& req, auto& res) { result_file(req, res); });
   route("POST", "/v1/jobs/{id}/nearest",
         [this](const auto& req, auto& res) { queries.nearest_batch(req, res); });
-  route("POST", "/v1/jobs/{id}/paths", [this](const auto& req, auto& res) { queries.paths(req, res); });
-  route("GET", "/v1/jobs/{id}/explode", [this](const auto& req, auto& res) { queries.explode(req, res); });
-  route("GET", "/v1/jobs/{id}/tight", [this](const auto& req, auto& res) { queries.tight(req, res); });
+  route("POST", "/v1/jobs/{id}/paths",
+        [this](const auto& req, auto& res) { queries.paths(req, res); });
+  route("GET", "/v1/jobs/{id}/explode",
+        [this](const auto& req, auto& res) { queries.explode(req, res); });
+  route("GET", "/v1/jobs/{id}/tight",
+        [this](const auto& req, auto& res) { queries.tight(req, res); });
   route("GET", "/problems/{name}", [this](const auto& req, auto& res) { problem_doc(req, res); });
   GVD_CHECK(registered.size() == kRoutes.size(), "every route of routes.h has a handler");
 

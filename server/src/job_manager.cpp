@@ -7,7 +7,6 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
-
 #include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
@@ -28,7 +27,7 @@ namespace {
 // Share of the whole computation each progress stage roughly takes (for the overall fraction
 // of a running job; an estimate, documented as such).
 const std::pair<const char*, double> kStageWeights[] = {
-    {"scene", 0.02},   {"octree", 0.20},  {"distance", 0.30},
+    {"scene", 0.02},     {"octree", 0.20},  {"distance", 0.30},
     {"ambiguity", 0.25}, {"surface", 0.18}, {"graph", 0.05},
 };
 
@@ -40,8 +39,7 @@ double stage_weight(const std::string& name) {
 }
 
 double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 Json iso_time(double unix_seconds) {
@@ -123,7 +121,8 @@ std::string job_id(std::string_view scene_json, std::string_view params_json) {
 }
 
 JobManager::JobManager(const ServerOptions& options, Metrics& metrics)
-    : options_(options), metrics_(metrics),
+    : options_(options),
+      metrics_(metrics),
       cache_(options.store + "/results", static_cast<size_t>(options.cache_entries),
              [&metrics](bool hit) {
                metrics.count(hit ? "gvd_result_cache_hits_total" : "gvd_result_cache_misses_total");
@@ -132,8 +131,8 @@ JobManager::JobManager(const ServerOptions& options, Metrics& metrics)
     std::error_code ec;
     fs::create_directories(dir(sub), ec);
     if (ec) {
-      throw Error(ErrorCode::kIo, "cannot create the store directory " + dir(sub) + ": " +
-                                      ec.message());
+      throw Error(ErrorCode::kIo,
+                  "cannot create the store directory " + dir(sub) + ": " + ec.message());
     }
   }
   recover();
@@ -201,7 +200,8 @@ void JobManager::recover() {
     if (p.extension() != ".json") continue;
     try {
       const std::string id = p.stem().string();
-      if (jobs_.count(id) == 0) jobs_[id] = restore(Json::parse(read_text(p.string())), JobStatus::kFailed);
+      if (jobs_.count(id) == 0)
+        jobs_[id] = restore(Json::parse(read_text(p.string())), JobStatus::kFailed);
     } catch (const std::exception&) {
       remove_quietly(p);
     }
@@ -214,7 +214,8 @@ void JobManager::recover() {
     const std::string id = p.stem().string();
     try {
       const Json r = Json::parse(read_text(p.string()));
-      if (!fs::exists(dir("requests") + "/" + id + ".scene.json")) throw std::runtime_error("no scene");
+      if (!fs::exists(dir("requests") + "/" + id + ".scene.json"))
+        throw std::runtime_error("no scene");
       auto job = std::make_shared<Job>();
       job->id = id;
       job->status = JobStatus::kQueued;
@@ -302,7 +303,8 @@ SubmitOutcome JobManager::submit(const JobRequest& request) {
   } catch (...) {
     lock.lock();
     --persisting_;
-    if (const auto it = jobs_.find(request.id); it != jobs_.end() && it->second == job) jobs_.erase(it);
+    if (const auto it = jobs_.find(request.id); it != jobs_.end() && it->second == job)
+      jobs_.erase(it);
     changed_cv_.notify_all();
     throw;
   }
@@ -334,13 +336,15 @@ std::optional<JobStatus> JobManager::status(const std::string& id) const {
 
 std::string JobManager::status_json_locked(const Job& job, JobStatus shown) const {
   const std::string self = "/v1/jobs/" + job.id;
-  Json s = {{"id", job.id},
-            {"status", job_status_name(shown)},
-            {"submitted_at", iso_time(job.submitted_at)},
-            {"started_at", iso_time(job.started_at)},
-            {"finished_at", iso_time(job.finished_at)},
-            {"scene", {{"dimension", job.dimension}, {"objects", job.objects}, {"simplices", job.simplices}}},
-            {"params", Json::parse(job.params_json.empty() ? "{}" : job.params_json)}};
+  Json s = {
+      {"id", job.id},
+      {"status", job_status_name(shown)},
+      {"submitted_at", iso_time(job.submitted_at)},
+      {"started_at", iso_time(job.started_at)},
+      {"finished_at", iso_time(job.finished_at)},
+      {"scene",
+       {{"dimension", job.dimension}, {"objects", job.objects}, {"simplices", job.simplices}}},
+      {"params", Json::parse(job.params_json.empty() ? "{}" : job.params_json)}};
   if (shown == JobStatus::kQueued) {
     const auto pos = std::find(queue_.begin(), queue_.end(), job.id);
     s["queue_position"] = pos == queue_.end() ? 0 : (pos - queue_.begin()) + 1;
@@ -367,8 +371,9 @@ std::string JobManager::status_json_locked(const Job& job, JobStatus shown) cons
     progress["stage"] = "done";
     s["result"] = Json::parse(job.result_info.empty() ? "{}" : job.result_info);
     for (const Json& st : s["result"].value("stages", Json::array())) {
-      progress["stages"].push_back(
-          {{"name", st.value("name", "")}, {"fraction", 1.0}, {"seconds", st.value("seconds", 0.0)}});
+      progress["stages"].push_back({{"name", st.value("name", "")},
+                                    {"fraction", 1.0},
+                                    {"seconds", st.value("seconds", 0.0)}});
     }
     s["links"] = {{"self", self},
                   {"glb", self + "/gvd.glb"},
@@ -507,8 +512,9 @@ void JobManager::finish_locked(Job& job, JobStatus status) {
   const double seconds = job.started_at > 0 ? job.finished_at - job.started_at : 0;
   metrics_.job_finished(std::string(job_status_name(status)), seconds);
   log_event(status == JobStatus::kDone ? "info" : "warn",
-            status == JobStatus::kDone ? "job_done"
-            : status == JobStatus::kFailed ? "job_failed" : "job_cancelled",
+            status == JobStatus::kDone     ? "job_done"
+            : status == JobStatus::kFailed ? "job_failed"
+                                           : "job_cancelled",
             job.id, seconds);
   ++version_;
   changed_cv_.notify_all();
@@ -571,7 +577,8 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
       if (job->stages.empty() || job->stages.back().name != stage) {
         if (!job->stages.empty()) {
           job->stages.back().fraction = 1;
-          job->stages.back().seconds = std::chrono::duration<double>(now - job->stage_start).count();
+          job->stages.back().seconds =
+              std::chrono::duration<double>(now - job->stage_start).count();
         }
         if (stage == "done") return;
         job->stages.push_back({stage, fraction, 0});
@@ -642,7 +649,8 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
         break;
     }
   }
-  const JobStatus final = kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed;
+  const JobStatus final =
+      kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed;
   job->error = problem_json(kind, detail, instance, "");
   job->finished_at = unix_now();
   const std::string doc = status_json_locked(*job, final);

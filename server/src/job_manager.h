@@ -130,7 +130,9 @@ class JobManager {
     std::chrono::steady_clock::time_point stage_start;
   };
 
-  std::string status_json_locked(const Job& job) const { return status_json_locked(job, job.status); }
+  std::string status_json_locked(const Job& job) const {
+    return status_json_locked(job, job.status);
+  }
   /// The document of `job` as if its status were `shown` (to persist a final document
   /// before the final status becomes visible).
   std::string status_json_locked(const Job& job, JobStatus shown) const;

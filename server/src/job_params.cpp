@@ -2,9 +2,8 @@
 
 #include <charconv>
 #include <cmath>
-#include <sstream>
-
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "gvd/common/error.h"
 
@@ -66,8 +65,7 @@ void JobParams::set(const std::string& name, const std::string& value) {
       box.push_back(v);
     }
     if (box.size() != 4 && box.size() != 6) {
-      bad("parameter \"domain\" needs 4 (2D) or 6 (3D) numbers, got " +
-          std::to_string(box.size()));
+      bad("parameter \"domain\" needs 4 (2D) or 6 (3D) numbers, got " + std::to_string(box.size()));
     }
     domain = std::move(box);
   } else {

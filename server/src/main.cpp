@@ -31,7 +31,8 @@ int main(int argc, char** argv) {
     std::map<std::string, std::string> env;
     for (char** e = environ; *e != nullptr; ++e) {
       const char* eq = std::strchr(*e, '=');
-      if (eq != nullptr && std::strncmp(*e, "GVD_", 4) == 0) env[std::string(*e, static_cast<size_t>(eq - *e))] = eq + 1;
+      if (eq != nullptr && std::strncmp(*e, "GVD_", 4) == 0)
+        env[std::string(*e, static_cast<size_t>(eq - *e))] = eq + 1;
     }
     bool help = false;
     options = parse_server_options(std::vector<std::string>(argv + 1, argv + argc), env, help);
@@ -48,7 +49,8 @@ int main(int argc, char** argv) {
     HttpServer server(options);
     const int port = server.bind();
     if (port < 0) {
-      std::fprintf(stderr, "gvd-server: cannot listen on %s:%d\n", options.host.c_str(), options.port);
+      std::fprintf(stderr, "gvd-server: cannot listen on %s:%d\n", options.host.c_str(),
+                   options.port);
       return 1;
     }
     std::printf("gvd-server listening on http://%s:%d (store %s, backend %s, %d workers)\n",

@@ -9,7 +9,7 @@ namespace gvd::server {
 namespace {
 
 const std::vector<double> kRequestBounds = {0.0005, 0.001, 0.002, 0.005, 0.01, 0.025,
-                                            0.05,   0.1,   0.25,  0.5,   1,     5};
+                                            0.05,   0.1,   0.25,  0.5,   1,    5};
 const std::vector<double> kJobBounds = {0.01, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30, 60, 300};
 
 std::string number(double v) {

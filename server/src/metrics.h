@@ -15,7 +15,8 @@ namespace gvd::server {
 /// A Prometheus histogram with fixed upper bounds (seconds).
 class Histogram {
  public:
-  explicit Histogram(std::vector<double> bounds) : bounds_(std::move(bounds)), counts_(bounds_.size() + 1) {}
+  explicit Histogram(std::vector<double> bounds)
+      : bounds_(std::move(bounds)), counts_(bounds_.size() + 1) {}
   void observe(double value);
   /// Appends the `_bucket`, `_sum` and `_count` lines; `labels` is `k="v",...` or empty.
   void render(std::string& out, const std::string& name, const std::string& labels) const;

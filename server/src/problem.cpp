@@ -2,10 +2,9 @@
 
 #include <array>
 #include <charconv>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <regex>
-
-#include <nlohmann/json.hpp>
 
 namespace gvd::server {
 namespace {
@@ -74,13 +73,17 @@ void add_location(nlohmann::json& doc, std::string_view detail) {
 
 const ProblemInfo& problem_info(ProblemKind kind) { return kTable.at(static_cast<size_t>(kind)); }
 
-ProblemKind problem_kind(ErrorCode code) { return static_cast<ProblemKind>(static_cast<int>(code)); }
+ProblemKind problem_kind(ErrorCode code) {
+  return static_cast<ProblemKind>(static_cast<int>(code));
+}
 
 std::string problem_json(ProblemKind kind, std::string_view detail, std::string_view instance,
                          std::string_view request_id, std::string_view extra_json) {
   const ProblemInfo& info = problem_info(kind);
-  nlohmann::json doc = {{"type", info.type},     {"title", info.title},
-                        {"status", info.status}, {"detail", detail},
+  nlohmann::json doc = {{"type", info.type},
+                        {"title", info.title},
+                        {"status", info.status},
+                        {"detail", detail},
                         {"instance", instance}};
   if (!request_id.empty()) doc["request_id"] = request_id;  // absent for a job's own error
   if (kind <= ProblemKind::kInternal) {

@@ -62,7 +62,9 @@ std::string problem_json(ProblemKind kind, std::string_view detail, std::string_
 class ProblemError : public std::runtime_error {
  public:
   ProblemError(ProblemKind kind, std::string detail, std::string extra_json = {})
-      : std::runtime_error(detail), kind_(kind), detail_(std::move(detail)),
+      : std::runtime_error(detail),
+        kind_(kind),
+        detail_(std::move(detail)),
         extra_json_(std::move(extra_json)) {}
   ProblemKind kind() const { return kind_; }
   const std::string& detail() const { return detail_; }

@@ -4,7 +4,6 @@
 
 #include <charconv>
 #include <cmath>
-
 #include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
@@ -18,7 +17,9 @@ namespace {
 
 using Json = nlohmann::json;
 
-[[noreturn]] void bad(const std::string& detail) { throw Error(ErrorCode::kInvalidArgument, detail); }
+[[noreturn]] void bad(const std::string& detail) {
+  throw Error(ErrorCode::kInvalidArgument, detail);
+}
 
 double parse_double(const std::string& name, const std::string& text) {
   double v = 0;
@@ -38,7 +39,9 @@ Vec3 parse_point(const std::string& name, const std::string& text, int dimension
   while (start <= text.size()) {
     size_t comma = text.find(',', start);
     if (comma == std::string::npos) comma = text.size();
-    if (n >= dimension) bad("\"" + name + "\" needs " + std::to_string(dimension) + " numbers for a " + std::to_string(dimension) + "D result, got \"" + text + "\"");
+    if (n >= dimension)
+      bad("\"" + name + "\" needs " + std::to_string(dimension) + " numbers for a " +
+          std::to_string(dimension) + "D result, got \"" + text + "\"");
     p[n++] = parse_double(name, text.substr(start, comma - start));
     start = comma + 1;
   }
@@ -126,9 +129,12 @@ void QueryHandlers::paths(const httplib::Request& req, httplib::Response& res) {
   }
   if (doc.contains("cost")) {
     const std::string cost = doc["cost"].is_string() ? doc["cost"].get<std::string>() : "";
-    if (cost == "shortest") q.cost = PathCost::kShortest;
-    else if (cost == "clearance") q.cost = PathCost::kClearance;
-    else bad("\"cost\" must be \"shortest\" or \"clearance\"");
+    if (cost == "shortest")
+      q.cost = PathCost::kShortest;
+    else if (cost == "clearance")
+      q.cost = PathCost::kClearance;
+    else
+      bad("\"cost\" must be \"shortest\" or \"clearance\"");
   }
   const PathAnswer path = index.path(q);
   const std::string body = path_to_json(index, q, path);
@@ -144,9 +150,11 @@ void QueryHandlers::explode(const httplib::Request& req, httplib::Response& res)
   const auto result = jobs_.result(req.matches[1].str());
   const GvdIndex& index = result->index();
   ExplodeOptions options;
-  if (const std::string s = param(req, "scale", false); !s.empty()) options.scale = parse_double("scale", s);
+  if (const std::string s = param(req, "scale", false); !s.empty())
+    options.scale = parse_double("scale", s);
   const std::string format = req.has_param("format") ? req.get_param_value("format") : "json";
-  if (format != "json" && format != "glb") bad("\"format\" must be json or glb, got \"" + format + "\"");
+  if (format != "json" && format != "glb")
+    bad("\"format\" must be json or glb, got \"" + format + "\"");
   const ExplodedView view = index.explode(index.object(param(req, "anchor", true)), options);
   if (format == "glb") {
     std::vector<Vec3> displacement(result->result().scene.objects.size());

@@ -2,7 +2,6 @@
 
 #include <cstring>
 #include <filesystem>
-
 #include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
@@ -43,7 +42,8 @@ const GvdIndex& LoadedResult::index() const {
 }
 
 ResultCache::ResultCache(std::string dir, size_t capacity, std::function<void(bool)> on_lookup)
-    : dir_(std::move(dir)), capacity_(std::max<size_t>(1, capacity)),
+    : dir_(std::move(dir)),
+      capacity_(std::max<size_t>(1, capacity)),
       on_lookup_(std::move(on_lookup)) {}
 
 std::shared_ptr<LoadedResult> ResultCache::get(const std::string& id) {
@@ -155,8 +155,9 @@ std::string glb_to_gltf(const std::string& glb) {
     if (bin_at + 8 + bin_length > glb.size()) throw bad("bad BIN chunk");
     if (doc.contains("buffers") && !doc["buffers"].empty()) {
       const size_t used = doc["buffers"][0].value("byteLength", size_t{bin_length});
-      doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," +
-                                 base64(glb.data() + bin_at + 8, std::min<size_t>(used, bin_length));
+      doc["buffers"][0]["uri"] =
+          "data:application/octet-stream;base64," +
+          base64(glb.data() + bin_at + 8, std::min<size_t>(used, bin_length));
     }
   }
   return doc.dump();

@@ -36,15 +36,14 @@ T parse_number(const std::string& flag, const std::string& text, T lo, T hi) {
 
 template <class T>
 Spec number(const char* flag, const char* meaning, T ServerOptions::*member, T lo, T hi) {
-  return {flag, meaning,
-          [=](ServerOptions& o, const std::string& v) {
-            o.*member = parse_number<T>(flag, v, lo, hi);
-          },
-          [=](const ServerOptions& o) {
-            std::ostringstream s;
-            s << o.*member;
-            return s.str();
-          }};
+  return {
+      flag, meaning,
+      [=](ServerOptions& o, const std::string& v) { o.*member = parse_number<T>(flag, v, lo, hi); },
+      [=](const ServerOptions& o) {
+        std::ostringstream s;
+        s << o.*member;
+        return s.str();
+      }};
 }
 
 Spec text(const char* flag, const char* meaning, std::string ServerOptions::*member) {
@@ -62,28 +61,26 @@ const std::vector<Spec>& specs() {
       number("--workers", "jobs computed at once", &ServerOptions::workers, 1, 64),
       number("--job-threads", "threads per job (0 = all cores)", &ServerOptions::job_threads, 0,
              256),
-      number("--http-threads", "HTTP connections served at once", &ServerOptions::http_threads,
-             2, 1024),
+      number("--http-threads", "HTTP connections served at once", &ServerOptions::http_threads, 2,
+             1024),
       number("--queue", "queued jobs before 503 + Retry-After", &ServerOptions::queue, 0, 100000),
       number("--max-body", "request body limit, bytes", &ServerOptions::max_body, uint64_t{1},
              kU64),
-      number("--max-headers", "request header count limit", &ServerOptions::max_headers, 1,
-             10000),
+      number("--max-headers", "request header count limit", &ServerOptions::max_headers, 1, 10000),
       number("--max-header-bytes", "total request header size limit, bytes",
              &ServerOptions::max_header_bytes, uint64_t{256}, kU64),
       number("--max-objects", "objects per scene", &ServerOptions::max_objects, uint64_t{1}, kU64),
-      number("--max-simplices", "simplices per scene", &ServerOptions::max_simplices,
-             uint64_t{1}, kU64),
+      number("--max-simplices", "simplices per scene", &ServerOptions::max_simplices, uint64_t{1},
+             kU64),
       number("--max-depth", "deepest octree level a job may ask for (0 = lattice limit)",
              &ServerOptions::max_depth, 0, 31),
       number("--max-leaves", "octree leaves per job (~1 KB of memory each)",
              &ServerOptions::max_leaves, uint64_t{1}, kU64),
-      number("--job-seconds", "wall time per job, seconds", &ServerOptions::job_seconds, 0.01,
-             1e7),
+      number("--job-seconds", "wall time per job, seconds", &ServerOptions::job_seconds, 0.01, 1e7),
       number("--max-memory-mb", "resident memory of the process, MB (0 = unlimited)",
              &ServerOptions::max_memory_mb, uint64_t{0}, kU64),
-      number("--cache-entries", "finished results kept in memory", &ServerOptions::cache_entries,
-             1, 100000),
+      number("--cache-entries", "finished results kept in memory", &ServerOptions::cache_entries, 1,
+             100000),
       text("--backend", "compute backend: cpu | opencl", &ServerOptions::backend),
       number("--read-timeout", "seconds to receive a request", &ServerOptions::read_timeout, 1,
              3600),
@@ -173,8 +170,10 @@ std::string server_usage() {
   const ServerOptions defaults;
   for (const Spec& spec : specs()) {
     const std::string flag = spec.flag;
-    const char* metavar = flag == "--host" ? " ADDR" : flag == "--store" ? " DIR"
-                        : flag == "--backend" ? " NAME" : " N";
+    const char* metavar = flag == "--host"      ? " ADDR"
+                          : flag == "--store"   ? " DIR"
+                          : flag == "--backend" ? " NAME"
+                                                : " N";
     std::string head = "  " + flag + metavar;
     head.resize(std::max<size_t>(head.size() + 1, 27), ' ');
     s << head << spec.meaning << " (" << env_name(spec.flag) << ", default " << spec.show(defaults)

@@ -81,8 +81,8 @@ bool ServerProcess::running() {
 }
 
 std::string fresh_dir(const std::string& name) {
-  const std::string dir = std::string(GVD_TEST_OUTPUT_DIR) + "/service/" + name + "-" +
-                          std::to_string(getpid());
+  const std::string dir =
+      std::string(GVD_TEST_OUTPUT_DIR) + "/service/" + name + "-" + std::to_string(getpid());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

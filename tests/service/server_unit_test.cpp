@@ -1,9 +1,9 @@
 // Unit tests of the server's pieces that need no socket (CTest label `unit`, also under ASan).
 
-#include <set>
-
 #include <gtest/gtest.h>
+
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "gvd/common/error.h"
 #include "gvd/io/write_outputs.h"
@@ -22,10 +22,10 @@ namespace {
 using Json = nlohmann::json;
 
 TEST(ProblemTable, EveryCoreErrorCodeHasAClientOrServerStatus) {
-  for (ErrorCode code : {ErrorCode::kInvalidScene, ErrorCode::kInvalidArgument,
-                         ErrorCode::kUnsupportedFormat, ErrorCode::kOutsideDomain,
-                         ErrorCode::kLimitExceeded, ErrorCode::kNotFound, ErrorCode::kIo,
-                         ErrorCode::kCancelled, ErrorCode::kInternal}) {
+  for (ErrorCode code :
+       {ErrorCode::kInvalidScene, ErrorCode::kInvalidArgument, ErrorCode::kUnsupportedFormat,
+        ErrorCode::kOutsideDomain, ErrorCode::kLimitExceeded, ErrorCode::kNotFound, ErrorCode::kIo,
+        ErrorCode::kCancelled, ErrorCode::kInternal}) {
     const ProblemInfo& info = problem_info(problem_kind(code));
     EXPECT_GE(info.status, 400);
     EXPECT_LT(info.status, 600);
@@ -53,9 +53,10 @@ TEST(ProblemTable, TypesAreUniqueAndStable) {
 }
 
 TEST(ProblemJson, IsRfc9457AndSaysWhere) {
-  const Json doc = Json::parse(problem_json(
-      ProblemKind::kInvalidScene,
-      "objects[3] (\"gear \\\"b\\\"\"): triangles[7][1] = 99 is out of range", "/v1/jobs", "req-1"));
+  const Json doc = Json::parse(
+      problem_json(ProblemKind::kInvalidScene,
+                   "objects[3] (\"gear \\\"b\\\"\"): triangles[7][1] = 99 is out of range",
+                   "/v1/jobs", "req-1"));
   EXPECT_EQ(doc["type"], "/problems/invalid-scene");
   EXPECT_EQ(doc["title"], "Invalid scene");
   EXPECT_EQ(doc["status"], 422);
@@ -64,20 +65,22 @@ TEST(ProblemJson, IsRfc9457AndSaysWhere) {
   EXPECT_EQ(doc["object"]["index"], 3);
   EXPECT_EQ(doc["element"]["kind"], "triangle");
   EXPECT_EQ(doc["element"]["index"], 7);
-  const Json v = Json::parse(problem_json(ProblemKind::kInvalidScene,
-                                          "object 2 (\"wall\"): vertex 5 coordinate 1e30", "/", ""));
+  const Json v = Json::parse(problem_json(
+      ProblemKind::kInvalidScene, "object 2 (\"wall\"): vertex 5 coordinate 1e30", "/", ""));
   EXPECT_EQ(v["object"]["label"], "wall");
   EXPECT_EQ(v["element"]["kind"], "vertex");
   EXPECT_EQ(v["element"]["index"], 5);
   // Indices too large for 64 bits are left out rather than thrown on.
   const Json huge = Json::parse(problem_json(ProblemKind::kInvalidScene,
                                              "object 99999999999999999999999 (\"x\"): vertex "
-                                             "99999999999999999999999 is bad", "/", ""));
+                                             "99999999999999999999999 is bad",
+                                             "/", ""));
   EXPECT_FALSE(huge.contains("object"));
   EXPECT_FALSE(huge.contains("element"));
   // Invalid UTF-8 in a detail does not throw.
   EXPECT_NO_THROW(problem_json(ProblemKind::kInvalidArgument, "bad \xff byte", "/", ""));
-  const Json extra = Json::parse(problem_json(ProblemKind::kNoPath, "none", "/", "", R"({"path":{"points":[]}})"));
+  const Json extra =
+      Json::parse(problem_json(ProblemKind::kNoPath, "none", "/", "", R"({"path":{"points":[]}})"));
   EXPECT_TRUE(extra["path"]["points"].empty());
 }
 
@@ -151,10 +154,14 @@ TEST(Metrics, PrometheusText) {
   m.count("gvd_job_cache_hits_total");
   m.gauge("gvd_test_gauge", "A test.", [] { return 4.0; });
   const std::string text = m.render();
-  EXPECT_NE(text.find("gvd_http_requests_total{route=\"GET /x\",method=\"GET\",status=\"200\"} 2"), std::string::npos);
-  EXPECT_NE(text.find("gvd_http_request_duration_seconds_bucket{route=\"GET /x\",le=\"0.001\"} 1"), std::string::npos);
-  EXPECT_NE(text.find("gvd_http_request_duration_seconds_bucket{route=\"GET /x\",le=\"+Inf\"} 2"), std::string::npos);
-  EXPECT_NE(text.find("gvd_job_stage_duration_seconds_count{stage=\"octree\"} 1"), std::string::npos);
+  EXPECT_NE(text.find("gvd_http_requests_total{route=\"GET /x\",method=\"GET\",status=\"200\"} 2"),
+            std::string::npos);
+  EXPECT_NE(text.find("gvd_http_request_duration_seconds_bucket{route=\"GET /x\",le=\"0.001\"} 1"),
+            std::string::npos);
+  EXPECT_NE(text.find("gvd_http_request_duration_seconds_bucket{route=\"GET /x\",le=\"+Inf\"} 2"),
+            std::string::npos);
+  EXPECT_NE(text.find("gvd_job_stage_duration_seconds_count{stage=\"octree\"} 1"),
+            std::string::npos);
   EXPECT_NE(text.find("gvd_job_cache_hits_total 1"), std::string::npos);
   EXPECT_NE(text.find("gvd_test_gauge 4"), std::string::npos);
   EXPECT_NE(text.find("gvd_jobs_finished_total{status=\"done\"} 1"), std::string::npos);
@@ -173,7 +180,9 @@ TEST(GlbToGltf, EmbedsTheBufferAsADataUri) {
   ASSERT_TRUE(uri.starts_with("data:application/octet-stream;base64,"));
   const size_t b64 = uri.size() - std::string("data:application/octet-stream;base64,").size();
   EXPECT_EQ(b64 % 4, 0u);
-  EXPECT_EQ(b64 / 4 * 3 - (uri.ends_with("==") ? 2 : uri.ends_with("=") ? 1 : 0),
+  EXPECT_EQ(b64 / 4 * 3 - (uri.ends_with("==")  ? 2
+                           : uri.ends_with("=") ? 1
+                                                : 0),
             gltf["buffers"][0]["byteLength"].get<size_t>());
   EXPECT_THROW(glb_to_gltf("not a glb at all....."), Error);
 }

@@ -2,24 +2,22 @@
 // store, driven by a real HTTP client.
 
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <httplib.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
-
-#include <httplib.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <thread>
-
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include "routes.h"
 #include "server_process.h"
@@ -38,7 +36,9 @@ std::string read_text(const std::string& path) {
   return s.str();
 }
 
-std::string data(const std::string& rel) { return read_text(std::string(GVD_TEST_DATA_DIR) + "/" + rel); }
+std::string data(const std::string& rel) {
+  return read_text(std::string(GVD_TEST_DATA_DIR) + "/" + rel);
+}
 
 std::unique_ptr<httplib::Client> client(int port) {
   auto c = std::make_unique<httplib::Client>("127.0.0.1", port);
@@ -57,7 +57,8 @@ std::string slow_scene() {
                            {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
   for (int k = 0; k < 2; ++k) {
     Json v = Json::array(), t = Json::array();
-    for (int i = 0; i < 8; ++i) v.push_back({0.5 * k + (i & 1), 0.5 * k + ((i >> 1) & 1), 0.5 * k + ((i >> 2) & 1)});
+    for (int i = 0; i < 8; ++i)
+      v.push_back({0.5 * k + (i & 1), 0.5 * k + ((i >> 1) & 1), 0.5 * k + ((i >> 2) & 1)});
     for (const auto& tri : tris) t.push_back({tri[0], tri[1], tri[2]});
     objects.push_back({{"label", "cube" + std::to_string(k)}, {"vertices", v}, {"triangles", t}});
   }
@@ -155,9 +156,12 @@ TEST(Service, SubmitPollFetchEveryOutput) {
   const Submitted s = submit(*c, data("scenes/gears2d.json"));
   ASSERT_EQ(s.status, 202) << s.body.dump();
   ASSERT_EQ(s.id.size(), 32u);
-  EXPECT_EQ(std::string(httplib::detail::get_header_value(s.headers, "Location", 0, "")), "/v1/jobs/" + s.id);
-  EXPECT_EQ(std::string(httplib::detail::get_header_value(s.headers, "X-Gvd-Cache", 0, "")), "miss");
-  EXPECT_TRUE(s.body["status"] == "queued" || s.body["status"] == "running" || s.body["status"] == "done");
+  EXPECT_EQ(std::string(httplib::detail::get_header_value(s.headers, "Location", 0, "")),
+            "/v1/jobs/" + s.id);
+  EXPECT_EQ(std::string(httplib::detail::get_header_value(s.headers, "X-Gvd-Cache", 0, "")),
+            "miss");
+  EXPECT_TRUE(s.body["status"] == "queued" || s.body["status"] == "running" ||
+              s.body["status"] == "done");
 
   const Json done = wait_for(*c, s.id, {"done", "failed"});
   ASSERT_EQ(done.value("status", ""), "done") << done.dump();
@@ -190,7 +194,8 @@ TEST(Service, SubmitPollFetchEveryOutput) {
   ASSERT_TRUE(gltf);
   ASSERT_EQ(gltf->status, 200);
   const Json gltf_doc = Json::parse(gltf->body);
-  EXPECT_TRUE(gltf_doc["buffers"][0]["uri"].get<std::string>().starts_with("data:application/octet-stream;base64,"));
+  EXPECT_TRUE(gltf_doc["buffers"][0]["uri"].get<std::string>().starts_with(
+      "data:application/octet-stream;base64,"));
   EXPECT_EQ(gltf_doc["nodes"].size(), parsed.json["nodes"].size());
 
   for (const std::string path : {"/gvd.json", "/gvd.glb?format=json"}) {
@@ -229,7 +234,8 @@ TEST(Service, ResubmitIsACacheHitAndETagGives304) {
   const Submitted again = submit(*c, scene.dump(2));
   EXPECT_EQ(again.status, 200);
   EXPECT_EQ(again.id, first.id);
-  EXPECT_EQ(std::string(httplib::detail::get_header_value(again.headers, "X-Gvd-Cache", 0, "")), "hit");
+  EXPECT_EQ(std::string(httplib::detail::get_header_value(again.headers, "X-Gvd-Cache", 0, "")),
+            "hit");
   // Different parameters: a different job.
   const Submitted other = submit(*c, data("scenes/gears2d.json"), "?max_depth=12");
   EXPECT_EQ(other.status, 202);
@@ -278,7 +284,8 @@ TEST(Service, MalformedCorpusGetsDocumentedProblemsAndServerKeepsServing) {
     EXPECT_EQ(doc.value("type", ""), type) << name;
     EXPECT_EQ(doc.value("status", 0), status) << name;
     EXPECT_EQ(doc.value("code", ""), expected["code"]) << name;
-    EXPECT_NE(doc.value("detail", "").find(expected["contains"].get<std::string>()), std::string::npos)
+    EXPECT_NE(doc.value("detail", "").find(expected["contains"].get<std::string>()),
+              std::string::npos)
         << name << ": " << doc.value("detail", "");
     EXPECT_FALSE(doc.value("request_id", "").empty());
     ++files;
@@ -303,9 +310,10 @@ TEST(Service, BadRequestsAreRefusedBeforeTheBody) {
   // Over the body limit: answered from the headers alone (no body sent at all), and the
   // connection is closed at once (raw_exchange would otherwise wait for its 2 s timeout).
   const auto t0 = std::chrono::steady_clock::now();
-  std::string resp = raw_exchange(port,
-                                  "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-                                  "Content-Length: 1000000000\r\n\r\n");
+  std::string resp =
+      raw_exchange(port,
+                   "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                   "Content-Length: 1000000000\r\n\r\n");
   EXPECT_EQ(raw_status(resp), 413) << resp;
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
   EXPECT_NE(resp.find("application/problem+json"), std::string::npos);
@@ -320,7 +328,8 @@ TEST(Service, BadRequestsAreRefusedBeforeTheBody) {
                       "Transfer-Encoding: chunked\r\n\r\nffffffff\r\n");
   EXPECT_EQ(raw_status(resp), 411) << resp;
   // No Content-Length.
-  resp = raw_exchange(port, "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n\r\n{}");
+  resp = raw_exchange(
+      port, "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n\r\n{}");
   EXPECT_EQ(raw_status(resp), 411) << resp;
   // A bad Content-Length.
   resp = raw_exchange(port,
@@ -382,7 +391,8 @@ TEST(Service, ProblemTypesAreDocumented) {
 }
 
 TEST(Service, QueueFullAnswers503WithRetryAfter) {
-  ServerProcess server(fresh_dir("queue"), {"--workers", "1", "--queue", "1", "--retry-after", "7"});
+  ServerProcess server(fresh_dir("queue"),
+                       {"--workers", "1", "--queue", "1", "--retry-after", "7"});
   auto c = client(server.port());
   const std::string scene = slow_scene();
   const Submitted running = submit(*c, scene, "?contact_depth=12");
@@ -470,7 +480,8 @@ TEST(Service, JobLimitsAreCheckedWhileItRuns) {
   ASSERT_EQ(stopped.value("status", ""), "failed") << stopped.dump();
   EXPECT_EQ(stopped["error"]["type"], "/problems/limit-exceeded");
   const std::string why = stopped["error"]["detail"];
-  EXPECT_TRUE(why.find("memory") != std::string::npos || why.find("leaves") != std::string::npos) << why;
+  EXPECT_TRUE(why.find("memory") != std::string::npos || why.find("leaves") != std::string::npos)
+      << why;
   EXPECT_EQ(c3->Get("/healthz")->status, 200);
 }
 
@@ -479,11 +490,10 @@ TEST(Service, EventStreamReportsProgressUntilDone) {
   auto c = client(server.port());
   const Submitted s = submit(*c, slow_scene(), "?contact_depth=9");
   std::string stream;
-  auto r = c->Get(("/v1/jobs/" + s.id + "/events").c_str(),
-                  [&](const char* d, size_t n) {
-                    stream.append(d, n);
-                    return true;
-                  });
+  auto r = c->Get(("/v1/jobs/" + s.id + "/events").c_str(), [&](const char* d, size_t n) {
+    stream.append(d, n);
+    return true;
+  });
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
   EXPECT_EQ(r->get_header_value("Content-Type"), "text/event-stream");
@@ -598,7 +608,8 @@ TEST(Service, MultipartUploadOnePartPerObject) {
   ServerProcess server(fresh_dir("multipart"));
   auto c = client(server.port());
   // Two tetrahedra 3 units apart, one as OFF and one as PLY; the part names are the labels.
-  const std::string off = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  const std::string off =
+      "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
   const std::string ply =
       "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
       "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
@@ -655,7 +666,7 @@ TEST(Service, ConcurrentClients) {
     threads.emplace_back([&, t] {
       auto tc = client(server.port());
       for (int i = 0; i < 25; ++i) {
-        httplib::Result r = (i % 5 == 0) ? tc->Post("/v1/jobs", scene, "application/json")
+        httplib::Result r = (i % 5 == 0)   ? tc->Post("/v1/jobs", scene, "application/json")
                             : (i % 5 == 1) ? tc->Get(("/v1/jobs/" + s.id + "/gvd.glb").c_str())
                             : (i % 5 == 2) ? tc->Get(("/v1/jobs/" + s.id + "/graph").c_str())
                             : (i % 5 == 3) ? tc->Get("/metrics")
@@ -708,7 +719,8 @@ TEST(Service, HealthReadinessMetrics) {
   // A request is counted by the logger right after its answer is written: give it a moment.
   for (int i = 0; i < 100; ++i) {
     r = c->Get("/metrics");
-    if (r->body.find("route=\"GET /v1/jobs/{id}/graph\",le=\"+Inf\"} 1") != std::string::npos) break;
+    if (r->body.find("route=\"GET /v1/jobs/{id}/graph\",le=\"+Inf\"} 1") != std::string::npos)
+      break;
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   ASSERT_EQ(r->status, 200);
@@ -798,7 +810,8 @@ TEST(ServiceQueries, NeighborsMatchTheDualGraph) {
   // Errors: unknown label, bad ring, unfinished/unknown job.
   r = f.c->Get(f.url("/objects/no_such_gear/neighbors").c_str());
   EXPECT_EQ(r->status, 404);
-  EXPECT_NE(Json::parse(r->body)["detail"].get<std::string>().find("no_such_gear"), std::string::npos);
+  EXPECT_NE(Json::parse(r->body)["detail"].get<std::string>().find("no_such_gear"),
+            std::string::npos);
   EXPECT_EQ(f.c->Get(f.url("/objects/gear_a/neighbors?ring=0").c_str())->status, 400);
   EXPECT_EQ(f.c->Get(f.url("/objects/gear_a/neighbors?ring=x").c_str())->status, 400);
   EXPECT_EQ(f.c->Get("/v1/jobs/ffffffffffffffffffffffffffffffff/objects/a/neighbors")->status, 404);
@@ -812,7 +825,8 @@ TEST(ServiceQueries, NearestSingleAndBatch) {
   for (const Json& o : scene["objects"]) probes.emplace_back(o["label"], o["vertices"][0]);
   Json points = Json::array();
   for (const auto& [label, p] : probes) {
-    const std::string q = "?point=" + std::to_string(p[0].get<double>()) + "," + std::to_string(p[1].get<double>());
+    const std::string q =
+        "?point=" + std::to_string(p[0].get<double>()) + "," + std::to_string(p[1].get<double>());
     auto r = f.c->Get(f.url("/nearest" + q).c_str());
     ASSERT_TRUE(r);
     ASSERT_EQ(r->status, 200) << r->body;
@@ -821,7 +835,8 @@ TEST(ServiceQueries, NearestSingleAndBatch) {
     EXPECT_LT(a["distance"].get<double>(), 1e-4);
     points.push_back(p);
   }
-  auto r = f.c->Post(f.url("/nearest").c_str(), Json{{"points", points}}.dump(), "application/json");
+  auto r =
+      f.c->Post(f.url("/nearest").c_str(), Json{{"points", points}}.dump(), "application/json");
   ASSERT_EQ(r->status, 200) << r->body;
   const Json batch = Json::parse(r->body)["answers"];
   ASSERT_EQ(batch.size(), probes.size());
@@ -837,16 +852,22 @@ TEST(ServiceQueries, NearestSingleAndBatch) {
   EXPECT_EQ(f.c->Get(f.url("/nearest?point=1,2,3").c_str())->status, 400);
   EXPECT_EQ(f.c->Get(f.url("/nearest?point=a,b").c_str())->status, 400);
   EXPECT_EQ(f.c->Get(f.url("/nearest").c_str())->status, 400);
-  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[0,", "application/json")->status, 400);
-  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[\"x\",0]]}", "application/json")->status, 400);
+  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[0,", "application/json")->status,
+            400);
+  EXPECT_EQ(
+      f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[\"x\",0]]}", "application/json")->status,
+      400);
   EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "application/xml")->status, 415);
   // `curl -d` labels the JSON body as a form: still read as JSON.
-  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "application/x-www-form-urlencoded")->status, 200);
+  EXPECT_EQ(
+      f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "application/x-www-form-urlencoded")->status,
+      200);
 }
 
 TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
   QueryFixture f;
-  auto r = f.c->Post(f.url("/paths").c_str(), R"({"from":[-1.3,-2.3],"to":[3.3,2.3]})", "application/json");
+  auto r = f.c->Post(f.url("/paths").c_str(), R"({"from":[-1.3,-2.3],"to":[3.3,2.3]})",
+                     "application/json");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
   const Json path = Json::parse(r->body);
@@ -856,7 +877,8 @@ TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
   EXPECT_GE(path["length"].get<double>(), std::hypot(4.6, 4.6) - 1e-9);
   EXPECT_GT(path["min_clearance"].get<double>(), 0.0);
   // A start inside gear_a: no path; the problem carries the path document.
-  r = f.c->Post(f.url("/paths").c_str(), R"({"from":[0.5,0.5],"to":[3.3,2.3]})", "application/json");
+  r = f.c->Post(f.url("/paths").c_str(), R"({"from":[0.5,0.5],"to":[3.3,2.3]})",
+                "application/json");
   ASSERT_EQ(r->status, 422) << r->body;
   const Json problem = Json::parse(r->body);
   EXPECT_EQ(problem["type"], "/problems/no-path");
@@ -867,8 +889,12 @@ TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
                 "application/x-www-form-urlencoded");
   EXPECT_EQ(r->status, 200) << r->body;
   // Bad bodies.
-  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0]})", "application/json")->status, 400);
-  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0],"to":[1,1],"min_clearance":-1})", "application/json")->status, 400);
+  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0]})", "application/json")->status,
+            400);
+  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0],"to":[1,1],"min_clearance":-1})",
+                      "application/json")
+                ->status,
+            400);
   EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"(not json)", "application/json")->status, 400);
 }
 
