@@ -1,6 +1,7 @@
 #include "http_server.h"
 
 #include <httplib.h>
+#include <sys/socket.h>
 
 #include <algorithm>
 #include <atomic>
@@ -101,6 +102,7 @@ struct HttpServer::Impl {
   std::atomic<bool> closing{false};
   std::atomic<int> streams{0};
   int port = 0;
+  socket_t listen_socket = INVALID_SOCKET;
   std::string backend;  ///< the backend the warm-up computation actually used
 
   // ---- helpers ------------------------------------------------------------------------------
@@ -639,6 +641,14 @@ void HttpServer::Impl::setup() {
   const int threads = options.http_threads;
   http.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
   http.set_tcp_nodelay(true);
+  // cpp-httplib 0.11.4 listens with a backlog of 5: a burst of new connections overflows it
+  // and the kernel drops SYNs (clients retry after 1 s). Keep its SO_REUSEADDR, remember the
+  // socket, and raise the backlog after binding (listen() again on Linux only changes it).
+  http.set_socket_options([this](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    listen_socket = sock;
+  });
   http.set_payload_max_length(options.max_body);
   http.set_read_timeout(options.read_timeout, 0);
   http.set_write_timeout(options.write_timeout, 0);
@@ -807,6 +817,7 @@ int HttpServer::bind() {
     if (!s.http.bind_to_port(s.options.host.c_str(), s.options.port)) return -1;
     s.port = s.options.port;
   }
+  if (s.listen_socket != INVALID_SOCKET) ::listen(s.listen_socket, SOMAXCONN);
   return s.port;
 }
 

@@ -16,7 +16,7 @@ struct ServerOptions {
   std::string store = "gvd-store";
   int workers = 1;                    ///< jobs computed at once
   int job_threads = 0;                ///< threads per job (0 = all cores)
-  int http_threads = 16;              ///< HTTP connections served at once (keep-alive holds one)
+  int http_threads = 128;             ///< HTTP connections served at once (keep-alive holds one)
   int queue = 64;                     ///< queued jobs before 503
   uint64_t max_body = 64ull << 20;    ///< request body limit, bytes
   int max_headers = 64;               ///< request header count limit
