@@ -3,9 +3,9 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <memory>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -159,9 +159,9 @@ void print_summary(const GvdResult& r, std::FILE* out) {
 
 const std::vector<std::string>& compute_value_flags() {
   static const std::vector<std::string> flags = {
-      "--max-depth",        "--domain",           "--threads",       "--backend",
-      "--max-leaves",       "--max-objects",      "--max-simplices", "--ambiguity-levels",
-      "--ambiguity-rounds", "--contact-depth",    "--unseen-rounds"};
+      "--max-depth",        "--domain",        "--threads",       "--backend",
+      "--max-leaves",       "--max-objects",   "--max-simplices", "--ambiguity-levels",
+      "--ambiguity-rounds", "--contact-depth", "--unseen-rounds"};
   return flags;
 }
 

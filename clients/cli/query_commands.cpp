@@ -108,7 +108,8 @@ int cmd_neighbors(int argc, char** argv) {
   if (ring < 1) throw UsageError{"--ring must be at least 1"};
   const GvdIndex index = load_index(args);
   const ObjectId object = index.object(label);
-  std::printf("%s\n", neighbors_to_json(index, object, ring, index.neighbors(object, ring)).c_str());
+  std::printf("%s\n",
+              neighbors_to_json(index, object, ring, index.neighbors(object, ring)).c_str());
   return kExitOk;
 }
 

@@ -72,7 +72,8 @@ void BM_NearestIndex(benchmark::State& state) {
     i = (i + 1) & (f.points.size() - 1);
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
-  state.counters["exact_fallback_pct"] = 100.0 * static_cast<double>(exact) / std::max<size_t>(n, 1);
+  state.counters["exact_fallback_pct"] =
+      100.0 * static_cast<double>(exact) / std::max<size_t>(n, 1);
   state.counters["leaves"] = static_cast<double>(f.result->octree.leaf_count());
   state.counters["triangles"] = static_cast<double>(f.result->geometry.simplices.size());
   state.counters["index_build_s"] = f.index_seconds;
@@ -156,7 +157,8 @@ void BM_NearestAccuracy(benchmark::State& state) {
   state.counters["ratio_max"] = worst_ratio;
   state.counters["ratio_mean"] = sum_ratio / samples;
   state.counters["exact_pct"] = 100.0 * static_cast<double>(exact) / samples;
-  state.counters["exact_nonempty_leaf_pct"] = 100.0 * static_cast<double>(exact_in_nonempty) / samples;
+  state.counters["exact_nonempty_leaf_pct"] =
+      100.0 * static_cast<double>(exact_in_nonempty) / samples;
   state.counters["bvh_vs_brute_wrong"] = static_cast<double>(bvh_wrong);
 }
 
@@ -172,7 +174,8 @@ void BM_Neighbors(benchmark::State& state) {
     o = (o + 37) % n;
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));
-  state.counters["mean_found"] = static_cast<double>(total) / std::max<int64_t>(state.iterations(), 1);
+  state.counters["mean_found"] =
+      static_cast<double>(total) / std::max<int64_t>(state.iterations(), 1);
 }
 
 /// Baseline: k rings by scanning the whole edge list once per ring (no adjacency index).
@@ -278,7 +281,8 @@ void BM_PathUniformGrid(benchmark::State& state) {
         const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
                               {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
         for (const auto& q : nb) {
-          if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= res || q[1] >= res || q[2] >= res) continue;
+          if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= res || q[1] >= res || q[2] >= res)
+            continue;
           const size_t k = (static_cast<size_t>(q[2]) * res + q[1]) * res + q[0];
           if (!free[k] || dist[k] >= 0) continue;
           dist[k] = dist[c] + 1;

@@ -169,7 +169,7 @@ void GvdIndex::Impl::build_nearest() {
   const int corners = 1 << octree.dimension;
   corner_exact.assign(leaves * static_cast<size_t>(corners), -1.0f);
   // The distinct closest points of a leaf's boundary vertices; returns their count.
-  auto gather = [&](uint32_t leaf, uint32_t (&found)[27]) {
+  auto gather = [&](uint32_t leaf, uint32_t(&found)[27]) {
     const LeafGrid grid = field.grid(octree, leaf);
     uint32_t count = 0;
     for (uint32_t v : grid) {
@@ -249,15 +249,14 @@ void GvdIndex::Impl::build_dual() {
       const Vec3 p0 = cell.positions[cell.indices[s]];
       const Vec3 p1 = cell.positions[cell.indices[s + 1]];
       // n_t * A_t: half the cross product in 3D; the left normal times the length in 2D.
-      const Vec3 weighted =
-          arity == 3 ? cross(p1 - p0, cell.positions[cell.indices[s + 2]] - p0) * 0.5
-                     : Vec3{-(p1.y - p0.y), p1.x - p0.x, 0};
+      const Vec3 weighted = arity == 3
+                                ? cross(p1 - p0, cell.positions[cell.indices[s + 2]] - p0) * 0.5
+                                : Vec3{-(p1.y - p0.y), p1.x - p0.x, 0};
       const ObjectId lo = std::min(c, d), hi = std::max(c, d);
-      const auto it = std::lower_bound(
-          graph.edges.begin(), graph.edges.end(), std::pair{lo, hi},
-          [](const DualEdge& e, std::pair<ObjectId, ObjectId> key) {
-            return std::pair{e.a, e.b} < key;
-          });
+      const auto it = std::lower_bound(graph.edges.begin(), graph.edges.end(), std::pair{lo, hi},
+                                       [](const DualEdge& e, std::pair<ObjectId, ObjectId> key) {
+                                         return std::pair{e.a, e.b} < key;
+                                       });
       if (it == graph.edges.end() || it->a != lo || it->b != hi) continue;
       const size_t edge = static_cast<size_t>(it - graph.edges.begin());
       Vec3& into = d == lo ? normal_into_a[edge] : normal_into_b[edge];
@@ -282,7 +281,8 @@ void GvdIndex::Impl::build_roadmap() {
   copies.reserve(cell_offset.back());
   for (uint32_t c = 0; c < gvd.cells.size(); ++c) {
     const GvdCell& cell = gvd.cells[c];
-    for (uint32_t v = 0; v < cell.positions.size(); ++v) copies.push_back({cell.positions[v], c, v});
+    for (uint32_t v = 0; v < cell.positions.size(); ++v)
+      copies.push_back({cell.positions[v], c, v});
   }
   std::sort(copies.begin(), copies.end(),
             [](const Copy& a, const Copy& b) { return position_less(a.p, b.p); });
@@ -341,8 +341,7 @@ void GvdIndex::Impl::build_roadmap() {
   }
 
   std::sort(object_vertex.begin(), object_vertex.end());
-  object_vertex.erase(std::unique(object_vertex.begin(), object_vertex.end()),
-                      object_vertex.end());
+  object_vertex.erase(std::unique(object_vertex.begin(), object_vertex.end()), object_vertex.end());
   const size_t objects = result->scene.objects.size();
   object_road.begin.assign(objects + 1, 0);
   object_road.target.reserve(object_vertex.size());
@@ -363,12 +362,11 @@ double GvdIndex::Impl::segment_clearance(Vec3 a, Vec3 b, double stop) const {
 std::pair<double, ObjectId> GvdIndex::Impl::exact_nearest(Vec3 p) const {
   const ClosestHit hit = bvh.nearest(to_unit(p));
   if (!hit.found()) return {kInf, kNoObject};
-  return {std::sqrt(hit.dist2) * result->domain.side,
-          result->geometry.object_of[hit.simplex]};
+  return {std::sqrt(hit.dist2) * result->domain.side, result->geometry.object_of[hit.simplex]};
 }
 
 std::vector<std::pair<uint32_t, double>> GvdIndex::Impl::connect(Vec3 p, ObjectId object,
-                                                                  double min_clearance) const {
+                                                                 double min_clearance) const {
   constexpr size_t kWant = 4;     // connections kept
   constexpr size_t kTries = 256;  // segments tested at most
   std::vector<std::pair<double, uint32_t>> order;
@@ -432,6 +430,11 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
   answer.point = point;
   double best = kInf;
   uint32_t best_point = kNoVertex;
+  // Per object among the candidates: the nearest candidate (at most a few objects per leaf).
+  constexpr int kMaxObjects = 4;
+  ObjectId objects[kMaxObjects];
+  double object_best[kMaxObjects];
+  int object_count = 0;
   for (uint32_t k = m.leaf_begin[leaf]; k < m.leaf_begin[leaf + 1]; ++k) {
     const uint32_t c = m.leaf_point[k];
     const double d2 = dist2(u, closest[c]);
@@ -439,18 +442,70 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
       best = d2;
       best_point = c;
     }
+    const ObjectId o = m.point_object[c];
+    int i = 0;
+    while (i < object_count && objects[i] != o) ++i;
+    if (i == object_count && object_count < kMaxObjects) {
+      objects[object_count] = o;
+      object_best[object_count++] = d2;
+    } else if (i < object_count) {
+      object_best[i] = std::min(object_best[i], d2);
+    }
   }
   const double side = m.result->domain.side;
+  const bool have = best_point != kNoVertex;
+  ObjectId best_object = have ? m.point_object[best_point] : kNoObject;
+  Vec3 best_at = have ? closest[best_point] : Vec3{};
+  // The GVD crosses this leaf (its corners are nearest to different objects) and the point is
+  // close to it: which object is nearest is decided by exact distances to each of them
+  // (bounded, one-object BVH queries), so answers do not flip sides of the Voronoi boundary
+  // by the corners' approximation.
+  bool close_call = false;
+  if (object_count >= 2 && object_count <= 3) {
+    double first = kInf, second = kInf;
+    for (int i = 0; i < object_count; ++i) {
+      if (object_best[i] < first) {
+        second = first;
+        first = object_best[i];
+      } else {
+        second = std::min(second, object_best[i]);
+      }
+    }
+    // Candidates of two objects within 5 % of each other: the point is near the boundary
+    // between them, where the corners' approximation could pick the wrong side.
+    constexpr double kClose = 0.05;
+    close_call = std::sqrt(second) - std::sqrt(first) < kClose * std::sqrt(first);
+  }
+  if (close_call) {
+    double exact_best = kInf;
+    ObjectId exact_object = kNoObject;
+    Vec3 exact_point;
+    for (int i = 0; i < object_count; ++i) {
+      const double bound = std::min(object_best[i], exact_best) * (1 + 1e-12);
+      const ClosestHit hit = m.bvh.nearest_in_object(u, objects[i], bound);
+      if (hit.found() && hit.dist2 < exact_best) {
+        exact_best = hit.dist2;
+        exact_object = objects[i];
+        exact_point = hit.point;
+      }
+    }
+    if (exact_object != kNoObject && exact_best <= best) {
+      best = exact_best;
+      best_object = exact_object;
+      best_at = exact_point;
+      answer.exact = true;
+    }
+  }
   // A lower bound of the true distance certifies the answer when 1.5 x bound >= answer: an
   // empty leaf holds no object, so the objects are at least as far as the leaf's boundary;
   // and an exact corner distance less the way to that corner. Tried cheapest first, the
   // nearest corner before the others, stopping at the first that certifies.
   const Octree& octree = m.result->octree;
   const int dim = m.dimension;
-  const double answer_distance = best_point == kNoVertex ? 1e300 : std::sqrt(best);
+  const double answer_distance = have ? std::sqrt(best) : 1e300;
   const double need = answer_distance / 1.5;
   bool certified = false;
-  if (best_point != kNoVertex) {
+  if (have) {
     const double size = std::ldexp(1.0, -octree.level[leaf]);
     const Vec3 lo = lattice::to_unit(dim, octree.corner(leaf));
     int nearest_corner = 0;
@@ -474,7 +529,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
   // Unless the corners' answer is provably within 3/2 of the truth, ask the BVH for the exact
   // nearest point, searching only nearer than that answer.
   if (!certified) {
-    const ClosestHit hit = m.bvh.nearest(u, best_point == kNoVertex ? 1e300 : best * (1 + 1e-12));
+    const ClosestHit hit = m.bvh.nearest(u, have ? best * (1 + 1e-12) : 1e300);
     if (hit.found()) {
       answer.object = m.result->geometry.object_of[hit.simplex];
       answer.distance = std::sqrt(hit.dist2) * side;
@@ -482,12 +537,12 @@ NearestAnswer GvdIndex::nearest(Vec3 point) const {
       answer.exact = true;
       return answer;
     }
-    answer.exact = true;  // nothing nearer than the corners' answer: it is exact
-    GVD_CHECK(best_point != kNoVertex, "a scene has at least one simplex");
+    answer.exact = true;  // nothing nearer than the answer so far: it is exact
+    GVD_CHECK(have, "a scene has at least one simplex");
   }
-  answer.object = m.point_object[best_point];
+  answer.object = best_object;
   answer.distance = answer_distance * side;
-  answer.closest = m.result->domain.from_unit(closest[best_point]);
+  answer.closest = m.result->domain.from_unit(best_at);
   return answer;
 }
 
@@ -547,8 +602,10 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
   const auto [goal_distance, goal_object] = m.exact_nearest(to);
   auto too_close = [&](double d, ObjectId o, const char* which) {
     if (d > m.touching() && d >= need) return false;
-    answer.reason = std::string(which) + (d <= m.touching() ? " lies on object '" : " is closer than min_clearance to object '") +
-                    scene.objects[o].label + "'";
+    answer.reason =
+        std::string(which) +
+        (d <= m.touching() ? " lies on object '" : " is closer than min_clearance to object '") +
+        scene.objects[o].label + "'";
     return true;
   };
   if (too_close(start_distance, start_object, "start") ||
@@ -567,7 +624,9 @@ PathAnswer GvdIndex::path(const PathQuery& query) const {
   const uint32_t start = n, goal = n + 1;
   const double c_max = std::max({m.max_clearance, start_distance, goal_distance});
   auto heuristic = [&](Vec3 p) { return shortest ? dist(p, to) : dist(p, to) / c_max; };
-  auto position = [&](uint32_t v) { return v == start ? from : (v == goal ? to : m.road_position[v]); };
+  auto position = [&](uint32_t v) {
+    return v == start ? from : (v == goal ? to : m.road_position[v]);
+  };
   // Per-thread search state reused across queries; a generation stamp marks the entries this
   // query wrote, so nothing is cleared per query (the roadmap can have millions of vertices).
   struct Search {

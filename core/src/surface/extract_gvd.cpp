@@ -45,9 +45,8 @@ struct PolygonGvd {
 
 class CellSurfacer {
  public:
-  CellSurfacer(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
-               const SimplexBvh& bvh)
-      : octree_(octree), field_(field), geometry_(geometry), bvh_(bvh), dim_(octree.dimension) {}
+  CellSurfacer(const Octree& octree, const DistanceField& field, const SimplexBvh& bvh)
+      : octree_(octree), field_(field), bvh_(bvh), dim_(octree.dimension) {}
 
   // Eq. (1) places the bisector between the closest points of the edge's two ends, as if those
   // points stayed the closest ones all along the edge. Where the edge is long next to the
@@ -105,7 +104,8 @@ class CellSurfacer {
         },
         64);
     refined_index_ = FlatMap64(keys.size());
-    for (size_t i = 0; i < keys.size(); ++i) refined_index_.insert(keys[i], static_cast<uint32_t>(i));
+    for (size_t i = 0; i < keys.size(); ++i)
+      refined_index_.insert(keys[i], static_cast<uint32_t>(i));
     refined_count_ = keys.size();
   }
   size_t refined_count() const { return refined_count_; }
@@ -181,7 +181,8 @@ class CellSurfacer {
     double near2 = 1e300;
     for (int f = 0; f < np; ++f) {
       if (comp_of[f] != component) continue;
-      for (int i = 0; i < gvds[f].n; ++i) near2 = std::min(near2, dist2(centroid, witness(gvds[f].spokes[i])));
+      for (int i = 0; i < gvds[f].n; ++i)
+        near2 = std::min(near2, dist2(centroid, witness(gvds[f].spokes[i])));
     }
     const Box box = octree_.box(leaf);
     if (nl == 2 && !coarse_region(box, near2)) return centroid;
@@ -238,8 +239,10 @@ class CellSurfacer {
       }
       double t = 1;
       for (int i = 0; i < 3; ++i) {
-        if (step[i] > 0 && x[i] + step[i] > box.hi[i]) t = std::min(t, (box.hi[i] - x[i]) / step[i]);
-        if (step[i] < 0 && x[i] + step[i] < box.lo[i]) t = std::min(t, (box.lo[i] - x[i]) / step[i]);
+        if (step[i] > 0 && x[i] + step[i] > box.hi[i])
+          t = std::min(t, (box.hi[i] - x[i]) / step[i]);
+        if (step[i] < 0 && x[i] + step[i] < box.lo[i])
+          t = std::min(t, (box.lo[i] - x[i]) / step[i]);
       }
       if (!(t > 0)) return x;
       const Vec3 next = x + step * t;
@@ -274,7 +277,6 @@ class CellSurfacer {
       if (!found[k]) return g.centroid;
     return toward_equidistant(g.centroid, labels, hints, nl, face, poly.axis);
   }
-
 
   void cell(uint32_t leaf, std::vector<Piece>& pieces) const {
     const LeafGrid grid = field_.grid(octree_, leaf);
@@ -526,7 +528,6 @@ class CellSurfacer {
 
   const Octree& octree_;
   const DistanceField& field_;
-  const UnitGeometry& geometry_;
   const SimplexBvh& bvh_;
   std::vector<Vec3> refined_;
   FlatMap64 refined_index_;
@@ -570,7 +571,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   const size_t n = octree.leaf_count();
   const size_t grain = 512;
   std::vector<std::vector<Piece>> chunks((n + grain - 1) / grain + 1);
-  CellSurfacer surfacer(octree, field, geometry, bvh);
+  CellSurfacer surfacer(octree, field, bvh);
   surfacer.prepare_bisectors(threads);
   parallel_for(
       n, threads,

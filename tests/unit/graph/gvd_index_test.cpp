@@ -155,7 +155,8 @@ TEST(GvdIndexNeighbors, TwoObjectsAreEachOthersOneRing) {
 TEST(GvdIndexNeighbors, RowOfBoxesGrowsOneObjectPerRing) {
   std::vector<SceneObject> boxes;
   for (int i = 0; i < 5; ++i) {
-    boxes.push_back(test::make_box("box" + std::to_string(i), {2.0 * i, 0, 0}, {2.0 * i + 1, 1, 1}));
+    boxes.push_back(
+        test::make_box("box" + std::to_string(i), {2.0 * i, 0, 0}, {2.0 * i + 1, 1, 1}));
   }
   const GvdIndex index(run(test::make_scene(3, std::move(boxes))));
   for (int k = 1; k <= 4; ++k) {
@@ -236,8 +237,9 @@ TEST(GvdIndexPath, CorridorBetweenPlatesRunsAlongTheMidPlane) {
 }
 
 TEST(GvdIndexPath, CorridorIn2dRunsAlongTheMidLine) {
-  const auto result = run(test::make_scene(2, {test::make_rect("lower", {0, 0, 0}, {4, 0.1, 0}),
-                                               test::make_rect("upper", {0, 1.1, 0}, {4, 1.2, 0})}));
+  const auto result =
+      run(test::make_scene(2, {test::make_rect("lower", {0, 0, 0}, {4, 0.1, 0}),
+                               test::make_rect("upper", {0, 1.1, 0}, {4, 1.2, 0})}));
   const GvdIndex index(result);
   PathQuery q;
   q.from = {0.5, 0.25, 0};
@@ -262,9 +264,8 @@ TEST(GvdIndexPath, NoPathOutOfAClosedShell) {
     std::swap(s.v[1], s.v[2]);  // normals into the hollow
     shell.simplices.push_back(s);
   }
-  const auto result =
-      run(test::make_scene(3, {std::move(shell), test::make_box("core", {1.5, 1.5, 1.5},
-                                                                 {2.5, 2.5, 2.5})}));
+  const auto result = run(test::make_scene(
+      3, {std::move(shell), test::make_box("core", {1.5, 1.5, 1.5}, {2.5, 2.5, 2.5})}));
   const GvdIndex index(result);
   PathQuery q;
   q.from = {1.0, 2.0, 2.0};  // between the core and the shell

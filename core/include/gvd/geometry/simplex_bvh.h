@@ -57,8 +57,8 @@ class SimplexBvh {
  private:
   struct Node {
     Box box;
-    uint32_t first = 0;  // leaf: first index into order_; inner: right child (left = this+1)
-    uint32_t count = 0;  // leaf: number of simplices; inner: 0
+    uint32_t first = 0;        // leaf: first index into order_; inner: right child (left = this+1)
+    uint32_t count = 0;        // leaf: number of simplices; inner: 0
     uint32_t object = kMixed;  // the one object of all simplices below, or kMixed
   };
   static constexpr uint32_t kMixed = 0xFFFFFFFFu;

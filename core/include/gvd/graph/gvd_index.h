@@ -20,8 +20,8 @@ namespace gvd {
 struct NearestAnswer {
   Vec3 point;  ///< the query point, user units, as given
   ObjectId object = kNoObject;
-  double distance = 0;   ///< user units
-  Vec3 closest;          ///< the point on `object` the distance is measured to
+  double distance = 0;  ///< user units
+  Vec3 closest;         ///< the point on `object` the distance is measured to
   /// True when the leaf's vertices could not prove the 3/2 bound and the BVH answered
   /// (exactly); false for the fast path of §4.
   bool exact = false;
@@ -30,11 +30,11 @@ struct NearestAnswer {
 /// An object within k rings of another in the dual graph (paper §7.3).
 struct RingNeighbor {
   ObjectId object = kNoObject;
-  int ring = 0;                ///< 1 = shares boundary with the query object
-  ObjectId via = kNoObject;    ///< a neighbour in ring - 1 it is reached from (ring 1: the query)
-  double area = 0;             ///< interface area (length in 2D) between `via` and `object`
-  double min_clearance = 0;    ///< least clearance on that interface
-  Vec3 tightest_point;         ///< where it is attained
+  int ring = 0;              ///< 1 = shares boundary with the query object
+  ObjectId via = kNoObject;  ///< a neighbour in ring - 1 it is reached from (ring 1: the query)
+  double area = 0;           ///< interface area (length in 2D) between `via` and `object`
+  double min_clearance = 0;  ///< least clearance on that interface
+  Vec3 tightest_point;       ///< where it is attained
 };
 
 /// What a path minimises.
@@ -44,7 +44,7 @@ enum class PathCost {
 };
 
 struct PathQuery {
-  Vec3 from;                 ///< user units (z ignored in 2D)
+  Vec3 from;  ///< user units (z ignored in 2D)
   Vec3 to;
   double min_clearance = 0;  ///< passages narrower than this (user units) are not used
   PathCost cost = PathCost::kShortest;
@@ -54,9 +54,9 @@ struct PathQuery {
 /// a polyline along GVD edges, a straight piece to `to`. No piece crosses an object.
 struct PathAnswer {
   bool found = false;
-  std::vector<Vec3> points;   ///< from ... to; empty when !found
-  double length = 0;          ///< user units
-  double min_clearance = 0;   ///< exact least distance from the polyline to any object
+  std::vector<Vec3> points;  ///< from ... to; empty when !found
+  double length = 0;         ///< user units
+  double min_clearance = 0;  ///< exact least distance from the polyline to any object
   /// When !found: why ("start is inside object 'a'", "no path joins start and goal", ...).
   std::string reason;
 };
@@ -77,8 +77,8 @@ struct ExplodeOptions {
 
 struct ExplodedView {
   ObjectId anchor = kNoObject;
-  double scale = 0;                      ///< the scale used
-  std::vector<ExplodedObject> objects;   ///< one per object, by index
+  double scale = 0;                     ///< the scale used
+  std::vector<ExplodedObject> objects;  ///< one per object, by index
 };
 
 /// An object pair whose interface comes closer to the objects than a bound.
