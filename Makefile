@@ -6,8 +6,11 @@ JOBS       ?= $(shell nproc)
 CMAKE_GEN  := $(shell command -v ninja >/dev/null 2>&1 && echo "-G Ninja")
 EXAMPLE    ?= tests/data/scenes/balls_on_plate.json
 OUT        ?= out
+HOST       ?= 127.0.0.1
+PORT       ?= 8080
+STORE      ?= gvd-store
 
-.PHONY: all deps configure build run test test-asan bench format tidy clean
+.PHONY: all deps configure build run example test test-asan bench bench-server format tidy clean
 
 all: build
 
@@ -23,7 +26,13 @@ build: deps
 	@$(MAKE) --no-print-directory configure
 	cmake --build $(BUILD) -j $(JOBS)
 
+# The service: gvd-server on $(HOST):$(PORT) with its job and result store in $(STORE)
+# (kept across restarts). Stop with Ctrl-C (drains: running jobs get a grace period).
 run: build
+	$(BUILD)/server/gvd-server --host $(HOST) --port $(PORT) --store $(STORE)
+
+# The command-line example: the GVD of a bundled scene, written to $(OUT)/.
+example: build
 	@mkdir -p $(OUT)
 	$(BUILD)/clients/gvd compute $(EXAMPLE) -o $(OUT)/gvd.glb --graph $(OUT)/graph.json \
 	  --json $(OUT)/gvd.json --save $(OUT)/result.gvd
@@ -42,6 +51,11 @@ test-asan: deps
 
 bench: build
 	$(BUILD)/tests/gvd_bench
+	@$(MAKE) --no-print-directory bench-server
+
+# gvd-server under wrk on loopback (bounded runs, 127.0.0.1 only).
+bench-server: build
+	tests/service/bench_server.sh $(BUILD) 10 8
 
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h')

@@ -6,9 +6,9 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config ccache git
-  libcpp-httplib-dev nlohmann-json3-dev libtinygltf-dev
+  libcpp-httplib-dev libssl-dev nlohmann-json3-dev libtinygltf-dev
   opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd clinfo
-  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev wrk curl
   clang-format clang-tidy
 )
 
@@ -34,9 +34,11 @@ else
   echo "install-deps: all Debian packages present"
 fi
 
-# JavaScript test tools (glTF validator), pinned by package-lock.json in tests/js.
+# JavaScript test tools (glTF validator, OpenAPI validator), pinned by package-lock.json in
+# tests/js.
 here=$(cd "$(dirname "$0")/.." && pwd)
-if [ -f "$here/tests/js/package.json" ] && [ ! -d "$here/tests/js/node_modules/gltf-validator" ]; then
+if [ -f "$here/tests/js/package.json" ] && { [ ! -d "$here/tests/js/node_modules/gltf-validator" ] ||
+    [ ! -d "$here/tests/js/node_modules/@seriousme/openapi-schema-validator" ]; }; then
   echo "install-deps: npm ci in tests/js"
   (cd "$here/tests/js" && npm ci --no-audit --no-fund --loglevel=error)
 fi

@@ -1,0 +1,838 @@
+#include "http_server.h"
+
+#include <httplib.h>
+#include <sys/socket.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <regex>
+
+#include "gvd/common/error.h"
+#include "gvd/io/write_outputs.h"
+#include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/load_scene.h"
+#include "job_manager.h"
+#include "job_params.h"
+#include "metrics.h"
+#include "openapi_json.h"
+#include "problem.h"
+#include "query_handlers.h"
+#include "routes.h"
+
+namespace gvd::server {
+namespace {
+
+using Json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+/// What the pre-routing handler learns about a request, for the handler and the logger (all
+/// three run on the same HTTP thread, one request at a time).
+struct RequestContext {
+  std::string id;
+  std::string route = "unmatched";
+  Clock::time_point start;
+};
+thread_local RequestContext t_request;
+
+std::string new_request_id() {
+  static std::atomic<uint64_t> counter{0};
+  static const uint64_t prefix = std::random_device{}() & 0xffffff;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%06llx-%08llx", static_cast<unsigned long long>(prefix),
+                static_cast<unsigned long long>(counter.fetch_add(1) + 1));
+  return buf;
+}
+
+bool is_safe_request_id(const std::string& s) {
+  if (s.empty() || s.size() > 64) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '-' || c == '_' || c == '.' ||
+           c == ':';
+  });
+}
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+/// The media type without parameters, lower case ("multipart/form-data").
+std::string media_type(const httplib::Request& req) {
+  std::string type = lower(req.get_header_value("Content-Type"));
+  if (const size_t semi = type.find(';'); semi != std::string::npos) type.resize(semi);
+  while (!type.empty() && type.back() == ' ') type.pop_back();
+  return type;
+}
+
+/// Media types POST /v1/jobs accepts (the content itself is sniffed: scene JSON, OBJ, glTF,
+/// GLB, PLY, STL, OFF).
+bool is_scene_media_type(const std::string& type) {
+  return type == "application/json" || type == "application/octet-stream" || type == "text/plain" ||
+         type.starts_with("model/") || type == "application/sla" ||
+         type == "application/vnd.ms-pki.stl" || type == "application/x-ply" ||
+         type == "multipart/form-data";
+}
+
+struct Rejection {
+  ProblemKind kind;
+  std::string detail;
+};
+
+std::string json_text(const Json& j) {
+  return j.dump(-1, ' ', false, Json::error_handler_t::replace);
+}
+
+}  // namespace
+
+struct HttpServer::Impl {
+  explicit Impl(const ServerOptions& o) : options(o), jobs(o, metrics), queries(jobs) {}
+
+  ServerOptions options;
+  Metrics metrics;
+  JobManager jobs;
+  QueryHandlers queries;
+  httplib::Server http;
+  std::atomic<bool> draining{false};
+  std::atomic<bool> closing{false};
+  std::atomic<int> streams{0};
+  int port = 0;
+  socket_t listen_socket = INVALID_SOCKET;
+  std::string backend;  ///< the backend the warm-up computation actually used
+
+  // ---- helpers ------------------------------------------------------------------------------
+
+  void send_problem(const httplib::Request& req, httplib::Response& res, ProblemKind kind,
+                    const std::string& detail, const std::string& extra = {}) {
+    const ProblemInfo& info = problem_info(kind);
+    res.status = info.status;
+    if (info.retryable && info.status == 503) {
+      res.set_header("Retry-After", std::to_string(options.retry_after));
+    }
+    res.set_content(problem_json(kind, detail, req.path, t_request.id, extra),
+                    "application/problem+json");
+  }
+
+  /// Refuses a request before its body is read, and closes the connection: whatever body the
+  /// client sends next must not be parsed as a request. cpp-httplib 0.11.4 closes a
+  /// connection only when the response fails to write, so the body is written by a content
+  /// provider that then reports failure.
+  void reject(const httplib::Request& req, httplib::Response& res, const Rejection& r) {
+    t_request.route = "rejected";
+    send_problem(req, res, r.kind, r.detail);
+    auto body = std::make_shared<std::string>(std::move(res.body));
+    res.body.clear();
+    res.set_header("Connection", "close");
+    res.set_content_provider(body->size(), "application/problem+json",
+                             [body](size_t offset, size_t length, httplib::DataSink& sink) {
+                               sink.write(body->data() + offset, length);
+                               return false;  // ends the connection after the answer
+                             });
+  }
+
+  std::optional<Rejection> check_request(const httplib::Request& req) const {
+    // cpp-httplib adds REMOTE_ADDR and REMOTE_PORT to the request's headers: not counted.
+    const size_t header_count = req.headers.size() - req.get_header_value_count("REMOTE_ADDR") -
+                                req.get_header_value_count("REMOTE_PORT");
+    if (header_count > static_cast<size_t>(options.max_headers)) {
+      return Rejection{ProblemKind::kHeadersTooLarge, std::to_string(header_count) +
+                                                          " headers, more than the limit of " +
+                                                          std::to_string(options.max_headers)};
+    }
+    uint64_t header_bytes = 0;
+    for (const auto& [k, v] : req.headers) {
+      if (k != "REMOTE_ADDR" && k != "REMOTE_PORT") header_bytes += k.size() + v.size() + 4;
+    }
+    if (header_bytes > options.max_header_bytes) {
+      return Rejection{ProblemKind::kHeadersTooLarge, "the headers take " +
+                                                          std::to_string(header_bytes) +
+                                                          " bytes, more than the limit of " +
+                                                          std::to_string(options.max_header_bytes)};
+    }
+    if (req.has_header("Transfer-Encoding")) {
+      return Rejection{ProblemKind::kLengthRequired,
+                       "chunked (Transfer-Encoding) request bodies are not accepted; send the "
+                       "body with a Content-Length"};
+    }
+    if (req.has_header("Content-Encoding") &&
+        lower(req.get_header_value("Content-Encoding")) != "identity") {
+      return Rejection{ProblemKind::kUnsupportedEncoding,
+                       "Content-Encoding \"" + req.get_header_value("Content-Encoding") +
+                           "\" is not accepted; send the body uncompressed"};
+    }
+    const bool has_body_method =
+        req.method == "POST" || req.method == "PUT" || req.method == "PATCH";
+    if (req.get_header_value_count("Content-Length") > 1) {
+      return Rejection{ProblemKind::kInvalidArgument, "more than one Content-Length header"};
+    }
+    if (req.has_header("Content-Length")) {
+      const std::string text = req.get_header_value("Content-Length");
+      if (text.empty() || text.size() > 19 ||
+          !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+        return Rejection{ProblemKind::kInvalidArgument,
+                         "Content-Length \"" + text + "\" is not a number"};
+      }
+      const uint64_t length = std::stoull(text);
+      if (length > options.max_body) {
+        return Rejection{ProblemKind::kBodyTooLarge, "the body has " + std::to_string(length) +
+                                                         " bytes, more than the limit of " +
+                                                         std::to_string(options.max_body)};
+      }
+    } else if (has_body_method) {
+      return Rejection{ProblemKind::kLengthRequired, req.method + " needs a Content-Length"};
+    }
+    if (req.method == "POST") {
+      const std::string type = media_type(req);
+      if (req.path == "/v1/jobs") {
+        if (!is_scene_media_type(type)) {
+          return Rejection{ProblemKind::kUnsupportedMediaType,
+                           "Content-Type \"" + req.get_header_value("Content-Type") +
+                               "\" is not a scene: send application/json (scene JSON or glTF), "
+                               "model/gltf-binary, model/obj, model/stl, model/x-ply, "
+                               "application/octet-stream (sniffed) or multipart/form-data (one "
+                               "mesh per part, part name = label)"};
+        }
+      } else if (type != "application/json" && type != "text/plain" && !type.empty() &&
+                 type != "application/x-www-form-urlencoded") {
+        // The query routes read the body as JSON whatever it is labelled: `curl -d '{...}'`
+        // sends it as a form. Anything else (multipart, XML, ...) is a mistake.
+        return Rejection{ProblemKind::kUnsupportedMediaType,
+                         "Content-Type \"" + req.get_header_value("Content-Type") +
+                             "\": this route takes a JSON body (application/json)"};
+      }
+    }
+    return std::nullopt;
+  }
+
+  void begin_request(const httplib::Request& req, httplib::Response& res) {
+    t_request.start = Clock::now();
+    t_request.route = "unmatched";
+    const std::string given = req.get_header_value("X-Request-Id");
+    t_request.id = is_safe_request_id(given) ? given : new_request_id();
+    res.set_header("X-Request-Id", t_request.id);
+  }
+
+  void log(const httplib::Request& req, const httplib::Response& res) {
+    const double seconds = std::chrono::duration<double>(Clock::now() - t_request.start).count();
+    metrics.request(t_request.route, req.method, res.status, seconds);
+    if (options.quiet) return;
+    const Json line = {
+        {"ts", std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+                   .count()},
+        {"level", res.status >= 500 ? "error" : "info"},
+        {"request_id", t_request.id},
+        {"remote", req.remote_addr},
+        {"method", req.method},
+        {"path", req.path},
+        {"route", t_request.route},
+        {"status", res.status},
+        {"bytes", res.body.empty() ? res.content_length_ : res.body.size()},
+        {"ms", seconds * 1000}};
+    std::fprintf(stderr, "%s\n", json_text(line).c_str());
+  }
+
+  using Fn = std::function<void(const httplib::Request&, httplib::Response&)>;
+
+  /// The one catch boundary of a request: every error becomes a problem document.
+  httplib::Server::Handler wrap(std::string route, Fn fn) {
+    return [this, route = std::move(route), fn = std::move(fn)](const httplib::Request& req,
+                                                                httplib::Response& res) {
+      t_request.route = route;
+      try {
+        fn(req, res);
+      } catch (const ProblemError& e) {
+        send_problem(req, res, e.kind(), e.detail(), e.extra_json());
+      } catch (const QueueFull& e) {
+        send_problem(req, res, ProblemKind::kQueueFull, e.what());
+      } catch (const InternalError& e) {
+        std::fprintf(stderr, "{\"level\":\"error\",\"request_id\":\"%s\",\"internal\":%s}\n",
+                     t_request.id.c_str(), json_text(Json(e.what())).c_str());
+        send_problem(req, res, ProblemKind::kInternal,
+                     "internal error (request " + t_request.id + ")");
+      } catch (const Error& e) {
+        send_problem(req, res, problem_kind(e.code()), e.detail());
+      } catch (const Json::exception& e) {
+        send_problem(req, res, ProblemKind::kInvalidArgument,
+                     std::string("malformed JSON: ") + e.what());
+      } catch (const std::bad_alloc&) {
+        send_problem(req, res, ProblemKind::kLimitExceeded, "out of memory for this request");
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "{\"level\":\"error\",\"request_id\":\"%s\",\"internal\":%s}\n",
+                     t_request.id.c_str(), json_text(Json(e.what())).c_str());
+        send_problem(req, res, ProblemKind::kInternal,
+                     "internal error (request " + t_request.id + ")");
+      }
+    };
+  }
+
+  void route(std::string_view method, std::string_view openapi_path, Fn fn) {
+    const Route* found = nullptr;
+    for (const Route& r : kRoutes) {
+      if (r.method == method && r.openapi_path == openapi_path) found = &r;
+    }
+    GVD_CHECK(found != nullptr, "route missing from routes.h");
+    const std::string pattern(found->pattern);
+    auto handler = wrap(std::string(method) + " " + std::string(openapi_path), std::move(fn));
+    if (method == "GET")
+      http.Get(pattern, handler);
+    else if (method == "POST")
+      http.Post(pattern, handler);
+    else if (method == "DELETE")
+      http.Delete(pattern, handler);
+    registered.push_back(found);
+  }
+  std::vector<const Route*> registered;
+  /// kRoutes' patterns, compiled once (for the Allow header of 405 answers).
+  std::vector<std::regex> route_patterns = [] {
+    std::vector<std::regex> v;
+    for (const Route& r : kRoutes) v.emplace_back(std::string(r.pattern));
+    return v;
+  }();
+
+  // ---- handlers -----------------------------------------------------------------------------
+
+  void submit(const httplib::Request& req, httplib::Response& res) {
+    if (draining) throw ProblemError(ProblemKind::kDraining, "the server is shutting down");
+    JobParams params;
+    std::string label = "object";
+    for (const auto& [key, value] : req.params) {
+      if (key == "label") {
+        label = value;
+      } else {
+        params.set(key, value);
+      }
+    }
+    SceneLimits limits;
+    limits.max_objects = options.max_objects;
+    limits.max_simplices = options.max_simplices;
+    Scene scene;
+    if (req.is_multipart_form_data()) {
+      scene = scene_from_parts(req, limits, params);
+    } else {
+      if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
+      const auto* data = reinterpret_cast<const uint8_t*>(req.body.data());
+      scene = parse_scene_bytes({data, req.body.size()}, SceneFormat::kAuto, label, limits);
+    }
+    params.check(scene.dimension, options);
+    (void)make_domain(scene, params.pipeline_options(options).domain);  // a user box must fit
+
+    JobRequest job;
+    job.scene_json = scene_to_json(scene);
+    job.params_json = params.to_json();
+    job.id = job_id(job.scene_json, job.params_json);
+    job.dimension = scene.dimension;
+    job.objects = scene.objects.size();
+    job.simplices = scene.simplex_count();
+    Json warnings = Json::array();
+    for (const SceneWarning& w : scene.warnings) {
+      warnings.push_back(
+          {{"kind", w.kind}, {"object", w.object}, {"count", w.count}, {"detail", w.detail}});
+    }
+    job.warnings_json = json_text(warnings);
+    const SubmitOutcome outcome = jobs.submit(job);
+    res.set_header("Location", "/v1/jobs/" + job.id);
+    res.set_header("X-Gvd-Cache", outcome.created ? "miss" : "hit");
+    res.status = outcome.status == JobStatus::kDone ? 200 : 202;
+    res.set_content(outcome.status_json, "application/json");
+  }
+
+  /// Compute parameters given inside a scene JSON: {"params": {"max_depth": 12, ...}}.
+  static void params_from_json(const std::string& body, JobParams& params) {
+    const Json doc = Json::parse(body, nullptr, false);
+    if (!doc.is_object() || !doc.contains("params")) return;
+    const Json& p = doc["params"];
+    if (!p.is_object())
+      throw Error(ErrorCode::kInvalidArgument, "\"params\" must be a JSON object");
+    for (const auto& [key, value] : p.items()) {
+      if (value.is_array()) {
+        std::string joined;
+        for (const Json& v : value) joined += (joined.empty() ? "" : ",") + v.dump();
+        params.set(key, joined);
+      } else {
+        params.set(key, value.is_string() ? value.get<std::string>() : value.dump());
+      }
+    }
+  }
+
+  /// multipart/form-data: one mesh per part (PLY/STL/OFF/OBJ...), part name = label; a part
+  /// named "params" holds the parameters as JSON.
+  Scene scene_from_parts(const httplib::Request& req, const SceneLimits& limits,
+                         JobParams& params) const {
+    Scene scene;
+    bool first = true;
+    if (req.files.size() > limits.max_objects) {
+      throw Error(ErrorCode::kLimitExceeded, std::to_string(req.files.size()) +
+                                                 " parts, more than the limit of " +
+                                                 std::to_string(limits.max_objects) + " objects");
+    }
+    for (const auto& [name, part] : req.files) {
+      if (name == "params") {
+        if (!Json::accept(part.content)) {
+          throw Error(ErrorCode::kInvalidArgument, "the \"params\" part is not valid JSON");
+        }
+        params_from_json("{\"params\":" + part.content + "}", params);
+        continue;
+      }
+      if (name.empty())
+        throw Error(ErrorCode::kInvalidScene,
+                    "a multipart part has no name (the name is the label)");
+      const auto* data = reinterpret_cast<const uint8_t*>(part.content.data());
+      Scene piece =
+          parse_scene_bytes({data, part.content.size()}, SceneFormat::kAuto, name, limits);
+      if (first) {
+        scene.dimension = piece.dimension;
+        first = false;
+      } else if (piece.dimension != scene.dimension) {
+        throw Error(ErrorCode::kInvalidScene,
+                    "part \"" + name + "\" is " + std::to_string(piece.dimension) +
+                        "D, the others " + std::to_string(scene.dimension) + "D");
+      }
+      // Several objects in one part (OBJ groups): one object named after the part.
+      SceneObject merged;
+      merged.label = name;
+      for (const SceneObject& o : piece.objects) {
+        const auto offset = static_cast<uint32_t>(merged.vertices.size());
+        merged.vertices.insert(merged.vertices.end(), o.vertices.begin(), o.vertices.end());
+        for (Simplex s : o.simplices) {
+          for (uint32_t& v : s.v) v += offset;
+          merged.simplices.push_back(s);
+        }
+      }
+      scene.objects.push_back(std::move(merged));
+      for (SceneWarning& w : piece.warnings) {
+        if (w.kind != "degenerate_simplices") continue;
+        w.object = name;
+        scene.warnings.push_back(std::move(w));
+      }
+    }
+    if (first) throw Error(ErrorCode::kInvalidScene, "the multipart body has no mesh parts");
+    validate_scene(scene, limits);
+    return scene;
+  }
+
+  void status(const httplib::Request& req, httplib::Response& res) {
+    const std::string id = req.matches[1].str();
+    const auto s = jobs.status_json(id);
+    if (!s) throw ProblemError(ProblemKind::kNotFound, "no job " + id);
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(*s, "application/json");
+  }
+
+  void remove(const httplib::Request& req, httplib::Response& res) {
+    const std::string id = req.matches[1].str();
+    switch (jobs.remove(id)) {
+      case JobManager::DeleteOutcome::kUnknown:
+        throw ProblemError(ProblemKind::kNotFound, "no job " + id);
+      case JobManager::DeleteOutcome::kCancelled:
+        res.status = 200;
+        res.set_content(jobs.status_json(id).value_or("{}"), "application/json");
+        return;
+      case JobManager::DeleteOutcome::kCancelling:
+        res.status = 202;
+        res.set_content(jobs.status_json(id).value_or("{}"), "application/json");
+        return;
+      case JobManager::DeleteOutcome::kForgotten:
+        res.status = 204;
+        return;
+    }
+  }
+
+  /// ETag = the job id (a job's outputs never change). True when the client's copy is current.
+  static bool not_modified(const httplib::Request& req, httplib::Response& res,
+                           const std::string& id) {
+    const std::string etag = "\"" + id + "\"";
+    res.set_header("ETag", etag);
+    res.set_header("Cache-Control", "public, max-age=86400");
+    const std::string inm = req.get_header_value("If-None-Match");
+    if (inm.empty()) return false;
+    size_t start = 0;
+    while (start <= inm.size()) {
+      size_t comma = inm.find(',', start);
+      if (comma == std::string::npos) comma = inm.size();
+      std::string tag = inm.substr(start, comma - start);
+      tag.erase(0, tag.find_first_not_of(' '));
+      tag.erase(tag.find_last_not_of(' ') + 1);
+      if (tag.starts_with("W/")) tag = tag.substr(2);
+      if (tag == etag || tag == "*") {
+        res.status = 304;
+        return true;
+      }
+      start = comma + 1;
+    }
+    return false;
+  }
+
+  static void send_bytes(httplib::Response& res, const LoadedResult::Bytes& bytes,
+                         const char* type) {
+    res.set_content_provider(bytes->size(), type,
+                             [bytes](size_t offset, size_t length, httplib::DataSink& sink) {
+                               const size_t n = std::min(length, bytes->size() - offset);
+                               return sink.write(bytes->data() + offset, n);
+                             });
+  }
+
+  enum class Output { kGlb, kGltf, kJson, kGraph };
+
+  void output(const httplib::Request& req, httplib::Response& res, Output what) {
+    const std::string id = req.matches[1].str();
+    if (what == Output::kGlb && req.has_param("format")) {
+      const std::string f = req.get_param_value("format");
+      if (f == "json")
+        what = Output::kJson;
+      else if (f == "gltf")
+        what = Output::kGltf;
+      else if (f != "glb")
+        throw Error(ErrorCode::kInvalidArgument,
+                    "format must be glb, gltf or json, got \"" + f + "\"");
+    }
+    if (jobs.status(id) == JobStatus::kDone && not_modified(req, res, id)) return;
+    const std::shared_ptr<LoadedResult> r = jobs.result(id);
+    not_modified(req, res, id);
+    switch (what) {
+      case Output::kGlb:
+        send_bytes(res, r->glb(), "model/gltf-binary");
+        break;
+      case Output::kGltf:
+        send_bytes(res, r->gltf(), "model/gltf+json");
+        break;
+      case Output::kJson:
+        send_bytes(res, r->json(), "application/json");
+        break;
+      case Output::kGraph:
+        send_bytes(res, r->graph(), "application/json");
+        break;
+    }
+  }
+
+  void result_file(const httplib::Request& req, httplib::Response& res) {
+    const std::string id = req.matches[1].str();
+    if (jobs.status(id) == JobStatus::kDone && not_modified(req, res, id)) return;
+    (void)jobs.result(id);  // the status checks
+    const std::vector<uint8_t> bytes = read_file_bytes(jobs.result_path(id));
+    res.set_header("Content-Disposition", "attachment; filename=\"" + id + ".gvd\"");
+    res.set_content(reinterpret_cast<const char*>(bytes.data()), bytes.size(),
+                    "application/octet-stream");
+  }
+
+  /// Server-sent events: one "status" event per change of the job (the status document as
+  /// data), then an event named after the final status, then the stream ends.
+  void events(const httplib::Request& req, httplib::Response& res) {
+    const std::string id = req.matches[1].str();
+    if (!jobs.status(id)) throw ProblemError(ProblemKind::kNotFound, "no job " + id);
+    if (streams.fetch_add(1) >= options.max_streams) {
+      streams.fetch_sub(1);
+      throw ProblemError(ProblemKind::kTooManyStreams,
+                         "already " + std::to_string(options.max_streams) +
+                             " event streams open; poll /v1/jobs/" + id + " instead");
+    }
+    struct State {
+      explicit State(std::atomic<int>& c) : count(c) {}
+      ~State() { count.fetch_sub(1); }
+      std::atomic<int>& count;
+      uint64_t seen = 0;
+      bool started = false;
+      bool ended = false;
+      std::string last;
+      Clock::time_point last_write = Clock::now();
+    };
+    auto state = std::make_shared<State>(streams);
+    res.set_header("Cache-Control", "no-store");
+    res.set_header("X-Accel-Buffering", "no");
+    res.set_chunked_content_provider(
+        "text/event-stream", [this, id, state](size_t, httplib::DataSink& sink) {
+          if (state->ended || closing) {
+            sink.done();
+            return true;
+          }
+          state->seen = state->started ? jobs.wait_for_change(state->seen, std::chrono::seconds(1))
+                                       : jobs.version();
+          state->started = true;
+          const auto s = jobs.status_json(id);
+          if (!s) {
+            const std::string gone = "event: gone\ndata: {\"id\":\"" + id + "\"}\n\n";
+            sink.write(gone.data(), gone.size());
+            state->ended = true;
+            return true;
+          }
+          const Json doc = Json::parse(*s);
+          const std::string status = doc.value("status", "");
+          const bool final = status == "done" || status == "failed" || status == "cancelled";
+          std::string out;
+          // Progress documents differ in their running stage time: send at most one per
+          // change of stage/fraction/status, plus a comment as heartbeat.
+          Json key = doc["progress"];
+          for (Json& st : key["stages"]) st.erase("seconds");
+          const std::string summary = status + key.dump();
+          if (summary != state->last) {
+            out += "event: " + std::string(final ? status : "status") + "\ndata: " + *s + "\n\n";
+            state->last = summary;
+          } else if (Clock::now() - state->last_write > std::chrono::seconds(10)) {
+            out += ": keep-alive\n\n";
+          }
+          if (!out.empty()) {
+            if (!sink.write(out.data(), out.size())) return false;
+            state->last_write = Clock::now();
+          }
+          if (final) state->ended = true;
+          return true;
+        });
+  }
+
+  void readyz(const httplib::Request&, httplib::Response& res) {
+    const Json body = {{"status", draining ? "draining" : "ready"},
+                       {"backend", backend},
+                       {"backend_requested", options.backend},
+                       {"algorithm_version", kAlgorithmVersion},
+                       {"workers", options.workers},
+                       {"queue_depth", jobs.queue_depth()},
+                       {"queue_capacity", options.queue},
+                       {"running", jobs.running()}};
+    res.status = draining ? 503 : 200;
+    if (draining) res.set_header("Retry-After", std::to_string(options.retry_after));
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(body.dump(), "application/json");
+  }
+
+  void problem_doc(const httplib::Request& req, httplib::Response& res) {
+    const std::string name = "/problems/" + req.matches[1].str();
+    for (int k = 0; k < kProblemKindCount; ++k) {
+      const ProblemInfo& info = problem_info(static_cast<ProblemKind>(k));
+      if (info.type == name) {
+        res.set_content(Json{{"type", info.type},
+                             {"title", info.title},
+                             {"status", info.status},
+                             {"retryable", info.retryable},
+                             {"documentation", "docs/API.md#errors"}}
+                            .dump(),
+                        "application/json");
+        return;
+      }
+    }
+    throw ProblemError(ProblemKind::kRouteNotFound, "no problem type " + name);
+  }
+
+  void setup();
+};
+
+namespace {
+
+constexpr const char* kIndexHtml = R"(<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>gvd-server</title>
+<style>body{font:15px/1.5 system-ui,sans-serif;max-width:46em;margin:2em auto;padding:0 1em}
+code,pre{background:#f4f4f4;padding:.1em .3em}</style></head><body>
+<h1>gvd-server</h1>
+<p>Generalized Voronoi diagrams of labelled meshes over HTTP. The API is described in
+<a href="/openapi.json">/openapi.json</a> (OpenAPI 3.1); health: <a href="/healthz">/healthz</a>,
+<a href="/readyz">/readyz</a>, <a href="/metrics">/metrics</a>, jobs: <a href="/v1/jobs">/v1/jobs</a>.</p>
+<pre>curl -i -X POST -H 'Content-Type: application/json' --data-binary @scene.json http://HOST/v1/jobs
+curl http://HOST/v1/jobs/ID
+curl -o gvd.glb http://HOST/v1/jobs/ID/gvd.glb</pre>
+</body></html>
+)";
+
+}  // namespace
+
+void HttpServer::Impl::setup() {
+  const int threads = options.http_threads;
+  http.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
+  http.set_tcp_nodelay(true);
+  // cpp-httplib 0.11.4 listens with a backlog of 5: a burst of new connections overflows it
+  // and the kernel drops SYNs (clients retry after 1 s). Keep its SO_REUSEADDR, remember the
+  // socket, and raise the backlog after binding (listen() again on Linux only changes it).
+  http.set_socket_options([this](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    listen_socket = sock;
+  });
+  http.set_payload_max_length(options.max_body);
+  http.set_read_timeout(options.read_timeout, 0);
+  http.set_write_timeout(options.write_timeout, 0);
+  http.set_keep_alive_max_count(static_cast<size_t>(options.keep_alive_max));
+  http.set_keep_alive_timeout(options.keep_alive_timeout);
+  http.set_file_extension_and_mimetype_mapping("glb", "model/gltf-binary");
+  http.set_file_extension_and_mimetype_mapping("gltf", "model/gltf+json");
+
+  http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    begin_request(req, res);
+    if (const auto r = check_request(req)) {
+      reject(req, res, *r);
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+  // "Expect: 100-continue" is answered before routing: refuse there too, before the body.
+  http.set_expect_100_continue_handler([this](const httplib::Request& req, httplib::Response& res) {
+    begin_request(req, res);
+    if (const auto r = check_request(req)) {
+      reject(req, res, *r);
+      return res.status;
+    }
+    return 100;
+  });
+  http.set_error_handler(httplib::Server::HandlerWithResponse([this](const httplib::Request& req,
+                                                                     httplib::Response& res) {
+    if (!res.body.empty() || res.content_provider_) {
+      return httplib::Server::HandlerResponse::Unhandled;
+    }
+    const int status = res.status;
+    if (status == 404) {
+      std::string allow;
+      for (size_t i = 0; i < kRoutes.size(); ++i) {
+        if (std::regex_match(req.path, route_patterns[i])) {
+          allow += (allow.empty() ? "" : ", ") + std::string(kRoutes[i].method);
+        }
+      }
+      if (!allow.empty()) {
+        res.set_header("Allow", allow);
+        send_problem(req, res, ProblemKind::kMethodNotAllowed,
+                     req.method + " is not allowed on " + req.path + " (allowed: " + allow + ")");
+      } else {
+        send_problem(req, res, ProblemKind::kRouteNotFound, "no route " + req.path);
+      }
+    } else if (status == 413) {
+      send_problem(req, res, ProblemKind::kBodyTooLarge, "the request body is too large");
+    } else if (status == 400) {
+      send_problem(req, res, ProblemKind::kInvalidArgument, "malformed HTTP request");
+    } else {
+      res.set_content(json_text(Json{{"type", "about:blank"},
+                                     {"status", status},
+                                     {"title", "HTTP error " + std::to_string(status)},
+                                     {"instance", req.path},
+                                     {"request_id", t_request.id}}),
+                      "application/problem+json");
+    }
+    return httplib::Server::HandlerResponse::Handled;
+  }));
+  // Reached only when the catch boundary of `wrap` itself failed (or before routing): nothing
+  // may escape from here, it would end the HTTP thread.
+  http.set_exception_handler(
+      [this](const httplib::Request& req, httplib::Response& res, std::exception_ptr) {
+        try {
+          send_problem(req, res, ProblemKind::kInternal,
+                       "internal error (request " + t_request.id + ")");
+        } catch (...) {
+          res.status = 500;
+          res.body.clear();
+        }
+      });
+  http.set_logger(
+      [this](const httplib::Request& req, const httplib::Response& res) { log(req, res); });
+
+  // cpp-httplib tries the routes in this order, one regex match each: the hot query routes
+  // first (the patterns are anchored and disjoint, so the order changes nothing else).
+  route("GET", "/v1/jobs/{id}/objects/{label}/neighbors",
+        [this](const auto& req, auto& res) { queries.neighbors(req, res); });
+  route("GET", "/v1/jobs/{id}/nearest",
+        [this](const auto& req, auto& res) { queries.nearest(req, res); });
+  route("GET", "/",
+        [](const auto&, auto& res) { res.set_content(kIndexHtml, "text/html; charset=utf-8"); });
+  route("GET", "/healthz", [](const auto&, auto& res) {
+    res.set_header("Cache-Control", "no-store");
+    res.set_content("{\"status\":\"ok\"}", "application/json");
+  });
+  route("GET", "/readyz", [this](const auto& req, auto& res) { readyz(req, res); });
+  route("GET", "/metrics", [this](const auto&, auto& res) {
+    res.set_content(metrics.render(), "text/plain; version=0.0.4; charset=utf-8");
+  });
+  route("GET", "/openapi.json",
+        [](const auto&, auto& res) { res.set_content(kOpenApiJson, "application/json"); });
+  route("POST", "/v1/jobs", [this](const auto& req, auto& res) { submit(req, res); });
+  route("GET", "/v1/jobs", [this](const auto&, auto& res) {
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(jobs.list_json(), "application/json");
+  });
+  route("GET", "/v1/jobs/{id}", [this](const auto& req, auto& res) { status(req, res); });
+  route("DELETE", "/v1/jobs/{id}", [this](const auto& req, auto& res) { remove(req, res); });
+  route("GET", "/v1/jobs/{id}/events", [this](const auto& req, auto& res) { events(req, res); });
+  route("GET", "/v1/jobs/{id}/gvd.glb",
+        [this](const auto& req, auto& res) { output(req, res, Output::kGlb); });
+  route("GET", "/v1/jobs/{id}/gvd.gltf",
+        [this](const auto& req, auto& res) { output(req, res, Output::kGltf); });
+  route("GET", "/v1/jobs/{id}/gvd.json",
+        [this](const auto& req, auto& res) { output(req, res, Output::kJson); });
+  route("GET", "/v1/jobs/{id}/graph",
+        [this](const auto& req, auto& res) { output(req, res, Output::kGraph); });
+  route("GET", "/v1/jobs/{id}/result.gvd",
+        [this](const auto& req, auto& res) { result_file(req, res); });
+  route("POST", "/v1/jobs/{id}/nearest",
+        [this](const auto& req, auto& res) { queries.nearest_batch(req, res); });
+  route("POST", "/v1/jobs/{id}/paths",
+        [this](const auto& req, auto& res) { queries.paths(req, res); });
+  route("GET", "/v1/jobs/{id}/explode",
+        [this](const auto& req, auto& res) { queries.explode(req, res); });
+  route("GET", "/v1/jobs/{id}/tight",
+        [this](const auto& req, auto& res) { queries.tight(req, res); });
+  route("GET", "/problems/{name}", [this](const auto& req, auto& res) { problem_doc(req, res); });
+  GVD_CHECK(registered.size() == kRoutes.size(), "every route of routes.h has a handler");
+
+  metrics.gauge("gvd_queue_depth", "Jobs waiting in the queue.",
+                [this] { return static_cast<double>(jobs.queue_depth()); });
+  metrics.gauge("gvd_queue_capacity", "Jobs the queue holds before 503.",
+                [this] { return static_cast<double>(options.queue); });
+  metrics.gauge("gvd_jobs_running", "Jobs being computed.",
+                [this] { return static_cast<double>(jobs.running()); });
+  metrics.gauge("gvd_results_cached", "Finished results held in memory.",
+                [this] { return static_cast<double>(jobs.cached_results()); });
+  metrics.gauge("gvd_event_streams", "Open server-sent event streams.",
+                [this] { return static_cast<double>(streams.load()); });
+  metrics.gauge("gvd_draining", "1 while shutting down.", [this] { return draining ? 1.0 : 0.0; });
+  metrics.gauge("process_resident_memory_bytes", "Resident memory of the server.",
+                [] { return static_cast<double>(resident_memory_bytes()); });
+}
+
+HttpServer::HttpServer(const ServerOptions& options) : impl_(std::make_unique<Impl>(options)) {
+  impl_->setup();
+  // One small computation with the configured backend before serving: it fails early and
+  // loudly when the backend is unusable, and initialises it once on one thread (OpenCL
+  // platforms must not see their first calls from several workers at once).
+  const Scene probe = parse_scene_json(R"({"dimension":2,"objects":[
+      {"label":"a","vertices":[[0,0],[1,0]],"segments":[[0,1]]},
+      {"label":"b","vertices":[[0,1],[1,1]],"segments":[[0,1]]}]})");
+  PipelineOptions o;
+  o.backend = options.backend;
+  o.threads = 1;
+  o.max_depth = 6;
+  impl_->backend = compute_gvd(probe, o).stats.backend;
+}
+
+HttpServer::~HttpServer() {
+  impl_->closing = true;
+  impl_->http.stop();
+  impl_->jobs.stop();
+}
+
+const std::string& HttpServer::backend() const { return impl_->backend; }
+
+int HttpServer::bind() {
+  Impl& s = *impl_;
+  if (s.options.port == 0) {
+    s.port = s.http.bind_to_any_port(s.options.host);
+    if (s.port <= 0) return -1;
+  } else {
+    if (!s.http.bind_to_port(s.options.host.c_str(), s.options.port)) return -1;
+    s.port = s.options.port;
+  }
+  if (s.listen_socket != INVALID_SOCKET) ::listen(s.listen_socket, SOMAXCONN);
+  return s.port;
+}
+
+bool HttpServer::serve() {
+  impl_->jobs.start();
+  return impl_->http.listen_after_bind();
+}
+
+void HttpServer::shutdown() {
+  Impl& s = *impl_;
+  s.draining = true;
+  s.jobs.drain(std::chrono::milliseconds(static_cast<int64_t>(s.options.grace_seconds * 1000)));
+  s.closing = true;
+  s.http.stop();
+  s.jobs.stop();
+}
+
+}  // namespace gvd::server

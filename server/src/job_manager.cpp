@@ -1,0 +1,730 @@
+#include "job_manager.h"
+
+#include <openssl/evp.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "gvd/common/error.h"
+#include "gvd/io/result_file.h"
+#include "gvd/io/write_outputs.h"
+#include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/load_scene.h"
+#include "job_params.h"
+#include "problem.h"
+
+namespace gvd::server {
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// Share of the whole computation each progress stage roughly takes (for the overall fraction
+// of a running job; an estimate, documented as such).
+const std::pair<const char*, double> kStageWeights[] = {
+    {"scene", 0.02},     {"octree", 0.20},  {"distance", 0.30},
+    {"ambiguity", 0.25}, {"surface", 0.18}, {"graph", 0.05},
+};
+
+double stage_weight(const std::string& name) {
+  for (const auto& [n, w] : kStageWeights) {
+    if (name == n) return w;
+  }
+  return 0;
+}
+
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+Json iso_time(double unix_seconds) {
+  if (unix_seconds <= 0) return nullptr;
+  const auto whole = static_cast<std::time_t>(unix_seconds);
+  std::tm tm{};
+  gmtime_r(&whole, &tm);
+  char buf[40];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
+  char out[48];
+  std::snprintf(out, sizeof out, "%s.%03dZ", buf,
+                static_cast<int>((unix_seconds - static_cast<double>(whole)) * 1000));
+  return out;
+}
+
+double from_iso(const Json& j) {
+  if (!j.is_string()) return 0;
+  std::tm tm{};
+  int ms = 0;
+  const std::string s = j.get<std::string>();
+  if (std::sscanf(s.c_str(), "%d-%d-%dT%d:%d:%d.%dZ", &tm.tm_year, &tm.tm_mon, &tm.tm_mday,
+                  &tm.tm_hour, &tm.tm_min, &tm.tm_sec, &ms) < 6) {
+    return 0;
+  }
+  tm.tm_year -= 1900;
+  tm.tm_mon -= 1;
+  return static_cast<double>(timegm(&tm)) + ms / 1000.0;
+}
+
+std::string read_text(const std::string& path) {
+  const std::vector<uint8_t> bytes = read_file_bytes(path);
+  return std::string(bytes.begin(), bytes.end());
+}
+
+void remove_quietly(const std::string& path) {
+  std::error_code ec;
+  fs::remove(path, ec);
+}
+
+}  // namespace
+
+std::string_view job_status_name(JobStatus status) {
+  switch (status) {
+    case JobStatus::kQueued:
+      return "queued";
+    case JobStatus::kRunning:
+      return "running";
+    case JobStatus::kDone:
+      return "done";
+    case JobStatus::kFailed:
+      return "failed";
+    case JobStatus::kCancelled:
+      return "cancelled";
+  }
+  return "unknown";
+}
+
+std::string job_id(std::string_view scene_json, std::string_view params_json) {
+  EVP_MD_CTX* ctx = EVP_MD_CTX_new();
+  GVD_CHECK(ctx != nullptr, "EVP_MD_CTX_new");
+  const std::string head = "gvd-job\nalgorithm " + std::to_string(kAlgorithmVersion) + "\n";
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  const bool ok = EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr) == 1 &&
+                  EVP_DigestUpdate(ctx, head.data(), head.size()) == 1 &&
+                  EVP_DigestUpdate(ctx, params_json.data(), params_json.size()) == 1 &&
+                  EVP_DigestUpdate(ctx, "\n", 1) == 1 &&
+                  EVP_DigestUpdate(ctx, scene_json.data(), scene_json.size()) == 1 &&
+                  EVP_DigestFinal_ex(ctx, digest, &length) == 1;
+  EVP_MD_CTX_free(ctx);
+  GVD_CHECK(ok && length >= 16, "SHA-256 failed");
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string id;
+  for (unsigned i = 0; i < 16; ++i) {
+    id += kHex[digest[i] >> 4];
+    id += kHex[digest[i] & 15];
+  }
+  return id;
+}
+
+JobManager::JobManager(const ServerOptions& options, Metrics& metrics)
+    : options_(options),
+      metrics_(metrics),
+      cache_(options.store + "/results", static_cast<size_t>(options.cache_entries),
+             [&metrics](bool hit) {
+               metrics.count(hit ? "gvd_result_cache_hits_total" : "gvd_result_cache_misses_total");
+             }) {
+  for (const char* sub : {"requests", "results", "failed"}) {
+    std::error_code ec;
+    fs::create_directories(dir(sub), ec);
+    if (ec) {
+      throw Error(ErrorCode::kIo,
+                  "cannot create the store directory " + dir(sub) + ": " + ec.message());
+    }
+  }
+  recover();
+}
+
+JobManager::~JobManager() { stop(); }
+
+void JobManager::recover() {
+  const auto list = [](const std::string& d) {
+    std::vector<fs::path> files;
+    for (const auto& entry : fs::directory_iterator(d)) files.push_back(entry.path());
+    return files;
+  };
+  // Leftovers of writes interrupted by a crash.
+  for (const char* sub : {"requests", "results", "failed"}) {
+    for (const fs::path& p : list(dir(sub))) {
+      if (p.filename().string().find(".tmp.") != std::string::npos) remove_quietly(p);
+    }
+  }
+  const auto restore = [this](const Json& s, JobStatus status) {
+    auto job = std::make_shared<Job>();
+    job->id = s.at("id").get<std::string>();
+    job->status = status;
+    job->params_json = s.value("params", Json::object()).dump();
+    job->dimension = s.value("scene", Json::object()).value("dimension", 3);
+    job->objects = s.value("scene", Json::object()).value("objects", uint64_t{0});
+    job->simplices = s.value("scene", Json::object()).value("simplices", uint64_t{0});
+    job->submitted_at = from_iso(s.value("submitted_at", Json()));
+    job->started_at = from_iso(s.value("started_at", Json()));
+    job->finished_at = from_iso(s.value("finished_at", Json()));
+    if (s.contains("result")) job->result_info = s["result"].dump();
+    if (s.contains("error")) job->error = s["error"].dump();
+    return job;
+  };
+  // Finished results: the result file is what counts; its status document says the rest.
+  for (const fs::path& p : list(dir("results"))) {
+    if (p.extension() != ".gvd") continue;
+    const std::string id = p.stem().string();
+    const std::string status_path = dir("results") + "/" + id + ".json";
+    try {
+      jobs_[id] = restore(Json::parse(read_text(status_path)), JobStatus::kDone);
+    } catch (const std::exception&) {
+      // The result without its status document (killed between the two writes): rebuild it.
+      try {
+        const GvdResult r = load_result(p.string());
+        auto job = std::make_shared<Job>();
+        job->id = id;
+        job->status = JobStatus::kDone;
+        job->params_json = "{}";
+        job->dimension = r.scene.dimension;
+        job->objects = r.scene.objects.size();
+        job->simplices = r.scene.simplex_count();
+        job->result_info = result_info_json(r);
+        jobs_[id] = job;
+        write_file_atomic(status_path, status_json_locked(*job));
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "{\"level\":\"warn\",\"msg\":\"unreadable result %s: %s\"}\n",
+                     p.string().c_str(), e.what());
+      }
+    }
+    remove_quietly(dir("requests") + "/" + id + ".json");
+    remove_quietly(dir("requests") + "/" + id + ".scene.json");
+  }
+  for (const fs::path& p : list(dir("failed"))) {
+    if (p.extension() != ".json") continue;
+    try {
+      const std::string id = p.stem().string();
+      if (jobs_.count(id) == 0)
+        jobs_[id] = restore(Json::parse(read_text(p.string())), JobStatus::kFailed);
+    } catch (const std::exception&) {
+      remove_quietly(p);
+    }
+  }
+  // Unfinished requests: queued again, oldest first.
+  std::vector<std::shared_ptr<Job>> pending;
+  for (const fs::path& p : list(dir("requests"))) {
+    const std::string name = p.filename().string();
+    if (!name.ends_with(".json") || name.ends_with(".scene.json")) continue;
+    const std::string id = p.stem().string();
+    try {
+      const Json r = Json::parse(read_text(p.string()));
+      if (!fs::exists(dir("requests") + "/" + id + ".scene.json"))
+        throw std::runtime_error("no scene");
+      auto job = std::make_shared<Job>();
+      job->id = id;
+      job->status = JobStatus::kQueued;
+      job->params_json = r.at("params").dump();
+      job->dimension = r.value("dimension", 3);
+      job->objects = r.value("objects", uint64_t{0});
+      job->simplices = r.value("simplices", uint64_t{0});
+      job->submitted_at = r.value("submitted_at", 0.0);
+      job->recovered = true;
+      jobs_.erase(id);  // a failed job submitted again
+      pending.push_back(job);
+    } catch (const std::exception&) {
+      remove_quietly(p);
+    }
+  }
+  for (const fs::path& p : list(dir("requests"))) {
+    const std::string name = p.filename().string();
+    if (name.ends_with(".scene.json")) {
+      const std::string id = name.substr(0, name.size() - std::string(".scene.json").size());
+      if (!fs::exists(dir("requests") + "/" + id + ".json")) remove_quietly(p);  // orphan
+    }
+  }
+  std::sort(pending.begin(), pending.end(),
+            [](const auto& a, const auto& b) { return a->submitted_at < b->submitted_at; });
+  for (const auto& job : pending) {
+    jobs_[job->id] = job;
+    queue_.push_back(job->id);
+    metrics_.count("gvd_jobs_recovered_total");
+    log_event("info", "job_recovered", job->id, 0);
+  }
+}
+
+void JobManager::start() {
+  std::lock_guard lock(mutex_);
+  for (int i = 0; i < options_.workers; ++i) workers_.emplace_back([this] { worker_loop(); });
+  watchdog_ = std::thread([this] { watchdog_loop(); });
+}
+
+SubmitOutcome JobManager::submit(const JobRequest& request) {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    const auto it = jobs_.find(request.id);
+    if (it == jobs_.end()) break;
+    const Job& job = *it->second;
+    if (job.persisting) {  // the same job, being submitted by another request right now
+      changed_cv_.wait(lock);
+      continue;
+    }
+    if (job.status == JobStatus::kQueued || job.status == JobStatus::kRunning ||
+        job.status == JobStatus::kDone) {
+      metrics_.count("gvd_job_cache_hits_total");
+      return {false, job.status, status_json_locked(job)};
+    }
+    break;  // failed or cancelled: computed again
+  }
+  if (queue_.size() + persisting_ >= static_cast<size_t>(options_.queue)) {
+    metrics_.count("gvd_jobs_rejected_total");
+    throw QueueFull("the job queue is full (" + std::to_string(options_.queue) + " jobs)");
+  }
+  auto job = std::make_shared<Job>();
+  job->id = request.id;
+  job->params_json = request.params_json;
+  job->dimension = request.dimension;
+  job->objects = request.objects;
+  job->simplices = request.simplices;
+  job->submitted_at = unix_now();
+  job->persisting = true;
+  jobs_[request.id] = job;
+  ++persisting_;
+  lock.unlock();
+  // Persist before answering (outside the lock: the writes are fsynced): the scene first, then
+  // the request that points at it (recovery only trusts a request whose scene is complete).
+  try {
+    const std::string base = dir("requests") + "/" + request.id;
+    write_file_atomic(base + ".scene.json", request.scene_json);
+    const Json meta = {{"id", request.id},
+                       {"submitted_at", job->submitted_at},
+                       {"params", Json::parse(request.params_json)},
+                       {"warnings", Json::parse(request.warnings_json)},
+                       {"dimension", request.dimension},
+                       {"objects", request.objects},
+                       {"simplices", request.simplices}};
+    write_file_atomic(base + ".json", meta.dump());
+    remove_quietly(dir("failed") + "/" + request.id + ".json");
+  } catch (...) {
+    lock.lock();
+    --persisting_;
+    if (const auto it = jobs_.find(request.id); it != jobs_.end() && it->second == job)
+      jobs_.erase(it);
+    changed_cv_.notify_all();
+    throw;
+  }
+  lock.lock();
+  --persisting_;
+  job->persisting = false;
+  queue_.push_back(request.id);
+  metrics_.count("gvd_jobs_submitted_total");
+  log_event("info", "job_queued", request.id, 0);
+  ++version_;
+  work_cv_.notify_one();
+  changed_cv_.notify_all();
+  return {true, job->status, status_json_locked(*job)};
+}
+
+std::optional<std::string> JobManager::status_json(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return std::nullopt;
+  return status_json_locked(*it->second);
+}
+
+std::optional<JobStatus> JobManager::status(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return std::nullopt;
+  return it->second->status;
+}
+
+std::string JobManager::status_json_locked(const Job& job, JobStatus shown) const {
+  const std::string self = "/v1/jobs/" + job.id;
+  Json s = {
+      {"id", job.id},
+      {"status", job_status_name(shown)},
+      {"submitted_at", iso_time(job.submitted_at)},
+      {"started_at", iso_time(job.started_at)},
+      {"finished_at", iso_time(job.finished_at)},
+      {"scene",
+       {{"dimension", job.dimension}, {"objects", job.objects}, {"simplices", job.simplices}}},
+      {"params", Json::parse(job.params_json.empty() ? "{}" : job.params_json)}};
+  if (shown == JobStatus::kQueued) {
+    const auto pos = std::find(queue_.begin(), queue_.end(), job.id);
+    s["queue_position"] = pos == queue_.end() ? 0 : (pos - queue_.begin()) + 1;
+  }
+  if (job.recovered) s["recovered"] = true;
+  Json progress = {{"fraction", 0.0}, {"stage", nullptr}, {"stages", Json::array()}};
+  if (shown == JobStatus::kRunning || shown == JobStatus::kCancelled ||
+      shown == JobStatus::kFailed) {
+    double overall = 0;
+    for (const StageTime& st : job.stages) {
+      progress["stages"].push_back(
+          {{"name", st.name}, {"fraction", st.fraction}, {"seconds", st.seconds}});
+      overall += stage_weight(st.name) * st.fraction;
+    }
+    if (shown == JobStatus::kRunning && !job.stages.empty()) {
+      progress["stages"].back()["seconds"] =
+          std::chrono::duration<double>(Clock::now() - job.stage_start).count();
+      progress["stage"] = job.stages.back().name;
+    }
+    progress["fraction"] = std::min(0.99, overall);
+  }
+  if (shown == JobStatus::kDone) {
+    progress["fraction"] = 1.0;
+    progress["stage"] = "done";
+    s["result"] = Json::parse(job.result_info.empty() ? "{}" : job.result_info);
+    for (const Json& st : s["result"].value("stages", Json::array())) {
+      progress["stages"].push_back({{"name", st.value("name", "")},
+                                    {"fraction", 1.0},
+                                    {"seconds", st.value("seconds", 0.0)}});
+    }
+    s["links"] = {{"self", self},
+                  {"glb", self + "/gvd.glb"},
+                  {"gltf", self + "/gvd.gltf"},
+                  {"json", self + "/gvd.json"},
+                  {"graph", self + "/graph"},
+                  {"result", self + "/result.gvd"},
+                  {"events", self + "/events"}};
+  } else {
+    s["links"] = {{"self", self}, {"events", self + "/events"}};
+  }
+  s["progress"] = progress;
+  if (!job.error.empty() && (shown == JobStatus::kFailed || shown == JobStatus::kCancelled)) {
+    s["error"] = Json::parse(job.error);
+  }
+  return s.dump(-1, ' ', false, Json::error_handler_t::replace);
+}
+
+JobManager::DeleteOutcome JobManager::remove(const std::string& id) {
+  std::unique_lock lock(mutex_);
+  changed_cv_.wait(lock, [&] {
+    const auto it = jobs_.find(id);
+    return it == jobs_.end() || !it->second->persisting;
+  });
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return DeleteOutcome::kUnknown;
+  Job& job = *it->second;
+  switch (job.status) {
+    case JobStatus::kQueued: {
+      queue_.erase(std::remove(queue_.begin(), queue_.end(), id), queue_.end());
+      job.error = problem_json(ProblemKind::kCancelled, "cancelled by DELETE before it started",
+                               "/v1/jobs/" + id, "");
+      remove_request_files(id);  // unlinks only: quick enough under the lock
+      finish_locked(job, JobStatus::kCancelled);
+      return DeleteOutcome::kCancelled;
+    }
+    case JobStatus::kRunning:
+      job.reason = StopReason::kUser;
+      job.cancel = true;
+      return DeleteOutcome::kCancelling;
+    case JobStatus::kDone:
+    case JobStatus::kFailed:
+    case JobStatus::kCancelled:
+      remove_quietly(cache_.path_of(id));
+      remove_quietly(dir("results") + "/" + id + ".json");
+      remove_quietly(dir("failed") + "/" + id + ".json");
+      cache_.erase(id);
+      jobs_.erase(it);
+      ++version_;
+      changed_cv_.notify_all();
+      return DeleteOutcome::kForgotten;
+  }
+  return DeleteOutcome::kUnknown;
+}
+
+std::shared_ptr<LoadedResult> JobManager::result(const std::string& id) {
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = jobs_.find(id);
+    if (it == jobs_.end()) throw ProblemError(ProblemKind::kNotFound, "no job " + id);
+    const Job& job = *it->second;
+    switch (job.status) {
+      case JobStatus::kQueued:
+      case JobStatus::kRunning:
+        throw ProblemError(ProblemKind::kJobNotFinished,
+                           "job " + id + " is " + std::string(job_status_name(job.status)) +
+                               "; poll /v1/jobs/" + id + " or follow /v1/jobs/" + id + "/events");
+      case JobStatus::kFailed:
+        throw ProblemError(ProblemKind::kJobFailed, "job " + id + " failed; see /v1/jobs/" + id);
+      case JobStatus::kCancelled:
+        throw ProblemError(ProblemKind::kCancelled, "job " + id + " was cancelled");
+      case JobStatus::kDone:
+        break;
+    }
+  }
+  auto loaded = cache_.get(id);
+  if (!loaded) throw ProblemError(ProblemKind::kNotFound, "the result of job " + id + " is gone");
+  return loaded;
+}
+
+uint64_t JobManager::version() const {
+  std::lock_guard lock(mutex_);
+  return version_;
+}
+
+uint64_t JobManager::wait_for_change(uint64_t seen, std::chrono::milliseconds timeout) const {
+  std::unique_lock lock(mutex_);
+  changed_cv_.wait_for(lock, timeout, [&] { return version_ != seen || stopping_; });
+  return version_;
+}
+
+size_t JobManager::queue_depth() const {
+  std::lock_guard lock(mutex_);
+  return queue_.size();
+}
+
+size_t JobManager::running() const {
+  std::lock_guard lock(mutex_);
+  return running_;
+}
+
+std::string JobManager::list_json() const {
+  std::lock_guard lock(mutex_);
+  std::vector<const Job*> all;
+  for (const auto& [id, job] : jobs_) all.push_back(job.get());
+  std::sort(all.begin(), all.end(),
+            [](const Job* a, const Job* b) { return a->submitted_at > b->submitted_at; });
+  Json list = Json::array();
+  for (const Job* job : all) {
+    if (list.size() >= 1000) break;
+    list.push_back({{"id", job->id},
+                    {"status", job_status_name(job->status)},
+                    {"submitted_at", iso_time(job->submitted_at)},
+                    {"href", "/v1/jobs/" + job->id}});
+  }
+  return Json{{"jobs", list}}.dump();
+}
+
+void JobManager::log_event(const char* level, const char* event, const std::string& id,
+                           double seconds) const {
+  if (options_.quiet) return;
+  Json line = {{"ts", unix_now()}, {"level", level}, {"event", event}};
+  if (!id.empty()) line["job"] = id;
+  if (seconds > 0) line["seconds"] = seconds;
+  std::fprintf(stderr, "%s\n", line.dump().c_str());
+}
+
+void JobManager::remove_request_files(const std::string& id) const {
+  remove_quietly(dir("requests") + "/" + id + ".json");
+  remove_quietly(dir("requests") + "/" + id + ".scene.json");
+}
+
+void JobManager::finish_locked(Job& job, JobStatus status) {
+  job.status = status;
+  if (job.finished_at == 0) job.finished_at = unix_now();
+  const double seconds = job.started_at > 0 ? job.finished_at - job.started_at : 0;
+  metrics_.job_finished(std::string(job_status_name(status)), seconds);
+  log_event(status == JobStatus::kDone ? "info" : "warn",
+            status == JobStatus::kDone     ? "job_done"
+            : status == JobStatus::kFailed ? "job_failed"
+                                           : "job_cancelled",
+            job.id, seconds);
+  ++version_;
+  changed_cv_.notify_all();
+}
+
+void JobManager::worker_loop() {
+  for (;;) {
+    std::shared_ptr<Job> job;
+    {
+      std::unique_lock lock(mutex_);
+      work_cv_.wait(lock, [&] { return stopping_ || (!draining_ && !queue_.empty()); });
+      if (stopping_) return;
+      job = jobs_.at(queue_.front());
+      queue_.pop_front();
+      job->status = JobStatus::kRunning;
+      job->started_at = unix_now();
+      job->run_start = job->stage_start = Clock::now();
+      job->stages.clear();
+      job->cancel = false;
+      job->reason = StopReason::kNone;
+      job->finished_at = 0;
+      job->error.clear();
+      log_event("info", "job_started", job->id, 0);
+      ++running_;
+      ++version_;
+      changed_cv_.notify_all();
+    }
+    run(job);
+    std::lock_guard lock(mutex_);
+    --running_;
+    work_cv_.notify_all();  // drain() waits for running_ == 0
+  }
+}
+
+void JobManager::run(const std::shared_ptr<Job>& job) {
+  const std::string base = dir("requests") + "/" + job->id;
+  const std::string instance = "/v1/jobs/" + job->id;
+  ProblemKind kind = ProblemKind::kInternal;
+  std::string detail;
+  try {
+    const Json meta = Json::parse(read_text(base + ".json"));
+    SceneLimits limits;
+    limits.max_objects = options_.max_objects;
+    limits.max_simplices = options_.max_simplices;
+    Scene scene = parse_scene_json(read_text(base + ".scene.json"), limits);
+    // Warnings of the original upload (degenerate simplices removed before normalizing).
+    std::vector<SceneWarning> warnings;
+    for (const Json& w : meta.value("warnings", Json::array())) {
+      if (w.value("kind", "") != "degenerate_simplices") continue;
+      warnings.push_back({w.value("kind", ""), w.value("object", ""), w.value("count", uint64_t{0}),
+                          w.value("detail", "")});
+    }
+    scene.warnings.insert(scene.warnings.begin(), warnings.begin(), warnings.end());
+
+    PipelineOptions options = JobParams::from_json(job->params_json).pipeline_options(options_);
+    options.cancel = &job->cancel;
+    options.progress = [this, job](const std::string& stage, double fraction) {
+      std::lock_guard lock(mutex_);
+      const auto now = Clock::now();
+      if (job->stages.empty() || job->stages.back().name != stage) {
+        if (!job->stages.empty()) {
+          job->stages.back().fraction = 1;
+          job->stages.back().seconds =
+              std::chrono::duration<double>(now - job->stage_start).count();
+        }
+        if (stage == "done") return;
+        job->stages.push_back({stage, fraction, 0});
+        job->stage_start = now;
+      } else {
+        if (fraction - job->stages.back().fraction < 0.01) return;  // fewer wake-ups
+        job->stages.back().fraction = fraction;
+      }
+      ++version_;
+      changed_cv_.notify_all();
+    };
+    std::shared_ptr<const GvdResult> result =
+        std::make_shared<const GvdResult>(compute_gvd(std::move(scene), options));
+    // Persist: the result file (atomic), then its status document, then drop the request.
+    const std::vector<uint8_t> bytes = result_to_bytes(*result);
+    write_file_atomic(cache_.path_of(job->id), bytes.data(), bytes.size());
+    const std::string info = result_info_json(*result);
+    std::string doc;
+    {
+      std::lock_guard lock(mutex_);
+      job->result_info = info;
+      job->finished_at = unix_now();
+      doc = status_json_locked(*job, JobStatus::kDone);
+    }
+    try {
+      write_file_atomic(dir("results") + "/" + job->id + ".json", doc);
+    } catch (const std::exception&) {
+      // Rebuilt from the result file at the next start.
+    }
+    remove_request_files(job->id);
+    cache_.put(job->id, result);
+    for (const StageStats& st : result->stats.stages) metrics_.stage(st.name, st.seconds);
+    std::lock_guard lock(mutex_);
+    finish_locked(*job, JobStatus::kDone);
+    return;
+  } catch (const Error& e) {
+    kind = problem_kind(e.code());
+    detail = e.detail();
+  } catch (const std::bad_alloc&) {
+    kind = ProblemKind::kLimitExceeded;
+    detail = "out of memory";
+  } catch (const std::exception& e) {
+    kind = ProblemKind::kInternal;
+    detail = e.what();
+  }
+  std::unique_lock lock(mutex_);
+  if (kind == ProblemKind::kCancelled) {
+    switch (job->reason) {
+      case StopReason::kShutdown:
+        // Stays on disk and runs again at the next start.
+        job->status = JobStatus::kQueued;
+        ++version_;
+        changed_cv_.notify_all();
+        return;
+      case StopReason::kTimeout:
+        kind = ProblemKind::kLimitExceeded;
+        detail = "the job ran longer than this server's limit of " +
+                 std::to_string(options_.job_seconds) + " s";
+        break;
+      case StopReason::kMemory:
+        kind = ProblemKind::kLimitExceeded;
+        detail = "the server's memory limit of " + std::to_string(options_.max_memory_mb) +
+                 " MB was reached while this job ran";
+        break;
+      case StopReason::kUser:
+      case StopReason::kNone:
+        detail = "cancelled by DELETE while running";
+        break;
+    }
+  }
+  const JobStatus final =
+      kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed;
+  job->error = problem_json(kind, detail, instance, "");
+  job->finished_at = unix_now();
+  const std::string doc = status_json_locked(*job, final);
+  lock.unlock();
+  // Files first, then the final status: once a job shows as failed or cancelled it may be
+  // submitted again, and its new request files must not be removed by this thread.
+  if (final == JobStatus::kFailed) {
+    try {
+      write_file_atomic(dir("failed") + "/" + job->id + ".json", doc);
+    } catch (const std::exception&) {
+      // The status stays in memory; a failure is deterministic and recomputed otherwise.
+    }
+  }
+  remove_request_files(job->id);
+  lock.lock();
+  finish_locked(*job, final);
+}
+
+void JobManager::watchdog_loop() {
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    changed_cv_.wait_for(lock, std::chrono::milliseconds(50));
+    if (stopping_) return;
+    const auto now = Clock::now();
+    const auto limit = std::chrono::duration<double>(options_.job_seconds);
+    Job* newest = nullptr;
+    for (auto& [id, job] : jobs_) {
+      if (job->status != JobStatus::kRunning || job->cancel) continue;
+      if (now - job->run_start > limit) {
+        job->reason = StopReason::kTimeout;
+        job->cancel = true;
+      } else if (newest == nullptr || job->run_start > newest->run_start) {
+        newest = job.get();
+      }
+    }
+    if (newest != nullptr && options_.max_memory_mb > 0 &&
+        resident_memory_bytes() > options_.max_memory_mb * (1ull << 20)) {
+      if (cache_.size() > 0) {
+        // Cached results can be loaded again: drop them first and look again next tick.
+        cache_.clear();
+        log_event("warn", "memory_limit_cache_cleared", "", 0);
+      } else {
+        // Still over: stop the job that started last (it has the least work to lose).
+        newest->reason = StopReason::kMemory;
+        newest->cancel = true;
+      }
+    }
+  }
+}
+
+void JobManager::drain(std::chrono::milliseconds grace) {
+  std::unique_lock lock(mutex_);
+  draining_ = true;
+  work_cv_.wait_for(lock, grace, [&] { return running_ == 0; });
+}
+
+void JobManager::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ && workers_.empty() && !watchdog_.joinable()) return;
+    draining_ = true;
+    stopping_ = true;
+    for (auto& [id, job] : jobs_) {
+      if (job->status == JobStatus::kRunning) {
+        job->reason = StopReason::kShutdown;
+        job->cancel = true;
+      }
+    }
+    work_cv_.notify_all();
+    changed_cv_.notify_all();
+  }
+  for (std::thread& t : workers_) t.join();
+  workers_.clear();
+  if (watchdog_.joinable()) watchdog_.join();
+}
+
+}  // namespace gvd::server

@@ -1,0 +1,154 @@
+#include "job_params.h"
+
+#include <charconv>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "gvd/common/error.h"
+
+namespace gvd::server {
+namespace {
+
+const char* const kNames[] = {"max_depth",        "contact_depth", "ambiguity_levels",
+                              "ambiguity_rounds", "unseen_rounds", "domain"};
+
+[[noreturn]] void bad(const std::string& detail) {
+  throw Error(ErrorCode::kInvalidArgument, detail);
+}
+
+int parse_int(const std::string& name, const std::string& text, int lo, int hi) {
+  int v = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+  if (text.empty() || ec != std::errc() || ptr != end) {
+    bad("parameter \"" + name + "\" must be an integer, got \"" + text + "\"");
+  }
+  if (v < lo || v > hi) {
+    bad("parameter \"" + name + "\" must be between " + std::to_string(lo) + " and " +
+        std::to_string(hi) + ", got " + text);
+  }
+  return v;
+}
+
+}  // namespace
+
+bool is_job_param(const std::string& name) {
+  for (const char* n : kNames) {
+    if (name == n) return true;
+  }
+  return false;
+}
+
+void JobParams::set(const std::string& name, const std::string& value) {
+  if (name == "max_depth") {
+    max_depth = parse_int(name, value, 0, 31);
+  } else if (name == "contact_depth") {
+    contact_depth = parse_int(name, value, 0, 31);
+  } else if (name == "ambiguity_levels") {
+    ambiguity_levels = parse_int(name, value, -1, 31);
+  } else if (name == "ambiguity_rounds") {
+    ambiguity_rounds = parse_int(name, value, -1, 1000);
+  } else if (name == "unseen_rounds") {
+    unseen_rounds = parse_int(name, value, -1, 1000);
+  } else if (name == "domain") {
+    std::vector<double> box;
+    std::stringstream s(value);
+    std::string item;
+    while (std::getline(s, item, ',')) {
+      double v = 0;
+      const char* end = item.data() + item.size();
+      const auto [ptr, ec] = std::from_chars(item.data(), end, v);
+      if (item.empty() || ec != std::errc() || ptr != end || !std::isfinite(v)) {
+        bad("parameter \"domain\" must be numbers x0,y0[,z0],x1,y1[,z1], got \"" + value + "\"");
+      }
+      box.push_back(v);
+    }
+    if (box.size() != 4 && box.size() != 6) {
+      bad("parameter \"domain\" needs 4 (2D) or 6 (3D) numbers, got " + std::to_string(box.size()));
+    }
+    domain = std::move(box);
+  } else {
+    bad("unknown parameter \"" + name +
+        "\" (known: max_depth, contact_depth, ambiguity_levels, ambiguity_rounds, "
+        "unseen_rounds, domain)");
+  }
+}
+
+void JobParams::check(int dimension, const ServerOptions& server) const {
+  if (!domain.empty() && domain.size() != static_cast<size_t>(2 * dimension)) {
+    bad("parameter \"domain\" needs " + std::to_string(2 * dimension) + " numbers for a " +
+        std::to_string(dimension) + "D scene");
+  }
+  for (size_t i = 0; i < domain.size() / 2; ++i) {
+    if (!(domain[i] < domain[i + domain.size() / 2])) {
+      bad("parameter \"domain\": the lower corner must be below the upper corner");
+    }
+  }
+  const int limit = lattice_bits(dimension);
+  if (max_depth > limit) {
+    bad("max_depth " + std::to_string(max_depth) + " is beyond the lattice limit " +
+        std::to_string(limit) + " of a " + std::to_string(dimension) + "D scene");
+  }
+  if (server.max_depth > 0 && max_depth > server.max_depth) {
+    throw Error(ErrorCode::kLimitExceeded, "max_depth " + std::to_string(max_depth) +
+                                               " is above this server's limit of " +
+                                               std::to_string(server.max_depth));
+  }
+}
+
+std::string JobParams::to_json() const {
+  nlohmann::json j = {{"max_depth", max_depth},
+                      {"contact_depth", contact_depth},
+                      {"ambiguity_levels", ambiguity_levels},
+                      {"ambiguity_rounds", ambiguity_rounds},
+                      {"unseen_rounds", unseen_rounds},
+                      {"domain", domain}};
+  return j.dump();  // nlohmann::json sorts object keys: a stable text
+}
+
+JobParams JobParams::from_json(const std::string& text) {
+  const nlohmann::json j = nlohmann::json::parse(text);
+  JobParams p;
+  p.max_depth = j.value("max_depth", 0);
+  p.contact_depth = j.value("contact_depth", 0);
+  p.ambiguity_levels = j.value("ambiguity_levels", -1);
+  p.ambiguity_rounds = j.value("ambiguity_rounds", -1);
+  p.unseen_rounds = j.value("unseen_rounds", -1);
+  p.domain = j.value("domain", std::vector<double>{});
+  return p;
+}
+
+PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
+  PipelineOptions o;
+  o.max_depth = max_depth;
+  if (server.max_depth > 0 && (o.max_depth == 0 || o.max_depth > server.max_depth)) {
+    o.max_depth = server.max_depth;
+  }
+  o.contact_depth = contact_depth;
+  o.ambiguity_levels = ambiguity_levels;
+  o.ambiguity_rounds = ambiguity_rounds;
+  o.unseen_rounds = unseen_rounds;
+  o.threads = server.job_threads;
+  o.backend = server.backend;
+  // The engine needs about 1 KB per octree leaf: the memory limit caps the leaves too.
+  o.max_leaves = server.max_leaves;
+  if (server.max_memory_mb > 0) {
+    o.max_leaves = std::min<uint64_t>(o.max_leaves, server.max_memory_mb * 1024);
+  }
+  if (!domain.empty()) {
+    const size_t d = domain.size() / 2;
+    Vec3 lo, hi;
+    for (size_t i = 0; i < d; ++i) {
+      lo[static_cast<int>(i)] = domain[i];
+      hi[static_cast<int>(i)] = domain[d + i];
+    }
+    Box b;
+    b.extend(lo);
+    b.extend(hi);
+    o.domain.box = b;
+  }
+  return o;
+}
+
+}  // namespace gvd::server

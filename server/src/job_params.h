@@ -1,0 +1,41 @@
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/scene.h"
+#include "server_options.h"
+
+namespace gvd::server {
+
+/// The compute parameters a job may carry (query string, a "params" member of the scene JSON,
+/// or a "params" part of a multipart upload). Part of the job id in normalized form.
+struct JobParams {
+  int max_depth = 0;          ///< 0 = the engine's default
+  int contact_depth = 0;      ///< 0 = default
+  int ambiguity_levels = -1;  ///< < 0 = default
+  int ambiguity_rounds = -1;
+  int unseen_rounds = -1;
+  std::vector<double> domain;  ///< empty, or x0,y0[,z0],x1,y1[,z1]
+
+  /// Sets one parameter from its text form; gvd::Error{kInvalidArgument} for an unknown name
+  /// or a bad value.
+  void set(const std::string& name, const std::string& value);
+  /// Checks against the scene's dimension and the server's caps (max_depth): gvd::Error
+  /// kInvalidArgument / kLimitExceeded.
+  void check(int dimension, const ServerOptions& server) const;
+
+  /// Normalized JSON (keys sorted, defaults written out): the text hashed into the job id.
+  std::string to_json() const;
+  static JobParams from_json(const std::string& text);
+
+  /// The engine options for this job under the server's limits.
+  PipelineOptions pipeline_options(const ServerOptions& server) const;
+};
+
+/// Query-string names that are compute parameters.
+bool is_job_param(const std::string& name);
+
+}  // namespace gvd::server

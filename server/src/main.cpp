@@ -1,0 +1,90 @@
+// gvd-server: the gvd REST service. Options by flag or GVD_* environment variable (--help).
+
+#include <signal.h>
+
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "gvd/common/error.h"
+#include "http_server.h"
+#include "server_options.h"
+
+extern char** environ;
+
+int main(int argc, char** argv) {
+  using namespace gvd::server;
+  // Signals go to one thread that waits for them: blocked here, before any thread starts, so
+  // every thread inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+
+  ServerOptions options;
+  try {
+    std::map<std::string, std::string> env;
+    for (char** e = environ; *e != nullptr; ++e) {
+      const char* eq = std::strchr(*e, '=');
+      if (eq != nullptr && std::strncmp(*e, "GVD_", 4) == 0)
+        env[std::string(*e, static_cast<size_t>(eq - *e))] = eq + 1;
+    }
+    bool help = false;
+    options = parse_server_options(std::vector<std::string>(argv + 1, argv + argc), env, help);
+    if (help) {
+      std::fputs(server_usage().c_str(), stdout);
+      return 0;
+    }
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "gvd-server: %s\n(see gvd-server --help)\n", e.what());
+    return 2;
+  }
+
+  try {
+    HttpServer server(options);
+    const int port = server.bind();
+    if (port < 0) {
+      std::fprintf(stderr, "gvd-server: cannot listen on %s:%d\n", options.host.c_str(),
+                   options.port);
+      return 1;
+    }
+    std::printf("gvd-server listening on http://%s:%d (store %s, backend %s, %d workers)\n",
+                options.host.c_str(), port, options.store.c_str(), server.backend().c_str(),
+                options.workers);
+    std::fflush(stdout);
+    if (!options.quiet) {
+      std::fprintf(stderr,
+                   "{\"level\":\"info\",\"event\":\"listening\",\"port\":%d,\"workers\":%d,"
+                   "\"http_threads\":%d,\"queue\":%d,\"backend\":\"%s\"}\n",
+                   port, options.workers, options.http_threads, options.queue,
+                   server.backend().c_str());
+    }
+
+    std::thread waiter([&] {
+      int sig = 0;
+      sigwait(&signals, &sig);
+      std::fprintf(stderr, "{\"level\":\"info\",\"msg\":\"%s: draining\"}\n",
+                   sig == SIGTERM ? "SIGTERM" : "SIGINT");
+      server.shutdown();
+    });
+    const bool ok = server.serve();
+    if (!ok) {
+      // Listening ended without a signal: wake the waiter so it can be joined.
+      pthread_kill(waiter.native_handle(), SIGTERM);
+    }
+    waiter.join();
+    std::fprintf(stderr, "{\"level\":\"info\",\"msg\":\"stopped\"}\n");
+    return ok ? 0 : 1;
+  } catch (const gvd::Error& e) {
+    std::fprintf(stderr, "gvd-server: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "gvd-server: cannot start: %s\n", e.what());
+    return 1;
+  }
+}

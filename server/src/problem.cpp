@@ -1,0 +1,104 @@
+#include "problem.h"
+
+#include <array>
+#include <charconv>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <regex>
+
+namespace gvd::server {
+namespace {
+
+// THE table (STYLE.md: one table maps ErrorCode -> status, type, title, retryable). Keep the
+// order of ProblemKind; docs/API.md lists the same rows.
+constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
+    {422, "/problems/invalid-scene", "Invalid scene", false},
+    {400, "/problems/invalid-argument", "Invalid argument", false},
+    {415, "/problems/unsupported-format", "Unsupported input format", false},
+    {422, "/problems/outside-domain", "Point outside the domain", false},
+    {422, "/problems/limit-exceeded", "Limit exceeded", false},
+    {404, "/problems/not-found", "Not found", false},
+    {500, "/problems/io-error", "Storage error", true},
+    {409, "/problems/cancelled", "Job cancelled", false},
+    {500, "/problems/internal", "Internal error", false},
+    {404, "/problems/route-not-found", "No such route", false},
+    {405, "/problems/method-not-allowed", "Method not allowed", false},
+    {411, "/problems/length-required", "Content-Length required", false},
+    {413, "/problems/body-too-large", "Request body too large", false},
+    {431, "/problems/headers-too-large", "Request headers too large", false},
+    {415, "/problems/unsupported-media-type", "Unsupported media type", false},
+    {415, "/problems/unsupported-encoding", "Content-Encoding not accepted", false},
+    {503, "/problems/queue-full", "Job queue full", true},
+    {503, "/problems/draining", "Server shutting down", true},
+    {503, "/problems/too-many-streams", "Too many event streams", true},
+    {409, "/problems/job-not-finished", "Job not finished", true},
+    {409, "/problems/job-failed", "Job failed", false},
+    {422, "/problems/no-path", "No path", false},
+}};
+
+static_assert(static_cast<int>(ErrorCode::kInternal) == static_cast<int>(ProblemKind::kInternal),
+              "ProblemKind starts with the core error codes in their order");
+
+std::optional<uint64_t> to_u64(const std::string& digits) {
+  uint64_t v = 0;
+  const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v);
+  if (ec != std::errc() || ptr != digits.data() + digits.size()) return std::nullopt;
+  return v;
+}
+
+// Where in the input: the core's details say `object 3 ("gear_a")` or `objects[3] ("gear_a")`,
+// and `triangles[2][1]`, `vertices[4]`, `triangle 7`, `vertex 12`.
+void add_location(nlohmann::json& doc, std::string_view detail) {
+  static const std::regex object_re(R"re(objects?(?:\[(\d+)\]| (\d+)) \("((?:[^"\\]|\\.)*)"\))re");
+  static const std::regex element_re(
+      R"re((triangles|segments|vertices)\[(\d+)\]|\b(triangle|segment|vertex) (\d+))re");
+  const std::string text(detail);
+  std::smatch m;
+  if (std::regex_search(text, m, object_re)) {
+    if (const auto index = to_u64(m[1].matched ? m[1].str() : m[2].str())) {
+      doc["object"] = {{"index", *index}, {"label", m[3].str()}};
+    }
+  }
+  if (std::regex_search(text, m, element_re)) {
+    std::string kind = m[1].matched ? m[1].str() : m[3].str();
+    const std::string index = m[1].matched ? m[2].str() : m[4].str();
+    if (kind == "triangles") kind = "triangle";
+    if (kind == "segments") kind = "segment";
+    if (kind == "vertices") kind = "vertex";
+    if (const auto i = to_u64(index)) doc["element"] = {{"kind", kind}, {"index", *i}};
+  }
+}
+
+}  // namespace
+
+const ProblemInfo& problem_info(ProblemKind kind) { return kTable.at(static_cast<size_t>(kind)); }
+
+ProblemKind problem_kind(ErrorCode code) {
+  return static_cast<ProblemKind>(static_cast<int>(code));
+}
+
+std::string problem_json(ProblemKind kind, std::string_view detail, std::string_view instance,
+                         std::string_view request_id, std::string_view extra_json) {
+  const ProblemInfo& info = problem_info(kind);
+  nlohmann::json doc = {{"type", info.type},
+                        {"title", info.title},
+                        {"status", info.status},
+                        {"detail", detail},
+                        {"instance", instance}};
+  if (!request_id.empty()) doc["request_id"] = request_id;  // absent for a job's own error
+  if (kind <= ProblemKind::kInternal) {
+    doc["code"] = error_code_name(static_cast<ErrorCode>(static_cast<int>(kind)));
+  }
+  if (kind == ProblemKind::kInvalidScene || kind == ProblemKind::kLimitExceeded) {
+    add_location(doc, detail);
+  }
+  if (!extra_json.empty()) {
+    const nlohmann::json extra = nlohmann::json::parse(extra_json, nullptr, false);
+    if (extra.is_object()) {
+      for (const auto& [key, value] : extra.items()) doc[key] = value;
+    }
+  }
+  return doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+}  // namespace gvd::server

@@ -1,0 +1,180 @@
+#include "query_handlers.h"
+
+#include <httplib.h>
+
+#include <charconv>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "gvd/common/error.h"
+#include "gvd/graph/gvd_index.h"
+#include "gvd/io/write_outputs.h"
+#include "job_manager.h"
+#include "problem.h"
+
+namespace gvd::server {
+namespace {
+
+using Json = nlohmann::json;
+
+[[noreturn]] void bad(const std::string& detail) {
+  throw Error(ErrorCode::kInvalidArgument, detail);
+}
+
+double parse_double(const std::string& name, const std::string& text) {
+  double v = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+  if (text.empty() || ec != std::errc() || ptr != end || !std::isfinite(v)) {
+    bad("\"" + name + "\" must be a finite number, got \"" + text + "\"");
+  }
+  return v;
+}
+
+/// "x,y" (2D) or "x,y,z" (3D).
+Vec3 parse_point(const std::string& name, const std::string& text, int dimension) {
+  Vec3 p;
+  size_t start = 0;
+  int n = 0;
+  while (start <= text.size()) {
+    size_t comma = text.find(',', start);
+    if (comma == std::string::npos) comma = text.size();
+    if (n >= dimension)
+      bad("\"" + name + "\" needs " + std::to_string(dimension) + " numbers for a " +
+          std::to_string(dimension) + "D result, got \"" + text + "\"");
+    p[n++] = parse_double(name, text.substr(start, comma - start));
+    start = comma + 1;
+  }
+  if (n != dimension) {
+    bad("\"" + name + "\" needs " + std::to_string(dimension) + " numbers for a " +
+        std::to_string(dimension) + "D result, got \"" + text + "\"");
+  }
+  return p;
+}
+
+Vec3 json_point(const Json& doc, const char* key, int dimension) {
+  if (!doc.contains(key)) bad(std::string("missing \"") + key + "\"");
+  const std::vector<Vec3> one = parse_points_json("[" + doc[key].dump() + "]", dimension);
+  return one.at(0);
+}
+
+std::string param(const httplib::Request& req, const char* name, bool required) {
+  if (!req.has_param(name)) {
+    if (required) bad(std::string("missing query parameter \"") + name + "\"");
+    return {};
+  }
+  return req.get_param_value(name);
+}
+
+void send_json(httplib::Response& res, std::string body) {
+  res.set_header("Cache-Control", "no-store");
+  res.set_content(std::move(body), "application/json");
+}
+
+}  // namespace
+
+void QueryHandlers::neighbors(const httplib::Request& req, httplib::Response& res) {
+  const auto result = jobs_.result(req.matches[1].str());
+  const GvdIndex& index = result->index();
+  int ring = 1;
+  if (const std::string r = param(req, "ring", false); !r.empty()) {
+    const auto [ptr, ec] = std::from_chars(r.data(), r.data() + r.size(), ring);
+    if (ec != std::errc() || ptr != r.data() + r.size() || ring < 1 || ring > 1'000'000) {
+      bad("\"ring\" must be a positive integer, got \"" + r + "\"");
+    }
+  }
+  const ObjectId object = index.object(req.matches[2].str());
+  const std::vector<RingNeighbor> found = index.neighbors(object, ring);
+  send_json(res, neighbors_to_json(index, object, ring, found));
+}
+
+void QueryHandlers::nearest(const httplib::Request& req, httplib::Response& res) {
+  const auto result = jobs_.result(req.matches[1].str());
+  const GvdIndex& index = result->index();
+  const Vec3 p = parse_point("point", param(req, "point", true), index.dimension());
+  send_json(res, nearest_to_json(index, index.nearest(p)));
+}
+
+void QueryHandlers::nearest_batch(const httplib::Request& req, httplib::Response& res) {
+  const auto result = jobs_.result(req.matches[1].str());
+  const GvdIndex& index = result->index();
+  const std::vector<Vec3> points = parse_points_json(req.body, index.dimension());
+  std::string out = "{\"answers\":[";
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (i > 0) out += ',';
+    try {
+      out += nearest_to_json(index, index.nearest(points[i]));
+    } catch (const Error& e) {
+      throw Error(e.code(), "point " + std::to_string(i) + ": " + e.detail());
+    }
+  }
+  out += "]}";
+  send_json(res, std::move(out));
+}
+
+void QueryHandlers::paths(const httplib::Request& req, httplib::Response& res) {
+  const auto result = jobs_.result(req.matches[1].str());
+  const GvdIndex& index = result->index();
+  const Json doc = Json::parse(req.body);
+  if (!doc.is_object()) bad("the body must be a JSON object {\"from\":[..],\"to\":[..]}");
+  PathQuery q;
+  q.from = json_point(doc, "from", index.dimension());
+  q.to = json_point(doc, "to", index.dimension());
+  if (doc.contains("min_clearance")) {
+    if (!doc["min_clearance"].is_number() || !(doc["min_clearance"].get<double>() >= 0) ||
+        !std::isfinite(doc["min_clearance"].get<double>())) {
+      bad("\"min_clearance\" must be a non-negative number");
+    }
+    q.min_clearance = doc["min_clearance"].get<double>();
+  }
+  if (doc.contains("cost")) {
+    const std::string cost = doc["cost"].is_string() ? doc["cost"].get<std::string>() : "";
+    if (cost == "shortest")
+      q.cost = PathCost::kShortest;
+    else if (cost == "clearance")
+      q.cost = PathCost::kClearance;
+    else
+      bad("\"cost\" must be \"shortest\" or \"clearance\"");
+  }
+  const PathAnswer path = index.path(q);
+  const std::string body = path_to_json(index, q, path);
+  if (!path.found) {
+    throw ProblemError(ProblemKind::kNoPath,
+                       path.reason.empty() ? "no path joins start and goal" : path.reason,
+                       "{\"path\":" + body + "}");
+  }
+  send_json(res, body);
+}
+
+void QueryHandlers::explode(const httplib::Request& req, httplib::Response& res) {
+  const auto result = jobs_.result(req.matches[1].str());
+  const GvdIndex& index = result->index();
+  ExplodeOptions options;
+  if (const std::string s = param(req, "scale", false); !s.empty())
+    options.scale = parse_double("scale", s);
+  const std::string format = req.has_param("format") ? req.get_param_value("format") : "json";
+  if (format != "json" && format != "glb")
+    bad("\"format\" must be json or glb, got \"" + format + "\"");
+  const ExplodedView view = index.explode(index.object(param(req, "anchor", true)), options);
+  if (format == "glb") {
+    std::vector<Vec3> displacement(result->result().scene.objects.size());
+    for (const ExplodedObject& o : view.objects) {
+      if (o.object < displacement.size()) displacement[o.object] = o.displacement;
+    }
+    const std::vector<uint8_t> glb = exploded_to_glb(result->result().scene, displacement);
+    res.set_content(reinterpret_cast<const char*>(glb.data()), glb.size(), "model/gltf-binary");
+    return;
+  }
+  send_json(res, exploded_to_json(index, view));
+}
+
+void QueryHandlers::tight(const httplib::Request& req, httplib::Response& res) {
+  const auto result = jobs_.result(req.matches[1].str());
+  const GvdIndex& index = result->index();
+  const double below = parse_double("below", param(req, "below", true));
+  if (below < 0) bad("\"below\" must be >= 0");
+  const std::vector<TightSpot> spots = index.tight(below);
+  send_json(res, tight_to_json(index, below, spots));
+}
+
+}  // namespace gvd::server

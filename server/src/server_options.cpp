@@ -1,0 +1,189 @@
+#include "server_options.h"
+
+#include <charconv>
+#include <cmath>
+#include <functional>
+#include <sstream>
+
+namespace gvd::server {
+namespace {
+
+struct Spec {
+  const char* flag;     ///< "--max-body"
+  const char* meaning;  ///< one line of help
+  std::function<void(ServerOptions&, const std::string&)> set;
+  std::function<std::string(const ServerOptions&)> show;
+};
+
+template <class T>
+T parse_number(const std::string& flag, const std::string& text, T lo, T hi) {
+  T value{};
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (ec != std::errc() || ptr != end || text.empty()) {
+    throw UsageError(flag + " expects a number, got \"" + text + "\"");
+  }
+  if constexpr (std::is_floating_point_v<T>) {
+    if (!std::isfinite(value)) throw UsageError(flag + " must be finite");
+  }
+  if (value < lo || value > hi) {
+    std::ostringstream s;
+    s << flag << " must be between " << lo << " and " << hi << ", got " << text;
+    throw UsageError(s.str());
+  }
+  return value;
+}
+
+template <class T>
+Spec number(const char* flag, const char* meaning, T ServerOptions::*member, T lo, T hi) {
+  return {
+      flag, meaning,
+      [=](ServerOptions& o, const std::string& v) { o.*member = parse_number<T>(flag, v, lo, hi); },
+      [=](const ServerOptions& o) {
+        std::ostringstream s;
+        s << o.*member;
+        return s.str();
+      }};
+}
+
+Spec text(const char* flag, const char* meaning, std::string ServerOptions::*member) {
+  return {flag, meaning, [=](ServerOptions& o, const std::string& v) { o.*member = v; },
+          [=](const ServerOptions& o) { return o.*member; }};
+}
+
+const std::vector<Spec>& specs() {
+  constexpr uint64_t kU64 = UINT64_MAX / 2;
+  static const std::vector<Spec> table = {
+      text("--host", "address to listen on", &ServerOptions::host),
+      number("--port", "TCP port; 0 picks a free one and prints it", &ServerOptions::port, 0,
+             65535),
+      text("--store", "directory of the job and result store (created)", &ServerOptions::store),
+      number("--workers", "jobs computed at once", &ServerOptions::workers, 1, 64),
+      number("--job-threads", "threads per job (0 = all cores)", &ServerOptions::job_threads, 0,
+             256),
+      number("--http-threads", "HTTP connections served at once", &ServerOptions::http_threads, 2,
+             1024),
+      number("--queue", "queued jobs before 503 + Retry-After", &ServerOptions::queue, 0, 100000),
+      number("--max-body", "request body limit, bytes", &ServerOptions::max_body, uint64_t{1},
+             kU64),
+      number("--max-headers", "request header count limit", &ServerOptions::max_headers, 1, 10000),
+      number("--max-header-bytes", "total request header size limit, bytes",
+             &ServerOptions::max_header_bytes, uint64_t{256}, kU64),
+      number("--max-objects", "objects per scene", &ServerOptions::max_objects, uint64_t{1}, kU64),
+      number("--max-simplices", "simplices per scene", &ServerOptions::max_simplices, uint64_t{1},
+             kU64),
+      number("--max-depth", "deepest octree level a job may ask for (0 = lattice limit)",
+             &ServerOptions::max_depth, 0, 31),
+      number("--max-leaves", "octree leaves per job (~1 KB of memory each)",
+             &ServerOptions::max_leaves, uint64_t{1}, kU64),
+      number("--job-seconds", "wall time per job, seconds", &ServerOptions::job_seconds, 0.01, 1e7),
+      number("--max-memory-mb", "resident memory of the process, MB (0 = unlimited)",
+             &ServerOptions::max_memory_mb, uint64_t{0}, kU64),
+      number("--cache-entries", "finished results kept in memory", &ServerOptions::cache_entries, 1,
+             100000),
+      text("--backend", "compute backend: cpu | opencl", &ServerOptions::backend),
+      number("--read-timeout", "seconds to receive a request", &ServerOptions::read_timeout, 1,
+             3600),
+      number("--write-timeout", "seconds to send a response", &ServerOptions::write_timeout, 1,
+             3600),
+      number("--keep-alive-max", "requests per connection", &ServerOptions::keep_alive_max, 1,
+             1000000),
+      number("--keep-alive-timeout", "idle seconds before a connection is closed",
+             &ServerOptions::keep_alive_timeout, 1, 3600),
+      number("--max-streams", "concurrent event streams (SSE)", &ServerOptions::max_streams, 0,
+             1024),
+      number("--retry-after", "seconds a 503 asks the client to wait", &ServerOptions::retry_after,
+             1, 3600),
+      number("--grace-seconds", "on SIGTERM, how long running jobs may finish",
+             &ServerOptions::grace_seconds, 0.0, 3600.0),
+  };
+  return table;
+}
+
+std::string env_name(const std::string& flag) {
+  std::string name = "GVD_";
+  for (char c : flag.substr(2)) name += c == '-' ? '_' : static_cast<char>(std::toupper(c));
+  return name;
+}
+
+void check(const ServerOptions& o) {
+  if (o.backend != "cpu" && o.backend != "opencl") {
+    throw UsageError("--backend must be cpu or opencl, got \"" + o.backend + "\"");
+  }
+  if (o.store.empty()) throw UsageError("--store must not be empty");
+}
+
+}  // namespace
+
+ServerOptions parse_server_options(const std::vector<std::string>& args,
+                                   const std::map<std::string, std::string>& env, bool& help) {
+  ServerOptions o;
+  help = false;
+  for (const Spec& s : specs()) {
+    const auto it = env.find(env_name(s.flag));
+    if (it != env.end()) {
+      try {
+        s.set(o, it->second);
+      } catch (const UsageError& e) {
+        throw UsageError(env_name(s.flag) + ": " + e.what());
+      }
+    }
+  }
+  if (const auto it = env.find("GVD_QUIET"); it != env.end()) o.quiet = it->second == "1";
+  for (size_t i = 0; i < args.size(); ++i) {
+    std::string flag = args[i];
+    if (flag == "--help" || flag == "-h") {
+      help = true;
+      continue;
+    }
+    if (flag == "--quiet" || flag == "-q") {
+      o.quiet = true;
+      continue;
+    }
+    std::string value;
+    bool has_value = false;
+    if (const size_t eq = flag.find('='); eq != std::string::npos && flag.starts_with("--")) {
+      value = flag.substr(eq + 1);
+      flag = flag.substr(0, eq);
+      has_value = true;
+    }
+    const Spec* spec = nullptr;
+    for (const Spec& s : specs()) {
+      if (flag == s.flag) spec = &s;
+    }
+    if (spec == nullptr) throw UsageError("unknown option \"" + flag + "\"");
+    if (!has_value) {
+      if (i + 1 >= args.size()) throw UsageError(flag + " needs a value");
+      value = args[++i];
+    }
+    spec->set(o, value);
+  }
+  check(o);
+  return o;
+}
+
+std::string server_usage() {
+  std::ostringstream s;
+  s << "gvd-server — the gvd REST service (generalized Voronoi diagrams over HTTP)\n\n"
+       "Usage: gvd-server [options]\n\n"
+       "Every option can also be set by its environment variable; a flag wins.\n\n";
+  const ServerOptions defaults;
+  for (const Spec& spec : specs()) {
+    const std::string flag = spec.flag;
+    const char* metavar = flag == "--host"      ? " ADDR"
+                          : flag == "--store"   ? " DIR"
+                          : flag == "--backend" ? " NAME"
+                                                : " N";
+    std::string head = "  " + flag + metavar;
+    head.resize(std::max<size_t>(head.size() + 1, 27), ' ');
+    s << head << spec.meaning << " (" << env_name(spec.flag) << ", default " << spec.show(defaults)
+      << ")\n";
+  }
+  s << "  -q, --quiet              no request log on stderr (GVD_QUIET=1)\n"
+       "  -h, --help               this text\n\n"
+       "API: GET /openapi.json, docs/API.md. Stop with SIGTERM (drains: /readyz answers 503,\n"
+       "running jobs get --grace-seconds to finish, unfinished jobs resume at the next start).\n";
+  return s.str();
+}
+
+}  // namespace gvd::server

@@ -1,0 +1,55 @@
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace gvd::server {
+
+/// Everything gvd-server can be told, by flag (`--max-body 1000`) or by the matching
+/// environment variable (`GVD_MAX_BODY=1000`); a flag wins over the environment.
+struct ServerOptions {
+  std::string host = "127.0.0.1";
+  int port = 8080;  ///< 0 = pick a free port (printed on stdout)
+  std::string store = "gvd-store";
+  int workers = 1;                    ///< jobs computed at once
+  int job_threads = 0;                ///< threads per job (0 = all cores)
+  int http_threads = 128;             ///< HTTP connections served at once (keep-alive holds one)
+  int queue = 64;                     ///< queued jobs before 503
+  uint64_t max_body = 64ull << 20;    ///< request body limit, bytes
+  int max_headers = 64;               ///< request header count limit
+  uint64_t max_header_bytes = 16384;  ///< total size of the request headers, bytes
+  uint64_t max_objects = 10000;
+  uint64_t max_simplices = 2'000'000;
+  int max_depth = 0;                ///< cap on octree depth (0 = the lattice limit)
+  uint64_t max_leaves = 4'000'000;  ///< per job
+  double job_seconds = 300;         ///< wall time per job
+  uint64_t max_memory_mb = 4096;    ///< resident memory of the process; 0 = unlimited
+  int cache_entries = 16;           ///< finished results kept in memory
+  std::string backend = "cpu";      ///< cpu | opencl
+  int read_timeout = 10;            ///< seconds
+  int write_timeout = 10;           ///< seconds
+  int keep_alive_max = 1000;        ///< requests per connection
+  int keep_alive_timeout = 5;       ///< seconds idle
+  int max_streams = 4;              ///< concurrent SSE streams
+  int retry_after = 5;              ///< seconds, on 503
+  double grace_seconds = 10;        ///< SIGTERM: wait this long for running jobs
+  bool quiet = false;               ///< no request log
+};
+
+/// Bad command line or environment (the message says which option and why).
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Parses the environment (GVD_* variables in `env`) then argv. Throws UsageError.
+/// `help` is set when --help was given.
+ServerOptions parse_server_options(const std::vector<std::string>& args,
+                                   const std::map<std::string, std::string>& env, bool& help);
+
+/// The --help text (every flag with its variable and default).
+std::string server_usage();
+
+}  // namespace gvd::server

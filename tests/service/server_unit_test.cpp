@@ -1,0 +1,206 @@
+// Unit tests of the server's pieces that need no socket (CTest label `unit`, also under ASan).
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "gvd/common/error.h"
+#include "gvd/io/write_outputs.h"
+#include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/load_scene.h"
+#include "job_manager.h"
+#include "job_params.h"
+#include "metrics.h"
+#include "problem.h"
+#include "result_cache.h"
+#include "server_options.h"
+
+namespace gvd::server {
+namespace {
+
+using Json = nlohmann::json;
+
+TEST(ProblemTable, EveryCoreErrorCodeHasAClientOrServerStatus) {
+  for (ErrorCode code :
+       {ErrorCode::kInvalidScene, ErrorCode::kInvalidArgument, ErrorCode::kUnsupportedFormat,
+        ErrorCode::kOutsideDomain, ErrorCode::kLimitExceeded, ErrorCode::kNotFound, ErrorCode::kIo,
+        ErrorCode::kCancelled, ErrorCode::kInternal}) {
+    const ProblemInfo& info = problem_info(problem_kind(code));
+    EXPECT_GE(info.status, 400);
+    EXPECT_LT(info.status, 600);
+    const Json doc = Json::parse(problem_json(problem_kind(code), "d", "/x", "r1"));
+    EXPECT_EQ(doc["code"], error_code_name(code));
+  }
+  EXPECT_EQ(problem_info(problem_kind(ErrorCode::kInvalidScene)).status, 422);
+  EXPECT_EQ(problem_info(problem_kind(ErrorCode::kNotFound)).status, 404);
+  EXPECT_EQ(problem_info(problem_kind(ErrorCode::kUnsupportedFormat)).status, 415);
+  EXPECT_EQ(problem_info(problem_kind(ErrorCode::kInternal)).status, 500);
+}
+
+TEST(ProblemTable, TypesAreUniqueAndStable) {
+  std::set<std::string_view> types;
+  for (int k = 0; k < kProblemKindCount; ++k) {
+    const ProblemInfo& info = problem_info(static_cast<ProblemKind>(k));
+    EXPECT_TRUE(info.type.starts_with("/problems/")) << info.type;
+    EXPECT_FALSE(info.title.empty());
+    types.insert(info.type);
+    if (info.status == 503) {
+      EXPECT_TRUE(info.retryable) << info.type;
+    }
+  }
+  EXPECT_EQ(types.size(), static_cast<size_t>(kProblemKindCount));
+}
+
+TEST(ProblemJson, IsRfc9457AndSaysWhere) {
+  const Json doc = Json::parse(
+      problem_json(ProblemKind::kInvalidScene,
+                   "objects[3] (\"gear \\\"b\\\"\"): triangles[7][1] = 99 is out of range",
+                   "/v1/jobs", "req-1"));
+  EXPECT_EQ(doc["type"], "/problems/invalid-scene");
+  EXPECT_EQ(doc["title"], "Invalid scene");
+  EXPECT_EQ(doc["status"], 422);
+  EXPECT_EQ(doc["instance"], "/v1/jobs");
+  EXPECT_EQ(doc["request_id"], "req-1");
+  EXPECT_EQ(doc["object"]["index"], 3);
+  EXPECT_EQ(doc["element"]["kind"], "triangle");
+  EXPECT_EQ(doc["element"]["index"], 7);
+  const Json v = Json::parse(problem_json(
+      ProblemKind::kInvalidScene, "object 2 (\"wall\"): vertex 5 coordinate 1e30", "/", ""));
+  EXPECT_EQ(v["object"]["label"], "wall");
+  EXPECT_EQ(v["element"]["kind"], "vertex");
+  EXPECT_EQ(v["element"]["index"], 5);
+  // Indices too large for 64 bits are left out rather than thrown on.
+  const Json huge = Json::parse(problem_json(ProblemKind::kInvalidScene,
+                                             "object 99999999999999999999999 (\"x\"): vertex "
+                                             "99999999999999999999999 is bad",
+                                             "/", ""));
+  EXPECT_FALSE(huge.contains("object"));
+  EXPECT_FALSE(huge.contains("element"));
+  // Invalid UTF-8 in a detail does not throw.
+  EXPECT_NO_THROW(problem_json(ProblemKind::kInvalidArgument, "bad \xff byte", "/", ""));
+  const Json extra =
+      Json::parse(problem_json(ProblemKind::kNoPath, "none", "/", "", R"({"path":{"points":[]}})"));
+  EXPECT_TRUE(extra["path"]["points"].empty());
+}
+
+TEST(ServerOptions, FlagsOverrideEnvironment) {
+  bool help = false;
+  const ServerOptions o = parse_server_options(
+      {"--port", "9000", "--workers=3", "--max-body", "1000"},
+      {{"GVD_PORT", "7000"}, {"GVD_STORE", "/tmp/s"}, {"GVD_QUEUE", "5"}}, help);
+  EXPECT_FALSE(help);
+  EXPECT_EQ(o.port, 9000);
+  EXPECT_EQ(o.workers, 3);
+  EXPECT_EQ(o.max_body, 1000u);
+  EXPECT_EQ(o.store, "/tmp/s");
+  EXPECT_EQ(o.queue, 5);
+  parse_server_options({"--help"}, {}, help);
+  EXPECT_TRUE(help);
+  EXPECT_NE(server_usage().find("GVD_MAX_LEAVES"), std::string::npos);
+}
+
+TEST(ServerOptions, BadValuesAreUsageErrors) {
+  bool help = false;
+  EXPECT_THROW(parse_server_options({"--port", "x"}, {}, help), UsageError);
+  EXPECT_THROW(parse_server_options({"--port", "70000"}, {}, help), UsageError);
+  EXPECT_THROW(parse_server_options({"--workers"}, {}, help), UsageError);
+  EXPECT_THROW(parse_server_options({"--frobnicate", "1"}, {}, help), UsageError);
+  EXPECT_THROW(parse_server_options({"--backend", "gpu"}, {}, help), UsageError);
+  EXPECT_THROW(parse_server_options({}, {{"GVD_WORKERS", "-1"}}, help), UsageError);
+  EXPECT_THROW(parse_server_options({"--job-seconds", "nan"}, {}, help), UsageError);
+}
+
+TEST(JobParams, NormalizedTextAndValidation) {
+  JobParams a;
+  a.set("max_depth", "12");
+  a.set("domain", "0,0,1,1");
+  JobParams b = JobParams::from_json(a.to_json());
+  EXPECT_EQ(a.to_json(), b.to_json());
+  EXPECT_EQ(b.max_depth, 12);
+  EXPECT_THROW(a.set("max_depth", "12.5"), Error);
+  EXPECT_THROW(a.set("max_depth", "99"), Error);
+  EXPECT_THROW(a.set("domain", "0,0,1"), Error);
+  EXPECT_THROW(a.set("domain", "0,nan,1,1"), Error);
+  EXPECT_THROW(a.set("colour", "red"), Error);
+  ServerOptions server;
+  EXPECT_THROW(a.check(3, server), Error);  // a 2D box for a 3D scene
+  EXPECT_NO_THROW(a.check(2, server));
+  server.max_depth = 10;
+  EXPECT_THROW(a.check(2, server), Error);  // above the server's cap
+  server.max_memory_mb = 100;
+  server.max_leaves = 1'000'000;
+  EXPECT_EQ(JobParams{}.pipeline_options(server).max_leaves, 102400u);
+  EXPECT_EQ(JobParams{}.pipeline_options(server).max_depth, 10);
+}
+
+TEST(JobId, ContentAddressed) {
+  const std::string scene = R"({"dimension":2,"objects":[]})";
+  const std::string id = job_id(scene, JobParams{}.to_json());
+  EXPECT_EQ(id.size(), 32u);
+  EXPECT_EQ(id, job_id(scene, JobParams{}.to_json()));
+  JobParams p;
+  p.max_depth = 5;
+  EXPECT_NE(id, job_id(scene, p.to_json()));
+  EXPECT_NE(id, job_id(scene + " ", JobParams{}.to_json()));
+}
+
+TEST(Metrics, PrometheusText) {
+  Metrics m;
+  m.request("GET /x", "GET", 200, 0.001);
+  m.request("GET /x", "GET", 200, 0.003);
+  m.stage("octree", 0.2);
+  m.job_finished("done", 1.5);
+  m.count("gvd_job_cache_hits_total");
+  m.gauge("gvd_test_gauge", "A test.", [] { return 4.0; });
+  const std::string text = m.render();
+  EXPECT_NE(text.find("gvd_http_requests_total{route=\"GET /x\",method=\"GET\",status=\"200\"} 2"),
+            std::string::npos);
+  EXPECT_NE(text.find("gvd_http_request_duration_seconds_bucket{route=\"GET /x\",le=\"0.001\"} 1"),
+            std::string::npos);
+  EXPECT_NE(text.find("gvd_http_request_duration_seconds_bucket{route=\"GET /x\",le=\"+Inf\"} 2"),
+            std::string::npos);
+  EXPECT_NE(text.find("gvd_job_stage_duration_seconds_count{stage=\"octree\"} 1"),
+            std::string::npos);
+  EXPECT_NE(text.find("gvd_job_cache_hits_total 1"), std::string::npos);
+  EXPECT_NE(text.find("gvd_test_gauge 4"), std::string::npos);
+  EXPECT_NE(text.find("gvd_jobs_finished_total{status=\"done\"} 1"), std::string::npos);
+}
+
+TEST(GlbToGltf, EmbedsTheBufferAsADataUri) {
+  const Scene scene = parse_scene_json(R"({"dimension":2,"objects":[
+      {"label":"a","vertices":[[0,0],[1,0]],"segments":[[0,1]]},
+      {"label":"b","vertices":[[0,1],[1,1]],"segments":[[0,1]]}]})");
+  PipelineOptions options;
+  options.threads = 1;
+  const GvdResult r = compute_gvd(scene, options);
+  const std::vector<uint8_t> glb = gvd_to_glb(r.gvd, r.scene);
+  const Json gltf = Json::parse(glb_to_gltf(std::string(glb.begin(), glb.end())));
+  const std::string uri = gltf["buffers"][0]["uri"];
+  ASSERT_TRUE(uri.starts_with("data:application/octet-stream;base64,"));
+  const size_t b64 = uri.size() - std::string("data:application/octet-stream;base64,").size();
+  EXPECT_EQ(b64 % 4, 0u);
+  EXPECT_EQ(b64 / 4 * 3 - (uri.ends_with("==")  ? 2
+                           : uri.ends_with("=") ? 1
+                                                : 0),
+            gltf["buffers"][0]["byteLength"].get<size_t>());
+  EXPECT_THROW(glb_to_gltf("not a glb at all....."), Error);
+}
+
+TEST(ResultCache, LeastRecentlyUsedIsEvicted) {
+  int hits = 0, misses = 0;
+  ResultCache cache("/nonexistent-dir", 2, [&](bool hit) { (hit ? hits : misses)++; });
+  cache.put("a", std::make_shared<GvdResult>());
+  cache.put("b", std::make_shared<GvdResult>());
+  EXPECT_NE(cache.get("a"), nullptr);  // a is now the newest
+  cache.put("c", std::make_shared<GvdResult>());
+  EXPECT_EQ(cache.size(), 2u);
+  EXPECT_EQ(cache.get("b"), nullptr);  // evicted, and not on disk
+  EXPECT_NE(cache.get("a"), nullptr);
+  EXPECT_NE(cache.get("c"), nullptr);
+  EXPECT_EQ(hits, 3);
+  EXPECT_EQ(misses, 1);
+}
+
+}  // namespace
+}  // namespace gvd::server

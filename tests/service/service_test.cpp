@@ -1,0 +1,943 @@
+// Service tests (CTest label `service`): the real gvd-server on an ephemeral port with a temp
+// store, driven by a real HTTP client.
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "routes.h"
+#include "server_process.h"
+#include "support/gltf_validate.h"
+
+namespace gvd::test {
+namespace {
+
+using Json = nlohmann::json;
+namespace fs = std::filesystem;
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string data(const std::string& rel) {
+  return read_text(std::string(GVD_TEST_DATA_DIR) + "/" + rel);
+}
+
+std::unique_ptr<httplib::Client> client(int port) {
+  auto c = std::make_unique<httplib::Client>("127.0.0.1", port);
+  c->set_connection_timeout(5);
+  c->set_read_timeout(30);
+  c->set_write_timeout(30);
+  return c;
+}
+
+/// Two interpenetrating unit cubes: the octree refines along their contact down to
+/// contact_depth, so the job's run time grows ~2x per level (about 0.1 s at 9, 2 s at 11, 4 s
+/// at 12 on the project's 2-core machine) — a slow job on demand.
+std::string slow_scene() {
+  Json objects = Json::array();
+  const int tris[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                           {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  for (int k = 0; k < 2; ++k) {
+    Json v = Json::array(), t = Json::array();
+    for (int i = 0; i < 8; ++i)
+      v.push_back({0.5 * k + (i & 1), 0.5 * k + ((i >> 1) & 1), 0.5 * k + ((i >> 2) & 1)});
+    for (const auto& tri : tris) t.push_back({tri[0], tri[1], tri[2]});
+    objects.push_back({{"label", "cube" + std::to_string(k)}, {"vertices", v}, {"triangles", t}});
+  }
+  return Json{{"dimension", 3}, {"objects", objects}}.dump();
+}
+
+struct Submitted {
+  int status = 0;
+  std::string id;
+  Json body;
+  httplib::Headers headers;
+};
+
+Submitted submit(httplib::Client& c, const std::string& body, const std::string& query = "",
+                 const std::string& type = "application/json") {
+  auto r = c.Post(("/v1/jobs" + query).c_str(), body, type.c_str());
+  Submitted s;
+  if (!r) return s;
+  s.status = r->status;
+  s.headers = r->headers;
+  s.body = Json::parse(r->body, nullptr, false);
+  if (s.body.is_object() && s.body.contains("id")) s.id = s.body["id"].get<std::string>();
+  return s;
+}
+
+Json status_of(httplib::Client& c, const std::string& id) {
+  auto r = c.Get(("/v1/jobs/" + id).c_str());
+  if (!r || r->status != 200) return Json();
+  return Json::parse(r->body);
+}
+
+/// Polls until the job reaches one of `wanted` (or `seconds` pass); returns the last status.
+Json wait_for(httplib::Client& c, const std::string& id, const std::set<std::string>& wanted,
+              double seconds = 30) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  Json s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    s = status_of(c, id);
+    if (s.is_object() && wanted.count(s.value("status", "")) != 0) return s;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return s;
+}
+
+/// Sends raw bytes on a new connection and returns whatever the server answers (until it
+/// closes or `ms` pass).
+std::string raw_exchange(int port, const std::string& request, int ms = 2000) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    close(fd);
+    return "";
+  }
+  timeval tv{ms / 1000, (ms % 1000) * 1000};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  (void)!send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+  std::string out;
+  char buf[4096];
+  for (;;) {
+    const ssize_t n = recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    out.append(buf, static_cast<size_t>(n));
+    if (out.find("\r\n\r\n") != std::string::npos) {
+      // Stop after the body announced by Content-Length.
+      const size_t head_end = out.find("\r\n\r\n") + 4;
+      const size_t cl = out.find("Content-Length: ");
+      if (cl != std::string::npos && cl < head_end) {
+        const size_t len = std::stoul(out.substr(cl + 16));
+        if (out.size() >= head_end + len) break;
+      }
+    }
+  }
+  close(fd);
+  return out;
+}
+
+int raw_status(const std::string& response) {
+  if (response.size() < 12 || !response.starts_with("HTTP/1.1 ")) return 0;
+  return std::stoi(response.substr(9, 3));
+}
+
+const Json& corpus_expected() {
+  static const Json j = Json::parse(data("malformed/expected.json"));
+  return j;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Service, SubmitPollFetchEveryOutput) {
+  ServerProcess server(fresh_dir("submit"));
+  auto c = client(server.port());
+  const Submitted s = submit(*c, data("scenes/gears2d.json"));
+  ASSERT_EQ(s.status, 202) << s.body.dump();
+  ASSERT_EQ(s.id.size(), 32u);
+  EXPECT_EQ(std::string(httplib::detail::get_header_value(s.headers, "Location", 0, "")),
+            "/v1/jobs/" + s.id);
+  EXPECT_EQ(std::string(httplib::detail::get_header_value(s.headers, "X-Gvd-Cache", 0, "")),
+            "miss");
+  EXPECT_TRUE(s.body["status"] == "queued" || s.body["status"] == "running" ||
+              s.body["status"] == "done");
+
+  const Json done = wait_for(*c, s.id, {"done", "failed"});
+  ASSERT_EQ(done.value("status", ""), "done") << done.dump();
+  EXPECT_EQ(done["progress"]["fraction"], 1.0);
+  EXPECT_FALSE(done["progress"]["stages"].empty());
+  EXPECT_GT(done["result"]["leaves"].get<uint64_t>(), 0u);
+  EXPECT_GT(done["result"]["depth"].get<int>(), 0);
+  EXPECT_EQ(done["scene"]["objects"], 3);
+  EXPECT_TRUE(done["finished_at"].is_string());
+
+  auto glb = c->Get(("/v1/jobs/" + s.id + "/gvd.glb").c_str());
+  ASSERT_TRUE(glb);
+  ASSERT_EQ(glb->status, 200);
+  EXPECT_EQ(glb->get_header_value("Content-Type"), "model/gltf-binary");
+  EXPECT_EQ(glb->get_header_value("ETag"), "\"" + s.id + "\"");
+  ASSERT_GT(glb->body.size(), 20u);
+  EXPECT_EQ(glb->body.substr(0, 4), "glTF");
+  // Written, read back and validated (STYLE.md).
+  const std::string glb_path = fresh_dir("submit-glb") + "/gvd.glb";
+  std::ofstream(glb_path, std::ios::binary) << glb->body;
+  const GltfReport report = validate_glb_file(glb_path);
+  ASSERT_TRUE(report.ran) << report.output;
+  EXPECT_EQ(report.errors, 0) << report.output;
+  const GlbFile parsed = parse_glb(std::vector<uint8_t>(glb->body.begin(), glb->body.end()));
+  std::set<std::string> names;
+  for (const Json& n : parsed.json["nodes"]) names.insert(n["name"].get<std::string>());
+  EXPECT_EQ(names, (std::set<std::string>{"gear_a", "gear_b", "frame"}));
+
+  auto gltf = c->Get(("/v1/jobs/" + s.id + "/gvd.gltf").c_str());
+  ASSERT_TRUE(gltf);
+  ASSERT_EQ(gltf->status, 200);
+  const Json gltf_doc = Json::parse(gltf->body);
+  EXPECT_TRUE(gltf_doc["buffers"][0]["uri"].get<std::string>().starts_with(
+      "data:application/octet-stream;base64,"));
+  EXPECT_EQ(gltf_doc["nodes"].size(), parsed.json["nodes"].size());
+
+  for (const std::string path : {"/gvd.json", "/gvd.glb?format=json"}) {
+    auto j = c->Get(("/v1/jobs/" + s.id + path).c_str());
+    ASSERT_TRUE(j);
+    ASSERT_EQ(j->status, 200) << path;
+    const Json doc = Json::parse(j->body);
+    EXPECT_EQ(doc["dimension"], 2);
+    EXPECT_EQ(doc["objects"].size(), 3u);
+  }
+  auto graph = c->Get(("/v1/jobs/" + s.id + "/graph").c_str());
+  ASSERT_TRUE(graph);
+  ASSERT_EQ(graph->status, 200);
+  const Json g = Json::parse(graph->body);
+  EXPECT_EQ(g["nodes"].size(), 3u);
+  EXPECT_FALSE(g["edges"].empty());
+
+  auto file = c->Get(("/v1/jobs/" + s.id + "/result.gvd").c_str());
+  ASSERT_TRUE(file);
+  ASSERT_EQ(file->status, 200);
+  EXPECT_EQ(file->body.substr(0, 6), "GVDRES");
+
+  auto list = c->Get("/v1/jobs");
+  ASSERT_TRUE(list);
+  EXPECT_EQ(Json::parse(list->body)["jobs"][0]["id"], s.id);
+}
+
+TEST(Service, ResubmitIsACacheHitAndETagGives304) {
+  ServerProcess server(fresh_dir("cache"));
+  auto c = client(server.port());
+  const Submitted first = submit(*c, data("scenes/gears2d.json"));
+  ASSERT_EQ(first.status, 202);
+  ASSERT_EQ(wait_for(*c, first.id, {"done"}).value("status", ""), "done");
+  // Same scene, reformatted and with the keys in another order: the same normalized job.
+  Json scene = Json::parse(data("scenes/gears2d.json"));
+  const Submitted again = submit(*c, scene.dump(2));
+  EXPECT_EQ(again.status, 200);
+  EXPECT_EQ(again.id, first.id);
+  EXPECT_EQ(std::string(httplib::detail::get_header_value(again.headers, "X-Gvd-Cache", 0, "")),
+            "hit");
+  // Different parameters: a different job.
+  const Submitted other = submit(*c, data("scenes/gears2d.json"), "?max_depth=12");
+  EXPECT_EQ(other.status, 202);
+  EXPECT_NE(other.id, first.id);
+
+  httplib::Headers inm = {{"If-None-Match", "\"" + first.id + "\""}};
+  for (const std::string out : {"/gvd.glb", "/gvd.gltf", "/gvd.json", "/graph"}) {
+    auto r = c->Get(("/v1/jobs/" + first.id + out).c_str(), inm);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 304) << out;
+    EXPECT_TRUE(r->body.empty());
+  }
+  httplib::Headers stale = {{"If-None-Match", "\"0000\", W/\"1111\""}};
+  auto r = c->Get(("/v1/jobs/" + first.id + "/gvd.glb").c_str(), stale);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+
+  auto m = c->Get("/metrics");
+  ASSERT_TRUE(m);
+  EXPECT_NE(m->body.find("gvd_job_cache_hits_total 1"), std::string::npos) << m->body;
+}
+
+TEST(Service, MalformedCorpusGetsDocumentedProblemsAndServerKeepsServing) {
+  ServerProcess server(fresh_dir("malformed"));
+  auto c = client(server.port());
+  // A good job submitted first must finish despite the bad ones.
+  const Submitted good = submit(*c, data("scenes/gears2d.json"));
+  ASSERT_EQ(good.status, 202);
+  const std::map<std::string, std::pair<int, std::string>> by_code = {
+      {"invalid_scene", {422, "/problems/invalid-scene"}},
+      {"unsupported_format", {415, "/problems/unsupported-format"}},
+      {"limit_exceeded", {422, "/problems/limit-exceeded"}},
+      {"invalid_argument", {400, "/problems/invalid-argument"}}};
+  int files = 0;
+  for (const auto& [name, expected] : corpus_expected()["files"].items()) {
+    const std::string body = data("malformed/" + name);
+    // Single-object formats take their label from ?label= (the CLI uses the file stem).
+    const std::string stem = fs::path(name).stem().string();
+    auto r = c->Post(("/v1/jobs?label=" + stem).c_str(), body, "application/octet-stream");
+    ASSERT_TRUE(r) << name;
+    const auto& [status, type] = by_code.at(expected["code"].get<std::string>());
+    EXPECT_EQ(r->status, status) << name << ": " << r->body;
+    EXPECT_EQ(r->get_header_value("Content-Type"), "application/problem+json") << name;
+    const Json doc = Json::parse(r->body, nullptr, false);
+    ASSERT_TRUE(doc.is_object()) << name;
+    EXPECT_EQ(doc.value("type", ""), type) << name;
+    EXPECT_EQ(doc.value("status", 0), status) << name;
+    EXPECT_EQ(doc.value("code", ""), expected["code"]) << name;
+    EXPECT_NE(doc.value("detail", "").find(expected["contains"].get<std::string>()),
+              std::string::npos)
+        << name << ": " << doc.value("detail", "");
+    EXPECT_FALSE(doc.value("request_id", "").empty());
+    ++files;
+  }
+  EXPECT_GE(files, 40);
+  // Where: bad geometry names the object and the element.
+  auto r = c->Post("/v1/jobs", data("malformed/json_index_out_of_range.json"), "application/json");
+  const Json doc = Json::parse(r->body);
+  EXPECT_TRUE(doc.contains("object")) << r->body;
+  EXPECT_EQ(doc["element"]["kind"], "triangle") << r->body;
+  EXPECT_EQ(doc["element"]["index"], 2) << r->body;
+
+  EXPECT_EQ(wait_for(*c, good.id, {"done", "failed"}).value("status", ""), "done");
+  EXPECT_TRUE(server.running());
+}
+
+TEST(Service, BadRequestsAreRefusedBeforeTheBody) {
+  ServerProcess server(fresh_dir("hardening"), {"--max-body", "100000", "--max-headers", "20",
+                                                "--max-header-bytes", "4000"});
+  auto c = client(server.port());
+  const int port = server.port();
+  // Over the body limit: answered from the headers alone (no body sent at all), and the
+  // connection is closed at once (raw_exchange would otherwise wait for its 2 s timeout).
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string resp =
+      raw_exchange(port,
+                   "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                   "Content-Length: 1000000000\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 413) << resp;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+  EXPECT_NE(resp.find("application/problem+json"), std::string::npos);
+  // Expect: 100-continue gets the refusal instead of the go-ahead.
+  resp = raw_exchange(port,
+                      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                      "Expect: 100-continue\r\nContent-Length: 1000000000\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 413) << resp;
+  // Chunked body.
+  resp = raw_exchange(port,
+                      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                      "Transfer-Encoding: chunked\r\n\r\nffffffff\r\n");
+  EXPECT_EQ(raw_status(resp), 411) << resp;
+  // No Content-Length.
+  resp = raw_exchange(
+      port, "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n\r\n{}");
+  EXPECT_EQ(raw_status(resp), 411) << resp;
+  // A bad Content-Length.
+  resp = raw_exchange(port,
+                      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                      "Content-Length: -5\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 400) << resp;
+  // Compressed body.
+  resp = raw_exchange(port,
+                      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                      "Content-Encoding: gzip\r\nContent-Length: 4\r\n\r\nabcd");
+  EXPECT_EQ(raw_status(resp), 415) << resp;
+  // Too many headers / too large headers.
+  std::string many = "GET /healthz HTTP/1.1\r\nHost: x\r\n";
+  for (int i = 0; i < 30; ++i) many += "X-H" + std::to_string(i) + ": v\r\n";
+  EXPECT_EQ(raw_status(raw_exchange(port, many + "\r\n")), 431);
+  const std::string big = "GET /healthz HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(3000, 'a') +
+                          "\r\nX-Big2: " + std::string(3000, 'b') + "\r\n\r\n";
+  EXPECT_EQ(raw_status(raw_exchange(port, big)), 431);
+  // Wrong content type for a scene; a form body.
+  auto r = c->Post("/v1/jobs", "a=b", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 415);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/unsupported-media-type");
+  // A body just over the limit, sent in full.
+  r = c->Post("/v1/jobs", std::string(100001, ' '), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 413);
+  // Unknown job, unknown route, wrong method, bad parameters.
+  r = c->Get("/v1/jobs/0123456789abcdef0123456789abcdef");
+  EXPECT_EQ(r->status, 404);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/not-found");
+  r = c->Get("/v1/jobs/0123456789abcdef0123456789abcdef/gvd.glb");
+  EXPECT_EQ(r->status, 404);
+  r = c->Get("/nope");
+  EXPECT_EQ(r->status, 404);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/route-not-found");
+  r = c->Put("/v1/jobs", "x", "application/json");
+  EXPECT_EQ(r->status, 405);
+  EXPECT_EQ(r->get_header_value("Allow"), "POST, GET");
+  r = c->Post("/v1/jobs?max_depth=banana", data("scenes/gears2d.json"), "application/json");
+  EXPECT_EQ(r->status, 400);
+  r = c->Post("/v1/jobs?colour=red", data("scenes/gears2d.json"), "application/json");
+  EXPECT_EQ(r->status, 400);
+  r = c->Post("/v1/jobs?domain=0,0,1,1", data("scenes/gears2d.json"), "application/json");
+  EXPECT_EQ(r->status, 400) << r->body;  // the box does not contain the scene
+  // Still serving.
+  r = c->Get("/healthz");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+}
+
+TEST(Service, ProblemTypesAreDocumented) {
+  ServerProcess server(fresh_dir("problems"));
+  auto c = client(server.port());
+  auto r = c->Get("/problems/invalid-scene");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  EXPECT_EQ(Json::parse(r->body)["status"], 422);
+}
+
+TEST(Service, QueueFullAnswers503WithRetryAfter) {
+  ServerProcess server(fresh_dir("queue"),
+                       {"--workers", "1", "--queue", "1", "--retry-after", "7"});
+  auto c = client(server.port());
+  const std::string scene = slow_scene();
+  const Submitted running = submit(*c, scene, "?contact_depth=12");
+  ASSERT_EQ(running.status, 202);
+  ASSERT_EQ(wait_for(*c, running.id, {"running"}).value("status", ""), "running");
+  const Submitted queued = submit(*c, scene, "?contact_depth=11");
+  ASSERT_EQ(queued.status, 202);
+  EXPECT_EQ(queued.body["status"], "queued");
+  EXPECT_EQ(queued.body["queue_position"], 1);
+  auto r = c->Post("/v1/jobs?contact_depth=10", scene, "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 503);
+  EXPECT_EQ(r->get_header_value("Retry-After"), "7");
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/queue-full");
+  // The same job again is not a new one: no 503.
+  EXPECT_EQ(submit(*c, scene, "?contact_depth=11").status, 202);
+  auto m = c->Get("/metrics");
+  EXPECT_NE(m->body.find("gvd_queue_depth 1"), std::string::npos);
+  EXPECT_NE(m->body.find("gvd_jobs_rejected_total 1"), std::string::npos);
+  // Clean up quickly.
+  c->Delete(("/v1/jobs/" + queued.id).c_str());
+  c->Delete(("/v1/jobs/" + running.id).c_str());
+  EXPECT_EQ(wait_for(*c, running.id, {"cancelled"}, 10).value("status", ""), "cancelled");
+}
+
+TEST(Service, DeleteCancelsQueuedAndRunningJobsAndForgetsFinishedOnes) {
+  ServerProcess server(fresh_dir("cancel"), {"--workers", "1"});
+  auto c = client(server.port());
+  const std::string scene = slow_scene();
+  const Submitted running = submit(*c, scene, "?contact_depth=12");
+  ASSERT_EQ(wait_for(*c, running.id, {"running"}).value("status", ""), "running");
+  const Submitted queued = submit(*c, scene, "?contact_depth=11");
+  auto r = c->Delete(("/v1/jobs/" + queued.id).c_str());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(Json::parse(r->body)["status"], "cancelled");
+  const auto t0 = std::chrono::steady_clock::now();
+  r = c->Delete(("/v1/jobs/" + running.id).c_str());
+  EXPECT_EQ(r->status, 202);
+  const Json cancelled = wait_for(*c, running.id, {"cancelled", "done", "failed"}, 10);
+  EXPECT_EQ(cancelled.value("status", ""), "cancelled");
+  EXPECT_EQ(cancelled["error"]["type"], "/problems/cancelled");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 3.0);
+  r = c->Get(("/v1/jobs/" + running.id + "/gvd.glb").c_str());
+  EXPECT_EQ(r->status, 409);
+  // A cancelled job submitted again is computed again.
+  const Submitted again = submit(*c, scene, "?contact_depth=8");
+  ASSERT_EQ(wait_for(*c, again.id, {"done"}).value("status", ""), "done");
+  r = c->Delete(("/v1/jobs/" + again.id).c_str());
+  EXPECT_EQ(r->status, 204);
+  EXPECT_EQ(c->Get(("/v1/jobs/" + again.id).c_str())->status, 404);
+  EXPECT_EQ(c->Delete(("/v1/jobs/" + again.id).c_str())->status, 404);
+}
+
+TEST(Service, JobLimitsAreCheckedWhileItRuns) {
+  ServerProcess server(fresh_dir("limits"), {"--job-seconds", "0.3"});
+  auto c = client(server.port());
+  const std::string scene = slow_scene();
+  const Submitted slow = submit(*c, scene, "?contact_depth=12");
+  const Json timed_out = wait_for(*c, slow.id, {"failed", "done"}, 10);
+  ASSERT_EQ(timed_out.value("status", ""), "failed") << timed_out.dump();
+  EXPECT_EQ(timed_out["error"]["type"], "/problems/limit-exceeded");
+  EXPECT_NE(timed_out["error"]["detail"].get<std::string>().find("longer than"), std::string::npos);
+  auto r = c->Get(("/v1/jobs/" + slow.id + "/graph").c_str());
+  EXPECT_EQ(r->status, 409);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/job-failed");
+  // Leaves: the engine's limit, set from --max-leaves.
+  ServerProcess small(fresh_dir("limits2"), {"--max-objects", "2", "--max-leaves", "50000"});
+  auto c2 = client(small.port());
+  const Submitted big = submit(*c2, scene, "?contact_depth=10");
+  const Json leaves = wait_for(*c2, big.id, {"failed", "done"}, 10);
+  ASSERT_EQ(leaves.value("status", ""), "failed") << leaves.dump();
+  EXPECT_EQ(leaves["error"]["code"], "limit_exceeded");
+  EXPECT_NE(leaves["error"]["detail"].get<std::string>().find("leaves"), std::string::npos)
+      << leaves.dump();
+  // Objects: refused at submission.
+  r = c2->Post("/v1/jobs", data("scenes/gears2d.json"), "application/json");
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Json::parse(r->body)["code"], "limit_exceeded");
+  // Memory: the process's resident memory (and, through it, the leaves per job) is bounded.
+  ServerProcess mem(fresh_dir("limits3"), {"--max-memory-mb", "40"});
+  auto c3 = client(mem.port());
+  const Submitted hungry = submit(*c3, scene, "?contact_depth=12");
+  const Json stopped = wait_for(*c3, hungry.id, {"failed", "done"}, 20);
+  ASSERT_EQ(stopped.value("status", ""), "failed") << stopped.dump();
+  EXPECT_EQ(stopped["error"]["type"], "/problems/limit-exceeded");
+  const std::string why = stopped["error"]["detail"];
+  EXPECT_TRUE(why.find("memory") != std::string::npos || why.find("leaves") != std::string::npos)
+      << why;
+  EXPECT_EQ(c3->Get("/healthz")->status, 200);
+}
+
+TEST(Service, EventStreamReportsProgressUntilDone) {
+  ServerProcess server(fresh_dir("sse"));
+  auto c = client(server.port());
+  const Submitted s = submit(*c, slow_scene(), "?contact_depth=9");
+  std::string stream;
+  auto r = c->Get(("/v1/jobs/" + s.id + "/events").c_str(), [&](const char* d, size_t n) {
+    stream.append(d, n);
+    return true;
+  });
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "text/event-stream");
+  EXPECT_NE(stream.find("event: done\ndata: {"), std::string::npos) << stream.substr(0, 2000);
+  // Every event is one JSON status document.
+  std::istringstream lines(stream);
+  std::string line;
+  int events = 0;
+  while (std::getline(lines, line)) {
+    if (!line.starts_with("data: ")) continue;
+    const Json doc = Json::parse(line.substr(6));
+    EXPECT_EQ(doc["id"], s.id);
+    ++events;
+  }
+  EXPECT_GE(events, 1);
+  // A finished job: one final event, then the stream ends.
+  stream.clear();
+  r = c->Get(("/v1/jobs/" + s.id + "/events").c_str(), [&](const char* d, size_t n) {
+    stream.append(d, n);
+    return true;
+  });
+  EXPECT_TRUE(stream.starts_with("event: done\n")) << stream;
+}
+
+TEST(Service, RestartAfterKill9KeepsResultsAndResumesTheInterruptedJob) {
+  const std::string store = fresh_dir("restart");
+  std::string finished_id, finished_glb, interrupted_id;
+  {
+    ServerProcess server(store, {"--workers", "1"});
+    auto c = client(server.port());
+    const Submitted done = submit(*c, data("scenes/gears2d.json"));
+    ASSERT_EQ(wait_for(*c, done.id, {"done"}).value("status", ""), "done");
+    finished_id = done.id;
+    finished_glb = c->Get(("/v1/jobs/" + done.id + "/gvd.glb").c_str())->body;
+    const Submitted slow = submit(*c, slow_scene(), "?contact_depth=10");
+    interrupted_id = slow.id;
+    ASSERT_EQ(wait_for(*c, slow.id, {"running"}).value("status", ""), "running");
+    const Submitted queued = submit(*c, data("scenes/gears2d.json"), "?max_depth=10");
+    ASSERT_EQ(queued.body["status"], "queued");
+    server.signal(SIGKILL);
+    EXPECT_EQ(server.wait(), -SIGKILL);
+  }
+  ServerProcess server(store, {"--workers", "1"});
+  auto c = client(server.port());
+  // The finished result is served as it was.
+  auto glb = c->Get(("/v1/jobs/" + finished_id + "/gvd.glb").c_str());
+  ASSERT_TRUE(glb);
+  ASSERT_EQ(glb->status, 200);
+  EXPECT_EQ(glb->body, finished_glb);
+  EXPECT_EQ(status_of(*c, finished_id)["status"], "done");
+  // The interrupted job runs again and completes.
+  const Json resumed = wait_for(*c, interrupted_id, {"done", "failed"}, 30);
+  EXPECT_EQ(resumed.value("status", ""), "done") << resumed.dump();
+  EXPECT_EQ(resumed.value("recovered", false), true);
+  auto jobs = Json::parse(c->Get("/v1/jobs")->body)["jobs"];
+  int done = 0;
+  for (const Json& j : jobs) {
+    const std::string id = j["id"];
+    if (wait_for(*c, id, {"done"}, 30).value("status", "") == "done") ++done;
+  }
+  EXPECT_EQ(done, 3);
+  auto m = c->Get("/metrics");
+  EXPECT_NE(m->body.find("gvd_jobs_recovered_total 2"), std::string::npos);
+}
+
+TEST(Service, RestartRebuildsAMissingStatusDocumentAndDropsTemporaryFiles) {
+  const std::string store = fresh_dir("restart-files");
+  std::string id;
+  {
+    ServerProcess server(store);
+    auto c = client(server.port());
+    id = submit(*c, data("scenes/gears2d.json")).id;
+    ASSERT_EQ(wait_for(*c, id, {"done"}).value("status", ""), "done");
+  }
+  // As if killed between writing the result and its status document, and during a write.
+  fs::remove(store + "/results/" + id + ".json");
+  std::ofstream(store + "/results/" + id + ".gvd.tmp.123.0") << "partial";
+  std::ofstream(store + "/requests/" + std::string(32, 'a') + ".scene.json") << "{}";  // orphan
+  ServerProcess server(store);
+  auto c = client(server.port());
+  const Json s = status_of(*c, id);
+  EXPECT_EQ(s.value("status", ""), "done");
+  EXPECT_GT(s["result"]["leaves"].get<uint64_t>(), 0u);
+  EXPECT_EQ(c->Get(("/v1/jobs/" + id + "/graph").c_str())->status, 200);
+  EXPECT_TRUE(fs::exists(store + "/results/" + id + ".json"));
+  EXPECT_FALSE(fs::exists(store + "/results/" + id + ".gvd.tmp.123.0"));
+  EXPECT_FALSE(fs::exists(store + "/requests/" + std::string(32, 'a') + ".scene.json"));
+}
+
+TEST(Service, SigtermDrainsThenExits) {
+  const std::string store = fresh_dir("drain");
+  ServerProcess server(store, {"--grace-seconds", "0.5", "--workers", "1"});
+  auto c = client(server.port());
+  const Submitted slow = submit(*c, slow_scene(), "?contact_depth=12");
+  ASSERT_EQ(wait_for(*c, slow.id, {"running"}).value("status", ""), "running");
+  server.signal(SIGTERM);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  auto ready = c->Get("/readyz");
+  ASSERT_TRUE(ready);
+  EXPECT_EQ(ready->status, 503);
+  EXPECT_EQ(Json::parse(ready->body)["status"], "draining");
+  auto r = c->Post("/v1/jobs", data("scenes/gears2d.json"), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 503);
+  EXPECT_FALSE(r->get_header_value("Retry-After").empty());
+  EXPECT_EQ(server.wait(), 0);
+  // The running job was persisted and is still pending for the next start.
+  EXPECT_TRUE(fs::exists(store + "/requests/" + slow.id + ".json"));
+}
+
+TEST(Service, MultipartUploadOnePartPerObject) {
+  ServerProcess server(fresh_dir("multipart"));
+  auto c = client(server.port());
+  // Two tetrahedra 3 units apart, one as OFF and one as PLY; the part names are the labels.
+  const std::string off =
+      "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
+      "3 0 0\n4 0 0\n3 1 0\n3 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  httplib::MultipartFormDataItems items = {
+      {"left tet", off, "left.off", "application/octet-stream"},
+      {"right_tet", ply, "right.ply", "application/octet-stream"},
+      {"params", R"({"max_depth": 8})", "", "application/json"},
+  };
+  auto r = c->Post("/v1/jobs", items);
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const Json job = Json::parse(r->body);
+  EXPECT_EQ(job["params"]["max_depth"], 8);
+  EXPECT_EQ(job["scene"]["objects"], 2);
+  const std::string id = job["id"];
+  const Json done = wait_for(*c, id, {"done", "failed"});
+  ASSERT_EQ(done.value("status", ""), "done") << done.dump();
+  const Json g = Json::parse(c->Get(("/v1/jobs/" + id + "/graph").c_str())->body);
+  std::set<std::string> labels;
+  for (const Json& n : g["nodes"]) labels.insert(n["label"]);
+  EXPECT_EQ(labels, (std::set<std::string>{"left tet", "right_tet"}));
+  // A label with a space, URL-encoded in the path.
+  r = c->Get(("/v1/jobs/" + id + "/objects/left%20tet/neighbors").c_str());
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Json::parse(r->body)["neighbors"][0]["label"], "right_tet");
+  // Duplicate part names are duplicate labels; a bad part names itself.
+  httplib::MultipartFormDataItems dup = {
+      {"a", off, "a.off", "application/octet-stream"},
+      {"a", ply, "a.ply", "application/octet-stream"},
+  };
+  r = c->Post("/v1/jobs", dup);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422) << r->body;
+  httplib::MultipartFormDataItems broken = {
+      {"good", off, "good.off", "application/octet-stream"},
+      {"broken", "OFF\n4 1 0\n0 0 0\n", "broken.off", "application/octet-stream"},
+  };
+  r = c->Post("/v1/jobs", broken);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422) << r->body;
+  EXPECT_NE(r->body.find("broken"), std::string::npos) << r->body;
+}
+
+TEST(Service, ConcurrentClients) {
+  ServerProcess server(fresh_dir("concurrent"), {"--http-threads", "16"});
+  auto c = client(server.port());
+  const Submitted s = submit(*c, data("scenes/gears2d.json"));
+  ASSERT_EQ(wait_for(*c, s.id, {"done"}).value("status", ""), "done");
+  std::atomic<int> ok{0}, bad{0};
+  std::vector<std::thread> threads;
+  const std::string scene = data("scenes/gears2d.json");
+  for (int t = 0; t < 8; ++t) {
+    threads.emplace_back([&, t] {
+      auto tc = client(server.port());
+      for (int i = 0; i < 25; ++i) {
+        httplib::Result r = (i % 5 == 0)   ? tc->Post("/v1/jobs", scene, "application/json")
+                            : (i % 5 == 1) ? tc->Get(("/v1/jobs/" + s.id + "/gvd.glb").c_str())
+                            : (i % 5 == 2) ? tc->Get(("/v1/jobs/" + s.id + "/graph").c_str())
+                            : (i % 5 == 3) ? tc->Get("/metrics")
+                                           : tc->Get(("/v1/jobs/" + s.id).c_str());
+        (r && r->status == 200 ? ok : bad)++;
+        (void)t;
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(bad, 0);
+  EXPECT_EQ(ok, 200);
+
+  // The same new scene submitted by 8 clients at once: one job, one computation.
+  std::atomic<int> misses{0};
+  std::vector<std::string> ids(8);
+  threads.clear();
+  for (int t = 0; t < 8; ++t) {
+    threads.emplace_back([&, t] {
+      auto tc = client(server.port());
+      auto r = tc->Post("/v1/jobs?max_depth=14", scene, "application/json");
+      if (!r) return;
+      if (r->get_header_value("X-Gvd-Cache") == "miss") ++misses;
+      ids[static_cast<size_t>(t)] = Json::parse(r->body).value("id", "");
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(misses, 1);
+  for (const std::string& id : ids) EXPECT_EQ(id, ids[0]);
+  auto m = c->Get("/metrics");
+  EXPECT_NE(m->body.find("gvd_jobs_submitted_total 2"), std::string::npos);
+}
+
+TEST(Service, HealthReadinessMetrics) {
+  ServerProcess server(fresh_dir("health"));
+  auto c = client(server.port());
+  auto r = c->Get("/healthz");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_FALSE(r->get_header_value("X-Request-Id").empty());
+  r = c->Get("/readyz", {{"X-Request-Id", "my-trace-1"}});
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value("X-Request-Id"), "my-trace-1");
+  const Json ready = Json::parse(r->body);
+  EXPECT_EQ(ready["status"], "ready");
+  EXPECT_EQ(ready["backend"], "cpu");
+  const Submitted s = submit(*c, data("scenes/gears2d.json"));
+  wait_for(*c, s.id, {"done"});
+  c->Get(("/v1/jobs/" + s.id + "/graph").c_str());
+  // A request is counted by the logger right after its answer is written: give it a moment.
+  for (int i = 0; i < 100; ++i) {
+    r = c->Get("/metrics");
+    if (r->body.find("route=\"GET /v1/jobs/{id}/graph\",le=\"+Inf\"} 1") != std::string::npos)
+      break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(r->status, 200);
+  EXPECT_TRUE(r->get_header_value("Content-Type").starts_with("text/plain; version=0.0.4"));
+  for (const char* needle :
+       {"gvd_http_requests_total{route=\"GET /healthz\",method=\"GET\",status=\"200\"} 1",
+        "gvd_http_requests_total{route=\"POST /v1/jobs\",method=\"POST\",status=\"202\"} 1",
+        "gvd_http_request_duration_seconds_bucket{route=\"GET /v1/jobs/{id}/graph\",le=\"+Inf\"} 1",
+        "gvd_job_stage_duration_seconds_count{stage=", "gvd_job_duration_seconds_count 1",
+        "gvd_jobs_finished_total{status=\"done\"} 1", "gvd_queue_depth 0",
+        "gvd_result_cache_hits_total", "process_resident_memory_bytes"}) {
+    EXPECT_NE(r->body.find(needle), std::string::npos) << needle;
+  }
+  r = c->Get("/");
+  EXPECT_EQ(r->status, 200);
+  EXPECT_NE(r->body.find("openapi.json"), std::string::npos);
+}
+
+TEST(Service, OpenApiIsValidAndListsEveryRoute) {
+  ServerProcess server(fresh_dir("openapi"));
+  auto c = client(server.port());
+  auto r = c->Get("/openapi.json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  const Json doc = Json::parse(r->body);
+  EXPECT_EQ(doc["openapi"].get<std::string>().substr(0, 3), "3.1");
+  for (const server::Route& route : server::kRoutes) {
+    const std::string path(route.openapi_path);
+    std::string method(route.method);
+    for (char& ch : method) ch = static_cast<char>(std::tolower(ch));
+    EXPECT_TRUE(doc["paths"].contains(path)) << path;
+    if (doc["paths"].contains(path)) {
+      EXPECT_TRUE(doc["paths"][path].contains(method)) << method << " " << path;
+    }
+  }
+  size_t operations = 0;
+  for (const auto& [path, item] : doc["paths"].items()) {
+    for (const auto& [method, op] : item.items()) {
+      if (method != "parameters") ++operations;
+    }
+  }
+  EXPECT_EQ(operations, server::kRoutes.size());  // nothing documented that is not served
+  const std::string file = fresh_dir("openapi-doc") + "/openapi.json";
+  std::ofstream(file) << r->body;
+  const std::string cmd = "node " + std::string(GVD_TEST_JS_DIR) + "/validate_openapi.mjs " + file +
+                          " > " + file + ".out 2>&1";
+  const int rc = std::system(cmd.c_str());
+  EXPECT_EQ(rc, 0) << read_text(file + ".out");
+}
+
+}  // namespace
+}  // namespace gvd::test
+
+namespace gvd::test {
+namespace {
+
+/// A finished gears2d job (gear_a, gear_b inside a rectangular frame) for the query tests.
+struct QueryFixture {
+  QueryFixture() : server(fresh_dir("queries")), c(client(server.port())) {
+    const Submitted s = submit(*c, data("scenes/gears2d.json"));
+    id = s.id;
+    const Json done = wait_for(*c, id, {"done", "failed"});
+    EXPECT_EQ(done.value("status", ""), "done");
+    graph = Json::parse(c->Get(("/v1/jobs/" + id + "/graph").c_str())->body);
+  }
+  std::string url(const std::string& tail) const { return "/v1/jobs/" + id + tail; }
+  ServerProcess server;
+  std::unique_ptr<httplib::Client> c;
+  std::string id;
+  Json graph;
+};
+
+TEST(ServiceQueries, NeighborsMatchTheDualGraph) {
+  QueryFixture f;
+  auto r = f.c->Get(f.url("/objects/gear_a/neighbors?ring=1").c_str());
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json doc = Json::parse(r->body);
+  std::set<std::string> got, want;
+  for (const Json& n : doc["neighbors"]) got.insert(n["label"]);
+  for (const Json& e : f.graph["edges"]) {
+    if (e["label_a"] == "gear_a") want.insert(e["label_b"]);
+    if (e["label_b"] == "gear_a") want.insert(e["label_a"]);
+  }
+  EXPECT_EQ(got, want);
+  EXPECT_FALSE(got.empty());
+  // Errors: unknown label, bad ring, unfinished/unknown job.
+  r = f.c->Get(f.url("/objects/no_such_gear/neighbors").c_str());
+  EXPECT_EQ(r->status, 404);
+  EXPECT_NE(Json::parse(r->body)["detail"].get<std::string>().find("no_such_gear"),
+            std::string::npos);
+  EXPECT_EQ(f.c->Get(f.url("/objects/gear_a/neighbors?ring=0").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/objects/gear_a/neighbors?ring=x").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get("/v1/jobs/ffffffffffffffffffffffffffffffff/objects/a/neighbors")->status, 404);
+}
+
+TEST(ServiceQueries, NearestSingleAndBatch) {
+  QueryFixture f;
+  const Json scene = Json::parse(data("scenes/gears2d.json"));
+  // A vertex of each object: that object is the nearest, at distance ~0.
+  std::vector<std::pair<std::string, Json>> probes;
+  for (const Json& o : scene["objects"]) probes.emplace_back(o["label"], o["vertices"][0]);
+  Json points = Json::array();
+  for (const auto& [label, p] : probes) {
+    const std::string q =
+        "?point=" + std::to_string(p[0].get<double>()) + "," + std::to_string(p[1].get<double>());
+    auto r = f.c->Get(f.url("/nearest" + q).c_str());
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+    const Json a = Json::parse(r->body);
+    EXPECT_EQ(a["label"], label);
+    EXPECT_LT(a["distance"].get<double>(), 1e-4);
+    points.push_back(p);
+  }
+  auto r =
+      f.c->Post(f.url("/nearest").c_str(), Json{{"points", points}}.dump(), "application/json");
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json batch = Json::parse(r->body)["answers"];
+  ASSERT_EQ(batch.size(), probes.size());
+  for (size_t i = 0; i < probes.size(); ++i) {
+    EXPECT_EQ(batch[i]["label"], probes[i].first);
+    EXPECT_EQ(batch[i]["point"], probes[i].second);  // echoed as given
+  }
+  // Errors: outside the domain (422), wrong arity / not a number / missing (400), bad JSON,
+  // wrong content type.
+  r = f.c->Get(f.url("/nearest?point=100,0").c_str());
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/outside-domain");
+  EXPECT_EQ(f.c->Get(f.url("/nearest?point=1,2,3").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/nearest?point=a,b").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/nearest").c_str())->status, 400);
+  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[0,", "application/json")->status,
+            400);
+  EXPECT_EQ(
+      f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[\"x\",0]]}", "application/json")->status,
+      400);
+  EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "application/xml")->status, 415);
+  // `curl -d` labels the JSON body as a form: still read as JSON.
+  EXPECT_EQ(
+      f.c->Post(f.url("/nearest").c_str(), "[[0,0]]", "application/x-www-form-urlencoded")->status,
+      200);
+}
+
+TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
+  QueryFixture f;
+  auto r = f.c->Post(f.url("/paths").c_str(), R"({"from":[-1.3,-2.3],"to":[3.3,2.3]})",
+                     "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json path = Json::parse(r->body);
+  ASSERT_GE(path["points"].size(), 2u);
+  EXPECT_EQ(path["points"].front(), Json::parse("[-1.3,-2.3]"));
+  EXPECT_EQ(path["points"].back(), Json::parse("[3.3,2.3]"));
+  EXPECT_GE(path["length"].get<double>(), std::hypot(4.6, 4.6) - 1e-9);
+  EXPECT_GT(path["min_clearance"].get<double>(), 0.0);
+  // A start inside gear_a: no path; the problem carries the path document.
+  r = f.c->Post(f.url("/paths").c_str(), R"({"from":[0.5,0.5],"to":[3.3,2.3]})",
+                "application/json");
+  ASSERT_EQ(r->status, 422) << r->body;
+  const Json problem = Json::parse(r->body);
+  EXPECT_EQ(problem["type"], "/problems/no-path");
+  EXPECT_TRUE(problem["path"]["points"].empty());
+  EXPECT_TRUE(problem["path"]["length"].is_null());
+  // As `curl -X POST .../paths -d '{...}'` sends it (a form content type).
+  r = f.c->Post(f.url("/paths").c_str(), R"({"from":[-1.3,-2.3],"to":[3.3,2.3]})",
+                "application/x-www-form-urlencoded");
+  EXPECT_EQ(r->status, 200) << r->body;
+  // Bad bodies.
+  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0]})", "application/json")->status,
+            400);
+  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"({"from":[0,0],"to":[1,1],"min_clearance":-1})",
+                      "application/json")
+                ->status,
+            400);
+  EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"(not json)", "application/json")->status, 400);
+}
+
+TEST(ServiceQueries, ExplodeJsonAndGlbAndClearanceReport) {
+  QueryFixture f;
+  auto r = f.c->Get(f.url("/explode?anchor=frame").c_str());
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json view = Json::parse(r->body);
+  EXPECT_EQ(view["label"], "frame");
+  EXPECT_EQ(view["objects"].size(), 3u);
+  r = f.c->Get(f.url("/explode?anchor=frame&format=glb").c_str());
+  ASSERT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "model/gltf-binary");
+  const std::string glb_path = fresh_dir("explode-glb") + "/exploded.glb";
+  std::ofstream(glb_path, std::ios::binary) << r->body;
+  const GltfReport report = validate_glb_file(glb_path);
+  ASSERT_TRUE(report.ran) << report.output;
+  EXPECT_EQ(report.errors, 0) << report.output;
+  EXPECT_EQ(f.c->Get(f.url("/explode").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/explode?anchor=nobody").c_str())->status, 404);
+  EXPECT_EQ(f.c->Get(f.url("/explode?anchor=frame&format=obj").c_str())->status, 400);
+
+  r = f.c->Get(f.url("/tight?below=1e9").c_str());
+  ASSERT_EQ(r->status, 200);
+  EXPECT_EQ(Json::parse(r->body)["pairs"].size(), f.graph["edges"].size());
+  r = f.c->Get(f.url("/tight?below=0").c_str());
+  EXPECT_TRUE(Json::parse(r->body)["pairs"].empty());
+  EXPECT_EQ(f.c->Get(f.url("/tight").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/tight?below=-1").c_str())->status, 400);
+}
+
+TEST(ServiceQueries, UnfinishedJobsAnswer409) {
+  ServerProcess server(fresh_dir("queries-409"), {"--workers", "1"});
+  auto c = client(server.port());
+  const Submitted slow = submit(*c, slow_scene(), "?contact_depth=12");
+  ASSERT_EQ(wait_for(*c, slow.id, {"running"}).value("status", ""), "running");
+  auto r = c->Get(("/v1/jobs/" + slow.id + "/nearest?point=0,0,0").c_str());
+  EXPECT_EQ(r->status, 409);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/job-not-finished");
+  EXPECT_EQ(c->Get(("/v1/jobs/" + slow.id + "/gvd.glb").c_str())->status, 409);
+  c->Delete(("/v1/jobs/" + slow.id).c_str());
+  wait_for(*c, slow.id, {"cancelled"}, 10);
+}
+
+}  // namespace
+}  // namespace gvd::test
