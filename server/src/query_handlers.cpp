@@ -88,22 +88,31 @@ void QueryHandlers::neighbors(const httplib::Request& req, httplib::Response& re
   send_json(res, neighbors_to_json(index, object, ring, found));
 }
 
+// `fast=true`: the paper's rule alone away from objects (GvdIndex::nearest, approximate).
+bool fast_mode(const httplib::Request& req) {
+  const std::string fast = param(req, "fast", false);
+  if (fast.empty() || fast == "false" || fast == "0") return false;
+  if (fast == "true" || fast == "1") return true;
+  bad("query parameter \"fast\" is true or false, not \"" + fast + "\"");
+}
+
 void QueryHandlers::nearest(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
   const GvdIndex& index = result->index();
   const Vec3 p = parse_point("point", param(req, "point", true), index.dimension());
-  send_json(res, nearest_to_json(index, index.nearest(p)));
+  send_json(res, nearest_to_json(index, index.nearest(p, fast_mode(req))));
 }
 
 void QueryHandlers::nearest_batch(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
   const GvdIndex& index = result->index();
   const std::vector<Vec3> points = parse_points_json(req.body, index.dimension());
+  const bool fast = fast_mode(req);
   std::string out = "{\"answers\":[";
   for (size_t i = 0; i < points.size(); ++i) {
     if (i > 0) out += ',';
     try {
-      out += nearest_to_json(index, index.nearest(points[i]));
+      out += nearest_to_json(index, index.nearest(points[i], fast));
     } catch (const Error& e) {
       throw Error(e.code(), "point " + std::to_string(i) + ": " + e.detail());
     }

@@ -852,6 +852,14 @@ TEST(ServiceQueries, NearestSingleAndBatch) {
   EXPECT_EQ(f.c->Get(f.url("/nearest?point=1,2,3").c_str())->status, 400);
   EXPECT_EQ(f.c->Get(f.url("/nearest?point=a,b").c_str())->status, 400);
   EXPECT_EQ(f.c->Get(f.url("/nearest").c_str())->status, 400);
+  // fast=true answers with the same object on the object itself; a bad value is a 400.
+  r = f.c->Get(
+      f.url("/nearest?fast=true&point=" + std::to_string(probes[0].second[0].get<double>()) + "," +
+            std::to_string(probes[0].second[1].get<double>()))
+          .c_str());
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Json::parse(r->body)["label"], probes[0].first);
+  EXPECT_EQ(f.c->Get(f.url("/nearest?fast=maybe&point=0,0").c_str())->status, 400);
   EXPECT_EQ(f.c->Post(f.url("/nearest").c_str(), "{\"points\":[[0,", "application/json")->status,
             400);
   EXPECT_EQ(
