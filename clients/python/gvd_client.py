@@ -19,6 +19,7 @@ import http.client
 import json
 import os
 import socket
+import threading
 import time
 import urllib.parse
 import uuid
@@ -238,6 +239,8 @@ def _retry_after(value: Optional[str]) -> Optional[float]:
 class Client:
     """A gvd-server at ``url`` (``http://host:port``).
 
+    Thread-safe: each thread uses its own kept-alive connection.
+
     ``timeout``: seconds for connecting and for each read. ``retries``: how many times a
     request refused with 503 (queue full, draining) or failing to connect is tried again;
     the wait doubles from ``backoff`` seconds (at most ``max_backoff``) unless the server's
@@ -254,7 +257,17 @@ class Client:
         self._prefix = parts.path.rstrip("/")
         self.timeout, self.retries = timeout, retries
         self.backoff, self.max_backoff = backoff, max_backoff
-        self._conn: Optional[http.client.HTTPConnection] = None
+        # One kept-alive connection per thread: a Client may be shared by threads
+        # (http.client connections may not).
+        self._local = threading.local()
+
+    @property
+    def _conn(self) -> Optional[http.client.HTTPConnection]:
+        return getattr(self._local, "conn", None)
+
+    @_conn.setter
+    def _conn(self, conn: Optional[http.client.HTTPConnection]) -> None:
+        self._local.conn = conn
 
     # -- low level
 
@@ -333,7 +346,7 @@ class Client:
             self._conn = None
 
     def close(self) -> None:
-        """Closes the kept-alive connection (a later request opens a new one)."""
+        """Closes this thread's kept-alive connection (a later request opens a new one)."""
         self._close()
 
     def __enter__(self) -> "Client":

@@ -1,0 +1,175 @@
+#include "http_client.h"
+
+#include <httplib.h>
+
+#include <cctype>
+#include <cmath>
+
+namespace gvd::cli {
+namespace {
+
+void set_timeouts(httplib::Client& c, double seconds) {
+  const auto sec = static_cast<time_t>(seconds);
+  const auto usec = static_cast<time_t>((seconds - std::floor(seconds)) * 1e6);
+  c.set_connection_timeout(sec, usec);
+  c.set_read_timeout(sec, usec);
+  c.set_write_timeout(sec, usec);
+}
+
+/// What went wrong, in words (httplib's own names are terse: "Connection", "Read").
+std::string describe(httplib::Error e) {
+  switch (e) {
+    case httplib::Error::Connection:
+      return "cannot connect (connection refused or host unreachable)";
+    case httplib::Error::ConnectionTimeout:
+      return "connection timed out";
+    case httplib::Error::Read:
+      return "no answer (connection closed, or read timed out)";
+    case httplib::Error::Write:
+      return "connection lost while sending";
+    default:
+      return httplib::to_string(e);
+  }
+}
+
+HttpAnswer answer(const httplib::Result& r, const std::string& what, const std::string& url) {
+  if (!r) {
+    throw NetworkError{what + " " + url + ": " + describe(r.error())};
+  }
+  HttpAnswer a;
+  a.status = r->status;
+  a.body = r->body;
+  a.content_type = r->get_header_value("Content-Type");
+  a.location = r->get_header_value("Location");
+  a.retry_after = r->get_header_value("Retry-After");
+  return a;
+}
+
+}  // namespace
+
+struct HttpClient::Impl {
+  Impl(const std::string& url, double timeout) : client(url), timeout_seconds(timeout) {
+    client.set_keep_alive(true);
+    client.set_tcp_nodelay(true);  // ENVIRONMENT.md: ~27 ms per keep-alive request otherwise
+    client.set_follow_location(false);
+    set_timeouts(client, timeout);
+  }
+  httplib::Client client;
+  double timeout_seconds;
+};
+
+HttpClient::HttpClient(const std::string& url, double timeout_seconds)
+    : url_(url), impl_(std::make_unique<Impl>(url, timeout_seconds)) {
+  if (!impl_->client.is_valid()) throw NetworkError{"not a usable server URL: " + url};
+}
+
+HttpClient::~HttpClient() = default;
+
+HttpAnswer HttpClient::get(const std::string& path) {
+  return answer(impl_->client.Get(path), "GET", url_ + path);
+}
+
+HttpAnswer HttpClient::post(const std::string& path, const std::string& body,
+                            const std::string& content_type) {
+  return answer(impl_->client.Post(path, body, content_type), "POST", url_ + path);
+}
+
+HttpAnswer HttpClient::post_multipart(const std::string& path,
+                                      const std::vector<FilePart>& parts) {
+  httplib::MultipartFormDataItems items;
+  for (const FilePart& p : parts) {
+    items.push_back({p.name, p.content, p.filename, "application/octet-stream"});
+  }
+  return answer(impl_->client.Post(path, items), "POST", url_ + path);
+}
+
+HttpAnswer HttpClient::del(const std::string& path) {
+  return answer(impl_->client.Delete(path), "DELETE", url_ + path);
+}
+
+HttpAnswer HttpClient::events(
+    const std::string& path, double idle_seconds,
+    const std::function<bool(const std::string&, const std::string&)>& on_event) {
+  // A separate connection: the stream holds it until the job ends.
+  httplib::Client stream(url_);
+  set_timeouts(stream, impl_->timeout_seconds);
+  stream.set_read_timeout(static_cast<time_t>(std::ceil(idle_seconds)), 0);
+  stream.set_tcp_nodelay(true);
+  int status = 0;
+  std::string buffer, body;
+  bool stopped = false;
+  auto on_response = [&](const httplib::Response& r) {
+    status = r.status;
+    return true;
+  };
+  auto on_data = [&](const char* data, size_t n) {
+    if (status != 200) {
+      body.append(data, n);
+      return true;
+    }
+    buffer.append(data, n);
+    size_t end;
+    while ((end = buffer.find("\n\n")) != std::string::npos) {
+      const std::string block = buffer.substr(0, end);
+      buffer.erase(0, end + 2);
+      std::string event = "message", payload;
+      bool has_data = false;
+      size_t start = 0;
+      while (start < block.size()) {
+        size_t eol = block.find('\n', start);
+        if (eol == std::string::npos) eol = block.size();
+        std::string line = block.substr(start, eol - start);
+        start = eol + 1;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (line.rfind("event:", 0) == 0) {
+          event = line.substr(6);
+          if (!event.empty() && event[0] == ' ') event.erase(0, 1);
+        } else if (line.rfind("data:", 0) == 0) {
+          std::string d = line.substr(5);
+          if (!d.empty() && d[0] == ' ') d.erase(0, 1);
+          if (has_data) payload += '\n';
+          payload += d;
+          has_data = true;
+        }
+      }
+      if (has_data && !on_event(event, payload)) {
+        stopped = true;
+        return false;
+      }
+    }
+    return true;
+  };
+  httplib::Headers headers = {{"Accept", "text/event-stream"}};
+  const httplib::Result r = stream.Get(path, headers, on_response, on_data);
+  HttpAnswer a;
+  if (!r) {
+    // Stopping on purpose ends the request with Error::Canceled.
+    if (stopped && r.error() == httplib::Error::Canceled) {
+      a.status = 200;
+      return a;
+    }
+    throw NetworkError{"GET " + url_ + path + ": " + describe(r.error())};
+  }
+  a.status = r->status;
+  a.body = status == 200 ? std::string() : body;
+  a.content_type = r->get_header_value("Content-Type");
+  a.retry_after = r->get_header_value("Retry-After");
+  return a;
+}
+
+std::string url_encode(const std::string& text) {
+  static const char* kHex = "0123456789ABCDEF";
+  std::string out;
+  for (const unsigned char c : text) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '~') {
+      out += static_cast<char>(c);
+    } else {
+      out += '%';
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    }
+  }
+  return out;
+}
+
+}  // namespace gvd::cli
