@@ -4,6 +4,9 @@
 
 #include <cctype>
 #include <cmath>
+#include <regex>
+
+#include "cli_options.h"
 
 namespace gvd::cli {
 namespace {
@@ -45,6 +48,22 @@ HttpAnswer answer(const httplib::Result& r, const std::string& what, const std::
   return a;
 }
 
+/// http://host[:port][/prefix] -> ("http://host:port", "/prefix"); a missing scheme is http.
+std::pair<std::string, std::string> split_url(const std::string& url) {
+  static const std::regex re(
+      R"(^(?:(https?)://)?([^/:?#\[\]\s]+|\[[0-9A-Fa-f:.]+\])(?::(\d+))?(/[^?#]*)?$)");
+  std::smatch m;
+  if (!std::regex_match(url, m, re)) {
+    throw UsageError{"--server expects http://host[:port][/prefix], got \"" + url + "\""};
+  }
+  const std::string scheme = m[1].matched ? m[1].str() : "http";
+  std::string base = scheme + "://" + m[2].str();
+  if (m[3].matched) base += ":" + m[3].str();
+  std::string prefix = m[4].matched ? m[4].str() : "";
+  while (!prefix.empty() && prefix.back() == '/') prefix.pop_back();
+  return {base, prefix};
+}
+
 }  // namespace
 
 struct HttpClient::Impl {
@@ -58,20 +77,23 @@ struct HttpClient::Impl {
   double timeout_seconds;
 };
 
-HttpClient::HttpClient(const std::string& url, double timeout_seconds)
-    : url_(url), impl_(std::make_unique<Impl>(url, timeout_seconds)) {
-  if (!impl_->client.is_valid()) throw NetworkError{"not a usable server URL: " + url};
+HttpClient::HttpClient(const std::string& url, double timeout_seconds) {
+  auto [base, prefix] = split_url(url);
+  url_ = base + prefix;
+  prefix_ = prefix;
+  impl_ = std::make_unique<Impl>(base, timeout_seconds);
+  if (!impl_->client.is_valid()) throw UsageError{"not a usable server URL: " + url};
 }
 
 HttpClient::~HttpClient() = default;
 
 HttpAnswer HttpClient::get(const std::string& path) {
-  return answer(impl_->client.Get(path), "GET", url_ + path);
+  return answer(impl_->client.Get(prefix_ + path), "GET", url_ + path);
 }
 
 HttpAnswer HttpClient::post(const std::string& path, const std::string& body,
                             const std::string& content_type) {
-  return answer(impl_->client.Post(path, body, content_type), "POST", url_ + path);
+  return answer(impl_->client.Post(prefix_ + path, body, content_type), "POST", url_ + path);
 }
 
 HttpAnswer HttpClient::post_multipart(const std::string& path,
@@ -80,18 +102,18 @@ HttpAnswer HttpClient::post_multipart(const std::string& path,
   for (const FilePart& p : parts) {
     items.push_back({p.name, p.content, p.filename, "application/octet-stream"});
   }
-  return answer(impl_->client.Post(path, items), "POST", url_ + path);
+  return answer(impl_->client.Post(prefix_ + path, items), "POST", url_ + path);
 }
 
 HttpAnswer HttpClient::del(const std::string& path) {
-  return answer(impl_->client.Delete(path), "DELETE", url_ + path);
+  return answer(impl_->client.Delete(prefix_ + path), "DELETE", url_ + path);
 }
 
 HttpAnswer HttpClient::events(
     const std::string& path, double idle_seconds,
     const std::function<bool(const std::string&, const std::string&)>& on_event) {
   // A separate connection: the stream holds it until the job ends.
-  httplib::Client stream(url_);
+  httplib::Client stream(split_url(url_).first);
   set_timeouts(stream, impl_->timeout_seconds);
   stream.set_read_timeout(static_cast<time_t>(std::ceil(idle_seconds)), 0);
   stream.set_tcp_nodelay(true);
@@ -140,7 +162,7 @@ HttpAnswer HttpClient::events(
     return true;
   };
   httplib::Headers headers = {{"Accept", "text/event-stream"}};
-  const httplib::Result r = stream.Get(path, headers, on_response, on_data);
+  const httplib::Result r = stream.Get(prefix_ + path, headers, on_response, on_data);
   HttpAnswer a;
   if (!r) {
     // Stopping on purpose ends the request with Error::Canceled.

@@ -35,8 +35,8 @@ struct NetworkError {
 /// NetworkError when no HTTP answer came back; any status is returned as an answer.
 class HttpClient {
  public:
-  /// `url`: http://host[:port] (https when cpp-httplib was built with OpenSSL).
-  /// `timeout_seconds`: for connecting and for each read/write.
+  /// `url`: [http://]host[:port][/prefix] (https when cpp-httplib was built with OpenSSL);
+  /// anything else is a UsageError. `timeout_seconds`: for connecting and each read/write.
   HttpClient(const std::string& url, double timeout_seconds);
   ~HttpClient();
   HttpClient(const HttpClient&) = delete;
@@ -59,7 +59,8 @@ class HttpClient {
 
  private:
   struct Impl;
-  std::string url_;
+  std::string url_;     ///< base + prefix, for messages
+  std::string prefix_;  ///< a path the server is mounted under ("" or "/gvd")
   std::unique_ptr<Impl> impl_;
 };
 

@@ -155,6 +155,12 @@ class RemoteCli(unittest.TestCase):
         self.assertEqual(rc, NETWORK, err)
         self.assertIn("network error", err)
         self.assertLess(time.monotonic() - t0, 10)
+        # URLs: a trailing slash or no scheme is fine; something that is not a URL is a usage
+        # error, not a network error.
+        for url in (self.url + "/", self.url.replace("http://", "")):
+            self.assertEqual(gvd("--server", url, "info", "--job", self.id)[0], OK, url)
+        self.assertEqual(gvd("--server", "not a url", "info", "--job", self.id)[0], USAGE)
+        self.assertEqual(gvd("--server", "ftp://example.org", "info", "--job", self.id)[0], USAGE)
         # --local ignores GVD_SERVER.
         rc, _, err = gvd("--local", "neighbors", result, "--object", "gear_a",
                          env={"GVD_SERVER": "http://127.0.0.1:1"})
@@ -177,6 +183,23 @@ class RemoteCli(unittest.TestCase):
                                    "4", "--object", "cube", "-q")
         self.assertEqual(rc, OK, err)
         self.assertEqual(json.loads(out)["neighbors"][0]["label"], "tetra_ascii")
+
+
+class ExitCodeTable(unittest.TestCase):
+    def test_every_documented_problem_type_has_one_exit_code(self):
+        with open(os.path.join(ROOT, "docs", "API.md")) as f:
+            documented = re.findall(r"^\| `(/problems/[a-z-]+)` \|", f.read(), re.M)
+        with open(os.path.join(ROOT, "clients", "cli", "remote_commands.cpp")) as f:
+            rows = re.findall(r'\{"(/problems/[a-z-]+)", (kExit\w+)\}', f.read())
+        self.assertEqual(len(documented), 22)
+        self.assertEqual(sorted(t for t, _ in rows), sorted(documented))
+        codes = dict(rows)
+        self.assertEqual(codes["/problems/queue-full"], "kExitBusy")
+        self.assertEqual(codes["/problems/no-path"], "kExitNoPath")
+        rc, out, _ = gvd("--help")
+        self.assertEqual(rc, OK)
+        for code in ("8 server busy", "9 network error"):
+            self.assertIn(code, " ".join(out.split()))
 
 
 class BusyServer(unittest.TestCase):
