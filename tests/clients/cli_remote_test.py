@@ -207,11 +207,12 @@ class BusyServer(unittest.TestCase):
 
     def test_busy_cancelled_and_unfinished(self):
         with ServerProcess("--workers", "1", "--queue", "1", "--retry-after", "1",
-                           name="cli-busy") as server, gc.Client(server.url) as client:
+                           "--job-threads", "1", name="cli-busy") as server, \
+                gc.Client(server.url) as client:
             scene = os.path.join(fresh_dir("cli-busy"), "slow.json")
             with open(scene, "w") as f:
                 json.dump(slow_scene(), f)
-            running = client.submit(scene, {"contact_depth": 12})
+            running = client.submit(scene, {"contact_depth": 13})
             deadline = time.monotonic() + 20
             while running.status() != "running":
                 self.assertLess(time.monotonic(), deadline)

@@ -223,8 +223,10 @@ class SlowJobs(unittest.TestCase):
     """A server with one worker and a queue of one, and jobs that take seconds."""
 
     def setUp(self):
+        # One thread per job: the running job stays slow (seconds) on any machine and leaves
+        # the other cores to the tests that run alongside.
         self.server = ServerProcess("--workers", "1", "--queue", "1", "--retry-after", "1",
-                                    "--max-streams", "1", name="py-busy")
+                                    "--max-streams", "1", "--job-threads", "1", name="py-busy")
         self.client = gc.Client(self.server.url, timeout=30, retries=0)
         self.scene = slow_scene()
 
@@ -233,7 +235,7 @@ class SlowJobs(unittest.TestCase):
         self.server.stop()
 
     def running_and_queued(self):
-        running = self.client.submit(self.scene, {"contact_depth": 12})
+        running = self.client.submit(self.scene, {"contact_depth": 13})
         deadline = time.monotonic() + 20
         while running.status() != "running":
             self.assertLess(time.monotonic(), deadline)
