@@ -96,8 +96,7 @@ HttpAnswer HttpClient::post(const std::string& path, const std::string& body,
   return answer(impl_->client.Post(prefix_ + path, body, content_type), "POST", url_ + path);
 }
 
-HttpAnswer HttpClient::post_multipart(const std::string& path,
-                                      const std::vector<FilePart>& parts) {
+HttpAnswer HttpClient::post_multipart(const std::string& path, const std::vector<FilePart>& parts) {
   httplib::MultipartFormDataItems items;
   for (const FilePart& p : parts) {
     items.push_back({p.name, p.content, p.filename, "application/octet-stream"});

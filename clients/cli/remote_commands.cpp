@@ -12,12 +12,11 @@
 #include <filesystem>
 #include <iostream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string_view>
 #include <thread>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "cli_options.h"
 #include "commands.h"
@@ -44,7 +43,7 @@ constexpr std::array<ProblemExit, 22> kProblemExits = {{
     {"/problems/io-error", kExitIo},
     {"/problems/cancelled", kExitCancelled},
     {"/problems/internal", kExitInternal},
-    {"/problems/route-not-found", kExitIo},  // a server without this API (wrong URL?)
+    {"/problems/route-not-found", kExitIo},           // a server without this API (wrong URL?)
     {"/problems/method-not-allowed", kExitInternal},  // our bug
     {"/problems/length-required", kExitInternal},     // our bug
     {"/problems/body-too-large", kExitLimit},
@@ -75,6 +74,13 @@ constexpr std::array<std::pair<std::string_view, std::string_view>, 5> kServerSi
     {"--max-leaves", "--max-leaves"},
     {"--max-objects", "--max-objects"},
     {"--max-simplices", "--max-simplices"},
+}};
+
+constexpr std::array<std::pair<std::string_view, std::string_view>, 4> kSceneTypes = {{
+    {".json", "application/json"},
+    {".obj", "model/obj"},
+    {".glb", "model/gltf-binary"},
+    {".gltf", "model/gltf+json"},
 }};
 
 const std::vector<std::string>& remote_value_flags() {
@@ -121,9 +127,7 @@ std::string read_text(const std::string& path) {
 Json problem_of(const HttpAnswer& a) {
   Json doc = Json::parse(a.body, nullptr, false);
   if (!doc.is_object()) {
-    doc = Json{{"type", "about:blank"},
-               {"status", a.status},
-               {"detail", a.body.substr(0, 200)}};
+    doc = Json{{"type", "about:blank"}, {"status", a.status}, {"detail", a.body.substr(0, 200)}};
   }
   return doc;
 }
@@ -165,8 +169,7 @@ class Remote {
       }
       const Json p = problem_of(a);
       if (a.status == 503) {
-        throw_problem(p, a.status, "server busy after " + std::to_string(retries_) +
-                                       " retries: ");
+        throw_problem(p, a.status, "server busy after " + std::to_string(retries_) + " retries: ");
       }
       throw_problem(p, a.status);
     }
@@ -185,19 +188,20 @@ class Remote {
     }
     for (const auto& [flag, server_flag] : kServerSide) {
       if (args.has(std::string(flag))) {
-        throw UsageError{std::string(flag) + " is not a job parameter: the server sets it (gvd-server " +
+        throw UsageError{std::string(flag) +
+                         " is not a job parameter: the server sets it (gvd-server " +
                          std::string(server_flag) + ")"};
       }
     }
     HttpAnswer a;
     if (files.size() == 1) {
       const std::string ext = lower_extension(files[0]);
+      // The server recognises formats by their bytes; the type only has to be a scene type.
       std::string type = "application/octet-stream";
-      if (ext == ".json") type = "application/json";
-      else if (ext == ".obj") type = "model/obj";
-      else if (ext == ".glb") type = "model/gltf-binary";
-      else if (ext == ".gltf") type = "model/gltf+json";
-      else if (ext == ".ply" || ext == ".stl" || ext == ".off") {
+      for (const auto& [e, t] : kSceneTypes) {
+        if (ext == e) type = t;
+      }
+      if (ext == ".ply" || ext == ".stl" || ext == ".off") {
         query += (query.empty() ? "?" : "&") + std::string("label=") +
                  url_encode(std::filesystem::path(files[0]).stem().string());
       }
@@ -269,10 +273,11 @@ class Remote {
       throw_problem(error.empty() ? Json{{"type", status == "failed" ? "/problems/job-failed"
                                                                      : "/problems/cancelled"}}
                                   : error,
-                    static_cast<int>(number(error, "status", 409)), "job " + text(doc, "id", "") + " " + status + ": ");
+                    static_cast<int>(number(error, "status", 409)),
+                    "job " + text(doc, "id", "") + " " + status + ": ");
     }
-    throw RemoteError{kExitBusy, "job " + text(doc, "id", "") + " is " + status +
-                                     " (try again when it is done)"};
+    throw RemoteError{
+        kExitBusy, "job " + text(doc, "id", "") + " is " + status + " (try again when it is done)"};
   }
 
   /// The job a query is about: --job ID (must be done), or the scene files submitted now.
@@ -362,11 +367,13 @@ void print_summary(const Json& doc, std::FILE* out) {
   auto num = [&](const char* k) { return number(r, k, 0.0); };
   std::fprintf(out, "  objects %.0f, simplices %.0f, dimension %.0f\n", num("objects"),
                num("simplices"), num("dimension"));
-  std::fprintf(out, "  backend %s, %.0f threads\n", text(r, "backend", "?").c_str(), num("threads"));
-  std::fprintf(out, "  octree: depth %.0f (limit %.0f), %.0f leaves, %.0f vertices, %.1f bytes/leaf\n",
-               num("depth"), num("max_depth"), num("leaves"), num("vertices"),
-               num("bytes_per_leaf"));
-  std::fprintf(out, "  gvd: %.0f simplices (both sides), %.0f neighbour pairs, %.0f refinement rounds\n",
+  std::fprintf(out, "  backend %s, %.0f threads\n", text(r, "backend", "?").c_str(),
+               num("threads"));
+  std::fprintf(
+      out, "  octree: depth %.0f (limit %.0f), %.0f leaves, %.0f vertices, %.1f bytes/leaf\n",
+      num("depth"), num("max_depth"), num("leaves"), num("vertices"), num("bytes_per_leaf"));
+  std::fprintf(out,
+               "  gvd: %.0f simplices (both sides), %.0f neighbour pairs, %.0f refinement rounds\n",
                num("gvd_simplices"), num("graph_edges"), num("refine_rounds"));
   std::fprintf(out, "  stages:");
   for (const Json& st : member(r, "stages", Json::array())) {
@@ -388,8 +395,8 @@ void download(Remote& remote, const std::string& id, const std::string& what,
 }
 
 int remote_compute(const std::string& url, int argc, char** argv) {
-  const Args args = parse_remote(argc, argv, {"-o", "--output", "--graph", "--json", "--save"},
-                                 {"--no-wait"});
+  const Args args =
+      parse_remote(argc, argv, {"-o", "--output", "--graph", "--json", "--save"}, {"--no-wait"});
   if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
   if (args.has("--job")) throw UsageError{"compute submits scene files; --job is for queries"};
   Remote remote(url, args);
@@ -570,8 +577,8 @@ int remote_tight(const std::string& url, int argc, char** argv) {
   }
   Remote remote(url, args);
   const std::string id = remote.query_job(args);
-  const HttpAnswer a =
-      remote.call("GET", Remote::job_path(id) + "/tight?below=" + url_encode(*args.value("--below")));
+  const HttpAnswer a = remote.call(
+      "GET", Remote::job_path(id) + "/tight?below=" + url_encode(*args.value("--below")));
   std::printf("%s\n", a.body.c_str());
   return kExitOk;
 }
