@@ -185,6 +185,23 @@ class RemoteCli(unittest.TestCase):
         self.assertEqual(json.loads(out)["neighbors"][0]["label"], "tetra_ascii")
 
 
+class NoEventStreams(unittest.TestCase):
+    def test_compute_polls_when_the_server_has_no_stream_to_spare(self):
+        with ServerProcess("--max-streams", "0", name="cli-poll") as server:
+            glb = os.path.join(fresh_dir("cli-poll"), "gvd.glb")
+            rc, out, err = gvd("--server", server.url, "compute", GEARS, "-o", glb)
+            self.assertEqual(rc, OK, err)
+            self.assertIn("stage: done", err)
+            with open(glb, "rb") as f:
+                self.assertEqual(f.read(4), b"glTF")
+            with gc.Client(server.url) as client:  # and the Python client polls too
+                job = client.submit(GEARS)
+                self.assertEqual(job.id, out.strip())
+                seen = []
+                self.assertEqual(job.wait(progress=lambda s, f: seen.append(s))["status"], "done")
+                self.assertEqual(seen[-1], "done")
+
+
 class ExitCodeTable(unittest.TestCase):
     def test_every_documented_problem_type_has_one_exit_code(self):
         with open(os.path.join(ROOT, "docs", "API.md")) as f:
