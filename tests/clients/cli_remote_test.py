@@ -202,6 +202,19 @@ class NoEventStreams(unittest.TestCase):
                 self.assertEqual(seen[-1], "done")
 
 
+class FailedJob(unittest.TestCase):
+    def test_a_job_over_the_time_limit_exits_with_the_limit_code(self):
+        with ServerProcess("--job-seconds", "0.3", name="cli-limit") as server:
+            scene = os.path.join(fresh_dir("cli-limit"), "slow.json")
+            with open(scene, "w") as f:
+                json.dump(slow_scene(), f)
+            rc, out, err = gvd("--server", server.url, "compute", scene, "--contact-depth", "12")
+            self.assertEqual(rc, LIMIT, err)
+            self.assertIn("failed", err)
+            rc, _, err = gvd("--server", server.url, "tight", "--job", out.strip(), "--below", "1")
+            self.assertEqual(rc, LIMIT, err)
+
+
 class ExitCodeTable(unittest.TestCase):
     def test_every_documented_problem_type_has_one_exit_code(self):
         with open(os.path.join(ROOT, "docs", "API.md")) as f:
