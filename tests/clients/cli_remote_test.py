@@ -204,7 +204,8 @@ class NoEventStreams(unittest.TestCase):
 
 class FailedJob(unittest.TestCase):
     def test_a_job_over_the_time_limit_exits_with_the_limit_code(self):
-        with ServerProcess("--job-seconds", "0.3", name="cli-limit") as server:
+        with ServerProcess("--job-seconds", "0.3", "--max-body", "20000",
+                           name="cli-limit") as server:
             scene = os.path.join(fresh_dir("cli-limit"), "slow.json")
             with open(scene, "w") as f:
                 json.dump(slow_scene(), f)
@@ -213,6 +214,14 @@ class FailedJob(unittest.TestCase):
             self.assertIn("failed", err)
             rc, _, err = gvd("--server", server.url, "tight", "--job", out.strip(), "--below", "1")
             self.assertEqual(rc, LIMIT, err)
+            # A scene over --max-body (58 KB > 20 KB): 413, exit 4; BodyTooLarge in Python.
+            big = os.path.join(DATA, "scenes", "balls_on_plate.json")
+            rc, _, err = gvd("--server", server.url, "compute", big)
+            self.assertEqual(rc, LIMIT, err)
+            self.assertIn("too large", err)
+            with gc.Client(server.url) as client, self.assertRaises(gc.BodyTooLarge) as e:
+                client.submit(big)
+            self.assertEqual(e.exception.status, 413)
 
 
 class ExitCodeTable(unittest.TestCase):
