@@ -4,6 +4,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <csignal>
 #include <regex>
 
 #include "cli_options.h"
@@ -29,7 +30,8 @@ std::string describe(httplib::Error e) {
     case httplib::Error::Read:
       return "no answer (connection closed, or read timed out)";
     case httplib::Error::Write:
-      return "connection lost while sending";
+      return "the server closed the connection while the request was sent (a body larger than "
+             "it accepts? see gvd-server --max-body)";
     default:
       return httplib::to_string(e);
   }
@@ -78,6 +80,10 @@ struct HttpClient::Impl {
 };
 
 HttpClient::HttpClient(const std::string& url, double timeout_seconds) {
+  // cpp-httplib 0.11.4 writes with plain send(): a server that closes the connection while we
+  // send (a body over its --max-body) would kill the process with SIGPIPE. Failed writes are
+  // reported as errors instead.
+  std::signal(SIGPIPE, SIG_IGN);
   auto [base, prefix] = split_url(url);
   url_ = base + prefix;
   prefix_ = prefix;

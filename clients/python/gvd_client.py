@@ -295,8 +295,20 @@ class Client:
             try:
                 if self._conn is None:
                     self._conn = self._connect()
-                self._conn.request(method, self._prefix + path, body=body, headers=headers)
-                raw = self._conn.getresponse()
+                try:
+                    self._conn.request(method, self._prefix + path, body=body, headers=headers)
+                except (BrokenPipeError, ConnectionResetError):
+                    # The server may refuse a body before reading it (413 over --max-body) and
+                    # close the connection: its answer is still there to read.
+                    if body is None or len(body) < 65536:
+                        raise
+                    try:
+                        raw = self._conn.getresponse()
+                    except (OSError, http.client.HTTPException):
+                        raise BrokenPipeError("the server closed the connection while the "
+                                              "request was sent") from None
+                else:
+                    raw = self._conn.getresponse()
                 data = raw.read()
                 resp = _Response(raw.status, {k.lower(): v for k, v in raw.getheaders()}, data)
                 if resp.headers.get("connection", "").lower() == "close":

@@ -222,6 +222,19 @@ class FailedJob(unittest.TestCase):
             with gc.Client(server.url) as client, self.assertRaises(gc.BodyTooLarge) as e:
                 client.submit(big)
             self.assertEqual(e.exception.status, 413)
+            # Regression: a body far over the limit is refused before the server reads it and
+            # the connection closed while we still send; that killed gvd with SIGPIPE. Now: a
+            # network error that names the likely cause (or the 413, if the whole body got
+            # out before the server closed). Python reads the 413 either way.
+            huge = os.path.join(fresh_dir("cli-limit"), "huge.json")
+            with open(huge, "wb") as f:
+                f.write(b"{" + b" " * 4_000_000 + b"}")
+            rc, _, err = gvd("--server", server.url, "compute", huge)
+            self.assertIn(rc, (LIMIT, NETWORK), err)
+            if rc == NETWORK and "while the request was sent" in err:
+                self.assertIn("--max-body", err)
+            with gc.Client(server.url) as client, self.assertRaises(gc.BodyTooLarge):
+                client.submit(huge)
 
 
 class ExitCodeTable(unittest.TestCase):
