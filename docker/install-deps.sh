@@ -8,7 +8,7 @@ packages=(
   build-essential cmake ninja-build pkg-config ccache git
   libcpp-httplib-dev libssl-dev nlohmann-json3-dev libtinygltf-dev
   opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd clinfo
-  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev wrk curl
+  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev wrk curl python3
   clang-format clang-tidy
 )
 

@@ -21,6 +21,8 @@ enum ExitCode : int {
   kExitIo = 5,         ///< a file could not be read or written / not found
   kExitCancelled = 6,  ///< interrupted
   kExitNoPath = 7,     ///< `gvd path`: no path joins the points (the JSON says why)
+  kExitBusy = 8,       ///< --server: still 503 after the retries, or the job is not done yet
+  kExitNetwork = 9,    ///< --server: the server cannot be reached (refused, reset, timeout)
 };
 
 /// Thrown for command-line mistakes; the message is shown with a hint to --help.

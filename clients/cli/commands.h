@@ -2,6 +2,7 @@
 
 // The `gvd` subcommands and what they share: reading compute options and computing a scene.
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,10 @@ struct ComputeSetup {
   PipelineOptions options;
 };
 ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& files);
+
+/// The progress display on stderr (a bar on a terminal, one line per stage otherwise;
+/// nothing when `enabled` is false): call with the stage name and the fraction done, 0..1.
+std::function<void(const std::string&, double)> progress_display(bool enabled);
 
 // Query commands (query_commands.cpp): answers as JSON on stdout.
 int cmd_nearest(int argc, char** argv);

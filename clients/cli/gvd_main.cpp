@@ -4,8 +4,10 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +19,8 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
+#include "http_client.h"
+#include "remote_commands.h"
 
 namespace gvd::cli {
 namespace {
@@ -35,6 +39,7 @@ Usage:
   gvd explode INPUT --anchor LABEL [-o FILE.glb] [--scale S] [--seconds T]
                                    exploded view: displacement per object (+ animated GLB)
   gvd tight INPUT --below B        object pairs whose interface comes closer than B
+  gvd --server URL COMMAND ...     the same commands against gvd-server (see "remote mode")
   gvd --help | --version
 
 INPUT is a result saved with `compute --save`, or a scene (computed first; the compute
@@ -54,7 +59,7 @@ compute options:
                              domain box (made a cube); default: bounding box + 5 % padding
   --threads N                worker threads (default: all cores)
   --backend cpu              compute backend (OpenCL arrives in a later release)
-    --contact-depth N          depth at which refinement between touching or intersecting
+  --contact-depth N          depth at which refinement between touching or intersecting
                              objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 12000000; peak memory is about
                              1 KB per leaf)
@@ -62,7 +67,7 @@ compute options:
   --max-simplices N          simplex limit (default 20000000)
   --ambiguity-levels N       levels of ambiguity refinement below the §3 octree
                              (default: unlimited in 2D, 2 in 3D)
-    --ambiguity-rounds N       rounds of ambiguity refinement (default: 48 in 2D, 3 in 3D)
+  --ambiguity-rounds N       rounds of ambiguity refinement (default: 48 in 2D, 3 in 3D)
   --unseen-rounds N          rounds that refine cells hiding a thin region of another object
                              (default: 48 in 2D, 4 in 3D)
   -q, --quiet                no progress or summary on stderr
@@ -79,9 +84,29 @@ query options:
   --scale S                  explode: displacement per ring (default: 1/4 of the mean object size)
   --seconds T                explode: animation length of the GLB (default 2)
 
+remote mode (--server URL, or the environment variable GVD_SERVER; --local ignores it):
+  gvd --server http://host:8080 compute SCENE... [-o gvd.glb] [--graph g.json] [--json gvd.json]
+        [--save r.gvd] [--no-wait]
+                             submits the scene, prints the job id on stdout, shows the job's
+                             progress, downloads the outputs asked for; --no-wait: only submit.
+                             Job parameters: --max-depth, --contact-depth, --domain,
+                             --ambiguity-levels, --ambiguity-rounds, --unseen-rounds (threads,
+                             backend and limits are the server's own settings)
+  gvd --server URL neighbors|nearest|path|explode|tight --job ID [query options]
+                             a query on a finished job; the same JSON on stdout as locally.
+                             Scene files instead of --job ID: submitted and waited for first
+  gvd --server URL info --job ID [--json]
+                             the job's status, progress or result summary
+  --job ID                   a job on the server (the id `compute` printed)
+  --retries N                how often a busy server (503) is asked again, waiting what its
+                             Retry-After says (default 5)
+  --timeout S                seconds to connect and to wait for each answer (default 60)
+
 Exit codes: 0 ok, 1 internal error, 2 bad command line, 3 invalid input (scene, option,
 format, or a point outside the domain), 4 limit exceeded, 5 file not readable/writable or
-not found (also an unknown object label), 6 cancelled, 7 no path joins the points.
+not found (also an unknown object label or job id), 6 cancelled, 7 no path joins the points,
+8 server busy (still 503 after the retries) or job not finished yet, 9 network error (server
+not reachable: connection refused, reset or timed out).
 )";
 
 int exit_code_for(ErrorCode code) {
@@ -160,6 +185,11 @@ void print_summary(const GvdResult& r, std::FILE* out) {
 
 }  // namespace
 
+std::function<void(const std::string&, double)> progress_display(bool enabled) {
+  auto progress = std::make_shared<Progress>(enabled);
+  return [progress](const std::string& stage, double f) { (*progress)(stage, f); };
+}
+
 const std::vector<std::string>& compute_value_flags() {
   static const std::vector<std::string> flags = {
       "--max-depth",        "--domain",        "--threads",       "--backend",
@@ -210,8 +240,7 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
                  scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
                  scene.dimension, options.backend.c_str(), resolve_threads(options.threads));
   }
-  auto progress = std::make_shared<Progress>(!quiet);
-  options.progress = [progress](const std::string& stage, double f) { (*progress)(stage, f); };
+  options.progress = progress_display(!quiet);
   return setup;
 }
 
@@ -270,7 +299,44 @@ int cmd_info(int argc, char** argv) {
   return kExitOk;
 }
 
+/// Takes `--server URL` / `--server=URL` and `--local` out of argv (they may stand anywhere)
+/// and moves the other remote options (--retries, --timeout) behind the command; returns the
+/// server to use: the flag, else $GVD_SERVER, unless --local.
+std::optional<std::string> take_server(int& argc, char** argv) {
+  std::optional<std::string> server;
+  bool local = false;
+  int out = 1;
+  std::vector<char*> moved;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if ((a == "--retries" || a == "--timeout") && i + 1 < argc) {
+      moved.push_back(argv[i]);
+      moved.push_back(argv[++i]);
+    } else if (a.rfind("--retries=", 0) == 0 || a.rfind("--timeout=", 0) == 0) {
+      moved.push_back(argv[i]);
+    } else if (a == "--server") {
+      if (i + 1 >= argc) throw UsageError{"--server needs a URL"};
+      server = argv[++i];
+    } else if (a.rfind("--server=", 0) == 0) {
+      server = a.substr(9);
+    } else if (a == "--local") {
+      local = true;
+    } else {
+      argv[out++] = argv[i];
+    }
+  }
+  for (char* m : moved) argv[out++] = m;
+  argc = out;
+  if (local) return std::nullopt;
+  if (!server) {
+    if (const char* env = std::getenv("GVD_SERVER"); env != nullptr && *env != '\0') server = env;
+  }
+  if (server && server->empty()) throw UsageError{"--server needs a URL"};
+  return server;
+}
+
 int run(int argc, char** argv) {
+  const std::optional<std::string> server = take_server(argc, argv);
   if (argc < 2) {
     std::fputs(kUsage, stderr);
     return kExitUsage;
@@ -284,6 +350,7 @@ int run(int argc, char** argv) {
     std::printf("gvd %s (algorithm %u, backends: cpu)\n", GVD_VERSION, kAlgorithmVersion);
     return kExitOk;
   }
+  if (server) return run_remote(*server, argc, argv);
   if (command == "compute") return cmd_compute(argc, argv);
   if (command == "info") return cmd_info(argc, argv);
   if (command == "nearest") return cmd_nearest(argc, argv);
@@ -304,6 +371,12 @@ int main(int argc, char** argv) {
   } catch (const UsageError& e) {
     std::fprintf(stderr, "gvd: %s\n(see gvd --help)\n", e.message.c_str());
     return kExitUsage;
+  } catch (const RemoteError& e) {
+    std::fprintf(stderr, "gvd: error: %s\n", e.message.c_str());
+    return e.exit_code;
+  } catch (const NetworkError& e) {
+    std::fprintf(stderr, "gvd: network error: %s\n", e.message.c_str());
+    return kExitNetwork;
   } catch (const gvd::Error& e) {
     std::fprintf(stderr, "gvd: error: %s\n", e.what());
     return exit_code_for(e.code());
