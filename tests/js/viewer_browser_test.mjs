@@ -3,12 +3,12 @@
 // file input, waits for the GVD on screen, clicks an object and checks the highlighted
 // neighbours against the API, picks a path and checks it against the API, moves the explode
 // slider, saves a screenshot, shows a 2D scene, and checks that a bad file gives a readable
-// message. Every request must stay on the server: the page works offline.
+// message, and several STL files as one job. Every request must stay on the server: the page works offline.
 //
 //   node viewer_browser_test.mjs --server build/server/gvd-server --data tests/data
 //        --out build/test-output/browser [--screenshot docs/viewer.png]
 import {spawn} from 'node:child_process';
-import {copyFileSync, existsSync, mkdirSync, rmSync} from 'node:fs';
+import {copyFileSync, existsSync, mkdirSync, rmSync, writeFileSync} from 'node:fs';
 import {join} from 'node:path';
 import {chromium} from 'playwright-core';
 
@@ -44,6 +44,21 @@ function startServer(binary, store) {
   });
 }
 
+/** An ASCII STL of the unit cube at `o` (12 triangles, outward normals). */
+function cubeStl(name, o) {
+  const v = (x, y, z) => `      vertex ${o[0] + x} ${o[1] + y} ${o[2] + z}`;
+  const quads = [[[0, 0, 0], [0, 1, 0], [1, 1, 0], [1, 0, 0]], [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]],
+                 [[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]], [[0, 1, 0], [0, 1, 1], [1, 1, 1], [1, 1, 0]],
+                 [[0, 0, 0], [0, 0, 1], [0, 1, 1], [0, 1, 0]], [[1, 0, 0], [1, 1, 0], [1, 1, 1], [1, 0, 1]]];
+  const facets = [];
+  for (const q of quads) {
+    for (const t of [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]) {
+      facets.push(`  facet normal 0 0 0\n    outer loop\n${t.map((p) => v(...p)).join('\n')}\n    endloop\n  endfacet`);
+    }
+  }
+  return `solid ${name}\n${facets.join('\n')}\nendsolid ${name}\n`;
+}
+
 async function api(base, path, options) {
   const res = await fetch(base + path, options);
   return {status: res.status, body: await res.json()};
@@ -68,7 +83,7 @@ async function main() {
       args: ['--no-sandbox', '--disable-background-networking', '--disable-component-update',
              '--disable-sync', '--no-first-run', '--disable-quic', '--disable-dev-shm-usage'],
     });
-    page = await browser.newPage({viewport: {width: 1280, height: 760}});
+    page = await browser.newPage({viewport: {width: 1280, height: 800}});
     const problems = [];
     page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
     page.on('console', (m) => {
@@ -113,8 +128,8 @@ async function main() {
     const info = await page.textContent('#info-table');
     check(info.includes(String(doc.result.leaves.toLocaleString('en'))), 'the panel states the leaf count');
     check(info.includes('octree depth'), 'the panel states the octree depth');
-    const stages = await page.$$eval('#stages-table tr', (trs) => trs.length);
-    check(stages >= 4, `the panel lists stage timings (${stages} rows)`);
+    const stages = await page.$$eval('#stages-table td', (tds) => tds.length / 2);
+    check(stages >= 4, `the panel lists stage timings (${stages})`);
     const gvdMeshes = await page.evaluate(() => [...window.gvdViewer.view.byLabel.values()]
       .reduce((n, e) => n + e.gvdParts.length, 0));
     check(gvdMeshes === doc.result.objects, `one GVD cell per object is shown (${gvdMeshes})`);
@@ -209,7 +224,22 @@ async function main() {
     await page.screenshot({path: join(out, 'viewer-2d.png')});
     log('2D scene shown');
 
-    // 7. A bad file: a readable message, not a broken page.
+    // 7. Several STL files: one multipart submission, one object per file named after it.
+    const stls = ['cube_a', 'cube_b', 'cube_c'].map((name, i) => {
+      const file = join(out, `${name}.stl`);
+      writeFileSync(file, cubeStl(name, [1.5 * i, 0, 0]));
+      return file;
+    });
+    const previous = state.jobId;
+    await page.setInputFiles('#files', stls);
+    await page.waitForFunction((prev) => (window.gvdViewer.state.loaded && window.gvdViewer.state.jobId !== prev) ||
+                               window.gvdViewer.state.error, previous, {timeout: 45000});
+    state = await page.evaluate(() => window.gvdViewer.state);
+    check(!state.error, `no error on the STL files (${state.error})`);
+    check(JSON.stringify([...state.labels].sort()) === '["cube_a","cube_b","cube_c"]', `labels from file names (${state.labels})`);
+    log(`3 STL files as one job: ${state.labels.join(', ')}`);
+
+    // 8. A bad file: a readable message, not a broken page.
     await page.setInputFiles('#files', {name: 'broken.stl', mimeType: 'model/stl', buffer: Buffer.from('solid x\nfacet')});
     await page.waitForFunction(() => window.gvdViewer.state.error !== null, null, {timeout: 10000});
     const message = await page.textContent('#error-text');

@@ -65,16 +65,21 @@ const seconds = (s) => (s === undefined ? '—' : s < 1 ? `${(s * 1000).toFixed(
 
 const bytes = (n) => (n === undefined ? '—' : n < 1048576 ? `${(n / 1024).toFixed(0)} KB` : `${(n / 1048576).toFixed(1)} MB`);
 
-function rows(table, pairs) {
-  table.replaceChildren(...pairs.map(([k, v]) => {
+/** Fills a table with [name, value] pairs, `perRow` pairs to a row. */
+function rows(table, pairs, perRow = 1) {
+  const trs = [];
+  for (let i = 0; i < pairs.length; i += perRow) {
     const tr = document.createElement('tr');
-    const a = document.createElement('td');
-    const b = document.createElement('td');
-    a.textContent = k;
-    b.textContent = v;
-    tr.append(a, b);
-    return tr;
-  }));
+    for (const [k, v] of pairs.slice(i, i + perRow)) {
+      const a = document.createElement('td');
+      const b = document.createElement('td');
+      a.textContent = k;
+      b.textContent = v;
+      tr.append(a, b);
+    }
+    trs.push(tr);
+  }
+  table.replaceChildren(...trs);
 }
 
 // ---- submitting and following a job --------------------------------------------------------
@@ -169,6 +174,7 @@ async function loadResult(job) {
   $('hint').textContent = '';
   for (const id of ['neighbors', 'path', 'explode', 'display']) $(id).hidden = false;
   state.loaded = true;
+  listJobs();
 }
 
 function showInfo(job) {
@@ -182,18 +188,20 @@ function showInfo(job) {
     ['octree leaves', fmt(r.leaves)],
     ['GVD simplices', fmt(r.gvd_simplices)],
     ['neighbouring pairs', fmt(r.graph_edges)],
-    ['memory (octree)', bytes(r.octree_bytes)],
-    ['backend', `${r.backend ?? '—'}, ${fmt(r.threads)} threads`],
+    ['octree memory', bytes(r.octree_bytes)],
+    ['backend', `${r.backend ?? '—'} · ${fmt(r.threads)} threads`],
     ['total time', seconds(r.total_seconds)],
   ]);
   const stages = r.stages ?? job.progress?.stages ?? [];
-  rows($('stages-table'), stages.map((st) => [st.name, seconds(st.seconds)]));
+  rows($('stages-table'), stages.map((st) => [st.name, seconds(st.seconds)]), 2);
   const warnings = r.warnings ?? [];
   $('warnings').replaceChildren(...warnings.map((w) => {
     const li = document.createElement('li');
     li.textContent = w.detail ?? `${w.kind}${w.object ? ' (' + w.object + ')' : ''}`;
     return li;
   }));
+  $('warnings-summary').textContent = `${warnings.length} warning${warnings.length === 1 ? '' : 's'}`;
+  $('warnings-box').hidden = warnings.length === 0;
   $('info').hidden = false;
 }
 
@@ -233,6 +241,7 @@ async function select(label) {
   });
 }
 
+$('info-toggle').addEventListener('click', () => $('info').classList.toggle('folded'));
 $('ring').addEventListener('change', () => state.selected !== null && select(state.selected));
 
 // ---- paths ---------------------------------------------------------------------------------

@@ -312,7 +312,8 @@ export class GvdView {
     this.clearOverlay('marker');
     for (const p of points) {
       const m = new THREE.Mesh(new THREE.SphereGeometry(this.size * 0.012, 16, 12),
-                               new THREE.MeshBasicMaterial({color: kPathColor}));
+                               new THREE.MeshBasicMaterial({color: kPathColor, depthTest: false, transparent: true}));
+      m.renderOrder = 11;
       m.position.set(p[0], p[1], p[2] ?? 0);
       m.userData.kind = 'marker';
       this.overlay.add(m);
@@ -330,7 +331,8 @@ export class GvdView {
     if (curve.curves.length === 0) return;
     const tube = new THREE.Mesh(
         new THREE.TubeGeometry(curve, Math.max(8, curve.curves.length * 2), this.size * 0.005, 8, false),
-        new THREE.MeshBasicMaterial({color: kPathColor}));
+        new THREE.MeshBasicMaterial({color: kPathColor, depthTest: false, transparent: true, opacity: 0.9}));
+    tube.renderOrder = 10;  // drawn over everything: a path behind an object stays visible
     tube.userData.kind = 'path';
     this.overlay.add(tube);
     this.render();
