@@ -122,6 +122,7 @@ async function main() {
     let state = await page.evaluate(() => window.gvdViewer.state);
     check(!state.error, `no error after submitting (${state.error})`);
     check(state.status === 'done', 'the job is done');
+    check(state.updates.events >= 1, `progress came as server-sent events (${JSON.stringify(state.updates)})`);
     const job = `/v1/jobs/${state.jobId}`;
     const doc = (await api(base, job)).body;
     check(doc.status === 'done', 'the API agrees the job is done');
@@ -133,6 +134,8 @@ async function main() {
     const gvdMeshes = await page.evaluate(() => [...window.gvdViewer.view.byLabel.values()]
       .reduce((n, e) => n + e.gvdParts.length, 0));
     check(gvdMeshes === doc.result.objects, `one GVD cell per object is shown (${gvdMeshes})`);
+    const coverage = await page.evaluate(() => window.gvdViewer.coverage());
+    check(coverage > 0.15, `the canvas shows the scene (${(coverage * 100).toFixed(0)} % of it drawn)`);
     log(`job ${state.jobId} shown: ${doc.result.objects} objects, ${doc.result.leaves} leaves`);
 
     // 2. Click an object in the canvas; its ring-1 neighbours must be those of the API.
@@ -156,6 +159,13 @@ async function main() {
       check(JSON.stringify(shown) === JSON.stringify(expected),
             `ring ${ring} highlighted ${JSON.stringify(shown)} = API ${JSON.stringify(expected)}`);
       check(JSON.stringify(listed) === JSON.stringify(expected), `ring ${ring} list = API`);
+      const colors = await page.evaluate((ls) => Object.fromEntries(ls.map((l) => [l, window.gvdViewer.colorOf(l)])),
+                                         state.labels);
+      for (const l of state.labels) {
+        const want = l === label ? 'ffffff' : expected.includes(l) ? null : '5a5f66';
+        if (want) check(colors[l] === want, `${l} drawn ${colors[l]}, expected ${want}`);
+        else check(colors[l] !== 'ffffff' && colors[l] !== '5a5f66', `${l} drawn as a neighbour (${colors[l]})`);
+      }
       log(`ring ${ring} of ${label}: ${shown.join(', ')}`);
     }
     await page.selectOption('#ring', '1');
@@ -167,6 +177,7 @@ async function main() {
     for (const [a, b] of [['ball_0', 'ball_2'], ['ball_1', 'ball_3']]) {
       const p = await page.evaluate(([x, y]) => window.gvdViewer.screenPointOnGvd(x, y), [a, b]);
       check(p, `the GVD between ${a} and ${b} is visible`);
+      log(`GVD point between ${a} and ${b}`);
       await page.mouse.click(p.x, p.y);
       await page.waitForTimeout(100);
     }
@@ -205,6 +216,12 @@ async function main() {
     check(moved >= 1, `objects moved apart with their cells (${moved})`);
 
     await page.screenshot({path: join(out, 'viewer-exploded.png')});
+    // Another anchor: the vectors of /explode?anchor=ball_0, and the anchor stays in place.
+    await page.selectOption('#anchor', 'ball_0');
+    await page.waitForFunction(() => window.gvdViewer.state.anchor === 'ball_0' && window.gvdViewer.state.busy === 0);
+    const anchored = await page.evaluate(() => window.gvdViewer.view.byLabel.get('ball_0').node.position.length());
+    check(anchored === 0, `the anchor does not move (${anchored})`);
+    log('explode slider and anchor');
 
     // 6. A 2D scene: lines at z = 0 in an orthographic view.
     await page.setInputFiles('#files', join(args.data, 'scenes', 'gears2d.json'));

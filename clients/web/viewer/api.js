@@ -108,23 +108,23 @@ const kFinal = new Set(['done', 'failed', 'cancelled']);
 /**
  * Follows a job until it ends: server-sent events (/v1/jobs/{id}/events), or polling when the
  * server has no stream to spare (503) or the stream breaks. Calls onStatus(doc) for every
- * update; resolves with the final job document.
+ * update with how it came ('events' or 'poll'); resolves with the final job document.
  */
 export function watchJob(id, onStatus) {
   return new Promise((resolve, reject) => {
     let finished = false;
-    const finish = (doc) => {
+    const finish = (doc, via) => {
       if (finished) return;
       finished = true;
-      onStatus(doc);
+      onStatus(doc, via);
       resolve(doc);
     };
     const poll = async () => {
       while (!finished) {
         try {
           const doc = await getJSON(`/v1/jobs/${encodeURIComponent(id)}`);
-          if (kFinal.has(doc.status)) finish(doc);
-          else onStatus(doc);
+          if (kFinal.has(doc.status)) finish(doc, 'poll');
+          else onStatus(doc, 'poll');
         } catch (e) {
           finished = true;
           reject(e);
@@ -142,9 +142,9 @@ export function watchJob(id, onStatus) {
       const doc = JSON.parse(e.data);
       if (kFinal.has(doc.status)) {
         source.close();
-        finish(doc);
+        finish(doc, 'events');
       } else {
-        onStatus(doc);
+        onStatus(doc, 'events');
       }
     };
     for (const name of ['status', 'done', 'failed', 'cancelled']) source.addEventListener(name, onEvent);

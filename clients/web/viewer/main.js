@@ -20,6 +20,7 @@ const state = {
   anchor: null,
   error: null,
   busy: 0,            // requests in flight
+  updates: {events: 0, poll: 0},  // job updates received by server-sent events / polling
 };
 
 let view;
@@ -115,8 +116,9 @@ async function openJob(id, doc) {
   }
 }
 
-function showStatus(doc) {
+function showStatus(doc, via) {
   state.status = doc.status;
+  if (via) state.updates[via]++;
   const progress = doc.progress ?? {};
   $('progress').value = doc.status === 'done' ? 1 : progress.fraction ?? 0;
   const scene = doc.scene ? ` · ${doc.scene.dimension}D, ${fmt(doc.scene.objects)} objects, ${fmt(doc.scene.simplices)} simplices` : '';
@@ -422,6 +424,8 @@ window.gvdViewer = {
   screenPointOf: (label) => view.screenPointOf(label),
   /** Window coordinates where clicking hits the GVD surface between two objects. */
   screenPointOnGvd: (label, other) => view.screenPointOnGvd(label, other),
-  /** Renders the current frame now (for screenshots). */
-  frames: () => view.frames,
+  /** The colour an object is drawn in, as 'rrggbb'. */
+  colorOf: (label) => view.byLabel.get(label)?.parts[0]?.material.color.getHexString() ?? null,
+  /** Fraction of the canvas's pixels that are not background: something is drawn. */
+  coverage: () => view.coverage(),
 };

@@ -349,6 +349,23 @@ export class GvdView {
     this.render();
   }
 
+  /** Fraction of pixels of the last frame that differ from the background. */
+  coverage() {
+    this.renderer.render(this.scene, this.camera);
+    const gl = this.renderer.getContext();
+    const w = gl.drawingBufferWidth;
+    const h = gl.drawingBufferHeight;
+    const pixels = new Uint8Array(w * h * 4);
+    gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
+    const bg = new THREE.Color(this.renderer.getClearColor(new THREE.Color())).convertLinearToSRGB();
+    const [r, g, b] = [bg.r * 255, bg.g * 255, bg.b * 255];
+    let drawn = 0;
+    for (let i = 0; i < pixels.length; i += 4) {
+      if (Math.abs(pixels[i] - r) + Math.abs(pixels[i + 1] - g) + Math.abs(pixels[i + 2] - b) > 12) drawn++;
+    }
+    return drawn / (w * h);
+  }
+
   /** Window coordinates of a point (user units, at the current explode offset of `label`). */
   toScreen(p, label) {
     const v = new THREE.Vector3(p[0], p[1], p[2] ?? 0).add(this.offsetOf(label)).project(this.camera);
@@ -407,7 +424,7 @@ export class GvdView {
       c.divideScalar(ids.length);
       const dist = (i) => new THREE.Vector3().fromBufferAttribute(pos, i).distanceTo(c);
       ids.sort((a, b) => dist(a) - dist(b));
-      const stride = Math.max(1, Math.floor(ids.length / 300));  // at most ~300 rays, all over it
+      const stride = Math.max(1, Math.floor(ids.length / 60));  // at most ~60 rays, all over it
       for (let k = 0; k < ids.length; k += stride) {
         const i = ids[k];
         const s = this.toScreen([pos.getX(i), pos.getY(i), pos.getZ(i)], label);
