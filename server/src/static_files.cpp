@@ -65,7 +65,8 @@ std::string_view media_type_for(std::string_view file_name) {
   if (ext == "svg") return "image/svg+xml";
   if (ext == "png") return "image/png";
   if (ext == "ico") return "image/x-icon";
-  if (ext == "txt" || ext == "md" || file_name.ends_with("LICENSE")) return "text/plain; charset=utf-8";
+  if (ext == "txt" || ext == "md" || file_name.ends_with("LICENSE"))
+    return "text/plain; charset=utf-8";
   return "application/octet-stream";
 }
 

@@ -34,7 +34,8 @@ class StaticFiles {
 
   /// Serves `relative` (e.g. "viewer/main.js"). False when there is no such file (the caller
   /// answers 404); the body is read per request, so a rebuilt viewer is served at once.
-  bool serve(const httplib::Request& req, httplib::Response& res, const std::string& relative) const;
+  bool serve(const httplib::Request& req, httplib::Response& res,
+             const std::string& relative) const;
 
  private:
   std::string root_;
