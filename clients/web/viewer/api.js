@@ -47,6 +47,11 @@ export async function postJSON(url, body) {
   return res.json();
 }
 
+/** DELETE: cancels a queued or running job (docs/API.md). */
+export async function cancelJob(id) {
+  await request(`/v1/jobs/${encodeURIComponent(id)}`, {method: 'DELETE'});
+}
+
 export async function getBytes(url) {
   return (await request(url)).arrayBuffer();
 }

@@ -1,6 +1,6 @@
 // The gvd web viewer: submit a scene, follow the job, show the objects and the GVD, and ask
 // the API for neighbours, paths and the exploded view. Talks only to the HTTP API (api.js).
-import {ApiError, getBytes, getJSON, postJSON, submitFiles, watchJob} from './api.js';
+import {ApiError, cancelJob, getBytes, getJSON, postJSON, submitFiles, watchJob} from './api.js';
 import {GvdView} from './view.js';
 
 const $ = (id) => document.getElementById(id);
@@ -127,7 +127,16 @@ function showStatus(doc, via) {
   if (doc.status === 'running' && progress.stage) text += ` — ${progress.stage} (${Math.round((progress.fraction ?? 0) * 100)} %)`;
   if (doc.recovered) text += ' · recovered after a restart';
   $('job-status').textContent = text + scene;
+  $('cancel').hidden = !(doc.status === 'queued' || doc.status === 'running');
 }
+
+$('cancel').addEventListener('click', () => run(() => cancelJob(state.jobId)));
+window.addEventListener('keydown', (e) => {
+  if (e.key === 'Escape' && state.pickingOn) {
+    setPicking(false);
+    $('path-result').textContent = 'Picking cancelled.';
+  }
+});
 
 function resetResult() {
   state.loaded = false;
@@ -409,11 +418,17 @@ $('jobs').addEventListener('change', (e) => {
 });
 $('jobs').addEventListener('focus', listJobs);
 
-listJobs();
-const fromHash = /^#job=([0-9a-zA-Z_-]+)$/.exec(location.hash);
-if (fromHash) {
-  run(async () => openJob(fromHash[1], await getJSON(`/v1/jobs/${fromHash[1]}`)));
+/** `#job=<id>` in the address opens that job (on load, and when the address changes). */
+function openFromHash() {
+  const m = /^#job=([0-9a-zA-Z_-]+)$/.exec(location.hash);
+  if (m && m[1] !== state.jobId) {
+    clearError();
+    run(async () => openJob(m[1], await getJSON(`/v1/jobs/${m[1]}`)));
+  }
 }
+window.addEventListener('hashchange', openFromHash);
+listJobs();
+openFromHash();
 
 // ---- the hook the browser test drives (tests/js/viewer_browser_test.mjs) ------------------------
 
