@@ -168,6 +168,11 @@ async function main() {
       }
       log(`ring ${ring} of ${label}: ${shown.join(', ')}`);
     }
+    await page.check('#cell-only');
+    const cells = await page.evaluate(() => [...window.gvdViewer.view.byLabel.values()]
+      .filter((e) => e.gvdNode.visible).map((e) => e.label));
+    check(JSON.stringify(cells) === JSON.stringify([label]), `only the selected cell is drawn (${cells})`);
+    await page.uncheck('#cell-only');
     await page.selectOption('#ring', '1');
     await page.waitForFunction(() => window.gvdViewer.state.busy === 0 &&
                                !document.querySelector('#selected').textContent.includes('rings'));

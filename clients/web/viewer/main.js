@@ -340,6 +340,7 @@ $('anchor').addEventListener('change', (e) => run(async () => {
 
 $('show-objects').addEventListener('change', (e) => view.setVisible({objects: e.target.checked}));
 $('show-gvd').addEventListener('change', (e) => view.setVisible({gvd: e.target.checked}));
+$('cell-only').addEventListener('change', (e) => view.setSelectedCellOnly(e.target.checked));
 $('gvd-opacity').addEventListener('input', (e) => view.setVisible({opacity: Number(e.target.value)}));
 
 // ---- the canvas: clicks (not drags) pick ------------------------------------------------------

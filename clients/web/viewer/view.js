@@ -20,6 +20,8 @@ function parseGlb(bytes) {
 export class GvdView {
   constructor(canvas) {
     this.canvas = canvas;
+    this.selected = null;  // label of the highlighted object
+    this.selectedCellOnly = false;
     this.renderer = new THREE.WebGLRenderer({canvas, antialias: true, preserveDrawingBuffer: true});
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
     this.renderer.setClearColor(0x1d2127);
@@ -254,8 +256,23 @@ export class GvdView {
     this.render();
   }
 
+  /** With `on`, only the selected object's GVD cell is drawn (all cells when none is selected). */
+  setSelectedCellOnly(on) {
+    this.selectedCellOnly = on;
+    this.updateCells();
+  }
+
+  updateCells() {
+    for (const e of this.byLabel.values()) {
+      if (e.gvdNode) e.gvdNode.visible = !this.selectedCellOnly || this.selected === null || e.label === this.selected;
+    }
+    this.render();
+  }
+
   /** Colours: the selected object white, its k-ring neighbours by ring, the rest dimmed. */
   highlight(selectedLabel, ringOf) {
+    this.selected = selectedLabel;
+    this.updateCells();
     for (const e of this.byLabel.values()) {
       let color = e.baseColor;
       if (selectedLabel !== null) {
