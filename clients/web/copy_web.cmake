@@ -6,6 +6,9 @@ set(THREE_FILES
   build/three.module.js build/three.core.js
   examples/jsm/controls/OrbitControls.js
   examples/jsm/loaders/GLTFLoader.js
+  examples/jsm/lines/LineMaterial.js
+  examples/jsm/lines/LineSegments2.js
+  examples/jsm/lines/LineSegmentsGeometry.js
   examples/jsm/utils/BufferGeometryUtils.js
   examples/jsm/utils/SkeletonUtils.js
   LICENSE)

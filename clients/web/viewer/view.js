@@ -4,6 +4,9 @@
 import * as THREE from 'three';
 import {OrbitControls} from 'three/addons/controls/OrbitControls.js';
 import {GLTFLoader} from 'three/addons/loaders/GLTFLoader.js';
+import {LineMaterial} from 'three/addons/lines/LineMaterial.js';
+import {LineSegments2} from 'three/addons/lines/LineSegments2.js';
+import {LineSegmentsGeometry} from 'three/addons/lines/LineSegmentsGeometry.js';
 
 const kSelected = new THREE.Color(0xffffff);
 const kRingColors = [new THREE.Color(0xff7a00), new THREE.Color(0xffd000), new THREE.Color(0x9bd45a),
@@ -15,6 +18,33 @@ function parseGlb(bytes) {
   return new Promise((resolve, reject) => {
     new GLTFLoader().parse(bytes, '', resolve, (e) => reject(new Error(`cannot read the GLB: ${e.message ?? e}`)));
   });
+}
+
+/**
+ * A wide copy of a LINES object (WebGL draws 1-pixel lines only), added as its sibling; the
+ * thin original stays for picking. `width` in pixels.
+ */
+function widen(lines, width, color) {
+  const g = lines.geometry;
+  const pos = g.attributes.position;
+  const col = g.attributes.color;
+  const index = g.index ? g.index.array : [...Array(pos.count).keys()];
+  const p = new Float32Array(index.length * 3);
+  const c = col ? new Float32Array(index.length * 3) : null;
+  index.forEach((v, k) => {
+    p.set([pos.getX(v), pos.getY(v), pos.getZ(v)], 3 * k);
+    if (c) c.set([col.getX(v), col.getY(v), col.getZ(v)], 3 * k);
+  });
+  const geometry = new LineSegmentsGeometry().setPositions(p);
+  if (c) geometry.setColors(c);
+  const material = new LineMaterial({linewidth: width, vertexColors: c !== null, color: color ?? 0xffffff});
+  const wide = new LineSegments2(geometry, material);
+  wide.raycast = () => {};
+  wide.position.copy(lines.position);
+  wide.quaternion.copy(lines.quaternion);
+  wide.scale.copy(lines.scale);
+  lines.parent.add(wide);
+  return wide;
 }
 
 export class GvdView {
@@ -144,6 +174,7 @@ export class GvdView {
         entry.parts.push(o);
         entry.baseColor = base;
       });
+      if (dimension === 2) entry.wide = entry.parts.filter((o) => o.isLineSegments).map((o) => widen(o, 2.5, entry.baseColor));
       this.objects.add(node);
     }
 
@@ -168,6 +199,7 @@ export class GvdView {
           : new THREE.LineBasicMaterial({vertexColors: true});
         entry.gvdParts.push(o);
       });
+      if (dimension === 2) entry.gvdParts.filter((o) => o.isLineSegments).forEach((o) => widen(o, 1.5));
       this.gvd.add(node);
     }
     this.clearanceMax = clearanceMax;
@@ -280,7 +312,7 @@ export class GvdView {
         else if (ringOf.has(e.label)) color = kRingColors[Math.min(ringOf.get(e.label), kRingColors.length) - 1];
         else color = kDimmed;
       }
-      for (const p of e.parts) p.material.color.copy(color ?? kDimmed);
+      for (const p of [...e.parts, ...(e.wide ?? [])]) p.material.color.copy(color ?? kDimmed);
     }
     this.render();
   }
