@@ -206,6 +206,7 @@ async function main() {
 
     // 4. The screenshot (the README's picture when --screenshot is given).
     await page.mouse.move(5, 5);
+    await page.evaluate(() => document.getElementById('panel').scrollTo(0, 0));
     await page.waitForTimeout(300);
     const shot = join(out, 'viewer.png');
     await page.screenshot({path: shot});
