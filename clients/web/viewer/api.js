@@ -113,11 +113,19 @@ const kFinal = new Set(['done', 'failed', 'cancelled']);
 /**
  * Follows a job until it ends: server-sent events (/v1/jobs/{id}/events), or polling when the
  * server has no stream to spare (503) or the stream breaks. Calls onStatus(doc) for every
- * update with how it came ('events' or 'poll'); resolves with the final job document.
+ * update with how it came ('events' or 'poll'); resolves with the final job document, or
+ * with null when `signal` aborts first (the stream is closed then).
  */
-export function watchJob(id, onStatus) {
+export function watchJob(id, onStatus, signal) {
   return new Promise((resolve, reject) => {
     let finished = false;
+    let source = null;
+    signal?.addEventListener('abort', () => {
+      if (finished) return;
+      finished = true;
+      source?.close();
+      resolve(null);
+    });
     const finish = (doc, via) => {
       if (finished) return;
       finished = true;
@@ -142,7 +150,7 @@ export function watchJob(id, onStatus) {
       poll();
       return;
     }
-    const source = new EventSource(`/v1/jobs/${encodeURIComponent(id)}/events`);
+    source = new EventSource(`/v1/jobs/${encodeURIComponent(id)}/events`);
     const onEvent = (e) => {
       const doc = JSON.parse(e.data);
       if (kFinal.has(doc.status)) {

@@ -97,7 +97,12 @@ async function submit(files) {
   });
 }
 
+let watching = null;  // aborts following the previous job when another is opened
+
 async function openJob(id, doc) {
+  watching?.abort();
+  watching = new AbortController();
+  const signal = watching.signal;
   resetResult();
   state.jobId = id;
   history.replaceState(null, '', `#job=${id}`);
@@ -105,10 +110,11 @@ async function openJob(id, doc) {
   $('job-id').textContent = id.slice(0, 12);
   $('job-id').title = id;
   $('hint').textContent = 'Computing…';
-  const final = doc && doc.status === 'done' ? doc : await watchJob(id, showStatus);
+  const final = doc && doc.status === 'done' ? doc : await watchJob(id, showStatus, signal);
+  if (final === null || signal.aborted) return;  // another job was opened meanwhile
   showStatus(final);
   if (final.status === 'done') {
-    await loadResult(final);
+    await loadResult(final, signal);
   } else {
     const p = final.error;
     showError(p ? `${p.title ?? 'Job ' + final.status}: ${p.detail ?? ''}` : `The job ${final.status}.`);
@@ -154,13 +160,14 @@ function resetResult() {
   view?.clear();
 }
 
-async function loadResult(job) {
+async function loadResult(job, signal) {
   const r = job.result ?? {};
   state.dimension = r.dimension ?? job.scene?.dimension ?? 3;
   showInfo(job);
   $('hint').textContent = 'Loading the GVD…';
   const base = `/v1/jobs/${enc(job.id)}`;
   const graph = await getJSON(`${base}/graph`);
+  if (signal.aborted) return;
   state.labels = graph.nodes.map((n) => n.label);
   // Anchor of the exploded view: the object with the most neighbours (the frame, the plate).
   const degree = new Map(graph.nodes.map((n) => [n.object, 0]));
@@ -178,9 +185,10 @@ async function loadResult(job) {
     getBytes(`${base}/explode?anchor=${enc(state.anchor)}&format=glb`),
     getBytes(`${base}/gvd.glb`),
   ]);
-  if (!view) return;
+  if (!view || signal.aborted) return;
   await view.show({dimension: state.dimension, objectCount: graph.nodes.length, domain: r.domain,
                    objectsGlb, gvdGlb});
+  if (signal.aborted) return;
   $('legend-max').textContent = `${fmt(view.clearanceMax, 3)}`;
   $('hint').textContent = '';
   for (const id of ['neighbors', 'path', 'explode', 'display']) $(id).hidden = false;

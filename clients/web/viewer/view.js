@@ -154,7 +154,9 @@ export class GvdView {
     this.dimension = dimension;
     this.objectCount = objectCount;
     this.setCamera(dimension);
+    const generation = (this.generation = (this.generation ?? 0) + 1);
     const [objects, gvd] = await Promise.all([parseGlb(objectsGlb), parseGlb(gvdGlb)]);
+    if (generation !== this.generation) return;  // a later show() won
 
     for (const node of [...objects.scene.children]) {
       const extras = node.userData ?? {};
