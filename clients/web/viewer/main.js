@@ -370,8 +370,16 @@ canvas.addEventListener('pointerup', (e) => {
   }
   select(view.objectAt(e.clientX, e.clientY));
 });
+let hover = null;  // the latest pointer position, handled once per frame (a raycast each)
 canvas.addEventListener('pointermove', (e) => {
   if (!state.loaded || e.buttons !== 0) return;
+  if (hover === null) requestAnimationFrame(showHover);
+  hover = {clientX: e.clientX, clientY: e.clientY};
+});
+function showHover() {
+  const e = hover;
+  hover = null;
+  if (!e || !state.loaded) return;
   const label = view.objectAt(e.clientX, e.clientY);
   const tip = $('tooltip');
   tip.hidden = label === null;
@@ -381,8 +389,9 @@ canvas.addEventListener('pointermove', (e) => {
     tip.style.top = `${e.clientY - r.top}px`;
     tip.textContent = label;
   }
-});
+}
 canvas.addEventListener('pointerleave', () => {
+  hover = null;
   $('tooltip').hidden = true;
 });
 
