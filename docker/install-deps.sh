@@ -10,6 +10,7 @@ packages=(
   opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd clinfo
   libgtest-dev libgmock-dev libbenchmark-dev libboost-dev wrk curl python3
   clang-format clang-tidy
+  chromium
 )
 
 missing=()
@@ -34,11 +35,15 @@ else
   echo "install-deps: all Debian packages present"
 fi
 
-# JavaScript test tools (glTF validator, OpenAPI validator), pinned by package-lock.json in
-# tests/js.
+# JavaScript: three.js for the web viewer (clients/web, copied into the build) and the test
+# tools (glTF and OpenAPI validators, playwright-core for the browser test) in tests/js, each
+# pinned by its package-lock.json. `npm ci` again whenever a lock file is newer than the install.
 here=$(cd "$(dirname "$0")/.." && pwd)
-if [ -f "$here/tests/js/package.json" ] && { [ ! -d "$here/tests/js/node_modules/gltf-validator" ] ||
-    [ ! -d "$here/tests/js/node_modules/@seriousme/openapi-schema-validator" ]; }; then
-  echo "install-deps: npm ci in tests/js"
-  (cd "$here/tests/js" && npm ci --no-audit --no-fund --loglevel=error)
-fi
+for dir in "$here/clients/web" "$here/tests/js"; do
+  [ -f "$dir/package-lock.json" ] || continue
+  if [ ! -f "$dir/node_modules/.package-lock.json" ] ||
+     [ "$dir/package-lock.json" -nt "$dir/node_modules/.package-lock.json" ]; then
+    echo "install-deps: npm ci in ${dir#"$here"/}"
+    (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error)
+  fi
+done

@@ -23,6 +23,7 @@
 #include "problem.h"
 #include "query_handlers.h"
 #include "routes.h"
+#include "static_files.h"
 
 namespace gvd::server {
 namespace {
@@ -90,13 +91,36 @@ std::string json_text(const Json& j) {
 
 }  // namespace
 
+namespace {
+
+/// `/` when the web viewer is not installed.
+constexpr const char* kIndexHtml = R"(<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>gvd-server</title>
+<style>body{font:15px/1.5 system-ui,sans-serif;max-width:46em;margin:2em auto;padding:0 1em}
+code,pre{background:#f4f4f4;padding:.1em .3em}</style></head><body>
+<h1>gvd-server</h1>
+<p>Generalized Voronoi diagrams of labelled meshes over HTTP. The API is described in
+<a href="/openapi.json">/openapi.json</a> (OpenAPI 3.1); health: <a href="/healthz">/healthz</a>,
+<a href="/readyz">/readyz</a>, <a href="/metrics">/metrics</a>, jobs: <a href="/v1/jobs">/v1/jobs</a>.</p>
+<p>The web viewer is not installed on this server: build it (<code>make build</code> copies
+clients/web and three.js to build/web) or start gvd-server with <code>--web-root DIR</code>.</p>
+<pre>curl -i -X POST -H 'Content-Type: application/json' --data-binary @scene.json http://HOST/v1/jobs
+curl http://HOST/v1/jobs/ID
+curl -o gvd.glb http://HOST/v1/jobs/ID/gvd.glb</pre>
+</body></html>
+)";
+
+}  // namespace
+
 struct HttpServer::Impl {
-  explicit Impl(const ServerOptions& o) : options(o), jobs(o, metrics), queries(jobs) {}
+  explicit Impl(const ServerOptions& o)
+      : options(o), jobs(o, metrics), queries(jobs), web(o.web_root) {}
 
   ServerOptions options;
   Metrics metrics;
   JobManager jobs;
   QueryHandlers queries;
+  StaticFiles web;
   httplib::Server http;
   std::atomic<bool> draining{false};
   std::atomic<bool> closing{false};
@@ -583,6 +607,20 @@ struct HttpServer::Impl {
         });
   }
 
+  /// The web viewer (clients/web, copied with three.js into the build): index.html at `/`,
+  /// its modules under /viewer/, three.js under /vendor/. Without a web root, `/` is a page
+  /// of links.
+  void web_file(const httplib::Request& req, httplib::Response& res, const std::string& relative) {
+    if (web.serve(req, res, relative)) return;
+    if (relative == "index.html") {
+      res.set_content(kIndexHtml, "text/html; charset=utf-8");
+      return;
+    }
+    throw ProblemError(ProblemKind::kNotFound,
+                       web.available() ? "no file " + req.path + " in the web viewer"
+                                       : "the web viewer is not installed on this server");
+  }
+
   void readyz(const httplib::Request&, httplib::Response& res) {
     const Json body = {{"status", draining ? "draining" : "ready"},
                        {"backend", backend},
@@ -618,24 +656,6 @@ struct HttpServer::Impl {
 
   void setup();
 };
-
-namespace {
-
-constexpr const char* kIndexHtml = R"(<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>gvd-server</title>
-<style>body{font:15px/1.5 system-ui,sans-serif;max-width:46em;margin:2em auto;padding:0 1em}
-code,pre{background:#f4f4f4;padding:.1em .3em}</style></head><body>
-<h1>gvd-server</h1>
-<p>Generalized Voronoi diagrams of labelled meshes over HTTP. The API is described in
-<a href="/openapi.json">/openapi.json</a> (OpenAPI 3.1); health: <a href="/healthz">/healthz</a>,
-<a href="/readyz">/readyz</a>, <a href="/metrics">/metrics</a>, jobs: <a href="/v1/jobs">/v1/jobs</a>.</p>
-<pre>curl -i -X POST -H 'Content-Type: application/json' --data-binary @scene.json http://HOST/v1/jobs
-curl http://HOST/v1/jobs/ID
-curl -o gvd.glb http://HOST/v1/jobs/ID/gvd.glb</pre>
-</body></html>
-)";
-
-}  // namespace
 
 void HttpServer::Impl::setup() {
   const int threads = options.http_threads;
@@ -729,8 +749,13 @@ void HttpServer::Impl::setup() {
         [this](const auto& req, auto& res) { queries.neighbors(req, res); });
   route("GET", "/v1/jobs/{id}/nearest",
         [this](const auto& req, auto& res) { queries.nearest(req, res); });
-  route("GET", "/",
-        [](const auto&, auto& res) { res.set_content(kIndexHtml, "text/html; charset=utf-8"); });
+  route("GET", "/", [this](const auto& req, auto& res) { web_file(req, res, "index.html"); });
+  route("GET", "/viewer/{path}", [this](const auto& req, auto& res) {
+    web_file(req, res, "viewer/" + req.matches[1].str());
+  });
+  route("GET", "/vendor/{path}", [this](const auto& req, auto& res) {
+    web_file(req, res, "vendor/" + req.matches[1].str());
+  });
   route("GET", "/healthz", [](const auto&, auto& res) {
     res.set_header("Cache-Control", "no-store");
     res.set_content("{\"status\":\"ok\"}", "application/json");

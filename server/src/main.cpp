@@ -6,12 +6,15 @@
 #include <cstring>
 #include <map>
 #include <string>
+#include <system_error>
 #include <thread>
+#include <filesystem>
 #include <vector>
 
 #include "gvd/common/error.h"
 #include "http_server.h"
 #include "server_options.h"
+#include "static_files.h"
 
 extern char** environ;
 
@@ -39,6 +42,17 @@ int main(int argc, char** argv) {
     if (help) {
       std::fputs(server_usage().c_str(), stdout);
       return 0;
+    }
+    std::error_code ec;
+    const std::string exe = std::filesystem::read_symlink("/proc/self/exe", ec).string();
+    try {
+      options.web_root = find_web_root(options.web_root, exe);
+    } catch (const std::runtime_error& e) {
+      throw UsageError(e.what());
+    }
+    if (options.web_root.empty()) {
+      std::fprintf(stderr, "{\"level\":\"warning\",\"msg\":\"no web viewer found next to %s "
+                           "(give --web-root): / answers a page of links\"}\n", exe.c_str());
     }
   } catch (const UsageError& e) {
     std::fprintf(stderr, "gvd-server: %s\n(see gvd-server --help)\n", e.what());

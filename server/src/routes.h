@@ -16,8 +16,10 @@ struct Route {
 
 inline constexpr std::string_view kJobId = "([^/]+)";
 
-inline constexpr std::array<Route, 22> kRoutes = {{
+inline constexpr std::array<Route, 24> kRoutes = {{
     {"GET", R"(/)", "/"},
+    {"GET", R"(/viewer/(.+))", "/viewer/{path}"},
+    {"GET", R"(/vendor/(.+))", "/vendor/{path}"},
     {"GET", R"(/healthz)", "/healthz"},
     {"GET", R"(/readyz)", "/readyz"},
     {"GET", R"(/metrics)", "/metrics"},

@@ -94,6 +94,8 @@ const std::vector<Spec>& specs() {
              1024),
       number("--retry-after", "seconds a 503 asks the client to wait", &ServerOptions::retry_after,
              1, 3600),
+      text("--web-root", "the web viewer's files (empty: found next to the binary)",
+           &ServerOptions::web_root),
       number("--grace-seconds", "on SIGTERM, how long running jobs may finish",
              &ServerOptions::grace_seconds, 0.0, 3600.0),
   };
@@ -170,10 +172,11 @@ std::string server_usage() {
   const ServerOptions defaults;
   for (const Spec& spec : specs()) {
     const std::string flag = spec.flag;
-    const char* metavar = flag == "--host"      ? " ADDR"
-                          : flag == "--store"   ? " DIR"
-                          : flag == "--backend" ? " NAME"
-                                                : " N";
+    const char* metavar = flag == "--host"       ? " ADDR"
+                          : flag == "--store"    ? " DIR"
+                          : flag == "--backend"  ? " NAME"
+                          : flag == "--web-root" ? " DIR"
+                                                 : " N";
     std::string head = "  " + flag + metavar;
     head.resize(std::max<size_t>(head.size() + 1, 27), ' ');
     s << head << spec.meaning << " (" << env_name(spec.flag) << ", default " << spec.show(defaults)

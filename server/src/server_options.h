@@ -37,6 +37,9 @@ struct ServerOptions {
   int retry_after = 5;              ///< seconds, on 503
   double grace_seconds = 10;        ///< SIGTERM: wait this long for running jobs
   bool quiet = false;               ///< no request log
+  /// The web viewer's files (index.html, viewer/, vendor/); empty = found next to the binary
+  /// (static_files.h), and resolved to a directory (or left empty: no viewer) at start-up.
+  std::string web_root;
 };
 
 /// Bad command line or environment (the message says which option and why).

@@ -1,7 +1,11 @@
 // Unit tests of the server's pieces that need no socket (CTest label `unit`, also under ASan).
 
 #include <gtest/gtest.h>
+#include <httplib.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -15,6 +19,7 @@
 #include "problem.h"
 #include "result_cache.h"
 #include "server_options.h"
+#include "static_files.h"
 
 namespace gvd::server {
 namespace {
@@ -185,6 +190,51 @@ TEST(GlbToGltf, EmbedsTheBufferAsADataUri) {
                                                 : 0),
             gltf["buffers"][0]["byteLength"].get<size_t>());
   EXPECT_THROW(glb_to_gltf("not a glb at all....."), Error);
+}
+
+TEST(StaticFiles, MediaTypesBrowsersNeed) {
+  EXPECT_EQ(media_type_for("three.module.js"), "text/javascript; charset=utf-8");
+  EXPECT_EQ(media_type_for("index.html"), "text/html; charset=utf-8");
+  EXPECT_EQ(media_type_for("viewer.css"), "text/css; charset=utf-8");
+  EXPECT_EQ(media_type_for("LICENSE"), "text/plain; charset=utf-8");
+  EXPECT_EQ(media_type_for("blob"), "application/octet-stream");
+}
+
+TEST(StaticFiles, ServesInsideTheRootOnlyWithETag) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::temp_directory_path() / ("gvd-web-" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  fs::create_directories(root / "viewer");
+  std::ofstream(root / "index.html") << "<!doctype html>";
+  std::ofstream(root / "viewer" / "main.js") << "export {};";
+  // Found next to a binary in <root>/../bin, as build/server/gvd-server finds build/web.
+  fs::create_directories(root / "bin");
+  fs::create_directories(root / "web");
+  std::ofstream(root / "web" / "index.html") << "x";
+  EXPECT_EQ(find_web_root("", (root / "bin" / "gvd-server").string()), (root / "web").string());
+  EXPECT_EQ(find_web_root("", "/nonexistent/bin/gvd-server"), "");
+  EXPECT_THROW(find_web_root((root / "viewer").string(), ""), std::runtime_error);
+
+  const StaticFiles files(root.string());
+  httplib::Request req;
+  httplib::Response res;
+  ASSERT_TRUE(files.serve(req, res, "viewer/main.js"));
+  EXPECT_EQ(res.body, "export {};");
+  EXPECT_EQ(res.get_header_value("Content-Type"), "text/javascript; charset=utf-8");
+  const std::string etag = res.get_header_value("ETag");
+  EXPECT_FALSE(etag.empty());
+  httplib::Request again;
+  again.headers.emplace("If-None-Match", etag);
+  httplib::Response cached;
+  ASSERT_TRUE(files.serve(again, cached, "viewer/main.js"));
+  EXPECT_EQ(cached.status, 304);
+  EXPECT_TRUE(cached.body.empty());
+  for (const char* bad : {"../index.html", "viewer/../index.html", "/etc/passwd", "viewer//main.js",
+                          ".hidden", "viewer/missing.js", "viewer", "", "viewer/main.js%00"}) {
+    httplib::Response r;
+    EXPECT_FALSE(files.serve(req, r, bad)) << bad;
+  }
+  fs::remove_all(root);
 }
 
 TEST(ResultCache, LeastRecentlyUsedIsEvicted) {
