@@ -10,7 +10,8 @@ HOST       ?= 127.0.0.1
 PORT       ?= 8080
 STORE      ?= gvd-store
 
-.PHONY: all deps configure build run example test test-asan bench bench-server format tidy clean
+.PHONY: all deps configure build run example test test-asan bench bench-server format tidy clean \
+        docker-build docker-lint
 
 all: build
 
@@ -65,3 +66,12 @@ tidy: build
 
 clean:
 	rm -rf $(BUILD) $(BUILD_ASAN)
+
+# The container image (docker/Dockerfile), built offline with podman as root and smoke-tested
+# with buildah (docker/build-image.sh; minutes, so not part of `make test`).
+docker-build:
+	./docker/build-image.sh
+
+# What `make test` checks of the container files without building: dockerfilelint, COPY sources.
+docker-lint: deps
+	./docker/check-dockerfile.sh

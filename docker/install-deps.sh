@@ -1,17 +1,35 @@
 #!/usr/bin/env bash
-# Installs every build, test and benchmark dependency of gvd from Debian packages (and the
-# npm registry for the JavaScript test tools). Idempotent: installs only what is missing.
-# Used by `make run`, `make test`, CI and docker/. Needs root (or sudo) for apt-get.
+# Installs the dependencies of gvd from Debian packages (and the npm registry for three.js and
+# the JavaScript test tools). Idempotent: installs only what is missing. Needs root (or sudo)
+# for apt-get. Used by `make run`, `make test`, CI and docker/Dockerfile.
+#
+# GVD_DEPS selects what (default `all`):
+#   all      build, test and benchmark everything (the README path, CI)
+#   build    compile gvd, gvd-server and the web viewer, without the test tools (image build stage)
+#   runtime  only the shared libraries gvd and gvd-server load, curl for the health check and
+#            PoCL for OpenCL on the CPU (image runtime stage; no npm)
 set -euo pipefail
+mode=${GVD_DEPS:-all}
 
-packages=(
-  build-essential cmake ninja-build pkg-config ccache git
+build_packages=(
+  build-essential cmake ninja-build pkg-config git
   libcpp-httplib-dev libssl-dev nlohmann-json3-dev libtinygltf-dev
-  opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd clinfo
-  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev wrk curl python3
-  clang-format clang-tidy
-  chromium
+  opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd
 )
+test_packages=(
+  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev
+  ccache clinfo wrk curl python3 clang-format clang-tidy chromium
+)
+runtime_packages=(
+  libcpp-httplib0.11 libtinygltf2d libssl3 libbrotli1 ocl-icd-libopencl1 pocl-opencl-icd
+  ca-certificates curl
+)
+case "$mode" in
+  all) packages=("${build_packages[@]}" "${test_packages[@]}") ;;
+  build) packages=("${build_packages[@]}") ;;
+  runtime) packages=("${runtime_packages[@]}") ;;
+  *) echo "install-deps: GVD_DEPS is all, build or runtime, not '$mode'" >&2; exit 2 ;;
+esac
 
 missing=()
 for p in "${packages[@]}"; do
@@ -20,7 +38,7 @@ for p in "${packages[@]}"; do
   fi
 done
 # Node.js + npm: any installed node with npm will do (Debian's nodejs + npm otherwise).
-if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+if [ "$mode" != runtime ] && { ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; }; then
   missing+=(nodejs npm)
 fi
 
@@ -35,11 +53,14 @@ else
   echo "install-deps: all Debian packages present"
 fi
 
-# JavaScript: three.js for the web viewer (clients/web, copied into the build) and the test
-# tools (glTF and OpenAPI validators, playwright-core for the browser test) in tests/js, each
-# pinned by its package-lock.json. `npm ci` again whenever a lock file is newer than the install.
+# JavaScript: three.js for the web viewer (clients/web, copied into the build), the test
+# tools (glTF and OpenAPI validators, playwright-core for the browser test) in tests/js and
+# dockerfilelint in docker/lint, each pinned by its package-lock.json. `npm ci` again whenever a lock file is newer than the install.
+[ "$mode" = runtime ] && exit 0
 here=$(cd "$(dirname "$0")/.." && pwd)
-for dir in "$here/clients/web" "$here/tests/js"; do
+npm_dirs=("$here/clients/web")
+[ "$mode" = all ] && npm_dirs+=("$here/tests/js" "$here/docker/lint")
+for dir in "${npm_dirs[@]}"; do
   [ -f "$dir/package-lock.json" ] || continue
   if [ ! -f "$dir/node_modules/.package-lock.json" ] ||
      [ "$dir/package-lock.json" -nt "$dir/node_modules/.package-lock.json" ]; then
