@@ -12,16 +12,19 @@
 namespace gvd {
 
 GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
-  if (options.backend != "cpu") {
+  if (options.backend != "cpu" && (options.backend != "opencl" || !options.compute)) {
     throw Error(ErrorCode::kInvalidArgument,
-                "backend '" + options.backend + "' is not available (this build has: cpu)");
+                "backend '" + options.backend +
+                    "' is not available here (core runs: cpu; opencl needs a ComputeBackend "
+                    "from gvd_kernels in PipelineOptions::compute)");
   }
   const Stopwatch total;
   auto progress = [&](const std::string& stage, double f) {
     if (options.progress) options.progress(stage, f);
   };
   GvdResult r;
-  r.stats.backend = "cpu";
+  r.stats.backend = options.compute ? options.compute->name() : "cpu";
+  if (!options.backend_note.empty()) r.stats.backend += " (" + options.backend_note + ")";
   r.stats.threads = resolve_threads(options.threads);
   const int dim = scene.dimension;
 
@@ -55,9 +58,14 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
 
   progress("distance", 0);
   sw = Stopwatch();
+  // Exact closest points: the backend's kernel, else the CPU twin (same per-item function).
+  const std::unique_ptr<ClosestPointSolver> solver =
+      options.compute ? options.compute->closest_points(r.geometry, bvh)
+                      : make_cpu_closest_point_solver(r.geometry, bvh, options.threads);
   DistanceOptions dopt;
   dopt.threads = options.threads;
   dopt.cancel = options.cancel;
+  dopt.solver = solver.get();
   r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
   r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
 

@@ -44,12 +44,18 @@ class SimplexBvh {
 
   size_t memory_bytes() const;
 
- private:
   struct Node {
     Box box;
     uint32_t first = 0;  // leaf: first index into order_; inner: right child (left = this+1)
     uint32_t count = 0;  // leaf: number of simplices; inner: 0
   };
+  /// The flat arrays (depth-first nodes; leaf ranges index `order`), for the data-parallel
+  /// closest-point twin and the OpenCL kernel (closest_point_item.h walks them the same way).
+  std::span<const Node> nodes() const { return nodes_; }
+  std::span<const uint32_t> order() const { return order_; }
+  int dimension() const { return dimension_; }
+
+ private:
   int dimension_ = 3;
   std::span<const Vec3> points_;
   std::span<const Simplex> simplices_;
