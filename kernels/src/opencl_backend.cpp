@@ -145,7 +145,10 @@ std::shared_ptr<OpenClBackend> make_opencl_backend(const OpenClOptions& options)
   impl->rt = cl::make_runtime(cl::choose_device(devices, selector));
   cl::BuildInfo info;
   impl->closest_program =
-      cl::build_program(impl->rt, embedded::k_closest_points, kBuildOptions,
+      cl::build_program(impl->rt, embedded::k_closest_points,
+                        options.extra_build_options.empty()
+                            ? std::string(kBuildOptions)
+                            : std::string(kBuildOptions) + " " + options.extra_build_options,
                         cl::resolve_cache_dir(options.cache_dir), &info);
   impl->report.seconds = info.seconds;
   impl->report.from_cache = info.from_cache;

@@ -24,6 +24,8 @@ struct OpenClOptions {
   /// Run every kernel once on a tiny input at creation, so that lazy compilation in the
   /// driver (PoCL compiles per work-group size at the first launch) happens at start-up.
   bool warm_up = true;
+  /// Appended to the kernel build options (benchmarks use a -D nonce to force a cold build).
+  std::string extra_build_options;
 };
 
 /// How the kernel programs were built (for logs and the benchmarks).

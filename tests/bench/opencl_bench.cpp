@@ -1,0 +1,203 @@
+// Benchmarks of the OpenCL backend (issue 4), linked into gvd_bench next to gvd_bench.cpp:
+//  - BM_ClosestPoints/<scene>/{opencl,twin,scalar}: the closest-point kernel, its CPU twin on
+//    2 threads (PoCL's CPU device also uses the 2 cores) and the same per-item loop on one
+//    thread, on the same batch: queries near random simplices of the scene, each with the
+//    bound the pipeline would give it (the distance to that simplex).
+//  - BM_KernelBuild/{cold,cached}: creating the backend (device, context, program, warm-up
+//    launch). Cold = a build-option nonce no cache has seen (ours and PoCL's); cached = the
+//    same program again, loaded from our binary cache.
+//  - BM_PipelineBackend/<scene>/{cpu,opencl}: compute_gvd end to end with each backend
+//    (backend created once, outside the timing).
+// Skipped with a message when there is no OpenCL platform.
+
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "bench/table1_scenes.h"
+#include "gvd/distance/closest_points.h"
+#include "gvd/kernels/opencl_backend.h"
+#include "gvd/pipeline/pipeline.h"
+
+namespace {
+
+constexpr int kThreads = 2;
+constexpr size_t kQueries = 400'000;
+
+std::shared_ptr<gvd::kernels::OpenClBackend> backend(std::string* why) {
+  static std::string reason;
+  static std::shared_ptr<gvd::kernels::OpenClBackend> b = [] {
+    std::shared_ptr<gvd::kernels::OpenClBackend> r;
+    if (gvd::kernels::opencl_available(&reason)) r = gvd::kernels::make_opencl_backend();
+    return r;
+  }();
+  *why = reason;
+  return b;
+}
+
+const gvd::Scene& scene_named(const std::string& name) {
+  static gvd::Scene blades = gvd::bench::make_blades();
+  static gvd::Scene spheres = gvd::bench::make_spheres();
+  return name == "blades" ? blades : spheres;
+}
+
+// One scene's geometry, BVH and a batch of queries near its simplices.
+struct Workload {
+  gvd::Domain domain;
+  gvd::UnitGeometry geometry;
+  std::unique_ptr<gvd::SimplexBvh> bvh;
+  gvd::ClosestPointData data;
+  std::vector<gvd::Vec3> queries;
+  std::vector<double> bound2;
+};
+
+const Workload& workload(const std::string& name) {
+  static std::map<std::string, std::unique_ptr<Workload>> cache;
+  auto& w = cache[name];
+  if (w) return *w;
+  w = std::make_unique<Workload>();
+  const gvd::Scene& scene = scene_named(name);
+  w->domain = gvd::make_domain(scene);
+  w->geometry = gvd::make_unit_geometry(scene, w->domain);
+  const gvd::UnitGeometry& g = w->geometry;
+  w->bvh = std::make_unique<gvd::SimplexBvh>(g.dimension, g.points, g.simplices);
+  w->data = gvd::make_closest_point_data(g, *w->bvh);
+  std::mt19937_64 rng(42);
+  std::uniform_int_distribution<size_t> pick(0, g.simplices.size() - 1);
+  std::uniform_real_distribution<double> off(-2e-3, 2e-3);
+  for (size_t i = 0; i < kQueries; ++i) {
+    const gvd::Simplex& s = g.simplices[pick(rng)];
+    const gvd::Vec3 c = (g.points[s.v[0]] + g.points[s.v[1]] + g.points[s.v[2]]) / 3.0;
+    const gvd::Vec3 q = c + gvd::Vec3{off(rng), off(rng), off(rng)};
+    const gvd::Vec3 on = gvd::closest_point_on_simplex(g.dimension, g.points, s, q);
+    w->queries.push_back(q);
+    w->bound2.push_back(gvd::dist2(q, on) * (1 + 1e-12) + 1e-300);
+  }
+  return *w;
+}
+
+void BM_ClosestPoints(benchmark::State& state, std::string scene, std::string impl) {
+  std::string why;
+  const auto cl = backend(&why);
+  if (impl == "opencl" && !cl) {
+    state.SkipWithError(("no OpenCL: " + why).c_str());
+    return;
+  }
+  const Workload& w = workload(scene);
+  std::vector<gvd::ClosestHit> hits(w.queries.size());
+  std::unique_ptr<gvd::ClosestPointSolver> solver;
+  if (impl == "opencl") solver = cl->closest_points(w.geometry, *w.bvh);
+  for (auto _ : state) {
+    if (impl == "opencl")
+      solver->solve(w.queries, w.bound2, hits);
+    else if (impl == "twin")
+      gvd::closest_points_cpu(w.data, w.queries, w.bound2, hits, kThreads);
+    else
+      gvd::closest_points_scalar(w.data, w.queries, w.bound2, hits);
+    benchmark::DoNotOptimize(hits.data());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * w.queries.size()));
+  state.counters["queries"] = static_cast<double>(w.queries.size());
+  state.counters["simplices"] = static_cast<double>(w.geometry.simplices.size());
+}
+
+void BM_KernelBuild(benchmark::State& state, bool cached) {
+  std::string why;
+  if (!backend(&why)) {  // also initialises OpenCL once, before the timed creations
+    state.SkipWithError(("no OpenCL: " + why).c_str());
+    return;
+  }
+  static const std::string dir = [] {
+    char tmpl[] = "/tmp/gvd-kernel-cache-XXXXXX";
+    const char* d = mkdtemp(tmpl);
+    return std::string(d ? d : "");
+  }();
+  static int nonce = static_cast<int>(
+      std::chrono::steady_clock::now().time_since_epoch().count() % 1000000007);
+  double build = 0, warm = 0;
+  int from_cache = 0;
+  for (auto _ : state) {
+    gvd::kernels::OpenClOptions o;
+    o.cache_dir = dir;
+    if (!cached) ++nonce;  // a program nobody compiled before
+    o.extra_build_options = "-DGVD_BENCH_NONCE=" + std::to_string(nonce);
+    const auto b = gvd::kernels::make_opencl_backend(o);
+    build += b->build_report().seconds;
+    warm += b->build_report().warm_up_seconds;
+    from_cache += b->build_report().from_cache;
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["program_ms"] = 1e3 * build / n;
+  state.counters["warm_up_ms"] = 1e3 * warm / n;
+  state.counters["from_cache"] = from_cache / n;
+}
+
+void BM_PipelineBackend(benchmark::State& state, std::string scene, std::string impl) {
+  std::string why;
+  const auto cl = backend(&why);
+  if (impl == "opencl" && !cl) {
+    state.SkipWithError(("no OpenCL: " + why).c_str());
+    return;
+  }
+  gvd::PipelineOptions o;
+  o.threads = kThreads;
+  if (impl == "opencl") {
+    o.backend = "opencl";
+    o.compute = cl;
+  }
+  gvd::ResultStats stats;
+  for (auto _ : state) {
+    state.PauseTiming();
+    gvd::Scene copy = scene_named(scene);
+    state.ResumeTiming();
+    stats = gvd::compute_gvd(std::move(copy), o).stats;
+  }
+  for (const gvd::StageStats& s : stats.stages) state.counters[s.name + "_s"] = s.seconds;
+  state.counters["total_s"] = stats.total_seconds;
+  state.counters["leaves"] = static_cast<double>(stats.leaves);
+}
+
+// The cached build first: it then also times the cache hit after a cold build of its nonce.
+const bool registered = [] {
+  for (const char* scene : {"blades", "spheres"})
+    for (const char* impl : {"opencl", "twin", "scalar"})
+      benchmark::RegisterBenchmark(
+          (std::string("BM_ClosestPoints/") + scene + "/" + impl).c_str(),
+          [s = std::string(scene), i = std::string(impl)](benchmark::State& st) {
+            BM_ClosestPoints(st, s, i);
+          })
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime()
+          ->MinTime(1.0);
+  benchmark::RegisterBenchmark("BM_KernelBuild/cold",
+                               [](benchmark::State& st) { BM_KernelBuild(st, false); })
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime()
+      ->Iterations(3);
+  benchmark::RegisterBenchmark("BM_KernelBuild/cached",
+                               [](benchmark::State& st) { BM_KernelBuild(st, true); })
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime()
+      ->Iterations(10);
+  for (const char* scene : {"blades", "spheres"})
+    for (const char* impl : {"cpu", "opencl"})
+      benchmark::RegisterBenchmark(
+          (std::string("BM_PipelineBackend/") + scene + "/" + impl).c_str(),
+          [s = std::string(scene), i = std::string(impl)](benchmark::State& st) {
+            BM_PipelineBackend(st, s, i);
+          })
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime()
+          ->Iterations(1);
+  return true;
+}();
+
+}  // namespace
