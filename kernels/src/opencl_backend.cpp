@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <mutex>
 
+#include "backend_impl.h"
 #include "cl_runtime.h"
 #include "gvd/common/error.h"
 #include "gvd/common/stopwatch.h"
@@ -17,22 +18,10 @@ namespace {
 // OpenCL C 1.2 (PoCL 3.1 offers no more); never relaxed math: the kernels must round
 // exactly like their CPU twins.
 constexpr const char* kBuildOptions = "-cl-std=CL1.2";
-constexpr size_t kLocalSize = 64;
 
 }  // namespace
 
-struct OpenClBackend::Impl {
-  cl::Runtime rt;
-  cl::Program closest_program;
-  cl::Kernel closest_kernel;
-  size_t local_size = kLocalSize;
-  KernelBuildReport report;
-  std::mutex mutex;  // one launch sequence at a time on the shared queue and kernel objects
-};
-
 namespace {
-
-size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
 
 class OpenClClosestPointSolver final : public ClosestPointSolver {
  public:
@@ -113,11 +102,24 @@ void warm_up(OpenClBackend& backend) {
   g.object_count = 1;
   const SimplexBvh bvh(g.dimension, g.points, g.simplices);
   const auto solver = backend.closest_points(g, bvh);
-  std::vector<Vec3> q(kLocalSize, Vec3{0.5, 0.5, 0.5});
+  std::vector<Vec3> q(64, Vec3{0.5, 0.5, 0.5});
   std::vector<double> bound(q.size(), 1e300);
   std::vector<ClosestHit> hits(q.size());
   solver->solve(q, bound, hits);
   GVD_CHECK(hits[0].found(), "OpenCL warm-up: the closest-point kernel found nothing");
+  // The octree kernels: a two-object scene needs every step (radix tree, conflicts).
+  g.points.push_back({0.1, 0.1, 0.25});
+  g.points.push_back({0.9, 0.1, 0.25});
+  g.points.push_back({0.1, 0.9, 0.3});
+  g.simplices.push_back(Simplex{{3, 4, 5}});
+  g.object_of.push_back(1);
+  g.object_count = 2;
+  OctreeOptions o;
+  o.max_depth = 6;
+  o.threads = 1;
+  const auto steps = backend.octree_build_steps(g);
+  const Octree t = build_octree_data_parallel(g, o, steps.get());
+  GVD_CHECK(t.leaf_count() > 1, "OpenCL warm-up: the octree kernels split nothing");
 }
 
 }  // namespace
@@ -127,6 +129,11 @@ OpenClBackend::~OpenClBackend() = default;
 std::string OpenClBackend::name() const { return "opencl (" + impl_->rt.device.label() + ")"; }
 
 const KernelBuildReport& OpenClBackend::build_report() const { return impl_->report; }
+
+std::unique_ptr<OctreeBuildSteps> OpenClBackend::octree_build_steps(
+    const UnitGeometry& geometry) {
+  return make_opencl_octree_steps(impl_, geometry);
+}
 
 std::unique_ptr<ClosestPointSolver> OpenClBackend::closest_points(const UnitGeometry& geometry,
                                                                   const SimplexBvh& bvh) {
@@ -150,15 +157,26 @@ std::shared_ptr<OpenClBackend> make_opencl_backend(const OpenClOptions& options)
                             ? std::string(kBuildOptions)
                             : std::string(kBuildOptions) + " " + options.extra_build_options,
                         cl::resolve_cache_dir(options.cache_dir), &info);
-  impl->report.seconds = info.seconds;
-  impl->report.from_cache = info.from_cache;
+  cl::BuildInfo octree_info;
+  impl->octree_program =
+      cl::build_program(impl->rt, embedded::k_octree_build,
+                        options.extra_build_options.empty()
+                            ? std::string(kBuildOptions)
+                            : std::string(kBuildOptions) + " " + options.extra_build_options,
+                        cl::resolve_cache_dir(options.cache_dir), &octree_info);
+  impl->report.seconds = info.seconds + octree_info.seconds;
+  impl->report.from_cache = info.from_cache && octree_info.from_cache;
   impl->report.cache_file = info.cache_file;
   impl->closest_kernel = cl::make_kernel(impl->closest_program, "gvd_closest_points");
+  for (const char* name : {"gvd_vertex_keys", "gvd_radix_nodes", "gvd_radix_parents",
+                           "gvd_smallest_containing_cells", "gvd_cell_facets",
+                           "gvd_child_facets"})
+    impl->octree_kernels.emplace(name, cl::make_kernel(impl->octree_program, name));
   size_t max_wg = 0;
   cl::check(clGetKernelWorkGroupInfo(impl->closest_kernel.get(), impl->rt.device.device,
                                      CL_KERNEL_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, nullptr),
             "clGetKernelWorkGroupInfo");
-  impl->local_size = std::min(kLocalSize, std::max<size_t>(1, max_wg));
+  impl->local_size = std::min<size_t>(64, std::max<size_t>(1, max_wg));
   std::shared_ptr<OpenClBackend> backend(new OpenClBackend());
   backend->impl_ = std::move(impl);
   if (options.warm_up) {

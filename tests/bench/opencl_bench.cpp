@@ -6,6 +6,9 @@
 //  - BM_KernelBuild/{cold,cached}: creating the backend (device, context, program, warm-up
 //    launch). Cold = a build-option nonce no cache has seen (ours and PoCL's); cached = the
 //    same program again, loaded from our binary cache.
+//  - BM_OctreeBuild/<scene>/{cpu,dp_twin,dp_opencl}: build_octree (level-synchronous) against
+//    the data-parallel build with its CPU twins and with the OpenCL kernels (same options and
+//    contact pairs as the pipeline); same_leaves = 1 when the leaves equal build_octree's.
 //  - BM_PipelineBackend/<scene>/{cpu,opencl}: compute_gvd end to end with each backend
 //    (backend created once, outside the timing).
 // Skipped with a message when there is no OpenCL platform.
@@ -13,6 +16,7 @@
 #include <benchmark/benchmark.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -25,6 +29,8 @@
 #include "bench/table1_scenes.h"
 #include "gvd/distance/closest_points.h"
 #include "gvd/kernels/opencl_backend.h"
+#include "gvd/octree/build_octree_dp.h"
+#include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 
 namespace {
@@ -44,9 +50,14 @@ std::shared_ptr<gvd::kernels::OpenClBackend> backend(std::string* why) {
 }
 
 const gvd::Scene& scene_named(const std::string& name) {
-  static gvd::Scene blades = gvd::bench::make_blades();
-  static gvd::Scene spheres = gvd::bench::make_spheres();
-  return name == "blades" ? blades : spheres;
+  static std::map<std::string, gvd::Scene> cache;
+  auto it = cache.find(name);
+  if (it != cache.end()) return it->second;
+  gvd::Scene s = name == "blades"       ? gvd::bench::make_blades()
+                 : name == "polygons2d" ? gvd::bench::make_polygons2d()
+                 : name == "gears3d"    ? gvd::bench::make_gears3d()
+                                        : gvd::bench::make_spheres();
+  return cache.emplace(name, std::move(s)).first->second;
 }
 
 // One scene's geometry, BVH and a batch of queries near its simplices.
@@ -140,6 +151,46 @@ void BM_KernelBuild(benchmark::State& state, bool cached) {
   state.counters["from_cache"] = from_cache / n;
 }
 
+void BM_OctreeBuild(benchmark::State& state, std::string scene, std::string impl) {
+  std::string why;
+  const auto cl = backend(&why);
+  if (impl == "dp_opencl" && !cl) {
+    state.SkipWithError(("no OpenCL: " + why).c_str());
+    return;
+  }
+  const gvd::Scene& sc = scene_named(scene);
+  const gvd::Domain domain = gvd::make_domain(sc);
+  const gvd::UnitGeometry g = gvd::make_unit_geometry(sc, domain);
+  const gvd::SimplexBvh bvh(g.dimension, g.points, g.simplices);
+  const int max_depth = gvd::resolve_max_depth(g.dimension, 0);
+  const gvd::ContactPairs contacts = gvd::find_contact_pairs(
+      g, bvh, 2.0 * std::sqrt(double(g.dimension)) * std::ldexp(1.0, -max_depth), kThreads);
+  gvd::OctreeOptions o;
+  o.threads = kThreads;
+  o.contacts = &contacts;
+  const gvd::Octree reference = gvd::build_octree(g, o);
+  gvd::Octree t;
+  gvd::DataParallelBuildStats stats;
+  for (auto _ : state) {
+    if (impl == "cpu") {
+      t = gvd::build_octree(g, o);
+    } else if (impl == "dp_twin") {
+      t = gvd::build_octree_data_parallel(g, o, nullptr, &stats);
+    } else {
+      const auto steps = cl->octree_build_steps(g);
+      t = gvd::build_octree_data_parallel(g, o, steps.get(), &stats);
+    }
+  }
+  state.counters["leaves"] = static_cast<double>(t.leaf_count());
+  state.counters["same_leaves"] =
+      t.code == reference.code && t.level == reference.level && t.object == reference.object;
+  if (impl != "cpu") {
+    state.counters["vertex_leaves"] = static_cast<double>(stats.vertex_octree_leaves);
+    state.counters["conflicts"] = static_cast<double>(stats.conflict_cells);
+    state.counters["resolved_leaves"] = static_cast<double>(stats.resolved_leaves);
+  }
+}
+
 void BM_PipelineBackend(benchmark::State& state, std::string scene, std::string impl) {
   std::string why;
   const auto cl = backend(&why);
@@ -187,6 +238,16 @@ const bool registered = [] {
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime()
       ->Iterations(10);
+  for (const char* scene : {"polygons2d", "gears3d", "blades", "spheres"})
+    for (const char* impl : {"cpu", "dp_twin", "dp_opencl"})
+      benchmark::RegisterBenchmark(
+          (std::string("BM_OctreeBuild/") + scene + "/" + impl).c_str(),
+          [s = std::string(scene), i = std::string(impl)](benchmark::State& st) {
+            BM_OctreeBuild(st, s, i);
+          })
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime()
+          ->Iterations(1);
   for (const char* scene : {"blades", "spheres"})
     for (const char* impl : {"cpu", "opencl"})
       benchmark::RegisterBenchmark(

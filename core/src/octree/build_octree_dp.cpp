@@ -83,8 +83,8 @@ class CpuOctreeBuildSteps final : public OctreeBuildSteps {
                      std::span<const uint8_t> cell_level) override {
     auto run = [&](size_t i, uint32_t* out) {
       return item::gvd_leaf_facets(dim_, points_.data(), simplices_.data(), scc.code.data(),
-                                   scc.simplex.data(), scc.level_begin.data(), cell_code[i],
-                                   cell_level[i], out);
+                                   scc.simplex.data(), scc.lo.data(), scc.hi.data(),
+                                   scc.level_begin.data(), cell_code[i], cell_level[i], out);
     };
     return two_pass(
         cell_code.size(), threads_, [&](size_t i) { return run(i, nullptr); },
@@ -96,10 +96,13 @@ class CpuOctreeBuildSteps final : public OctreeBuildSteps {
                       std::span<const uint8_t> child_level) override {
     auto run = [&](size_t i, uint32_t* out) {
       uint32_t count = 0;
+      item::GvdPoint lo, hi;
+      item::gvd_cell_box(dim_, child_code[i], child_level[i], &lo, &hi);
+      const double slack = item::gvd_slack(child_level[i]);
       for (uint32_t k = lists.begin[parent[i]]; k < lists.begin[parent[i] + 1]; ++k) {
         const uint32_t s = lists.items[k];
-        if (item::gvd_simplex_touches_cell(dim_, points_.data(), simplices_.data(), s,
-                                           child_code[i], child_level[i])) {
+        if (item::gvd_simplex_touches_box(dim_, points_.data(), simplices_.data(), s, lo, hi,
+                                          slack)) {
           if (out) out[count] = s;
           ++count;
         }
@@ -279,6 +282,10 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     for (uint32_t s : order) {
       scc.code.push_back(code[s]);
       scc.simplex.push_back(s);
+      Box box;
+      for (int k = 0; k < dim; ++k) box.extend(g.points[g.simplices[s].v[k]]);
+      scc.lo.push_back({box.lo.x, box.lo.y, box.lo.z});
+      scc.hi.push_back({box.hi.x, box.hi.y, box.hi.z});
       ++scc.level_begin[clamped[s] + 1];
     }
     for (int l = 0; l <= max_depth; ++l) scc.level_begin[l + 1] += scc.level_begin[l];

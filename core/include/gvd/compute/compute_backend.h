@@ -5,6 +5,7 @@
 #include <string>
 
 #include "gvd/distance/closest_points.h"
+#include "gvd/octree/build_octree_dp.h"
 #include "gvd/octree/octree.h"
 
 namespace gvd {
@@ -21,6 +22,12 @@ class ComputeBackend {
   /// outlive the solver. Throws gvd::Error when the device fails.
   virtual std::unique_ptr<ClosestPointSolver> closest_points(const UnitGeometry& geometry,
                                                              const SimplexBvh& bvh) = 0;
+  /// The steps of the data-parallel octree build (build_octree_dp.h) bound to one scene;
+  /// null when the backend has none (the CPU twins then run).
+  virtual std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry) {
+    (void)geometry;
+    return nullptr;
+  }
 };
 
 /// The CPU twin as a solver (closest_points_cpu over a ClosestPointData copy of the scene).

@@ -22,7 +22,8 @@ struct CsrU32 {
 struct SccArray {
   std::vector<uint64_t> code;
   std::vector<uint32_t> simplex;
-  std::vector<uint32_t> level_begin;  ///< max_level + 2 entries
+  std::vector<item::GvdPoint> lo, hi;  ///< the simplex's bounding box (an early reject)
+  std::vector<uint32_t> level_begin;   ///< max_level + 2 entries
 };
 
 /// The data-parallel steps of the octree build (parallel-quadtree-construction draft §3.2-3.5

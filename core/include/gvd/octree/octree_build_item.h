@@ -9,7 +9,9 @@
 #ifndef GVD_OCTREE_OCTREE_BUILD_ITEM_H
 #define GVD_OCTREE_OCTREE_BUILD_ITEM_H
 
+#ifndef __OPENCL_VERSION__ /* the kernel source embeds closest_point_item.h before this file */
 #include "gvd/distance/closest_point_item.h"
+#endif
 
 #ifdef __OPENCL_VERSION__
 typedef ulong gvd_u64;
@@ -152,13 +154,35 @@ GVD_ITEM_FN int gvd_scc(int dim, GVD_GLOBAL const GvdPoint* points,
   return level;
 }
 
+GVD_ITEM_FN gvd_u64 gvd_compact2(gvd_u64 x) {
+  x &= 0x5555555555555555UL;
+  x = (x | (x >> 1)) & 0x3333333333333333UL;
+  x = (x | (x >> 2)) & 0x0f0f0f0f0f0f0f0fUL;
+  x = (x | (x >> 4)) & 0x00ff00ff00ff00ffUL;
+  x = (x | (x >> 8)) & 0x0000ffff0000ffffUL;
+  x = (x | (x >> 16)) & 0x00000000ffffffffUL;
+  return x;
+}
+GVD_ITEM_FN gvd_u64 gvd_compact3(gvd_u64 x) {
+  x &= 0x1249249249249249UL;
+  x = (x | (x >> 2)) & 0x10c30c30c30c30c3UL;
+  x = (x | (x >> 4)) & 0x100f00f00f00f00fUL;
+  x = (x | (x >> 8)) & 0x001f0000ff0000ffUL;
+  x = (x | (x >> 16)) & 0x001f00000000ffffUL;
+  x = (x | (x >> 32)) & 0x00000000001fffffUL;
+  return x;
+}
+
 /* The unit-domain box of the cell (code, level), as lattice::cell_box. */
 GVD_ITEM_FN void gvd_cell_box(int dim, gvd_u64 code, int level, GvdPoint* lo, GvdPoint* hi) {
   gvd_u64 c[3] = {0, 0, 0};
-  for (int a = 0; a < dim; ++a) {
-    gvd_u64 x = code >> a, r = 0;
-    for (int b = 0; b < gvd_lattice_bits(dim); ++b) r |= ((x >> (dim * b)) & 1) << b;
-    c[a] = r;
+  if (dim == 2) {
+    c[0] = gvd_compact2(code);
+    c[1] = gvd_compact2(code >> 1);
+  } else {
+    c[0] = gvd_compact3(code);
+    c[1] = gvd_compact3(code >> 1);
+    c[2] = gvd_compact3(code >> 2);
   }
   const double s = 1.0 / (double)((gvd_u64)1 << gvd_lattice_bits(dim));
   const double size = (double)((gvd_u64)1 << (gvd_lattice_bits(dim) - level)) * s;
@@ -185,11 +209,11 @@ GVD_ITEM_FN double gvd_max3(double a, double b, double c) {
 }
 
 GVD_ITEM_FN int gvd_separated_on_axis(GvdPoint axis, GvdPoint v0, GvdPoint v1, GvdPoint v2,
-                                      GvdPoint half) {
+                                      GvdPoint hsize) {
   const double p0 = gvd_dot(v0, axis);
   const double p1 = gvd_dot(v1, axis);
   const double p2 = gvd_dot(v2, axis);
-  const double r = half.x * GVD_FABS(axis.x) + half.y * GVD_FABS(axis.y) + half.z * GVD_FABS(axis.z);
+  const double r = hsize.x * GVD_FABS(axis.x) + hsize.y * GVD_FABS(axis.y) + hsize.z * GVD_FABS(axis.z);
   const double lo = gvd_min3(p0, p1, p2);
   const double hi = gvd_max3(p0, p1, p2);
   const double alo = GVD_FABS(lo), ahi = GVD_FABS(hi);
@@ -204,23 +228,23 @@ GVD_ITEM_FN double gvd_comp(GvdPoint p, int i) { return i == 0 ? p.x : (i == 1 ?
 GVD_ITEM_FN int gvd_triangle_overlaps_box(GvdPoint a, GvdPoint b, GvdPoint c, GvdPoint blo,
                                           GvdPoint bhi, double slack) {
   const GvdPoint center = gvd_scale(gvd_add(blo, bhi), 0.5);
-  const GvdPoint half = gvd_add(gvd_scale(gvd_sub(bhi, blo), 0.5), gvd_pt(slack, slack, slack));
+  const GvdPoint hsize = gvd_add(gvd_scale(gvd_sub(bhi, blo), 0.5), gvd_pt(slack, slack, slack));
   const GvdPoint v0 = gvd_sub(a, center);
   const GvdPoint v1 = gvd_sub(b, center);
   const GvdPoint v2 = gvd_sub(c, center);
   for (int i = 0; i < 3; ++i) {
     const double lo = gvd_min3(gvd_comp(v0, i), gvd_comp(v1, i), gvd_comp(v2, i));
     const double hi = gvd_max3(gvd_comp(v0, i), gvd_comp(v1, i), gvd_comp(v2, i));
-    if (lo > gvd_comp(half, i) || hi < -gvd_comp(half, i)) return 0;
+    if (lo > gvd_comp(hsize, i) || hi < -gvd_comp(hsize, i)) return 0;
   }
   const GvdPoint e[3] = {gvd_sub(v1, v0), gvd_sub(v2, v1), gvd_sub(v0, v2)};
   const GvdPoint n = gvd_cross(e[0], e[1]);
-  if (gvd_dot(n, n) > 0 && gvd_separated_on_axis(n, v0, v1, v2, half)) return 0;
+  if (gvd_dot(n, n) > 0 && gvd_separated_on_axis(n, v0, v1, v2, hsize)) return 0;
   const GvdPoint axes[3] = {gvd_pt(1, 0, 0), gvd_pt(0, 1, 0), gvd_pt(0, 0, 1)};
   for (int k = 0; k < 3; ++k) {
     for (int m = 0; m < 3; ++m) {
       const GvdPoint axis = gvd_cross(e[k], axes[m]);
-      if (gvd_dot(axis, axis) > 0 && gvd_separated_on_axis(axis, v0, v1, v2, half)) return 0;
+      if (gvd_dot(axis, axis) > 0 && gvd_separated_on_axis(axis, v0, v1, v2, hsize)) return 0;
     }
   }
   return 1;
@@ -244,17 +268,33 @@ GVD_ITEM_FN int gvd_segment_overlaps_box(GvdPoint a, GvdPoint b, GvdPoint blo, G
   return GVD_FABS(s) <= r + eps;
 }
 
-/* Does simplex s touch the cell (code, level)? The test of build_octree.cpp. */
+/* Does simplex s touch the box [lo, hi] inflated by slack? The test of build_octree.cpp. */
+GVD_ITEM_FN int gvd_simplex_touches_box(int dim, GVD_GLOBAL const GvdPoint* points,
+                                        GVD_GLOBAL const gvd_uint* simplices, gvd_uint s,
+                                        GvdPoint lo, GvdPoint hi, double slack) {
+  const GvdPoint a = points[simplices[3 * s]];
+  const GvdPoint b = points[simplices[3 * s + 1]];
+  if (dim == 2) return gvd_segment_overlaps_box(a, b, lo, hi, slack);
+  return gvd_triangle_overlaps_box(a, b, points[simplices[3 * s + 2]], lo, hi, slack);
+}
+
+/* Does simplex s touch the cell (code, level)? */
 GVD_ITEM_FN int gvd_simplex_touches_cell(int dim, GVD_GLOBAL const GvdPoint* points,
                                          GVD_GLOBAL const gvd_uint* simplices, gvd_uint s,
                                          gvd_u64 code, int level) {
   GvdPoint lo, hi;
   gvd_cell_box(dim, code, level, &lo, &hi);
-  const double slack = gvd_slack(level);
-  const GvdPoint a = points[simplices[3 * s]];
-  const GvdPoint b = points[simplices[3 * s + 1]];
-  if (dim == 2) return gvd_segment_overlaps_box(a, b, lo, hi, slack);
-  return gvd_triangle_overlaps_box(a, b, points[simplices[3 * s + 2]], lo, hi, slack);
+  return gvd_simplex_touches_box(dim, points, simplices, s, lo, hi, gvd_slack(level));
+}
+
+/* A cheap early reject before the exact test: true only when the simplex's bounding box
+ * [slo, shi] is farther than twice the slack from the cell box on some axis, where the exact
+ * test must reject too (its rounding is far below the slack). */
+GVD_ITEM_FN int gvd_bbox_apart(GvdPoint slo, GvdPoint shi, GvdPoint lo, GvdPoint hi,
+                               double slack) {
+  const double m = 2 * slack;
+  return slo.x > hi.x + m || shi.x < lo.x - m || slo.y > hi.y + m || shi.y < lo.y - m ||
+         slo.z > hi.z + m || shi.z < lo.z - m;
 }
 
 /* First index in [begin, end) of the sorted `codes` equal to `code`, or end. */
@@ -273,22 +313,29 @@ GVD_ITEM_FN gvd_uint gvd_find_code(GVD_GLOBAL const gvd_u64* codes, gvd_uint beg
 
 /* Algorithm 2, lines 10-28, for one leaf (code, level): the facets stored at the leaf's
  * ancestors (and itself) that touch it. The SCC array is sorted by (level, code):
- * scc_level_begin[l] .. [l+1] are the entries of level l. Writes up to the facets into
- * `out` when non-null; returns how many touch (the count pass calls it with out = null). */
+ * scc_level_begin[l] .. [l+1] are the entries of level l; scc_lo/scc_hi are the facets'
+ * bounding boxes (an early reject). Writes the facets to `out` when non-null; returns how
+ * many touch (the count pass calls it with out = null). */
 GVD_ITEM_FN gvd_uint gvd_leaf_facets(int dim, GVD_GLOBAL const GvdPoint* points,
                                      GVD_GLOBAL const gvd_uint* simplices,
                                      GVD_GLOBAL const gvd_u64* scc_code,
                                      GVD_GLOBAL const gvd_uint* scc_simplex,
+                                     GVD_GLOBAL const GvdPoint* scc_lo,
+                                     GVD_GLOBAL const GvdPoint* scc_hi,
                                      GVD_GLOBAL const gvd_uint* scc_level_begin, gvd_u64 code,
                                      int level, GVD_GLOBAL gvd_uint* out) {
+  GvdPoint lo, hi;
+  gvd_cell_box(dim, code, level, &lo, &hi);
+  const double slack = gvd_slack(level);
   gvd_uint count = 0;
   for (int l = 0; l <= level; ++l) {
     const gvd_u64 a = gvd_truncate(dim, code, l);
     const gvd_uint end = scc_level_begin[l + 1];
     for (gvd_uint k = gvd_find_code(scc_code, scc_level_begin[l], end, a);
          k < end && scc_code[k] == a; ++k) {
+      if (gvd_bbox_apart(scc_lo[k], scc_hi[k], lo, hi, slack)) continue;
       const gvd_uint s = scc_simplex[k];
-      if (gvd_simplex_touches_cell(dim, points, simplices, s, code, level)) {
+      if (gvd_simplex_touches_box(dim, points, simplices, s, lo, hi, slack)) {
         if (out) out[count] = s;
         ++count;
       }

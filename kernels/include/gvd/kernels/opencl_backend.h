@@ -45,6 +45,7 @@ class OpenClBackend : public ComputeBackend {
   std::string name() const override;
   std::unique_ptr<ClosestPointSolver> closest_points(const UnitGeometry& geometry,
                                                      const SimplexBvh& bvh) override;
+  std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry) override;
   const KernelBuildReport& build_report() const;
   struct Impl;
 
