@@ -45,6 +45,10 @@ compute options:
                              explicit opencl without one is an error, exit 3). The device:
                              GVD_OPENCL_DEVICE="P:D" or a name part; kernel binary cache:
                              GVD_KERNEL_CACHE_DIR (default $XDG_CACHE_HOME/gvd/kernels)
+  --octree-build levels|data-parallel
+                             first octree: level by level (default) or the data-parallel
+                             Karras/conflict-cell build (on OpenCL with that backend);
+                             the same leaves
     --contact-depth N          depth at which refinement between touching or intersecting
                              objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 12000000; peak memory is about
@@ -141,7 +145,8 @@ int cmd_compute(int argc, char** argv) {
       parse_args(argc, argv, 2,
                  {"-o", "--output", "--graph", "--json", "--save", "--max-depth", "--domain",
                   "--threads", "--backend", "--max-leaves", "--max-objects", "--max-simplices",
-                  "--ambiguity-levels", "--ambiguity-rounds", "--contact-depth", "--unseen-rounds"},
+                  "--ambiguity-levels", "--ambiguity-rounds", "--contact-depth", "--unseen-rounds",
+                  "--octree-build"},
                  {"-q", "--quiet"});
   if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
   const bool quiet = args.has("-q") || args.has("--quiet");
@@ -160,6 +165,7 @@ int cmd_compute(int argc, char** argv) {
   options.ambiguity_levels = args.int_value("--ambiguity-levels", options.ambiguity_levels);
   options.ambiguity_rounds = args.int_value("--ambiguity-rounds", options.ambiguity_rounds);
   const std::string backend = args.value("--backend").value_or("auto");
+  options.octree_build = args.value("--octree-build").value_or("levels");
   if (options.max_depth < 0) throw UsageError{"--max-depth must be positive"};
   if (options.threads < 0) throw UsageError{"--threads must be positive"};
   if (const auto box = args.numbers("--domain")) {

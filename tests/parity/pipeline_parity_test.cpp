@@ -16,8 +16,10 @@ namespace {
 
 constexpr double kTolerance = 1e-12;  // unit domain
 
-GvdResult run(const Scene& scene, std::shared_ptr<ComputeBackend> compute) {
+GvdResult run(const Scene& scene, std::shared_ptr<ComputeBackend> compute,
+              const char* octree_build = "levels") {
   PipelineOptions o;
+  o.octree_build = octree_build;
   o.threads = 2;
   o.backend = compute ? "opencl" : "cpu";
   o.compute = std::move(compute);
@@ -25,10 +27,11 @@ GvdResult run(const Scene& scene, std::shared_ptr<ComputeBackend> compute) {
 }
 
 void expect_same_result(const Scene& scene, kernels::OpenClBackend& backend_ref,
-                        std::shared_ptr<kernels::OpenClBackend> backend) {
+                        std::shared_ptr<kernels::OpenClBackend> backend,
+                        const char* octree_build = "levels") {
   (void)backend_ref;
   const GvdResult cpu = run(scene, nullptr);
-  const GvdResult ocl = run(scene, backend);
+  const GvdResult ocl = run(scene, backend, octree_build);
   EXPECT_EQ(cpu.stats.backend, "cpu");
   EXPECT_EQ(ocl.stats.backend.rfind("opencl", 0), 0u) << ocl.stats.backend;
   // Octree.
@@ -97,6 +100,19 @@ TEST(PipelineParity, ThreeDimensionalScenes) {
                                     make_box("b1", {0, 0, 0}, {1, 1, 0.3}),
                                     make_box("b2", {0, 0, 0.3}, {1, 0.4, 0.45})}),
                      *backend, backend);
+}
+
+// The whole pipeline with the first octree from the data-parallel build on the OpenCL kernels
+// against the CPU twins with the level-synchronous build.
+TEST(PipelineParity, DataParallelOctreeBuild) {
+  GVD_REQUIRE_OPENCL(backend);
+  using namespace test;
+  expect_same_result(make_scene(2, {make_gear2d("g1", {0, 0, 0}, 0.8, 1.0, 12, 0.0),
+                                    make_gear2d("g2", {2.02, 0, 0}, 0.8, 1.0, 12, 0.26)}),
+                     *backend, backend, "data-parallel");
+  expect_same_result(make_scene(3, {make_sphere("s1", {0, 0, 0}, 1.0, 8, 16),
+                                    make_box("b", {1.03, -1, -1}, {2, 1, 1})}),
+                     *backend, backend, "data-parallel");
 }
 
 }  // namespace

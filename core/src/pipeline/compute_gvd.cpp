@@ -5,6 +5,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/stopwatch.h"
+#include "gvd/octree/build_octree_dp.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/surface/extract_gvd.h"
@@ -17,6 +18,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
                 "backend '" + options.backend +
                     "' is not available here (core runs: cpu; opencl needs a ComputeBackend "
                     "from gvd_kernels in PipelineOptions::compute)");
+  }
+  if (options.octree_build != "levels" && options.octree_build != "data-parallel") {
+    throw Error(ErrorCode::kInvalidArgument, "octree build '" + options.octree_build +
+                                                 "' is unknown (levels or data-parallel)");
   }
   const Stopwatch total;
   auto progress = [&](const std::string& stage, double f) {
@@ -52,7 +57,13 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   oo.max_leaves = options.max_leaves;
   oo.threads = options.threads;
   oo.cancel = options.cancel;
-  r.octree = build_octree(r.geometry, oo);
+  if (options.octree_build == "data-parallel") {
+    const std::unique_ptr<OctreeBuildSteps> steps =
+        options.compute ? options.compute->octree_build_steps(r.geometry) : nullptr;
+    r.octree = build_octree_data_parallel(r.geometry, oo, steps.get());
+  } else {
+    r.octree = build_octree(r.geometry, oo);
+  }
   r.stats.stages.push_back(
       {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
 

@@ -43,6 +43,10 @@ struct PipelineOptions {
   std::string backend = "cpu";
   /// The data-parallel backend (closest-point initialisation); null = the CPU twins.
   std::shared_ptr<ComputeBackend> compute;
+  /// How the first octree is built: "levels" (build_octree, level-synchronous; the faster on
+  /// 2 cores) or "data-parallel" (build_octree_data_parallel: the draft's Karras / conflict-
+  /// cell construction, on the backend's kernels when it has them). Same leaves either way.
+  std::string octree_build = "levels";
   /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
   /// ResultStats::backend so that `gvd info` says so.
   std::string backend_note;
