@@ -53,7 +53,10 @@ typedef struct GvdHit {
 } GvdHit;
 
 #define GVD_NO_SIMPLEX 0xFFFFFFFFu
-#define GVD_BVH_STACK 128
+/* The BVH splits at the median, so its depth is <= log2(M / 4) + 1 < 32 and a depth-first
+ * walk holds at most depth + 1 entries; 64 keeps the per-work-item stack small (PoCL keeps
+ * one per work-item of a work-group). */
+#define GVD_BVH_STACK 64
 
 GVD_ITEM_FN GvdPoint gvd_pt(double x, double y, double z) {
   GvdPoint r;
@@ -155,7 +158,7 @@ GVD_ITEM_FN GvdPoint gvd_closest_on_simplex(int dimension, GVD_GLOBAL const GvdP
 /* The exact closest point to p among all simplices whose squared distance is <= max_dist2
  * (ties go to the lower simplex index); simplex = GVD_NO_SIMPLEX when there is none. Nearer
  * child first; a subtree is skipped when its box is farther than the best hit so far.
- * O(log M) typical, O(M) worst case; no allocation (a fixed stack, BVH depth <= 64). */
+ * O(log M) typical, O(M) worst case; no allocation (a fixed stack). */
 GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
                                     GVD_GLOBAL const GvdBvhNode* nodes,
                                     GVD_GLOBAL const gvd_uint* order,
