@@ -203,6 +203,11 @@ void BM_OctreeBuild(benchmark::State& state, std::string scene, std::string impl
     state.counters["vertex_leaves"] = static_cast<double>(stats.vertex_octree_leaves);
     state.counters["conflicts"] = static_cast<double>(stats.conflict_cells);
     state.counters["resolved_leaves"] = static_cast<double>(stats.resolved_leaves);
+    state.counters["vertex_octree_s"] = stats.seconds_vertex_octree;
+    state.counters["facets_s"] = stats.seconds_facets;
+    state.counters["refine_s"] = stats.seconds_refine;
+    state.counters["rule_s"] = stats.seconds_rule;
+    state.counters["balance_leaves_s"] = stats.seconds_materialize;
   }
 }
 

@@ -7,6 +7,7 @@
 #include "gvd/common/flat_hash.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
+#include "gvd/common/stopwatch.h"
 #include "gvd/octree/contacts.h"
 
 namespace gvd {
@@ -208,6 +209,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     steps = twin.get();
   }
   DataParallelBuildStats st;
+  Stopwatch part;
 
   // (1) Vertex octree: sorted unique Morton keys, Karras radix tree, and the octree cells it
   // implies (each internal radix node contributes the cells between its parent's prefix
@@ -255,6 +257,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   };
   collect_leaves();
   st.vertex_octree_leaves = leaf_code.size();
+  st.seconds_vertex_octree = part.lap();
   if (leaf_code.size() > options.max_leaves) leaf_limit(options, max_depth);
   check_cancel(options);
 
@@ -291,6 +294,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     for (int l = 0; l <= max_depth; ++l) scc.level_begin[l + 1] += scc.level_begin[l];
   }
   CsrU32 lists = steps->cell_facets(scc, leaf_code, leaf_level);
+  st.seconds_facets = part.lap();
 
   // (3) Conflict cells: refine level by level (Algorithm 3, data-parallel over the frontier).
   auto is_conflict = [&](const Objects& s, int level) {
@@ -344,6 +348,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     cur_level = std::move(next_level);
   }
   st.resolved_leaves = res_code.size();
+  st.seconds_refine = part.lap();
 
   // Objects of every cell of the resolved octree: leaves from their lists, internal cells as
   // the union of their children (bottom-up).
@@ -471,8 +476,11 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     }
     current = std::move(next);
   }
+  st.seconds_rule = part.lap();
+  Octree tree = octree_from_split_cells(g, splits, options);
+  st.seconds_materialize = part.lap();
   if (stats) *stats = st;
-  return octree_from_split_cells(g, splits, options);
+  return tree;
 }
 
 }  // namespace gvd

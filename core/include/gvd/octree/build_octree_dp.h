@@ -67,6 +67,10 @@ struct DataParallelBuildStats {
   uint64_t refined_cells = 0;      ///< cells split while resolving conflicts
   uint64_t resolved_leaves = 0;    ///< leaves of the conflict-free octree
   int refine_levels = 0;
+  /// Wall time of the parts (seconds): vertex octree (keys, sort, radix tree, cells), facet
+  /// lists (SCC + Algorithm 2), conflict refinement, the engine's rule, balance + leaves.
+  double seconds_vertex_octree = 0, seconds_facets = 0, seconds_refine = 0, seconds_rule = 0,
+         seconds_materialize = 0;
 };
 
 /// The octree of build_octree, built the data-parallel way of the draft: (1) Morton codes of
