@@ -27,15 +27,20 @@ __kernel void gvd_radix_parents(__global const GvdRadixNode* nodes, const int in
   if (i == 0) parent[0] = -1;
 }
 
-__kernel void gvd_smallest_containing_cells(const int dimension, __global const GvdPoint* points,
-                                            __global const uint* simplices, const uint count,
-                                            const double slack, const int max_level,
-                                            __global ulong* codes, __global int* levels) {
+/* Cells each simplex is stored in: count pass (fill = 0), then fill at out_begin[s]. */
+__kernel void gvd_facet_cell_lists(const int dimension, __global const GvdPoint* points,
+                              __global const uint* simplices, const uint count,
+                              const double slack, const int max_level, const int fill,
+                              __global uint* counts, __global const uint* out_begin,
+                              __global ulong* codes, __global int* levels) {
   const uint s = (uint)get_global_id(0);
   if (s >= count) return;
-  ulong code = 0;
-  levels[s] = gvd_scc(dimension, points, simplices, s, slack, max_level, &code);
-  codes[s] = code;
+  if (!fill) {
+    counts[s] = (uint)gvd_facet_cells(dimension, points, simplices, s, slack, max_level, 0, 0);
+    return;
+  }
+  gvd_facet_cells(dimension, points, simplices, s, slack, max_level, codes + out_begin[s],
+                  levels + out_begin[s]);
 }
 
 /* Algorithm 2, lines 10-28: count pass (out_begin = 0) and fill pass. */

@@ -67,24 +67,42 @@ class OpenClOctreeBuildSteps final : public OctreeBuildSteps {
     read(pb, parent);
   }
 
-  void smallest_containing_cells(int max_level, std::vector<uint64_t>& code,
-                                 std::vector<int32_t>& level) override {
-    code.assign(simplex_count_, 0);
-    level.assign(simplex_count_, 0);
+  void facet_cells(int max_level, std::vector<uint32_t>& begin, std::vector<uint64_t>& code,
+                   std::vector<int32_t>& level) override {
+    begin.assign(simplex_count_ + 1, 0);
+    code.clear();
+    level.clear();
     if (simplex_count_ == 0) return;
     std::lock_guard<std::mutex> lock(impl_->mutex);
-    const cl::Buffer cb = output(code.size() * sizeof(uint64_t));
-    const cl::Buffer lb = output(level.size() * sizeof(int32_t));
-    const cl::Kernel& k = kernel("gvd_smallest_containing_cells");
+    const cl::Kernel& k = kernel("gvd_facet_cell_lists");
+    const cl_mem none = nullptr;
+    const cl::Buffer counts = output(simplex_count_ * sizeof(uint32_t));
     cl::set_arg(k, 0, cl_int{dim_});
     cl::set_arg(k, 1, points_.get());
     cl::set_arg(k, 2, simplices_.get());
     cl::set_arg(k, 3, static_cast<cl_uint>(simplex_count_));
     cl::set_arg(k, 4, cl_double{item::gvd_slack(0)});
     cl::set_arg(k, 5, cl_int{max_level});
-    cl::set_arg(k, 6, cb.get());
-    cl::set_arg(k, 7, lb.get());
-    launch(k, simplex_count_, "gvd_smallest_containing_cells");
+    cl::set_arg(k, 6, cl_int{0});
+    cl::set_arg(k, 7, counts.get());
+    cl::set_arg(k, 8, none);
+    cl::set_arg(k, 9, none);
+    cl::set_arg(k, 10, none);
+    launch(k, simplex_count_, "gvd_facet_cell_lists");
+    std::vector<uint32_t> c(simplex_count_);
+    read(counts, c);
+    for (size_t s = 0; s < simplex_count_; ++s) begin[s + 1] = begin[s] + c[s];
+    code.resize(begin.back());
+    level.resize(begin.back());
+    const cl::Buffer bb = input(begin.data(), begin.size() * sizeof(uint32_t));
+    const cl::Buffer cb = output(code.size() * sizeof(uint64_t));
+    const cl::Buffer lb = output(level.size() * sizeof(int32_t));
+    cl::set_arg(k, 6, cl_int{1});
+    cl::set_arg(k, 7, none);
+    cl::set_arg(k, 8, bb.get());
+    cl::set_arg(k, 9, cb.get());
+    cl::set_arg(k, 10, lb.get());
+    launch(k, simplex_count_, "gvd_facet_cell_lists");
     read(cb, code);
     read(lb, level);
   }

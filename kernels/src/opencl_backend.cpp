@@ -169,7 +169,7 @@ std::shared_ptr<OpenClBackend> make_opencl_backend(const OpenClOptions& options)
   impl->report.cache_file = info.cache_file;
   impl->closest_kernel = cl::make_kernel(impl->closest_program, "gvd_closest_points");
   for (const char* name : {"gvd_vertex_keys", "gvd_radix_nodes", "gvd_radix_parents",
-                           "gvd_smallest_containing_cells", "gvd_cell_facets",
+                           "gvd_facet_cell_lists", "gvd_cell_facets",
                            "gvd_child_facets"})
     impl->octree_kernels.emplace(name, cl::make_kernel(impl->octree_program, name));
   size_t max_wg = 0;

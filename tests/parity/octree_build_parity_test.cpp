@@ -74,12 +74,19 @@ void expect_steps_agree(kernels::OpenClBackend& backend, const UnitGeometry& g, 
     EXPECT_GE(p.last, na[i].last);
     EXPECT_LT(p.prefix, na[i].prefix);
   }
+  std::vector<uint32_t> ba, bb;
   std::vector<uint64_t> ca, cb;
   std::vector<int32_t> la, lb;
-  twin->smallest_containing_cells(max_level, ca, la);
-  ocl->smallest_containing_cells(max_level, cb, lb);
+  twin->facet_cells(max_level, ba, ca, la);
+  ocl->facet_cells(max_level, bb, cb, lb);
+  EXPECT_EQ(ba, bb);
   EXPECT_EQ(ca, cb);
   EXPECT_EQ(la, lb);
+  // Each simplex is stored in 1 .. 2^D cells.
+  for (size_t s = 0; s + 1 < ba.size(); ++s) {
+    EXPECT_GE(ba[s + 1] - ba[s], 1u);
+    EXPECT_LE(ba[s + 1] - ba[s], 1u << g.dimension);
+  }
 }
 
 void expect_builds_agree(kernels::OpenClBackend& backend, const UnitGeometry& g,

@@ -65,18 +65,24 @@ class CpuOctreeBuildSteps final : public OctreeBuildSteps {
     link_parents(nodes, parent);
   }
 
-  void smallest_containing_cells(int max_level, std::vector<uint64_t>& code,
-                                 std::vector<int32_t>& level) override {
+  void facet_cells(int max_level, std::vector<uint32_t>& begin, std::vector<uint64_t>& code,
+                   std::vector<int32_t>& level) override {
     const size_t m = simplices_.size() / 3;
-    code.assign(m, 0);
-    level.assign(m, 0);
+    const double slack = item::gvd_slack(0);
+    begin.assign(m + 1, 0);
     parallel_for(m, threads_, [&](size_t b, size_t e, int) {
-      for (size_t s = b; s < e; ++s) {
-        uint64_t c = 0;
-        level[s] = item::gvd_scc(dim_, points_.data(), simplices_.data(),
-                                 static_cast<uint32_t>(s), item::gvd_slack(0), max_level, &c);
-        code[s] = c;
-      }
+      for (size_t s = b; s < e; ++s)
+        begin[s + 1] = static_cast<uint32_t>(
+            item::gvd_facet_cells(dim_, points_.data(), simplices_.data(),
+                                  static_cast<uint32_t>(s), slack, max_level, nullptr, nullptr));
+    });
+    for (size_t s = 0; s < m; ++s) begin[s + 1] += begin[s];
+    code.assign(begin[m], 0);
+    level.assign(begin[m], 0);
+    parallel_for(m, threads_, [&](size_t b, size_t e, int) {
+      for (size_t s = b; s < e; ++s)
+        item::gvd_facet_cells(dim_, points_.data(), simplices_.data(), static_cast<uint32_t>(s),
+                              slack, max_level, code.data() + begin[s], level.data() + begin[s]);
     });
   }
 
@@ -265,31 +271,46 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   // path, sorted by (level, code); then every leaf's facets from its ancestors.
   SccArray scc;
   {
+    std::vector<uint32_t> begin;
     std::vector<uint64_t> code;
     std::vector<int32_t> level;
-    steps->smallest_containing_cells(max_depth, code, level);
-    std::vector<int32_t> clamped(code.size());
-    for (size_t s = 0; s < code.size(); ++s) {
-      auto it = std::upper_bound(leaf_code.begin(), leaf_code.end(), code[s]);
-      const int leaf_lvl = leaf_level[static_cast<size_t>(it - leaf_code.begin() - 1)];
-      clamped[s] = std::min(level[s], leaf_lvl);
-      code[s] = item::gvd_truncate(dim, code[s], clamped[s]);
-    }
-    std::vector<uint32_t> order(code.size());
-    std::iota(order.begin(), order.end(), 0u);
-    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-      return clamped[a] != clamped[b] ? clamped[a] < clamped[b]
-                                      : (code[a] != code[b] ? code[a] < code[b] : a < b);
+    steps->facet_cells(max_depth, begin, code, level);
+    // Clamp each cell to the deepest cell of the vertex octree on its path (a cell below a
+    // leaf is stored at the leaf); entries are (level, code, simplex), unique.
+    struct Entry {
+      int32_t level;
+      uint64_t code;
+      uint32_t simplex;
+      bool operator<(const Entry& o) const {
+        return level != o.level ? level < o.level
+                                : (code != o.code ? code < o.code : simplex < o.simplex);
+      }
+      bool operator==(const Entry& o) const {
+        return level == o.level && code == o.code && simplex == o.simplex;
+      }
+    };
+    std::vector<Entry> entries(code.size());
+    const size_t m = begin.size() - 1;
+    parallel_for(m, threads, [&](size_t b, size_t e, int) {
+      for (size_t s = b; s < e; ++s)
+        for (uint32_t k = begin[s]; k < begin[s + 1]; ++k) {
+          auto it = std::upper_bound(leaf_code.begin(), leaf_code.end(), code[k]);
+          const int leaf_lvl = leaf_level[static_cast<size_t>(it - leaf_code.begin() - 1)];
+          const int l = std::min(level[k], leaf_lvl);
+          entries[k] = {l, item::gvd_truncate(dim, code[k], l), static_cast<uint32_t>(s)};
+        }
     });
+    std::sort(entries.begin(), entries.end());
+    entries.erase(std::unique(entries.begin(), entries.end()), entries.end());
     scc.level_begin.assign(max_depth + 2, 0);
-    for (uint32_t s : order) {
-      scc.code.push_back(code[s]);
-      scc.simplex.push_back(s);
+    for (const Entry& en : entries) {
+      scc.code.push_back(en.code);
+      scc.simplex.push_back(en.simplex);
       Box box;
-      for (int k = 0; k < dim; ++k) box.extend(g.points[g.simplices[s].v[k]]);
+      for (int k = 0; k < dim; ++k) box.extend(g.points[g.simplices[en.simplex].v[k]]);
       scc.lo.push_back({box.lo.x, box.lo.y, box.lo.z});
       scc.hi.push_back({box.hi.x, box.hi.y, box.hi.z});
-      ++scc.level_begin[clamped[s] + 1];
+      ++scc.level_begin[en.level + 1];
     }
     for (int l = 0; l <= max_depth; ++l) scc.level_begin[l + 1] += scc.level_begin[l];
   }

@@ -17,8 +17,8 @@ struct CsrU32 {
   size_t rows() const { return begin.size() - 1; }
 };
 
-/// The smallest containing cells of the simplices, sorted by (level, code): entries of level l
-/// are [level_begin[l], level_begin[l + 1]).
+/// The cells the simplices are stored in (gvd_facet_cells), clamped to the tree and sorted by
+/// (level, code): entries of level l are [level_begin[l], level_begin[l + 1]).
 struct SccArray {
   std::vector<uint64_t> code;
   std::vector<uint32_t> simplex;
@@ -40,9 +40,11 @@ class OctreeBuildSteps {
   virtual void radix_tree(std::span<const uint64_t> keys, int bits,
                           std::vector<item::GvdRadixNode>& nodes,
                           std::vector<int32_t>& parent) = 0;
-  /// The smallest containing cell of every simplex (draft container(f)), at most max_level.
-  virtual void smallest_containing_cells(int max_level, std::vector<uint64_t>& code,
-                                         std::vector<int32_t>& level) = 0;
+  /// The cells every simplex is stored in (gvd_facet_cells: its smallest containing cell,
+  /// the draft's container(f), or the <= 2^D cells of its size), at most max_level; CSR over
+  /// simplices (`begin`, then `code` and `level` per entry). Two passes: count, fill.
+  virtual void facet_cells(int max_level, std::vector<uint32_t>& begin,
+                           std::vector<uint64_t>& code, std::vector<int32_t>& level) = 0;
   /// Draft Algorithm 2, lines 10-28: for every cell (code, level) the facets stored at its
   /// ancestors (and itself) in `scc` that touch it. Two passes: count, exclusive prefix sum,
   /// fill.
@@ -77,8 +79,9 @@ struct DataParallelBuildStats {
 /// the object vertices, radix sort, Karras binary radix tree and the octree it implies (the
 /// "vertex octree": every leaf holds at most one vertex code); (2) the smallest containing
 /// cell of every simplex from the longest common Morton prefix of its (slack-inflated)
-/// bounding box, sorted by (level, code), and per leaf the facets stored at its ancestors that
-/// touch it (two-pass count / prefix sum / fill); (3) conflict cells (leaves touching more
+/// bounding box — a small simplex straddling a coarse boundary goes to the <= 2^D cells of its
+/// own size instead (gvd_facet_cells) — sorted by (level, code), and per leaf the facets
+/// stored at its ancestors that touch it (two-pass count / prefix sum / fill); (3) conflict cells (leaves touching more
 /// than one object, contact pairs exempt below the contact depth) refined level by level until
 /// none is left or the depth limit is hit. The engine's rules then decide the final tree from
 /// the contents of this conflict-free octree: SHOULD_SUBDIVIDE's buffer-cell rule (§3), the

@@ -124,13 +124,10 @@ GVD_ITEM_FN int gvd_radix_cell_last_level(int dim, int prefix, int max_level) {
   return l < max_level ? l : max_level;
 }
 
-/* The smallest containing cell of a simplex (draft §3.5, container(f)): the longest common
- * prefix of the Morton codes of the corners of its bounding box, inflated by the largest
- * overlap slack so that every cell the overlap test can accept lies inside it, truncated to
- * whole levels and to max_level. Returns the level; *code = the cell's lower-corner code. */
-GVD_ITEM_FN int gvd_scc(int dim, GVD_GLOBAL const GvdPoint* points,
-                        GVD_GLOBAL const gvd_uint* simplices, gvd_uint s, double slack,
-                        int max_level, gvd_u64* code) {
+/* The bounding box of simplex s inflated by `slack` on every side. */
+GVD_ITEM_FN void gvd_facet_box(int dim, GVD_GLOBAL const GvdPoint* points,
+                               GVD_GLOBAL const gvd_uint* simplices, gvd_uint s, double slack,
+                               GvdPoint* lo_out, GvdPoint* hi_out) {
   GvdPoint lo = points[simplices[3 * s]];
   GvdPoint hi = lo;
   for (int k = 1; k < (dim == 2 ? 2 : 3); ++k) {
@@ -142,8 +139,19 @@ GVD_ITEM_FN int gvd_scc(int dim, GVD_GLOBAL const GvdPoint* points,
     hi.y = p.y > hi.y ? p.y : hi.y;
     hi.z = p.z > hi.z ? p.z : hi.z;
   }
-  lo = gvd_pt(lo.x - slack, lo.y - slack, lo.z - slack);
-  hi = gvd_pt(hi.x + slack, hi.y + slack, hi.z + slack);
+  *lo_out = gvd_pt(lo.x - slack, lo.y - slack, lo.z - slack);
+  *hi_out = gvd_pt(hi.x + slack, hi.y + slack, hi.z + slack);
+}
+
+/* The smallest containing cell of a simplex (draft §3.5, container(f)): the longest common
+ * prefix of the Morton codes of the corners of its bounding box, inflated by the largest
+ * overlap slack so that every cell the overlap test can accept lies inside it, truncated to
+ * whole levels and to max_level. Returns the level; *code = the cell's lower-corner code. */
+GVD_ITEM_FN int gvd_scc(int dim, GVD_GLOBAL const GvdPoint* points,
+                        GVD_GLOBAL const gvd_uint* simplices, gvd_uint s, double slack,
+                        int max_level, gvd_u64* code) {
+  GvdPoint lo, hi;
+  gvd_facet_box(dim, points, simplices, s, slack, &lo, &hi);
   const gvd_u64 a = gvd_point_code(dim, lo);
   const gvd_u64 b = gvd_point_code(dim, hi);
   const int bits = dim * gvd_lattice_bits(dim);
@@ -152,6 +160,59 @@ GVD_ITEM_FN int gvd_scc(int dim, GVD_GLOBAL const GvdPoint* points,
   if (level > max_level) level = max_level;
   *code = gvd_truncate(dim, a, level);
   return level;
+}
+
+/* The cells simplex s is stored in for conflict detection. The draft stores a facet in its
+ * smallest containing cell only; a small facet that straddles a coarse boundary (the mid-
+ * planes of the domain cut thousands of them) then sits in a cell near the root, and every
+ * leaf below tests it. Here such a facet goes instead to the cells it overlaps on the deepest
+ * level whose cells are at least as large as its (inflated) bounding box: at most 2^D cells,
+ * each a descendant of the SCC; a facet already fitting that level keeps its SCC. Every leaf
+ * the facet touches lies inside one of the returned cells (or contains one, see the clamp in
+ * build_octree_data_parallel). Writes the cells when out_code is non-null; returns how many. */
+GVD_ITEM_FN int gvd_facet_cells(int dim, GVD_GLOBAL const GvdPoint* points,
+                                GVD_GLOBAL const gvd_uint* simplices, gvd_uint s, double slack,
+                                int max_level, GVD_GLOBAL gvd_u64* out_code,
+                                GVD_GLOBAL int* out_level) {
+  gvd_u64 scc = 0;
+  const int scc_level = gvd_scc(dim, points, simplices, s, slack, max_level, &scc);
+  GvdPoint lo, hi;
+  gvd_facet_box(dim, points, simplices, s, slack, &lo, &hi);
+  double ext = hi.x - lo.x;
+  if (hi.y - lo.y > ext) ext = hi.y - lo.y;
+  if (dim == 3 && hi.z - lo.z > ext) ext = hi.z - lo.z;
+  int level = scc_level;
+  while (level < max_level && 1.0 / (double)((gvd_u64)1 << (level + 1)) >= ext) ++level;
+  if (level == scc_level) {
+    if (out_code) {
+      out_code[0] = scc;
+      out_level[0] = scc_level;
+    }
+    return 1;
+  }
+  const int shift = gvd_lattice_bits(dim) - level;
+  const gvd_u64 x0 = gvd_lattice_coord(dim, lo.x) >> shift, x1 = gvd_lattice_coord(dim, hi.x) >> shift;
+  const gvd_u64 y0 = gvd_lattice_coord(dim, lo.y) >> shift, y1 = gvd_lattice_coord(dim, hi.y) >> shift;
+  gvd_u64 z0 = 0, z1 = 0;
+  if (dim == 3) {
+    z0 = gvd_lattice_coord(dim, lo.z) >> shift;
+    z1 = gvd_lattice_coord(dim, hi.z) >> shift;
+  }
+  int n = 0;
+  for (gvd_u64 z = z0; z <= z1; ++z)
+    for (gvd_u64 y = y0; y <= y1; ++y)
+      for (gvd_u64 x = x0; x <= x1; ++x) {
+        if (out_code) {
+          const gvd_u64 code =
+              dim == 2 ? gvd_spread2(x << shift) | (gvd_spread2(y << shift) << 1)
+                       : gvd_spread3(x << shift) | (gvd_spread3(y << shift) << 1) |
+                             (gvd_spread3(z << shift) << 2);
+          out_code[n] = code;
+          out_level[n] = level;
+        }
+        ++n;
+      }
+  return n;
 }
 
 GVD_ITEM_FN gvd_u64 gvd_compact2(gvd_u64 x) {
