@@ -6,6 +6,7 @@
 
 #include "backend_impl.h"
 #include "gvd/common/error.h"
+#include "gvd/octree/build_octree_dp.h"
 
 namespace gvd::kernels {
 namespace {

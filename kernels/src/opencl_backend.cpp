@@ -9,6 +9,8 @@
 #include "cl_runtime.h"
 #include "gvd/common/error.h"
 #include "gvd/common/stopwatch.h"
+#include "gvd/distance/closest_points.h"
+#include "gvd/octree/build_octree_dp.h"
 #include "gvd/kernels/embedded_sources.h"
 
 namespace gvd::kernels {

@@ -1,5 +1,8 @@
 #include "gvd/compute/compute_backend.h"
 
+#include "gvd/distance/closest_points.h"
+#include "gvd/octree/build_octree_dp.h"
+
 namespace gvd {
 
 namespace {
@@ -19,6 +22,10 @@ class CpuClosestPointSolver final : public ClosestPointSolver {
 };
 
 }  // namespace
+
+std::unique_ptr<OctreeBuildSteps> ComputeBackend::octree_build_steps(const UnitGeometry&) {
+  return nullptr;
+}
 
 std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const UnitGeometry& geometry,
                                                                   const SimplexBvh& bvh,

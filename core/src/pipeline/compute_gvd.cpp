@@ -5,6 +5,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/stopwatch.h"
+#include "gvd/distance/closest_points.h"
 #include "gvd/octree/build_octree_dp.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"

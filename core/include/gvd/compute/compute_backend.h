@@ -1,14 +1,16 @@
 #pragma once
 
 #include <memory>
-#include <optional>
 #include <string>
 
-#include "gvd/distance/closest_points.h"
-#include "gvd/octree/build_octree_dp.h"
-#include "gvd/octree/octree.h"
-
 namespace gvd {
+
+// Declared in gvd/distance/closest_points.h and gvd/octree/build_octree_dp.h; forward
+// declarations keep the device-shared headers out of everything that includes pipeline.h.
+class ClosestPointSolver;
+class OctreeBuildSteps;
+class SimplexBvh;
+struct UnitGeometry;
 
 /// The data-parallel parts of the pipeline behind one interface, so that core stays free of
 /// OpenCL: `kernels/` implements it on OpenCL (PoCL on this machine), the CLI and the server
@@ -24,10 +26,7 @@ class ComputeBackend {
                                                              const SimplexBvh& bvh) = 0;
   /// The steps of the data-parallel octree build (build_octree_dp.h) bound to one scene;
   /// null when the backend has none (the CPU twins then run).
-  virtual std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry) {
-    (void)geometry;
-    return nullptr;
-  }
+  virtual std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry);
 };
 
 /// The CPU twin as a solver (closest_points_cpu over a ClosestPointData copy of the scene).
