@@ -152,6 +152,12 @@ void BM_KernelBuild(benchmark::State& state, bool cached) {
       std::chrono::steady_clock::now().time_since_epoch().count() % 1000000007);
   double build = 0, warm = 0;
   int from_cache = 0;
+  if (cached) {  // make sure the binary of this nonce is in the cache, outside the timing
+    gvd::kernels::OpenClOptions o;
+    o.cache_dir = dir;
+    o.extra_build_options = "-DGVD_BENCH_NONCE=" + std::to_string(nonce);
+    gvd::kernels::make_opencl_backend(o);
+  }
   for (auto _ : state) {
     gvd::kernels::OpenClOptions o;
     o.cache_dir = dir;
@@ -238,7 +244,6 @@ void BM_PipelineBackend(benchmark::State& state, std::string scene, std::string 
   state.counters["leaves"] = static_cast<double>(stats.leaves);
 }
 
-// The cached build first: it then also times the cache hit after a cold build of its nonce.
 const bool registered = [] {
   for (const char* scene : {"blades", "spheres"})
     for (const char* impl : {"opencl", "twin", "scalar"})
