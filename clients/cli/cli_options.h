@@ -20,6 +20,7 @@ enum ExitCode : int {
   kExitLimit = 4,      ///< a configured limit was exceeded
   kExitIo = 5,         ///< a file could not be read or written / not found
   kExitCancelled = 6,  ///< interrupted
+  kExitNoPath = 7,     ///< `gvd path`: no path joins the points (the JSON says why)
 };
 
 /// Thrown for command-line mistakes; the message is shown with a hint to --help.

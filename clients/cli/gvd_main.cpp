@@ -5,10 +5,12 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "cli_options.h"
+#include "commands.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/io/result_file.h"
@@ -25,7 +27,19 @@ constexpr const char* kUsage = R"(gvd — generalized Voronoi diagrams of closel
 Usage:
   gvd compute SCENE... [options]   compute the GVD of a scene
   gvd info RESULT.gvd [--json]     depth, leaves, bytes per leaf, stage timings, warnings
+  gvd nearest INPUT (--points FILE.json | --point x,y[,z]...)
+                                   nearest object and distance, one JSON line per point
+  gvd neighbors INPUT --object LABEL [--ring K]
+                                   objects within K rings of the dual graph (default 1)
+  gvd path INPUT --from x,y[,z] --to x,y[,z] [--min-clearance R] [--cost shortest|clearance]
+                                   a path on the GVD that crosses no object
+  gvd explode INPUT --anchor LABEL [-o FILE.glb] [--scale S] [--seconds T]
+                                   exploded view: displacement per object (+ animated GLB)
+  gvd tight INPUT --below B        object pairs whose interface comes closer than B
   gvd --help | --version
+
+INPUT is a result saved with `compute --save`, or a scene (computed first; the compute
+options below apply). Query answers are JSON on stdout (docs/FORMATS.md).
 
 SCENE is the scene JSON ({"dimension":2|3,"objects":[...]}), an OBJ whose o/g groups are
 the objects, a GLB/glTF with one node per object, or several PLY/STL/OFF/OBJ files, one
@@ -62,8 +76,18 @@ compute options:
                              (default: 48 in 2D, 4 in 3D)
   -q, --quiet                no progress or summary on stderr
 
-Exit codes: 0 ok, 1 internal error, 2 bad command line, 3 invalid input (scene, option or
-format), 4 limit exceeded, 5 file not readable/writable or not found, 6 cancelled.
+query options:
+  --points FILE.json         points as [[x,y,z],...] or {"points":[...]} ("-" = stdin)
+  --point x,y[,z]            one point (repeatable)
+  --ring K                   rings around the object (default 1; large K = all reachable)
+  --min-clearance R          passages narrower than R are not used (default 0)
+  --cost shortest|clearance  path cost: length, or length / clearance (default shortest)
+  --scale S                  explode: displacement per ring (default: 1/4 of the mean object size)
+  --seconds T                explode: animation length of the GLB (default 2)
+
+Exit codes: 0 ok, 1 internal error, 2 bad command line, 3 invalid input (scene, option,
+format, or a point outside the domain), 4 limit exceeded, 5 file not readable/writable or
+not found (also an unknown object label), 6 cancelled, 7 no path joins the points.
 )";
 
 int exit_code_for(ErrorCode code) {
@@ -140,23 +164,26 @@ void print_summary(const GvdResult& r, std::FILE* out) {
   }
 }
 
-int cmd_compute(int argc, char** argv) {
-  const Args args =
-      parse_args(argc, argv, 2,
-                 {"-o", "--output", "--graph", "--json", "--save", "--max-depth", "--domain",
-                  "--threads", "--backend", "--max-leaves", "--max-objects", "--max-simplices",
-                  "--ambiguity-levels", "--ambiguity-rounds", "--contact-depth", "--unseen-rounds",
-                  "--octree-build"},
-                 {"-q", "--quiet"});
-  if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
-  const bool quiet = args.has("-q") || args.has("--quiet");
+}  // namespace
 
+const std::vector<std::string>& compute_value_flags() {
+  static const std::vector<std::string> flags = {
+      "--max-depth",        "--domain",        "--threads",       "--backend",
+      "--max-leaves",       "--max-objects",   "--max-simplices", "--ambiguity-levels",
+      "--ambiguity-rounds", "--contact-depth", "--unseen-rounds", "--octree-build"};
+  return flags;
+}
+
+ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& files) {
+  const bool quiet = args.has("-q") || args.has("--quiet");
   SceneLimits limits;
   limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
   limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
-  Scene scene = load_scene(args.positional, limits);
+  ComputeSetup setup;
+  setup.scene = load_scene(files, limits);
+  const Scene& scene = setup.scene;
 
-  PipelineOptions options;
+  PipelineOptions& options = setup.options;
   options.max_depth = args.int_value("--max-depth", 0);
   options.contact_depth = args.int_value("--contact-depth", 0);
   options.unseen_rounds = args.int_value("--unseen-rounds", options.unseen_rounds);
@@ -194,8 +221,22 @@ int cmd_compute(int argc, char** argv) {
                  scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
                  scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
   }
-  Progress progress(!quiet);
-  options.progress = [&](const std::string& stage, double f) { progress(stage, f); };
+  auto progress = std::make_shared<Progress>(!quiet);
+  options.progress = [progress](const std::string& stage, double f) { (*progress)(stage, f); };
+  return setup;
+}
+
+namespace {
+
+int cmd_compute(int argc, char** argv) {
+  std::vector<std::string> value_flags = {"-o", "--output", "--graph", "--json", "--save"};
+  value_flags.insert(value_flags.end(), compute_value_flags().begin(), compute_value_flags().end());
+  const Args args = parse_args(argc, argv, 2, value_flags, {"-q", "--quiet"});
+  if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
+  const bool quiet = args.has("-q") || args.has("--quiet");
+  ComputeSetup setup = compute_setup(args, args.positional);
+  Scene scene = std::move(setup.scene);
+  const PipelineOptions& options = setup.options;
 
   const GvdResult result = compute_gvd(std::move(scene), options);
 
@@ -257,6 +298,11 @@ int run(int argc, char** argv) {
   }
   if (command == "compute") return cmd_compute(argc, argv);
   if (command == "info") return cmd_info(argc, argv);
+  if (command == "nearest") return cmd_nearest(argc, argv);
+  if (command == "neighbors" || command == "neighbours") return cmd_neighbors(argc, argv);
+  if (command == "path") return cmd_path(argc, argv);
+  if (command == "explode") return cmd_explode(argc, argv);
+  if (command == "tight") return cmd_tight(argc, argv);
   throw UsageError{"unknown command \"" + command + "\""};
 }
 

@@ -154,6 +154,19 @@ double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
   return dist2(p0 + d1 * s, q0 + d2 * t);
 }
 
+double segment_segment_dist2_2d(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
+  auto orient = [](Vec3 a, Vec3 b, Vec3 c) {
+    return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+  };
+  const double o1 = orient(p0, p1, q0), o2 = orient(p0, p1, q1);
+  const double o3 = orient(q0, q1, p0), o4 = orient(q0, q1, p1);
+  if (((o1 < 0 && o2 > 0) || (o1 > 0 && o2 < 0)) && ((o3 < 0 && o4 > 0) || (o3 > 0 && o4 < 0))) {
+    return 0;
+  }
+  const Vec3 a{p0.x, p0.y, 0}, b{p1.x, p1.y, 0}, c{q0.x, q0.y, 0}, d{q1.x, q1.y, 0};
+  return segment_segment_dist2(a, b, c, d);
+}
+
 namespace {
 
 // Does segment [p, q] cross triangle t (Möller–Trumbore, segment parameter in [0, 1])?
@@ -190,6 +203,28 @@ double triangle_triangle_dist2(const Vec3 a[3], const Vec3 b[3]) {
     }
   }
   return best;
+}
+
+double segment_triangle_dist2(Vec3 p0, Vec3 p1, Vec3 a, Vec3 b, Vec3 c) {
+  const Vec3 t[3] = {a, b, c};
+  if (segment_crosses_triangle(p0, p1, t)) return 0;
+  double best = std::min(dist2(p0, closest_point_on_triangle(p0, a, b, c)),
+                         dist2(p1, closest_point_on_triangle(p1, a, b, c)));
+  for (int i = 0; i < 3; ++i) {
+    best = std::min(best, segment_segment_dist2(p0, p1, t[i], t[(i + 1) % 3]));
+  }
+  return best;
+}
+
+double segment_box_distance2_bound(Vec3 p0, Vec3 p1, const Box& b) {
+  double boxes = 0;
+  for (int i = 0; i < 3; ++i) {
+    const double lo = std::min(p0[i], p1[i]), hi = std::max(p0[i], p1[i]);
+    const double gap = std::max({b.lo[i] - hi, lo - b.hi[i], 0.0});
+    boxes += gap * gap;
+  }
+  const double mid = std::sqrt(box_distance2((p0 + p1) * 0.5, b)) - 0.5 * dist(p0, p1);
+  return mid > 0 ? std::max(boxes, mid * mid) : boxes;
 }
 
 }  // namespace gvd

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <numeric>
 
+#include "gvd/common/error.h"
 #include "gvd/geometry/primitives.h"
 
 namespace gvd {
@@ -14,8 +15,8 @@ Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const
 }
 
 SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
-                       std::span<const Simplex> simplices)
-    : dimension_(dimension), points_(points), simplices_(simplices) {
+                       std::span<const Simplex> simplices, std::span<const uint32_t> object_of)
+    : dimension_(dimension) {
   const uint32_t m = static_cast<uint32_t>(simplices.size());
   if (m == 0) return;
   const int arity = dimension == 2 ? 2 : 3;
@@ -65,10 +66,80 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
     stack.push_back({mid, f.end, self});
     stack.push_back({f.begin, mid, ~0u});
   }
+  arity_ = arity;
+  corners_.resize(static_cast<size_t>(m) * arity);
+  for (uint32_t k = 0; k < m; ++k) {
+    for (int j = 0; j < arity; ++j) {
+      corners_[static_cast<size_t>(k) * arity + j] = points[simplices[order_[k]].v[j]];
+    }
+  }
+  if (object_of.size() == m) {
+    object_in_order_.resize(m);
+    for (uint32_t k = 0; k < m; ++k) object_in_order_[k] = object_of[order_[k]];
+    // Children follow their parents in the array: one backward pass fills every node.
+    for (size_t i = nodes_.size(); i-- > 0;) {
+      Node& n = nodes_[i];
+      if (n.count > 0) {
+        n.object = object_in_order_[n.first];
+        for (uint32_t k = n.first + 1; k < n.first + n.count; ++k)
+          if (object_in_order_[k] != n.object) n.object = kMixed;
+      } else {
+        const uint32_t l = nodes_[i + 1].object, r = nodes_[n.first].object;
+        n.object = l == r ? l : kMixed;
+      }
+    }
+  }
+}
+
+ClosestHit SimplexBvh::nearest_in_object(Vec3 p, uint32_t object, double max_dist2) const {
+  ClosestHit best;
+  best.dist2 = max_dist2;
+  if (nodes_.empty() || box_distance2(p, nodes_[0].box) > best.dist2) return best;
+  GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
+            "nearest_in_object needs the objects of the simplices at construction");
+  auto skip = [&](uint32_t node) {
+    return nodes_[node].object != kMixed && nodes_[node].object != object;
+  };
+  struct Entry {
+    uint32_t node;
+    double dist2;
+  };
+  Entry stack[128];
+  int top = 0;
+  if (skip(0)) return best;
+  stack[top++] = {0, 0.0};
+  while (top > 0) {
+    const Entry entry = stack[--top];
+    if (entry.dist2 > best.dist2) continue;
+    const Node& n = nodes_[entry.node];
+    if (n.count > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+        if (object_in_order_[k] != object) continue;
+        const Vec3 q = closest_in_order(k, p);
+        const double d2 = dist2(p, q);
+        if (d2 < best.dist2 || (d2 == best.dist2 && order_[k] < best.simplex)) {
+          best = {q, d2, order_[k]};
+        }
+      }
+      continue;
+    }
+    const uint32_t l = entry.node + 1, r = n.first;
+    const double dl = skip(l) ? 1e308 : box_distance2(p, nodes_[l].box);
+    const double dr = skip(r) ? 1e308 : box_distance2(p, nodes_[r].box);
+    if (dl <= dr) {
+      if (dr <= best.dist2) stack[top++] = {r, dr};
+      if (dl <= best.dist2) stack[top++] = {l, dl};
+    } else {
+      if (dl <= best.dist2) stack[top++] = {l, dl};
+      if (dr <= best.dist2) stack[top++] = {r, dr};
+    }
+  }
+  return best;
 }
 
 size_t SimplexBvh::memory_bytes() const {
-  return nodes_.size() * sizeof(Node) + order_.size() * sizeof(uint32_t);
+  return nodes_.size() * sizeof(Node) + order_.size() * sizeof(uint32_t) +
+         corners_.size() * sizeof(Vec3) + object_in_order_.size() * sizeof(uint32_t);
 }
 
 }  // namespace gvd
@@ -78,6 +149,43 @@ namespace gvd {
 ClosestHit SimplexBvh::nearest(Vec3 p, double max_dist2) const {
   return nearest_if(
       p, [](uint32_t) { return true; }, max_dist2);
+}
+
+double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
+  double best = max_dist2;
+  if (nodes_.empty()) return best;
+  struct Entry {
+    uint32_t node;
+    double dist2;
+  };
+  Entry stack[128];
+  int top = 0;
+  stack[top++] = {0, segment_box_distance2_bound(a, b, nodes_[0].box)};
+  while (top > 0 && best > 0) {
+    const Entry entry = stack[--top];
+    if (entry.dist2 >= best) continue;
+    const Node& n = nodes_[entry.node];
+    if (n.count > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+        const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
+        const double d2 = arity_ == 2 ? segment_segment_dist2_2d(a, b, c[0], c[1])
+                                      : segment_triangle_dist2(a, b, c[0], c[1], c[2]);
+        best = std::min(best, d2);
+      }
+      continue;
+    }
+    const uint32_t l = entry.node + 1, r = n.first;
+    const double dl = segment_box_distance2_bound(a, b, nodes_[l].box);
+    const double dr = segment_box_distance2_bound(a, b, nodes_[r].box);
+    if (dl <= dr) {
+      if (dr < best) stack[top++] = {r, dr};
+      if (dl < best) stack[top++] = {l, dl};
+    } else {
+      if (dl < best) stack[top++] = {l, dl};
+      if (dr < best) stack[top++] = {r, dr};
+    }
+  }
+  return best;
 }
 
 }  // namespace gvd

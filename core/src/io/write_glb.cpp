@@ -57,12 +57,13 @@ int add_buffer_view(tinygltf::Model& model, const void* data, size_t bytes, int 
 }
 
 /// A float32 accessor of `components` components per element over a new bufferView.
+/// `target` 0 leaves the bufferView untargeted (animation data).
 int add_float_accessor(tinygltf::Model& model, const std::vector<float>& values, int components,
-                       bool with_bounds) {
+                       bool with_bounds, int target = TINYGLTF_TARGET_ARRAY_BUFFER) {
   const size_t count = values.size() / static_cast<size_t>(components);
   tinygltf::Accessor accessor;
-  accessor.bufferView = add_buffer_view(model, values.data(), values.size() * sizeof(float),
-                                        TINYGLTF_TARGET_ARRAY_BUFFER);
+  accessor.bufferView =
+      add_buffer_view(model, values.data(), values.size() * sizeof(float), target);
   accessor.byteOffset = 0;
   accessor.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
   accessor.count = count;
@@ -192,6 +193,24 @@ int add_cell(tinygltf::Model& model, const GvdCell& cell, ObjectId index, const 
   return static_cast<int>(model.nodes.size() - 1);
 }
 
+std::vector<uint8_t> model_to_glb(tinygltf::Model& model) {
+  std::ostringstream out(std::ios::out | std::ios::binary);
+  tinygltf::TinyGLTF writer;
+  const bool ok = writer.WriteGltfSceneToStream(&model, out, /*prettyPrint=*/false,
+                                                /*writeBinary=*/true);
+  GVD_CHECK(ok && out.good(), "tinygltf failed to serialise the model");
+  const std::string bytes = out.str();
+  return std::vector<uint8_t>(bytes.begin(), bytes.end());
+}
+
+/// The flat index list of an object's simplices (3 per triangle, 2 per segment).
+std::vector<uint32_t> simplex_indices(const SceneObject& object, int dimension) {
+  std::vector<uint32_t> out;
+  out.reserve(static_cast<size_t>(dimension) * object.simplices.size());
+  for (const Simplex& s : object.simplices) out.insert(out.end(), s.v, s.v + dimension);
+  return out;
+}
+
 }  // namespace
 
 std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene) {
@@ -234,13 +253,88 @@ std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene) {
     model.extensionsUsed.push_back(kMeshFeaturesExtension);
   }
 
-  std::ostringstream out(std::ios::out | std::ios::binary);
-  tinygltf::TinyGLTF writer;
-  const bool ok = writer.WriteGltfSceneToStream(&model, out, /*prettyPrint=*/false,
-                                                /*writeBinary=*/true);
-  GVD_CHECK(ok && out.good(), "tinygltf failed to serialise the GVD");
-  const std::string bytes = out.str();
-  return std::vector<uint8_t>(bytes.begin(), bytes.end());
+  return model_to_glb(model);
+}
+
+std::vector<uint8_t> exploded_to_glb(const Scene& scene, std::span<const Vec3> displacement,
+                                     double seconds) {
+  GVD_CHECK(displacement.size() == scene.objects.size(), "one displacement per object");
+  GVD_CHECK(seconds > 0 && std::isfinite(seconds), "animation length must be positive");
+  const int dimension = scene.dimension;
+  tinygltf::Model model;
+  model.asset.version = "2.0";
+  model.asset.generator = "gvd";
+  model.buffers.emplace_back();
+  tinygltf::Scene gltf_scene;
+  gltf_scene.name = "exploded";
+  tinygltf::Animation animation;
+  animation.name = "explode";
+  const int times = add_float_accessor(model, {0.0f, static_cast<float>(seconds)}, 1, true, 0);
+  const size_t n = scene.objects.size();
+  for (size_t i = 0; i < n; ++i) {
+    const SceneObject& object = scene.objects[i];
+    tinygltf::Node node;
+    node.name = object.label;
+    tinygltf::Value::Object extras;
+    extras["label"] = tinygltf::Value(object.label);
+    extras["object"] = tinygltf::Value(static_cast<int>(i));
+    const Vec3 d = displacement[i];
+    extras["displacement"] = tinygltf::Value(tinygltf::Value::Array{
+        tinygltf::Value(d.x), tinygltf::Value(d.y), tinygltf::Value(dimension == 2 ? 0.0 : d.z)});
+    node.extras = tinygltf::Value(std::move(extras));
+    const std::vector<uint32_t> indices = simplex_indices(object, dimension);
+    if (!indices.empty()) {
+      std::vector<float> positions;
+      positions.reserve(3 * object.vertices.size());
+      for (const Vec3& p : object.vertices) {
+        positions.push_back(static_cast<float>(p.x));
+        positions.push_back(static_cast<float>(p.y));
+        positions.push_back(dimension == 2 ? 0.0f : static_cast<float>(p.z));
+      }
+      // A distinct colour per object (golden-angle hues).
+      tinygltf::Material material;
+      material.name = object.label;
+      const double hue = std::fmod(static_cast<double>(i) * 0.618033988749895, 1.0);
+      const std::array<float, 3> rgb = clearance_color(hue, 1.0);
+      material.pbrMetallicRoughness.baseColorFactor = {rgb[0], rgb[1], rgb[2], 1.0};
+      material.pbrMetallicRoughness.metallicFactor = 0.0;
+      material.doubleSided = true;
+      model.materials.push_back(std::move(material));
+      tinygltf::Primitive primitive;
+      primitive.mode = dimension == 2 ? TINYGLTF_MODE_LINE : TINYGLTF_MODE_TRIANGLES;
+      primitive.attributes["POSITION"] = add_float_accessor(model, positions, 3, true);
+      primitive.indices = add_index_accessor(model, indices, object.vertices.size());
+      primitive.material = static_cast<int>(model.materials.size() - 1);
+      tinygltf::Mesh mesh;
+      mesh.name = object.label;
+      mesh.primitives.push_back(std::move(primitive));
+      model.meshes.push_back(std::move(mesh));
+      node.mesh = static_cast<int>(model.meshes.size() - 1);
+    }
+    model.nodes.push_back(std::move(node));
+    const int node_index = static_cast<int>(model.nodes.size() - 1);
+    gltf_scene.nodes.push_back(node_index);
+    // Translation from 0 to the displacement over `seconds`, linear.
+    tinygltf::AnimationSampler sampler;
+    sampler.input = times;
+    sampler.output = add_float_accessor(
+        model,
+        {0.0f, 0.0f, 0.0f, static_cast<float>(d.x), static_cast<float>(d.y),
+         dimension == 2 ? 0.0f : static_cast<float>(d.z)},
+        3, false, 0);
+    sampler.interpolation = "LINEAR";
+    animation.samplers.push_back(std::move(sampler));
+    tinygltf::AnimationChannel channel;
+    channel.sampler = static_cast<int>(animation.samplers.size() - 1);
+    channel.target_node = node_index;
+    channel.target_path = "translation";
+    animation.channels.push_back(std::move(channel));
+  }
+  model.animations.push_back(std::move(animation));
+  model.scenes.push_back(std::move(gltf_scene));
+  model.defaultScene = 0;
+  model.buffers[0].data.resize((model.buffers[0].data.size() + 3) / 4 * 4, 0);
+  return model_to_glb(model);
 }
 
 }  // namespace gvd

@@ -38,7 +38,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   Stopwatch sw;
   r.domain = make_domain(scene, options.domain);
   r.geometry = make_unit_geometry(scene, r.domain);
-  const SimplexBvh bvh(dim, r.geometry.points, r.geometry.simplices);
+  const SimplexBvh bvh(dim, r.geometry.points, r.geometry.simplices, r.geometry.object_of);
   r.stats.stages.push_back({"scene", sw.seconds(),
                             r.geometry.points.size() * sizeof(Vec3) +
                                 r.geometry.simplices.size() * sizeof(Simplex) + bvh.memory_bytes(),

@@ -31,12 +31,7 @@ inline int grid_index(int i, int j, int k) { return i + 3 * j + 9 * k; }
 /// keeps a hair inside the edge: where the GVD runs exactly through octree vertices (common
 /// in symmetric scenes) the vertex's label decides its side, and pieces of neighbouring cells
 /// never collapse onto a shared face.
-inline Vec3 bisector_point(const DistanceField& field, uint32_t v0, uint32_t v1) {
-  if (v0 > v1) std::swap(v0, v1);
-  const Vec3 x0 = field.vertices.position(v0);
-  const Vec3 x1 = field.vertices.position(v1);
-  const Vec3 a = field.closest[field.point[v0]];
-  const Vec3 b = field.closest[field.point[v1]];
+inline Vec3 bisector_on_edge(Vec3 x0, Vec3 x1, Vec3 a, Vec3 b) {
   const Vec3 ba = b - a;
   const Vec3 d = x1 - x0;
   const double den = dot(d, ba);
@@ -46,6 +41,13 @@ inline Vec3 bisector_point(const DistanceField& field, uint32_t v0, uint32_t v1)
   if (!(t >= kInside)) t = kInside;  // also NaN
   if (t > 1 - kInside) t = 1 - kInside;
   return x0 + d * t;
+}
+
+/// bisector_on_edge for octree edge (v0, v1) with the closest points of its ends.
+inline Vec3 bisector_point(const DistanceField& field, uint32_t v0, uint32_t v1) {
+  if (v0 > v1) std::swap(v0, v1);
+  return bisector_on_edge(field.vertices.position(v0), field.vertices.position(v1),
+                          field.closest[field.point[v0]], field.closest[field.point[v1]]);
 }
 
 // Cyclic order of a square's boundary on the half grid, starting at the lower corner.

@@ -7,6 +7,7 @@
 
 #include "cell_faces.h"
 #include "gvd/common/error.h"
+#include "gvd/common/flat_hash.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
 
@@ -44,11 +45,70 @@ struct PolygonGvd {
 
 class CellSurfacer {
  public:
-  CellSurfacer(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
-               const SimplexBvh& bvh)
-      : octree_(octree), field_(field), geometry_(geometry), bvh_(bvh), dim_(octree.dimension) {}
+  CellSurfacer(const Octree& octree, const DistanceField& field, const SimplexBvh& bvh)
+      : octree_(octree), field_(field), bvh_(bvh), dim_(octree.dimension) {}
 
-  Vec3 bisector(uint32_t v0, uint32_t v1) const { return detail::bisector_point(field_, v0, v1); }
+  // Eq. (1) places the bisector between the closest points of the edge's two ends, as if those
+  // points stayed the closest ones all along the edge. Where the edge is long next to the
+  // distance, they slide (on a cube's face, around a sphere) and the point can miss the true
+  // bisector by a good part of the edge. There the point is refined (refine_bisector), once
+  // per edge before surfacing (prepare_bisectors); both cells of a face look up the same point.
+  Vec3 bisector(uint32_t v0, uint32_t v1) const {
+    if (v0 > v1) std::swap(v0, v1);
+    const Vec3 p = detail::bisector_point(field_, v0, v1);
+    if (!coarse(v0, v1, p)) return p;
+    const uint32_t i = refined_index_.find(uint64_t{v0} << 32 | v1);
+    return i != FlatMap64::kMissing ? refined_[i] : refine_bisector(v0, v1, p);
+  }
+
+  // Refines the bisector points of every coarse edge the GVD crosses (in parallel), so that
+  // surfacing looks them up instead of refining each edge once per face using it.
+  void prepare_bisectors(int threads) {
+    const size_t n = octree_.leaf_count();
+    std::vector<std::vector<uint64_t>> found(static_cast<size_t>(std::max(threads, 1)));
+    parallel_for(
+        n, threads,
+        [&](size_t b, size_t e, int t) {
+          for (size_t leaf = b; leaf < e; ++leaf) {
+            const LeafGrid grid = field_.grid(octree_, static_cast<uint32_t>(leaf));
+            const ObjectId first = field_.label[grid[0]];
+            bool mixed = false;
+            for (uint32_t v : grid) mixed |= v != kNoVertex && field_.label[v] != first;
+            if (!mixed) continue;
+            detail::for_each_face_polygon(
+                octree_, grid, static_cast<uint32_t>(leaf), [&](const detail::FacePolygon& poly) {
+                  for (int i = 0; i < poly.n; ++i) {
+                    uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
+                    if (field_.label[v] == field_.label[w]) continue;
+                    if (v > w) std::swap(v, w);
+                    if (coarse(v, w, detail::bisector_point(field_, v, w))) {
+                      found[static_cast<size_t>(t)].push_back(uint64_t{v} << 32 | w);
+                    }
+                  }
+                });
+          }
+        },
+        256);
+    std::vector<uint64_t> keys;
+    for (auto& f : found) keys.insert(keys.end(), f.begin(), f.end());
+    radix_sort(keys, [](uint64_t k) { return k; });
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    refined_.resize(keys.size());
+    parallel_for(
+        keys.size(), threads,
+        [&](size_t b, size_t e, int) {
+          for (size_t i = b; i < e; ++i) {
+            const auto v = static_cast<uint32_t>(keys[i] >> 32), w = static_cast<uint32_t>(keys[i]);
+            refined_[i] = refine_bisector(v, w, detail::bisector_point(field_, v, w));
+          }
+        },
+        64);
+    refined_index_ = FlatMap64(keys.size());
+    for (size_t i = 0; i < keys.size(); ++i)
+      refined_index_.insert(keys[i], static_cast<uint32_t>(i));
+    refined_count_ = keys.size();
+  }
+  size_t refined_count() const { return refined_count_; }
 
   // The closest point of a spoke's edge end: a point on an object right next to the spoke,
   // which bounds the clearance search at the pieces made from it.
@@ -76,6 +136,23 @@ class CellSurfacer {
     return out;
   }
 
+  // For each of labels[0..nl), the closest point of a spoke end carrying it (a point on that
+  // object near the spokes), taken from the first polygons that have one.
+  void spoke_hints(const PolygonGvd& g, const ObjectId* labels, int nl, Vec3* hints,
+                   bool* found) const {
+    for (int i = 0; i < g.n; ++i) {
+      for (const uint32_t v : {static_cast<uint32_t>(g.spokes[i].edge >> 32),
+                               static_cast<uint32_t>(g.spokes[i].edge)}) {
+        for (int k = 0; k < nl; ++k) {
+          if (!found[k] && field_.label[v] == labels[k]) {
+            hints[k] = field_.closest[field_.point[v]];
+            found[k] = true;
+          }
+        }
+      }
+    }
+  }
+
   // Adds the distinct objects a polygon's spokes separate to labels[0..nl); nl becomes 4 (and
   // stays) once a fourth one is seen, which callers treat as "not a three-object junction".
   static void add_spoke_labels(const PolygonGvd& g, ObjectId (&labels)[3], int& nl) {
@@ -91,83 +168,114 @@ class CellSurfacer {
     }
   }
 
-  // The cone apex of one spoke curve of a 3D cell: where the curve's spokes separate exactly
-  // three objects, the point nearest the bisector centroid on the line equidistant from them
-  // (refined once); else, or if it leaves the cell, the centroid (the paper's rule).
+  // The cone apex of one spoke curve of a 3D cell: the bisector centroid (the paper's rule)
+  // moved toward the points equidistant from the objects the curve separates (two: the
+  // bisector surface; three: the junction line), staying inside the cell.
   Vec3 cell_junction_point(uint32_t leaf, const PolygonGvd* gvds, int np, const int* comp_of,
                            int component, Vec3 centroid) const {
     ObjectId labels[3];
     int nl = 0;
     for (int f = 0; f < np; ++f)
       if (comp_of[f] == component) add_spoke_labels(gvds[f], labels, nl);
-    if (nl != 3) return centroid;
+    if (nl != 2 && nl != 3) return centroid;
+    double near2 = 1e300;
+    for (int f = 0; f < np; ++f) {
+      if (comp_of[f] != component) continue;
+      for (int i = 0; i < gvds[f].n; ++i)
+        near2 = std::min(near2, dist2(centroid, witness(gvds[f].spokes[i])));
+    }
     const Box box = octree_.box(leaf);
-    Vec3 x = centroid;
-    for (int iteration = 0; iteration < 2; ++iteration) {
-      Vec3 p[3];
-      for (int k = 0; k < 3; ++k) {
-        const ClosestHit hit =
-            bvh_.nearest_if(x, [&](uint32_t s) { return geometry_.object_of[s] == labels[k]; });
-        if (!hit.found()) return centroid;
-        p[k] = hit.point;
+    if (nl == 2 && !coarse_region(box, near2)) return centroid;
+    Vec3 hints[3];
+    bool found[3] = {};
+    for (int f = 0; f < np; ++f)
+      if (comp_of[f] == component) spoke_hints(gvds[f], labels, nl, hints, found);
+    for (int k = 0; k < nl; ++k)
+      if (!found[k]) return centroid;
+    return toward_equidistant(centroid, labels, hints, nl, box, -1);
+  }
+
+  // Newton steps from x toward the points equidistant from `nl` (2 or 3) objects: with the
+  // exact closest points p_k of x on each, the least change of x that satisfies the linearised
+  // conditions |x - p_0| = |x - p_k|, i.e. 2 x.(p_k - p_0) = |p_k|^2 - |p_0|^2. With
+  // fixed_axis >= 0 x moves only in that axis' plane (a face). hints[k] is a point on object
+  // labels[k] (it bounds the first search). A step that would leave `box`
+  // (shrunk by a hair, so that the point stays off the faces and edges where other pieces
+  // end) is shortened at its boundary. Two rounds; deterministic in its inputs.
+  Vec3 toward_equidistant(Vec3 x, const ObjectId* labels, const Vec3* hints, int nl,
+                          const Box& cell_box, int fixed_axis) const {
+    Box box = cell_box;
+    for (int i = 0; i < 3; ++i) {
+      if (i == fixed_axis) continue;
+      const double hair = 1e-6 * (cell_box.hi[i] - cell_box.lo[i]);
+      box.lo[i] += hair;
+      box.hi[i] -= hair;
+    }
+    Vec3 p[3];
+    for (int k = 0; k < nl; ++k) p[k] = hints[k];
+    for (int round = 0; round < 2; ++round) {
+      for (int k = 0; k < nl; ++k) {
+        // The previous point on object k bounds the search; nothing nearer: it is the closest.
+        const ClosestHit hit = bvh_.nearest_in_object(x, labels[k], dist2(x, p[k]));
+        if (hit.found()) p[k] = hit.point;
       }
-      // Nearest point to the centroid with x.n1 = k1, x.n2 = k2 (equidistant from p0, p1, p2):
-      // x = c + a n1 + b n2.
-      const Vec3 n1 = p[1] - p[0], n2 = p[2] - p[0];
-      const double k1 = 0.5 * (norm2(p[1]) - norm2(p[0]));
-      const double k2 = 0.5 * (norm2(p[2]) - norm2(p[0]));
-      const double a11 = dot(n1, n1), a12 = dot(n1, n2), a22 = dot(n2, n2);
-      const double det = a11 * a22 - a12 * a12;
-      if (!(det > 1e-12 * a11 * a22)) return centroid;
-      const double r1 = k1 - dot(centroid, n1), r2 = k2 - dot(centroid, n2);
-      const double a = (r1 * a22 - r2 * a12) / det;
-      const double b = (a11 * r2 - a12 * r1) / det;
-      const Vec3 next = centroid + n1 * a + n2 * b;
+      Vec3 n[2];
+      double r[2];
+      for (int k = 1; k < nl; ++k) {
+        n[k - 1] = p[k] - p[0];
+        r[k - 1] = 0.5 * (norm2(p[k]) - norm2(p[0])) - dot(x, n[k - 1]);
+        if (fixed_axis >= 0) n[k - 1][fixed_axis] = 0;
+      }
+      Vec3 step;
+      const double a11 = dot(n[0], n[0]);
+      if (nl == 2) {
+        if (!(a11 > 0)) return x;
+        step = n[0] * (r[0] / a11);
+      } else {
+        const double a12 = dot(n[0], n[1]), a22 = dot(n[1], n[1]);
+        const double det = a11 * a22 - a12 * a12;
+        if (!(det > 1e-12 * a11 * a22)) return x;
+        step = n[0] * ((r[0] * a22 - r[1] * a12) / det) + n[1] * ((a11 * r[1] - a12 * r[0]) / det);
+      }
+      double t = 1;
+      for (int i = 0; i < 3; ++i) {
+        if (step[i] > 0 && x[i] + step[i] > box.hi[i])
+          t = std::min(t, (box.hi[i] - x[i]) / step[i]);
+        if (step[i] < 0 && x[i] + step[i] < box.lo[i])
+          t = std::min(t, (box.lo[i] - x[i]) / step[i]);
+      }
+      if (!(t > 0)) return x;
+      const Vec3 next = x + step * t;
       for (int i = 0; i < 3; ++i)
-        if (!(next[i] >= box.lo[i] && next[i] <= box.hi[i])) return centroid;
+        if (!(next[i] >= box.lo[i] && next[i] <= box.hi[i])) return x;
+      const bool small = norm2(next - x) <= 1e-24 * (norm2(box.hi - box.lo) + 1e-300);
       x = next;
+      if (small) break;
     }
     return x;
   }
 
-  // Where three objects' regions meet on a face, the paper joins the spokes at the centroid of
-  // the bisectors, which can sit a good part of the cell away from the true junction. Instead:
-  // the point of the face plane equidistant from the three objects' closest points, refined
-  // once from there; kept only if it lies in the face, else the centroid. Computed from the
+  // Where three or more spokes meet on a face, the paper joins them at the centroid of the
+  // bisectors, which can sit a good part of the cell away from the true junction (three
+  // objects) or off a curved bisector (two). Instead the centroid is moved, within the face,
+  // toward the points equidistant from the objects (toward_equidistant). Computed from the
   // face's own data, so both cells of a face get the same point.
   Vec3 junction_point(const detail::FacePolygon& poly, const PolygonGvd& g) const {
     ObjectId labels[3];
     int nl = 0;
     add_spoke_labels(g, labels, nl);
-    if (nl != 3) return g.centroid;  // two objects, or four or more: keep the centroid
-    const int w = poly.axis;         // the face's normal axis (2 for 2D cells: z)
-    const int u = (w + 1) % 3, v = (w + 2) % 3;
+    if (nl != 2 && nl != 3) return g.centroid;  // four or more objects: keep the centroid
     Box face;
     for (int i = 0; i < poly.n; ++i) face.extend(field_.vertices.position(poly.v[i]));
-    Vec3 r = g.centroid;
-    for (int iteration = 0; iteration < 2; ++iteration) {
-      Vec3 p[3];
-      for (int k = 0; k < 3; ++k) {
-        const ClosestHit hit =
-            bvh_.nearest_if(r, [&](uint32_t s) { return geometry_.object_of[s] == labels[k]; });
-        if (!hit.found()) return g.centroid;
-        p[k] = hit.point;
-      }
-      // 2 x . (p1 - p0) = |p1|^2 - |p0|^2 and the same for p2, with x[w] = r[w] fixed.
-      const Vec3 d1 = p[1] - p[0], d2 = p[2] - p[0];
-      const double c1 = 0.5 * (norm2(p[1]) - norm2(p[0])) - r[w] * d1[w];
-      const double c2 = 0.5 * (norm2(p[2]) - norm2(p[0])) - r[w] * d2[w];
-      const double det = d1[u] * d2[v] - d1[v] * d2[u];
-      const double scale = (norm2(d1) + norm2(d2)) + 1e-300;
-      if (!(std::fabs(det) > 1e-12 * scale)) return g.centroid;
-      Vec3 x = r;
-      x[u] = (c1 * d2[v] - c2 * d1[v]) / det;
-      x[v] = (d1[u] * c2 - d2[u] * c1) / det;
-      if (!(x[u] >= face.lo[u] && x[u] <= face.hi[u] && x[v] >= face.lo[v] && x[v] <= face.hi[v]))
-        return g.centroid;
-      r = x;
-    }
-    return r;
+    double near2 = 1e300;
+    for (int i = 0; i < g.n; ++i) near2 = std::min(near2, dist2(g.centroid, witness(g.spokes[i])));
+    if (nl == 2 && !coarse_region(face, near2)) return g.centroid;
+    Vec3 hints[3];
+    bool found[3] = {};
+    spoke_hints(g, labels, nl, hints, found);
+    for (int k = 0; k < nl; ++k)
+      if (!found[k]) return g.centroid;
+    return toward_equidistant(g.centroid, labels, hints, nl, face, poly.axis);
   }
 
   void cell(uint32_t leaf, std::vector<Piece>& pieces) const {
@@ -185,6 +293,43 @@ class CellSurfacer {
   }
 
  private:
+  // Whether eq. (1) needs refining on edge (v0 < v1) with first estimate p: the edge is longer
+  // than a twentieth of the distance from p to the ends' closest points.
+  bool coarse(uint32_t v0, uint32_t v1, Vec3 p) const {
+    constexpr double kCoarse = 0.05;
+    const double h2 = dist2(field_.vertices.position(v0), field_.vertices.position(v1));
+    const double d2 = std::min(dist2(p, field_.closest[field_.point[v0]]),
+                               dist2(p, field_.closest[field_.point[v1]]));
+    return h2 > kCoarse * kCoarse * d2;
+  }
+
+  // Whether a cell or face is large next to the squared distance `near2` to the objects (as
+  // in `coarse`): there a centroid can sit visibly off a curved bisector.
+  static bool coarse_region(const Box& box, double near2) {
+    constexpr double kCoarse = 0.05;
+    return norm2(box.hi - box.lo) > kCoarse * kCoarse * near2;
+  }
+
+  // Eq. (1) with the exact closest points of the two objects at the current estimate instead
+  // of the ends' ones; two rounds (the second only if the first moved the point).
+  Vec3 refine_bisector(uint32_t v0, uint32_t v1, Vec3 p) const {
+    const Vec3 x0 = field_.vertices.position(v0), x1 = field_.vertices.position(v1);
+    Vec3 a = field_.closest[field_.point[v0]], b = field_.closest[field_.point[v1]];
+    const ObjectId la = field_.label[v0], lb = field_.label[v1];
+    for (int round = 0; round < 2; ++round) {
+      const ClosestHit ha = bvh_.nearest_in_object(p, la, dist2(p, a));
+      const ClosestHit hb = bvh_.nearest_in_object(p, lb, dist2(p, b));
+      if (!ha.found() && !hb.found()) break;  // a and b are already the closest points
+      if (ha.found()) a = ha.point;
+      if (hb.found()) b = hb.point;
+      const Vec3 next = detail::bisector_on_edge(x0, x1, a, b);
+      const bool moved = dist2(next, p) > 1e-12 * dist2(x0, x1);
+      p = next;
+      if (!moved) break;
+    }
+    return p;
+  }
+
   static void emit(Sink& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {
     if (obj == kNoObject || obj == kManyObjects) return;
     if (a == b || b == c || a == c) return;  // collapsed: removing it keeps the surface closed
@@ -383,8 +528,10 @@ class CellSurfacer {
 
   const Octree& octree_;
   const DistanceField& field_;
-  const UnitGeometry& geometry_;
   const SimplexBvh& bvh_;
+  std::vector<Vec3> refined_;
+  FlatMap64 refined_index_;
+  size_t refined_count_ = 0;
   int dim_;
 };
 
@@ -424,7 +571,8 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   const size_t n = octree.leaf_count();
   const size_t grain = 512;
   std::vector<std::vector<Piece>> chunks((n + grain - 1) / grain + 1);
-  CellSurfacer surfacer(octree, field, geometry, bvh);
+  CellSurfacer surfacer(octree, field, bvh);
+  surfacer.prepare_bisectors(threads);
   parallel_for(
       n, threads,
       [&](size_t b, size_t e, int) {

@@ -188,3 +188,54 @@ TEST(ExtractGvdScenario, NestedAndMultiComponentObjects2D) {
 
 }  // namespace
 }  // namespace gvd
+
+namespace gvd {
+namespace {
+
+// Equidistance where the octree is coarse next to the distance (eq. (1) alone puts the point
+// between the closest points of the edge's ends, which slide along the objects): every
+// interface vertex is equidistant from its two objects to a small relative error.
+TEST(ExtractGvd, InterfaceVerticesAreEquidistantInCoarseCells) {
+  for (int dim : {2, 3}) {
+    std::vector<SceneObject> objects;
+    if (dim == 3) {
+      objects = {test::make_box("a", {0, 0, 0}, {1, 1, 1}),
+                 test::make_box("b", {2.1, 0.3, 0}, {3.1, 1.3, 1}),
+                 test::make_sphere("c", {1.5, -1.5, 0.5}, 0.6)};
+    } else {
+      objects = {test::make_rect("a", {0, 0, 0}, {1, 1, 0}),
+                 test::make_rect("b", {2.1, 0.3, 0}, {3.1, 1.3, 0}),
+                 test::make_circle("c", {1.5, -1.5, 0}, 0.6, 48)};
+    }
+    PipelineOptions o;
+    o.threads = 2;
+    const GvdResult r = compute_gvd(test::make_scene(dim, std::move(objects)), o);
+    // Junctions (a position with two objects across) are placed by their own rule within
+    // their cell; they get a looser bound.
+    double worst = 0, worst_junction = 0;
+    size_t checked = 0;
+    for (const GvdCell& cell : r.gvd.cells) {
+      std::map<std::tuple<double, double, double>, std::set<ObjectId>> across;
+      for (size_t v = 0; v < cell.positions.size(); ++v) {
+        const Vec3 p = cell.positions[v];
+        if (cell.other[v] != kNoObject) across[{p.x, p.y, p.z}].insert(cell.other[v]);
+      }
+      for (size_t v = 0; v < cell.positions.size(); ++v) {
+        if (cell.other[v] == kNoObject) continue;
+        const Vec3 p = cell.positions[v];
+        const double da = test::brute_distance(r.scene, cell.object, p);
+        const double db = test::brute_distance(r.scene, cell.other[v], p);
+        const double rel = std::abs(da - db) / std::max(da, db);
+        const bool junction = across[{p.x, p.y, p.z}].size() > 1;
+        (junction ? worst_junction : worst) = std::max(junction ? worst_junction : worst, rel);
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 10u);
+    EXPECT_LT(worst, 0.01) << dim << "D, " << checked << " interface vertices";
+    EXPECT_LT(worst_junction, 0.25) << dim << "D junctions";
+  }
+}
+
+}  // namespace
+}  // namespace gvd

@@ -25,8 +25,23 @@ bool segment_overlaps_box_2d(Vec3 a, Vec3 b, const Box& box, double slack);
 /// Squared distance between segments [p0, p1] and [q0, q1] (3D; 2D data has z = 0).
 double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1);
 
+/// Squared distance between 2D segments (z ignored): exactly 0 when they cross (orientation
+/// tests), else segment_segment_dist2 (whose closest points of crossing segments only agree
+/// up to rounding).
+double segment_segment_dist2_2d(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1);
+
 /// Squared distance between two triangles (0 when they intersect): the minimum over
 /// vertex-triangle and edge-edge pairs, with an exact crossing test for the intersecting case.
 double triangle_triangle_dist2(const Vec3 a[3], const Vec3 b[3]);
+
+/// Squared distance between segment [p0, p1] and the closed triangle (a, b, c) (0 when the
+/// segment crosses it): the minimum of the crossing test, the endpoints' closest points and
+/// the three edge-segment distances.
+double segment_triangle_dist2(Vec3 p0, Vec3 p1, Vec3 a, Vec3 b, Vec3 c);
+
+/// A lower bound of the squared distance between segment [p0, p1] and box `b` (0 when they
+/// may touch): the larger of the box-to-box distance of the segment's bounding box and the
+/// distance from the midpoint less half the length.
+double segment_box_distance2_bound(Vec3 p0, Vec3 p1, const Box& b);
 
 }  // namespace gvd

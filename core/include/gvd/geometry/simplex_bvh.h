@@ -27,8 +27,11 @@ Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const
 class SimplexBvh {
  public:
   SimplexBvh() = default;
-  /// `points` and `simplices` must outlive the BVH (it keeps views).
-  SimplexBvh(int dimension, std::span<const Vec3> points, std::span<const Simplex> simplices);
+  /// Copies the simplices' vertices (in tree order), so the inputs need not outlive it.
+  /// With `object_of` (the object of every simplex), nodes remember when all their simplices
+  /// belong to one object, which lets nearest_in_object skip other objects' subtrees.
+  SimplexBvh(int dimension, std::span<const Vec3> points, std::span<const Simplex> simplices,
+             std::span<const uint32_t> object_of = {});
 
   /// The exact closest point on any simplex to `p`, searching only boxes nearer than the best
   /// hit so far and than `max_dist2` (pass a known upper bound to prune harder).
@@ -38,6 +41,13 @@ class SimplexBvh {
   template <class Accept>
   ClosestHit nearest_if(Vec3 p, Accept&& accept, double max_dist2 = 1e300) const;
 
+  /// The least squared distance between segment [a, b] and any simplex (0 when the segment
+  /// touches or crosses one), searching only boxes nearer than `max_dist2`; returns
+  /// `max_dist2` when nothing is nearer. Exact up to rounding.
+  double segment_distance2(Vec3 a, Vec3 b, double max_dist2 = 1e300) const;
+  /// The exact closest point on the simplices of one object (needs `object_of` at
+  /// construction).
+  ClosestHit nearest_in_object(Vec3 p, uint32_t object, double max_dist2 = 1e300) const;
   /// Calls `visit(simplex)` for every simplex whose bounding box overlaps `box`.
   template <class Visit>
   void for_each_overlapping(const Box& box, Visit&& visit) const;
@@ -46,9 +56,11 @@ class SimplexBvh {
 
   struct Node {
     Box box;
-    uint32_t first = 0;  // leaf: first index into order_; inner: right child (left = this+1)
-    uint32_t count = 0;  // leaf: number of simplices; inner: 0
+    uint32_t first = 0;        // leaf: first index into order_; inner: right child (left = this+1)
+    uint32_t count = 0;        // leaf: number of simplices; inner: 0
+    uint32_t object = kMixed;  // the one object of all simplices below, or kMixed
   };
+  static constexpr uint32_t kMixed = 0xFFFFFFFFu;
   /// The flat arrays (depth-first nodes; leaf ranges index `order`), for the data-parallel
   /// closest-point twin and the OpenCL kernel (closest_point_item.h walks them the same way).
   std::span<const Node> nodes() const { return nodes_; }
@@ -57,10 +69,19 @@ class SimplexBvh {
 
  private:
   int dimension_ = 3;
-  std::span<const Vec3> points_;
-  std::span<const Simplex> simplices_;
   std::vector<Node> nodes_;
   std::vector<uint32_t> order_;
+  /// The simplices' vertices in `order_` sequence (`arity_` per simplex), so a leaf's
+  /// simplices are contiguous in memory.
+  std::vector<Vec3> corners_;
+  std::vector<uint32_t> object_in_order_;  ///< per simplex in `order_` sequence (if given)
+  int arity_ = 3;
+
+  Vec3 closest_in_order(uint32_t k, Vec3 p) const {
+    const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
+    return arity_ == 2 ? closest_point_on_segment(p, c[0], c[1])
+                       : closest_point_on_triangle(p, c[0], c[1], c[2]);
+  }
 };
 
 template <class Accept>
@@ -84,7 +105,7 @@ ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) con
       for (uint32_t k = n.first; k < n.first + n.count; ++k) {
         const uint32_t s = order_[k];
         if (!accept(s)) continue;
-        const Vec3 q = closest_point_on_simplex(dimension_, points_, simplices_[s], p);
+        const Vec3 q = closest_in_order(k, p);
         const double d2 = dist2(p, q);
         if (d2 < best.dist2 || (d2 == best.dist2 && s < best.simplex)) {
           best = {q, d2, s};

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,13 @@ namespace gvd {
 /// other side, nullFeatureId = object count for the domain box), `_CLEARANCE` (float) and
 /// `COLOR_0` (RGB float, red = tight, blue = wide clearance).
 std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene);
+
+/// An exploded view (paper §7.4) as binary glTF: one node per scene object (name = label,
+/// extras = {"label", "object", "displacement"}) showing the object's own geometry (3D
+/// TRIANGLES, 2D LINES at z = 0, a distinct colour each), and one animation "explode" that
+/// moves every node linearly from its place to place + displacement over `seconds`.
+std::vector<uint8_t> exploded_to_glb(const Scene& scene, std::span<const Vec3> displacement,
+                                     double seconds = 2.0);
 
 /// The same GVD with float64 coordinates as JSON: {"dimension", "objects":[{"object","label",
 /// "positions":[[x,y(,z)]..], "other":[..], "clearance":[..], "simplices":[[i,j(,k)]..]}]}.

@@ -1,0 +1,157 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "gvd/geometry/vec.h"
+#include "gvd/pipeline/pipeline.h"
+
+namespace gvd {
+
+/// Nearest object at a point (paper §4, last paragraph): the closest of the closest points
+/// stored on the vertices of the leaf that contains the point. `distance` is the distance to
+/// that point on the object, so it is never below the true distance (and within the 3/2
+/// factor of the distance transform).
+struct NearestAnswer {
+  Vec3 point;  ///< the query point, user units, as given
+  ObjectId object = kNoObject;
+  double distance = 0;  ///< user units
+  Vec3 closest;         ///< the point on `object` the distance is measured to
+  /// True when the leaf's vertices could not prove the 3/2 bound and the BVH answered
+  /// (exactly); false for the fast path of §4.
+  bool exact = false;
+};
+
+/// An object within k rings of another in the dual graph (paper §7.3).
+struct RingNeighbor {
+  ObjectId object = kNoObject;
+  int ring = 0;              ///< 1 = shares boundary with the query object
+  ObjectId via = kNoObject;  ///< a neighbour in ring - 1 it is reached from (ring 1: the query)
+  double area = 0;           ///< interface area (length in 2D) between `via` and `object`
+  double min_clearance = 0;  ///< least clearance on that interface
+  Vec3 tightest_point;       ///< where it is attained
+};
+
+/// What a path minimises.
+enum class PathCost {
+  kShortest,   ///< polyline length
+  kClearance,  ///< length weighted by 1 / clearance (prefers wide passages)
+};
+
+struct PathQuery {
+  Vec3 from;  ///< user units (z ignored in 2D)
+  Vec3 to;
+  double min_clearance = 0;  ///< passages narrower than this (user units) are not used
+  PathCost cost = PathCost::kShortest;
+};
+
+/// A path on the GVD (the retraction roadmap of §7.2): `from`, a straight piece to the GVD,
+/// a polyline along GVD edges, a straight piece to `to`. No piece crosses an object.
+struct PathAnswer {
+  bool found = false;
+  std::vector<Vec3> points;  ///< from ... to; empty when !found
+  double length = 0;         ///< user units
+  double min_clearance = 0;  ///< exact least distance from the polyline to any object
+  /// When !found: why ("start is inside object 'a'", "no path joins start and goal", ...).
+  std::string reason;
+};
+
+/// Exploded view (paper §7.4) around an anchor object.
+struct ExplodedObject {
+  ObjectId object = kNoObject;
+  int ring = -1;      ///< ring around the anchor (0 = anchor, -1 = not connected to it)
+  Vec3 direction;     ///< D_i of the paper (area-weighted mean interface normal), |.| <= 1
+  Vec3 displacement;  ///< scale * ring * direction, user units
+};
+
+struct ExplodeOptions {
+  /// Displacement per ring along the direction, user units; <= 0 picks 1/4 of the mean
+  /// object bounding-box diagonal.
+  double scale = 0;
+};
+
+struct ExplodedView {
+  ObjectId anchor = kNoObject;
+  double scale = 0;                     ///< the scale used
+  std::vector<ExplodedObject> objects;  ///< one per object, by index
+};
+
+/// An object pair whose interface comes closer to the objects than a bound.
+struct TightSpot {
+  ObjectId a = kNoObject;
+  ObjectId b = kNoObject;
+  double min_clearance = 0;
+  Vec3 point;  ///< tightest point of the interface
+};
+
+/// Answers from a finished GVD. Built once (O(result size)); afterwards every method is const
+/// and thread-safe without locks, so one index serves many threads. Keeps a shared reference to
+/// the result. Methods throw gvd::Error: kOutsideDomain for points outside the domain box,
+/// kNotFound for unknown labels/objects, kInvalidArgument for bad parameters.
+class GvdIndex {
+ public:
+  explicit GvdIndex(std::shared_ptr<const GvdResult> result);
+  ~GvdIndex();
+  GvdIndex(GvdIndex&&) noexcept;
+  GvdIndex& operator=(GvdIndex&&) noexcept;
+
+  const GvdResult& result() const;
+  int dimension() const;
+
+  /// The object with this label; throws kNotFound naming the label.
+  ObjectId object(std::string_view label) const;
+
+  /// Nearest object at a point (user units). O(log leaves + vertices of the leaf).
+  NearestAnswer nearest(Vec3 point) const;
+
+  /// Objects within `ring` rings of `object` (1 <= ring; rings beyond the graph's reach just
+  /// return everything connected), sorted by (ring, object). Breadth-first on the dual graph.
+  std::vector<RingNeighbor> neighbors(ObjectId object, int ring) const;
+
+  /// Eccentricity of `object` in the dual graph (the largest useful ring).
+  int max_ring(ObjectId object) const;
+
+  /// A path on the GVD roadmap; never through an object. Not found (with a reason) when start
+  /// or goal is inside an object or closer to one than min_clearance, or no roadmap path joins
+  /// them. A* over the GVD's vertex graph.
+  PathAnswer path(const PathQuery& query) const;
+
+  /// Paper §7.4: D_1 for the anchor's 1-ring, D_i for ring i from the (i-1)-ring neighbours
+  /// adjacent to the object, weighted by interface area.
+  ExplodedView explode(ObjectId anchor, const ExplodeOptions& options = {}) const;
+
+  /// Dual-graph edges with min_clearance < below, sorted by clearance (tightest first).
+  std::vector<TightSpot> tight(double below) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Query points from JSON: an array of points or {"points": [...]}, each point an array of
+/// `dimension` numbers (a 2D point may also have a third coordinate 0). Throws
+/// gvd::Error{kInvalidArgument} saying which point is wrong and why.
+std::vector<Vec3> parse_points_json(std::string_view text, int dimension);
+
+/// JSON of the answers (DESIGN.md contracts); labels are added next to object indices.
+/// Nearest: {"point":[...],"object":i,"label":"...","distance":d}.
+std::string nearest_to_json(const GvdIndex& index, const NearestAnswer& answer);
+/// {"object":i,"label":"...","ring":k,"neighbors":[{"object","label","ring","via","area",
+/// "min_clearance","tightest_point"}]}
+std::string neighbors_to_json(const GvdIndex& index, ObjectId object, int ring,
+                              std::span<const RingNeighbor> neighbors);
+/// {"from":[...],"to":[...],"points":[[...],...],"length":L,"min_clearance":c} and, when not
+/// found, "points":[], "length":null, "min_clearance":null, "reason":"...".
+std::string path_to_json(const GvdIndex& index, const PathQuery& query, const PathAnswer& path);
+/// {"anchor":i,"label":"...","scale":s,"objects":[{"object","label","ring","direction",
+/// "displacement"}]}
+std::string exploded_to_json(const GvdIndex& index, const ExplodedView& view);
+/// {"below":b,"pairs":[{"a","b","label_a","label_b","min_clearance","point"}]}
+std::string tight_to_json(const GvdIndex& index, double below, std::span<const TightSpot> spots);
+
+}  // namespace gvd

@@ -1,0 +1,68 @@
+# End-to-end check of the query commands of `gvd` (nearest, neighbors, path, explode, tight) on a
+# saved result and on a scene computed on the fly: JSON shape, exit codes, the exploded GLB.
+# Invoked by CTest with -DGVD=<gvd binary> -DDATA=<tests/data> -DOUT=<output dir>.
+
+function(run_expect expected)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL expected)
+    message(FATAL_ERROR "expected exit ${expected}, got ${rc}: ${ARGN}\n${out}\n${err}")
+  endif()
+  set(LAST_OUT "${out}" PARENT_SCOPE)
+  set(LAST_ERR "${err}" PARENT_SCOPE)
+endfunction()
+
+set(result ${OUT}/queries_balls.gvd)
+run_expect(0 ${GVD} compute ${DATA}/scenes/balls_on_plate.json --save ${result} -q)
+
+# Neighbours: every ball touches the plate's cell.
+run_expect(0 ${GVD} neighbors ${result} --object plate --ring 1)
+string(JSON n LENGTH "${LAST_OUT}" neighbors)
+if(NOT n EQUAL 4)
+  message(FATAL_ERROR "plate should have the 4 balls as 1-ring neighbours: ${LAST_OUT}")
+endif()
+run_expect(5 ${GVD} neighbors ${result} --object no_such_object)
+
+# Nearest: one JSON line per point, the point echoed; outside the domain -> exit 3.
+file(WRITE ${OUT}/queries_points.json "[[0.1,0.2,0.3],[0.5,0.5,-0.05]]")
+run_expect(0 ${GVD} nearest ${result} --points ${OUT}/queries_points.json)
+string(REGEX MATCHALL "\n" lines "${LAST_OUT}")
+list(LENGTH lines nlines)
+if(NOT nlines EQUAL 2 OR NOT LAST_OUT MATCHES "\"point\":\\[0.1,0.2,0.3\\]")
+  message(FATAL_ERROR "nearest should print one line per point: ${LAST_OUT}")
+endif()
+run_expect(3 ${GVD} nearest ${result} --point 100,0,0)
+run_expect(2 ${GVD} nearest ${result} --point 1,2)
+
+# Paths: found above the balls; none from the centre of a ball (exit 7, reason given).
+run_expect(0 ${GVD} path ${result} --from 0.5,0.5,0.8 --to 0.2,0.9,0.05 --cost clearance)
+string(JSON npoints LENGTH "${LAST_OUT}" points)
+if(npoints LESS 3)
+  message(FATAL_ERROR "path should run along the GVD: ${LAST_OUT}")
+endif()
+run_expect(7 ${GVD} path ${result} --from 0,0,0.5 --to 0.2,0.9,0.05)
+string(JSON reason GET "${LAST_OUT}" reason)
+string(JSON npoints LENGTH "${LAST_OUT}" points)
+if(NOT npoints EQUAL 0 OR reason STREQUAL "")
+  message(FATAL_ERROR "no-path answer should have no points and a reason: ${LAST_OUT}")
+endif()
+
+# Exploded view: JSON vectors and a GLB that passes the Khronos validator.
+run_expect(0 ${GVD} explode ${result} --anchor plate -o ${OUT}/queries_exploded.glb -q)
+string(JSON nobjects LENGTH "${LAST_OUT}" objects)
+if(NOT nobjects EQUAL 5)
+  message(FATAL_ERROR "explode should list every object: ${LAST_OUT}")
+endif()
+find_program(NODE node)
+if(NODE)
+  run_expect(0 ${NODE} ${DATA}/../js/validate_glb.mjs ${OUT}/queries_exploded.glb)
+endif()
+
+# Clearance report: the balls sit 1e-3 / 5e-4 apart; a bound of 1 catches every pair.
+run_expect(0 ${GVD} tight ${result} --below 1)
+string(JSON npairs LENGTH "${LAST_OUT}" pairs)
+if(npairs LESS 4)
+  message(FATAL_ERROR "tight --below 1 should report the close pairs: ${LAST_OUT}")
+endif()
+
+# A scene instead of a result: computed first.
+run_expect(0 ${GVD} neighbors ${DATA}/scenes/gears2d.json --object gear_a -q)
