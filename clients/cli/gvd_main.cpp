@@ -17,6 +17,7 @@
 #include "gvd/common/parallel.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/kernels/opencl_backend.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "http_client.h"
@@ -58,7 +59,15 @@ compute options:
   --domain x0,y0[,z0],x1,y1[,z1]
                              domain box (made a cube); default: bounding box + 5 % padding
   --threads N                worker threads (default: all cores)
-  --backend cpu              compute backend (OpenCL arrives in a later release)
+  --backend opencl|cpu|auto  where the data-parallel steps run (default auto: OpenCL when a
+                             device with fp64 exists, else the CPU twins, saying why; an
+                             explicit opencl without one is an error, exit 3). The device:
+                             GVD_OPENCL_DEVICE="P:D" or a name part; kernel binary cache:
+                             GVD_KERNEL_CACHE_DIR (default $XDG_CACHE_HOME/gvd/kernels)
+  --octree-build levels|data-parallel
+                             first octree: level by level (default) or the data-parallel
+                             Karras/conflict-cell build (on OpenCL with that backend);
+                             the same leaves
   --contact-depth N          depth at which refinement between touching or intersecting
                              objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 12000000; peak memory is about
@@ -194,7 +203,7 @@ const std::vector<std::string>& compute_value_flags() {
   static const std::vector<std::string> flags = {
       "--max-depth",        "--domain",        "--threads",       "--backend",
       "--max-leaves",       "--max-objects",   "--max-simplices", "--ambiguity-levels",
-      "--ambiguity-rounds", "--contact-depth", "--unseen-rounds"};
+      "--ambiguity-rounds", "--contact-depth", "--unseen-rounds", "--octree-build"};
   return flags;
 }
 
@@ -215,7 +224,8 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
   options.max_leaves = args.u64_value("--max-leaves", options.max_leaves);
   options.ambiguity_levels = args.int_value("--ambiguity-levels", options.ambiguity_levels);
   options.ambiguity_rounds = args.int_value("--ambiguity-rounds", options.ambiguity_rounds);
-  options.backend = args.value("--backend").value_or("cpu");
+  const std::string backend = args.value("--backend").value_or("auto");
+  options.octree_build = args.value("--octree-build").value_or("levels");
   if (options.max_depth < 0) throw UsageError{"--max-depth must be positive"};
   if (options.threads < 0) throw UsageError{"--threads must be positive"};
   if (const auto box = args.numbers("--domain")) {
@@ -234,11 +244,15 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
     b.extend(hi);
     options.domain.box = b;
   }
+  // OpenCL is initialised here, once, before any computation (kernels/opencl_backend.h).
+  const kernels::BackendChoice choice = kernels::choose_backend(backend);
+  options.backend = choice.backend;
+  options.compute = choice.compute;
+  options.backend_note = choice.note;
   if (!quiet) {
-    std::fprintf(stderr,
-                 "gvd: %zu objects, %llu simplices, %dD; backend %s (CPU reference), %d threads\n",
+    std::fprintf(stderr, "gvd: %zu objects, %llu simplices, %dD; %s; %d threads\n",
                  scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
-                 scene.dimension, options.backend.c_str(), resolve_threads(options.threads));
+                 scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
   }
   options.progress = progress_display(!quiet);
   return setup;
@@ -347,7 +361,8 @@ int run(int argc, char** argv) {
     return kExitOk;
   }
   if (command == "--version") {
-    std::printf("gvd %s (algorithm %u, backends: cpu)\n", GVD_VERSION, kAlgorithmVersion);
+    std::printf("gvd %s (algorithm %u, backends: opencl, cpu)\n", GVD_VERSION,
+                kAlgorithmVersion);
     return kExitOk;
   }
   if (server) return run_remote(*server, argc, argv);

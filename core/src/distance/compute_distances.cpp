@@ -7,6 +7,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/stopwatch.h"
+#include "gvd/distance/closest_points.h"
 #include "gvd/distance/distance_field.h"
 #include "gvd/octree/lattice.h"
 
@@ -42,6 +43,23 @@ struct Csr {
   std::vector<uint32_t> begin;
   std::vector<uint32_t> items;
 };
+
+// Exact closest points of a batch: the backend's solver, or SimplexBvh::nearest (the same
+// per-item function, closest_point_item.h) on the CPU.
+void solve_closest(const SimplexBvh& bvh, const DistanceOptions& options,
+                   std::span<const Vec3> pos, std::span<const double> bound,
+                   std::span<ClosestHit> hits, int threads) {
+  if (options.solver != nullptr) {
+    options.solver->solve(pos, bound, hits);
+    return;
+  }
+  parallel_for(
+      pos.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t i = b; i < e; ++i) hits[i] = closest_for_vertex(bvh, pos[i], bound[i]);
+      },
+      256);
+}
 
 void check_cancel(const DistanceOptions& options) {
   if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
@@ -182,6 +200,10 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   field.point.assign(nv, kNoVertex);
   field.closest.resize(nonempty.size());
   std::vector<uint8_t> reused(nonempty.size(), 0);
+  // Queries of the vertices that need an exact point (the others reuse the previous field):
+  // position and a bound on the squared distance, then one batch for the solver.
+  std::vector<Vec3> query_pos(nonempty.size());
+  std::vector<double> query_bound(nonempty.size(), 0.0);
   check_cancel(options);
   parallel_for(
       nonempty.size(), threads,
@@ -214,14 +236,32 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
             }
             if (bound2 < 1e300) break;
           }
-          const ClosestHit hit = closest_for_vertex(bvh, pos, bound2 * (1 + 1e-12) + 1e-300);
-          GVD_CHECK(hit.found(), "a non-empty vertex must find a closest simplex");
-          field.closest[i] = hit.point;
-          field.label[v] = geometry.object_of[hit.simplex];
-          field.point[v] = static_cast<uint32_t>(i);
+          query_pos[i] = pos;
+          query_bound[i] = bound2 * (1 + 1e-12) + 1e-300;
         }
       },
       512);
+  {
+    std::vector<uint32_t> todo;  // indices into nonempty
+    for (size_t i = 0; i < nonempty.size(); ++i)
+      if (!reused[i]) todo.push_back(static_cast<uint32_t>(i));
+    std::vector<Vec3> pos(todo.size());
+    std::vector<double> bound(todo.size());
+    for (size_t j = 0; j < todo.size(); ++j) {
+      pos[j] = query_pos[todo[j]];
+      bound[j] = query_bound[todo[j]];
+    }
+    std::vector<ClosestHit> hits(todo.size());
+    solve_closest(bvh, options, pos, bound, hits, threads);
+    for (size_t j = 0; j < todo.size(); ++j) {
+      const uint32_t i = todo[j];
+      const uint32_t v = nonempty[i];
+      GVD_CHECK(hits[j].found(), "a non-empty vertex must find a closest simplex");
+      field.closest[i] = hits[j].point;
+      field.label[v] = geometry.object_of[hits[j].simplex];
+      field.point[v] = i;
+    }
+  }
   for (uint8_t r : reused) field.exact_reused += r;
 
   // Warm start from the previous field (refinement): every vertex that existed keeps its
@@ -346,16 +386,14 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     marked.erase(std::unique(marked.begin(), marked.end()), marked.end());
     if (marked.empty()) break;
     std::vector<ClosestHit> hits(marked.size());
-    parallel_for(
-        marked.size(), threads,
-        [&](size_t b, size_t e, int) {
-          for (size_t i = b; i < e; ++i) {
-            const uint32_t v = marked[i];
-            // The wavefront distance bounds the search (the exact one is never larger).
-            hits[i] = closest_for_vertex(bvh, position[v], d2[v] * (1 + 1e-9) + 1e-300);
-          }
-        },
-        256);
+    std::vector<Vec3> pos(marked.size());
+    std::vector<double> bound(marked.size());
+    for (size_t i = 0; i < marked.size(); ++i) {
+      // The wavefront distance bounds the search (the exact one is never larger).
+      pos[i] = position[marked[i]];
+      bound[i] = d2[marked[i]] * (1 + 1e-9) + 1e-300;
+    }
+    solve_closest(bvh, options, pos, bound, hits, threads);
     for (size_t i = 0; i < marked.size(); ++i) {
       const uint32_t v = marked[i];
       field.exact[v] = 1;

@@ -5,6 +5,7 @@
 #include "gvd/common/flat_hash.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
+#include "gvd/octree/build_octree_dp.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 
@@ -463,6 +464,19 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
   close_upwards(dim, internal);
   balance(dim, internal);
   return materialize(geometry, internal, max_depth, options, threads, &cache);
+}
+
+Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,
+                               const OctreeOptions& options) {
+  const int dim = geometry.dimension;
+  const int max_depth = resolve_max_depth(dim, options.max_depth);
+  InternalSets internal(max_depth + 1);
+  for (const CellRef& c : split)
+    if (c.level < max_depth) internal[c.level].insert(c.code, 0);
+  close_upwards(dim, internal);
+  balance(dim, internal);
+  return materialize(geometry, internal, max_depth, options, resolve_threads(options.threads),
+                     nullptr);
 }
 
 CellRef child_cell(int dimension, CellRef cell, uint32_t child) {

@@ -5,6 +5,8 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/stopwatch.h"
+#include "gvd/distance/closest_points.h"
+#include "gvd/octree/build_octree_dp.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/surface/extract_gvd.h"
@@ -12,16 +14,23 @@
 namespace gvd {
 
 GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
-  if (options.backend != "cpu") {
+  if (options.backend != "cpu" && (options.backend != "opencl" || !options.compute)) {
     throw Error(ErrorCode::kInvalidArgument,
-                "backend '" + options.backend + "' is not available (this build has: cpu)");
+                "backend '" + options.backend +
+                    "' is not available here (core runs: cpu; opencl needs a ComputeBackend "
+                    "from gvd_kernels in PipelineOptions::compute)");
+  }
+  if (options.octree_build != "levels" && options.octree_build != "data-parallel") {
+    throw Error(ErrorCode::kInvalidArgument, "octree build '" + options.octree_build +
+                                                 "' is unknown (levels or data-parallel)");
   }
   const Stopwatch total;
   auto progress = [&](const std::string& stage, double f) {
     if (options.progress) options.progress(stage, f);
   };
   GvdResult r;
-  r.stats.backend = "cpu";
+  r.stats.backend = options.compute ? options.compute->name() : "cpu";
+  if (!options.backend_note.empty()) r.stats.backend += " (" + options.backend_note + ")";
   r.stats.threads = resolve_threads(options.threads);
   const int dim = scene.dimension;
 
@@ -49,15 +58,26 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   oo.max_leaves = options.max_leaves;
   oo.threads = options.threads;
   oo.cancel = options.cancel;
-  r.octree = build_octree(r.geometry, oo);
+  if (options.octree_build == "data-parallel") {
+    const std::unique_ptr<OctreeBuildSteps> steps =
+        options.compute ? options.compute->octree_build_steps(r.geometry) : nullptr;
+    r.octree = build_octree_data_parallel(r.geometry, oo, steps.get());
+  } else {
+    r.octree = build_octree(r.geometry, oo);
+  }
   r.stats.stages.push_back(
       {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
 
   progress("distance", 0);
   sw = Stopwatch();
+  // Exact closest points: the backend's kernel, else the CPU twin (same per-item function).
+  const std::unique_ptr<ClosestPointSolver> solver =
+      options.compute ? options.compute->closest_points(r.geometry, bvh)
+                      : make_cpu_closest_point_solver(r.geometry, bvh, options.threads);
   DistanceOptions dopt;
   dopt.threads = options.threads;
   dopt.cancel = options.cancel;
+  dopt.solver = solver.get();
   r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
   r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
 

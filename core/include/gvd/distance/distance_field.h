@@ -11,6 +11,8 @@
 
 namespace gvd {
 
+class ClosestPointSolver;
+
 /// Label and closest point of every octree vertex (paper §4), in unit-domain coordinates.
 struct DistanceField {
   OctreeVertices vertices;
@@ -51,6 +53,9 @@ struct DistanceOptions {
   /// then surfaced from exact points at both ends of every crossed edge, and ambiguity tests
   /// see true labels instead of wavefront noise. Costs one bounded BVH query per such vertex.
   bool exact_near_gvd = true;
+  /// Computes the exact closest points in batches (the OpenCL kernel or the CPU twin of
+  /// closest_points.h); null = SimplexBvh::nearest on `threads` threads. Same results.
+  ClosestPointSolver* solver = nullptr;
 };
 
 /// The exact closest point of one vertex among all simplices (the per-item function of the

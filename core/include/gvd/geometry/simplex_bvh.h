@@ -54,7 +54,6 @@ class SimplexBvh {
 
   size_t memory_bytes() const;
 
- private:
   struct Node {
     Box box;
     uint32_t first = 0;        // leaf: first index into order_; inner: right child (left = this+1)
@@ -62,6 +61,13 @@ class SimplexBvh {
     uint32_t object = kMixed;  // the one object of all simplices below, or kMixed
   };
   static constexpr uint32_t kMixed = 0xFFFFFFFFu;
+  /// The flat arrays (depth-first nodes; leaf ranges index `order`), for the data-parallel
+  /// closest-point twin and the OpenCL kernel (closest_point_item.h walks them the same way).
+  std::span<const Node> nodes() const { return nodes_; }
+  std::span<const uint32_t> order() const { return order_; }
+  int dimension() const { return dimension_; }
+
+ private:
   int dimension_ = 3;
   std::vector<Node> nodes_;
   std::vector<uint32_t> order_;

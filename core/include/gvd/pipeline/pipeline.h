@@ -1,10 +1,12 @@
 #pragma once
 
 #include <atomic>
+#include <memory>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "gvd/compute/compute_backend.h"
 #include "gvd/distance/distance_field.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/graph/dual_graph.h"
@@ -36,7 +38,18 @@ struct PipelineOptions {
   /// to max_depth in 2D, 2 in 3D.
   int ambiguity_levels = -1;
   int threads = 0;              ///< 0 = all cores
-  std::string backend = "cpu";  ///< "cpu" (OpenCL arrives with issue 4)
+  /// "cpu" (the CPU twins) or "opencl"; "opencl" needs `compute` (core has no OpenCL: the
+  /// caller makes one with gvd::kernels::choose_backend).
+  std::string backend = "cpu";
+  /// The data-parallel backend (closest-point initialisation); null = the CPU twins.
+  std::shared_ptr<ComputeBackend> compute;
+  /// How the first octree is built: "levels" (build_octree, level-synchronous; the faster on
+  /// 2 cores) or "data-parallel" (build_octree_data_parallel: the draft's Karras / conflict-
+  /// cell construction, on the backend's kernels when it has them). Same leaves either way.
+  std::string octree_build = "levels";
+  /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
+  /// ResultStats::backend so that `gvd info` says so.
+  std::string backend_note;
   ProgressFn progress;          ///< optional
   const std::atomic<bool>* cancel = nullptr;
 };
@@ -52,7 +65,7 @@ struct StageStats {
 /// Figures of a finished computation (what `gvd info` prints).
 struct ResultStats {
   std::vector<StageStats> stages;
-  std::string backend = "cpu";
+  std::string backend = "cpu";  ///< "cpu", "cpu (<why not OpenCL>)" or "opencl (<device>)"
   int threads = 1;
   int max_depth = 0;
   int depth = 0;

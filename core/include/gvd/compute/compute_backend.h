@@ -1,0 +1,37 @@
+#pragma once
+
+#include <memory>
+#include <string>
+
+namespace gvd {
+
+// Declared in gvd/distance/closest_points.h and gvd/octree/build_octree_dp.h; forward
+// declarations keep the device-shared headers out of everything that includes pipeline.h.
+class ClosestPointSolver;
+class OctreeBuildSteps;
+class SimplexBvh;
+struct UnitGeometry;
+
+/// The data-parallel parts of the pipeline behind one interface, so that core stays free of
+/// OpenCL: `kernels/` implements it on OpenCL (PoCL on this machine), the CLI and the server
+/// choose and pass it in PipelineOptions::compute. Without one, the CPU twins run.
+class ComputeBackend {
+ public:
+  virtual ~ComputeBackend() = default;
+  /// What runs, for logs and ResultStats::backend ("opencl (<platform> / <device>)").
+  virtual std::string name() const = 0;
+  /// A closest-point solver bound to one scene (uploads it once). `geometry` and `bvh` must
+  /// outlive the solver. Throws gvd::Error when the device fails.
+  virtual std::unique_ptr<ClosestPointSolver> closest_points(const UnitGeometry& geometry,
+                                                             const SimplexBvh& bvh) = 0;
+  /// The steps of the data-parallel octree build (build_octree_dp.h) bound to one scene;
+  /// null when the backend has none (the CPU twins then run).
+  virtual std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry);
+};
+
+/// The CPU twin as a solver (closest_points_cpu over a ClosestPointData copy of the scene).
+std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const UnitGeometry& geometry,
+                                                                  const SimplexBvh& bvh,
+                                                                  int threads = 0);
+
+}  // namespace gvd

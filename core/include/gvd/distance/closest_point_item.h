@@ -1,0 +1,237 @@
+/* The per-item function of the closest-point initialisation (paper §4): the exact closest
+ * point to one query among all simplices, by a depth-first walk of the flat simplex BVH.
+ *
+ * ONE source for both sides: this file is written in the common subset of OpenCL C 1.2 and
+ * C++20. The CPU twin (closest_points.h) includes it, and the build embeds it in front of
+ * kernels/cl/closest_points.cl (a shim around get_global_id). The arithmetic is a literal
+ * transcription of closest_point_on_segment/_on_triangle (Ericson §5.1.5) and
+ * SimplexBvh::nearest_if, in the same operation order, so that the CPU backend, the twin and
+ * the kernel agree bit for bit; the kernel turns off FP contraction (fused multiply-add would
+ * round differently) and is never built with relaxed math.
+ *
+ * Structs shared with the device hold no double3/size_t/bool (STYLE.md "Kernels"); the host
+ * static_asserts their sizes (closest_points.cpp). Include-guarded, not #pragma once, because
+ * OpenCL compilers need not know the pragma. */
+#ifndef GVD_DISTANCE_CLOSEST_POINT_ITEM_H
+#define GVD_DISTANCE_CLOSEST_POINT_ITEM_H
+
+#ifdef __OPENCL_VERSION__
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#pragma OPENCL FP_CONTRACT OFF
+#define GVD_GLOBAL __global
+#define GVD_ITEM_FN static inline
+typedef uint gvd_uint;
+#else
+#include <cstdint>
+#define GVD_GLOBAL
+#define GVD_ITEM_FN inline
+namespace gvd::item {
+typedef std::uint32_t gvd_uint;
+#endif
+
+/* A point (24 bytes on host and device; double3 would be 32 on the device). */
+typedef struct GvdPoint {
+  double x, y, z;
+} GvdPoint;
+
+/* A BVH node as SimplexBvh stores it: box, then leaf -> (first index into `order`, count),
+ * inner -> (index of the right child; the left child follows the node, count 0). */
+typedef struct GvdBvhNode {
+  double lo[3];
+  double hi[3];
+  gvd_uint first;
+  gvd_uint count;
+} GvdBvhNode;
+
+/* The answer for one query: closest point, squared distance, simplex (0xFFFFFFFF = none
+ * within the bound). */
+typedef struct GvdHit {
+  double x, y, z;
+  double dist2;
+  gvd_uint simplex;
+  gvd_uint pad;
+} GvdHit;
+
+#define GVD_NO_SIMPLEX 0xFFFFFFFFu
+/* The BVH splits at the median, so its depth is <= log2(M / 4) + 1 < 32 and a depth-first
+ * walk holds at most depth + 1 entries; 64 keeps the per-work-item stack small (PoCL keeps
+ * one per work-item of a work-group). */
+#define GVD_BVH_STACK 64
+
+GVD_ITEM_FN GvdPoint gvd_pt(double x, double y, double z) {
+  GvdPoint r;
+  r.x = x;
+  r.y = y;
+  r.z = z;
+  return r;
+}
+GVD_ITEM_FN GvdPoint gvd_add(GvdPoint a, GvdPoint b) {
+  return gvd_pt(a.x + b.x, a.y + b.y, a.z + b.z);
+}
+GVD_ITEM_FN GvdPoint gvd_sub(GvdPoint a, GvdPoint b) {
+  return gvd_pt(a.x - b.x, a.y - b.y, a.z - b.z);
+}
+GVD_ITEM_FN GvdPoint gvd_scale(GvdPoint a, double s) { return gvd_pt(a.x * s, a.y * s, a.z * s); }
+GVD_ITEM_FN double gvd_dot(GvdPoint a, GvdPoint b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+GVD_ITEM_FN GvdPoint gvd_cross(GvdPoint a, GvdPoint b) {
+  return gvd_pt(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+GVD_ITEM_FN double gvd_dist2(GvdPoint a, GvdPoint b) {
+  const GvdPoint d = gvd_sub(a, b);
+  return gvd_dot(d, d);
+}
+
+/* Closest point to p on the closed segment [a, b]; a degenerate segment gives a. */
+GVD_ITEM_FN GvdPoint gvd_closest_on_segment(GvdPoint p, GvdPoint a, GvdPoint b) {
+  const GvdPoint ab = gvd_sub(b, a);
+  const double len2 = gvd_dot(ab, ab);
+  if (len2 <= 0) return a;
+  double t = gvd_dot(gvd_sub(p, a), ab) / len2;
+  t = t < 0.0 ? 0.0 : (1.0 < t ? 1.0 : t);
+  return gvd_add(a, gvd_scale(ab, t));
+}
+
+/* Closest point to p on the closed triangle (a, b, c) by the Voronoi regions of its
+ * features; a degenerate triangle falls back to the nearest of its edges. */
+GVD_ITEM_FN GvdPoint gvd_closest_on_triangle(GvdPoint p, GvdPoint a, GvdPoint b, GvdPoint c) {
+  const GvdPoint ab = gvd_sub(b, a);
+  const GvdPoint ac = gvd_sub(c, a);
+  const GvdPoint n = gvd_cross(ab, ac);
+  if (gvd_dot(n, n) <= 0) {
+    const GvdPoint q1 = gvd_closest_on_segment(p, a, b);
+    const GvdPoint q2 = gvd_closest_on_segment(p, b, c);
+    const GvdPoint q3 = gvd_closest_on_segment(p, c, a);
+    GvdPoint best = q1;
+    if (gvd_dist2(p, q2) < gvd_dist2(p, best)) best = q2;
+    if (gvd_dist2(p, q3) < gvd_dist2(p, best)) best = q3;
+    return best;
+  }
+  const GvdPoint ap = gvd_sub(p, a);
+  const double d1 = gvd_dot(ab, ap);
+  const double d2 = gvd_dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const GvdPoint bp = gvd_sub(p, b);
+  const double d3 = gvd_dot(ab, bp);
+  const double d4 = gvd_dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return gvd_add(a, gvd_scale(ab, d1 / (d1 - d3)));
+  const GvdPoint cp = gvd_sub(p, c);
+  const double d5 = gvd_dot(ab, cp);
+  const double d6 = gvd_dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return gvd_add(a, gvd_scale(ac, d2 / (d2 - d6)));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    return gvd_add(b, gvd_scale(gvd_sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6))));
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom;
+  const double w = vc * denom;
+  return gvd_add(gvd_add(a, gvd_scale(ab, v)), gvd_scale(ac, w));
+}
+
+/* Squared distance from p to the node's box (0 inside). */
+GVD_ITEM_FN double gvd_box_distance2(GvdPoint p, GVD_GLOBAL const GvdBvhNode* n) {
+  const double q[3] = {p.x, p.y, p.z};
+  double d2 = 0;
+  for (int i = 0; i < 3; ++i) {
+    double d = 0;
+    if (q[i] < n->lo[i]) d = n->lo[i] - q[i];
+    if (q[i] > n->hi[i]) d = q[i] - n->hi[i];
+    d2 += d * d;
+  }
+  return d2;
+}
+
+/* Closest point on simplex s: a segment (v[0], v[1]) in 2D, a triangle in 3D. */
+GVD_ITEM_FN GvdPoint gvd_closest_on_simplex(int dimension, GVD_GLOBAL const GvdPoint* points,
+                                            GVD_GLOBAL const gvd_uint* simplices, gvd_uint s,
+                                            GvdPoint p) {
+  const GvdPoint a = points[simplices[3 * s]];
+  const GvdPoint b = points[simplices[3 * s + 1]];
+  if (dimension == 2) return gvd_closest_on_segment(p, a, b);
+  return gvd_closest_on_triangle(p, a, b, points[simplices[3 * s + 2]]);
+}
+
+/* The exact closest point to p among all simplices whose squared distance is <= max_dist2
+ * (ties go to the lower simplex index); simplex = GVD_NO_SIMPLEX when there is none. Nearer
+ * child first; a subtree is skipped when its box is farther than the best hit so far.
+ * O(log M) typical, O(M) worst case; no allocation (a fixed stack). */
+GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
+                                    GVD_GLOBAL const GvdBvhNode* nodes,
+                                    GVD_GLOBAL const gvd_uint* order,
+                                    GVD_GLOBAL const GvdPoint* points,
+                                    GVD_GLOBAL const gvd_uint* simplices, GvdPoint p,
+                                    double max_dist2) {
+  GvdHit best;
+  best.x = 0;
+  best.y = 0;
+  best.z = 0;
+  best.dist2 = max_dist2;
+  best.simplex = GVD_NO_SIMPLEX;
+  best.pad = 0;
+  if (node_count == 0 || gvd_box_distance2(p, nodes) > best.dist2) return best;
+  gvd_uint stack_node[GVD_BVH_STACK];
+  double stack_dist2[GVD_BVH_STACK];
+  int top = 0;
+  stack_node[top] = 0;
+  stack_dist2[top] = 0.0;
+  ++top;
+  while (top > 0) {
+    --top;
+    const gvd_uint node = stack_node[top];
+    if (stack_dist2[top] > best.dist2) continue;
+    GVD_GLOBAL const GvdBvhNode* n = nodes + node;
+    if (n->count > 0) {
+      for (gvd_uint k = n->first; k < n->first + n->count; ++k) {
+        const gvd_uint s = order[k];
+        const GvdPoint q = gvd_closest_on_simplex(dimension, points, simplices, s, p);
+        const double d2 = gvd_dist2(p, q);
+        if (d2 < best.dist2 || (d2 == best.dist2 && s < best.simplex)) {
+          best.x = q.x;
+          best.y = q.y;
+          best.z = q.z;
+          best.dist2 = d2;
+          best.simplex = s;
+        }
+      }
+      continue;
+    }
+    const gvd_uint l = node + 1, r = n->first;
+    const double dl = gvd_box_distance2(p, nodes + l);
+    const double dr = gvd_box_distance2(p, nodes + r);
+    /* Push the farther child first so the nearer one is searched first. */
+    if (dl <= dr) {
+      if (dr <= best.dist2) {
+        stack_node[top] = r;
+        stack_dist2[top] = dr;
+        ++top;
+      }
+      if (dl <= best.dist2) {
+        stack_node[top] = l;
+        stack_dist2[top] = dl;
+        ++top;
+      }
+    } else {
+      if (dl <= best.dist2) {
+        stack_node[top] = l;
+        stack_dist2[top] = dl;
+        ++top;
+      }
+      if (dr <= best.dist2) {
+        stack_node[top] = r;
+        stack_dist2[top] = dr;
+        ++top;
+      }
+    }
+  }
+  return best;
+}
+
+#ifndef __OPENCL_VERSION__
+}  // namespace gvd::item
+#endif
+
+#endif /* GVD_DISTANCE_CLOSEST_POINT_ITEM_H */

@@ -1,0 +1,36 @@
+#include "gvd/compute/compute_backend.h"
+
+#include "gvd/distance/closest_points.h"
+#include "gvd/octree/build_octree_dp.h"
+
+namespace gvd {
+
+namespace {
+
+class CpuClosestPointSolver final : public ClosestPointSolver {
+ public:
+  CpuClosestPointSolver(const UnitGeometry& geometry, const SimplexBvh& bvh, int threads)
+      : data_(make_closest_point_data(geometry, bvh)), threads_(threads) {}
+  void solve(std::span<const Vec3> queries, std::span<const double> bound2,
+             std::span<ClosestHit> hits) override {
+    closest_points_cpu(data_, queries, bound2, hits, threads_);
+  }
+
+ private:
+  ClosestPointData data_;
+  int threads_;
+};
+
+}  // namespace
+
+std::unique_ptr<OctreeBuildSteps> ComputeBackend::octree_build_steps(const UnitGeometry&) {
+  return nullptr;
+}
+
+std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const UnitGeometry& geometry,
+                                                                  const SimplexBvh& bvh,
+                                                                  int threads) {
+  return std::make_unique<CpuClosestPointSolver>(geometry, bvh, threads);
+}
+
+}  // namespace gvd

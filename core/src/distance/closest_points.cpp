@@ -1,0 +1,81 @@
+#include "gvd/distance/closest_points.h"
+
+#include "gvd/common/error.h"
+#include "gvd/common/parallel.h"
+
+namespace gvd {
+
+// The layouts the device sees (STYLE.md "Kernels": sizes asserted on the host).
+static_assert(sizeof(item::GvdPoint) == 24 && sizeof(Vec3) == 24);
+static_assert(sizeof(item::GvdBvhNode) == 56);
+static_assert(sizeof(item::GvdHit) == 40);
+
+size_t ClosestPointData::memory_bytes() const {
+  return nodes.size() * sizeof(item::GvdBvhNode) + order.size() * sizeof(uint32_t) +
+         points.size() * sizeof(item::GvdPoint) + simplices.size() * sizeof(uint32_t);
+}
+
+ClosestPointData make_closest_point_data(const UnitGeometry& geometry, const SimplexBvh& bvh) {
+  ClosestPointData d;
+  d.dimension = geometry.dimension;
+  const auto nodes = bvh.nodes();
+  d.nodes.resize(nodes.size());
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    item::GvdBvhNode& n = d.nodes[i];
+    for (int a = 0; a < 3; ++a) {
+      n.lo[a] = nodes[i].box.lo[a];
+      n.hi[a] = nodes[i].box.hi[a];
+    }
+    n.first = nodes[i].first;
+    n.count = nodes[i].count;
+  }
+  d.order.assign(bvh.order().begin(), bvh.order().end());
+  d.points.resize(geometry.points.size());
+  for (size_t i = 0; i < geometry.points.size(); ++i) {
+    const Vec3 p = geometry.points[i];
+    d.points[i] = {p.x, p.y, p.z};
+  }
+  d.simplices.resize(3 * geometry.simplices.size());
+  for (size_t i = 0; i < geometry.simplices.size(); ++i)
+    for (int k = 0; k < 3; ++k) d.simplices[3 * i + k] = geometry.simplices[i].v[k];
+  return d;
+}
+
+namespace {
+
+void run_items(const ClosestPointData& data, std::span<const Vec3> queries,
+               std::span<const double> bound2, std::span<ClosestHit> hits, size_t b, size_t e) {
+  const auto nodes = static_cast<item::gvd_uint>(data.nodes.size());
+  for (size_t i = b; i < e; ++i) {
+    const Vec3 q = queries[i];
+    hits[i] = to_closest_hit(item::gvd_nearest_item(data.dimension, nodes, data.nodes.data(),
+                                                    data.order.data(), data.points.data(),
+                                                    data.simplices.data(), {q.x, q.y, q.z},
+                                                    bound2[i]));
+  }
+}
+
+void check_sizes(std::span<const Vec3> queries, std::span<const double> bound2,
+                 std::span<ClosestHit> hits) {
+  GVD_CHECK(queries.size() == bound2.size() && queries.size() == hits.size(),
+            "closest_points: queries, bounds and hits must have the same length");
+}
+
+}  // namespace
+
+void closest_points_cpu(const ClosestPointData& data, std::span<const Vec3> queries,
+                        std::span<const double> bound2, std::span<ClosestHit> hits,
+                        int threads) {
+  check_sizes(queries, bound2, hits);
+  parallel_for(
+      queries.size(), resolve_threads(threads),
+      [&](size_t b, size_t e, int) { run_items(data, queries, bound2, hits, b, e); }, 256);
+}
+
+void closest_points_scalar(const ClosestPointData& data, std::span<const Vec3> queries,
+                           std::span<const double> bound2, std::span<ClosestHit> hits) {
+  check_sizes(queries, bound2, hits);
+  run_items(data, queries, bound2, hits, 0, queries.size());
+}
+
+}  // namespace gvd
