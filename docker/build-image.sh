@@ -29,6 +29,12 @@ if ! podman "${storage[@]}" image exists "$base"; then
     echo "docker-build: debootstrap bookworm into $rootfs from $mirror"
     debootstrap --variant=minbase bookworm "$rootfs" "$mirror"
   fi
+  # Machines behind a TLS-intercepting proxy trust its CA locally (npm fetches three.js over
+  # https in the build stage): the base made here trusts the same extra CAs.
+  if compgen -G "/usr/local/share/ca-certificates/*.crt" >/dev/null; then
+    mkdir -p "$rootfs/usr/local/share/ca-certificates"
+    cp /usr/local/share/ca-certificates/*.crt "$rootfs/usr/local/share/ca-certificates/"
+  fi
   echo "docker-build: importing the local base image $base"
   tar -C "$rootfs" -c . | podman "${storage[@]}" import - "$base"
 fi
