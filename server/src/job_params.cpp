@@ -130,7 +130,9 @@ PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
   o.ambiguity_rounds = ambiguity_rounds;
   o.unseen_rounds = unseen_rounds;
   o.threads = server.job_threads;
-  o.backend = server.backend;
+  o.backend = server.compute ? "opencl" : "cpu";
+  o.compute = server.compute;
+  o.backend_note = server.backend_note;
   // The engine needs about 1 KB per octree leaf: the memory limit caps the leaves too.
   o.max_leaves = server.max_leaves;
   if (server.max_memory_mb > 0) {

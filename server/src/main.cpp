@@ -4,14 +4,15 @@
 
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <system_error>
 #include <thread>
-#include <filesystem>
 #include <vector>
 
 #include "gvd/common/error.h"
+#include "gvd/kernels/opencl_backend.h"
 #include "http_server.h"
 #include "server_options.h"
 #include "static_files.h"
@@ -51,8 +52,10 @@ int main(int argc, char** argv) {
       throw UsageError(e.what());
     }
     if (options.web_root.empty()) {
-      std::fprintf(stderr, "{\"level\":\"warning\",\"msg\":\"no web viewer found next to %s "
-                           "(give --web-root): / answers a page of links\"}\n", exe.c_str());
+      std::fprintf(stderr,
+                   "{\"level\":\"warning\",\"msg\":\"no web viewer found next to %s "
+                   "(give --web-root): / answers a page of links\"}\n",
+                   exe.c_str());
     }
   } catch (const UsageError& e) {
     std::fprintf(stderr, "gvd-server: %s\n(see gvd-server --help)\n", e.what());
@@ -60,6 +63,16 @@ int main(int argc, char** argv) {
   }
 
   try {
+    // The compute backend, chosen once at start-up on this thread, before any job runs (PoCL
+    // must not see its first OpenCL calls from several threads; ENVIRONMENT.md).
+    const gvd::kernels::BackendChoice choice = gvd::kernels::choose_backend(options.backend);
+    options.compute = choice.compute;
+    options.backend_note = choice.note;
+    if (!options.quiet) {
+      std::string msg = choice.log;  // one JSON log line: no quotes or backslashes inside
+      for (char& c : msg) c = (c == '"' || c == '\\' || c < ' ') ? '\'' : c;
+      std::fprintf(stderr, "{\"level\":\"info\",\"msg\":\"%s\"}\n", msg.c_str());
+    }
     HttpServer server(options);
     const int port = server.bind();
     if (port < 0) {

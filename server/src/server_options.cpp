@@ -81,7 +81,8 @@ const std::vector<Spec>& specs() {
              &ServerOptions::max_memory_mb, uint64_t{0}, kU64),
       number("--cache-entries", "finished results kept in memory", &ServerOptions::cache_entries, 1,
              100000),
-      text("--backend", "compute backend: cpu | opencl", &ServerOptions::backend),
+      text("--backend", "compute backend: cpu | opencl | auto (OpenCL when a device exists)",
+           &ServerOptions::backend),
       number("--read-timeout", "seconds to receive a request", &ServerOptions::read_timeout, 1,
              3600),
       number("--write-timeout", "seconds to send a response", &ServerOptions::write_timeout, 1,
@@ -109,8 +110,8 @@ std::string env_name(const std::string& flag) {
 }
 
 void check(const ServerOptions& o) {
-  if (o.backend != "cpu" && o.backend != "opencl") {
-    throw UsageError("--backend must be cpu or opencl, got \"" + o.backend + "\"");
+  if (o.backend != "cpu" && o.backend != "opencl" && o.backend != "auto") {
+    throw UsageError("--backend must be cpu, opencl or auto, got \"" + o.backend + "\"");
   }
   if (o.store.empty()) throw UsageError("--store must not be empty");
 }

@@ -2,9 +2,12 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "gvd/compute/compute_backend.h"
 
 namespace gvd::server {
 
@@ -28,15 +31,19 @@ struct ServerOptions {
   double job_seconds = 300;         ///< wall time per job
   uint64_t max_memory_mb = 4096;    ///< resident memory of the process; 0 = unlimited
   int cache_entries = 16;           ///< finished results kept in memory
-  std::string backend = "cpu";      ///< cpu | opencl
-  int read_timeout = 10;            ///< seconds
-  int write_timeout = 10;           ///< seconds
-  int keep_alive_max = 1000;        ///< requests per connection
-  int keep_alive_timeout = 5;       ///< seconds idle
-  int max_streams = 4;              ///< concurrent SSE streams
-  int retry_after = 5;              ///< seconds, on 503
-  double grace_seconds = 10;        ///< SIGTERM: wait this long for running jobs
-  bool quiet = false;               ///< no request log
+  std::string backend = "cpu";      ///< cpu | opencl | auto (as requested)
+  /// Set at start-up from `backend` (gvd::kernels::choose_backend, once, before any job): the
+  /// OpenCL backend, or null for the CPU twins, and why the CPU runs when auto found no device.
+  std::shared_ptr<gvd::ComputeBackend> compute;
+  std::string backend_note;
+  int read_timeout = 10;       ///< seconds
+  int write_timeout = 10;      ///< seconds
+  int keep_alive_max = 1000;   ///< requests per connection
+  int keep_alive_timeout = 5;  ///< seconds idle
+  int max_streams = 4;         ///< concurrent SSE streams
+  int retry_after = 5;         ///< seconds, on 503
+  double grace_seconds = 10;   ///< SIGTERM: wait this long for running jobs
+  bool quiet = false;          ///< no request log
   /// The web viewer's files (index.html, viewer/, vendor/); empty = found next to the binary
   /// (static_files.h), and resolved to a directory (or left empty: no viewer) at start-up.
   std::string web_root;
