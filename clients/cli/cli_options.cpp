@@ -54,6 +54,23 @@ std::optional<std::vector<double>> Args::numbers(const std::string& flag) const 
   return out;
 }
 
+std::string required_value(const Args& args, const std::string& flag) {
+  const auto v = args.value(flag);
+  if (!v) throw UsageError{"missing " + flag};
+  return *v;
+}
+
+std::vector<double> point_value(const std::string& flag, const std::string& text, int dimension) {
+  Args one;
+  one.flags[flag] = {text};
+  std::vector<double> v = *one.numbers(flag);
+  if (v.size() != static_cast<size_t>(dimension)) {
+    throw UsageError{flag + " expects " + std::to_string(dimension) + " numbers for a " +
+                     std::to_string(dimension) + "D result, got \"" + text + "\""};
+  }
+  return v;
+}
+
 Args parse_args(int argc, char** argv, int first, const std::vector<std::string>& with_value,
                 const std::vector<std::string>& boolean) {
   Args args;

@@ -44,6 +44,13 @@ struct Args {
   std::optional<std::vector<double>> numbers(const std::string& flag) const;
 };
 
+/// The value of a flag that must be given (UsageError "missing --flag" otherwise).
+std::string required_value(const Args& args, const std::string& flag);
+
+/// The coordinates of a point given as "x,y[,z]" for `flag`, checked to have `dimension`
+/// numbers (UsageError saying what was expected otherwise).
+std::vector<double> point_value(const std::string& flag, const std::string& text, int dimension);
+
 /// Parses argv[first..]. `with_value` lists the flags that take a value (also accepted as
 /// --flag=value); `boolean` those that do not. Unknown flags are a UsageError.
 Args parse_args(int argc, char** argv, int first, const std::vector<std::string>& with_value,

@@ -361,8 +361,7 @@ int run(int argc, char** argv) {
     return kExitOk;
   }
   if (command == "--version") {
-    std::printf("gvd %s (algorithm %u, backends: opencl, cpu)\n", GVD_VERSION,
-                kAlgorithmVersion);
+    std::printf("gvd %s (algorithm %u, backends: opencl, cpu)\n", GVD_VERSION, kAlgorithmVersion);
     return kExitOk;
   }
   if (server) return run_remote(*server, argc, argv);

@@ -49,22 +49,10 @@ GvdIndex load_index(const Args& args) {
 
 /// A point from "x,y[,z]" of a flag value, with the dimension checked.
 Vec3 point_arg(const std::string& flag, const std::string& text, int dimension) {
-  Args one;
-  one.flags[flag] = {text};
-  const std::vector<double> v = *one.numbers(flag);
-  if (v.size() != static_cast<size_t>(dimension)) {
-    throw UsageError{flag + " expects " + std::to_string(dimension) + " numbers for a " +
-                     std::to_string(dimension) + "D result, got \"" + text + "\""};
-  }
+  const std::vector<double> v = point_value(flag, text, dimension);
   Vec3 p;
   for (size_t a = 0; a < v.size(); ++a) p[static_cast<int>(a)] = v[a];
   return p;
-}
-
-std::string required(const Args& args, const std::string& flag) {
-  const auto v = args.value(flag);
-  if (!v) throw UsageError{"missing " + flag};
-  return *v;
 }
 
 std::string read_text(const std::string& path) {
@@ -103,7 +91,7 @@ int cmd_nearest(int argc, char** argv) {
 
 int cmd_neighbors(int argc, char** argv) {
   const Args args = parse_query(argc, argv, {"--object", "--ring"});
-  const std::string label = required(args, "--object");
+  const std::string label = required_value(args, "--object");
   const int ring = args.int_value("--ring", 1);
   if (ring < 1) throw UsageError{"--ring must be at least 1"};
   const GvdIndex index = load_index(args);
@@ -115,7 +103,7 @@ int cmd_neighbors(int argc, char** argv) {
 
 int cmd_path(int argc, char** argv) {
   const Args args = parse_query(argc, argv, {"--from", "--to", "--min-clearance", "--cost"});
-  const std::string from = required(args, "--from"), to = required(args, "--to");
+  const std::string from = required_value(args, "--from"), to = required_value(args, "--to");
   const GvdIndex index = load_index(args);
   PathQuery query;
   query.from = point_arg("--from", from, index.dimension());
@@ -143,7 +131,7 @@ int cmd_path(int argc, char** argv) {
 
 int cmd_explode(int argc, char** argv) {
   const Args args = parse_query(argc, argv, {"--anchor", "-o", "--output", "--scale", "--seconds"});
-  const std::string anchor = required(args, "--anchor");
+  const std::string anchor = required_value(args, "--anchor");
   ExplodeOptions options;
   if (const auto s = args.numbers("--scale")) {
     if (s->size() != 1 || (*s)[0] <= 0) throw UsageError{"--scale expects one number > 0"};

@@ -340,22 +340,9 @@ Args parse_remote(int argc, char** argv, std::vector<std::string> value_flags,
   return parse_args(argc, argv, 2, value_flags, boolean);
 }
 
-std::string required(const Args& args, const std::string& flag) {
-  const auto v = args.value(flag);
-  if (!v) throw UsageError{"missing " + flag};
-  return *v;
-}
-
 /// "x,y[,z]" as a JSON array, with the dimension checked like the local commands do.
 Json point_arg(const std::string& flag, const std::string& text, int dimension) {
-  Args one;
-  one.flags[flag] = {text};
-  const std::vector<double> v = *one.numbers(flag);
-  if (v.size() != static_cast<size_t>(dimension)) {
-    throw UsageError{flag + " expects " + std::to_string(dimension) + " numbers for a " +
-                     std::to_string(dimension) + "D result, got \"" + text + "\""};
-  }
-  return Json(v);
+  return Json(point_value(flag, text, dimension));
 }
 
 int dimension_of(Remote& remote, const std::string& id) {
@@ -440,7 +427,7 @@ int remote_info(const std::string& url, int argc, char** argv) {
   const Args args = parse_remote(argc, argv, {}, {"--json"});
   if (!args.positional.empty()) throw UsageError{"info against a server takes --job ID"};
   Remote remote(url, args);
-  const Json doc = remote.job(required(args, "--job"));
+  const Json doc = remote.job(required_value(args, "--job"));
   const std::string status = text(doc, "status", "");
   if (args.has("--json")) {
     std::cout << Remote::finished(doc)["result"].dump() << "\n";
@@ -505,7 +492,7 @@ int remote_nearest(const std::string& url, int argc, char** argv) {
 
 int remote_neighbors(const std::string& url, int argc, char** argv) {
   const Args args = parse_remote(argc, argv, {"--object", "--ring"});
-  const std::string label = required(args, "--object");
+  const std::string label = required_value(args, "--object");
   const int ring = args.int_value("--ring", 1);
   if (ring < 1) throw UsageError{"--ring must be at least 1"};
   Remote remote(url, args);
@@ -518,7 +505,7 @@ int remote_neighbors(const std::string& url, int argc, char** argv) {
 
 int remote_path(const std::string& url, int argc, char** argv) {
   const Args args = parse_remote(argc, argv, {"--from", "--to", "--min-clearance", "--cost"});
-  const std::string from = required(args, "--from"), to = required(args, "--to");
+  const std::string from = required_value(args, "--from"), to = required_value(args, "--to");
   Json body;
   if (const auto r = args.numbers("--min-clearance")) {
     if (r->size() != 1 || (*r)[0] < 0) throw UsageError{"--min-clearance expects one number >= 0"};
@@ -550,7 +537,7 @@ int remote_path(const std::string& url, int argc, char** argv) {
 int remote_explode(const std::string& url, int argc, char** argv) {
   const Args args =
       parse_remote(argc, argv, {"--anchor", "-o", "--output", "--scale", "--seconds"});
-  const std::string anchor = required(args, "--anchor");
+  const std::string anchor = required_value(args, "--anchor");
   std::string query = "?anchor=" + url_encode(anchor);
   if (const auto s = args.numbers("--scale")) {
     if (s->size() != 1 || (*s)[0] <= 0) throw UsageError{"--scale expects one number > 0"};

@@ -92,49 +92,12 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
 }
 
 ClosestHit SimplexBvh::nearest_in_object(Vec3 p, uint32_t object, double max_dist2) const {
-  ClosestHit best;
-  best.dist2 = max_dist2;
-  if (nodes_.empty() || box_distance2(p, nodes_[0].box) > best.dist2) return best;
   GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
             "nearest_in_object needs the objects of the simplices at construction");
-  auto skip = [&](uint32_t node) {
-    return nodes_[node].object != kMixed && nodes_[node].object != object;
-  };
-  struct Entry {
-    uint32_t node;
-    double dist2;
-  };
-  Entry stack[128];
-  int top = 0;
-  if (skip(0)) return best;
-  stack[top++] = {0, 0.0};
-  while (top > 0) {
-    const Entry entry = stack[--top];
-    if (entry.dist2 > best.dist2) continue;
-    const Node& n = nodes_[entry.node];
-    if (n.count > 0) {
-      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
-        if (object_in_order_[k] != object) continue;
-        const Vec3 q = closest_in_order(k, p);
-        const double d2 = dist2(p, q);
-        if (d2 < best.dist2 || (d2 == best.dist2 && order_[k] < best.simplex)) {
-          best = {q, d2, order_[k]};
-        }
-      }
-      continue;
-    }
-    const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = skip(l) ? 1e308 : box_distance2(p, nodes_[l].box);
-    const double dr = skip(r) ? 1e308 : box_distance2(p, nodes_[r].box);
-    if (dl <= dr) {
-      if (dr <= best.dist2) stack[top++] = {r, dr};
-      if (dl <= best.dist2) stack[top++] = {l, dl};
-    } else {
-      if (dl <= best.dist2) stack[top++] = {l, dl};
-      if (dr <= best.dist2) stack[top++] = {r, dr};
-    }
-  }
-  return best;
+  return nearest_impl(
+      p, [&](uint32_t k) { return object_in_order_[k] == object; },
+      [&](uint32_t node) { return nodes_[node].object != kMixed && nodes_[node].object != object; },
+      max_dist2);
 }
 
 size_t SimplexBvh::memory_bytes() const {

@@ -77,6 +77,12 @@ class SimplexBvh {
   std::vector<uint32_t> object_in_order_;  ///< per simplex in `order_` sequence (if given)
   int arity_ = 3;
 
+  /// The nearest-simplex search: `accept_item(k)` filters simplices by their position k in
+  /// `order_`, `skip_node(i)` prunes whole subtrees.
+  template <class AcceptItem, class SkipNode>
+  ClosestHit nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&& skip_node,
+                          double max_dist2) const;
+
   Vec3 closest_in_order(uint32_t k, Vec3 p) const {
     const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
     return arity_ == 2 ? closest_point_on_segment(p, c[0], c[1])
@@ -86,9 +92,16 @@ class SimplexBvh {
 
 template <class Accept>
 ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) const {
+  return nearest_impl(
+      p, [&](uint32_t k) { return accept(order_[k]); }, [](uint32_t) { return false; }, max_dist2);
+}
+
+template <class AcceptItem, class SkipNode>
+ClosestHit SimplexBvh::nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&& skip_node,
+                                    double max_dist2) const {
   ClosestHit best;
   best.dist2 = max_dist2;
-  if (nodes_.empty() || box_distance2(p, nodes_[0].box) > best.dist2) return best;
+  if (nodes_.empty() || skip_node(0) || box_distance2(p, nodes_[0].box) > best.dist2) return best;
   // Each stack entry carries its box distance, computed once when the parent was visited.
   struct Entry {
     uint32_t node;
@@ -103,8 +116,8 @@ ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) con
     const Node& n = nodes_[entry.node];
     if (n.count > 0) {
       for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+        if (!accept_item(k)) continue;
         const uint32_t s = order_[k];
-        if (!accept(s)) continue;
         const Vec3 q = closest_in_order(k, p);
         const double d2 = dist2(p, q);
         if (d2 < best.dist2 || (d2 == best.dist2 && s < best.simplex)) {
@@ -114,8 +127,8 @@ ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) con
       continue;
     }
     const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = box_distance2(p, nodes_[l].box);
-    const double dr = box_distance2(p, nodes_[r].box);
+    const double dl = skip_node(l) ? 1e308 : box_distance2(p, nodes_[l].box);
+    const double dr = skip_node(r) ? 1e308 : box_distance2(p, nodes_[r].box);
     // Push the farther child first so the nearer one is searched first.
     if (dl <= dr) {
       if (dr <= best.dist2) stack[top++] = {r, dr};
