@@ -89,9 +89,9 @@ std::string error_name(cl_int code) {
 
 void check(cl_int code, const char* call, const std::string& detail) {
   if (code == CL_SUCCESS) return;
-  throw Error(ErrorCode::kInternal, std::string("OpenCL: ") + call + " failed: " +
-                                        error_name(code) + " (" + std::to_string(code) + ")" +
-                                        detail);
+  throw Error(ErrorCode::kInternal, std::string("OpenCL: ") + call +
+                                        " failed: " + error_name(code) + " (" +
+                                        std::to_string(code) + ")" + detail);
 }
 
 namespace {
@@ -181,9 +181,9 @@ DeviceInfo choose_device(const std::vector<DeviceInfo>& devices, const std::stri
                 "no OpenCL device supports double precision (cl_khr_fp64):" + names);
   }
   const size_t colon = selector.find(':');
-  if (colon != std::string::npos &&
-      std::all_of(selector.begin(), selector.end(),
-                  [](char c) { return c == ':' || std::isdigit(static_cast<unsigned char>(c)); })) {
+  if (colon != std::string::npos && std::all_of(selector.begin(), selector.end(), [](char c) {
+        return c == ':' || std::isdigit(static_cast<unsigned char>(c));
+      })) {
     const int pi = std::atoi(selector.substr(0, colon).c_str());
     const int di = std::atoi(selector.substr(colon + 1).c_str());
     int p = -1, dd = 0;
@@ -222,7 +222,8 @@ Runtime make_runtime(const DeviceInfo& device) {
 std::string resolve_cache_dir(const std::string& requested) {
   if (!requested.empty()) return requested;
   if (const char* e = std::getenv("GVD_KERNEL_CACHE_DIR"); e && *e) return e;
-  if (const char* e = std::getenv("XDG_CACHE_HOME"); e && *e) return std::string(e) + "/gvd/kernels";
+  if (const char* e = std::getenv("XDG_CACHE_HOME"); e && *e)
+    return std::string(e) + "/gvd/kernels";
   if (const char* e = std::getenv("HOME"); e && *e) return std::string(e) + "/.cache/gvd/kernels";
   return "";
 }
@@ -253,8 +254,8 @@ std::string build_log(const Program& program, cl_device_id device) {
 
 // Builds (compiles from source, or finalises a loaded binary); throws with the build log.
 void build(const Program& program, const Runtime& rt, const std::string& options) {
-  const cl_int err = clBuildProgram(program.get(), 1, &rt.device.device, options.c_str(),
-                                    nullptr, nullptr);
+  const cl_int err =
+      clBuildProgram(program.get(), 1, &rt.device.device, options.c_str(), nullptr, nullptr);
   if (err != CL_SUCCESS) {
     check(err, "clBuildProgram",
           " on " + rt.device.label() + " with options '" + options + "'; build log:\n" +
@@ -302,15 +303,14 @@ Program build_program(const Runtime& rt, const std::string& source, const std::s
   const auto start = std::chrono::steady_clock::now();
   BuildInfo local;
   const std::string key = "options=" + options + "\nplatform=" + rt.device.platform_name +
-                          "\ndevice=" + rt.device.device_name + "\nversion=" +
-                          rt.device.device_version + "\ndriver=" + rt.device.driver_version +
-                          "\nsource=" + source;
+                          "\ndevice=" + rt.device.device_name +
+                          "\nversion=" + rt.device.device_version +
+                          "\ndriver=" + rt.device.driver_version + "\nsource=" + source;
   cl_int err = CL_SUCCESS;
   Program program;
   if (!cache_dir.empty()) {
     char name[40];
-    std::snprintf(name, sizeof name, "%016llx.bin",
-                  static_cast<unsigned long long>(fnv1a64(key)));
+    std::snprintf(name, sizeof name, "%016llx.bin", static_cast<unsigned long long>(fnv1a64(key)));
     local.cache_file = cache_dir + "/" + name;
     const std::string binary = read_cached(local.cache_file, key);
     if (!binary.empty()) {
@@ -320,8 +320,8 @@ Program build_program(const Runtime& rt, const std::string& source, const std::s
       Program cached(clCreateProgramWithBinary(rt.context.get(), 1, &rt.device.device, &size,
                                                &bytes, &status, &err));
       if (err == CL_SUCCESS && status == CL_SUCCESS &&
-          clBuildProgram(cached.get(), 1, &rt.device.device, options.c_str(), nullptr,
-                         nullptr) == CL_SUCCESS) {
+          clBuildProgram(cached.get(), 1, &rt.device.device, options.c_str(), nullptr, nullptr) ==
+              CL_SUCCESS) {
         program = std::move(cached);
         local.from_cache = true;
       }
@@ -346,8 +346,7 @@ Program build_program(const Runtime& rt, const std::string& source, const std::s
       }
     }
   }
-  local.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (info) *info = local;
   return program;
 }

@@ -117,8 +117,7 @@ class OpenClOctreeBuildSteps final : public OctreeBuildSteps {
     const cl::Buffer ss = input(scc.simplex.data(), scc.simplex.size() * sizeof(uint32_t));
     const cl::Buffer slo = input(scc.lo.data(), scc.lo.size() * sizeof(item::GvdPoint));
     const cl::Buffer shi = input(scc.hi.data(), scc.hi.size() * sizeof(item::GvdPoint));
-    const cl::Buffer sl =
-        input(scc.level_begin.data(), scc.level_begin.size() * sizeof(uint32_t));
+    const cl::Buffer sl = input(scc.level_begin.data(), scc.level_begin.size() * sizeof(uint32_t));
     const cl::Buffer cc = input(cell_code.data(), n * sizeof(uint64_t));
     const cl::Buffer cl_ = input(cell_level.data(), n * sizeof(uint8_t));
     const cl::Kernel& k = kernel("gvd_cell_facets");
@@ -190,8 +189,8 @@ class OpenClOctreeBuildSteps final : public OctreeBuildSteps {
   void launch(const cl::Kernel& k, size_t n, const char* name) const {
     const size_t local = impl_->local_size;
     const size_t global = round_up(n, local);
-    cl::check(clEnqueueNDRangeKernel(impl_->rt.queue.get(), k.get(), 1, nullptr, &global, &local,
-                                     0, nullptr, nullptr),
+    cl::check(clEnqueueNDRangeKernel(impl_->rt.queue.get(), k.get(), 1, nullptr, &global, &local, 0,
+                                     nullptr, nullptr),
               "clEnqueueNDRangeKernel", std::string(" (") + name + ")");
   }
 

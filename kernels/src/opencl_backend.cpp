@@ -10,8 +10,8 @@
 #include "gvd/common/error.h"
 #include "gvd/common/stopwatch.h"
 #include "gvd/distance/closest_points.h"
-#include "gvd/octree/build_octree_dp.h"
 #include "gvd/kernels/embedded_sources.h"
+#include "gvd/octree/build_octree_dp.h"
 
 namespace gvd::kernels {
 
@@ -35,10 +35,10 @@ class OpenClClosestPointSolver final : public ClosestPointSolver {
     node_count_ = static_cast<cl_uint>(d.nodes.size());
     if (node_count_ == 0) return;  // no simplices: every query misses, nothing to upload
     const cl::Runtime& rt = impl_->rt;
-    nodes_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, d.nodes.size() * sizeof(d.nodes[0]),
-                             d.nodes.data());
-    order_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, d.order.size() * sizeof(uint32_t),
-                             d.order.data());
+    nodes_ =
+        cl::make_buffer(rt, CL_MEM_READ_ONLY, d.nodes.size() * sizeof(d.nodes[0]), d.nodes.data());
+    order_ =
+        cl::make_buffer(rt, CL_MEM_READ_ONLY, d.order.size() * sizeof(uint32_t), d.order.data());
     points_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, d.points.size() * sizeof(d.points[0]),
                               d.points.data());
     simplices_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, d.simplices.size() * sizeof(uint32_t),
@@ -132,8 +132,7 @@ std::string OpenClBackend::name() const { return "opencl (" + impl_->rt.device.l
 
 const KernelBuildReport& OpenClBackend::build_report() const { return impl_->report; }
 
-std::unique_ptr<OctreeBuildSteps> OpenClBackend::octree_build_steps(
-    const UnitGeometry& geometry) {
+std::unique_ptr<OctreeBuildSteps> OpenClBackend::octree_build_steps(const UnitGeometry& geometry) {
   return make_opencl_octree_steps(impl_, geometry);
 }
 
@@ -171,8 +170,7 @@ std::shared_ptr<OpenClBackend> make_opencl_backend(const OpenClOptions& options)
   impl->report.cache_file = info.cache_file;
   impl->closest_kernel = cl::make_kernel(impl->closest_program, "gvd_closest_points");
   for (const char* name : {"gvd_vertex_keys", "gvd_radix_nodes", "gvd_radix_parents",
-                           "gvd_facet_cell_lists", "gvd_cell_facets",
-                           "gvd_child_facets"})
+                           "gvd_facet_cell_lists", "gvd_cell_facets", "gvd_child_facets"})
     impl->octree_kernels.emplace(name, cl::make_kernel(impl->octree_program, name));
   size_t max_wg = 0;
   cl::check(clGetKernelWorkGroupInfo(impl->closest_kernel.get(), impl->rt.device.device,

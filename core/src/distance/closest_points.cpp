@@ -48,10 +48,9 @@ void run_items(const ClosestPointData& data, std::span<const Vec3> queries,
   const auto nodes = static_cast<item::gvd_uint>(data.nodes.size());
   for (size_t i = b; i < e; ++i) {
     const Vec3 q = queries[i];
-    hits[i] = to_closest_hit(item::gvd_nearest_item(data.dimension, nodes, data.nodes.data(),
-                                                    data.order.data(), data.points.data(),
-                                                    data.simplices.data(), {q.x, q.y, q.z},
-                                                    bound2[i]));
+    hits[i] = to_closest_hit(item::gvd_nearest_item(
+        data.dimension, nodes, data.nodes.data(), data.order.data(), data.points.data(),
+        data.simplices.data(), {q.x, q.y, q.z}, bound2[i]));
   }
 }
 
@@ -64,8 +63,7 @@ void check_sizes(std::span<const Vec3> queries, std::span<const double> bound2,
 }  // namespace
 
 void closest_points_cpu(const ClosestPointData& data, std::span<const Vec3> queries,
-                        std::span<const double> bound2, std::span<ClosestHit> hits,
-                        int threads) {
+                        std::span<const double> bound2, std::span<ClosestHit> hits, int threads) {
   check_sizes(queries, bound2, hits);
   parallel_for(
       queries.size(), resolve_threads(threads),

@@ -46,9 +46,8 @@ struct Csr {
 
 // Exact closest points of a batch: the backend's solver, or SimplexBvh::nearest (the same
 // per-item function, closest_point_item.h) on the CPU.
-void solve_closest(const SimplexBvh& bvh, const DistanceOptions& options,
-                   std::span<const Vec3> pos, std::span<const double> bound,
-                   std::span<ClosestHit> hits, int threads) {
+void solve_closest(const SimplexBvh& bvh, const DistanceOptions& options, std::span<const Vec3> pos,
+                   std::span<const double> bound, std::span<ClosestHit> hits, int threads) {
   if (options.solver != nullptr) {
     options.solver->solve(pos, bound, hits);
     return;

@@ -317,11 +317,11 @@ std::vector<uint8_t> exploded_to_glb(const Scene& scene, std::span<const Vec3> d
     // Translation from 0 to the displacement over `seconds`, linear.
     tinygltf::AnimationSampler sampler;
     sampler.input = times;
-    sampler.output = add_float_accessor(
-        model,
-        {0.0f, 0.0f, 0.0f, static_cast<float>(d.x), static_cast<float>(d.y),
-         dimension == 2 ? 0.0f : static_cast<float>(d.z)},
-        3, false, 0);
+    sampler.output =
+        add_float_accessor(model,
+                           {0.0f, 0.0f, 0.0f, static_cast<float>(d.x), static_cast<float>(d.y),
+                            dimension == 2 ? 0.0f : static_cast<float>(d.z)},
+                           3, false, 0);
     sampler.interpolation = "LINEAR";
     animation.samplers.push_back(std::move(sampler));
     tinygltf::AnimationChannel channel;

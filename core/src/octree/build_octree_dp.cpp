@@ -73,8 +73,8 @@ class CpuOctreeBuildSteps final : public OctreeBuildSteps {
     parallel_for(m, threads_, [&](size_t b, size_t e, int) {
       for (size_t s = b; s < e; ++s)
         begin[s + 1] = static_cast<uint32_t>(
-            item::gvd_facet_cells(dim_, points_.data(), simplices_.data(),
-                                  static_cast<uint32_t>(s), slack, max_level, nullptr, nullptr));
+            item::gvd_facet_cells(dim_, points_.data(), simplices_.data(), static_cast<uint32_t>(s),
+                                  slack, max_level, nullptr, nullptr));
     });
     for (size_t s = 0; s < m; ++s) begin[s + 1] += begin[s];
     code.assign(begin[m], 0);
@@ -416,7 +416,8 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     return FlatMap64::kMissing;
   };
   std::vector<item::GvdPoint> pts(g.points.size());
-  for (size_t i = 0; i < g.points.size(); ++i) pts[i] = {g.points[i].x, g.points[i].y, g.points[i].z};
+  for (size_t i = 0; i < g.points.size(); ++i)
+    pts[i] = {g.points[i].x, g.points[i].y, g.points[i].z};
   std::vector<uint32_t> sims(3 * g.simplices.size());
   for (size_t i = 0; i < g.simplices.size(); ++i)
     for (int k = 0; k < 3; ++k) sims[3 * i + k] = g.simplices[i].v[k];

@@ -21,8 +21,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
                     "from gvd_kernels in PipelineOptions::compute)");
   }
   if (options.octree_build != "levels" && options.octree_build != "data-parallel") {
-    throw Error(ErrorCode::kInvalidArgument, "octree build '" + options.octree_build +
-                                                 "' is unknown (levels or data-parallel)");
+    throw Error(ErrorCode::kInvalidArgument,
+                "octree build '" + options.octree_build + "' is unknown (levels or data-parallel)");
   }
   const Stopwatch total;
   auto progress = [&](const std::string& stage, double f) {

@@ -38,13 +38,12 @@ class OctreeBuildSteps {
   /// The n - 1 internal nodes of the binary radix tree over n >= 2 sorted unique keys of
   /// `bits` bits, and each one's parent (-1 for the root).
   virtual void radix_tree(std::span<const uint64_t> keys, int bits,
-                          std::vector<item::GvdRadixNode>& nodes,
-                          std::vector<int32_t>& parent) = 0;
+                          std::vector<item::GvdRadixNode>& nodes, std::vector<int32_t>& parent) = 0;
   /// The cells every simplex is stored in (gvd_facet_cells: its smallest containing cell,
   /// the draft's container(f), or the <= 2^D cells of its size), at most max_level; CSR over
   /// simplices (`begin`, then `code` and `level` per entry). Two passes: count, fill.
-  virtual void facet_cells(int max_level, std::vector<uint32_t>& begin,
-                           std::vector<uint64_t>& code, std::vector<int32_t>& level) = 0;
+  virtual void facet_cells(int max_level, std::vector<uint32_t>& begin, std::vector<uint64_t>& code,
+                           std::vector<int32_t>& level) = 0;
   /// Draft Algorithm 2, lines 10-28: for every cell (code, level) the facets stored at its
   /// ancestors (and itself) in `scc` that touch it. Two passes: count, exclusive prefix sum,
   /// fill.
@@ -63,11 +62,11 @@ std::unique_ptr<OctreeBuildSteps> make_cpu_octree_build_steps(const UnitGeometry
 
 /// Figures of one data-parallel build.
 struct DataParallelBuildStats {
-  uint64_t vertex_keys = 0;        ///< unique vertex codes (radix tree leaves)
+  uint64_t vertex_keys = 0;  ///< unique vertex codes (radix tree leaves)
   uint64_t vertex_octree_leaves = 0;
-  uint64_t conflict_cells = 0;     ///< leaves of the vertex octree touching >1 object
-  uint64_t refined_cells = 0;      ///< cells split while resolving conflicts
-  uint64_t resolved_leaves = 0;    ///< leaves of the conflict-free octree
+  uint64_t conflict_cells = 0;   ///< leaves of the vertex octree touching >1 object
+  uint64_t refined_cells = 0;    ///< cells split while resolving conflicts
+  uint64_t resolved_leaves = 0;  ///< leaves of the conflict-free octree
   int refine_levels = 0;
   /// Wall time of the parts (seconds): vertex octree (keys, sort, radix tree, cells), facet
   /// lists (SCC + Algorithm 2), conflict refinement, the engine's rule, balance + leaves.
@@ -81,12 +80,12 @@ struct DataParallelBuildStats {
 /// cell of every simplex from the longest common Morton prefix of its (slack-inflated)
 /// bounding box — a small simplex straddling a coarse boundary goes to the <= 2^D cells of its
 /// own size instead (gvd_facet_cells) — sorted by (level, code), and per leaf the facets
-/// stored at its ancestors that touch it (two-pass count / prefix sum / fill); (3) conflict cells (leaves touching more
-/// than one object, contact pairs exempt below the contact depth) refined level by level until
-/// none is left or the depth limit is hit. The engine's rules then decide the final tree from
-/// the contents of this conflict-free octree: SHOULD_SUBDIVIDE's buffer-cell rule (§3), the
-/// closure, the 2:1 balance and the leaf -> simplex incidence are the CPU build's (the draft
-/// gives no data-parallel form for them). Same leaves as build_octree. `steps` = null runs
+/// stored at its ancestors that touch it (two-pass count / prefix sum / fill); (3) conflict cells
+/// (leaves touching more than one object, contact pairs exempt below the contact depth) refined
+/// level by level until none is left or the depth limit is hit. The engine's rules then decide the
+/// final tree from the contents of this conflict-free octree: SHOULD_SUBDIVIDE's buffer-cell rule
+/// (§3), the closure, the 2:1 balance and the leaf -> simplex incidence are the CPU build's (the
+/// draft gives no data-parallel form for them). Same leaves as build_octree. `steps` = null runs
 /// the CPU twins.
 Octree build_octree_data_parallel(const UnitGeometry& geometry, const OctreeOptions& options = {},
                                   OctreeBuildSteps* steps = nullptr,

@@ -60,8 +60,8 @@ GVD_ITEM_FN gvd_u64 gvd_lattice_coord(int dim, double u) {
 
 /* Morton code (x bit first) of the finest lattice cell containing unit point p. */
 GVD_ITEM_FN gvd_u64 gvd_point_code(int dim, GvdPoint p) {
-  if (dim == 2) return gvd_spread2(gvd_lattice_coord(2, p.x)) |
-                       (gvd_spread2(gvd_lattice_coord(2, p.y)) << 1);
+  if (dim == 2)
+    return gvd_spread2(gvd_lattice_coord(2, p.x)) | (gvd_spread2(gvd_lattice_coord(2, p.y)) << 1);
   return gvd_spread3(gvd_lattice_coord(3, p.x)) | (gvd_spread3(gvd_lattice_coord(3, p.y)) << 1) |
          (gvd_spread3(gvd_lattice_coord(3, p.z)) << 2);
 }
@@ -88,8 +88,8 @@ typedef struct GvdRadixNode {
 } GvdRadixNode;
 
 GVD_ITEM_FN GvdRadixNode gvd_radix_node(GVD_GLOBAL const gvd_u64* keys, int n, int bits, int i) {
-  const int d = gvd_delta(keys, n, bits, i, i + 1) - gvd_delta(keys, n, bits, i, i - 1) >= 0 ? 1
-                                                                                             : -1;
+  const int d =
+      gvd_delta(keys, n, bits, i, i + 1) - gvd_delta(keys, n, bits, i, i - 1) >= 0 ? 1 : -1;
   const int dmin = gvd_delta(keys, n, bits, i, i - d);
   int lmax = 2;
   while (gvd_delta(keys, n, bits, i, i + lmax * d) > dmin) lmax *= 2;
@@ -191,8 +191,10 @@ GVD_ITEM_FN int gvd_facet_cells(int dim, GVD_GLOBAL const GvdPoint* points,
     return 1;
   }
   const int shift = gvd_lattice_bits(dim) - level;
-  const gvd_u64 x0 = gvd_lattice_coord(dim, lo.x) >> shift, x1 = gvd_lattice_coord(dim, hi.x) >> shift;
-  const gvd_u64 y0 = gvd_lattice_coord(dim, lo.y) >> shift, y1 = gvd_lattice_coord(dim, hi.y) >> shift;
+  const gvd_u64 x0 = gvd_lattice_coord(dim, lo.x) >> shift,
+                x1 = gvd_lattice_coord(dim, hi.x) >> shift;
+  const gvd_u64 y0 = gvd_lattice_coord(dim, lo.y) >> shift,
+                y1 = gvd_lattice_coord(dim, hi.y) >> shift;
   gvd_u64 z0 = 0, z1 = 0;
   if (dim == 3) {
     z0 = gvd_lattice_coord(dim, lo.z) >> shift;
@@ -203,10 +205,9 @@ GVD_ITEM_FN int gvd_facet_cells(int dim, GVD_GLOBAL const GvdPoint* points,
     for (gvd_u64 y = y0; y <= y1; ++y)
       for (gvd_u64 x = x0; x <= x1; ++x) {
         if (out_code) {
-          const gvd_u64 code =
-              dim == 2 ? gvd_spread2(x << shift) | (gvd_spread2(y << shift) << 1)
-                       : gvd_spread3(x << shift) | (gvd_spread3(y << shift) << 1) |
-                             (gvd_spread3(z << shift) << 2);
+          const gvd_u64 code = dim == 2 ? gvd_spread2(x << shift) | (gvd_spread2(y << shift) << 1)
+                                        : gvd_spread3(x << shift) | (gvd_spread3(y << shift) << 1) |
+                                              (gvd_spread3(z << shift) << 2);
           out_code[n] = code;
           out_level[n] = level;
         }
@@ -274,7 +275,8 @@ GVD_ITEM_FN int gvd_separated_on_axis(GvdPoint axis, GvdPoint v0, GvdPoint v1, G
   const double p0 = gvd_dot(v0, axis);
   const double p1 = gvd_dot(v1, axis);
   const double p2 = gvd_dot(v2, axis);
-  const double r = hsize.x * GVD_FABS(axis.x) + hsize.y * GVD_FABS(axis.y) + hsize.z * GVD_FABS(axis.z);
+  const double r =
+      hsize.x * GVD_FABS(axis.x) + hsize.y * GVD_FABS(axis.y) + hsize.z * GVD_FABS(axis.z);
   const double lo = gvd_min3(p0, p1, p2);
   const double hi = gvd_max3(p0, p1, p2);
   const double alo = GVD_FABS(lo), ahi = GVD_FABS(hi);
@@ -351,8 +353,7 @@ GVD_ITEM_FN int gvd_simplex_touches_cell(int dim, GVD_GLOBAL const GvdPoint* poi
 /* A cheap early reject before the exact test: true only when the simplex's bounding box
  * [slo, shi] is farther than twice the slack from the cell box on some axis, where the exact
  * test must reject too (its rounding is far below the slack). */
-GVD_ITEM_FN int gvd_bbox_apart(GvdPoint slo, GvdPoint shi, GvdPoint lo, GvdPoint hi,
-                               double slack) {
+GVD_ITEM_FN int gvd_bbox_apart(GvdPoint slo, GvdPoint shi, GvdPoint lo, GvdPoint hi, double slack) {
   const double m = 2 * slack;
   return slo.x > hi.x + m || shi.x < lo.x - m || slo.y > hi.y + m || shi.y < lo.y - m ||
          slo.z > hi.z + m || shi.z < lo.z - m;
@@ -377,14 +378,11 @@ GVD_ITEM_FN gvd_uint gvd_find_code(GVD_GLOBAL const gvd_u64* codes, gvd_uint beg
  * scc_level_begin[l] .. [l+1] are the entries of level l; scc_lo/scc_hi are the facets'
  * bounding boxes (an early reject). Writes the facets to `out` when non-null; returns how
  * many touch (the count pass calls it with out = null). */
-GVD_ITEM_FN gvd_uint gvd_leaf_facets(int dim, GVD_GLOBAL const GvdPoint* points,
-                                     GVD_GLOBAL const gvd_uint* simplices,
-                                     GVD_GLOBAL const gvd_u64* scc_code,
-                                     GVD_GLOBAL const gvd_uint* scc_simplex,
-                                     GVD_GLOBAL const GvdPoint* scc_lo,
-                                     GVD_GLOBAL const GvdPoint* scc_hi,
-                                     GVD_GLOBAL const gvd_uint* scc_level_begin, gvd_u64 code,
-                                     int level, GVD_GLOBAL gvd_uint* out) {
+GVD_ITEM_FN gvd_uint gvd_leaf_facets(
+    int dim, GVD_GLOBAL const GvdPoint* points, GVD_GLOBAL const gvd_uint* simplices,
+    GVD_GLOBAL const gvd_u64* scc_code, GVD_GLOBAL const gvd_uint* scc_simplex,
+    GVD_GLOBAL const GvdPoint* scc_lo, GVD_GLOBAL const GvdPoint* scc_hi,
+    GVD_GLOBAL const gvd_uint* scc_level_begin, gvd_u64 code, int level, GVD_GLOBAL gvd_uint* out) {
   GvdPoint lo, hi;
   gvd_cell_box(dim, code, level, &lo, &hi);
   const double slack = gvd_slack(level);

@@ -1,8 +1,8 @@
 #pragma once
 
 #include <atomic>
-#include <memory>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -37,7 +37,7 @@ struct PipelineOptions {
   /// Levels below the §3 octree to which ambiguity is resolved; < 0 picks the default: down
   /// to max_depth in 2D, 2 in 3D.
   int ambiguity_levels = -1;
-  int threads = 0;              ///< 0 = all cores
+  int threads = 0;  ///< 0 = all cores
   /// "cpu" (the CPU twins) or "opencl"; "opencl" needs `compute` (core has no OpenCL: the
   /// caller makes one with gvd::kernels::choose_backend).
   std::string backend = "cpu";
@@ -50,7 +50,7 @@ struct PipelineOptions {
   /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
   /// ResultStats::backend so that `gvd info` says so.
   std::string backend_note;
-  ProgressFn progress;          ///< optional
+  ProgressFn progress;  ///< optional
   const std::atomic<bool>* cancel = nullptr;
 };
 
