@@ -148,8 +148,8 @@ void BM_KernelBuild(benchmark::State& state, bool cached) {
     const char* d = mkdtemp(tmpl);
     return std::string(d ? d : "");
   }();
-  static int nonce = static_cast<int>(
-      std::chrono::steady_clock::now().time_since_epoch().count() % 1000000007);
+  static int nonce =
+      static_cast<int>(std::chrono::steady_clock::now().time_since_epoch().count() % 1000000007);
   double build = 0, warm = 0;
   int from_cache = 0;
   if (cached) {  // make sure the binary of this nonce is in the cache, outside the timing
@@ -247,11 +247,9 @@ void BM_PipelineBackend(benchmark::State& state, std::string scene, std::string 
 const bool registered = [] {
   for (const char* scene : {"blades", "spheres"})
     for (const char* impl : {"opencl", "twin", "scalar"})
-      benchmark::RegisterBenchmark(
-          (std::string("BM_ClosestPoints/") + scene + "/" + impl).c_str(),
-          [s = std::string(scene), i = std::string(impl)](benchmark::State& st) {
-            BM_ClosestPoints(st, s, i);
-          })
+      benchmark::RegisterBenchmark((std::string("BM_ClosestPoints/") + scene + "/" + impl).c_str(),
+                                   [s = std::string(scene), i = std::string(impl)](
+                                       benchmark::State& st) { BM_ClosestPoints(st, s, i); })
           ->Unit(benchmark::kMillisecond)
           ->UseRealTime()
           ->MeasureProcessCPUTime()  // the CPU column: all threads, PoCL's included
@@ -268,11 +266,9 @@ const bool registered = [] {
       ->Iterations(10);
   for (const char* scene : {"polygons2d", "gears3d", "blades", "spheres"})
     for (const char* impl : {"cpu", "dp_twin", "dp_opencl"})
-      benchmark::RegisterBenchmark(
-          (std::string("BM_OctreeBuild/") + scene + "/" + impl).c_str(),
-          [s = std::string(scene), i = std::string(impl)](benchmark::State& st) {
-            BM_OctreeBuild(st, s, i);
-          })
+      benchmark::RegisterBenchmark((std::string("BM_OctreeBuild/") + scene + "/" + impl).c_str(),
+                                   [s = std::string(scene), i = std::string(impl)](
+                                       benchmark::State& st) { BM_OctreeBuild(st, s, i); })
           ->Unit(benchmark::kMillisecond)
           ->UseRealTime()
           ->MeasureProcessCPUTime()

@@ -1,13 +1,14 @@
 // The OpenCL host layer: build errors carry the compiler's log, the binary cache is keyed and
 // self-checking, device selection by index and by name, error names.
 
+#include "cl_runtime.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
-#include "cl_runtime.h"
 #include "gvd/common/error.h"
 #include "parity/opencl_env.h"
 
@@ -102,8 +103,9 @@ TEST(ClRuntime, ErrorNames) {
     cl::check(CL_INVALID_KERNEL_ARGS, "clEnqueueNDRangeKernel", " (k)");
     ADD_FAILURE();
   } catch (const Error& e) {
-    EXPECT_STREQ(e.what(),
-                 "internal: OpenCL: clEnqueueNDRangeKernel failed: CL_INVALID_KERNEL_ARGS (-52) (k)");
+    EXPECT_STREQ(
+        e.what(),
+        "internal: OpenCL: clEnqueueNDRangeKernel failed: CL_INVALID_KERNEL_ARGS (-52) (k)");
   }
 }
 

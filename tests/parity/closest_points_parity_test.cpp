@@ -122,8 +122,8 @@ TEST_P(ClosestPointParity, TightBoundsExcludeOrJustAdmitTheClosestSimplex) {
   Batch b;
   for (const Vec3& q : free_batch.queries) {
     const double d2 = bvh.nearest(q).dist2;
-    b.add(q, d2);                  // exactly the distance: admitted (ties to the bound)
-    b.add(q, d2 * (1 - 1e-9));     // just below: nothing found
+    b.add(q, d2);               // exactly the distance: admitted (ties to the bound)
+    b.add(q, d2 * (1 - 1e-9));  // just below: nothing found
     b.add(q, std::nextafter(d2, 0.0));
     b.add(q, 0.0);
   }
@@ -166,7 +166,10 @@ TEST_P(ClosestPointParity, ExactTiesGoToTheLowerSimplex) {
     for (int j = 0; j <= (dim == 3 ? 64 : 0); ++j) {
       Vec3 q{i / 64.0, j / 64.0, 0.0};
       q[axis] = 0.5;
-      if (dim == 3) q.y = j / 64.0; else q.z = 0;
+      if (dim == 3)
+        q.y = j / 64.0;
+      else
+        q.z = 0;
       b.add(q);
     }
   const std::vector<ClosestHit> hits = expect_parity(*backend, g, b);
@@ -239,7 +242,8 @@ TEST_P(ClosestPointParity, OddBatchSizesAndEmptyGeometry) {
   GVD_REQUIRE_OPENCL(backend);
   const int dim = GetParam();
   const UnitGeometry g = random_geometry(dim, 2, 10, 0.1, 4);
-  for (size_t n : {1u, 2u, 63u, 64u, 65u, 127u, 1000u}) expect_parity(*backend, g, random_queries(dim, n, n));
+  for (size_t n : {1u, 2u, 63u, 64u, 65u, 127u, 1000u})
+    expect_parity(*backend, g, random_queries(dim, n, n));
   UnitGeometry empty;
   empty.dimension = dim;
   const std::vector<ClosestHit> hits = expect_parity(*backend, empty, random_queries(dim, 10, 1));

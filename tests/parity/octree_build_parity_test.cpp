@@ -89,8 +89,7 @@ void expect_steps_agree(kernels::OpenClBackend& backend, const UnitGeometry& g, 
   }
 }
 
-void expect_builds_agree(kernels::OpenClBackend& backend, const UnitGeometry& g,
-                         OctreeOptions o) {
+void expect_builds_agree(kernels::OpenClBackend& backend, const UnitGeometry& g, OctreeOptions o) {
   o.threads = 2;
   const auto steps = backend.octree_build_steps(g);
   DataParallelBuildStats sa, sb;
@@ -130,13 +129,13 @@ TEST_P(OctreeBuildParity, TouchingObjectsDeepestLevelAndDegenerateInput) {
   GVD_REQUIRE_OPENCL(backend);
   const int dim = GetParam();
   using namespace test;
-  const Scene touching =
-      dim == 3 ? make_scene(3, {make_box("a", {0, 0, 0}, {1, 1, 0.5}),
-                                make_box("b", {0.25, 0.25, 0.5}, {0.75, 0.75, 1}),
-                                make_point3("p", {1.5, 0.5, 0.5}, 1e-3)})
-               : make_scene(2, {make_rect("a", {0, 0, 0}, {1, 0.5, 0}),
-                                make_rect("b", {0.25, 0.5, 0}, {0.75, 1, 0}),
-                                make_segment("s", {1.2, 0, 0}, {1.2, 1, 0})});
+  const Scene touching = dim == 3
+                             ? make_scene(3, {make_box("a", {0, 0, 0}, {1, 1, 0.5}),
+                                              make_box("b", {0.25, 0.25, 0.5}, {0.75, 0.75, 1}),
+                                              make_point3("p", {1.5, 0.5, 0.5}, 1e-3)})
+                             : make_scene(2, {make_rect("a", {0, 0, 0}, {1, 0.5, 0}),
+                                              make_rect("b", {0.25, 0.5, 0}, {0.75, 1, 0}),
+                                              make_segment("s", {1.2, 0, 0}, {1.2, 1, 0})});
   const UnitGeometry g = geometry_of(touching);
   expect_steps_agree(*backend, g, dim == 3 ? 21 : 26);
   OctreeOptions o;

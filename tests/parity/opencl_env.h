@@ -19,10 +19,10 @@ std::shared_ptr<kernels::OpenClBackend> opencl_backend(std::string* why);
 }  // namespace gvd::test
 
 /// Skips the current test when no OpenCL device exists, saying why.
-#define GVD_REQUIRE_OPENCL(backend)                                                         \
-  std::string gvd_why_;                                                                     \
-  const auto backend = ::gvd::test::opencl_backend(&gvd_why_);                              \
-  if (!backend) {                                                                           \
-    GTEST_SKIP() << "no OpenCL device, parity not checked: " << gvd_why_                   \
-                 << " (install pocl-opencl-icd; POCL_CACHE_DIR must be writable)";         \
+#define GVD_REQUIRE_OPENCL(backend)                                                \
+  std::string gvd_why_;                                                            \
+  const auto backend = ::gvd::test::opencl_backend(&gvd_why_);                     \
+  if (!backend) {                                                                  \
+    GTEST_SKIP() << "no OpenCL device, parity not checked: " << gvd_why_           \
+                 << " (install pocl-opencl-icd; POCL_CACHE_DIR must be writable)"; \
   }

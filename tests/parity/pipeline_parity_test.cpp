@@ -81,11 +81,10 @@ TEST(PipelineParity, TwoDimensionalScenes) {
                                     make_segment("c", {-1, 1.2, 0}, {2, 1.2, 0})}),
                      *backend, backend);
   // Gears (many close teeth) and intersecting objects (refined to the contact depth).
-  expect_same_result(
-      make_scene(2, {make_gear2d("g1", {0, 0, 0}, 0.8, 1.0, 12, 0.0),
-                     make_gear2d("g2", {2.02, 0, 0}, 0.8, 1.0, 12, 0.26),
-                     make_rect("crossing", {-0.2, -0.2, 0}, {0.5, 1.5, 0})}),
-      *backend, backend);
+  expect_same_result(make_scene(2, {make_gear2d("g1", {0, 0, 0}, 0.8, 1.0, 12, 0.0),
+                                    make_gear2d("g2", {2.02, 0, 0}, 0.8, 1.0, 12, 0.26),
+                                    make_rect("crossing", {-0.2, -0.2, 0}, {0.5, 1.5, 0})}),
+                     *backend, backend);
 }
 
 TEST(PipelineParity, ThreeDimensionalScenes) {
@@ -96,10 +95,10 @@ TEST(PipelineParity, ThreeDimensionalScenes) {
                                     make_box("plate", {-1.5, -1.5, -1.6}, {3.5, 1.5, -1.1})}),
                      *backend, backend);
   // Point-like objects and touching boxes (a shared face).
-  expect_same_result(make_scene(3, {make_point3("p", {0.5, 0.5, 0.5}),
-                                    make_box("b1", {0, 0, 0}, {1, 1, 0.3}),
-                                    make_box("b2", {0, 0, 0.3}, {1, 0.4, 0.45})}),
-                     *backend, backend);
+  expect_same_result(
+      make_scene(3, {make_point3("p", {0.5, 0.5, 0.5}), make_box("b1", {0, 0, 0}, {1, 1, 0.3}),
+                     make_box("b2", {0, 0, 0.3}, {1, 0.4, 0.45})}),
+      *backend, backend);
 }
 
 // The whole pipeline with the first octree from the data-parallel build on the OpenCL kernels

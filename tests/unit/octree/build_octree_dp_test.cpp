@@ -3,6 +3,8 @@
 // level-synchronous CPU build: the same leaves, objects and leaf -> simplex lists on small
 // scenes, and the separation properties on its own.
 
+#include "gvd/octree/build_octree_dp.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,7 +12,6 @@
 
 #include "gvd/common/error.h"
 #include "gvd/geometry/simplex_bvh.h"
-#include "gvd/octree/build_octree_dp.h"
 #include "gvd/octree/contacts.h"
 #include "support/scenes.h"
 
@@ -79,12 +80,11 @@ TEST(BuildOctreeDataParallel, SingleObjectAndEmptyScene) {
 
 TEST(BuildOctreeDataParallel, TwoDimensionalScenesMatchTheCpuBuild) {
   using namespace test;
-  for (const Scene& s :
-       {make_scene(2, {make_circle("a", {0, 0, 0}, 1, 40),
-                       make_rect("b", {1.01, -0.5, 0}, {2, 0.5, 0})}),
-        make_scene(2, {make_gear2d("g1", {0, 0, 0}, 0.8, 1.0, 12, 0.0),
-                       make_gear2d("g2", {2.02, 0, 0}, 0.8, 1.0, 12, 0.26),
-                       make_segment("s", {-1, 1.3, 0}, {3, 1.3, 0})})}) {
+  for (const Scene& s : {make_scene(2, {make_circle("a", {0, 0, 0}, 1, 40),
+                                        make_rect("b", {1.01, -0.5, 0}, {2, 0.5, 0})}),
+                         make_scene(2, {make_gear2d("g1", {0, 0, 0}, 0.8, 1.0, 12, 0.0),
+                                        make_gear2d("g2", {2.02, 0, 0}, 0.8, 1.0, 12, 0.26),
+                                        make_segment("s", {-1, 1.3, 0}, {3, 1.3, 0})})}) {
     const Case c = make_case(s);
     expect_separated(expect_same_as_cpu(c.geometry));
   }
@@ -92,11 +92,11 @@ TEST(BuildOctreeDataParallel, TwoDimensionalScenesMatchTheCpuBuild) {
 
 TEST(BuildOctreeDataParallel, ThreeDimensionalScenesMatchTheCpuBuild) {
   using namespace test;
-  for (const Scene& s : {make_scene(3, {make_sphere("s1", {0, 0, 0}, 1.0, 8, 16),
-                                        make_sphere("s2", {2.05, 0, 0}, 1.0, 8, 16)}),
-                         make_scene(3, {make_point3("p", {0.5, 0.5, 0.5}),
-                                        make_box("b1", {0, 0, 0}, {1, 1, 0.3}),
-                                        make_sphere("s", {0.5, 0.5, 0.9}, 0.2, 6, 10)})}) {
+  for (const Scene& s :
+       {make_scene(3, {make_sphere("s1", {0, 0, 0}, 1.0, 8, 16),
+                       make_sphere("s2", {2.05, 0, 0}, 1.0, 8, 16)}),
+        make_scene(3, {make_point3("p", {0.5, 0.5, 0.5}), make_box("b1", {0, 0, 0}, {1, 1, 0.3}),
+                       make_sphere("s", {0.5, 0.5, 0.9}, 0.2, 6, 10)})}) {
     const Case c = make_case(s);
     expect_separated(expect_same_as_cpu(c.geometry));
   }
@@ -106,15 +106,15 @@ TEST(BuildOctreeDataParallel, ThreeDimensionalScenesMatchTheCpuBuild) {
 // only to the contact depth.
 TEST(BuildOctreeDataParallel, DeepestLevelAndContactsMatchTheCpuBuild) {
   using namespace test;
-  const Case c = make_case(make_scene(3, {make_box("b1", {0, 0, 0}, {1, 1, 0.5}),
-                                          make_box("b2", {0.2, 0.2, 0.5}, {0.8, 0.8, 1.0}),
-                                          make_sphere("s", {1.6, 0.5, 0.5}, 0.3, 6, 10)}));
+  const Case c = make_case(make_scene(
+      3, {make_box("b1", {0, 0, 0}, {1, 1, 0.5}), make_box("b2", {0.2, 0.2, 0.5}, {0.8, 0.8, 1.0}),
+          make_sphere("s", {1.6, 0.5, 0.5}, 0.3, 6, 10)}));
   OctreeOptions o;
   o.max_depth = 9;
   expect_same_as_cpu(c.geometry, o);  // without contacts: b1/b2 refined to the limit
   const SimplexBvh bvh(3, c.geometry.points, c.geometry.simplices);
-  const ContactPairs contacts = find_contact_pairs(c.geometry, bvh, 2.0 * std::sqrt(3.0) *
-                                                                        std::ldexp(1.0, -9), 2);
+  const ContactPairs contacts =
+      find_contact_pairs(c.geometry, bvh, 2.0 * std::sqrt(3.0) * std::ldexp(1.0, -9), 2);
   ASSERT_FALSE(contacts.empty());
   o.contacts = &contacts;
   o.contact_depth = 5;
@@ -146,8 +146,8 @@ TEST(BuildOctreeDataParallel, RandomTrianglesMatchTheCpuBuild) {
 
 TEST(BuildOctreeDataParallel, LeafLimitIsEnforced) {
   using namespace test;
-  const Case c = make_case(make_scene(2, {make_circle("a", {0, 0, 0}, 1, 40),
-                                          make_circle("b", {2.0001, 0, 0}, 1, 40)}));
+  const Case c = make_case(
+      make_scene(2, {make_circle("a", {0, 0, 0}, 1, 40), make_circle("b", {2.0001, 0, 0}, 1, 40)}));
   OctreeOptions o;
   o.max_leaves = 50;
   EXPECT_THROW(build_octree_data_parallel(c.geometry, o), Error);
