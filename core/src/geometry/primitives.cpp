@@ -3,53 +3,24 @@
 #include <algorithm>
 #include <cmath>
 
+#include "gvd/distance/closest_point_item.h"
+
 namespace gvd {
 
+// The closest-point primitives are the per-item functions the OpenCL kernel and its CPU twin
+// run (closest_point_item.h): one source, so every CPU path gives the kernel's results bit
+// for bit.
+namespace {
+item::GvdPoint to_item(Vec3 v) { return item::gvd_pt(v.x, v.y, v.z); }
+Vec3 from_item(item::GvdPoint v) { return {v.x, v.y, v.z}; }
+}  // namespace
+
 Vec3 closest_point_on_segment(Vec3 p, Vec3 a, Vec3 b) {
-  const Vec3 ab = b - a;
-  const double len2 = norm2(ab);
-  if (len2 <= 0) return a;
-  const double t = std::clamp(dot(p - a, ab) / len2, 0.0, 1.0);
-  return a + ab * t;
+  return from_item(item::gvd_closest_on_segment(to_item(p), to_item(a), to_item(b)));
 }
 
 Vec3 closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
-  const Vec3 ab = b - a;
-  const Vec3 ac = c - a;
-  if (norm2(cross(ab, ac)) <= 0) {
-    // Degenerate: closest of the three edges.
-    const Vec3 q1 = closest_point_on_segment(p, a, b);
-    const Vec3 q2 = closest_point_on_segment(p, b, c);
-    const Vec3 q3 = closest_point_on_segment(p, c, a);
-    Vec3 best = q1;
-    if (dist2(p, q2) < dist2(p, best)) best = q2;
-    if (dist2(p, q3) < dist2(p, best)) best = q3;
-    return best;
-  }
-  const Vec3 ap = p - a;
-  const double d1 = dot(ab, ap);
-  const double d2 = dot(ac, ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = dot(ab, bp);
-  const double d4 = dot(ac, bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
-  const Vec3 cp = p - c;
-  const double d5 = dot(ab, cp);
-  const double d6 = dot(ac, cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-  }
-  const double denom = 1.0 / (va + vb + vc);
-  const double v = vb * denom;
-  const double w = vc * denom;
-  return a + ab * v + ac * w;
+  return from_item(item::gvd_closest_on_triangle(to_item(p), to_item(a), to_item(b), to_item(c)));
 }
 
 namespace {
