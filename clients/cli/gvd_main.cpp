@@ -68,6 +68,9 @@ compute options:
                              first octree: level by level (default) or the data-parallel
                              Karras/conflict-cell build (on OpenCL with that backend);
                              the same leaves
+  --distance exact|wavefront closest points of the vertices of empty cells: exact for
+                             every vertex (default; data-parallel) or the paper's
+                             wavefront expansion (§4, serial, within 3/2 of the truth)
   --contact-depth N          depth at which refinement between touching or intersecting
                              objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 12000000; peak memory is about
@@ -203,7 +206,8 @@ const std::vector<std::string>& compute_value_flags() {
   static const std::vector<std::string> flags = {
       "--max-depth",        "--domain",        "--threads",       "--backend",
       "--max-leaves",       "--max-objects",   "--max-simplices", "--ambiguity-levels",
-      "--ambiguity-rounds", "--contact-depth", "--unseen-rounds", "--octree-build"};
+      "--ambiguity-rounds", "--contact-depth", "--unseen-rounds", "--octree-build",
+      "--distance"};
   return flags;
 }
 
@@ -226,6 +230,9 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
   options.ambiguity_rounds = args.int_value("--ambiguity-rounds", options.ambiguity_rounds);
   const std::string backend = args.value("--backend").value_or("auto");
   options.octree_build = args.value("--octree-build").value_or("levels");
+  options.distance = args.value("--distance").value_or("exact");
+  if (options.distance != "exact" && options.distance != "wavefront")
+    throw UsageError{"--distance must be exact or wavefront"};
   if (options.max_depth < 0) throw UsageError{"--max-depth must be positive"};
   if (options.threads < 0) throw UsageError{"--threads must be positive"};
   if (const auto box = args.numbers("--domain")) {

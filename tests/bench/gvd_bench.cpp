@@ -1,8 +1,9 @@
 // Benchmarks of compute_gvd on scenes like the paper's Table 1 (Edwards et al. 2015, §7.1),
 // plus the exact Boost.Polygon segment Voronoi diagram of the 2D scene as ground truth for
 // the dual graph. Prints Google Benchmark's report, then a plain summary table.
-// Usage: gvd_bench [--gvd_slow] [Google Benchmark flags]; --gvd_slow adds the blades scene at
-// 1e-4 clearance (depth 15, ~4.6M leaves, ~40 s and 3+ GiB).
+// Usage: gvd_bench [--gvd_slow] [--gvd_write_scenes=DIR] [Google Benchmark flags]; --gvd_slow
+// adds the blades scene at 1e-4 clearance (depth 15, ~4.6M leaves, ~40 s and 3+ GiB);
+// --gvd_write_scenes writes the scenes as scene JSON into DIR (for `gvd compute`) and exits.
 
 #include <benchmark/benchmark.h>
 
@@ -19,6 +20,7 @@
 #include "bench/boost_voronoi.h"
 #include "bench/table1_scenes.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/load_scene.h"
 
 namespace {
 
@@ -207,6 +209,26 @@ void BM_BoostVoronoi(benchmark::State& state) {
     state.counters["check_input_s"] = b.input_seconds;
     state.counters["pairs"] = static_cast<double>(b.pairs.size());
   }
+}
+
+/// Writes every scene as scene JSON (DESIGN.md) into `dir`, so that `gvd compute` can run the
+/// same input: --gvd_write_scenes=DIR. Returns the process exit code.
+int write_scenes(const std::string& dir, bool slow) {
+  std::vector<const SceneCase*> list;
+  for (const SceneCase& c : cases()) list.push_back(&c);
+  if (slow)
+    for (const SceneCase& c : slow_cases()) list.push_back(&c);
+  for (const SceneCase* c : list) {
+    const std::string path = dir + "/" + c->name + ".json";
+    std::ofstream out(path);
+    out << gvd::scene_to_json(scene_of(*c));
+    if (!out) {
+      std::fprintf(stderr, "gvd_bench: cannot write %s\n", path.c_str());
+      return 1;
+    }
+    std::printf("%s\n", path.c_str());
+  }
+  return 0;
 }
 
 void register_benchmarks(bool slow) {
@@ -410,13 +432,18 @@ void print_summary() {
 int main(int argc, char** argv) {
   // Our one flag, removed before Google Benchmark parses the rest.
   bool slow = false;
+  std::string scene_dir;
   int kept = 1;
   for (int i = 1; i < argc; ++i) {
-    if (std::string(argv[i]) == "--gvd_slow")
+    const std::string arg = argv[i];
+    if (arg == "--gvd_slow")
       slow = true;
+    else if (arg.rfind("--gvd_write_scenes=", 0) == 0)
+      scene_dir = arg.substr(std::string("--gvd_write_scenes=").size());
     else
       argv[kept++] = argv[i];
   }
+  if (!scene_dir.empty()) return write_scenes(scene_dir, slow);
   argc = kept;
   register_benchmarks(slow);
   benchmark::Initialize(&argc, argv);

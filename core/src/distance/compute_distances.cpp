@@ -66,6 +66,57 @@ void check_cancel(const DistanceOptions& options) {
   }
 }
 
+// DistanceMethod::kExact: the exact closest point of every vertex, in one batch. With a
+// previous field, a vertex it had (same key) keeps its point: the positions are the same, so
+// the answer is too; only new vertices are queried. `old_count` > 0: the first old_count
+// vertices are the previous field's, by index (incremental topology); else found by key.
+void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const SimplexBvh& bvh,
+                      const DistanceOptions& options, const DistanceField* previous,
+                      uint32_t old_count, int threads) {
+  const size_t nv = field.vertices.size();
+  field.label.assign(nv, kNoObject);
+  field.point.assign(nv, kNoVertex);
+  field.closest.assign(nv, Vec3{});
+  field.exact.assign(nv, 1);
+  field.changed.assign(nv, 1);
+  std::vector<uint8_t> reused(nv, 0);
+  if (previous != nullptr) {
+    parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+      for (size_t v = b; v < e; ++v) {
+        const uint32_t pv = old_count > 0 ? (v < old_count ? static_cast<uint32_t>(v) : kNoVertex)
+                                          : previous->vertices.find(field.vertices.key[v]);
+        if (pv == kNoVertex || !previous->exact[pv] || previous->point[pv] == kNoVertex) continue;
+        field.closest[v] = previous->closest[previous->point[pv]];
+        field.label[v] = previous->label[pv];
+        field.point[v] = static_cast<uint32_t>(v);
+        field.changed[v] = 0;
+        reused[v] = 1;
+      }
+    });
+  }
+  std::vector<uint32_t> todo;
+  for (size_t v = 0; v < nv; ++v)
+    if (!reused[v]) todo.push_back(static_cast<uint32_t>(v));
+  std::vector<Vec3> pos(todo.size());
+  std::vector<double> bound(todo.size(), 1e300);
+  parallel_for(todo.size(), threads, [&](size_t b, size_t e, int) {
+    for (size_t j = b; j < e; ++j) pos[j] = field.vertices.position(todo[j]);
+  });
+  std::vector<ClosestHit> hits(todo.size());
+  check_cancel(options);
+  solve_closest(bvh, options, pos, bound, hits, threads);
+  check_cancel(options);
+  for (size_t j = 0; j < todo.size(); ++j) {
+    if (!hits[j].found()) continue;  // no simplices at all
+    const uint32_t v = todo[j];
+    field.closest[v] = hits[j].point;
+    field.label[v] = geometry.object_of[hits[j].simplex];
+    field.point[v] = v;
+  }
+  field.exact_count = nv;
+  field.exact_reused = nv - todo.size();
+}
+
 }  // namespace
 
 DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
@@ -169,6 +220,17 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
       }
     });
   }
+  if (options.method == DistanceMethod::kExact) {
+    field.seconds_topology = part.lap();
+    exact_everywhere(field, geometry, bvh, options, previous, incremental ? old_count : 0,
+                     threads);
+    field.seconds_init = part.lap();
+    field.leaf_begin = std::move(leaf_verts.begin);
+    field.leaf_vertex = std::move(leaf_verts.items);
+    return field;
+  }
+
+  // The paper's wavefront (DistanceMethod::kWavefront).
   Csr vert_leaves;
   vert_leaves.begin.assign(nv + 1, 0);
   for (uint32_t v : leaf_verts.items) ++vert_leaves.begin[v + 1];

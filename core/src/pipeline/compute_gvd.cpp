@@ -24,6 +24,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     throw Error(ErrorCode::kInvalidArgument,
                 "octree build '" + options.octree_build + "' is unknown (levels or data-parallel)");
   }
+  if (options.distance != "exact" && options.distance != "wavefront") {
+    throw Error(ErrorCode::kInvalidArgument,
+                "distance method '" + options.distance + "' is unknown (exact or wavefront)");
+  }
   const Stopwatch total;
   auto progress = [&](const std::string& stage, double f) {
     if (options.progress) options.progress(stage, f);
@@ -78,6 +82,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   dopt.threads = options.threads;
   dopt.cancel = options.cancel;
   dopt.solver = solver.get();
+  dopt.method = options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
   r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
   r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
 

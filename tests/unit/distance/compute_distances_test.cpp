@@ -28,10 +28,26 @@ std::unique_ptr<Setup> setup(Scene scene) {
   return s;
 }
 
-TEST(ComputeDistances, ExactVerticesMatchBruteForceAndOthersStayWithinThreeHalves) {
+// Both methods: kExact (the default) and the paper's wavefront.
+class ComputeDistancesMethod : public ::testing::TestWithParam<DistanceMethod> {
+ protected:
+  DistanceOptions options() const {
+    DistanceOptions o;
+    o.method = GetParam();
+    return o;
+  }
+};
+
+INSTANTIATE_TEST_SUITE_P(Methods, ComputeDistancesMethod,
+                         ::testing::Values(DistanceMethod::kExact, DistanceMethod::kWavefront),
+                         [](const auto& method) {
+                           return method.param == DistanceMethod::kExact ? "Exact" : "Wavefront";
+                         });
+
+TEST_P(ComputeDistancesMethod, ExactVerticesMatchBruteForceAndOthersStayWithinThreeHalves) {
   auto s = setup(test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1, 40),
                                       test::make_rect("b", {1.01, -0.5, 0}, {2, 0.5, 0})}));
-  const DistanceField f = compute_distances(s->octree, s->geometry, s->bvh);
+  const DistanceField f = compute_distances(s->octree, s->geometry, s->bvh, options());
   size_t exact = 0;
   for (uint32_t v = 0; v < f.size(); ++v) {
     const Vec3 p = s->domain.from_unit(f.vertices.position(v));
@@ -45,9 +61,27 @@ TEST(ComputeDistances, ExactVerticesMatchBruteForceAndOthersStayWithinThreeHalve
     }
   }
   EXPECT_GT(exact, 0u);
+  if (GetParam() == DistanceMethod::kExact) {
+    EXPECT_EQ(exact, f.size());
+  }
 }
 
-TEST(ComputeDistances, IncrementalRefinementEqualsAFullRecomputation) {
+TEST(ComputeDistances, ExactMethodAgreesWithBruteForceOnEveryVertexIn3d) {
+  auto s = setup(test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                      test::make_box("b", {1.05, -0.5, -0.5}, {2, 0.5, 0.5})}));
+  const DistanceField f = compute_distances(s->octree, s->geometry, s->bvh);
+  for (uint32_t v = 0; v < f.size(); ++v) {
+    const Vec3 p = s->domain.from_unit(f.vertices.position(v));
+    const auto truth = test::brute_nearest(s->scene, p);
+    EXPECT_EQ(f.exact[v], 1);
+    EXPECT_NEAR(f.distance(v) * s->domain.side, truth.distance, 1e-12) << "vertex " << v;
+    if (truth.second_distance > truth.distance * (1 + 1e-9)) {
+      EXPECT_EQ(f.label[v], truth.object) << "vertex " << v;
+    }
+  }
+}
+
+TEST_P(ComputeDistancesMethod, IncrementalRefinementEqualsAFullRecomputation) {
   for (int dim : {2, 3}) {
     auto s =
         setup(dim == 2 ? test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1, 32),
@@ -55,15 +89,15 @@ TEST(ComputeDistances, IncrementalRefinementEqualsAFullRecomputation) {
                                               test::make_circle("c", {1, 1.8, 0}, 0.7, 32)})
                        : test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
                                               test::make_sphere("b", {2.02, 0, 0}, 1, 8, 16)}));
-    const DistanceField first = compute_distances(s->octree, s->geometry, s->bvh);
+    const DistanceField first = compute_distances(s->octree, s->geometry, s->bvh, options());
     // Split every fifth leaf.
     std::vector<CellRef> splits;
     for (uint32_t l = 0; l < s->octree.leaf_count(); l += 5)
       splits.push_back(cell_of(s->octree, l));
     const Octree refined = refine_octree(s->octree, s->geometry, splits);
     DistanceField incremental =
-        compute_distances(refined, s->geometry, s->bvh, {}, &first, &s->octree);
-    const DistanceField full = compute_distances(refined, s->geometry, s->bvh, {}, &first);
+        compute_distances(refined, s->geometry, s->bvh, options(), &first, &s->octree);
+    const DistanceField full = compute_distances(refined, s->geometry, s->bvh, options(), &first);
     ASSERT_EQ(incremental.size(), full.size());
     sort_vertices(incremental);
     for (uint32_t v = 0; v < full.size(); ++v) {

@@ -12,9 +12,10 @@ namespace {
 
 using test::brute_nearest;
 
-GvdResult run(Scene scene, int max_depth = 0) {
+GvdResult run(Scene scene, int max_depth = 0, const std::string& distance = "exact") {
   PipelineOptions o;
   o.max_depth = max_depth;
+  o.distance = distance;
   o.threads = 2;
   return compute_gvd(std::move(scene), o);
 }
@@ -245,6 +246,39 @@ TEST(ComputeGvd, GearsIn2DWithTinyGaps) {
   expect_valid(r);
   EXPECT_EQ(graph_pairs(r.graph),
             (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {0, 2}, {1, 2}}));
+}
+
+TEST(ComputeGvd, ThePapersWavefrontDistanceGivesAValidGvdToo) {
+  const Scene gears = test::make_scene(
+      2, {test::make_gear2d("g1", {0, 0, 0}, 0.8, 1.0, 12, 0.0),
+          test::make_gear2d("g2", {2.0 + 1e-4, 0, 0}, 0.8, 1.0, 12, 3.14159265358979 / 12)});
+  const Scene spheres = test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 0.5, 8, 16),
+                                             test::make_sphere("b", {1.002, 0, 0}, 0.5, 8, 16),
+                                             test::make_box("c", {-0.5, 0.6, -0.5}, {1.5, 1, 0.5})});
+  for (const Scene* scene : {&gears, &spheres}) {
+    SCOPED_TRACE(scene->dimension);
+    expect_valid(run(*scene, 0, "exact"));
+    const GvdResult w = run(*scene, 0, "wavefront");
+    expect_valid(w);  // includes the 3/2 factor at every sampled vertex
+    size_t exact = 0;
+    for (uint8_t e : w.field.exact) exact += e;
+    EXPECT_LT(exact, w.field.size());  // the wavefront did reach vertices
+    const GvdResult x = run(*scene, 0, "exact");
+    EXPECT_EQ(graph_pairs(w.graph), graph_pairs(x.graph));
+  }
+}
+
+TEST(ComputeGvd, MirrorImagesWhoseBisectorIsAnOctreePlaneStayOriented) {
+  // The default domain is centred on the scene, so the bisector of the two mirrored spheres
+  // is the octree's mid plane: every vertex on it is equidistant up to rounding. Near ties
+  // must label them alike (GVD_TIE), or the surface folds inside that plane (2.5 % of the
+  // 0/1 interface area faced the wrong way before).
+  auto r = run(test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 0.5, 8, 16),
+                                    test::make_sphere("b", {1.002, 0, 0}, 0.5, 8, 16),
+                                    test::make_box("c", {-0.5, 0.6, -0.5}, {1.5, 1, 0.5})}));
+  ASSERT_NEAR(r.domain.to_unit({0.501, 0, 0}).x, 0.5, 1e-12);
+  expect_valid(r);
+  EXPECT_EQ(graph_pairs(r.graph), (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {0, 2}, {1, 2}}));
 }
 
 TEST(ComputeGvd, IntersectingBoxesStayClosed) {

@@ -155,8 +155,29 @@ GVD_ITEM_FN GvdPoint gvd_closest_on_simplex(int dimension, GVD_GLOBAL const GvdP
   return gvd_closest_on_triangle(p, a, b, points[simplices[3 * s + 2]]);
 }
 
+/* Near ties: squared distances within a relative GVD_TIE of each other count as equal, and
+ * the lower simplex index (the lower object: simplices are numbered object by object) wins.
+ * Points on a bisector then get the same label whatever rounding did to the two distances,
+ * as if the bisector were moved by ~1e-12 of the distance toward the higher object: where a
+ * GVD runs exactly along an octree plane (mirror-symmetric objects), its vertices are labelled
+ * alike instead of in a rounding-noise pattern that folds the surface. */
+#define GVD_TIE 4e-12
+
+/* Whether a simplex s at squared distance d2 beats the best hit so far (see GVD_TIE). */
+GVD_ITEM_FN int gvd_better_hit(double d2, gvd_uint s, double best_dist2, gvd_uint best_simplex) {
+  if (best_simplex == GVD_NO_SIMPLEX) return d2 <= best_dist2;
+  if (d2 < best_dist2 * (1.0 - GVD_TIE)) return 1;
+  return d2 <= best_dist2 * (1.0 + GVD_TIE) && s < best_simplex;
+}
+
+/* How far the search must still look: boxes farther than this cannot hold a better hit. */
+GVD_ITEM_FN double gvd_search_limit(double best_dist2, gvd_uint best_simplex) {
+  return best_simplex == GVD_NO_SIMPLEX ? best_dist2 : best_dist2 * (1.0 + GVD_TIE);
+}
+
 /* The exact closest point to p among all simplices whose squared distance is <= max_dist2
- * (ties go to the lower simplex index); simplex = GVD_NO_SIMPLEX when there is none. Nearer
+ * (near ties go to the lower simplex index, GVD_TIE); simplex = GVD_NO_SIMPLEX when there is
+ * none. Nearer
  * child first; a subtree is skipped when its box is farther than the best hit so far.
  * O(log M) typical, O(M) worst case; no allocation (a fixed stack). */
 GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
@@ -182,14 +203,14 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
   while (top > 0) {
     --top;
     const gvd_uint node = stack_node[top];
-    if (stack_dist2[top] > best.dist2) continue;
+    if (stack_dist2[top] > gvd_search_limit(best.dist2, best.simplex)) continue;
     GVD_GLOBAL const GvdBvhNode* n = nodes + node;
     if (n->count > 0) {
       for (gvd_uint k = n->first; k < n->first + n->count; ++k) {
         const gvd_uint s = order[k];
         const GvdPoint q = gvd_closest_on_simplex(dimension, points, simplices, s, p);
         const double d2 = gvd_dist2(p, q);
-        if (d2 < best.dist2 || (d2 == best.dist2 && s < best.simplex)) {
+        if (gvd_better_hit(d2, s, best.dist2, best.simplex)) {
           best.x = q.x;
           best.y = q.y;
           best.z = q.z;
@@ -202,25 +223,26 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
     const gvd_uint l = node + 1, r = n->first;
     const double dl = gvd_box_distance2(p, nodes + l);
     const double dr = gvd_box_distance2(p, nodes + r);
+    const double limit = gvd_search_limit(best.dist2, best.simplex);
     /* Push the farther child first so the nearer one is searched first. */
     if (dl <= dr) {
-      if (dr <= best.dist2) {
+      if (dr <= limit) {
         stack_node[top] = r;
         stack_dist2[top] = dr;
         ++top;
       }
-      if (dl <= best.dist2) {
+      if (dl <= limit) {
         stack_node[top] = l;
         stack_dist2[top] = dl;
         ++top;
       }
     } else {
-      if (dl <= best.dist2) {
+      if (dl <= limit) {
         stack_node[top] = l;
         stack_dist2[top] = dl;
         ++top;
       }
-      if (dr <= best.dist2) {
+      if (dr <= limit) {
         stack_node[top] = r;
         stack_dist2[top] = dr;
         ++top;

@@ -4,6 +4,7 @@
 #include <span>
 #include <vector>
 
+#include "gvd/distance/closest_point_item.h"
 #include "gvd/geometry/primitives.h"
 #include "gvd/geometry/simplex.h"
 #include "gvd/geometry/vec.h"
@@ -112,7 +113,7 @@ ClosestHit SimplexBvh::nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&&
   stack[top++] = {0, 0.0};
   while (top > 0) {
     const Entry entry = stack[--top];
-    if (entry.dist2 > best.dist2) continue;
+    if (entry.dist2 > item::gvd_search_limit(best.dist2, best.simplex)) continue;
     const Node& n = nodes_[entry.node];
     if (n.count > 0) {
       for (uint32_t k = n.first; k < n.first + n.count; ++k) {
@@ -120,22 +121,21 @@ ClosestHit SimplexBvh::nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&&
         const uint32_t s = order_[k];
         const Vec3 q = closest_in_order(k, p);
         const double d2 = dist2(p, q);
-        if (d2 < best.dist2 || (d2 == best.dist2 && s < best.simplex)) {
-          best = {q, d2, s};
-        }
+        if (item::gvd_better_hit(d2, s, best.dist2, best.simplex)) best = {q, d2, s};
       }
       continue;
     }
     const uint32_t l = entry.node + 1, r = n.first;
     const double dl = skip_node(l) ? 1e308 : box_distance2(p, nodes_[l].box);
     const double dr = skip_node(r) ? 1e308 : box_distance2(p, nodes_[r].box);
+    const double limit = item::gvd_search_limit(best.dist2, best.simplex);
     // Push the farther child first so the nearer one is searched first.
     if (dl <= dr) {
-      if (dr <= best.dist2) stack[top++] = {r, dr};
-      if (dl <= best.dist2) stack[top++] = {l, dl};
+      if (dr <= limit) stack[top++] = {r, dr};
+      if (dl <= limit) stack[top++] = {l, dl};
     } else {
-      if (dl <= best.dist2) stack[top++] = {l, dl};
-      if (dr <= best.dist2) stack[top++] = {r, dr};
+      if (dl <= limit) stack[top++] = {l, dl};
+      if (dr <= limit) stack[top++] = {r, dr};
     }
   }
   return best;

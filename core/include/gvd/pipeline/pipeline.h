@@ -17,7 +17,7 @@
 namespace gvd {
 
 /// Version of the algorithm; part of job ids and of the saved result.
-inline constexpr uint32_t kAlgorithmVersion = 1;
+inline constexpr uint32_t kAlgorithmVersion = 2;
 
 /// Options of the whole computation.
 struct PipelineOptions {
@@ -47,6 +47,9 @@ struct PipelineOptions {
   /// 2 cores) or "data-parallel" (build_octree_data_parallel: the draft's Karras / conflict-
   /// cell construction, on the backend's kernels when it has them). Same leaves either way.
   std::string octree_build = "levels";
+  /// Closest points of the vertices of empty leaves: "exact" (every vertex by the BVH or the
+  /// backend's kernel; the default) or "wavefront" (the paper's Algorithm 1). DistanceMethod.
+  std::string distance = "exact";
   /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
   /// ResultStats::backend so that `gvd info` says so.
   std::string backend_note;
