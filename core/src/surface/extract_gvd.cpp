@@ -535,13 +535,6 @@ class CellSurfacer {
   int dim_;
 };
 
-struct Corner {
-  Vec3 p;
-  ObjectId object, other;
-  uint32_t piece;
-  uint8_t k;
-};
-
 uint64_t position_hash(Vec3 p) {
   uint64_t h = 0x9e3779b97f4a7c15ull;
   for (double d : {p.x, p.y, p.z}) {
@@ -553,13 +546,6 @@ uint64_t position_hash(Vec3 p) {
     h ^= h >> 33;
   }
   return h;
-}
-
-// Within a run of equal hashes: by position, so every distinct point is one run (its clearance
-// is computed once) and, within it, one vertex per (object, other object).
-bool corner_less(const Corner& a, const Corner& b) {
-  return std::tie(a.p.x, a.p.y, a.p.z, a.object, a.other) <
-         std::tie(b.p.x, b.p.y, b.p.z, b.object, b.other);
 }
 
 }  // namespace
@@ -594,56 +580,113 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
     }
   }
 
-  // Vertices: one per (object, other object, exact position).
+  // Vertices: one per (object, other object, exact position). Corner c is point c % arity of
+  // piece c / arity. Identical points are made contiguous by sorting the corners by a hash of
+  // the position, then by (position, object, other) within equal hashes: a counting sort
+  // into buckets by the hash's top bits, then each bucket sorted on its own (both parallel).
   const int arity = dim == 2 ? 2 : 3;
-  std::vector<Corner> corners;
-  corners.reserve(pieces.size() * arity);
-  for (uint32_t i = 0; i < pieces.size(); ++i) {
-    for (int k = 0; k < arity; ++k) {
-      corners.push_back(
-          {pieces[i].p[k], pieces[i].object, pieces[i].other, i, static_cast<uint8_t>(k)});
-    }
-  }
+  const size_t nc = pieces.size() * arity;
+  auto point = [&](uint32_t c) -> const Vec3& { return pieces[c / arity].p[c % arity]; };
+  using Keyed = std::pair<uint64_t, uint32_t>;  // (position hash, corner)
+  std::vector<Keyed> keyed(nc);
   {
-    // Make identical points contiguous: radix sort by a hash of the position, then order each
-    // (tiny) run of equal hashes exactly — much cheaper than sorting the corners themselves.
-    std::vector<std::pair<uint64_t, uint32_t>> keyed(corners.size());
-    parallel_for(corners.size(), threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i)
-        keyed[i] = {position_hash(corners[i].p), static_cast<uint32_t>(i)};
-    });
-    radix_sort(keyed, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; });
-    for (size_t i = 0; i < keyed.size();) {
-      size_t j = i + 1;
-      while (j < keyed.size() && keyed[j].first == keyed[i].first) ++j;
-      if (j - i > 1) {
-        std::sort(keyed.begin() + i, keyed.begin() + j, [&](const auto& a, const auto& b) {
-          return corner_less(corners[a.second], corners[b.second]);
-        });
+    constexpr int kBucketBits = 12;
+    constexpr size_t kBuckets = size_t{1} << kBucketBits;
+    auto bucket_of = [](uint64_t hash) { return static_cast<size_t>(hash >> (64 - kBucketBits)); };
+    const size_t parts = static_cast<size_t>(std::max(threads, 1));
+    const size_t part_size = (nc + parts - 1) / parts;
+    std::vector<uint64_t> hash(nc);
+    std::vector<size_t> count(parts * kBuckets, 0);  // [part][bucket]
+    parallel_for(
+        parts, threads,
+        [&](size_t pb, size_t pe, int) {
+          for (size_t part = pb; part < pe; ++part) {
+            size_t* c = &count[part * kBuckets];
+            for (size_t i = part * part_size; i < std::min(nc, (part + 1) * part_size); ++i) {
+              hash[i] = position_hash(point(static_cast<uint32_t>(i)));
+              ++c[bucket_of(hash[i])];
+            }
+          }
+        },
+        1);
+    // Bucket b starts after all smaller buckets; within it, part 0's corners come first.
+    std::vector<size_t> bucket_begin(kBuckets + 1, 0);
+    size_t sum = 0;
+    for (size_t bucket = 0; bucket < kBuckets; ++bucket) {
+      bucket_begin[bucket] = sum;
+      for (size_t part = 0; part < parts; ++part) {
+        const size_t in_part = count[part * kBuckets + bucket];
+        count[part * kBuckets + bucket] = sum;
+        sum += in_part;
       }
-      i = j;
     }
-    std::vector<Corner> ordered(corners.size());
-    for (size_t i = 0; i < keyed.size(); ++i) ordered[i] = corners[keyed[i].second];
-    corners = std::move(ordered);
+    bucket_begin[kBuckets] = sum;
+    parallel_for(
+        parts, threads,
+        [&](size_t pb, size_t pe, int) {
+          for (size_t part = pb; part < pe; ++part) {
+            size_t* next = &count[part * kBuckets];
+            for (size_t i = part * part_size; i < std::min(nc, (part + 1) * part_size); ++i)
+              keyed[next[bucket_of(hash[i])]++] = {hash[i], static_cast<uint32_t>(i)};
+          }
+        },
+        1);
+    parallel_for(
+        kBuckets, threads,
+        [&](size_t bb, size_t be, int) {
+          for (size_t bucket = bb; bucket < be; ++bucket) {
+            std::sort(keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket]),
+                      keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket + 1]),
+                      [&](const Keyed& x, const Keyed& y) {
+                        if (x.first != y.first) return x.first < y.first;
+                        const Piece& px = pieces[x.second / arity];
+                        const Piece& py = pieces[y.second / arity];
+                        return std::tie(px.p[x.second % arity].x, px.p[x.second % arity].y,
+                                        px.p[x.second % arity].z, px.object, px.other) <
+                               std::tie(py.p[y.second % arity].x, py.p[y.second % arity].y,
+                                        py.p[y.second % arity].z, py.object, py.other);
+                      });
+          }
+        },
+        64);
   }
 
-  // Exact clearance once per distinct point; the pieces' witnesses bound the search.
+  // The corners in that order, with what the passes below read (one parallel gather instead
+  // of random reads in each serial pass).
+  struct Sorted {
+    Vec3 p;
+    ObjectId object, other;
+    uint32_t corner;
+    uint32_t new_vertex;  // 1 when the first corner of its (position, object, other)
+  };
+  std::vector<Sorted> sorted(nc);
+  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      const Piece& piece = pieces[keyed[i].second / arity];
+      sorted[i] = {piece.p[keyed[i].second % arity], piece.object, piece.other, keyed[i].second, 0};
+    }
+  });
+  std::vector<Keyed>().swap(keyed);
   std::vector<size_t> run_start;
-  for (size_t i = 0; i < corners.size(); ++i) {
-    if (i == 0 || corners[i].p != corners[i - 1].p) run_start.push_back(i);
+  for (size_t i = 0; i < nc; ++i) {
+    const bool new_point = i == 0 || sorted[i].p != sorted[i - 1].p;
+    if (new_point) run_start.push_back(i);
+    sorted[i].new_vertex = new_point || sorted[i].object != sorted[i - 1].object ||
+                           sorted[i].other != sorted[i - 1].other;
   }
-  run_start.push_back(corners.size());
+  run_start.push_back(nc);
   const size_t runs = run_start.size() - 1;
+
+  // Exact clearance once per distinct point; the pieces' witnesses bound the search.
   std::vector<double> run_clearance(runs);
   parallel_for(
       runs, threads,
       [&](size_t b, size_t e, int) {
         for (size_t r = b; r < e; ++r) {
-          const Vec3 p = corners[run_start[r]].p;
+          const Vec3 p = sorted[run_start[r]].p;
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
-            bound2 = std::min(bound2, dist2(p, pieces[corners[i].piece].witness));
+            bound2 = std::min(bound2, dist2(p, pieces[sorted[i].corner / arity].witness));
           const ClosestHit hit = bvh.nearest(p, bound2);
           run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
         }
@@ -654,19 +697,17 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   gvd.dimension = dim;
   gvd.cells.resize(geometry.object_count);
   for (uint32_t o = 0; o < geometry.object_count; ++o) gvd.cells[o].object = o;
-  std::vector<uint32_t> index_of(pieces.size() * arity);
+  std::vector<uint32_t> index_of(nc);
   for (size_t r = 0; r < runs; ++r) {
-    const Vec3 user = domain.from_unit(corners[run_start[r]].p);
+    const Vec3 user = domain.from_unit(sorted[run_start[r]].p);
     for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
-      const Corner& c = corners[i];
-      GvdCell& cell = gvd.cells[c.object];
-      if (i == run_start[r] || c.object != corners[i - 1].object ||
-          c.other != corners[i - 1].other) {
+      GvdCell& cell = gvd.cells[sorted[i].object];
+      if (sorted[i].new_vertex) {
         cell.positions.push_back(user);
-        cell.other.push_back(c.other);
+        cell.other.push_back(sorted[i].other);
         cell.clearance.push_back(run_clearance[r]);
       }
-      index_of[c.piece * arity + c.k] = static_cast<uint32_t>(cell.positions.size() - 1);
+      index_of[sorted[i].corner] = static_cast<uint32_t>(cell.positions.size() - 1);
     }
   }
   for (uint32_t i = 0; i < pieces.size(); ++i) {
