@@ -155,10 +155,8 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     old_count = static_cast<uint32_t>(field.vertices.size());
     for (size_t i = 0; i < nl; ++i) {
       if (old_leaf[i] != kNoVertex) continue;
-      for_each_corner_key(octree, static_cast<uint32_t>(i), [&](uint64_t key) {
-        const uint32_t next = static_cast<uint32_t>(field.vertices.key.size());
-        if (field.vertices.index.insert(key, next) == next) field.vertices.key.push_back(key);
-      });
+      for_each_corner_key(octree, static_cast<uint32_t>(i),
+                          [&](uint64_t key) { field.vertices.insert(key); });
     }
   } else {
     field.vertices = enumerate_vertices(octree, threads);

@@ -720,10 +720,7 @@ GvdResult load_result_bytes(std::span<const uint8_t> bytes) {
   } catch (const Error& e) {
     bad_file("the stored scene does not fit the stored domain: " + e.detail());
   }
-  r.field.vertices.index = FlatMap64(r.field.vertices.key.size());
-  for (size_t v = 0; v < r.field.vertices.key.size(); ++v) {
-    r.field.vertices.index.set(r.field.vertices.key[v], static_cast<uint32_t>(v));
-  }
+  r.field.vertices.rebuild_index();
   return r;
 }
 

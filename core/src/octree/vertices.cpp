@@ -8,23 +8,56 @@
 namespace gvd {
 
 OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
-  (void)threads;
+  threads = resolve_threads(threads);
   const int dim = octree.dimension;
   OctreeVertices out;
   out.dimension = dim;
-  const uint32_t corners = 1u << dim;
+  // Leaves sharing a corner are mostly near each other in Z order: a small direct-mapped
+  // table of recent keys per chunk drops most repeats before the sort.
+  const size_t grain = 4096;
+  std::vector<std::vector<uint64_t>> chunks((octree.leaf_count() + grain - 1) / grain);
+  parallel_for(
+      octree.leaf_count(), threads,
+      [&](size_t b, size_t e, int) {
+        std::vector<uint64_t>& out_keys = chunks[b / grain];
+        out_keys.reserve((e - b) * 2);
+        std::vector<uint64_t> recent(4096, ~0ull);
+        for (size_t i = b; i < e; ++i) {
+          for_each_corner_key(octree, static_cast<uint32_t>(i), [&](uint64_t key) {
+            uint64_t h = key * 0x9e3779b97f4a7c15ull;
+            uint64_t& slot = recent[h >> 52];
+            if (slot == key) return;
+            slot = key;
+            out_keys.push_back(key);
+          });
+        }
+      },
+      grain);
+  size_t total = 0;
+  for (const auto& c : chunks) total += c.size();
   std::vector<uint64_t> keys;
-  keys.reserve(octree.leaf_count() * corners);
-  for (size_t i = 0; i < octree.leaf_count(); ++i) {
-    for_each_corner_key(octree, static_cast<uint32_t>(i),
-                        [&](uint64_t key) { keys.push_back(key); });
+  keys.reserve(total);
+  for (auto& c : chunks) {
+    keys.insert(keys.end(), c.begin(), c.end());
+    std::vector<uint64_t>().swap(c);
   }
-  radix_sort(keys, [](uint64_t k) { return k; });
+  radix_sort(keys, [](uint64_t k) { return k; }, threads);
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-  out.index = FlatMap64(keys.size());
-  for (size_t i = 0; i < keys.size(); ++i) out.index.set(keys[i], static_cast<uint32_t>(i));
   out.key = std::move(keys);
+  out.rebuild_index();
   return out;
+}
+
+void OctreeVertices::rebuild_index() {
+  index = FlatMap64(key.size());
+  for (size_t i = 0; i < key.size(); ++i) index.set(key[i], static_cast<uint32_t>(i));
+  filter_bits_ = 6;
+  while ((size_t{1} << filter_bits_) < 8 * key.size()) ++filter_bits_;
+  filter.assign((size_t{1} << filter_bits_) / 64, 0);
+  for (uint64_t k : key) {
+    const uint64_t h = filter_hash(k);
+    filter[h >> 6] |= uint64_t{1} << (h & 63);
+  }
 }
 
 LeafGrid leaf_grid(const Octree& octree, const OctreeVertices& vertices, uint32_t leaf) {

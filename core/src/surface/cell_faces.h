@@ -18,6 +18,7 @@ namespace gvd::detail {
 struct FacePolygon {
   int n = 0;
   uint32_t v[8] = {};
+  uint8_t slot[8] = {};     ///< grid index (LeafGrid) of each vertex
   int axis = 2;            ///< normal axis of the face (2 for the 2D cell itself)
   int side = 0;            ///< 0: face at the cell's lower coordinate, 2: upper (3D only)
   bool on_domain = false;  ///< 3D: the face lies on the domain box
@@ -61,8 +62,10 @@ void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t 
   if (dim == 2) {
     FacePolygon poly;
     for (const auto& r : kRing) {
-      const uint32_t v = grid[grid_index(r[0], r[1], 0)];
-      if (v != kNoVertex) poly.v[poly.n++] = v;
+      const int s = grid_index(r[0], r[1], 0);
+      if (grid[s] == kNoVertex) continue;
+      poly.slot[poly.n] = static_cast<uint8_t>(s);
+      poly.v[poly.n++] = grid[s];
     }
     f(poly);
     return;
@@ -73,13 +76,14 @@ void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t 
   for (int axis = 0; axis < 3; ++axis) {
     const int au = (axis + 1) % 3, av = (axis + 2) % 3;
     for (int side = 0; side <= 2; side += 2) {
-      auto at = [&](int iu, int iv) {
+      auto slot_at = [&](int iu, int iv) {
         int l[3];
         l[axis] = side;
         l[au] = iu;
         l[av] = iv;
-        return grid[grid_index(l[0], l[1], l[2])];
+        return grid_index(l[0], l[1], l[2]);
       };
+      auto at = [&](int iu, int iv) { return grid[slot_at(iu, iv)]; };
       const bool on_domain = side == 0 ? c.c[axis] == 0 : c.c[axis] + size == limit;
       if (at(1, 1) != kNoVertex) {
         for (int qv = 0; qv <= 1; ++qv) {
@@ -89,10 +93,11 @@ void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t 
             poly.side = side;
             poly.on_domain = on_domain;
             poly.n = 4;
-            poly.v[0] = at(qu, qv);
-            poly.v[1] = at(qu + 1, qv);
-            poly.v[2] = at(qu + 1, qv + 1);
-            poly.v[3] = at(qu, qv + 1);
+            const int corner[4][2] = {{qu, qv}, {qu + 1, qv}, {qu + 1, qv + 1}, {qu, qv + 1}};
+            for (int i = 0; i < 4; ++i) {
+              poly.slot[i] = static_cast<uint8_t>(slot_at(corner[i][0], corner[i][1]));
+              poly.v[i] = grid[poly.slot[i]];
+            }
             f(poly);
           }
         }
@@ -102,8 +107,10 @@ void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t 
         poly.side = side;
         poly.on_domain = on_domain;
         for (const auto& r : kRing) {
-          const uint32_t v = at(r[0], r[1]);
-          if (v != kNoVertex) poly.v[poly.n++] = v;
+          const int s = slot_at(r[0], r[1]);
+          if (grid[s] == kNoVertex) continue;
+          poly.slot[poly.n] = static_cast<uint8_t>(s);
+          poly.v[poly.n++] = grid[s];
         }
         f(poly);
       }

@@ -91,7 +91,7 @@ class CellSurfacer {
         256);
     std::vector<uint64_t> keys;
     for (auto& f : found) keys.insert(keys.end(), f.begin(), f.end());
-    radix_sort(keys, [](uint64_t k) { return k; });
+    radix_sort(keys, [](uint64_t k) { return k; }, threads);
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     refined_.resize(keys.size());
     parallel_for(

@@ -22,28 +22,18 @@ bool is_ambiguous(const Octree& octree, const DistanceField& field, const LeafGr
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
   };
-  // Map vertex ids back to grid slots.
-  auto slot = [&](uint32_t v) {
-    for (int s = 0; s < 27; ++s)
-      if (grid[s] == v) return s;
-    return -1;
-  };
+  bool mixed = false;
+  const ObjectId first = field.label[grid[0]];
+  for (uint32_t v : grid) mixed |= v != kNoVertex && field.label[v] != first;
+  if (!mixed) return false;
   struct Edge {
     int a, b;
   };
   Edge edges[96];
   int ne = 0;
-  bool mixed = false;
-  const ObjectId first = field.label[grid[0]];
   detail::for_each_face_polygon(octree, grid, leaf, [&](const detail::FacePolygon& poly) {
-    for (int i = 0; i < poly.n; ++i) {
-      const int a = slot(poly.v[i]);
-      const int b = slot(poly.v[(i + 1) % poly.n]);
-      if (ne < 96) edges[ne++] = {a, b};
-      if (field.label[poly.v[i]] != first) mixed = true;
-    }
+    for (int i = 0; i < poly.n && ne < 96; ++i) edges[ne++] = {poly.slot[i], poly.slot[(i + 1) % poly.n]};
   });
-  if (!mixed) return false;
   for (int e = 0; e < ne; ++e) {
     if (field.label[grid[edges[e].a]] == field.label[grid[edges[e].b]]) {
       parent[find(edges[e].a)] = find(edges[e].b);

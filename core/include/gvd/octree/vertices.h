@@ -17,13 +17,46 @@ struct OctreeVertices {
   int dimension = 3;
   std::vector<uint64_t> key;  ///< sorted lattice keys (lattice::vertex_key)
   FlatMap64 index;            ///< key -> position in `key`
+  /// One bit per hash of a key (about 8 bits per key): a clear bit means "no such vertex"
+  /// without touching the (much larger) index. Most lookups of a leaf's edge and face
+  /// midpoints miss, and this makes them cheap.
+  std::vector<uint64_t> filter;
 
   size_t size() const { return key.size(); }
-  uint32_t find(uint64_t k) const { return index.find(k); }
+  uint32_t find(uint64_t k) const {
+    if (!filter.empty()) {
+      const uint64_t h = filter_hash(k);
+      if (!(filter[h >> 6] >> (h & 63) & 1)) return kNoVertex;
+    }
+    return index.find(k);
+  }
+  /// Builds `index` and `filter` from `key`.
+  void rebuild_index();
+  /// Appends k unless present; returns its index.
+  uint32_t insert(uint64_t k) {
+    const uint32_t next = static_cast<uint32_t>(key.size());
+    const uint32_t at = index.insert(k, next);
+    if (at == next) {
+      key.push_back(k);
+      if (!filter.empty()) {
+        const uint64_t h = filter_hash(k);
+        filter[h >> 6] |= uint64_t{1} << (h & 63);
+      }
+    }
+    return at;
+  }
   Vec3 position(uint32_t v) const {
     return lattice::to_unit(dimension, lattice::vertex_coord(dimension, key[v]));
   }
-  size_t memory_bytes() const { return key.size() * sizeof(uint64_t) + index.memory_bytes(); }
+  size_t memory_bytes() const {
+    return key.size() * sizeof(uint64_t) + index.memory_bytes() + filter.size() * sizeof(uint64_t);
+  }
+
+ private:
+  int filter_bits_ = 0;  ///< log2 of the filter's size in bits
+  uint64_t filter_hash(uint64_t k) const {
+    return (k * 0x9e3779b97f4a7c15ull) >> (64 - filter_bits_);
+  }
 };
 
 /// Calls f(key) with the lattice keys of the 2^D corners of a leaf.
