@@ -14,6 +14,52 @@ Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const
   return closest_point_on_triangle(p, points[s.v[0]], points[s.v[1]], points[s.v[2]]);
 }
 
+namespace {
+
+// Top-down median split along the largest axis of the centre bounds, in depth-first layout: a
+// left child directly follows its parent, the parent stores the index of its right child.
+// Leaf ranges index `items[begin, end)` (positions in that array). Appends to `nodes`.
+template <class BoxOf, class CenterOf>
+void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxOf&& box_of,
+                CenterOf&& center_of, std::vector<SimplexBvh::Node>& nodes) {
+  constexpr uint32_t kLeafSize = 4;
+  struct Frame {
+    uint32_t begin, end, parent;  // parent: node whose `first` (right child) to set, or ~0
+  };
+  std::vector<Frame> stack;
+  stack.push_back({begin, end, ~0u});
+  while (!stack.empty()) {
+    const Frame f = stack.back();
+    stack.pop_back();
+    const uint32_t self = static_cast<uint32_t>(nodes.size());
+    if (f.parent != ~0u) nodes[f.parent].first = self;
+    nodes.push_back({});
+    Box box, cbox;
+    for (uint32_t k = f.begin; k < f.end; ++k) {
+      box.extend(box_of(items[k]));
+      cbox.extend(center_of(items[k]));
+    }
+    nodes[self].box = box;
+    if (f.end - f.begin <= kLeafSize) {
+      nodes[self].first = f.begin;
+      nodes[self].count = f.end - f.begin;
+      continue;
+    }
+    const Vec3 ext = cbox.hi - cbox.lo;
+    int axis = 0;
+    if (ext.y > ext[axis]) axis = 1;
+    if (ext.z > ext[axis]) axis = 2;
+    const uint32_t mid = f.begin + (f.end - f.begin) / 2;
+    std::nth_element(items.begin() + f.begin, items.begin() + mid, items.begin() + f.end,
+                     [&](uint32_t a, uint32_t b) { return center_of(a)[axis] < center_of(b)[axis]; });
+    // Right subtree is pushed first so the left one (popped next) directly follows `self`.
+    stack.push_back({mid, f.end, self});
+    stack.push_back({f.begin, mid, ~0u});
+  }
+}
+
+}  // namespace
+
 SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
                        std::span<const Simplex> simplices, std::span<const uint32_t> object_of)
     : dimension_(dimension) {
@@ -29,43 +75,9 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
   order_.resize(m);
   std::iota(order_.begin(), order_.end(), 0u);
   nodes_.reserve(m / 2 + 2);
-  constexpr uint32_t kLeafSize = 4;
-  // Iterative top-down median split along the largest axis of the centre bounds, in
-  // depth-first layout: a left child directly follows its parent, the parent stores the
-  // index of its right child.
-  struct Frame {
-    uint32_t begin, end, parent;  // parent: node whose `first` (right child) to set, or ~0
-  };
-  std::vector<Frame> stack;
-  stack.push_back({0, m, ~0u});
-  while (!stack.empty()) {
-    const Frame f = stack.back();
-    stack.pop_back();
-    const uint32_t self = static_cast<uint32_t>(nodes_.size());
-    if (f.parent != ~0u) nodes_[f.parent].first = self;
-    nodes_.push_back({});
-    Box box, cbox;
-    for (uint32_t k = f.begin; k < f.end; ++k) {
-      box.extend(boxes[order_[k]]);
-      cbox.extend(centers[order_[k]]);
-    }
-    nodes_[self].box = box;
-    if (f.end - f.begin <= kLeafSize) {
-      nodes_[self].first = f.begin;
-      nodes_[self].count = f.end - f.begin;
-      continue;
-    }
-    const Vec3 ext = cbox.hi - cbox.lo;
-    int axis = 0;
-    if (ext.y > ext[axis]) axis = 1;
-    if (ext.z > ext[axis]) axis = 2;
-    const uint32_t mid = f.begin + (f.end - f.begin) / 2;
-    std::nth_element(order_.begin() + f.begin, order_.begin() + mid, order_.begin() + f.end,
-                     [&](uint32_t a, uint32_t b) { return centers[a][axis] < centers[b][axis]; });
-    // Right subtree is pushed first so the left one (popped next) directly follows `self`.
-    stack.push_back({mid, f.end, self});
-    stack.push_back({f.begin, mid, ~0u});
-  }
+  build_tree(
+      order_, 0, m, [&](uint32_t s) -> const Box& { return boxes[s]; },
+      [&](uint32_t s) -> const Vec3& { return centers[s]; }, nodes_);
   arity_ = arity;
   corners_.resize(static_cast<size_t>(m) * arity);
   for (uint32_t k = 0; k < m; ++k) {
@@ -88,21 +100,45 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
         n.object = l == r ? l : kMixed;
       }
     }
+    // One tree per object over its positions k in `order_` (grouped by object), for
+    // nearest_in_object: it never visits another object's simplices.
+    uint32_t objects = 0;
+    for (uint32_t o : object_of) objects = std::max(objects, o + 1);
+    std::vector<uint32_t> start(objects + 1, 0);
+    for (uint32_t k = 0; k < m; ++k) ++start[object_in_order_[k] + 1];
+    for (uint32_t o = 0; o < objects; ++o) start[o + 1] += start[o];
+    object_items_.resize(m);
+    {
+      std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+      for (uint32_t k = 0; k < m; ++k) object_items_[fill[object_in_order_[k]]++] = k;
+    }
+    object_root_.assign(objects, kNoRoot);
+    object_nodes_.reserve(m / 2 + 2 * objects);
+    for (uint32_t o = 0; o < objects; ++o) {
+      if (start[o] == start[o + 1]) continue;
+      object_root_[o] = static_cast<uint32_t>(object_nodes_.size());
+      build_tree(
+          object_items_, start[o], start[o + 1],
+          [&](uint32_t k) -> const Box& { return boxes[order_[k]]; },
+          [&](uint32_t k) -> const Vec3& { return centers[order_[k]]; }, object_nodes_);
+    }
   }
 }
 
 ClosestHit SimplexBvh::nearest_in_object(Vec3 p, uint32_t object, double max_dist2) const {
   GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
             "nearest_in_object needs the objects of the simplices at construction");
-  return nearest_impl(
-      p, [&](uint32_t k) { return object_in_order_[k] == object; },
-      [&](uint32_t node) { return nodes_[node].object != kMixed && nodes_[node].object != object; },
-      max_dist2);
+  if (object >= object_root_.size() || object_root_[object] == kNoRoot) return ClosestHit{};
+  return nearest_in_tree(
+      p, object_nodes_, object_root_[object], object_items_.data(),
+      [](uint32_t) { return true; }, [](uint32_t) { return false; }, max_dist2);
 }
 
 size_t SimplexBvh::memory_bytes() const {
-  return nodes_.size() * sizeof(Node) + order_.size() * sizeof(uint32_t) +
-         corners_.size() * sizeof(Vec3) + object_in_order_.size() * sizeof(uint32_t);
+  return (nodes_.size() + object_nodes_.size()) * sizeof(Node) +
+         (order_.size() + object_in_order_.size() + object_items_.size() + object_root_.size()) *
+             sizeof(uint32_t) +
+         corners_.size() * sizeof(Vec3);
 }
 
 }  // namespace gvd

@@ -463,7 +463,8 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
   InternalSets internal = subdivide_by_rules(geometry, options, max_depth, threads, cache);
   close_upwards(dim, internal);
   balance(dim, internal);
-  return materialize(geometry, internal, max_depth, options, threads, &cache);
+  auto t = materialize(geometry, internal, max_depth, options, threads, &cache);
+  return t;
 }
 
 Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,

@@ -548,6 +548,45 @@ uint64_t position_hash(Vec3 p) {
   return h;
 }
 
+// The surface of a range of leaves: distinct (point, object, other) records of each leaf and
+// simplices over them (indices into `corners`, local to the chunk).
+struct SurfaceChunk {
+  struct Corner {
+    Vec3 p;
+    ObjectId object, other;
+    Vec3 witness;  // the nearest of its pieces' witnesses: bounds the clearance search
+  };
+  struct Simplex {
+    uint32_t v[3];
+    ObjectId object;
+  };
+  std::vector<Corner> corners;
+  std::vector<Simplex> simplices;
+
+  // Appends one leaf's pieces, merging equal (point, object, other) within the leaf.
+  void add(const std::vector<Piece>& pieces, int arity) {
+    const size_t first = corners.size();
+    for (const Piece& piece : pieces) {
+      Simplex t{{0, 0, 0}, piece.object};
+      for (int k = 0; k < arity; ++k) {
+        size_t at = first;
+        while (at < corners.size() && !(corners[at].p == piece.p[k] &&
+                                         corners[at].object == piece.object &&
+                                         corners[at].other == piece.other)) {
+          ++at;
+        }
+        if (at == corners.size()) {
+          corners.push_back({piece.p[k], piece.object, piece.other, piece.witness});
+        } else if (dist2(piece.p[k], piece.witness) < dist2(piece.p[k], corners[at].witness)) {
+          corners[at].witness = piece.witness;
+        }
+        t.v[k] = static_cast<uint32_t>(at);
+      }
+      simplices.push_back(t);
+    }
+  }
+};
+
 }  // namespace
 
 Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
@@ -556,7 +595,11 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   const int threads = resolve_threads(options.threads);
   const size_t n = octree.leaf_count();
   const size_t grain = 512;
-  std::vector<std::vector<Piece>> chunks((n + grain - 1) / grain + 1);
+  const int arity = dim == 2 ? 2 : 3;
+  // Each leaf's pieces share most of their corners (the cone apex, the spokes): they are
+  // deduplicated per leaf first, so the global pass below sorts distinct (point, object,
+  // other) records of each leaf rather than every corner.
+  std::vector<SurfaceChunk> chunks((n + grain - 1) / grain + 1);
   CellSurfacer surfacer(octree, field, bvh);
   surfacer.prepare_bisectors(threads);
   parallel_for(
@@ -565,29 +608,38 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
           throw Error(ErrorCode::kCancelled, "surfacing cancelled");
         }
-        std::vector<Piece>& out = chunks[b / grain];
-        for (size_t i = b; i < e; ++i) surfacer.cell(static_cast<uint32_t>(i), out);
+        SurfaceChunk& chunk = chunks[b / grain];
+        std::vector<Piece> local;
+        for (size_t i = b; i < e; ++i) {
+          local.clear();
+          surfacer.cell(static_cast<uint32_t>(i), local);
+          chunk.add(local, arity);
+        }
       },
       grain);
-  std::vector<Piece> pieces;
-  {
-    size_t total = 0;
-    for (const auto& c : chunks) total += c.size();
-    pieces.reserve(total);
-    for (auto& c : chunks) {
-      pieces.insert(pieces.end(), c.begin(), c.end());
-      std::vector<Piece>().swap(c);
-    }
-  }
+  // All records in one array (chunk by chunk, in parallel); a chunk's triangles index its own
+  // records, so they are offset by the chunk's start.
+  std::vector<size_t> chunk_start(chunks.size() + 1, 0);
+  for (size_t c = 0; c < chunks.size(); ++c)
+    chunk_start[c + 1] = chunk_start[c] + chunks[c].corners.size();
+  const size_t nc = chunk_start.back();
+  std::vector<SurfaceChunk::Corner> corners(nc);
+  parallel_for(
+      chunks.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t c = b; c < e; ++c) {
+          std::copy(chunks[c].corners.begin(), chunks[c].corners.end(),
+                    corners.begin() + static_cast<std::ptrdiff_t>(chunk_start[c]));
+          std::vector<SurfaceChunk::Corner>().swap(chunks[c].corners);
+        }
+      },
+      1);
 
-  // Vertices: one per (object, other object, exact position). Corner c is point c % arity of
-  // piece c / arity. Identical points are made contiguous by sorting the corners by a hash of
-  // the position, then by (position, object, other) within equal hashes: a counting sort
-  // into buckets by the hash's top bits, then each bucket sorted on its own (both parallel).
-  const int arity = dim == 2 ? 2 : 3;
-  const size_t nc = pieces.size() * arity;
-  auto point = [&](uint32_t c) -> const Vec3& { return pieces[c / arity].p[c % arity]; };
-  using Keyed = std::pair<uint64_t, uint32_t>;  // (position hash, corner)
+  // Vertices: one per (object, other object, exact position). Identical points are made
+  // contiguous by sorting the records by a hash of the position, then by (position, object,
+  // other) within equal hashes: a counting sort into buckets by the hash's top bits, then each
+  // bucket sorted on its own (both parallel).
+  using Keyed = std::pair<uint64_t, uint32_t>;  // (position hash, record)
   std::vector<Keyed> keyed(nc);
   {
     constexpr int kBucketBits = 12;
@@ -603,13 +655,13 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
           for (size_t part = pb; part < pe; ++part) {
             size_t* c = &count[part * kBuckets];
             for (size_t i = part * part_size; i < std::min(nc, (part + 1) * part_size); ++i) {
-              hash[i] = position_hash(point(static_cast<uint32_t>(i)));
+              hash[i] = position_hash(corners[i].p);
               ++c[bucket_of(hash[i])];
             }
           }
         },
         1);
-    // Bucket b starts after all smaller buckets; within it, part 0's corners come first.
+    // Bucket b starts after all smaller buckets; within it, part 0's records come first.
     std::vector<size_t> bucket_begin(kBuckets + 1, 0);
     size_t sum = 0;
     for (size_t bucket = 0; bucket < kBuckets; ++bucket) {
@@ -639,54 +691,39 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
                       keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket + 1]),
                       [&](const Keyed& x, const Keyed& y) {
                         if (x.first != y.first) return x.first < y.first;
-                        const Piece& px = pieces[x.second / arity];
-                        const Piece& py = pieces[y.second / arity];
-                        return std::tie(px.p[x.second % arity].x, px.p[x.second % arity].y,
-                                        px.p[x.second % arity].z, px.object, px.other) <
-                               std::tie(py.p[y.second % arity].x, py.p[y.second % arity].y,
-                                        py.p[y.second % arity].z, py.object, py.other);
+                        const SurfaceChunk::Corner& cx = corners[x.second];
+                        const SurfaceChunk::Corner& cy = corners[y.second];
+                        return std::tie(cx.p.x, cx.p.y, cx.p.z, cx.object, cx.other) <
+                               std::tie(cy.p.x, cy.p.y, cy.p.z, cy.object, cy.other);
                       });
           }
         },
         64);
   }
 
-  // The corners in that order, with what the passes below read (one parallel gather instead
-  // of random reads in each serial pass).
-  struct Sorted {
-    Vec3 p;
-    ObjectId object, other;
-    uint32_t corner;
-    uint32_t new_vertex;  // 1 when the first corner of its (position, object, other)
-  };
-  std::vector<Sorted> sorted(nc);
-  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) {
-      const Piece& piece = pieces[keyed[i].second / arity];
-      sorted[i] = {piece.p[keyed[i].second % arity], piece.object, piece.other, keyed[i].second, 0};
-    }
-  });
-  std::vector<Keyed>().swap(keyed);
+  // Runs of one position; within a run, a new vertex at each new (object, other).
+  std::vector<uint8_t> new_vertex(nc);
   std::vector<size_t> run_start;
   for (size_t i = 0; i < nc; ++i) {
-    const bool new_point = i == 0 || sorted[i].p != sorted[i - 1].p;
+    const SurfaceChunk::Corner& c = corners[keyed[i].second];
+    const SurfaceChunk::Corner* before = i == 0 ? nullptr : &corners[keyed[i - 1].second];
+    const bool new_point = before == nullptr || c.p != before->p;
     if (new_point) run_start.push_back(i);
-    sorted[i].new_vertex = new_point || sorted[i].object != sorted[i - 1].object ||
-                           sorted[i].other != sorted[i - 1].other;
+    new_vertex[i] = new_point || c.object != before->object || c.other != before->other;
   }
   run_start.push_back(nc);
   const size_t runs = run_start.size() - 1;
 
-  // Exact clearance once per distinct point; the pieces' witnesses bound the search.
+  // Exact clearance once per distinct point; the records' witnesses bound the search.
   std::vector<double> run_clearance(runs);
   parallel_for(
       runs, threads,
       [&](size_t b, size_t e, int) {
         for (size_t r = b; r < e; ++r) {
-          const Vec3 p = sorted[run_start[r]].p;
+          const Vec3 p = corners[keyed[run_start[r]].second].p;
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
-            bound2 = std::min(bound2, dist2(p, pieces[sorted[i].corner / arity].witness));
+            bound2 = std::min(bound2, dist2(p, corners[keyed[i].second].witness));
           const ClosestHit hit = bvh.nearest(p, bound2);
           run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
         }
@@ -699,20 +736,23 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   for (uint32_t o = 0; o < geometry.object_count; ++o) gvd.cells[o].object = o;
   std::vector<uint32_t> index_of(nc);
   for (size_t r = 0; r < runs; ++r) {
-    const Vec3 user = domain.from_unit(sorted[run_start[r]].p);
+    const Vec3 user = domain.from_unit(corners[keyed[run_start[r]].second].p);
     for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
-      GvdCell& cell = gvd.cells[sorted[i].object];
-      if (sorted[i].new_vertex) {
+      const SurfaceChunk::Corner& c = corners[keyed[i].second];
+      GvdCell& cell = gvd.cells[c.object];
+      if (new_vertex[i]) {
         cell.positions.push_back(user);
-        cell.other.push_back(sorted[i].other);
+        cell.other.push_back(c.other);
         cell.clearance.push_back(run_clearance[r]);
       }
-      index_of[sorted[i].corner] = static_cast<uint32_t>(cell.positions.size() - 1);
+      index_of[keyed[i].second] = static_cast<uint32_t>(cell.positions.size() - 1);
     }
   }
-  for (uint32_t i = 0; i < pieces.size(); ++i) {
-    GvdCell& cell = gvd.cells[pieces[i].object];
-    for (int k = 0; k < arity; ++k) cell.indices.push_back(index_of[i * arity + k]);
+  for (size_t c = 0; c < chunks.size(); ++c) {
+    for (const SurfaceChunk::Simplex& t : chunks[c].simplices) {
+      GvdCell& cell = gvd.cells[t.object];
+      for (int k = 0; k < arity; ++k) cell.indices.push_back(index_of[chunk_start[c] + t.v[k]]);
+    }
   }
   return gvd;
 }

@@ -76,13 +76,27 @@ class SimplexBvh {
   /// simplices are contiguous in memory.
   std::vector<Vec3> corners_;
   std::vector<uint32_t> object_in_order_;  ///< per simplex in `order_` sequence (if given)
+  /// Per-object trees (with object_of): nodes of all of them, each object's root, and their
+  /// leaf items (positions k in `order_`).
+  std::vector<Node> object_nodes_;
+  std::vector<uint32_t> object_root_;
+  std::vector<uint32_t> object_items_;
+  static constexpr uint32_t kNoRoot = 0xFFFFFFFFu;
   int arity_ = 3;
 
   /// The nearest-simplex search: `accept_item(k)` filters simplices by their position k in
   /// `order_`, `skip_node(i)` prunes whole subtrees.
   template <class AcceptItem, class SkipNode>
   ClosestHit nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&& skip_node,
-                          double max_dist2) const;
+                          double max_dist2) const {
+    return nearest_in_tree(p, nodes_, 0, nullptr, accept_item, skip_node, max_dist2);
+  }
+  /// The search in one tree (`nodes`, from `root`); leaf ranges index `items` (positions k in
+  /// `order_`), or are those positions themselves when `items` is null.
+  template <class AcceptItem, class SkipNode>
+  ClosestHit nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, uint32_t root,
+                             const uint32_t* items, AcceptItem&& accept_item,
+                             SkipNode&& skip_node, double max_dist2) const;
 
   Vec3 closest_in_order(uint32_t k, Vec3 p) const {
     const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
@@ -98,11 +112,13 @@ ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) con
 }
 
 template <class AcceptItem, class SkipNode>
-ClosestHit SimplexBvh::nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&& skip_node,
-                                    double max_dist2) const {
+ClosestHit SimplexBvh::nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, uint32_t root,
+                                       const uint32_t* items, AcceptItem&& accept_item,
+                                       SkipNode&& skip_node, double max_dist2) const {
   ClosestHit best;
   best.dist2 = max_dist2;
-  if (nodes_.empty() || skip_node(0) || box_distance2(p, nodes_[0].box) > best.dist2) return best;
+  if (nodes.empty() || skip_node(root) || box_distance2(p, nodes[root].box) > best.dist2)
+    return best;
   // Each stack entry carries its box distance, computed once when the parent was visited.
   struct Entry {
     uint32_t node;
@@ -110,13 +126,14 @@ ClosestHit SimplexBvh::nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&&
   };
   Entry stack[128];
   int top = 0;
-  stack[top++] = {0, 0.0};
+  stack[top++] = {root, 0.0};
   while (top > 0) {
     const Entry entry = stack[--top];
     if (entry.dist2 > item::gvd_search_limit(best.dist2, best.simplex)) continue;
-    const Node& n = nodes_[entry.node];
+    const Node& n = nodes[entry.node];
     if (n.count > 0) {
-      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+      for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+        const uint32_t k = items != nullptr ? items[i] : i;
         if (!accept_item(k)) continue;
         const uint32_t s = order_[k];
         const Vec3 q = closest_in_order(k, p);
@@ -126,8 +143,8 @@ ClosestHit SimplexBvh::nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&&
       continue;
     }
     const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = skip_node(l) ? 1e308 : box_distance2(p, nodes_[l].box);
-    const double dr = skip_node(r) ? 1e308 : box_distance2(p, nodes_[r].box);
+    const double dl = skip_node(l) ? 1e308 : box_distance2(p, nodes[l].box);
+    const double dr = skip_node(r) ? 1e308 : box_distance2(p, nodes[r].box);
     const double limit = item::gvd_search_limit(best.dist2, best.simplex);
     // Push the farther child first so the nearer one is searched first.
     if (dl <= dr) {
