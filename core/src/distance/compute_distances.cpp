@@ -6,6 +6,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/radix_sort.h"
 #include "gvd/common/stopwatch.h"
 #include "gvd/distance/closest_points.h"
 #include "gvd/distance/distance_field.h"
@@ -97,6 +98,21 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
   std::vector<uint32_t> todo;
   for (size_t v = 0; v < nv; ++v)
     if (!reused[v]) todo.push_back(static_cast<uint32_t>(v));
+  {
+    // Queries in Z order (vertex keys are row-major): consecutive queries are then near each
+    // other and walk the same parts of the BVH, which stay in cache.
+    const int dim = field.vertices.dimension;
+    std::vector<std::pair<uint64_t, uint32_t>> z(todo.size());
+    parallel_for(todo.size(), threads, [&](size_t b, size_t e, int) {
+      for (size_t j = b; j < e; ++j) {
+        lattice::Coord c = lattice::vertex_coord(dim, field.vertices.key[todo[j]]);
+        for (uint32_t& x : c.c) x >>= 1;  // the lattice's far side, 2^B, needs one bit more
+        z[j] = {lattice::morton(dim, c), todo[j]};
+      }
+    });
+    radix_sort(z, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
+    for (size_t j = 0; j < todo.size(); ++j) todo[j] = z[j].second;
+  }
   std::vector<Vec3> pos(todo.size());
   std::vector<double> bound(todo.size(), 1e300);
   parallel_for(todo.size(), threads, [&](size_t b, size_t e, int) {

@@ -4,6 +4,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/flat_hash.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/radix_sort.h"
 #include "gvd/geometry/primitives.h"
 #include "gvd/octree/build_octree_dp.h"
 #include "gvd/octree/contacts.h"
@@ -183,12 +184,14 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     std::vector<ObjectId> tags(n);
     std::vector<ObjectSet> sets(n);
     FlatMap64 index_of_code(n);
-    for (size_t i = 0; i < n; ++i) {
-      tags[i] =
-          tag_with_contacts(g, current.pool.data() + current.begin[i],
-                            current.pool.data() + current.begin[i + 1], options.contacts, sets[i]);
-      index_of_code.set(current.codes[i], static_cast<uint32_t>(i));
-    }
+    parallel_for(n, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) {
+        tags[i] = tag_with_contacts(g, current.pool.data() + current.begin[i],
+                                    current.pool.data() + current.begin[i + 1], options.contacts,
+                                    sets[i]);
+      }
+    });
+    for (size_t i = 0; i < n; ++i) index_of_code.set(current.codes[i], static_cast<uint32_t>(i));
     if (level == max_depth) break;
     const bool at_contact = level >= contact_depth;
     // Does object a need separating from the objects of cell j? Not when they all touch a and
@@ -205,17 +208,20 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
       return !options.contacts->touching(a, t);
     };
     std::vector<uint8_t> split(n, 0);
-    for (size_t i = 0; i < n; ++i) {
-      bool s = tags[i] == kManyObjects || (tags[i] == kTouchingObjects && !at_contact);
-      if (!s && tags[i] != kTouchingObjects) {
-        for_each_face_neighbour(dim, current.codes[i], level, [&](uint64_t nc) {
-          const uint32_t j = index_of_code.find(nc);
-          if (j != FlatMap64::kMissing && must_separate(tags[i], j)) s = true;
-        });
+    parallel_for(n, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) {
+        bool s = tags[i] == kManyObjects || (tags[i] == kTouchingObjects && !at_contact);
+        if (!s && tags[i] != kTouchingObjects) {
+          for_each_face_neighbour(dim, current.codes[i], level, [&](uint64_t nc) {
+            const uint32_t j = index_of_code.find(nc);
+            if (j != FlatMap64::kMissing && must_separate(tags[i], j)) s = true;
+          });
+        }
+        split[i] = s ? 1 : 0;
       }
-      split[i] = s ? 1 : 0;
-      if (s) internal[level].insert(current.codes[i], 0);
-    }
+    });
+    for (size_t i = 0; i < n; ++i)
+      if (split[i]) internal[level].insert(current.codes[i], 0);
     internal_count += internal[level].size();
     if (internal_count * children_per_split + 1 > options.max_leaves) {
       throw Error(ErrorCode::kLimitExceeded, "octree exceeds the leaf limit of " +
@@ -261,28 +267,40 @@ void close_upwards(int dim, InternalSets& internal) {
 }
 
 // 2:1 balance over faces, edges and corners: every neighbour of an internal node must exist,
-// i.e. its parent must be internal. Deepest level first, so splits ripple upwards.
-void balance(int dim, InternalSets& internal) {
+// i.e. its parent must be internal. Deepest level first, so splits ripple upwards. The
+// required parents are generated in parallel and deduplicated before the (serial) inserts.
+void balance(int dim, InternalSets& internal, int threads) {
   const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
   for (int level = static_cast<int>(internal.size()) - 1; level >= 1; --level) {
-    std::vector<uint64_t> required;
+    std::vector<uint64_t> codes;
+    codes.reserve(internal[level].size());
+    internal[level].for_each([&](uint64_t code, uint32_t) { codes.push_back(code); });
     const int64_t size = static_cast<int64_t>(lattice::cell_size(dim, level));
-    internal[level].for_each([&](uint64_t code, uint32_t) {
-      const Coord c = lattice::morton_decode(dim, code);
-      const int dz_lo = dim == 3 ? -1 : 0, dz_hi = dim == 3 ? 1 : 0;
-      for (int dz = dz_lo; dz <= dz_hi; ++dz) {
-        for (int dy = -1; dy <= 1; ++dy) {
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size, z = c.c[2] + dz * size;
-            if (x < 0 || y < 0 || z < 0 || x >= limit || y >= limit || (dim == 3 && z >= limit))
-              continue;
-            Coord n{{static_cast<uint32_t>(x), static_cast<uint32_t>(y), static_cast<uint32_t>(z)}};
-            required.push_back(parent_code(dim, lattice::morton(dim, n), level));
+    const int per_code = dim == 3 ? 27 : 9;
+    std::vector<uint64_t> required(codes.size() * per_code, ~0ull);
+    parallel_for(codes.size(), threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) {
+        const Coord c = lattice::morton_decode(dim, codes[i]);
+        uint64_t* out = &required[i * per_code];
+        const int dz_lo = dim == 3 ? -1 : 0, dz_hi = dim == 3 ? 1 : 0;
+        for (int dz = dz_lo; dz <= dz_hi; ++dz) {
+          for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size, z = c.c[2] + dz * size;
+              if (x < 0 || y < 0 || z < 0 || x >= limit || y >= limit || (dim == 3 && z >= limit))
+                continue;
+              Coord q{{static_cast<uint32_t>(x), static_cast<uint32_t>(y),
+                       static_cast<uint32_t>(z)}};
+              *out++ = parent_code(dim, lattice::morton(dim, q), level);
+            }
           }
         }
       }
     });
-    for (uint64_t p : required) internal[level - 1].insert(p, 0);
+    radix_sort(required, [](uint64_t k) { return k; }, threads);
+    required.erase(std::unique(required.begin(), required.end()), required.end());
+    for (uint64_t p : required)
+      if (p != ~0ull) internal[level - 1].insert(p, 0);
   }
 }
 
@@ -462,9 +480,8 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
   LevelCache cache;
   InternalSets internal = subdivide_by_rules(geometry, options, max_depth, threads, cache);
   close_upwards(dim, internal);
-  balance(dim, internal);
-  auto t = materialize(geometry, internal, max_depth, options, threads, &cache);
-  return t;
+  balance(dim, internal, threads);
+  return materialize(geometry, internal, max_depth, options, threads, &cache);
 }
 
 Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,
@@ -475,7 +492,7 @@ Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const Cel
   for (const CellRef& c : split)
     if (c.level < max_depth) internal[c.level].insert(c.code, 0);
   close_upwards(dim, internal);
-  balance(dim, internal);
+  balance(dim, internal, resolve_threads(options.threads));
   return materialize(geometry, internal, max_depth, options, resolve_threads(options.threads),
                      nullptr);
 }

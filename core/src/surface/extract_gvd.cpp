@@ -715,11 +715,24 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   const size_t runs = run_start.size() - 1;
 
   // Exact clearance once per distinct point; the records' witnesses bound the search.
+  // In the order the leaves made them (Z order, so nearby queries follow each other and
+  // share the BVH's cache lines) rather than in hash order.
+  std::vector<std::pair<uint64_t, uint32_t>> run_order(runs);
+  parallel_for(runs, threads, [&](size_t b, size_t e, int) {
+    for (size_t r = b; r < e; ++r) {
+      uint32_t first = keyed[run_start[r]].second;
+      for (size_t i = run_start[r] + 1; i < run_start[r + 1]; ++i)
+        first = std::min(first, keyed[i].second);
+      run_order[r] = {first, static_cast<uint32_t>(r)};
+    }
+  });
+  radix_sort(run_order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
   std::vector<double> run_clearance(runs);
   parallel_for(
       runs, threads,
       [&](size_t b, size_t e, int) {
-        for (size_t r = b; r < e; ++r) {
+        for (size_t o = b; o < e; ++o) {
+          const size_t r = run_order[o].second;
           const Vec3 p = corners[keyed[run_start[r]].second].p;
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
