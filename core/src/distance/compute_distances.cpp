@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <queue>
@@ -189,47 +190,66 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     if (incremental) {
       for (size_t i = 0; i < nl; ++i) recompute[i] = old_leaf[i] == kNoVertex;
       const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
-      for (size_t v = old_count; v < nv; ++v) {
-        const lattice::Coord p = lattice::vertex_coord(dim, field.vertices.key[v]);
-        for (uint32_t o = 0; o < (1u << dim); ++o) {
-          lattice::Coord q = p;
-          bool inside = true;
-          for (int a = 0; a < dim; ++a) {
-            const int64_t x = static_cast<int64_t>(p.c[a]) - ((o >> a) & 1 ? 0 : 1);
-            inside &= x >= 0 && x < limit;
-            q.c[a] = static_cast<uint32_t>(x);
+      parallel_for(nv - old_count, threads, [&](size_t b, size_t e, int) {
+        for (size_t v = old_count + b; v < old_count + e; ++v) {
+          const lattice::Coord p = lattice::vertex_coord(dim, field.vertices.key[v]);
+          for (uint32_t o = 0; o < (1u << dim); ++o) {
+            lattice::Coord q = p;
+            bool inside = true;
+            for (int a = 0; a < dim; ++a) {
+              const int64_t x = static_cast<int64_t>(p.c[a]) - ((o >> a) & 1 ? 0 : 1);
+              inside &= x >= 0 && x < limit;
+              q.c[a] = static_cast<uint32_t>(x);
+            }
+            if (inside) {
+              std::atomic_ref<uint8_t>(recompute[octree.locate_lattice(q)])
+                  .store(1, std::memory_order_relaxed);
+            }
           }
-          if (inside) recompute[octree.locate_lattice(q)] = 1;
         }
-      }
+      });
     }
-    std::vector<LeafGrid> grids(nl);
+    // Grids of the leaves looked up again; the others copy their CSR rows.
+    std::vector<uint32_t> grid_of(nl, kNoVertex);
+    uint32_t looked_up = 0;
+    for (size_t i = 0; i < nl; ++i)
+      if (recompute[i]) grid_of[i] = looked_up++;
+    std::vector<LeafGrid> grids(looked_up);
+    std::vector<uint32_t> count(nl);
     parallel_for(nl, threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
-        if (recompute[i]) {
-          grids[i] = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
+        if (grid_of[i] == kNoVertex) {
+          const uint32_t ol = old_leaf[i];
+          count[i] = previous->leaf_begin[ol + 1] - previous->leaf_begin[ol];
           continue;
         }
-        const uint32_t ol = old_leaf[i];
-        grids[i].fill(kNoVertex);
-        for (uint32_t k = previous->leaf_begin[ol]; k < previous->leaf_begin[ol + 1]; ++k)
-          grids[i][previous->leaf_slot[k]] = previous->leaf_vertex[k];
+        LeafGrid& g = grids[grid_of[i]];
+        g = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
+        uint32_t c = 0;
+        for (int k = 0; k < grid_points; ++k) c += g[k] != kNoVertex;
+        count[i] = c;
       }
     });
-    for (size_t i = 0; i < nl; ++i) {
-      uint32_t count = 0;
-      for (int k = 0; k < grid_points; ++k) count += grids[i][k] != kNoVertex;
-      leaf_verts.begin[i + 1] = leaf_verts.begin[i] + count;
-    }
+    for (size_t i = 0; i < nl; ++i) leaf_verts.begin[i + 1] = leaf_verts.begin[i] + count[i];
     leaf_verts.items.resize(leaf_verts.begin[nl]);
     field.leaf_slot.resize(leaf_verts.begin[nl]);
     parallel_for(nl, threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
         uint32_t pos = leaf_verts.begin[i];
+        if (grid_of[i] == kNoVertex) {
+          const uint32_t ol = old_leaf[i];
+          const uint32_t from = previous->leaf_begin[ol], to = previous->leaf_begin[ol + 1];
+          std::copy(previous->leaf_vertex.begin() + from, previous->leaf_vertex.begin() + to,
+                    leaf_verts.items.begin() + pos);
+          std::copy(previous->leaf_slot.begin() + from, previous->leaf_slot.begin() + to,
+                    field.leaf_slot.begin() + pos);
+          continue;
+        }
+        const LeafGrid& g = grids[grid_of[i]];
         for (int k = 0; k < grid_points; ++k) {
-          if (grids[i][k] == kNoVertex) continue;
+          if (g[k] == kNoVertex) continue;
           field.leaf_slot[pos] = static_cast<uint8_t>(k);
-          leaf_verts.items[pos++] = grids[i][k];
+          leaf_verts.items[pos++] = g[k];
         }
       }
     });

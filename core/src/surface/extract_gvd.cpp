@@ -563,28 +563,44 @@ struct SurfaceChunk {
   std::vector<Corner> corners;
   std::vector<Simplex> simplices;
 
-  // Appends one leaf's pieces, merging equal (point, object, other) within the leaf.
+  // Appends one leaf's pieces, merging equal (point, object, other) within the leaf (a small
+  // open-addressing table over the leaf's records; the scan covers only a collision chain).
   void add(const std::vector<Piece>& pieces, int arity) {
     const size_t first = corners.size();
+    size_t bits = 6;
+    while ((size_t{1} << bits) < 4 * pieces.size() * arity) ++bits;
+    const size_t mask = (size_t{1} << bits) - 1;
+    table.assign(mask + 1, kEmpty);
     for (const Piece& piece : pieces) {
       Simplex t{{0, 0, 0}, piece.object};
       for (int k = 0; k < arity; ++k) {
-        size_t at = first;
-        while (at < corners.size() && !(corners[at].p == piece.p[k] &&
-                                         corners[at].object == piece.object &&
-                                         corners[at].other == piece.other)) {
-          ++at;
+        const Vec3& p = piece.p[k];
+        size_t slot = (position_hash(p) ^ (uint64_t{piece.object} * 0x9e3779b97f4a7c15ull) ^
+                       piece.other) & mask;
+        uint32_t at = kEmpty;
+        for (; table[slot] != kEmpty; slot = (slot + 1) & mask) {
+          const Corner& c = corners[first + table[slot]];
+          if (c.p == p && c.object == piece.object && c.other == piece.other) {
+            at = static_cast<uint32_t>(first + table[slot]);
+            break;
+          }
         }
-        if (at == corners.size()) {
-          corners.push_back({piece.p[k], piece.object, piece.other, piece.witness});
-        } else if (dist2(piece.p[k], piece.witness) < dist2(piece.p[k], corners[at].witness)) {
+        if (at == kEmpty) {
+          at = static_cast<uint32_t>(corners.size());
+          table[slot] = static_cast<uint32_t>(at - first);
+          corners.push_back({p, piece.object, piece.other, piece.witness});
+        } else if (dist2(p, piece.witness) < dist2(p, corners[at].witness)) {
           corners[at].witness = piece.witness;
         }
-        t.v[k] = static_cast<uint32_t>(at);
+        t.v[k] = at;
       }
       simplices.push_back(t);
     }
   }
+
+ private:
+  static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
+  std::vector<uint32_t> table;  // scratch of add(): slot -> record - first
 };
 
 }  // namespace
@@ -701,16 +717,31 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         64);
   }
 
-  // Runs of one position; within a run, a new vertex at each new (object, other).
-  std::vector<uint8_t> new_vertex(nc);
+  // The records in sorted order (one parallel gather, so the passes below read sequentially);
+  // runs of one position; within a run, a new vertex at each new (object, other).
+  struct Sorted {
+    Vec3 p;
+    ObjectId object, other;
+  };
+  std::vector<Sorted> sorted(nc);
+  std::vector<uint8_t> new_vertex(nc), new_point(nc);
+  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      const SurfaceChunk::Corner& c = corners[keyed[i].second];
+      sorted[i] = {c.p, c.object, c.other};
+    }
+  });
+  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      const Sorted* before = i == 0 ? nullptr : &sorted[i - 1];
+      new_point[i] = before == nullptr || sorted[i].p != before->p;
+      new_vertex[i] = new_point[i] || sorted[i].object != before->object ||
+                      sorted[i].other != before->other;
+    }
+  });
   std::vector<size_t> run_start;
-  for (size_t i = 0; i < nc; ++i) {
-    const SurfaceChunk::Corner& c = corners[keyed[i].second];
-    const SurfaceChunk::Corner* before = i == 0 ? nullptr : &corners[keyed[i - 1].second];
-    const bool new_point = before == nullptr || c.p != before->p;
-    if (new_point) run_start.push_back(i);
-    new_vertex[i] = new_point || c.object != before->object || c.other != before->other;
-  }
+  for (size_t i = 0; i < nc; ++i)
+    if (new_point[i]) run_start.push_back(i);
   run_start.push_back(nc);
   const size_t runs = run_start.size() - 1;
 
@@ -733,7 +764,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
       [&](size_t b, size_t e, int) {
         for (size_t o = b; o < e; ++o) {
           const size_t r = run_order[o].second;
-          const Vec3 p = corners[keyed[run_start[r]].second].p;
+          const Vec3 p = sorted[run_start[r]].p;
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
             bound2 = std::min(bound2, dist2(p, corners[keyed[i].second].witness));
@@ -747,15 +778,26 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   gvd.dimension = dim;
   gvd.cells.resize(geometry.object_count);
   for (uint32_t o = 0; o < geometry.object_count; ++o) gvd.cells[o].object = o;
+  {
+    std::vector<size_t> vertices(geometry.object_count, 0), simplices(geometry.object_count, 0);
+    for (size_t i = 0; i < nc; ++i) vertices[sorted[i].object] += new_vertex[i];
+    for (const SurfaceChunk& chunk : chunks)
+      for (const SurfaceChunk::Simplex& t : chunk.simplices) ++simplices[t.object];
+    for (GvdCell& cell : gvd.cells) {
+      cell.positions.reserve(vertices[cell.object]);
+      cell.other.reserve(vertices[cell.object]);
+      cell.clearance.reserve(vertices[cell.object]);
+      cell.indices.reserve(simplices[cell.object] * arity);
+    }
+  }
   std::vector<uint32_t> index_of(nc);
   for (size_t r = 0; r < runs; ++r) {
-    const Vec3 user = domain.from_unit(corners[keyed[run_start[r]].second].p);
+    const Vec3 user = domain.from_unit(sorted[run_start[r]].p);
     for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
-      const SurfaceChunk::Corner& c = corners[keyed[i].second];
-      GvdCell& cell = gvd.cells[c.object];
+      GvdCell& cell = gvd.cells[sorted[i].object];
       if (new_vertex[i]) {
         cell.positions.push_back(user);
-        cell.other.push_back(c.other);
+        cell.other.push_back(sorted[i].other);
         cell.clearance.push_back(run_clearance[r]);
       }
       index_of[keyed[i].second] = static_cast<uint32_t>(cell.positions.size() - 1);
