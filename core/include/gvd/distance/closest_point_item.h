@@ -145,6 +145,29 @@ GVD_ITEM_FN double gvd_box_distance2(GvdPoint p, GVD_GLOBAL const GvdBvhNode* n)
   return d2;
 }
 
+/* Squared distance from p to the bounding box of simplex s (0 inside). */
+GVD_ITEM_FN double gvd_simplex_box_distance2(int dimension, GVD_GLOBAL const GvdPoint* points,
+                                             GVD_GLOBAL const gvd_uint* simplices, gvd_uint s,
+                                             GvdPoint p) {
+  const GvdPoint a = points[simplices[3 * s]];
+  const GvdPoint b = points[simplices[3 * s + 1]];
+  const GvdPoint c = dimension == 2 ? a : points[simplices[3 * s + 2]];
+  const double q[3] = {p.x, p.y, p.z};
+  const double pa[3] = {a.x, a.y, a.z}, pb[3] = {b.x, b.y, b.z}, pc[3] = {c.x, c.y, c.z};
+  double d2 = 0;
+  for (int i = 0; i < 3; ++i) {
+    double lo = pa[i] < pb[i] ? pa[i] : pb[i];
+    double hi = pa[i] < pb[i] ? pb[i] : pa[i];
+    lo = pc[i] < lo ? pc[i] : lo;
+    hi = pc[i] > hi ? pc[i] : hi;
+    double d = 0;
+    if (q[i] < lo) d = lo - q[i];
+    if (q[i] > hi) d = q[i] - hi;
+    d2 += d * d;
+  }
+  return d2;
+}
+
 /* Closest point on simplex s: a segment (v[0], v[1]) in 2D, a triangle in 3D. */
 GVD_ITEM_FN GvdPoint gvd_closest_on_simplex(int dimension, GVD_GLOBAL const GvdPoint* points,
                                             GVD_GLOBAL const gvd_uint* simplices, gvd_uint s,
@@ -208,6 +231,12 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
     if (n->count > 0) {
       for (gvd_uint k = n->first; k < n->first + n->count; ++k) {
         const gvd_uint s = order[k];
+        /* The simplex's own box first: farther than the search limit (with a margin far
+         * above rounding), it cannot be accepted, and the exact test is skipped. */
+        if (gvd_simplex_box_distance2(dimension, points, simplices, s, p) >
+            gvd_search_limit(best.dist2, best.simplex) * (1.0 + 1e-9)) {
+          continue;
+        }
         const GvdPoint q = gvd_closest_on_simplex(dimension, points, simplices, s, p);
         const double d2 = gvd_dist2(p, q);
         if (gvd_better_hit(d2, s, best.dist2, best.simplex)) {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -98,6 +99,20 @@ class SimplexBvh {
                              const uint32_t* items, AcceptItem&& accept_item,
                              SkipNode&& skip_node, double max_dist2) const;
 
+  double simplex_box_distance2(uint32_t k, Vec3 p) const {
+    const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      double lo = std::min(c[0][a], c[1][a]), hi = std::max(c[0][a], c[1][a]);
+      if (arity_ == 3) {
+        lo = std::min(lo, c[2][a]);
+        hi = std::max(hi, c[2][a]);
+      }
+      const double d = p[a] < lo ? lo - p[a] : (p[a] > hi ? p[a] - hi : 0.0);
+      d2 += d * d;
+    }
+    return d2;
+  }
   Vec3 closest_in_order(uint32_t k, Vec3 p) const {
     const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
     return arity_ == 2 ? closest_point_on_segment(p, c[0], c[1])
@@ -135,6 +150,12 @@ ClosestHit SimplexBvh::nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, u
       for (uint32_t i = n.first; i < n.first + n.count; ++i) {
         const uint32_t k = items != nullptr ? items[i] : i;
         if (!accept_item(k)) continue;
+        // The simplex's own box first: farther than the limit (with a margin far above
+        // rounding), it cannot be accepted, and the exact test is skipped.
+        if (simplex_box_distance2(k, p) > item::gvd_search_limit(best.dist2, best.simplex) *
+                                             (1 + 1e-9)) {
+          continue;
+        }
         const uint32_t s = order_[k];
         const Vec3 q = closest_in_order(k, p);
         const double d2 = dist2(p, q);
