@@ -537,28 +537,40 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
 
 namespace gvd {
 
-void sort_vertices(DistanceField& field) {
+void sort_vertices(DistanceField& field, int threads) {
+  threads = resolve_threads(threads);
   const size_t nv = field.vertices.size();
-  std::vector<uint32_t> order(nv);
-  for (size_t i = 0; i < nv; ++i) order[i] = static_cast<uint32_t>(i);
   const std::vector<uint64_t>& key = field.vertices.key;
   if (std::is_sorted(key.begin(), key.end())) return;
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+  std::vector<std::pair<uint64_t, uint32_t>> order(nv);
+  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) order[i] = {key[i], static_cast<uint32_t>(i)};
+  });
+  radix_sort(order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
   std::vector<uint32_t> new_index(nv);
-  for (size_t i = 0; i < nv; ++i) new_index[order[i]] = static_cast<uint32_t>(i);
+  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) new_index[order[i].second] = static_cast<uint32_t>(i);
+  });
   auto permute = [&](auto& values) {
     if (values.size() != nv) return;
     auto copy = values;
-    for (size_t i = 0; i < nv; ++i) values[i] = copy[order[i]];
+    parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) values[i] = copy[order[i].second];
+    });
   };
   permute(field.vertices.key);
   permute(field.label);
   permute(field.point);
   permute(field.exact);
   permute(field.changed);
-  for (size_t i = 0; i < nv; ++i)
-    field.vertices.index.set(field.vertices.key[i], static_cast<uint32_t>(i));
-  for (uint32_t& v : field.leaf_vertex) v = new_index[v];
+  // Same keys, new positions: every slot of the index is rewritten in place (no inserts).
+  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i)
+      field.vertices.index.assign_existing(field.vertices.key[i], static_cast<uint32_t>(i));
+  });
+  parallel_for(field.leaf_vertex.size(), threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) field.leaf_vertex[i] = new_index[field.leaf_vertex[i]];
+  });
 }
 
 }  // namespace gvd

@@ -141,7 +141,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field, &previous);
     r.field = std::move(next);
   }
-  sort_vertices(r.field);  // incremental rounds appended vertices
+  sort_vertices(r.field, options.threads);  // incremental rounds appended vertices
   // The last report holds the thin regions no round resolved (earlier ones were split).
   r.stats.unseen_left = report.misplaced;
   if (rounds > 0 && ambiguity_seen > 0) {

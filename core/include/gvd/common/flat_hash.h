@@ -45,6 +45,19 @@ class FlatMap64 {
     values_[i] = value;
     ++size_;
   }
+  /// Overwrites the value of a key already present (never inserts, so several threads may
+  /// call it for different keys at once); returns false when the key is missing.
+  bool assign_existing(uint64_t key, uint32_t value) {
+    size_t i = slot(key);
+    while (keys_[i] != kEmptyKey) {
+      if (keys_[i] == key) {
+        values_[i] = value;
+        return true;
+      }
+      i = (i + 1) & mask_;
+    }
+    return false;
+  }
   /// The value for key, or kMissing.
   uint32_t find(uint64_t key) const {
     size_t i = slot(key);

@@ -91,7 +91,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
                                 const Octree* previous_octree = nullptr);
 
 /// Puts the vertices in key order (as a fresh compute_distances has them), permuting every
-/// per-vertex array and the leaf CSR. O(V log V).
-void sort_vertices(DistanceField& field);
+/// per-vertex array and the leaf CSR. O(V), parallel on `threads` (0 = all cores).
+void sort_vertices(DistanceField& field, int threads = 0);
 
 }  // namespace gvd
