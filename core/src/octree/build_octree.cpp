@@ -410,29 +410,33 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
     pool.insert(pool.end(), l.lists.pool.begin(), l.lists.pool.end());
     for (size_t i = 1; i < l.lists.begin.size(); ++i) begins.push_back(l.lists.begin[i] + off);
   }
-  std::vector<uint32_t> order(codes.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(),
-            [&](uint32_t a, uint32_t b) { return codes[a] < codes[b]; });
+  // Leaves never share a corner code, so the order is total.
+  std::vector<std::pair<uint64_t, uint32_t>> order(codes.size());
+  parallel_for(codes.size(), threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) order[i] = {codes[i], static_cast<uint32_t>(i)};
+  });
+  radix_sort(order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
   const size_t n = codes.size();
   tree.code.resize(n);
   tree.level.resize(n);
   tree.object.resize(n);
   tree.simplex_begin.assign(n + 1, 0);
   for (size_t i = 0; i < n; ++i) {
-    const uint32_t o = order[i];
-    tree.code[i] = codes[o];
-    tree.level[i] = levels[o];
-    tree.object[i] = objects[o];
+    const uint32_t o = order[i].second;
     tree.simplex_begin[i + 1] = tree.simplex_begin[i] + (begins[o + 1] - begins[o]);
-    tree.depth = std::max<int>(tree.depth, levels[o]);
   }
   tree.simplex_index.resize(pool.size());
-  for (size_t i = 0; i < n; ++i) {
-    const uint32_t o = order[i];
-    std::copy(pool.begin() + begins[o], pool.begin() + begins[o + 1],
-              tree.simplex_index.begin() + tree.simplex_begin[i]);
-  }
+  parallel_for(n, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      const uint32_t o = order[i].second;
+      tree.code[i] = codes[o];
+      tree.level[i] = levels[o];
+      tree.object[i] = objects[o];
+      std::copy(pool.begin() + begins[o], pool.begin() + begins[o + 1],
+                tree.simplex_index.begin() + tree.simplex_begin[i]);
+    }
+  });
+  for (uint8_t l : levels) tree.depth = std::max<int>(tree.depth, l);
   return tree;
 }
 

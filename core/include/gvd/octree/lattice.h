@@ -74,12 +74,20 @@ inline uint64_t vertex_key(int dim, const Coord& p) {
   return p.c[0] + r * (p.c[1] + (dim == 3 ? r * uint64_t{p.c[2]} : 0));
 }
 inline Coord vertex_coord(int dim, uint64_t key) {
-  const uint64_t r = side_units(dim) + 1;
+  // One branch per dimension, so that the divisor is a constant (multiply and shift instead
+  // of a 64-bit division: positions are decoded from keys in every hot loop).
   Coord p;
-  p.c[0] = static_cast<uint32_t>(key % r);
-  key /= r;
-  p.c[1] = static_cast<uint32_t>(key % r);
-  p.c[2] = dim == 3 ? static_cast<uint32_t>(key / r) : 0;
+  if (dim == 3) {
+    constexpr uint64_t r = (uint64_t{1} << lattice_bits(3)) + 1;
+    p.c[0] = static_cast<uint32_t>(key % r);
+    key /= r;
+    p.c[1] = static_cast<uint32_t>(key % r);
+    p.c[2] = static_cast<uint32_t>(key / r);
+  } else {
+    constexpr uint64_t r = (uint64_t{1} << lattice_bits(2)) + 1;
+    p.c[0] = static_cast<uint32_t>(key % r);
+    p.c[1] = static_cast<uint32_t>(key / r);
+  }
   return p;
 }
 
