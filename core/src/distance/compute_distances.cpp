@@ -542,11 +542,18 @@ void sort_vertices(DistanceField& field, int threads) {
   const size_t nv = field.vertices.size();
   const std::vector<uint64_t>& key = field.vertices.key;
   if (std::is_sorted(key.begin(), key.end())) return;
-  std::vector<std::pair<uint64_t, uint32_t>> order(nv);
+  // Incremental rounds append new vertices behind the sorted old ones: sort the tail and merge.
+  size_t prefix = 1;
+  while (prefix < nv && key[prefix - 1] < key[prefix]) ++prefix;
+  using Keyed = std::pair<uint64_t, uint32_t>;
+  std::vector<Keyed> head(prefix), tail(nv - prefix);
   parallel_for(nv, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) order[i] = {key[i], static_cast<uint32_t>(i)};
+    for (size_t i = b; i < e; ++i)
+      (i < prefix ? head[i] : tail[i - prefix]) = {key[i], static_cast<uint32_t>(i)};
   });
-  radix_sort(order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
+  radix_sort(tail, [](const Keyed& x) { return x.first; }, threads);
+  std::vector<Keyed> order(nv);
+  std::merge(head.begin(), head.end(), tail.begin(), tail.end(), order.begin());
   std::vector<uint32_t> new_index(nv);
   parallel_for(nv, threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) new_index[order[i].second] = static_cast<uint32_t>(i);

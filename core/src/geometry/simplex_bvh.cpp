@@ -1,7 +1,9 @@
 #include "gvd/geometry/simplex_bvh.h"
 
 #include <algorithm>
+#include <exception>
 #include <numeric>
+#include <thread>
 
 #include "gvd/common/error.h"
 #include "gvd/geometry/primitives.h"
@@ -72,6 +74,54 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
     for (int k = 0; k < arity; ++k) boxes[i].extend(points[simplices[i].v[k]]);
     centers[i] = boxes[i].center();
   }
+  // One tree per object (with object_of), for nearest_in_object: it never visits another
+  // object's simplices. Built over simplex ids on a second thread while this one builds the
+  // shared tree; its items become positions k in `order_` afterwards.
+  uint32_t objects = 0;
+  std::vector<uint32_t> start;
+  std::exception_ptr object_error;
+  std::thread object_builder;
+  // Joins the second thread however this constructor is left.
+  struct Joiner {
+    std::thread& t;
+    ~Joiner() {
+      if (t.joinable()) t.join();
+    }
+  } joiner{object_builder};
+  if (object_of.size() == m) {
+    for (uint32_t o : object_of) objects = std::max(objects, o + 1);
+    start.assign(objects + 1, 0);
+    for (uint32_t s : object_of) ++start[s + 1];
+    for (uint32_t o = 0; o < objects; ++o) start[o + 1] += start[o];
+    object_items_.resize(m);
+    {
+      std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+      for (uint32_t s = 0; s < m; ++s) object_items_[fill[object_of[s]]++] = s;
+    }
+    object_root_.assign(objects, kNoRoot);
+    object_nodes_.reserve(m / 2 + 2 * objects);
+    auto build_objects = [&] {
+      for (uint32_t o = 0; o < objects; ++o) {
+        if (start[o] == start[o + 1]) continue;
+        object_root_[o] = static_cast<uint32_t>(object_nodes_.size());
+        build_tree(
+            object_items_, start[o], start[o + 1],
+            [&](uint32_t s) -> const Box& { return boxes[s]; },
+            [&](uint32_t s) -> const Vec3& { return centers[s]; }, object_nodes_);
+      }
+    };
+    if (m >= 4096) {
+      object_builder = std::thread([&] {
+        try {
+          build_objects();
+        } catch (...) {
+          object_error = std::current_exception();
+        }
+      });
+    } else {
+      build_objects();
+    }
+  }
   order_.resize(m);
   std::iota(order_.begin(), order_.end(), 0u);
   nodes_.reserve(m / 2 + 2);
@@ -100,28 +150,11 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
         n.object = l == r ? l : kMixed;
       }
     }
-    // One tree per object over its positions k in `order_` (grouped by object), for
-    // nearest_in_object: it never visits another object's simplices.
-    uint32_t objects = 0;
-    for (uint32_t o : object_of) objects = std::max(objects, o + 1);
-    std::vector<uint32_t> start(objects + 1, 0);
-    for (uint32_t k = 0; k < m; ++k) ++start[object_in_order_[k] + 1];
-    for (uint32_t o = 0; o < objects; ++o) start[o + 1] += start[o];
-    object_items_.resize(m);
-    {
-      std::vector<uint32_t> fill(start.begin(), start.end() - 1);
-      for (uint32_t k = 0; k < m; ++k) object_items_[fill[object_in_order_[k]]++] = k;
-    }
-    object_root_.assign(objects, kNoRoot);
-    object_nodes_.reserve(m / 2 + 2 * objects);
-    for (uint32_t o = 0; o < objects; ++o) {
-      if (start[o] == start[o + 1]) continue;
-      object_root_[o] = static_cast<uint32_t>(object_nodes_.size());
-      build_tree(
-          object_items_, start[o], start[o + 1],
-          [&](uint32_t k) -> const Box& { return boxes[order_[k]]; },
-          [&](uint32_t k) -> const Vec3& { return centers[order_[k]]; }, object_nodes_);
-    }
+    if (object_builder.joinable()) object_builder.join();
+    if (object_error) std::rethrow_exception(object_error);
+    std::vector<uint32_t> position(m);
+    for (uint32_t k = 0; k < m; ++k) position[order_[k]] = k;
+    for (uint32_t& item : object_items_) item = position[item];
   }
 }
 

@@ -52,7 +52,7 @@ ContactPairs find_contact_pairs(const UnitGeometry& g, const SimplexBvh& bvh, do
               d2 = triangle_triangle_dist2(ta, tb);
             }
             if (d2 <= tol2) local.insert(key);
-          });
+          }, a);
         }
       },
       256);

@@ -50,9 +50,12 @@ class SimplexBvh {
   /// The exact closest point on the simplices of one object (needs `object_of` at
   /// construction).
   ClosestHit nearest_in_object(Vec3 p, uint32_t object, double max_dist2 = 1e300) const;
-  /// Calls `visit(simplex)` for every simplex whose bounding box overlaps `box`.
+  /// Calls `visit(simplex)` for every simplex whose bounding box overlaps `box`; with
+  /// `skip_object` (needs `object_of` at construction), subtrees whose simplices all belong to
+  /// that object are not entered (their simplices are not visited).
   template <class Visit>
-  void for_each_overlapping(const Box& box, Visit&& visit) const;
+  void for_each_overlapping(const Box& box, Visit&& visit,
+                            uint32_t skip_object = kMixed) const;
 
   size_t memory_bytes() const;
 
@@ -180,13 +183,14 @@ ClosestHit SimplexBvh::nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, u
 }
 
 template <class Visit>
-void SimplexBvh::for_each_overlapping(const Box& box, Visit&& visit) const {
+void SimplexBvh::for_each_overlapping(const Box& box, Visit&& visit, uint32_t skip_object) const {
   if (nodes_.empty()) return;
   uint32_t stack[128];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Node& n = nodes_[stack[--top]];
+    if (skip_object != kMixed && n.object == skip_object) continue;
     bool overlap = true;
     for (int i = 0; i < 3; ++i)
       if (n.box.lo[i] > box.hi[i] || n.box.hi[i] < box.lo[i]) overlap = false;
