@@ -111,7 +111,7 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
       }
     };
     if (m >= 4096) {
-      object_builder = std::thread([&] {
+      object_builder = std::thread([build_objects, &object_error] {
         try {
           build_objects();
         } catch (...) {

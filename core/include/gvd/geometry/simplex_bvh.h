@@ -50,9 +50,10 @@ class SimplexBvh {
   /// The exact closest point on the simplices of one object (needs `object_of` at
   /// construction).
   ClosestHit nearest_in_object(Vec3 p, uint32_t object, double max_dist2 = 1e300) const;
-  /// Calls `visit(simplex)` for every simplex whose bounding box overlaps `box`; with
+  /// Calls `visit(simplex)` for every simplex whose bounding box overlaps `box` (and for the
+  /// other simplices of the BVH leaves holding one: callers test the simplex itself); with
   /// `skip_object` (needs `object_of` at construction), subtrees whose simplices all belong to
-  /// that object are not entered (their simplices are not visited).
+  /// that object are not entered (a pruning hint: its simplices in mixed leaves are visited).
   template <class Visit>
   void for_each_overlapping(const Box& box, Visit&& visit,
                             uint32_t skip_object = kMixed) const;

@@ -1,0 +1,94 @@
+#include <gtest/gtest.h>
+
+#include <random>
+#include <set>
+
+#include "gvd/geometry/simplex_bvh.h"
+#include "support/scenes.h"
+
+namespace gvd {
+namespace {
+
+// Three finely tessellated spheres: more than 4096 triangles, so the per-object trees are
+// built on their own thread.
+struct Fixture {
+  Scene scene;
+  Domain domain;
+  UnitGeometry g;
+  SimplexBvh bvh;
+  Fixture() {
+    scene = test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 24, 48),
+                                 test::make_sphere("b", {2.05, 0, 0}, 1, 24, 48),
+                                 test::make_sphere("c", {1, 1.8, 0.3}, 0.8, 24, 48)});
+    domain = make_domain(scene);
+    g = make_unit_geometry(scene, domain);
+    bvh = SimplexBvh(3, g.points, g.simplices, g.object_of);
+  }
+  double brute(Vec3 p, uint32_t object, bool any) const {
+    double best = 1e300;
+    for (uint32_t s = 0; s < g.simplices.size(); ++s) {
+      if (!any && g.object_of[s] != object) continue;
+      best = std::min(best, dist2(p, closest_point_on_simplex(3, g.points, g.simplices[s], p)));
+    }
+    return best;
+  }
+};
+
+TEST(SimplexBvh, NearestAndNearestInObjectMatchBruteForce) {
+  const Fixture f;
+  ASSERT_GT(f.g.simplices.size(), 4096u);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 p{u(rng), u(rng), u(rng)};
+    const double all = f.brute(p, 0, true);
+    const ClosestHit hit = f.bvh.nearest(p);
+    ASSERT_TRUE(hit.found());
+    EXPECT_NEAR(hit.dist2, all, 1e-11 * all) << "point " << i;
+    EXPECT_NEAR(dist2(p, hit.point), hit.dist2, 1e-12 * hit.dist2 + 1e-300);
+    for (uint32_t o = 0; o < 3; ++o) {
+      const double truth = f.brute(p, o, false);
+      const ClosestHit in = f.bvh.nearest_in_object(p, o);
+      ASSERT_TRUE(in.found());
+      EXPECT_EQ(f.g.object_of[in.simplex], o);
+      EXPECT_NEAR(in.dist2, truth, 1e-11 * truth) << "point " << i << " object " << o;
+      // A bound below the answer finds nothing; one above finds the same distance.
+      EXPECT_FALSE(f.bvh.nearest_in_object(p, o, 0.5 * truth).found());
+      EXPECT_NEAR(f.bvh.nearest_in_object(p, o, 2 * truth).dist2, truth, 1e-11 * truth);
+    }
+  }
+}
+
+TEST(SimplexBvh, OverlapQueriesCanSkipOneObject) {
+  const Fixture f;
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 50; ++i) {
+    Box box;
+    box.extend(Vec3{u(rng), u(rng), u(rng)});
+    box.extend(box.lo + Vec3{0.2, 0.2, 0.2});
+    const uint32_t skip = static_cast<uint32_t>(i % 3);
+    std::set<uint32_t> got, want;
+    size_t skipped_seen = 0, seen_without_skip = 0;
+    f.bvh.for_each_overlapping(box, [&](uint32_t s) {
+      got.insert(s);
+      skipped_seen += f.g.object_of[s] == skip;
+    }, skip);
+    f.bvh.for_each_overlapping(box, [&](uint32_t s) { seen_without_skip += f.g.object_of[s] == skip; });
+    // Only subtrees of that object alone are pruned: its simplices in mixed leaves remain.
+    EXPECT_LE(skipped_seen, seen_without_skip);
+    for (uint32_t s = 0; s < f.g.simplices.size(); ++s) {
+      if (f.g.object_of[s] == skip) continue;
+      Box b;
+      for (int k = 0; k < 3; ++k) b.extend(f.g.points[f.g.simplices[s].v[k]]);
+      bool overlap = true;
+      for (int a = 0; a < 3; ++a) overlap &= b.lo[a] <= box.hi[a] && b.hi[a] >= box.lo[a];
+      if (overlap) want.insert(s);
+    }
+    // Every overlapping simplex is visited (leaf-mates of the same subtree may be too).
+    for (uint32_t s : want) EXPECT_TRUE(got.count(s)) << "box " << i << " simplex " << s;
+  }
+}
+
+}  // namespace
+}  // namespace gvd
