@@ -234,7 +234,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     parallel_for(
         n, threads,
         [&](size_t b, size_t e, int) {
-          CellSet& local = out.at(b);
+          CellSet local;  // moved in at the end: no false sharing between chunks
           std::vector<uint32_t> scratch;
           for (size_t i = b; i < e; ++i) {
             if (!split[i]) continue;
@@ -244,6 +244,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
                          if (!list.empty()) local.add(cc, list);
                        });
           }
+          out.at(b) = std::move(local);
         },
         grain);
     CellSet next;
@@ -333,8 +334,9 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
     parallel_for(
         n, threads,
         [&](size_t b, size_t e, int) {
-          CellSet& next = next_chunks.at(b);
-          Leaves& leaves = leaf_chunks.at(b);
+          // Filled locally and moved in at the end: no false sharing between chunks.
+          CellSet next;
+          Leaves leaves;
           std::vector<uint32_t> scratch;
           for (size_t i = b; i < e; ++i) {
             const uint64_t code = current.codes[i];
@@ -370,6 +372,8 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
               leaves.lists.add(0, scratch);
             }
           }
+          next_chunks.at(b) = std::move(next);
+          leaf_chunks.at(b) = std::move(leaves);
         },
         grain);
     CellSet next;

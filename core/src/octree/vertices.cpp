@@ -19,7 +19,7 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
   parallel_for(
       octree.leaf_count(), threads,
       [&](size_t b, size_t e, int) {
-        std::vector<uint64_t>& out_keys = chunks[b / grain];
+        std::vector<uint64_t> out_keys;  // moved into chunks[] at the end (no false sharing)
         out_keys.reserve((e - b) * 2);
         std::vector<uint64_t> recent(4096, ~0ull);
         for (size_t i = b; i < e; ++i) {
@@ -31,6 +31,7 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
             out_keys.push_back(key);
           });
         }
+        chunks[b / grain] = std::move(out_keys);
       },
       grain);
   size_t total = 0;

@@ -65,10 +65,17 @@ class CellSurfacer {
   // surfacing looks them up instead of refining each edge once per face using it.
   void prepare_bisectors(int threads) {
     const size_t n = octree_.leaf_count();
-    std::vector<std::vector<uint64_t>> found(static_cast<size_t>(std::max(threads, 1)));
+    const size_t grain = 256;
+    // One list per chunk, filled locally and moved in once (no shared vector written by
+    // both threads); a small table of recent edges drops most repeats (an edge is seen from
+    // up to four leaves, two faces each).
+    std::vector<std::vector<uint64_t>> found((n + grain - 1) / grain);
     parallel_for(
         n, threads,
-        [&](size_t b, size_t e, int t) {
+        [&](size_t b, size_t e, int) {
+          std::vector<uint64_t> mine;
+          uint64_t recent[256];
+          std::fill(std::begin(recent), std::end(recent), ~0ull);
           for (size_t leaf = b; leaf < e; ++leaf) {
             const LeafGrid grid = field_.grid(octree_, static_cast<uint32_t>(leaf));
             const ObjectId first = field_.label[grid[0]];
@@ -81,14 +88,17 @@ class CellSurfacer {
                     uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
                     if (field_.label[v] == field_.label[w]) continue;
                     if (v > w) std::swap(v, w);
-                    if (coarse(v, w, detail::bisector_point(field_, v, w))) {
-                      found[static_cast<size_t>(t)].push_back(uint64_t{v} << 32 | w);
-                    }
+                    const uint64_t key = uint64_t{v} << 32 | w;
+                    uint64_t& slot = recent[(key * 0x9e3779b97f4a7c15ull) >> 56];
+                    if (slot == key) continue;
+                    slot = key;
+                    if (coarse(v, w, detail::bisector_point(field_, v, w))) mine.push_back(key);
                   }
                 });
           }
+          found[b / grain] = std::move(mine);
         },
-        256);
+        grain);
     std::vector<uint64_t> keys;
     for (auto& f : found) keys.insert(keys.end(), f.begin(), f.end());
     radix_sort(keys, [](uint64_t k) { return k; }, threads);
@@ -624,13 +634,16 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
           throw Error(ErrorCode::kCancelled, "surfacing cancelled");
         }
-        SurfaceChunk& chunk = chunks[b / grain];
+        // Filled locally and moved in once: chunks next to each other in the array are
+        // worked on by different threads (no false sharing on their vectors).
+        SurfaceChunk chunk;
         std::vector<Piece> local;
         for (size_t i = b; i < e; ++i) {
           local.clear();
           surfacer.cell(static_cast<uint32_t>(i), local);
           chunk.add(local, arity);
         }
+        chunks[b / grain] = std::move(chunk);
       },
       grain);
   // All records in one array (chunk by chunk, in parallel); a chunk's triangles index its own

@@ -165,7 +165,7 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
       n, threads,
       [&](size_t b, size_t e, int) {
         std::vector<uint64_t> edges;
-        auto& pairs = edge_chunks[b / grain];
+        std::vector<std::pair<uint64_t, uint32_t>> pairs;  // moved in at the end
         for (size_t i = b; i < e; ++i) {
           const uint32_t leaf = static_cast<uint32_t>(i);
           const LeafGrid grid = field.grid(octree, leaf);
@@ -203,6 +203,7 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
           if (f != 0 && octree.level[leaf] >= limit) f |= 4;
           flag[i] = f;
         }
+        edge_chunks[b / grain] = std::move(pairs);
       },
       grain);
   if (check_unseen) {
