@@ -111,6 +111,33 @@ struct CellSet {
   }
 };
 
+// The parts one after the other, copied in parallel (each part into its own slot).
+CellSet concat(std::vector<CellSet>& parts, int threads) {
+  std::vector<size_t> code_at(parts.size() + 1, 0), pool_at(parts.size() + 1, 0);
+  for (size_t p = 0; p < parts.size(); ++p) {
+    code_at[p + 1] = code_at[p] + parts[p].codes.size();
+    pool_at[p + 1] = pool_at[p] + parts[p].pool.size();
+  }
+  CellSet out;
+  out.codes.resize(code_at.back());
+  out.pool.resize(pool_at.back());
+  out.begin.assign(code_at.back() + 1, 0);
+  parallel_for(
+      parts.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p) {
+          const CellSet& part = parts[p];
+          std::copy(part.codes.begin(), part.codes.end(), out.codes.begin() + code_at[p]);
+          std::copy(part.pool.begin(), part.pool.end(), out.pool.begin() + pool_at[p]);
+          for (size_t i = 0; i < part.codes.size(); ++i)
+            out.begin[code_at[p] + i + 1] = part.begin[i + 1] + static_cast<uint32_t>(pool_at[p]);
+          parts[p] = CellSet();
+        }
+      },
+      4);
+  return out;
+}
+
 // Children of cell (code, level) with the simplices of `list` that touch them, in child
 // order; calls out(child_code, child_list).
 template <class Out>
@@ -247,8 +274,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
           out.at(b) = std::move(local);
         },
         grain);
-    CellSet next;
-    for (const CellSet& c : out.chunks) next.append(c);
+    CellSet next = concat(out.chunks, threads);
     cache.sets.push_back(std::move(current));
     cache.index.push_back(std::move(index_of_code));
     cache.split.push_back(internal[level]);
@@ -376,16 +402,17 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
           leaf_chunks.at(b) = std::move(leaves);
         },
         grain);
-    CellSet next;
+    CellSet next = concat(next_chunks.chunks, threads);
     Leaves merged;
-    for (size_t c = 0; c < next_chunks.chunks.size(); ++c) {
-      next.append(next_chunks.chunks[c]);
-      Leaves& l = leaf_chunks.chunks[c];
+    std::vector<CellSet> lists;
+    lists.reserve(leaf_chunks.chunks.size());
+    for (Leaves& l : leaf_chunks.chunks) {
       merged.code.insert(merged.code.end(), l.code.begin(), l.code.end());
       merged.level.insert(merged.level.end(), l.level.begin(), l.level.end());
       merged.object.insert(merged.object.end(), l.object.begin(), l.object.end());
-      merged.lists.append(l.lists);
+      lists.push_back(std::move(l.lists));
     }
+    merged.lists = concat(lists, threads);
     leaf_count += merged.code.size();
     if (leaf_count + next.size() > options.max_leaves) {
       throw Error(ErrorCode::kLimitExceeded, "octree exceeds the leaf limit of " +
