@@ -103,12 +103,6 @@ struct CellSet {
     pool.insert(pool.end(), list.begin(), list.end());
     begin.push_back(static_cast<uint32_t>(pool.size()));
   }
-  void append(const CellSet& o) {
-    const uint32_t off = static_cast<uint32_t>(pool.size());
-    codes.insert(codes.end(), o.codes.begin(), o.codes.end());
-    pool.insert(pool.end(), o.pool.begin(), o.pool.end());
-    for (size_t i = 1; i < o.begin.size(); ++i) begin.push_back(o.begin[i] + off);
-  }
 };
 
 // The parts one after the other, copied in parallel (each part into its own slot).

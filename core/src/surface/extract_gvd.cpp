@@ -211,7 +211,8 @@ class CellSurfacer {
   // fixed_axis >= 0 x moves only in that axis' plane (a face). hints[k] is a point on object
   // labels[k] (it bounds the first search). A step that would leave `box`
   // (shrunk by a hair, so that the point stays off the faces and edges where other pieces
-  // end) is shortened at its boundary. Two rounds; deterministic in its inputs.
+  // end) is shortened at its boundary. Two rounds (one when the first step is below 1e-6 of
+  // the distance); deterministic in its inputs.
   Vec3 toward_equidistant(Vec3 x, const ObjectId* labels, const Vec3* hints, int nl,
                           const Box& cell_box, int fixed_axis) const {
     Box box = cell_box;
@@ -258,7 +259,8 @@ class CellSurfacer {
       const Vec3 next = x + step * t;
       for (int i = 0; i < 3; ++i)
         if (!(next[i] >= box.lo[i] && next[i] <= box.hi[i])) return x;
-      const bool small = norm2(next - x) <= 1e-24 * (norm2(box.hi - box.lo) + 1e-300);
+      // A step below a millionth of the distance: the next one would be smaller still.
+      const bool small = norm2(next - x) <= 1e-12 * dist2(x, p[0]);
       x = next;
       if (small) break;
     }
