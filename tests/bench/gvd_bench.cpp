@@ -140,12 +140,15 @@ double stage_seconds(const gvd::ResultStats& s, const std::string& name) {
   return 0;
 }
 
-void BM_Gvd(benchmark::State& state, const SceneCase* c) {
+/// `distance`: the pipeline's method ("exact", the default, or the paper's "wavefront",
+/// reported as "<scene>/wf" so that both appear side by side in one run).
+void BM_Gvd(benchmark::State& state, const SceneCase* c, const std::string& distance) {
   const Scene& scene = scene_of(*c);
   gvd::PipelineOptions options;
   options.threads = kThreads;
+  options.distance = distance;
   SceneRun run;
-  run.name = c->name;
+  run.name = distance == "exact" ? std::string(c->name) : std::string(c->name) + "/wf";
   run.paper = c->paper;
   run.objects = scene.objects.size();
   run.simplices = scene.simplex_count();
@@ -159,7 +162,7 @@ void BM_Gvd(benchmark::State& state, const SceneCase* c) {
       state.PauseTiming();
       run.stats = r.stats;
       run.warnings = r.scene.warnings;
-      if (std::string(c->name) == "polygons2d") {
+      if (std::string(c->name) == "polygons2d" && distance == "exact") {
         polygons_graph() = r.graph.edges;
         polygons_domain() = r.domain.box();
       }
@@ -237,7 +240,18 @@ void register_benchmarks(bool slow) {
   if (slow)
     for (const SceneCase& c : slow_cases()) list.push_back(&c);
   for (const SceneCase* c : list) {
-    benchmark::RegisterBenchmark((std::string("BM_Gvd/") + c->name).c_str(), BM_Gvd, c)
+    benchmark::RegisterBenchmark((std::string("BM_Gvd/") + c->name).c_str(), BM_Gvd, c,
+                                 std::string("exact"))
+        ->Iterations(1)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  }
+  // The paper's wavefront distance transform on the Table 1 scenes (spheres: --gvd_slow).
+  for (const SceneCase* c : list) {
+    if (std::string(c->name) == "spheres" && !slow) continue;
+    if (std::string(c->name).find("1e-4") != std::string::npos) continue;
+    benchmark::RegisterBenchmark((std::string("BM_GvdWavefront/") + c->name).c_str(), BM_Gvd, c,
+                                 std::string("wavefront"))
         ->Iterations(1)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
