@@ -6,6 +6,7 @@
 // --gvd_write_scenes writes the scenes as scene JSON into DIR (for `gvd compute`) and exits.
 
 #include <benchmark/benchmark.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -83,8 +84,11 @@ const Scene& scene_of(const SceneCase& c) {
   return it->second;
 }
 
-/// Resets the peak resident set size (Linux >= 4.0: "5" > /proc/self/clear_refs).
+/// Resets the peak resident set size (Linux >= 4.0: "5" > /proc/self/clear_refs), after
+/// handing the memory earlier benchmarks freed back to the system (else it stays resident
+/// and counts towards this scene's peak).
 bool reset_peak_rss() {
+  malloc_trim(0);
   std::ofstream f("/proc/self/clear_refs");
   f << "5";
   f.flush();
