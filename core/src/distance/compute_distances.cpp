@@ -111,7 +111,8 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
         z[j] = {lattice::morton(dim, c), todo[j]};
       }
     });
-    radix_sort(z, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
+    radix_sort(
+        z, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
     for (size_t j = 0; j < todo.size(); ++j) todo[j] = z[j].second;
   }
   std::vector<Vec3> pos(todo.size());
@@ -256,8 +257,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   }
   if (options.method == DistanceMethod::kExact) {
     field.seconds_topology = part.lap();
-    exact_everywhere(field, geometry, bvh, options, previous, incremental ? old_count : 0,
-                     threads);
+    exact_everywhere(field, geometry, bvh, options, previous, incremental ? old_count : 0, threads);
     field.seconds_init = part.lap();
     field.leaf_begin = std::move(leaf_verts.begin);
     field.leaf_vertex = std::move(leaf_verts.items);
@@ -552,7 +552,8 @@ void sort_vertices(DistanceField& field, int threads) {
     for (size_t i = b; i < e; ++i)
       (i < prefix ? head[i] : tail[i - prefix]) = {key[i], static_cast<uint32_t>(i)};
   });
-  radix_sort(tail, [](const Keyed& x) { return x.first; }, threads);
+  radix_sort(
+      tail, [](const Keyed& x) { return x.first; }, threads);
   std::vector<Keyed> order(nv);
   std::merge(head.begin(), head.end(), tail.begin(), tail.end(), order.begin());
   std::vector<uint32_t> new_index(nv);

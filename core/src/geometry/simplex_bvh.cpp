@@ -52,8 +52,9 @@ void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxO
     if (ext.y > ext[axis]) axis = 1;
     if (ext.z > ext[axis]) axis = 2;
     const uint32_t mid = f.begin + (f.end - f.begin) / 2;
-    std::nth_element(items.begin() + f.begin, items.begin() + mid, items.begin() + f.end,
-                     [&](uint32_t a, uint32_t b) { return center_of(a)[axis] < center_of(b)[axis]; });
+    std::nth_element(
+        items.begin() + f.begin, items.begin() + mid, items.begin() + f.end,
+        [&](uint32_t a, uint32_t b) { return center_of(a)[axis] < center_of(b)[axis]; });
     // Right subtree is pushed first so the left one (popped next) directly follows `self`.
     stack.push_back({mid, f.end, self});
     stack.push_back({f.begin, mid, ~0u});
@@ -163,8 +164,8 @@ ClosestHit SimplexBvh::nearest_in_object(Vec3 p, uint32_t object, double max_dis
             "nearest_in_object needs the objects of the simplices at construction");
   if (object >= object_root_.size() || object_root_[object] == kNoRoot) return ClosestHit{};
   return nearest_in_tree(
-      p, object_nodes_, object_root_[object], object_items_.data(),
-      [](uint32_t) { return true; }, [](uint32_t) { return false; }, max_dist2);
+      p, object_nodes_, object_root_[object], object_items_.data(), [](uint32_t) { return true; },
+      [](uint32_t) { return false; }, max_dist2);
 }
 
 size_t SimplexBvh::memory_bytes() const {

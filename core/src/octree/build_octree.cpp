@@ -310,15 +310,16 @@ void balance(int dim, InternalSets& internal, int threads) {
               const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size, z = c.c[2] + dz * size;
               if (x < 0 || y < 0 || z < 0 || x >= limit || y >= limit || (dim == 3 && z >= limit))
                 continue;
-              Coord q{{static_cast<uint32_t>(x), static_cast<uint32_t>(y),
-                       static_cast<uint32_t>(z)}};
+              Coord q{
+                  {static_cast<uint32_t>(x), static_cast<uint32_t>(y), static_cast<uint32_t>(z)}};
               *out++ = parent_code(dim, lattice::morton(dim, q), level);
             }
           }
         }
       }
     });
-    radix_sort(required, [](uint64_t k) { return k; }, threads);
+    radix_sort(
+        required, [](uint64_t k) { return k; }, threads);
     required.erase(std::unique(required.begin(), required.end()), required.end());
     for (uint64_t p : required)
       if (p != ~0ull) internal[level - 1].insert(p, 0);
@@ -440,7 +441,8 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
   parallel_for(codes.size(), threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) order[i] = {codes[i], static_cast<uint32_t>(i)};
   });
-  radix_sort(order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
+  radix_sort(
+      order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
   const size_t n = codes.size();
   tree.code.resize(n);
   tree.level.resize(n);

@@ -221,7 +221,8 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   // implies (each internal radix node contributes the cells between its parent's prefix
   // and its own), per level.
   std::vector<uint64_t> keys = steps->vertex_keys(max_depth);
-  radix_sort(keys, [](uint64_t k) { return k; }, threads);
+  radix_sort(
+      keys, [](uint64_t k) { return k; }, threads);
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   st.vertex_keys = keys.size();
   std::vector<FlatMap64> internal(max_depth + 1);  // cells split in the resolved octree

@@ -35,24 +35,27 @@ ContactPairs find_contact_pairs(const UnitGeometry& g, const SimplexBvh& bvh, do
           box.lo = box.lo - Vec3{tolerance, tolerance, tolerance};
           box.hi = box.hi + Vec3{tolerance, tolerance, tolerance};
           const ObjectId a = g.object_of[s];
-          bvh.for_each_overlapping(box, [&](uint32_t y) {
-            if (y <= s) return;
-            const ObjectId c = g.object_of[y];
-            if (c == a) return;
-            const std::pair<ObjectId, ObjectId> key{std::min(a, c), std::max(a, c)};
-            if (local.count(key)) return;
-            const Simplex& z = g.simplices[y];
-            double d2;
-            if (g.dimension == 2) {
-              d2 = segment_segment_dist2(g.points[x.v[0]], g.points[x.v[1]], g.points[z.v[0]],
-                                         g.points[z.v[1]]);
-            } else {
-              const Vec3 ta[3] = {g.points[x.v[0]], g.points[x.v[1]], g.points[x.v[2]]};
-              const Vec3 tb[3] = {g.points[z.v[0]], g.points[z.v[1]], g.points[z.v[2]]};
-              d2 = triangle_triangle_dist2(ta, tb);
-            }
-            if (d2 <= tol2) local.insert(key);
-          }, a);
+          bvh.for_each_overlapping(
+              box,
+              [&](uint32_t y) {
+                if (y <= s) return;
+                const ObjectId c = g.object_of[y];
+                if (c == a) return;
+                const std::pair<ObjectId, ObjectId> key{std::min(a, c), std::max(a, c)};
+                if (local.count(key)) return;
+                const Simplex& z = g.simplices[y];
+                double d2;
+                if (g.dimension == 2) {
+                  d2 = segment_segment_dist2(g.points[x.v[0]], g.points[x.v[1]], g.points[z.v[0]],
+                                             g.points[z.v[1]]);
+                } else {
+                  const Vec3 ta[3] = {g.points[x.v[0]], g.points[x.v[1]], g.points[x.v[2]]};
+                  const Vec3 tb[3] = {g.points[z.v[0]], g.points[z.v[1]], g.points[z.v[2]]};
+                  d2 = triangle_triangle_dist2(ta, tb);
+                }
+                if (d2 <= tol2) local.insert(key);
+              },
+              a);
         }
       },
       256);

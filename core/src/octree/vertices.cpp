@@ -42,7 +42,8 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
     keys.insert(keys.end(), c.begin(), c.end());
     std::vector<uint64_t>().swap(c);
   }
-  radix_sort(keys, [](uint64_t k) { return k; }, threads);
+  radix_sort(
+      keys, [](uint64_t k) { return k; }, threads);
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   out.key = std::move(keys);
   out.rebuild_index();

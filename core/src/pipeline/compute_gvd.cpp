@@ -82,7 +82,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   dopt.threads = options.threads;
   dopt.cancel = options.cancel;
   dopt.solver = solver.get();
-  dopt.method = options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
+  dopt.method =
+      options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
   r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
   r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
 

@@ -18,7 +18,7 @@ namespace gvd::detail {
 struct FacePolygon {
   int n = 0;
   uint32_t v[8] = {};
-  uint8_t slot[8] = {};     ///< grid index (LeafGrid) of each vertex
+  uint8_t slot[8] = {};    ///< grid index (LeafGrid) of each vertex
   int axis = 2;            ///< normal axis of the face (2 for the 2D cell itself)
   int side = 0;            ///< 0: face at the cell's lower coordinate, 2: upper (3D only)
   bool on_domain = false;  ///< 3D: the face lies on the domain box

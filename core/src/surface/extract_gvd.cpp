@@ -101,7 +101,8 @@ class CellSurfacer {
         grain);
     std::vector<uint64_t> keys;
     for (auto& f : found) keys.insert(keys.end(), f.begin(), f.end());
-    radix_sort(keys, [](uint64_t k) { return k; }, threads);
+    radix_sort(
+        keys, [](uint64_t k) { return k; }, threads);
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     refined_.resize(keys.size());
     parallel_for(
@@ -587,8 +588,9 @@ struct SurfaceChunk {
       Simplex t{{0, 0, 0}, piece.object};
       for (int k = 0; k < arity; ++k) {
         const Vec3& p = piece.p[k];
-        size_t slot = (position_hash(p) ^ (uint64_t{piece.object} * 0x9e3779b97f4a7c15ull) ^
-                       piece.other) & mask;
+        size_t slot =
+            (position_hash(p) ^ (uint64_t{piece.object} * 0x9e3779b97f4a7c15ull) ^ piece.other) &
+            mask;
         uint32_t at = kEmpty;
         for (; table[slot] != kEmpty; slot = (slot + 1) & mask) {
           const Corner& c = corners[first + table[slot]];
@@ -750,8 +752,8 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
     for (size_t i = b; i < e; ++i) {
       const Sorted* before = i == 0 ? nullptr : &sorted[i - 1];
       new_point[i] = before == nullptr || sorted[i].p != before->p;
-      new_vertex[i] = new_point[i] || sorted[i].object != before->object ||
-                      sorted[i].other != before->other;
+      new_vertex[i] =
+          new_point[i] || sorted[i].object != before->object || sorted[i].other != before->other;
     }
   });
   std::vector<size_t> run_start;
@@ -772,7 +774,8 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
       run_order[r] = {first, static_cast<uint32_t>(r)};
     }
   });
-  radix_sort(run_order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
+  radix_sort(
+      run_order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
   std::vector<double> run_clearance(runs);
   parallel_for(
       runs, threads,

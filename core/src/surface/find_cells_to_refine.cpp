@@ -32,7 +32,8 @@ bool is_ambiguous(const Octree& octree, const DistanceField& field, const LeafGr
   Edge edges[96];
   int ne = 0;
   detail::for_each_face_polygon(octree, grid, leaf, [&](const detail::FacePolygon& poly) {
-    for (int i = 0; i < poly.n && ne < 96; ++i) edges[ne++] = {poly.slot[i], poly.slot[(i + 1) % poly.n]};
+    for (int i = 0; i < poly.n && ne < 96; ++i)
+      edges[ne++] = {poly.slot[i], poly.slot[(i + 1) % poly.n]};
   });
   for (int e = 0; e < ne; ++e) {
     if (field.label[grid[edges[e].a]] == field.label[grid[edges[e].b]]) {

@@ -1,9 +1,10 @@
+#include "gvd/geometry/simplex_bvh.h"
+
 #include <gtest/gtest.h>
 
 #include <random>
 #include <set>
 
-#include "gvd/geometry/simplex_bvh.h"
 #include "support/scenes.h"
 
 namespace gvd {
@@ -70,11 +71,15 @@ TEST(SimplexBvh, OverlapQueriesCanSkipOneObject) {
     const uint32_t skip = static_cast<uint32_t>(i % 3);
     std::set<uint32_t> got, want;
     size_t skipped_seen = 0, seen_without_skip = 0;
-    f.bvh.for_each_overlapping(box, [&](uint32_t s) {
-      got.insert(s);
-      skipped_seen += f.g.object_of[s] == skip;
-    }, skip);
-    f.bvh.for_each_overlapping(box, [&](uint32_t s) { seen_without_skip += f.g.object_of[s] == skip; });
+    f.bvh.for_each_overlapping(
+        box,
+        [&](uint32_t s) {
+          got.insert(s);
+          skipped_seen += f.g.object_of[s] == skip;
+        },
+        skip);
+    f.bvh.for_each_overlapping(box,
+                               [&](uint32_t s) { seen_without_skip += f.g.object_of[s] == skip; });
     // Only subtrees of that object alone are pruned: its simplices in mixed leaves remain.
     EXPECT_LE(skipped_seen, seen_without_skip);
     for (uint32_t s = 0; s < f.g.simplices.size(); ++s) {

@@ -252,9 +252,10 @@ TEST(ComputeGvd, ThePapersWavefrontDistanceGivesAValidGvdToo) {
   const Scene gears = test::make_scene(
       2, {test::make_gear2d("g1", {0, 0, 0}, 0.8, 1.0, 12, 0.0),
           test::make_gear2d("g2", {2.0 + 1e-4, 0, 0}, 0.8, 1.0, 12, 3.14159265358979 / 12)});
-  const Scene spheres = test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 0.5, 8, 16),
-                                             test::make_sphere("b", {1.002, 0, 0}, 0.5, 8, 16),
-                                             test::make_box("c", {-0.5, 0.6, -0.5}, {1.5, 1, 0.5})});
+  const Scene spheres =
+      test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 0.5, 8, 16),
+                           test::make_sphere("b", {1.002, 0, 0}, 0.5, 8, 16),
+                           test::make_box("c", {-0.5, 0.6, -0.5}, {1.5, 1, 0.5})});
   for (const Scene* scene : {&gears, &spheres}) {
     SCOPED_TRACE(scene->dimension);
     expect_valid(run(*scene, 0, "exact"));
@@ -278,7 +279,8 @@ TEST(ComputeGvd, MirrorImagesWhoseBisectorIsAnOctreePlaneStayOriented) {
                                     test::make_box("c", {-0.5, 0.6, -0.5}, {1.5, 1, 0.5})}));
   ASSERT_NEAR(r.domain.to_unit({0.501, 0, 0}).x, 0.5, 1e-12);
   expect_valid(r);
-  EXPECT_EQ(graph_pairs(r.graph), (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {0, 2}, {1, 2}}));
+  EXPECT_EQ(graph_pairs(r.graph),
+            (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {0, 2}, {1, 2}}));
 }
 
 TEST(ComputeGvd, IntersectingBoxesStayClosed) {

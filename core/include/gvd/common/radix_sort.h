@@ -26,7 +26,9 @@ void radix_sort(std::vector<T>& items, KeyOf key_of, int threads = 1) {
   std::vector<size_t> count(parts * kBuckets);  // [part][bucket]
   for (int shift = 0; shift < 64; shift += kBits) {
     std::fill(count.begin(), count.end(), 0);
-    auto digit = [&](const T& x) { return static_cast<size_t>((key_of(x) >> shift) & (kBuckets - 1)); };
+    auto digit = [&](const T& x) {
+      return static_cast<size_t>((key_of(x) >> shift) & (kBuckets - 1));
+    };
     parallel_for(
         parts, static_cast<int>(parts),
         [&](size_t pb, size_t pe, int) {

@@ -61,8 +61,8 @@ struct DistanceOptions {
   int threads = 0;                            ///< 0 = all cores
   const std::atomic<bool>* cancel = nullptr;  ///< stop with gvd::Error{kCancelled}
   DistanceMethod method = DistanceMethod::kExact;
-  /// kWavefront only: after the wavefront, give every vertex of a leaf with mixed labels (a leaf the GVD
-  /// crosses) its exact closest point, repeating while new leaves become mixed. The GVD is
+  /// kWavefront only: after the wavefront, give every vertex of a leaf with mixed labels (a leaf
+  /// the GVD crosses) its exact closest point, repeating while new leaves become mixed. The GVD is
   /// then surfaced from exact points at both ends of every crossed edge, and ambiguity tests
   /// see true labels instead of wavefront noise. Costs one bounded BVH query per such vertex.
   bool exact_near_gvd = true;

@@ -55,8 +55,7 @@ class SimplexBvh {
   /// `skip_object` (needs `object_of` at construction), subtrees whose simplices all belong to
   /// that object are not entered (a pruning hint: its simplices in mixed leaves are visited).
   template <class Visit>
-  void for_each_overlapping(const Box& box, Visit&& visit,
-                            uint32_t skip_object = kMixed) const;
+  void for_each_overlapping(const Box& box, Visit&& visit, uint32_t skip_object = kMixed) const;
 
   size_t memory_bytes() const;
 
@@ -100,8 +99,8 @@ class SimplexBvh {
   /// `order_`), or are those positions themselves when `items` is null.
   template <class AcceptItem, class SkipNode>
   ClosestHit nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, uint32_t root,
-                             const uint32_t* items, AcceptItem&& accept_item,
-                             SkipNode&& skip_node, double max_dist2) const;
+                             const uint32_t* items, AcceptItem&& accept_item, SkipNode&& skip_node,
+                             double max_dist2) const;
 
   double simplex_box_distance2(uint32_t k, Vec3 p) const {
     const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
@@ -156,8 +155,8 @@ ClosestHit SimplexBvh::nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, u
         if (!accept_item(k)) continue;
         // The simplex's own box first: farther than the limit (with a margin far above
         // rounding), it cannot be accepted, and the exact test is skipped.
-        if (simplex_box_distance2(k, p) > item::gvd_search_limit(best.dist2, best.simplex) *
-                                             (1 + 1e-9)) {
+        if (simplex_box_distance2(k, p) >
+            item::gvd_search_limit(best.dist2, best.simplex) * (1 + 1e-9)) {
           continue;
         }
         const uint32_t s = order_[k];
