@@ -70,10 +70,13 @@ class CellSurfacer {
     // both threads); a small table of recent edges drops most repeats (an edge is seen from
     // up to four leaves, two faces each).
     std::vector<std::vector<uint64_t>> found((n + grain - 1) / grain);
+    std::vector<std::vector<uint32_t>> active((n + grain - 1) / grain);
+    const uint64_t limit = lattice::side_units(dim_);
     parallel_for(
         n, threads,
         [&](size_t b, size_t e, int) {
           std::vector<uint64_t> mine;
+          std::vector<uint32_t> my_active;
           uint64_t recent[256];
           std::fill(std::begin(recent), std::end(recent), ~0ull);
           for (size_t leaf = b; leaf < e; ++leaf) {
@@ -81,6 +84,13 @@ class CellSurfacer {
             const ObjectId first = field_.label[grid[0]];
             bool mixed = false;
             for (uint32_t v : grid) mixed |= v != kNoVertex && field_.label[v] != first;
+            bool on_domain = false;
+            if (!mixed) {
+              const lattice::Coord c = octree_.corner(static_cast<uint32_t>(leaf));
+              const uint64_t size = lattice::cell_size(dim_, octree_.level[leaf]);
+              for (int a = 0; a < dim_; ++a) on_domain |= c.c[a] == 0 || c.c[a] + size == limit;
+            }
+            if (mixed || on_domain) my_active.push_back(static_cast<uint32_t>(leaf));
             if (!mixed) continue;
             detail::for_each_face_polygon(
                 octree_, grid, static_cast<uint32_t>(leaf), [&](const detail::FacePolygon& poly) {
@@ -97,8 +107,11 @@ class CellSurfacer {
                 });
           }
           found[b / grain] = std::move(mine);
+          active[b / grain] = std::move(my_active);
         },
         grain);
+    active_.clear();
+    for (const auto& a : active) active_.insert(active_.end(), a.begin(), a.end());
     std::vector<uint64_t> keys;
     for (auto& f : found) keys.insert(keys.end(), f.begin(), f.end());
     radix_sort(
@@ -120,6 +133,9 @@ class CellSurfacer {
     refined_count_ = keys.size();
   }
   size_t refined_count() const { return refined_count_; }
+  /// The leaves that emit pieces (found by prepare_bisectors): those the GVD crosses and those
+  /// on the domain box, in leaf order.
+  const std::vector<uint32_t>& active_leaves() const { return active_; }
 
   // The closest point of a spoke's edge end: a point on an object right next to the spoke,
   // which bounds the clearance search at the pieces made from it.
@@ -544,6 +560,7 @@ class CellSurfacer {
   const SimplexBvh& bvh_;
   std::vector<Vec3> refined_;
   FlatMap64 refined_index_;
+  std::vector<uint32_t> active_;
   size_t refined_count_ = 0;
   int dim_;
 };
@@ -623,17 +640,18 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
                 const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
-  const size_t n = octree.leaf_count();
   const size_t grain = 512;
   const int arity = dim == 2 ? 2 : 3;
   // Each leaf's pieces share most of their corners (the cone apex, the spokes): they are
   // deduplicated per leaf first, so the global pass below sorts distinct (point, object,
   // other) records of each leaf rather than every corner.
-  std::vector<SurfaceChunk> chunks((n + grain - 1) / grain + 1);
   CellSurfacer surfacer(octree, field, bvh);
   surfacer.prepare_bisectors(threads);
+  // Only the leaves that emit anything: those the GVD crosses and those on the domain box.
+  const std::vector<uint32_t>& active = surfacer.active_leaves();
+  std::vector<SurfaceChunk> chunks((active.size() + grain - 1) / grain + 1);
   parallel_for(
-      n, threads,
+      active.size(), threads,
       [&](size_t b, size_t e, int) {
         if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
           throw Error(ErrorCode::kCancelled, "surfacing cancelled");
@@ -644,7 +662,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         std::vector<Piece> local;
         for (size_t i = b; i < e; ++i) {
           local.clear();
-          surfacer.cell(static_cast<uint32_t>(i), local);
+          surfacer.cell(active[i], local);
           chunk.add(local, arity);
         }
         chunks[b / grain] = std::move(chunk);
