@@ -52,7 +52,7 @@ class CellSurfacer {
   // points stayed the closest ones all along the edge. Where the edge is long next to the
   // distance, they slide (on a cube's face, around a sphere) and the point can miss the true
   // bisector by a good part of the edge. There the point is refined (refine_bisector), once
-  // per edge before surfacing (prepare_bisectors); both cells of a face look up the same point.
+  // per edge before surfacing (prepare); both cells of a face look up the same point.
   Vec3 bisector(uint32_t v0, uint32_t v1) const {
     if (v0 > v1) std::swap(v0, v1);
     const Vec3 p = detail::bisector_point(field_, v0, v1);
@@ -61,9 +61,10 @@ class CellSurfacer {
     return i != FlatMap64::kMissing ? refined_[i] : refine_bisector(v0, v1, p);
   }
 
-  // Refines the bisector points of every coarse edge the GVD crosses (in parallel), so that
-  // surfacing looks them up instead of refining each edge once per face using it.
-  void prepare_bisectors(int threads) {
+  // One parallel scan before surfacing: refines the bisector points of every coarse edge the
+  // GVD crosses, so that surfacing looks them up instead of refining each edge once per face
+  // using it, and lists the leaves that will emit pieces (active_leaves).
+  void prepare(int threads) {
     const size_t n = octree_.leaf_count();
     const size_t grain = 256;
     // One list per chunk, filled locally and moved in once (no shared vector written by
@@ -133,7 +134,7 @@ class CellSurfacer {
     refined_count_ = keys.size();
   }
   size_t refined_count() const { return refined_count_; }
-  /// The leaves that emit pieces (found by prepare_bisectors): those the GVD crosses and those
+  /// The leaves that emit pieces (listed by prepare): those the GVD crosses and those
   /// on the domain box, in leaf order.
   const std::vector<uint32_t>& active_leaves() const { return active_; }
 
@@ -646,7 +647,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   // deduplicated per leaf first, so the global pass below sorts distinct (point, object,
   // other) records of each leaf rather than every corner.
   CellSurfacer surfacer(octree, field, bvh);
-  surfacer.prepare_bisectors(threads);
+  surfacer.prepare(threads);
   // Only the leaves that emit anything: those the GVD crosses and those on the domain box.
   const std::vector<uint32_t>& active = surfacer.active_leaves();
   std::vector<SurfaceChunk> chunks((active.size() + grain - 1) / grain + 1);
@@ -691,51 +692,19 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   // other) within equal hashes: a counting sort into buckets by the hash's top bits, then each
   // bucket sorted on its own (both parallel).
   using Keyed = std::pair<uint64_t, uint32_t>;  // (position hash, record)
-  std::vector<Keyed> keyed(nc);
+  std::vector<Keyed> keyed;
   {
+    std::vector<Keyed> unsorted(nc);
+    parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i)
+        unsorted[i] = {position_hash(corners[i].p), static_cast<uint32_t>(i)};
+    });
     constexpr int kBucketBits = 12;
-    constexpr size_t kBuckets = size_t{1} << kBucketBits;
-    auto bucket_of = [](uint64_t hash) { return static_cast<size_t>(hash >> (64 - kBucketBits)); };
-    const size_t parts = static_cast<size_t>(std::max(threads, 1));
-    const size_t part_size = (nc + parts - 1) / parts;
-    std::vector<uint64_t> hash(nc);
-    std::vector<size_t> count(parts * kBuckets, 0);  // [part][bucket]
+    const std::vector<size_t> bucket_begin = bucket_scatter(
+        unsorted, keyed, size_t{1} << kBucketBits,
+        [](const Keyed& x) { return static_cast<size_t>(x.first >> (64 - kBucketBits)); }, threads);
     parallel_for(
-        parts, threads,
-        [&](size_t pb, size_t pe, int) {
-          for (size_t part = pb; part < pe; ++part) {
-            size_t* c = &count[part * kBuckets];
-            for (size_t i = part * part_size; i < std::min(nc, (part + 1) * part_size); ++i) {
-              hash[i] = position_hash(corners[i].p);
-              ++c[bucket_of(hash[i])];
-            }
-          }
-        },
-        1);
-    // Bucket b starts after all smaller buckets; within it, part 0's records come first.
-    std::vector<size_t> bucket_begin(kBuckets + 1, 0);
-    size_t sum = 0;
-    for (size_t bucket = 0; bucket < kBuckets; ++bucket) {
-      bucket_begin[bucket] = sum;
-      for (size_t part = 0; part < parts; ++part) {
-        const size_t in_part = count[part * kBuckets + bucket];
-        count[part * kBuckets + bucket] = sum;
-        sum += in_part;
-      }
-    }
-    bucket_begin[kBuckets] = sum;
-    parallel_for(
-        parts, threads,
-        [&](size_t pb, size_t pe, int) {
-          for (size_t part = pb; part < pe; ++part) {
-            size_t* next = &count[part * kBuckets];
-            for (size_t i = part * part_size; i < std::min(nc, (part + 1) * part_size); ++i)
-              keyed[next[bucket_of(hash[i])]++] = {hash[i], static_cast<uint32_t>(i)};
-          }
-        },
-        1);
-    parallel_for(
-        kBuckets, threads,
+        size_t{1} << kBucketBits, threads,
         [&](size_t bb, size_t be, int) {
           for (size_t bucket = bb; bucket < be; ++bucket) {
             std::sort(keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket]),

@@ -9,63 +9,70 @@
 
 namespace gvd {
 
+/// Stable counting sort of `items` into `out` (resized) by `bucket_of(item)` in [0, buckets).
+/// With `threads` > 1 contiguous parts are counted and scattered in parallel (one histogram
+/// per part, so the order is the same whatever the threads). Returns the start of every
+/// bucket in `out` (buckets + 1 entries); with `skip_if_one_bucket`, returns an empty vector
+/// and leaves `out` alone when every item falls in one bucket.
+template <class T, class BucketOf>
+std::vector<size_t> bucket_scatter(const std::vector<T>& items, std::vector<T>& out, size_t buckets,
+                                   BucketOf&& bucket_of, int threads,
+                                   bool skip_if_one_bucket = false) {
+  const size_t n = items.size();
+  const size_t parts = n < (size_t{1} << 16) ? 1 : static_cast<size_t>(std::max(threads, 1));
+  const size_t part_size = (n + parts - 1) / parts;
+  std::vector<size_t> count(parts * buckets, 0);  // [part][bucket]
+  parallel_for(
+      parts, static_cast<int>(parts),
+      [&](size_t pb, size_t pe, int) {
+        for (size_t part = pb; part < pe; ++part) {
+          size_t* c = &count[part * buckets];
+          for (size_t i = part * part_size; i < std::min(n, (part + 1) * part_size); ++i)
+            ++c[bucket_of(items[i])];
+        }
+      },
+      1);
+  std::vector<size_t> start(buckets + 1, 0);
+  size_t sum = 0;
+  for (size_t bucket = 0; bucket < buckets; ++bucket) {
+    start[bucket] = sum;
+    for (size_t part = 0; part < parts; ++part) {
+      const size_t in_part = count[part * buckets + bucket];
+      count[part * buckets + bucket] = sum;
+      sum += in_part;
+    }
+    if (skip_if_one_bucket && sum == n && start[bucket] == 0) return {};
+  }
+  start[buckets] = sum;
+  out.resize(n);
+  parallel_for(
+      parts, static_cast<int>(parts),
+      [&](size_t pb, size_t pe, int) {
+        for (size_t part = pb; part < pe; ++part) {
+          size_t* next = &count[part * buckets];
+          for (size_t i = part * part_size; i < std::min(n, (part + 1) * part_size); ++i)
+            out[next[bucket_of(items[i])]++] = items[i];
+        }
+      },
+      1);
+  return start;
+}
+
 /// Stable LSD radix sort of `items` by a 64-bit key (11 bits per pass): O(n), for the large
 /// arrays of lattice keys and point hashes where comparison sorts dominate. Passes whose
 /// digit is the same for every item are skipped (lattice keys rarely use all 64 bits). With
-/// `threads` > 1 each pass counts and scatters contiguous parts in parallel (per-part
-/// histograms, so the result is the same stable order).
+/// `threads` > 1 each pass counts and scatters in parallel (bucket_scatter).
 template <class T, class KeyOf>
 void radix_sort(std::vector<T>& items, KeyOf key_of, int threads = 1) {
   constexpr int kBits = 11;
   constexpr size_t kBuckets = size_t{1} << kBits;
-  const size_t n = items.size();
-  if (n < 2) return;
-  const size_t parts = n < (size_t{1} << 16) ? 1 : static_cast<size_t>(std::max(threads, 1));
-  const size_t part_size = (n + parts - 1) / parts;
-  std::vector<T> tmp(n);
-  std::vector<size_t> count(parts * kBuckets);  // [part][bucket]
+  if (items.size() < 2) return;
+  std::vector<T> tmp;
   for (int shift = 0; shift < 64; shift += kBits) {
-    std::fill(count.begin(), count.end(), 0);
     auto digit = [&](const T& x) {
       return static_cast<size_t>((key_of(x) >> shift) & (kBuckets - 1));
     };
-    parallel_for(
-        parts, static_cast<int>(parts),
-        [&](size_t pb, size_t pe, int) {
-          for (size_t part = pb; part < pe; ++part) {
-            size_t* c = &count[part * kBuckets];
-            for (size_t i = part * part_size; i < std::min(n, (part + 1) * part_size); ++i)
-              ++c[digit(items[i])];
-          }
-        },
-        1);
-    // Skip a pass that would not move anything: one bucket holds every item.
-    bool trivial = false;
-    for (size_t bucket = 0; bucket < kBuckets && !trivial; ++bucket) {
-      size_t total = 0;
-      for (size_t part = 0; part < parts; ++part) total += count[part * kBuckets + bucket];
-      if (total == n) trivial = true;
-      if (total != 0) break;
-    }
-    if (trivial) continue;
-    size_t sum = 0;
-    for (size_t bucket = 0; bucket < kBuckets; ++bucket) {
-      for (size_t part = 0; part < parts; ++part) {
-        const size_t in_part = count[part * kBuckets + bucket];
-        count[part * kBuckets + bucket] = sum;
-        sum += in_part;
-      }
-    }
-    parallel_for(
-        parts, static_cast<int>(parts),
-        [&](size_t pb, size_t pe, int) {
-          for (size_t part = pb; part < pe; ++part) {
-            size_t* next = &count[part * kBuckets];
-            for (size_t i = part * part_size; i < std::min(n, (part + 1) * part_size); ++i)
-              tmp[next[digit(items[i])]++] = items[i];
-          }
-        },
-        1);
+    if (bucket_scatter(items, tmp, kBuckets, digit, threads, true).empty()) continue;
     items.swap(tmp);
   }
 }
