@@ -448,6 +448,10 @@ void print_summary() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // As the gvd command line does: freed big blocks stay in the heap for the next stage
+  // (reset_peak_rss hands them back between scenes).
+  mallopt(M_MMAP_THRESHOLD, 1 << 30);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   // Our one flag, removed before Google Benchmark parses the rest.
   bool slow = false;
   std::string scene_dir;

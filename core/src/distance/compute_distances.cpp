@@ -5,6 +5,7 @@
 #include <queue>
 #include <tuple>
 
+#include "gvd/common/default_init.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
@@ -137,9 +138,13 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
 
 }  // namespace
 
-DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
-                                const SimplexBvh& bvh, const DistanceOptions& options,
-                                const DistanceField* previous, const Octree* previous_octree) {
+namespace {
+
+// compute_distances; with `steal_vertices` (the previous field's vertices, incremental only)
+// they are moved into the new field instead of copied.
+DistanceField distances(const Octree& octree, const UnitGeometry& geometry, const SimplexBvh& bvh,
+                        const DistanceOptions& options, const DistanceField* previous,
+                        const Octree* previous_octree, OctreeVertices* steal_vertices) {
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
   DistanceField field;
@@ -169,13 +174,41 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
         ++j;
       }
     }
-    field.vertices = previous->vertices;
-    old_count = static_cast<uint32_t>(field.vertices.size());
-    for (size_t i = 0; i < nl; ++i) {
-      if (old_leaf[i] != kNoVertex) continue;
-      for_each_corner_key(octree, static_cast<uint32_t>(i),
-                          [&](uint64_t key) { field.vertices.insert(key); });
+    if (steal_vertices != nullptr) {
+      field.vertices = std::move(*steal_vertices);
+    } else {
+      field.vertices = previous->vertices;
     }
+    old_count = static_cast<uint32_t>(field.vertices.size());
+    // The new leaves' corners that are not vertices yet (found in parallel: the index is only
+    // read), appended in key order.
+    const size_t grain = 4096;
+    std::vector<std::vector<uint64_t>> fresh((nl + grain - 1) / grain);
+    parallel_for(
+        nl, threads,
+        [&](size_t b, size_t e, int) {
+          std::vector<uint64_t> mine;  // moved in at the end (no false sharing)
+          uint64_t recent[256];
+          std::fill(std::begin(recent), std::end(recent), ~0ull);
+          for (size_t i = b; i < e; ++i) {
+            if (old_leaf[i] != kNoVertex) continue;
+            for_each_corner_key(octree, static_cast<uint32_t>(i), [&](uint64_t key) {
+              uint64_t& slot = recent[(key * 0x9e3779b97f4a7c15ull) >> 56];
+              if (slot == key) return;
+              slot = key;
+              if (field.vertices.find(key) == kNoVertex) mine.push_back(key);
+            });
+          }
+          fresh[b / grain] = std::move(mine);
+        },
+        grain);
+    std::vector<uint64_t> added;
+    for (const auto& f : fresh) added.insert(added.end(), f.begin(), f.end());
+    radix_sort(
+        added, [](uint64_t k) { return k; }, threads);
+    added.erase(std::unique(added.begin(), added.end()), added.end());
+    field.vertices.key.reserve(old_count + added.size());
+    for (uint64_t key : added) field.vertices.insert(key);
   } else {
     field.vertices = enumerate_vertices(octree, threads);
   }
@@ -215,7 +248,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
     uint32_t looked_up = 0;
     for (size_t i = 0; i < nl; ++i)
       if (recompute[i]) grid_of[i] = looked_up++;
-    std::vector<LeafGrid> grids(looked_up);
+    UninitVector<LeafGrid> grids(looked_up);  // filled below, in parallel
     std::vector<uint32_t> count(nl);
     parallel_for(nl, threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
@@ -532,6 +565,24 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   field.leaf_begin = std::move(leaf_verts.begin);
   field.leaf_vertex = std::move(leaf_verts.items);
   return field;
+}
+
+}  // namespace
+
+DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
+                                const SimplexBvh& bvh, const DistanceOptions& options,
+                                const DistanceField* previous, const Octree* previous_octree) {
+  return distances(octree, geometry, bvh, options, previous, previous_octree, nullptr);
+}
+
+DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
+                                const SimplexBvh& bvh, const DistanceOptions& options,
+                                DistanceField&& previous, const Octree& previous_octree) {
+  const bool incremental = !previous.leaf_begin.empty() &&
+                           previous.leaf_begin.size() == previous_octree.leaf_count() + 1;
+  if (!incremental) return distances(octree, geometry, bvh, options, &previous, nullptr, nullptr);
+  OctreeVertices vertices = std::move(previous.vertices);
+  return distances(octree, geometry, bvh, options, &previous, &previous_octree, &vertices);
 }
 
 }  // namespace gvd

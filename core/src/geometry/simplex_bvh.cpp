@@ -168,6 +168,22 @@ ClosestHit SimplexBvh::nearest_in_object(Vec3 p, uint32_t object, double max_dis
       [](uint32_t) { return false; }, max_dist2);
 }
 
+ClosestHit SimplexBvh::nearest_excluding(Vec3 p, const uint32_t* excluded, int count,
+                                         double max_dist2) const {
+  GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
+            "nearest_excluding needs the objects of the simplices at construction");
+  auto is_excluded = [&](uint32_t object) {
+    return std::find(excluded, excluded + count, object) != excluded + count;
+  };
+  return nearest_impl(
+      p, [&](uint32_t k) { return !is_excluded(object_in_order_[k]); },
+      [&](uint32_t node) {
+        const uint32_t object = nodes_[node].object;
+        return object != kMixed && is_excluded(object);
+      },
+      max_dist2);
+}
+
 size_t SimplexBvh::memory_bytes() const {
   return (nodes_.size() + object_nodes_.size()) * sizeof(Node) +
          (order_.size() + object_in_order_.size() + object_items_.size() + object_root_.size()) *

@@ -512,7 +512,8 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
   InternalSets internal = subdivide_by_rules(geometry, options, max_depth, threads, cache);
   close_upwards(dim, internal);
   balance(dim, internal, threads);
-  return materialize(geometry, internal, max_depth, options, threads, &cache);
+  auto t = materialize(geometry, internal, max_depth, options, threads, &cache);
+  return t;
 }
 
 Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,
@@ -584,69 +585,111 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   }
 
   // Copy the leaves that stay; subdivide (depth first, so in Morton order) those that split.
+  // In parallel over chunks of leaves, each into its own part, then the parts in order.
+  struct Part {
+    CellSet leaves;  // codes and simplex lists
+    std::vector<uint8_t> level;
+    std::vector<ObjectId> object;
+    int depth = 0;
+  };
+  const size_t n = octree.leaf_count();
+  const size_t grain = 4096;
+  const int threads = resolve_threads(options.threads);
+  std::vector<Part> parts((n + grain - 1) / grain);
+  parallel_for(
+      n, threads,
+      [&](size_t b, size_t e, int) {
+        Part part;  // moved in at the end: no false sharing between chunks
+        part.leaves.codes.reserve(e - b);
+        part.level.reserve(e - b);
+        part.object.reserve(e - b);
+        auto emit = [&](uint64_t code, int level, ObjectId object, const uint32_t* lb,
+                        const uint32_t* le) {
+          part.leaves.codes.push_back(code);
+          part.level.push_back(static_cast<uint8_t>(level));
+          part.object.push_back(object);
+          part.leaves.pool.insert(part.leaves.pool.end(), lb, le);
+          part.leaves.begin.push_back(static_cast<uint32_t>(part.leaves.pool.size()));
+          part.depth = std::max(part.depth, level);
+        };
+        struct Frame {
+          uint64_t code;
+          int level;
+          std::vector<uint32_t> simplices;
+        };
+        std::vector<Frame> stack;
+        std::vector<uint32_t> scratch;
+        for (size_t i = b; i < e; ++i) {
+          const uint32_t* lb = octree.simplex_index.data() + octree.simplex_begin[i];
+          const uint32_t* le = octree.simplex_index.data() + octree.simplex_begin[i + 1];
+          const int level = octree.level[i];
+          if (level >= max_depth || !added[level].contains(octree.code[i])) {
+            emit(octree.code[i], level, octree.object[i], lb, le);
+            continue;
+          }
+          stack.push_back({octree.code[i], level, std::vector<uint32_t>(lb, le)});
+          while (!stack.empty()) {
+            Frame f = std::move(stack.back());
+            stack.pop_back();
+            const bool split = f.level < max_depth && added[f.level].contains(f.code);
+            if (!split) {
+              const uint32_t* fb = f.simplices.data();
+              const uint32_t* fe = fb + f.simplices.size();
+              emit(f.code, f.level, tag_of(geometry, fb, fe), fb, fe);
+              continue;
+            }
+            // Children pushed in reverse so that they pop in Morton order.
+            std::vector<Frame> children;
+            split_cell(geometry, f.code, f.level, f.simplices.data(),
+                       f.simplices.data() + f.simplices.size(), scratch,
+                       [&](uint64_t cc, const std::vector<uint32_t>& list) {
+                         children.push_back({cc, f.level + 1, list});
+                       });
+            for (auto it = children.rbegin(); it != children.rend(); ++it)
+              stack.push_back(std::move(*it));
+          }
+          if (part.leaves.size() > options.max_leaves) {
+            throw Error(ErrorCode::kLimitExceeded,
+                        "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
+                            " during refinement (raise --max-leaves or lower --max-depth)");
+          }
+        }
+        parts[b / grain] = std::move(part);
+      },
+      grain);
+  size_t total = 0;
+  for (const Part& p : parts) total += p.leaves.size();
+  if (total > options.max_leaves) {
+    throw Error(ErrorCode::kLimitExceeded,
+                "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
+                    " during refinement (raise --max-leaves or lower --max-depth)");
+  }
   Octree tree;
   tree.dimension = dim;
   tree.max_depth = max_depth;
-  const size_t n = octree.leaf_count();
-  tree.code.reserve(n);
-  tree.level.reserve(n);
-  tree.object.reserve(n);
-  tree.simplex_begin.reserve(n + 1);
-  tree.simplex_begin.push_back(0);
-  tree.simplex_index.reserve(octree.simplex_index.size());
-  auto emit = [&](uint64_t code, int level, const uint32_t* lb, const uint32_t* le) {
-    tree.code.push_back(code);
-    tree.level.push_back(static_cast<uint8_t>(level));
-    tree.object.push_back(tag_of(geometry, lb, le));
-    tree.simplex_index.insert(tree.simplex_index.end(), lb, le);
-    tree.simplex_begin.push_back(static_cast<uint32_t>(tree.simplex_index.size()));
-    tree.depth = std::max(tree.depth, level);
-  };
-  struct Frame {
-    uint64_t code;
-    int level;
-    std::vector<uint32_t> simplices;
-  };
-  std::vector<Frame> stack;
-  std::vector<uint32_t> scratch;
-  for (size_t i = 0; i < n; ++i) {
-    const uint32_t* lb = octree.simplex_index.data() + octree.simplex_begin[i];
-    const uint32_t* le = octree.simplex_index.data() + octree.simplex_begin[i + 1];
-    const int level = octree.level[i];
-    if (level >= max_depth || !added[level].contains(octree.code[i])) {
-      tree.code.push_back(octree.code[i]);
-      tree.level.push_back(octree.level[i]);
-      tree.object.push_back(octree.object[i]);
-      tree.simplex_index.insert(tree.simplex_index.end(), lb, le);
-      tree.simplex_begin.push_back(static_cast<uint32_t>(tree.simplex_index.size()));
-      tree.depth = std::max(tree.depth, level);
-      continue;
-    }
-    stack.push_back({octree.code[i], level, std::vector<uint32_t>(lb, le)});
-    while (!stack.empty()) {
-      Frame f = std::move(stack.back());
-      stack.pop_back();
-      const bool split = f.level < max_depth && added[f.level].contains(f.code);
-      if (!split) {
-        emit(f.code, f.level, f.simplices.data(), f.simplices.data() + f.simplices.size());
-        continue;
-      }
-      // Children pushed in reverse so that they pop in Morton order.
-      std::vector<Frame> children;
-      split_cell(geometry, f.code, f.level, f.simplices.data(),
-                 f.simplices.data() + f.simplices.size(), scratch,
-                 [&](uint64_t cc, const std::vector<uint32_t>& list) {
-                   children.push_back({cc, f.level + 1, list});
-                 });
-      for (auto it = children.rbegin(); it != children.rend(); ++it)
-        stack.push_back(std::move(*it));
-    }
-    if (tree.code.size() > options.max_leaves) {
-      throw Error(ErrorCode::kLimitExceeded,
-                  "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
-                      " during refinement (raise --max-leaves or lower --max-depth)");
-    }
+  std::vector<size_t> at(parts.size() + 1, 0);
+  for (size_t p = 0; p < parts.size(); ++p) {
+    at[p + 1] = at[p] + parts[p].leaves.size();
+    tree.depth = std::max(tree.depth, parts[p].depth);
   }
+  tree.level.resize(total);
+  tree.object.resize(total);
+  parallel_for(
+      parts.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p) {
+          std::copy(parts[p].level.begin(), parts[p].level.end(), tree.level.begin() + at[p]);
+          std::copy(parts[p].object.begin(), parts[p].object.end(), tree.object.begin() + at[p]);
+        }
+      },
+      1);
+  std::vector<CellSet> sets;
+  sets.reserve(parts.size());
+  for (Part& p : parts) sets.push_back(std::move(p.leaves));
+  CellSet leaves = concat(sets, threads);
+  tree.code = std::move(leaves.codes);
+  tree.simplex_begin = std::move(leaves.begin);
+  tree.simplex_index = std::move(leaves.pool);
   return tree;
 }
 

@@ -1,6 +1,7 @@
 #include "gvd/octree/vertices.h"
 
 #include <algorithm>
+#include <atomic>
 
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
@@ -46,20 +47,22 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
       keys, [](uint64_t k) { return k; }, threads);
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   out.key = std::move(keys);
-  out.rebuild_index();
+  out.rebuild_index(threads);
   return out;
 }
 
-void OctreeVertices::rebuild_index() {
-  index = FlatMap64(key.size());
-  for (size_t i = 0; i < key.size(); ++i) index.set(key[i], static_cast<uint32_t>(i));
+void OctreeVertices::rebuild_index(int threads) {
+  index = FlatMap64::of_distinct_keys(key, threads);
   filter_bits_ = 6;
   while ((size_t{1} << filter_bits_) < 8 * key.size()) ++filter_bits_;
   filter.assign((size_t{1} << filter_bits_) / 64, 0);
-  for (uint64_t k : key) {
-    const uint64_t h = filter_hash(k);
-    filter[h >> 6] |= uint64_t{1} << (h & 63);
-  }
+  parallel_for(key.size(), threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      const uint64_t h = filter_hash(key[i]);
+      std::atomic_ref<uint64_t>(filter[h >> 6])
+          .fetch_or(uint64_t{1} << (h & 63), std::memory_order_relaxed);
+    }
+  });
 }
 
 LeafGrid leaf_grid(const Octree& octree, const OctreeVertices& vertices, uint32_t leaf) {
@@ -71,6 +74,11 @@ LeafGrid leaf_grid(const Octree& octree, const OctreeVertices& vertices, uint32_
   const bool has_mid = size >= 2;
   const uint32_t half = static_cast<uint32_t>(size / 2);
   const int kmax = dim == 3 ? 2 : 0;
+  // The keys that pass the filter first, with their index slots prefetched, then the
+  // lookups: the slots' cache misses overlap instead of following one another.
+  uint64_t keys[27];
+  uint8_t slots[27];
+  int n = 0;
   for (int k = 0; k <= kmax; ++k) {
     for (int j = 0; j <= 2; ++j) {
       for (int i = 0; i <= 2; ++i) {
@@ -88,10 +96,15 @@ LeafGrid leaf_grid(const Octree& octree, const OctreeVertices& vertices, uint32_
           p.c[1] += j * half;
           if (dim == 3) p.c[2] += k * half;
         }
-        g[i + 3 * j + 9 * k] = vertices.find(lattice::vertex_key(dim, p));
+        const uint64_t key = lattice::vertex_key(dim, p);
+        if (!vertices.maybe(key)) continue;
+        vertices.index.prefetch(key);
+        keys[n] = key;
+        slots[n++] = static_cast<uint8_t>(i + 3 * j + 9 * k);
       }
     }
   }
+  for (int m = 0; m < n; ++m) g[slots[m]] = vertices.index.find(keys[m]);
   return g;
 }
 

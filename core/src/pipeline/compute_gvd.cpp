@@ -139,7 +139,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
       for (uint32_t c = 0; c < (1u << dim); ++c) splits.push_back(child_cell(dim, splits[i], c));
     Octree previous = std::move(r.octree);
     r.octree = refine_octree(previous, r.geometry, splits, oo);
-    DistanceField next = compute_distances(r.octree, r.geometry, bvh, dopt, &r.field, &previous);
+    DistanceField next =
+        compute_distances(r.octree, r.geometry, bvh, dopt, std::move(r.field), previous);
     r.field = std::move(next);
   }
   sort_vertices(r.field, options.threads);  // incremental rounds appended vertices

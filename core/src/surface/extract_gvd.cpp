@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "cell_faces.h"
+#include "gvd/common/default_init.h"
 #include "gvd/common/error.h"
 #include "gvd/common/flat_hash.h"
 #include "gvd/common/parallel.h"
@@ -669,53 +670,65 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         chunks[b / grain] = std::move(chunk);
       },
       grain);
-  // All records in one array (chunk by chunk, in parallel); a chunk's triangles index its own
-  // records, so they are offset by the chunk's start.
+  // All records by one index (chunk by chunk): a pointer to each, not a copy. A chunk's
+  // triangles index its own records, so they are offset by the chunk's start.
   std::vector<size_t> chunk_start(chunks.size() + 1, 0);
   for (size_t c = 0; c < chunks.size(); ++c)
     chunk_start[c + 1] = chunk_start[c] + chunks[c].corners.size();
   const size_t nc = chunk_start.back();
-  std::vector<SurfaceChunk::Corner> corners(nc);
+  UninitVector<const SurfaceChunk::Corner*> record(nc);  // filled below, in parallel
   parallel_for(
       chunks.size(), threads,
       [&](size_t b, size_t e, int) {
-        for (size_t c = b; c < e; ++c) {
-          std::copy(chunks[c].corners.begin(), chunks[c].corners.end(),
-                    corners.begin() + static_cast<std::ptrdiff_t>(chunk_start[c]));
-          std::vector<SurfaceChunk::Corner>().swap(chunks[c].corners);
-        }
+        for (size_t c = b; c < e; ++c)
+          for (size_t i = 0; i < chunks[c].corners.size(); ++i)
+            record[chunk_start[c] + i] = &chunks[c].corners[i];
       },
       1);
-
   // Vertices: one per (object, other object, exact position). Identical points are made
-  // contiguous by sorting the records by a hash of the position, then by (position, object,
-  // other) within equal hashes: a counting sort into buckets by the hash's top bits, then each
-  // bucket sorted on its own (both parallel).
-  using Keyed = std::pair<uint64_t, uint32_t>;  // (position hash, record)
+  // contiguous by sorting the records by (hash of the position, object, other): a counting
+  // sort into buckets by the hash's top bits, then each bucket sorted on its own (both
+  // parallel). Equal hashes of different points (a 64-bit collision, not expected) would
+  // interleave their records: such a bucket is sorted again by the positions themselves.
+  struct Keyed {
+    uint64_t hash;
+    ObjectId object, other;
+    uint32_t record;
+    bool operator<(const Keyed& y) const {
+      return std::tie(hash, object, other) < std::tie(y.hash, y.object, y.other);
+    }
+  };
   std::vector<Keyed> keyed;
   {
     std::vector<Keyed> unsorted(nc);
     parallel_for(nc, threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i)
-        unsorted[i] = {position_hash(corners[i].p), static_cast<uint32_t>(i)};
+      for (size_t i = b; i < e; ++i) {
+        const SurfaceChunk::Corner& c = *record[i];
+        unsorted[i] = {position_hash(c.p), c.object, c.other, static_cast<uint32_t>(i)};
+      }
     });
     constexpr int kBucketBits = 12;
     const std::vector<size_t> bucket_begin = bucket_scatter(
         unsorted, keyed, size_t{1} << kBucketBits,
-        [](const Keyed& x) { return static_cast<size_t>(x.first >> (64 - kBucketBits)); }, threads);
+        [](const Keyed& x) { return static_cast<size_t>(x.hash >> (64 - kBucketBits)); }, threads);
     parallel_for(
         size_t{1} << kBucketBits, threads,
         [&](size_t bb, size_t be, int) {
           for (size_t bucket = bb; bucket < be; ++bucket) {
-            std::sort(keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket]),
-                      keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket + 1]),
-                      [&](const Keyed& x, const Keyed& y) {
-                        if (x.first != y.first) return x.first < y.first;
-                        const SurfaceChunk::Corner& cx = corners[x.second];
-                        const SurfaceChunk::Corner& cy = corners[y.second];
-                        return std::tie(cx.p.x, cx.p.y, cx.p.z, cx.object, cx.other) <
-                               std::tie(cy.p.x, cy.p.y, cy.p.z, cy.object, cy.other);
-                      });
+            const auto first = keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket]);
+            const auto last = keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket + 1]);
+            std::sort(first, last);
+            bool collision = false;
+            for (auto it = first; it != last && it + 1 != last && !collision; ++it)
+              collision = it->hash == (it + 1)->hash &&
+                          record[it->record]->p != record[(it + 1)->record]->p;
+            if (!collision) continue;
+            std::sort(first, last, [&](const Keyed& x, const Keyed& y) {
+              const Vec3& px = record[x.record]->p;
+              const Vec3& py = record[y.record]->p;
+              return std::tie(x.hash, px.x, px.y, px.z, x.object, x.other) <
+                     std::tie(y.hash, py.x, py.y, py.z, y.object, y.other);
+            });
           }
         },
         64);
@@ -731,7 +744,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   std::vector<uint8_t> new_vertex(nc), new_point(nc);
   parallel_for(nc, threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) {
-      const SurfaceChunk::Corner& c = corners[keyed[i].second];
+      const SurfaceChunk::Corner& c = *record[keyed[i].record];
       sorted[i] = {c.p, c.object, c.other};
     }
   });
@@ -755,9 +768,9 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   std::vector<std::pair<uint64_t, uint32_t>> run_order(runs);
   parallel_for(runs, threads, [&](size_t b, size_t e, int) {
     for (size_t r = b; r < e; ++r) {
-      uint32_t first = keyed[run_start[r]].second;
+      uint32_t first = keyed[run_start[r]].record;
       for (size_t i = run_start[r] + 1; i < run_start[r + 1]; ++i)
-        first = std::min(first, keyed[i].second);
+        first = std::min(first, keyed[i].record);
       run_order[r] = {first, static_cast<uint32_t>(r)};
     }
   });
@@ -772,7 +785,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
           const Vec3 p = sorted[run_start[r]].p;
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
-            bound2 = std::min(bound2, dist2(p, corners[keyed[i].second].witness));
+            bound2 = std::min(bound2, dist2(p, record[keyed[i].record]->witness));
           const ClosestHit hit = bvh.nearest(p, bound2);
           run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
         }
@@ -783,37 +796,96 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   gvd.dimension = dim;
   gvd.cells.resize(geometry.object_count);
   for (uint32_t o = 0; o < geometry.object_count; ++o) gvd.cells[o].object = o;
-  {
-    std::vector<size_t> vertices(geometry.object_count, 0), simplices(geometry.object_count, 0);
-    for (size_t i = 0; i < nc; ++i) vertices[sorted[i].object] += new_vertex[i];
-    for (const SurfaceChunk& chunk : chunks)
-      for (const SurfaceChunk::Simplex& t : chunk.simplices) ++simplices[t.object];
-    for (GvdCell& cell : gvd.cells) {
-      cell.positions.reserve(vertices[cell.object]);
-      cell.other.reserve(vertices[cell.object]);
-      cell.clearance.reserve(vertices[cell.object]);
-      cell.indices.reserve(simplices[cell.object] * arity);
+  // Per-object arrays filled in parallel: the runs (then the chunks' simplices) are cut into
+  // parts; a part's first vertex (simplex) of each object goes where the counts of the parts
+  // before it end, so the order is the serial one.
+  const size_t objects = geometry.object_count;
+  const size_t parts =
+      std::min<size_t>(std::max<size_t>(runs, 1), 8 * static_cast<size_t>(threads));
+  std::vector<size_t> part_run(parts + 1);
+  for (size_t p = 0; p <= parts; ++p) part_run[p] = runs * p / parts;
+  std::vector<uint32_t> vertex_base(parts * objects, 0);  // [part][object]
+  parallel_for(
+      parts, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p)
+          for (size_t i = run_start[part_run[p]]; i < run_start[part_run[p + 1]]; ++i)
+            vertex_base[p * objects + sorted[i].object] += new_vertex[i];
+      },
+      1);
+  std::vector<uint32_t> vertices(objects, 0);
+  for (size_t p = 0; p < parts; ++p) {
+    for (size_t o = 0; o < objects; ++o) {
+      const uint32_t in_part = vertex_base[p * objects + o];
+      vertex_base[p * objects + o] = vertices[o];
+      vertices[o] += in_part;
     }
+  }
+  for (GvdCell& cell : gvd.cells) {
+    cell.positions.resize(vertices[cell.object]);
+    cell.other.resize(vertices[cell.object]);
+    cell.clearance.resize(vertices[cell.object]);
   }
   std::vector<uint32_t> index_of(nc);
-  for (size_t r = 0; r < runs; ++r) {
-    const Vec3 user = domain.from_unit(sorted[run_start[r]].p);
-    for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
-      GvdCell& cell = gvd.cells[sorted[i].object];
-      if (new_vertex[i]) {
-        cell.positions.push_back(user);
-        cell.other.push_back(sorted[i].other);
-        cell.clearance.push_back(run_clearance[r]);
-      }
-      index_of[keyed[i].second] = static_cast<uint32_t>(cell.positions.size() - 1);
+  parallel_for(
+      parts, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p) {
+          uint32_t* next = &vertex_base[p * objects];  // the part's next vertex per object
+          for (size_t r = part_run[p]; r < part_run[p + 1]; ++r) {
+            const Vec3 user = domain.from_unit(sorted[run_start[r]].p);
+            for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
+              const ObjectId o = sorted[i].object;
+              GvdCell& cell = gvd.cells[o];
+              if (new_vertex[i]) {
+                cell.positions[next[o]] = user;
+                cell.other[next[o]] = sorted[i].other;
+                cell.clearance[next[o]] = run_clearance[r];
+                ++next[o];
+              }
+              index_of[keyed[i].record] = next[o] - 1;
+            }
+          }
+        }
+      },
+      1);
+  // Simplices: parts of whole chunks.
+  const size_t simplex_parts = std::min(chunks.size(), 8 * static_cast<size_t>(threads));
+  std::vector<size_t> part_chunk(simplex_parts + 1);
+  for (size_t p = 0; p <= simplex_parts; ++p) part_chunk[p] = chunks.size() * p / simplex_parts;
+  std::vector<uint32_t> simplex_base(simplex_parts * objects, 0);
+  parallel_for(
+      simplex_parts, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p)
+          for (size_t c = part_chunk[p]; c < part_chunk[p + 1]; ++c)
+            for (const SurfaceChunk::Simplex& t : chunks[c].simplices)
+              ++simplex_base[p * objects + t.object];
+      },
+      1);
+  std::vector<uint32_t> simplices(objects, 0);
+  for (size_t p = 0; p < simplex_parts; ++p) {
+    for (size_t o = 0; o < objects; ++o) {
+      const uint32_t in_part = simplex_base[p * objects + o];
+      simplex_base[p * objects + o] = simplices[o];
+      simplices[o] += in_part;
     }
   }
-  for (size_t c = 0; c < chunks.size(); ++c) {
-    for (const SurfaceChunk::Simplex& t : chunks[c].simplices) {
-      GvdCell& cell = gvd.cells[t.object];
-      for (int k = 0; k < arity; ++k) cell.indices.push_back(index_of[chunk_start[c] + t.v[k]]);
-    }
-  }
+  for (GvdCell& cell : gvd.cells) cell.indices.resize(size_t{simplices[cell.object]} * arity);
+  parallel_for(
+      simplex_parts, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p) {
+          uint32_t* next = &simplex_base[p * objects];
+          for (size_t c = part_chunk[p]; c < part_chunk[p + 1]; ++c) {
+            for (const SurfaceChunk::Simplex& t : chunks[c].simplices) {
+              uint32_t* out = &gvd.cells[t.object].indices[size_t{next[t.object]++} * arity];
+              for (int k = 0; k < arity; ++k) out[k] = index_of[chunk_start[c] + t.v[k]];
+            }
+          }
+        }
+      },
+      1);
   return gvd;
 }
 

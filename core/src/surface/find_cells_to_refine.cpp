@@ -81,8 +81,10 @@ bool nearer_unclaimed(const UnitGeometry& geometry, const SimplexBvh& bvh, Vec3 
   auto ok = [&](uint32_t s) {
     return std::find(allowed, allowed + na, geometry.object_of[s]) != allowed + na;
   };
-  const ClosestHit hit = bvh.nearest(p, claimed2);
-  if (!hit.found() || ok(hit.simplex)) return false;
+  // The nearest unclaimed object within claimed2 (the search skips the claimed objects'
+  // subtrees), then whether a claimed one is within its distance plus the margin.
+  const ClosestHit hit = bvh.nearest_excluding(p, allowed, na, claimed2);
+  if (!hit.found()) return false;
   const double d = std::sqrt(hit.dist2) + margin;
   return !bvh.nearest_if(p, ok, d * d).found();
 }
@@ -295,6 +297,13 @@ std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeom
             if (cell.level >= octree.max_depth) continue;
             per_leaf[i].push_back(cell);
             const double slack = std::ldexp(1.0, -(cell.level + 1)) * 1e-9 + 1e-15;
+            // The object nearest to each of the 3^D points of the cell's half-size grid (the
+            // children's corners, most shared by several children), found once.
+            ObjectId near_at[27];
+            bool known[27] = {};
+            const Box cell_box =
+                lattice::cell_box(dim, lattice::morton_decode(dim, cell.code), cell.level);
+            const Vec3 half = (cell_box.hi - cell_box.lo) * 0.5;
             for (uint32_t c = 0; c < nchildren; ++c) {
               const CellRef child = child_cell(dim, cell, c);
               const lattice::Coord lo = lattice::morton_decode(dim, child.code);
@@ -313,12 +322,24 @@ std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeom
               if (inside.empty()) continue;
               bool foreign = false;
               for (uint32_t k = 0; k < nchildren && !foreign; ++k) {
-                Vec3 corner = box.lo;
-                for (int a = 0; a < dim; ++a)
-                  if (k & (1u << a)) corner[a] = box.hi[a];
-                const ClosestHit hit = bvh.nearest(corner);
-                if (!hit.found()) continue;
-                const ObjectId near = geometry.object_of[hit.simplex];
+                int local[3] = {0, 0, 0};
+                for (int a = 0; a < dim; ++a) local[a] = ((c >> a) & 1) + ((k >> a) & 1);
+                const int slot = local[0] + 3 * local[1] + 9 * local[2];
+                if (!known[slot]) {
+                  known[slot] = true;
+                  Vec3 corner = cell_box.lo;
+                  for (int a = 0; a < dim; ++a) corner[a] += local[a] * half[a];
+                  // A simplex of this object touches the child: its distance bounds the
+                  // search (the nearest simplex, hence its object, is the same).
+                  const double bound2 = dist2(
+                      corner, closest_point_on_simplex(dim, geometry.points,
+                                                       geometry.simplices[inside[0]], corner));
+                  ClosestHit hit = bvh.nearest(corner, bound2 * (1 + 1e-9) + 1e-300);
+                  if (!hit.found()) hit = bvh.nearest(corner);
+                  near_at[slot] = hit.found() ? geometry.object_of[hit.simplex] : kNoObject;
+                }
+                const ObjectId near = near_at[slot];
+                if (near == kNoObject) continue;
                 foreign = near != obj && !(contacts != nullptr && child.level >= contact_depth &&
                                            contacts->touching(obj, near));
               }

@@ -98,6 +98,15 @@ TEST_P(ComputeDistancesMethod, IncrementalRefinementEqualsAFullRecomputation) {
     DistanceField incremental =
         compute_distances(refined, s->geometry, s->bvh, options(), &first, &s->octree);
     const DistanceField full = compute_distances(refined, s->geometry, s->bvh, options(), &first);
+    // The overload that consumes the previous field gives the same field.
+    const DistanceField consumed =
+        compute_distances(refined, s->geometry, s->bvh, options(), DistanceField(first), s->octree);
+    EXPECT_EQ(consumed.vertices.key, incremental.vertices.key);
+    EXPECT_EQ(consumed.label, incremental.label);
+    EXPECT_EQ(consumed.point, incremental.point);
+    EXPECT_EQ(consumed.leaf_vertex, incremental.leaf_vertex);
+    for (uint32_t v = 0; v < consumed.size(); ++v)
+      ASSERT_EQ(consumed.vertices.find(consumed.vertices.key[v]), v);
     ASSERT_EQ(incremental.size(), full.size());
     sort_vertices(incremental);
     for (uint32_t v = 0; v < full.size(); ++v) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <set>
 
@@ -57,6 +58,32 @@ TEST(SimplexBvh, NearestAndNearestInObjectMatchBruteForce) {
       EXPECT_FALSE(f.bvh.nearest_in_object(p, o, 0.5 * truth).found());
       EXPECT_NEAR(f.bvh.nearest_in_object(p, o, 2 * truth).dist2, truth, 1e-11 * truth);
     }
+  }
+}
+
+TEST(SimplexBvh, NearestExcludingObjectsMatchesBruteForce) {
+  const Fixture f;
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 200; ++i) {
+    const Vec3 p{u(rng), u(rng), u(rng)};
+    for (const std::vector<uint32_t>& excluded :
+         {std::vector<uint32_t>{0}, std::vector<uint32_t>{1, 2}, std::vector<uint32_t>{}}) {
+      double truth = 1e300;
+      for (uint32_t o = 0; o < 3; ++o)
+        if (std::find(excluded.begin(), excluded.end(), o) == excluded.end())
+          truth = std::min(truth, f.brute(p, o, false));
+      const int n = static_cast<int>(excluded.size());
+      const ClosestHit hit = f.bvh.nearest_excluding(p, excluded.data(), n);
+      ASSERT_TRUE(hit.found());
+      EXPECT_EQ(std::find(excluded.begin(), excluded.end(), f.g.object_of[hit.simplex]),
+                excluded.end());
+      EXPECT_NEAR(hit.dist2, truth, 1e-11 * truth) << "point " << i;
+      // A bound below the answer finds nothing.
+      EXPECT_FALSE(f.bvh.nearest_excluding(p, excluded.data(), n, 0.5 * truth).found());
+    }
+    const uint32_t all[3] = {0, 1, 2};
+    EXPECT_FALSE(f.bvh.nearest_excluding(p, all, 3).found());
   }
 }
 

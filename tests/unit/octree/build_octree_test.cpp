@@ -211,6 +211,39 @@ TEST(BuildOctree, ManyRefinementsStayBalancedTiledAndComplete) {
   }
 }
 
+TEST(BuildOctree, RefinementIsTheSameOnOneAndTwoThreads) {
+  // Big enough (> 4096 leaves) for the copy to run in several parallel chunks.
+  auto b = build(test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                      test::make_sphere("b", {2.002, 0, 0}, 1, 8, 16)}));
+  ASSERT_GT(b.octree.leaf_count(), 4096u);
+  std::vector<CellRef> split;
+  for (uint32_t l = 0; l < b.octree.leaf_count(); l += 5) split.push_back(cell_of(b.octree, l));
+  OctreeOptions one, two;
+  one.threads = 1;
+  two.threads = 2;
+  const Octree r1 = refine_octree(b.octree, b.geometry, split, one);
+  const Octree r2 = refine_octree(b.octree, b.geometry, split, two);
+  EXPECT_GT(r1.leaf_count(), b.octree.leaf_count());
+  EXPECT_EQ(r1.code, r2.code);
+  EXPECT_EQ(r1.level, r2.level);
+  EXPECT_EQ(r1.object, r2.object);
+  EXPECT_EQ(r1.simplex_begin, r2.simplex_begin);
+  EXPECT_EQ(r1.simplex_index, r2.simplex_index);
+  EXPECT_EQ(r1.depth, r2.depth);
+  expect_tiles_domain(r2);
+  expect_balanced(r2);
+  Built refined{b.scene, b.domain, b.geometry, r2};
+  expect_incidence_complete(refined);
+  // The leaf limit holds during refinement too.
+  two.max_leaves = b.octree.leaf_count() + 10;
+  try {
+    refine_octree(b.octree, b.geometry, split, two);
+    FAIL() << "expected a limit error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kLimitExceeded);
+  }
+}
+
 TEST(BuildOctree, LeafLimitIsEnforced) {
   Built b{test::make_scene(
               2, {test::make_circle("a", {0, 0, 0}, 1), test::make_circle("b", {2.0001, 0, 0}, 1)}),

@@ -2,13 +2,18 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
+
+#include "gvd/common/default_init.h"
+#include "gvd/common/radix_sort.h"
 
 namespace gvd {
 
 /// Open-addressing hash map from 64-bit keys to 32-bit values (linear probing, power-of-two
 /// capacity, load <= 1/2). The key ~0 is reserved. Used for O(1) octree cell and vertex
-/// lookups; flat arrays only, so it is cheap to build and to share read-only across threads.
+/// lookups; one flat array, so it is cheap to build and to share read-only across threads.
+/// A key and its value share a slot (one cache line per hit, not two).
 class FlatMap64 {
  public:
   static constexpr uint64_t kEmptyKey = ~0ull;
@@ -16,42 +21,98 @@ class FlatMap64 {
 
   FlatMap64() { rehash(16); }
   explicit FlatMap64(size_t expected) { rehash(capacity_for(expected)); }
+  /// An empty map for `expected` keys whose (big) table is cleared on `threads` threads.
+  FlatMap64(size_t expected, int threads) {
+    const size_t capacity = capacity_for(expected);
+    slots_.resize(capacity);  // left uninitialised (DefaultInitAllocator), cleared below
+    parallel_for(
+        capacity, threads,
+        [&](size_t b, size_t e, int) {
+          std::fill(slots_.begin() + static_cast<std::ptrdiff_t>(b),
+                    slots_.begin() + static_cast<std::ptrdiff_t>(e), Slot{kEmptyKey, 0});
+        },
+        size_t{1} << 16);
+    mask_ = capacity - 1;
+  }
+
+  /// The map keys[i] -> i of distinct keys, built on `threads` threads: the table is cut into
+  /// ranges of slots, each range filled by one thread with the keys whose search starts there
+  /// (in index order), and the few whose probe runs past their range's end are inserted
+  /// afterwards. The layout is the same whatever the threads.
+  static FlatMap64 of_distinct_keys(std::span<const uint64_t> keys, int threads) {
+    FlatMap64 map(keys.size(), threads);
+    const size_t capacity = map.slots_.size();
+    size_t ranges = 1;
+    while (ranges < 64 && ranges * 4096 < capacity) ranges *= 2;
+    const size_t range_size = capacity / ranges;
+    std::vector<uint32_t> index(keys.size()), by_range;
+    for (size_t i = 0; i < keys.size(); ++i) index[i] = static_cast<uint32_t>(i);
+    const std::vector<size_t> start = bucket_scatter(
+        index, by_range, ranges, [&](uint32_t i) { return map.slot(keys[i]) / range_size; },
+        threads);
+    std::vector<std::vector<uint32_t>> overflow(ranges);
+    parallel_for(
+        ranges, threads,
+        [&](size_t rb, size_t re, int) {
+          for (size_t r = rb; r < re; ++r) {
+            const size_t end = (r + 1) * range_size;
+            for (size_t k = start[r]; k < start[r + 1]; ++k) {
+              const uint32_t i = by_range[k];
+              size_t j = map.slot(keys[i]);
+              while (j < end && map.slots_[j].key != kEmptyKey) ++j;
+              if (j == end) {
+                overflow[r].push_back(i);
+              } else {
+                map.slots_[j] = {keys[i], i};
+              }
+            }
+          }
+        },
+        1);
+    map.size_ = keys.size();
+    for (const auto& list : overflow) {
+      for (const uint32_t i : list) {
+        size_t j = map.slot(keys[i]);
+        while (map.slots_[j].key != kEmptyKey) j = (j + 1) & map.mask_;
+        map.slots_[j] = {keys[i], i};
+      }
+    }
+    return map;
+  }
 
   /// Inserts key -> value unless present; returns the stored value (existing or new).
   uint32_t insert(uint64_t key, uint32_t value) {
-    if (2 * (size_ + 1) > keys_.size()) rehash(keys_.size() * 2);
+    if (2 * (size_ + 1) > slots_.size()) rehash(slots_.size() * 2);
     size_t i = slot(key);
-    while (keys_[i] != kEmptyKey) {
-      if (keys_[i] == key) return values_[i];
+    while (slots_[i].key != kEmptyKey) {
+      if (slots_[i].key == key) return slots_[i].value;
       i = (i + 1) & mask_;
     }
-    keys_[i] = key;
-    values_[i] = value;
+    slots_[i] = {key, value};
     ++size_;
     return value;
   }
   /// Sets key -> value (inserting or overwriting).
   void set(uint64_t key, uint32_t value) {
-    if (2 * (size_ + 1) > keys_.size()) rehash(keys_.size() * 2);
+    if (2 * (size_ + 1) > slots_.size()) rehash(slots_.size() * 2);
     size_t i = slot(key);
-    while (keys_[i] != kEmptyKey) {
-      if (keys_[i] == key) {
-        values_[i] = value;
+    while (slots_[i].key != kEmptyKey) {
+      if (slots_[i].key == key) {
+        slots_[i].value = value;
         return;
       }
       i = (i + 1) & mask_;
     }
-    keys_[i] = key;
-    values_[i] = value;
+    slots_[i] = {key, value};
     ++size_;
   }
   /// Overwrites the value of a key already present (never inserts, so several threads may
   /// call it for different keys at once); returns false when the key is missing.
   bool assign_existing(uint64_t key, uint32_t value) {
     size_t i = slot(key);
-    while (keys_[i] != kEmptyKey) {
-      if (keys_[i] == key) {
-        values_[i] = value;
+    while (slots_[i].key != kEmptyKey) {
+      if (slots_[i].key == key) {
+        slots_[i].value = value;
         return true;
       }
       i = (i + 1) & mask_;
@@ -61,21 +122,24 @@ class FlatMap64 {
   /// The value for key, or kMissing.
   uint32_t find(uint64_t key) const {
     size_t i = slot(key);
-    while (keys_[i] != kEmptyKey) {
-      if (keys_[i] == key) return values_[i];
+    while (slots_[i].key != kEmptyKey) {
+      if (slots_[i].key == key) return slots_[i].value;
       i = (i + 1) & mask_;
     }
     return kMissing;
   }
   bool contains(uint64_t key) const { return find(key) != kMissing; }
+  /// Starts loading the slot where a search for key begins (a hint; no effect on results).
+  /// Issuing the prefetches of several keys before finding them overlaps their cache misses.
+  void prefetch(uint64_t key) const { __builtin_prefetch(&slots_[slot(key)]); }
   size_t size() const { return size_; }
-  size_t memory_bytes() const { return keys_.size() * (sizeof(uint64_t) + sizeof(uint32_t)); }
+  size_t memory_bytes() const { return slots_.size() * sizeof(Slot); }
 
   /// Calls f(key, value) for every entry (unordered).
   template <class F>
   void for_each(F&& f) const {
-    for (size_t i = 0; i < keys_.size(); ++i)
-      if (keys_[i] != kEmptyKey) f(keys_[i], values_[i]);
+    for (const Slot& s : slots_)
+      if (s.key != kEmptyKey) f(s.key, s.value);
   }
 
  private:
@@ -94,25 +158,25 @@ class FlatMap64 {
     h ^= h >> 33;
     return static_cast<size_t>(h) & mask_;
   }
+  struct Slot {
+    uint64_t key;
+    uint32_t value;
+  };
   void rehash(size_t capacity) {
-    std::vector<uint64_t> old_keys = std::move(keys_);
-    std::vector<uint32_t> old_values = std::move(values_);
-    keys_.assign(capacity, kEmptyKey);
-    values_.assign(capacity, 0);
+    UninitVector<Slot> old = std::move(slots_);
+    slots_.assign(capacity, Slot{kEmptyKey, 0});
     mask_ = capacity - 1;
     size_ = 0;
-    for (size_t i = 0; i < old_keys.size(); ++i) {
-      if (old_keys[i] == kEmptyKey) continue;
-      size_t j = slot(old_keys[i]);
-      while (keys_[j] != kEmptyKey) j = (j + 1) & mask_;
-      keys_[j] = old_keys[i];
-      values_[j] = old_values[i];
+    for (const Slot& s : old) {
+      if (s.key == kEmptyKey) continue;
+      size_t j = slot(s.key);
+      while (slots_[j].key != kEmptyKey) j = (j + 1) & mask_;
+      slots_[j] = s;
       ++size_;
     }
   }
 
-  std::vector<uint64_t> keys_;
-  std::vector<uint32_t> values_;
+  UninitVector<Slot> slots_;
   size_t mask_ = 0;
   size_t size_ = 0;
 };

@@ -89,6 +89,11 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
                                 const SimplexBvh& bvh, const DistanceOptions& options = {},
                                 const DistanceField* previous = nullptr,
                                 const Octree* previous_octree = nullptr);
+/// The same update after a refinement, consuming `previous` (its vertex set moves into the new
+/// field instead of being copied); the result is the same.
+DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
+                                const SimplexBvh& bvh, const DistanceOptions& options,
+                                DistanceField&& previous, const Octree& previous_octree);
 
 /// Puts the vertices in key order (as a fresh compute_distances has them), permuting every
 /// per-vertex array and the leaf CSR. O(V), parallel on `threads` (0 = all cores).

@@ -47,6 +47,11 @@ class SimplexBvh {
   /// touches or crosses one), searching only boxes nearer than `max_dist2`; returns
   /// `max_dist2` when nothing is nearer. Exact up to rounding.
   double segment_distance2(Vec3 a, Vec3 b, double max_dist2 = 1e300) const;
+  /// The exact closest point on the simplices of objects other than excluded[0..count) (needs
+  /// `object_of` at construction): subtrees holding only excluded objects are not entered,
+  /// so it is cheap where those objects crowd the query point.
+  ClosestHit nearest_excluding(Vec3 p, const uint32_t* excluded, int count,
+                               double max_dist2 = 1e300) const;
   /// The exact closest point on the simplices of one object (needs `object_of` at
   /// construction).
   ClosestHit nearest_in_object(Vec3 p, uint32_t object, double max_dist2 = 1e300) const;

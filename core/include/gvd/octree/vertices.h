@@ -30,8 +30,14 @@ struct OctreeVertices {
     }
     return index.find(k);
   }
-  /// Builds `index` and `filter` from `key`.
-  void rebuild_index();
+  /// Whether k may be a vertex (false: certainly not), by the filter alone.
+  bool maybe(uint64_t k) const {
+    if (filter.empty()) return true;
+    const uint64_t h = filter_hash(k);
+    return filter[h >> 6] >> (h & 63) & 1;
+  }
+  /// Builds `index` and `filter` from `key` (distinct keys), on `threads` threads.
+  void rebuild_index(int threads = 1);
   /// Appends k unless present; returns its index.
   uint32_t insert(uint64_t k) {
     const uint32_t next = static_cast<uint32_t>(key.size());
