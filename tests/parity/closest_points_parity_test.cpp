@@ -49,8 +49,12 @@ std::vector<ClosestHit> expect_parity(kernels::OpenClBackend& backend, const Uni
   const SimplexBvh bvh(g.dimension, g.points, g.simplices);
   const ClosestPointData data = make_closest_point_data(g, bvh);
   const size_t n = batch.queries.size();
-  std::vector<ClosestHit> twin(n), scalar(n), kernel(n);
+  std::vector<ClosestHit> twin(n), scalar(n), kernel(n), coherent(n);
   closest_points_cpu(data, batch.queries, batch.bound2, twin, 2);
+  closest_points_cpu_coherent(data, batch.queries, batch.bound2, coherent, 2);
+  size_t bad_coherent = 0;
+  for (size_t i = 0; i < n; ++i) bad_coherent += !same_hit(twin[i], coherent[i]);
+  EXPECT_EQ(bad_coherent, 0u) << "closest_points_cpu_coherent differs from the twin";
   closest_points_scalar(data, batch.queries, batch.bound2, scalar);
   backend.closest_points(g, bvh)->solve(batch.queries, batch.bound2, kernel);
   size_t bad_kernel = 0, bad_twin = 0, bad_scalar = 0;

@@ -13,7 +13,7 @@ class CpuClosestPointSolver final : public ClosestPointSolver {
       : data_(make_closest_point_data(geometry, bvh)), threads_(threads) {}
   void solve(std::span<const Vec3> queries, std::span<const double> bound2,
              std::span<ClosestHit> hits) override {
-    closest_points_cpu(data_, queries, bound2, hits, threads_);
+    closest_points_cpu_coherent(data_, queries, bound2, hits, threads_);
   }
 
  private:

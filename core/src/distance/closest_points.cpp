@@ -43,14 +43,30 @@ ClosestPointData make_closest_point_data(const UnitGeometry& geometry, const Sim
 
 namespace {
 
+ClosestHit run_item(const ClosestPointData& data, Vec3 q, double bound2) {
+  return to_closest_hit(item::gvd_nearest_item(
+      data.dimension, static_cast<item::gvd_uint>(data.nodes.size()), data.nodes.data(),
+      data.order.data(), data.points.data(), data.simplices.data(), {q.x, q.y, q.z}, bound2));
+}
+
 void run_items(const ClosestPointData& data, std::span<const Vec3> queries,
                std::span<const double> bound2, std::span<ClosestHit> hits, size_t b, size_t e) {
-  const auto nodes = static_cast<item::gvd_uint>(data.nodes.size());
+  for (size_t i = b; i < e; ++i) hits[i] = run_item(data, queries[i], bound2[i]);
+}
+
+// The previous item's answer is a point on a simplex: its distance (with a margin far above
+// rounding) bounds this item's search. Every simplex that could be the answer is within that
+// bound, so the answer is the same; the search only skips more of the tree. Should rounding
+// leave nothing within it, the item is searched again with its own bound.
+void run_items_coherent(const ClosestPointData& data, std::span<const Vec3> queries,
+                        std::span<const double> bound2, std::span<ClosestHit> hits, size_t b,
+                        size_t e) {
   for (size_t i = b; i < e; ++i) {
-    const Vec3 q = queries[i];
-    hits[i] = to_closest_hit(item::gvd_nearest_item(
-        data.dimension, nodes, data.nodes.data(), data.order.data(), data.points.data(),
-        data.simplices.data(), {q.x, q.y, q.z}, bound2[i]));
+    double bound = bound2[i];
+    if (i > b && hits[i - 1].found())
+      bound = std::min(bound, dist2(queries[i], hits[i - 1].point) * (1 + 1e-9) + 1e-300);
+    hits[i] = run_item(data, queries[i], bound);
+    if (!hits[i].found() && bound < bound2[i]) hits[i] = run_item(data, queries[i], bound2[i]);
   }
 }
 
@@ -68,6 +84,15 @@ void closest_points_cpu(const ClosestPointData& data, std::span<const Vec3> quer
   parallel_for(
       queries.size(), resolve_threads(threads),
       [&](size_t b, size_t e, int) { run_items(data, queries, bound2, hits, b, e); }, 256);
+}
+
+void closest_points_cpu_coherent(const ClosestPointData& data, std::span<const Vec3> queries,
+                                 std::span<const double> bound2, std::span<ClosestHit> hits,
+                                 int threads) {
+  check_sizes(queries, bound2, hits);
+  parallel_for(
+      queries.size(), resolve_threads(threads),
+      [&](size_t b, size_t e, int) { run_items_coherent(data, queries, bound2, hits, b, e); }, 256);
 }
 
 void closest_points_scalar(const ClosestPointData& data, std::span<const Vec3> queries,

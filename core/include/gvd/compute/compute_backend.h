@@ -29,7 +29,8 @@ class ComputeBackend {
   virtual std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry);
 };
 
-/// The CPU twin as a solver (closest_points_cpu over a ClosestPointData copy of the scene).
+/// The CPU twin as a solver over a ClosestPointData copy of the scene: closest_points_cpu's
+/// answers, by closest_points_cpu_coherent (the pipeline's batches are in Z order).
 std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const UnitGeometry& geometry,
                                                                   const SimplexBvh& bvh,
                                                                   int threads = 0);

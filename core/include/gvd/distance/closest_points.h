@@ -36,6 +36,15 @@ void closest_points_cpu(const ClosestPointData& data, std::span<const Vec3> quer
                         std::span<const double> bound2, std::span<ClosestHit> hits,
                         int threads = 0);
 
+/// closest_points_cpu for batches in spatial order (consecutive queries near each other, as
+/// compute_distances issues them, in Z order): each item's search is first bounded by its
+/// distance to the previous item's answer, a point on a simplex, so it skips more of the tree.
+/// The answers are closest_points_cpu's (tested bit for bit, ties included); about a fifth
+/// less time on the benchmark scenes' octree vertices.
+void closest_points_cpu_coherent(const ClosestPointData& data, std::span<const Vec3> queries,
+                                 std::span<const double> bound2, std::span<ClosestHit> hits,
+                                 int threads = 0);
+
 /// The same per-item loop on one thread, without the task split: the scalar baseline the
 /// benchmarks compare the kernel with.
 void closest_points_scalar(const ClosestPointData& data, std::span<const Vec3> queries,
