@@ -5,7 +5,6 @@
 #include <queue>
 #include <tuple>
 
-#include "gvd/common/default_init.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
@@ -243,50 +242,66 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         }
       });
     }
-    // Grids of the leaves looked up again; the others copy their CSR rows.
-    std::vector<uint32_t> grid_of(nl, kNoVertex);
-    uint32_t looked_up = 0;
-    for (size_t i = 0; i < nl; ++i)
-      if (recompute[i]) grid_of[i] = looked_up++;
-    UninitVector<LeafGrid> grids(looked_up);  // filled below, in parallel
+    // Grids of the leaves looked up again, compacted per chunk of leaves into their boundary
+    // vertices and slots (no full-size array of grids); the other leaves copy their CSR rows.
+    const size_t grain = 2048;
+    struct Compact {
+      std::vector<uint32_t> vertex;
+      std::vector<uint8_t> slot;
+    };
+    std::vector<Compact> compact((nl + grain - 1) / grain);
     std::vector<uint32_t> count(nl);
-    parallel_for(nl, threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i) {
-        if (grid_of[i] == kNoVertex) {
-          const uint32_t ol = old_leaf[i];
-          count[i] = previous->leaf_begin[ol + 1] - previous->leaf_begin[ol];
-          continue;
-        }
-        LeafGrid& g = grids[grid_of[i]];
-        g = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
-        uint32_t c = 0;
-        for (int k = 0; k < grid_points; ++k) c += g[k] != kNoVertex;
-        count[i] = c;
-      }
-    });
+    parallel_for(
+        nl, threads,
+        [&](size_t b, size_t e, int) {
+          Compact mine;  // moved in at the end (no false sharing)
+          mine.vertex.reserve((e - b) * 10);
+          mine.slot.reserve((e - b) * 10);
+          for (size_t i = b; i < e; ++i) {
+            if (!recompute[i]) {
+              const uint32_t ol = old_leaf[i];
+              count[i] = previous->leaf_begin[ol + 1] - previous->leaf_begin[ol];
+              continue;
+            }
+            const LeafGrid g = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
+            uint32_t c = 0;
+            for (int k = 0; k < grid_points; ++k) {
+              if (g[k] == kNoVertex) continue;
+              mine.vertex.push_back(g[k]);
+              mine.slot.push_back(static_cast<uint8_t>(k));
+              ++c;
+            }
+            count[i] = c;
+          }
+          compact[b / grain] = std::move(mine);
+        },
+        grain);
     for (size_t i = 0; i < nl; ++i) leaf_verts.begin[i + 1] = leaf_verts.begin[i] + count[i];
     leaf_verts.items.resize(leaf_verts.begin[nl]);
     field.leaf_slot.resize(leaf_verts.begin[nl]);
-    parallel_for(nl, threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i) {
-        uint32_t pos = leaf_verts.begin[i];
-        if (grid_of[i] == kNoVertex) {
-          const uint32_t ol = old_leaf[i];
-          const uint32_t from = previous->leaf_begin[ol], to = previous->leaf_begin[ol + 1];
-          std::copy(previous->leaf_vertex.begin() + from, previous->leaf_vertex.begin() + to,
-                    leaf_verts.items.begin() + pos);
-          std::copy(previous->leaf_slot.begin() + from, previous->leaf_slot.begin() + to,
-                    field.leaf_slot.begin() + pos);
-          continue;
-        }
-        const LeafGrid& g = grids[grid_of[i]];
-        for (int k = 0; k < grid_points; ++k) {
-          if (g[k] == kNoVertex) continue;
-          field.leaf_slot[pos] = static_cast<uint8_t>(k);
-          leaf_verts.items[pos++] = g[k];
-        }
-      }
-    });
+    parallel_for(
+        nl, threads,
+        [&](size_t b, size_t e, int) {
+          size_t from_compact = 0;  // next entry of this chunk's compact lists
+          const Compact& mine = compact[b / grain];
+          for (size_t i = b; i < e; ++i) {
+            const uint32_t pos = leaf_verts.begin[i];
+            if (!recompute[i]) {
+              const uint32_t ol = old_leaf[i];
+              const uint32_t from = previous->leaf_begin[ol], to = previous->leaf_begin[ol + 1];
+              std::copy(previous->leaf_vertex.begin() + from, previous->leaf_vertex.begin() + to,
+                        leaf_verts.items.begin() + pos);
+              std::copy(previous->leaf_slot.begin() + from, previous->leaf_slot.begin() + to,
+                        field.leaf_slot.begin() + pos);
+              continue;
+            }
+            std::copy_n(mine.vertex.begin() + from_compact, count[i],
+                        leaf_verts.items.begin() + pos);
+            std::copy_n(mine.slot.begin() + from_compact, count[i], field.leaf_slot.begin() + pos);
+            from_compact += count[i];
+          }
+        },
+        grain);
   }
   if (options.method == DistanceMethod::kExact) {
     field.seconds_topology = part.lap();

@@ -181,8 +181,8 @@ struct ChunkResults {
 // them it split: phase 2 takes the children's lists from here instead of filtering again.
 struct LevelCache {
   std::vector<CellSet> sets;
-  std::vector<FlatMap64> index;  // code -> position in sets[level]
-  InternalSets split;            // the cells phase 1 split (before closure and balance)
+  std::vector<FlatMap64> index;             // code -> position in sets[level]
+  std::vector<std::vector<uint8_t>> split;  // per cell of sets[level]: phase 1 split it
 };
 
 // Phase 1: SHOULD_SUBDIVIDE, level by level over the non-empty cells; returns internal sets.
@@ -204,7 +204,6 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     const size_t n = current.size();
     std::vector<ObjectId> tags(n);
     std::vector<ObjectSet> sets(n);
-    FlatMap64 index_of_code(n);
     parallel_for(n, threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
         tags[i] = tag_with_contacts(g, current.pool.data() + current.begin[i],
@@ -212,7 +211,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
                                     sets[i]);
       }
     });
-    for (size_t i = 0; i < n; ++i) index_of_code.set(current.codes[i], static_cast<uint32_t>(i));
+    FlatMap64 index_of_code = FlatMap64::of_distinct_keys(current.codes, threads);
     if (level == max_depth) break;
     const bool at_contact = level >= contact_depth;
     // Does object a need separating from the objects of cell j? Not when they all touch a and
@@ -241,8 +240,12 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
         split[i] = s ? 1 : 0;
       }
     });
-    for (size_t i = 0; i < n; ++i)
-      if (split[i]) internal[level].insert(current.codes[i], 0);
+    {
+      std::vector<uint64_t> split_codes;
+      for (size_t i = 0; i < n; ++i)
+        if (split[i]) split_codes.push_back(current.codes[i]);
+      internal[level] = FlatMap64::of_distinct_keys(split_codes, threads);
+    }
     internal_count += internal[level].size();
     if (internal_count * children_per_split + 1 > options.max_leaves) {
       throw Error(ErrorCode::kLimitExceeded, "octree exceeds the leaf limit of " +
@@ -271,7 +274,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     CellSet next = concat(out.chunks, threads);
     cache.sets.push_back(std::move(current));
     cache.index.push_back(std::move(index_of_code));
-    cache.split.push_back(internal[level]);
+    cache.split.push_back(std::move(split));
     current = std::move(next);
   }
   return internal;
@@ -364,9 +367,11 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
             const uint32_t* lb = current.pool.data() + current.begin[i];
             const uint32_t* le = current.pool.data() + current.begin[i + 1];
             if (has_internal && internal[level].contains(code)) {
-              const bool cached = cache != nullptr &&
-                                  level + 1 < static_cast<int>(cache->sets.size()) &&
-                                  cache->split[level].contains(code);
+              bool cached = false;
+              if (cache != nullptr && level + 1 < static_cast<int>(cache->sets.size())) {
+                const uint32_t at = cache->index[level].find(code);
+                cached = at != FlatMap64::kMissing && cache->split[level][at];
+              }
               if (cached) {
                 // Phase 1 split this cell: its non-empty children and their lists are known.
                 const CellSet& below = cache->sets[level + 1];
@@ -512,8 +517,7 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
   InternalSets internal = subdivide_by_rules(geometry, options, max_depth, threads, cache);
   close_upwards(dim, internal);
   balance(dim, internal, threads);
-  auto t = materialize(geometry, internal, max_depth, options, threads, &cache);
-  return t;
+  return materialize(geometry, internal, max_depth, options, threads, &cache);
 }
 
 Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,

@@ -780,14 +780,19 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   parallel_for(
       runs, threads,
       [&](size_t b, size_t e, int) {
+        Vec3 previous;  // the last answer: a point on an object next to this one
+        bool have_previous = false;
         for (size_t o = b; o < e; ++o) {
           const size_t r = run_order[o].second;
           const Vec3 p = sorted[run_start[r]].p;
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
             bound2 = std::min(bound2, dist2(p, record[keyed[i].record]->witness));
+          if (have_previous) bound2 = std::min(bound2, dist2(p, previous) * (1 + 1e-9));
           const ClosestHit hit = bvh.nearest(p, bound2);
           run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
+          have_previous = hit.found();
+          if (have_previous) previous = hit.point;
         }
       },
       1024);
