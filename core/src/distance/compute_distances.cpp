@@ -115,22 +115,32 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
         z, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
     for (size_t j = 0; j < todo.size(); ++j) todo[j] = z[j].second;
   }
-  std::vector<Vec3> pos(todo.size());
-  std::vector<double> bound(todo.size(), 1e300);
-  parallel_for(todo.size(), threads, [&](size_t b, size_t e, int) {
-    for (size_t j = b; j < e; ++j) pos[j] = field.vertices.position(todo[j]);
-  });
-  std::vector<ClosestHit> hits(todo.size());
-  check_cancel(options);
-  solve_closest(bvh, options, pos, bound, hits, threads);
-  check_cancel(options);
-  for (size_t j = 0; j < todo.size(); ++j) {
-    if (!hits[j].found()) continue;  // no simplices at all
-    const uint32_t v = todo[j];
-    field.closest[v] = hits[j].point;
-    field.label[v] = geometry.object_of[hits[j].simplex];
-    field.point[v] = v;
+  // In blocks, through buffers reused from one block to the next (less fresh memory, whose
+  // first touch costs more than the queries' bookkeeping).
+  const size_t block = std::min<size_t>(todo.size(), size_t{1} << 16);
+  std::vector<Vec3> pos(block);
+  const std::vector<double> bound(block, 1e300);
+  std::vector<ClosestHit> hits(block);
+  for (size_t first = 0; first < todo.size(); first += block) {
+    const size_t m = std::min(block, todo.size() - first);
+    parallel_for(m, threads, [&](size_t b, size_t e, int) {
+      for (size_t j = b; j < e; ++j) pos[j] = field.vertices.position(todo[first + j]);
+    });
+    check_cancel(options);
+    solve_closest(bvh, options, std::span<const Vec3>(pos).first(m),
+                  std::span<const double>(bound).first(m), std::span<ClosestHit>(hits).first(m),
+                  threads);
+    parallel_for(m, threads, [&](size_t b, size_t e, int) {
+      for (size_t j = b; j < e; ++j) {
+        if (!hits[j].found()) continue;  // no simplices at all
+        const uint32_t v = todo[first + j];
+        field.closest[v] = hits[j].point;
+        field.label[v] = geometry.object_of[hits[j].simplex];
+        field.point[v] = v;
+      }
+    });
   }
+  check_cancel(options);
   field.exact_count = nv;
   field.exact_reused = nv - todo.size();
 }

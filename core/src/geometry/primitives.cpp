@@ -48,16 +48,33 @@ bool triangle_overlaps_box(Vec3 a, Vec3 b, Vec3 c, const Box& box, double slack)
   const Vec3 v0 = a - center;
   const Vec3 v1 = b - center;
   const Vec3 v2 = c - center;
-  // Box face normals.
+  // Box face normals; a triangle inside the box on every axis overlaps it (no more tests).
+  bool inside = true;
   for (int i = 0; i < 3; ++i) {
     const double lo = std::min({v0[i], v1[i], v2[i]});
     const double hi = std::max({v0[i], v1[i], v2[i]});
     if (lo > half[i] || hi < -half[i]) return false;
+    inside &= lo >= -half[i] && hi <= half[i];
   }
+  if (inside) return true;
   const Vec3 e[3] = {v1 - v0, v2 - v1, v0 - v2};
   // Triangle normal.
   const Vec3 n = cross(e[0], e[1]);
   if (norm2(n) > 0 && separated_on_axis(n, v0, v1, v2, half)) return false;
+  // The plane crosses the box. If the box also lies inside the triangle's prism, farther
+  // than its half-diagonal from every edge line, the plane's section of the box is inside
+  // the triangle: they overlap (the usual case of a cell on a large facet).
+  if (norm2(n) > 0) {
+    const double r = std::sqrt(norm2(half)) * (1 + 1e-9);
+    const double nn = std::sqrt(norm2(n));
+    const Vec3* v[3] = {&v0, &v1, &v2};
+    bool deep = true;
+    for (int k = 0; k < 3 && deep; ++k) {
+      // cross(n, e_k) points into the triangle; its length is |n| |e_k|.
+      deep = -dot(cross(n, e[k]), *v[k]) > r * nn * std::sqrt(norm2(e[k]));
+    }
+    if (deep) return true;
+  }
   // Edge x box axis cross products.
   const Vec3 axes[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
   for (const Vec3& edge : e) {
@@ -74,6 +91,10 @@ bool segment_overlaps_box_2d(Vec3 a, Vec3 b, const Box& box, double slack) {
   const double loy = box.lo.y - slack, hiy = box.hi.y + slack;
   if (std::max(a.x, b.x) < lox || std::min(a.x, b.x) > hix) return false;
   if (std::max(a.y, b.y) < loy || std::min(a.y, b.y) > hiy) return false;
+  if (std::min(a.x, b.x) >= lox && std::max(a.x, b.x) <= hix && std::min(a.y, b.y) >= loy &&
+      std::max(a.y, b.y) <= hiy) {
+    return true;  // both ends inside
+  }
   // Segment normal axis: the box corners must not all lie strictly on one side.
   const double nx = -(b.y - a.y);
   const double ny = b.x - a.x;
