@@ -580,12 +580,15 @@ uint64_t position_hash(Vec3 p) {
   return h;
 }
 
-// The surface of a range of leaves: distinct (point, object, other) records of each leaf and
-// simplices over them (indices into `corners`, local to the chunk).
+// The surface of a range of leaves: distinct (point, pair of objects) records of each leaf and
+// simplices over them (indices into `corners`, local to the chunk). A point between objects a
+// and b is one record for both sides; `sides` says which of them has a vertex there (bit 0:
+// the lower object, bit 1: the higher one), so the records are half as many as the corners.
 struct SurfaceChunk {
   struct Corner {
     Vec3 p;
-    ObjectId object, other;
+    ObjectId lo, hi;  // the pair, lo < hi (hi = kNoObject on the domain box)
+    uint32_t sides;
     Vec3 witness;  // the nearest of its pieces' witnesses: bounds the clearance search
   };
   struct Simplex {
@@ -595,7 +598,7 @@ struct SurfaceChunk {
   std::vector<Corner> corners;
   std::vector<Simplex> simplices;
 
-  // Appends one leaf's pieces, merging equal (point, object, other) within the leaf (a small
+  // Appends one leaf's pieces, merging equal (point, pair) within the leaf (a small
   // open-addressing table over the leaf's records; the scan covers only a collision chain).
   void add(const std::vector<Piece>& pieces, int arity) {
     const size_t first = corners.size();
@@ -605,15 +608,16 @@ struct SurfaceChunk {
     table.assign(mask + 1, kEmpty);
     for (const Piece& piece : pieces) {
       Simplex t{{0, 0, 0}, piece.object};
+      const ObjectId lo = std::min(piece.object, piece.other);
+      const ObjectId hi = std::max(piece.object, piece.other);
+      const uint32_t side = piece.object == lo ? 1u : 2u;
       for (int k = 0; k < arity; ++k) {
         const Vec3& p = piece.p[k];
-        size_t slot =
-            (position_hash(p) ^ (uint64_t{piece.object} * 0x9e3779b97f4a7c15ull) ^ piece.other) &
-            mask;
+        size_t slot = (position_hash(p) ^ (uint64_t{lo} * 0x9e3779b97f4a7c15ull) ^ hi) & mask;
         uint32_t at = kEmpty;
         for (; table[slot] != kEmpty; slot = (slot + 1) & mask) {
           const Corner& c = corners[first + table[slot]];
-          if (c.p == p && c.object == piece.object && c.other == piece.other) {
+          if (c.p == p && c.lo == lo && c.hi == hi) {
             at = static_cast<uint32_t>(first + table[slot]);
             break;
           }
@@ -621,9 +625,11 @@ struct SurfaceChunk {
         if (at == kEmpty) {
           at = static_cast<uint32_t>(corners.size());
           table[slot] = static_cast<uint32_t>(at - first);
-          corners.push_back({p, piece.object, piece.other, piece.witness});
-        } else if (dist2(p, piece.witness) < dist2(p, corners[at].witness)) {
-          corners[at].witness = piece.witness;
+          corners.push_back({p, lo, hi, side, piece.witness});
+        } else {
+          corners[at].sides |= side;
+          if (dist2(p, piece.witness) < dist2(p, corners[at].witness))
+            corners[at].witness = piece.witness;
         }
         t.v[k] = at;
       }
@@ -686,16 +692,16 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
       },
       1);
   // Vertices: one per (object, other object, exact position). Identical points are made
-  // contiguous by sorting the records by (hash of the position, object, other): a counting
-  // sort into buckets by the hash's top bits, then each bucket sorted on its own (both
-  // parallel). Equal hashes of different points (a 64-bit collision, not expected) would
-  // interleave their records: such a bucket is sorted again by the positions themselves.
+  // contiguous by sorting the records by (hash of the position, pair): a counting sort into
+  // buckets by the hash's top bits, then each bucket sorted on its own (both parallel).
+  // Equal hashes of different points (a 64-bit collision, not expected) would interleave
+  // their records: such a bucket is sorted again by the positions themselves.
   struct Keyed {
     uint64_t hash;
-    ObjectId object, other;
+    ObjectId lo, hi;
     uint32_t record;
     bool operator<(const Keyed& y) const {
-      return std::tie(hash, object, other) < std::tie(y.hash, y.object, y.other);
+      return std::tie(hash, lo, hi) < std::tie(y.hash, y.lo, y.hi);
     }
   };
   std::vector<Keyed> keyed;
@@ -704,7 +710,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
     parallel_for(nc, threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
         const SurfaceChunk::Corner& c = *record[i];
-        unsorted[i] = {position_hash(c.p), c.object, c.other, static_cast<uint32_t>(i)};
+        unsorted[i] = {position_hash(c.p), c.lo, c.hi, static_cast<uint32_t>(i)};
       }
     });
     constexpr int kBucketBits = 12;
@@ -726,8 +732,8 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
             std::sort(first, last, [&](const Keyed& x, const Keyed& y) {
               const Vec3& px = record[x.record]->p;
               const Vec3& py = record[y.record]->p;
-              return std::tie(x.hash, px.x, px.y, px.z, x.object, x.other) <
-                     std::tie(y.hash, py.x, py.y, py.z, y.object, y.other);
+              return std::tie(x.hash, px.x, px.y, px.z, x.lo, x.hi) <
+                     std::tie(y.hash, py.x, py.y, py.z, y.lo, y.hi);
             });
           }
         },
@@ -735,25 +741,33 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   }
 
   // The records in sorted order (one parallel gather, so the passes below read sequentially);
-  // runs of one position; within a run, a new vertex at each new (object, other).
+  // runs of one position; within a run, groups of one pair, whose records' sides together
+  // say which of the pair's objects get a vertex.
   struct Sorted {
     Vec3 p;
-    ObjectId object, other;
+    ObjectId lo, hi;
+    uint32_t sides;
   };
   std::vector<Sorted> sorted(nc);
-  std::vector<uint8_t> new_vertex(nc), new_point(nc);
+  std::vector<uint8_t> new_group(nc), new_point(nc);
   parallel_for(nc, threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) {
       const SurfaceChunk::Corner& c = *record[keyed[i].record];
-      sorted[i] = {c.p, c.object, c.other};
+      sorted[i] = {c.p, c.lo, c.hi, c.sides};
     }
   });
   parallel_for(nc, threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) {
       const Sorted* before = i == 0 ? nullptr : &sorted[i - 1];
       new_point[i] = before == nullptr || sorted[i].p != before->p;
-      new_vertex[i] =
-          new_point[i] || sorted[i].object != before->object || sorted[i].other != before->other;
+      new_group[i] = new_point[i] || sorted[i].lo != before->lo || sorted[i].hi != before->hi;
+    }
+  });
+  // The sides of each group, on its first record.
+  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      if (!new_group[i]) continue;
+      for (size_t j = i + 1; j < nc && !new_group[j]; ++j) sorted[i].sides |= sorted[j].sides;
     }
   });
   std::vector<size_t> run_start;
@@ -813,9 +827,13 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   parallel_for(
       parts, threads,
       [&](size_t b, size_t e, int) {
-        for (size_t p = b; p < e; ++p)
-          for (size_t i = run_start[part_run[p]]; i < run_start[part_run[p + 1]]; ++i)
-            vertex_base[p * objects + sorted[i].object] += new_vertex[i];
+        for (size_t p = b; p < e; ++p) {
+          for (size_t i = run_start[part_run[p]]; i < run_start[part_run[p + 1]]; ++i) {
+            if (!new_group[i]) continue;
+            if (sorted[i].sides & 1) ++vertex_base[p * objects + sorted[i].lo];
+            if (sorted[i].sides & 2) ++vertex_base[p * objects + sorted[i].hi];
+          }
+        }
       },
       1);
   std::vector<uint32_t> vertices(objects, 0);
@@ -831,24 +849,31 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
     cell.other.resize(vertices[cell.object]);
     cell.clearance.resize(vertices[cell.object]);
   }
-  std::vector<uint32_t> index_of(nc);
+  // Per record, the vertex of each side (2 r: the lower object's, 2 r + 1: the higher's).
+  std::vector<uint32_t> index_of(2 * nc);
   parallel_for(
       parts, threads,
       [&](size_t b, size_t e, int) {
         for (size_t p = b; p < e; ++p) {
           uint32_t* next = &vertex_base[p * objects];  // the part's next vertex per object
+          uint32_t at[2] = {0, 0};
           for (size_t r = part_run[p]; r < part_run[p + 1]; ++r) {
             const Vec3 user = domain.from_unit(sorted[run_start[r]].p);
             for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
-              const ObjectId o = sorted[i].object;
-              GvdCell& cell = gvd.cells[o];
-              if (new_vertex[i]) {
-                cell.positions[next[o]] = user;
-                cell.other[next[o]] = sorted[i].other;
-                cell.clearance[next[o]] = run_clearance[r];
-                ++next[o];
+              if (new_group[i]) {
+                const ObjectId pair[2] = {sorted[i].lo, sorted[i].hi};
+                for (int side = 0; side < 2; ++side) {
+                  if (!(sorted[i].sides >> side & 1)) continue;
+                  const ObjectId o = pair[side];
+                  GvdCell& cell = gvd.cells[o];
+                  at[side] = next[o]++;
+                  cell.positions[at[side]] = user;
+                  cell.other[at[side]] = pair[1 - side];
+                  cell.clearance[at[side]] = run_clearance[r];
+                }
               }
-              index_of[keyed[i].record] = next[o] - 1;
+              index_of[2 * size_t{keyed[i].record}] = at[0];
+              index_of[2 * size_t{keyed[i].record} + 1] = at[1];
             }
           }
         }
@@ -885,7 +910,10 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
           for (size_t c = part_chunk[p]; c < part_chunk[p + 1]; ++c) {
             for (const SurfaceChunk::Simplex& t : chunks[c].simplices) {
               uint32_t* out = &gvd.cells[t.object].indices[size_t{next[t.object]++} * arity];
-              for (int k = 0; k < arity; ++k) out[k] = index_of[chunk_start[c] + t.v[k]];
+              for (int k = 0; k < arity; ++k) {
+                const size_t rec = chunk_start[c] + t.v[k];
+                out[k] = index_of[2 * rec + (t.object == chunks[c].corners[t.v[k]].lo ? 0 : 1)];
+              }
             }
           }
         }
