@@ -233,6 +233,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     if (incremental) {
       for (size_t i = 0; i < nl; ++i) recompute[i] = old_leaf[i] == kNoVertex;
       const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
+      const LeafLocator locator(octree);
       parallel_for(nv - old_count, threads, [&](size_t b, size_t e, int) {
         for (size_t v = old_count + b; v < old_count + e; ++v) {
           const lattice::Coord p = lattice::vertex_coord(dim, field.vertices.key[v]);
@@ -245,7 +246,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
               q.c[a] = static_cast<uint32_t>(x);
             }
             if (inside) {
-              std::atomic_ref<uint8_t>(recompute[octree.locate_lattice(q)])
+              std::atomic_ref<uint8_t>(recompute[locator.locate_lattice(q)])
                   .store(1, std::memory_order_relaxed);
             }
           }

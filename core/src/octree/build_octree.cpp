@@ -497,6 +497,29 @@ uint32_t Octree::locate_lattice(const lattice::Coord& p) const {
   return static_cast<uint32_t>(it - code.begin() - 1);
 }
 
+LeafLocator::LeafLocator(const Octree& octree) : octree_(&octree) {
+  const int bits = octree.dimension * lattice_bits(octree.dimension);
+  shift_ = std::max(0, bits - kPrefixBits);
+  const size_t prefixes = (size_t{1} << (bits - shift_)) + 1;
+  start_.assign(prefixes, static_cast<uint32_t>(octree.code.size()));
+  // Filled from the back: each prefix starts at the first leaf whose prefix is not smaller.
+  size_t i = octree.code.size();
+  for (size_t b = prefixes - 1; b-- > 0;) {
+    while (i > 0 && (octree.code[i - 1] >> shift_) >= b) --i;
+    start_[b] = static_cast<uint32_t>(i);
+  }
+}
+
+uint32_t LeafLocator::locate_lattice(const lattice::Coord& p) const {
+  const uint64_t m = lattice::morton(octree_->dimension, p);
+  const size_t b = m >> shift_;
+  // The last leaf whose code is <= m: in this prefix's range, else the one just before it.
+  const auto first = octree_->code.begin() + start_[b];
+  const auto it = std::upper_bound(first, octree_->code.begin() + start_[b + 1], m);
+  GVD_CHECK(it != octree_->code.begin(), "octree leaves must tile the domain");
+  return static_cast<uint32_t>(it - octree_->code.begin() - 1);
+}
+
 uint32_t Octree::locate(Vec3 u) const {
   const uint64_t m = lattice::morton(dimension, lattice::from_unit(dimension, u));
   auto it = std::upper_bound(code.begin(), code.end(), m);
@@ -549,16 +572,17 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   check_cancel(options);
   InternalSets added(max_depth + 1);
   const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
+  const LeafLocator locator(octree);
   auto internal = [&](uint64_t code, int level) {
     if (added[level].contains(code)) return true;
-    const uint32_t leaf = octree.locate_lattice(lattice::morton_decode(dim, code));
+    const uint32_t leaf = locator.locate_lattice(lattice::morton_decode(dim, code));
     return octree.level[leaf] > level;
   };
   std::vector<CellRef> work;
   auto request = [&](uint64_t code, int level) {
     if (level >= max_depth || internal(code, level)) return;
     // The cells between the leaf that holds this one and it become internal too.
-    const uint32_t leaf = octree.locate_lattice(lattice::morton_decode(dim, code));
+    const uint32_t leaf = locator.locate_lattice(lattice::morton_decode(dim, code));
     for (int l = octree.level[leaf]; l <= level; ++l) {
       const uint64_t c = (l == level) ? code : parent_code(dim, code, l + 1);
       // parent_code(code, l + 1) clears the bits below level l.

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <random>
 
 #include "gvd/common/error.h"
 #include "gvd/common/flat_hash.h"
@@ -241,6 +242,30 @@ TEST(BuildOctree, RefinementIsTheSameOnOneAndTwoThreads) {
     FAIL() << "expected a limit error";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::kLimitExceeded);
+  }
+}
+
+TEST(BuildOctree, LeafLocatorAgreesWithLocate) {
+  for (int dim : {2, 3}) {
+    auto b =
+        build(dim == 2 ? test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1),
+                                              test::make_circle("b", {2.001, 0, 0}, 1)})
+                       : test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                              test::make_sphere("b", {2.002, 0, 0}, 1, 8, 16)}));
+    const LeafLocator locator(b.octree);
+    std::mt19937_64 rng(dim);
+    const uint64_t side = lattice::side_units(dim);
+    for (int i = 0; i < 20000; ++i) {
+      lattice::Coord p;
+      for (int a = 0; a < dim; ++a) p.c[a] = static_cast<uint32_t>(rng() % side);
+      if (i < 64) {  // the domain's corners and edges
+        for (int a = 0; a < dim; ++a) p.c[a] = (i >> a) & 1 ? static_cast<uint32_t>(side - 1) : 0;
+      }
+      ASSERT_EQ(locator.locate_lattice(p), b.octree.locate_lattice(p)) << "query " << i;
+    }
+    // Every leaf's own corner finds it.
+    for (uint32_t l = 0; l < b.octree.leaf_count(); ++l)
+      ASSERT_EQ(locator.locate_lattice(b.octree.corner(l)), l);
   }
 }
 
