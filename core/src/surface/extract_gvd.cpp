@@ -82,10 +82,17 @@ class CellSurfacer {
           uint64_t recent[256];
           std::fill(std::begin(recent), std::end(recent), ~0ull);
           for (size_t leaf = b; leaf < e; ++leaf) {
-            const LeafGrid grid = field_.grid(octree_, static_cast<uint32_t>(leaf));
-            const ObjectId first = field_.label[grid[0]];
             bool mixed = false;
-            for (uint32_t v : grid) mixed |= v != kNoVertex && field_.label[v] != first;
+            if (!field_.leaf_begin.empty()) {  // from the leaf's row: no grid to build
+              const uint32_t* vb = field_.leaf_vertex.data() + field_.leaf_begin[leaf];
+              const uint32_t* ve = field_.leaf_vertex.data() + field_.leaf_begin[leaf + 1];
+              for (const uint32_t* v = vb; v != ve; ++v)
+                mixed |= field_.label[*v] != field_.label[*vb];
+            } else {
+              const LeafGrid grid = field_.grid(octree_, static_cast<uint32_t>(leaf));
+              for (uint32_t v : grid)
+                mixed |= v != kNoVertex && field_.label[v] != field_.label[grid[0]];
+            }
             bool on_domain = false;
             if (!mixed) {
               const lattice::Coord c = octree_.corner(static_cast<uint32_t>(leaf));
@@ -94,6 +101,7 @@ class CellSurfacer {
             }
             if (mixed || on_domain) my_active.push_back(static_cast<uint32_t>(leaf));
             if (!mixed) continue;
+            const LeafGrid grid = field_.grid(octree_, static_cast<uint32_t>(leaf));
             detail::for_each_face_polygon(
                 octree_, grid, static_cast<uint32_t>(leaf), [&](const detail::FacePolygon& poly) {
                   for (int i = 0; i < poly.n; ++i) {

@@ -171,13 +171,25 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
         std::vector<std::pair<uint64_t, uint32_t>> pairs;  // moved in at the end
         for (size_t i = b; i < e; ++i) {
           const uint32_t leaf = static_cast<uint32_t>(i);
+          const ObjectId obj = octree.object[leaf];
+          if (!field.leaf_begin.empty()) {
+            // From the leaf's row of vertices: an empty leaf seen by one object only (most
+            // of them), or one that did not change, has nothing to check.
+            const uint32_t* vb = field.leaf_vertex.data() + field.leaf_begin[leaf];
+            const uint32_t* ve = field.leaf_vertex.data() + field.leaf_begin[leaf + 1];
+            bool changed = !options.changed_only, mixed = false;
+            for (const uint32_t* v = vb; v != ve; ++v) {
+              changed |= field.changed[*v] != 0;
+              mixed |= field.label[*v] != field.label[*vb];
+            }
+            if (!changed || (obj == kNoObject && !mixed)) continue;
+          }
           const LeafGrid grid = field.grid(octree, leaf);
           if (options.changed_only) {
             bool changed = false;
             for (uint32_t v : grid) changed |= v != kNoVertex && field.changed[v];
             if (!changed) continue;
           }
-          const ObjectId obj = octree.object[leaf];
           uint8_t f = 0;
           if (obj != kNoObject && obj != kManyObjects) {
             const bool at_contact =
