@@ -649,11 +649,8 @@ void sort_vertices(DistanceField& field, int threads) {
   permute(field.point);
   permute(field.exact);
   permute(field.changed);
-  // Same keys, new positions: every slot of the index is rewritten in place (no inserts).
-  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i)
-      field.vertices.index.assign_existing(field.vertices.key[i], static_cast<uint32_t>(i));
-  });
+  // Same keys, new positions: the index's values are renumbered in place (no inserts).
+  field.vertices.index.transform_values([&](uint32_t v) { return new_index[v]; }, threads);
   parallel_for(field.leaf_vertex.size(), threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) field.leaf_vertex[i] = new_index[field.leaf_vertex[i]];
   });

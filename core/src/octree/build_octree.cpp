@@ -428,19 +428,31 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
   Octree tree;
   tree.dimension = dim;
   tree.max_depth = max_depth;
-  std::vector<uint64_t> codes;
-  std::vector<uint8_t> levels;
-  std::vector<ObjectId> objects;
-  std::vector<uint32_t> begins{0};
-  std::vector<uint32_t> pool;
-  for (const Leaves& l : per_level) {
-    codes.insert(codes.end(), l.code.begin(), l.code.end());
-    levels.insert(levels.end(), l.level.begin(), l.level.end());
-    objects.insert(objects.end(), l.object.begin(), l.object.end());
-    const uint32_t off = static_cast<uint32_t>(pool.size());
-    pool.insert(pool.end(), l.lists.pool.begin(), l.lists.pool.end());
-    for (size_t i = 1; i < l.lists.begin.size(); ++i) begins.push_back(l.lists.begin[i] + off);
+  // The levels one after the other (each copied by one task).
+  std::vector<size_t> leaf_at(per_level.size() + 1, 0), pool_at(per_level.size() + 1, 0);
+  for (size_t l = 0; l < per_level.size(); ++l) {
+    leaf_at[l + 1] = leaf_at[l] + per_level[l].code.size();
+    pool_at[l + 1] = pool_at[l] + per_level[l].lists.pool.size();
   }
+  std::vector<uint64_t> codes(leaf_at.back());
+  std::vector<uint8_t> levels(leaf_at.back());
+  std::vector<ObjectId> objects(leaf_at.back());
+  std::vector<uint32_t> begins(leaf_at.back() + 1, 0);
+  std::vector<uint32_t> pool(pool_at.back());
+  parallel_for(
+      per_level.size(), threads,
+      [&](size_t lb, size_t le, int) {
+        for (size_t l = lb; l < le; ++l) {
+          const Leaves& lv = per_level[l];
+          std::copy(lv.code.begin(), lv.code.end(), codes.begin() + leaf_at[l]);
+          std::copy(lv.level.begin(), lv.level.end(), levels.begin() + leaf_at[l]);
+          std::copy(lv.object.begin(), lv.object.end(), objects.begin() + leaf_at[l]);
+          std::copy(lv.lists.pool.begin(), lv.lists.pool.end(), pool.begin() + pool_at[l]);
+          for (size_t i = 1; i < lv.lists.begin.size(); ++i)
+            begins[leaf_at[l] + i] = lv.lists.begin[i] + static_cast<uint32_t>(pool_at[l]);
+        }
+      },
+      1);
   // Leaves never share a corner code, so the order is total.
   std::vector<std::pair<uint64_t, uint32_t>> order(codes.size());
   parallel_for(codes.size(), threads, [&](size_t b, size_t e, int) {

@@ -55,5 +55,13 @@ TEST(FlatMap64, OfDistinctKeysIsTheSameOnOneAndTwoThreads) {
   EXPECT_EQ(a, b);  // the same layout (for_each walks the slots in order)
 }
 
+TEST(FlatMap64, TransformValuesRenumbersEveryEntry) {
+  const std::vector<uint64_t> keys = distinct_keys(50000, 13);
+  FlatMap64 map = FlatMap64::of_distinct_keys(keys, 2);
+  map.transform_values([](uint32_t v) { return 3 * v + 1; }, 2);
+  for (size_t i = 0; i < keys.size(); ++i) ASSERT_EQ(map.find(keys[i]), 3 * i + 1);
+  EXPECT_EQ(map.size(), keys.size());
+}
+
 }  // namespace
 }  // namespace gvd

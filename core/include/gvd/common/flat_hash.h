@@ -106,19 +106,6 @@ class FlatMap64 {
     slots_[i] = {key, value};
     ++size_;
   }
-  /// Overwrites the value of a key already present (never inserts, so several threads may
-  /// call it for different keys at once); returns false when the key is missing.
-  bool assign_existing(uint64_t key, uint32_t value) {
-    size_t i = slot(key);
-    while (slots_[i].key != kEmptyKey) {
-      if (slots_[i].key == key) {
-        slots_[i].value = value;
-        return true;
-      }
-      i = (i + 1) & mask_;
-    }
-    return false;
-  }
   /// The value for key, or kMissing.
   uint32_t find(uint64_t key) const {
     size_t i = slot(key);
@@ -135,6 +122,17 @@ class FlatMap64 {
   size_t size() const { return size_; }
   size_t memory_bytes() const { return slots_.size() * sizeof(Slot); }
 
+  /// Replaces every stored value v by f(v), in one parallel sweep over the table.
+  template <class F>
+  void transform_values(F&& f, int threads) {
+    parallel_for(
+        slots_.size(), threads,
+        [&](size_t b, size_t e, int) {
+          for (size_t i = b; i < e; ++i)
+            if (slots_[i].key != kEmptyKey) slots_[i].value = f(slots_[i].value);
+        },
+        size_t{1} << 14);
+  }
   /// Calls f(key, value) for every entry (unordered).
   template <class F>
   void for_each(F&& f) const {
