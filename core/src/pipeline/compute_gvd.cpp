@@ -92,10 +92,12 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   sw = Stopwatch();
   RefineReport report;
   int rounds = 0;
-  const Octree base = r.octree;
+  // The octree before any refinement (ambiguity limits count levels from it): the current one
+  // until the first round replaces it, then kept from that round (no copy).
+  Octree base;
   RefineOptions ro;
   ro.threads = options.threads;
-  ro.base = &base;
+  ro.base = &r.octree;
   const int ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
                                : dim == 2                    ? options.max_refine_rounds
                                                              : 3;
@@ -142,6 +144,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     DistanceField next =
         compute_distances(r.octree, r.geometry, bvh, dopt, std::move(r.field), previous);
     r.field = std::move(next);
+    if (rounds == 1) {
+      base = std::move(previous);
+      ro.base = &base;
+    }
   }
   sort_vertices(r.field, options.threads);  // incremental rounds appended vertices
   // The last report holds the thin regions no round resolved (earlier ones were split).

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <exception>
+#include <functional>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -16,6 +19,78 @@ inline int resolve_threads(int requested) {
   const unsigned hc = std::thread::hardware_concurrency();
   return hc == 0 ? 1 : static_cast<int>(hc);
 }
+
+namespace detail {
+
+/// Worker threads kept for parallel_for: started when first needed, stopped at exit. Starting
+/// and joining a thread per loop cost ~50-150 us on this machine, and a pipeline run has
+/// hundreds of loops. One loop uses the pool at a time; a nested or concurrent one (another
+/// job of the server, a loop inside a loop) finds it busy and starts its own threads.
+class WorkerPool {
+ public:
+  static WorkerPool& instance() {
+    static WorkerPool pool;
+    return pool;
+  }
+  /// Starts task(t) for t = 1..workers on pool threads; false (nothing started) when busy.
+  bool start(int workers, const std::function<void(int)>& task) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (busy_ || stop_) return false;
+    busy_ = true;
+    while (static_cast<int>(threads_.size()) < workers) {
+      const int index = static_cast<int>(threads_.size()) + 1;
+      threads_.emplace_back([this, index] { loop(index); });
+    }
+    task_ = &task;
+    workers_ = workers;
+    running_ = workers;
+    ++generation_;
+    lock.unlock();
+    wake_.notify_all();
+    return true;
+  }
+  /// Waits for the tasks start() handed out, then frees the pool.
+  void wait() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [&] { return running_ == 0; });
+    task_ = nullptr;
+    busy_ = false;
+  }
+  ~WorkerPool() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
+
+ private:
+  WorkerPool() = default;
+  void loop(int index) {
+    uint64_t seen = 0;
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      wake_.wait(lock, [&] { return stop_ || (generation_ != seen && index <= workers_); });
+      if (generation_ == seen || index > workers_) return;  // stopping, and nothing to do
+      seen = generation_;
+      const std::function<void(int)>* task = task_;
+      lock.unlock();
+      (*task)(index);  // never throws: parallel_for's tasks catch everything
+      lock.lock();
+      if (--running_ == 0) done_.notify_all();
+    }
+  }
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  std::vector<std::thread> threads_;
+  const std::function<void(int)>* task_ = nullptr;
+  uint64_t generation_ = 0;
+  int workers_ = 0, running_ = 0;
+  bool busy_ = false, stop_ = false;
+};
+
+}  // namespace detail
 
 /// Runs body(begin, end, thread_index) over [0, n) split into contiguous chunks handed out
 /// dynamically to `threads` threads (the calling thread is one of them). The first exception
@@ -45,11 +120,18 @@ void parallel_for(size_t n, int threads, Body&& body, size_t grain = 1024) {
     }
   };
   const int count = static_cast<int>(std::min<size_t>(threads, (n + grain - 1) / grain));
-  std::vector<std::thread> pool;
-  pool.reserve(count - 1);
-  for (int t = 1; t < count; ++t) pool.emplace_back(worker, t);
-  worker(0);
-  for (auto& th : pool) th.join();
+  const std::function<void(int)> task = worker;
+  detail::WorkerPool& kept = detail::WorkerPool::instance();
+  if (kept.start(count - 1, task)) {
+    worker(0);
+    kept.wait();
+  } else {
+    std::vector<std::thread> pool;
+    pool.reserve(count - 1);
+    for (int t = 1; t < count; ++t) pool.emplace_back(worker, t);
+    worker(0);
+    for (auto& th : pool) th.join();
+  }
   if (error) std::rethrow_exception(error);
 }
 
