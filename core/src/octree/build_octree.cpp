@@ -168,6 +168,29 @@ void for_each_face_neighbour(int dim, uint64_t code, int level, F&& f) {
   }
 }
 
+// Calls f(code) with the codes of the parents (level - 1) of the 3^D neighbours of cell (code,
+// level) inside the domain (the cell itself included): at most 2^D cells, its parent and, on
+// each axis, the parent's neighbour on the side of the half the cell lies in. What 2:1 balance
+// requires to be internal when the cell is.
+template <class F>
+void for_each_neighbour_parent(int dim, uint64_t code, int level, F&& f) {
+  const Coord c = lattice::morton_decode(dim, code);
+  const int64_t size = static_cast<int64_t>(lattice::cell_size(dim, level));
+  const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
+  for (int corner = 0; corner < (1 << dim); ++corner) {
+    Coord q;
+    bool inside = true;
+    for (int a = 0; a < dim; ++a) {
+      const int64_t parent = c.c[a] & ~(2 * size - 1);
+      const int64_t toward = (c.c[a] & size) ? 2 * size : -2 * size;
+      const int64_t x = parent + ((corner >> a) & 1 ? toward : 0);
+      inside &= x >= 0 && x < limit;
+      q.c[a] = static_cast<uint32_t>(x);
+    }
+    if (inside) f(parent_code(dim, lattice::morton(dim, q), level));
+  }
+}
+
 // Per-chunk outputs merged in chunk order, so results do not depend on thread timing.
 template <class T>
 struct ChunkResults {
@@ -294,31 +317,16 @@ void close_upwards(int dim, InternalSets& internal) {
 // i.e. its parent must be internal. Deepest level first, so splits ripple upwards. The
 // required parents are generated in parallel and deduplicated before the (serial) inserts.
 void balance(int dim, InternalSets& internal, int threads) {
-  const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
   for (int level = static_cast<int>(internal.size()) - 1; level >= 1; --level) {
     std::vector<uint64_t> codes;
     codes.reserve(internal[level].size());
     internal[level].for_each([&](uint64_t code, uint32_t) { codes.push_back(code); });
-    const int64_t size = static_cast<int64_t>(lattice::cell_size(dim, level));
-    const int per_code = dim == 3 ? 27 : 9;
+    const int per_code = 1 << dim;
     std::vector<uint64_t> required(codes.size() * per_code, ~0ull);
     parallel_for(codes.size(), threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
-        const Coord c = lattice::morton_decode(dim, codes[i]);
         uint64_t* out = &required[i * per_code];
-        const int dz_lo = dim == 3 ? -1 : 0, dz_hi = dim == 3 ? 1 : 0;
-        for (int dz = dz_lo; dz <= dz_hi; ++dz) {
-          for (int dy = -1; dy <= 1; ++dy) {
-            for (int dx = -1; dx <= 1; ++dx) {
-              const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size, z = c.c[2] + dz * size;
-              if (x < 0 || y < 0 || z < 0 || x >= limit || y >= limit || (dim == 3 && z >= limit))
-                continue;
-              Coord q{
-                  {static_cast<uint32_t>(x), static_cast<uint32_t>(y), static_cast<uint32_t>(z)}};
-              *out++ = parent_code(dim, lattice::morton(dim, q), level);
-            }
-          }
-        }
+        for_each_neighbour_parent(dim, codes[i], level, [&](uint64_t p) { *out++ = p; });
       }
     });
     radix_sort(
@@ -583,7 +591,6 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   const int max_depth = octree.max_depth;
   check_cancel(options);
   InternalSets added(max_depth + 1);
-  const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
   const LeafLocator locator(octree);
   auto internal = [&](uint64_t code, int level) {
     if (added[level].contains(code)) return true;
@@ -609,19 +616,8 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
     work.pop_back();
     if (p.level == 0) continue;
     // 2:1 balance: every neighbour of an internal cell must exist, i.e. its parent is internal.
-    const lattice::Coord c = lattice::morton_decode(dim, p.code);
-    const int64_t size = static_cast<int64_t>(lattice::cell_size(dim, p.level));
-    const int kz = dim == 3 ? 1 : 0;
-    for (int dz = -kz; dz <= kz; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int64_t x = c.c[0] + dx * size, y = c.c[1] + dy * size, z = c.c[2] + dz * size;
-          if (x < 0 || y < 0 || z < 0 || x >= limit || y >= limit || (dim == 3 && z >= limit))
-            continue;
-          const lattice::Coord q{
-              {static_cast<uint32_t>(x), static_cast<uint32_t>(y), static_cast<uint32_t>(z)}};
-          request(parent_code(dim, lattice::morton(dim, q), p.level), p.level - 1);
-        }
+    for_each_neighbour_parent(dim, p.code, p.level,
+                              [&](uint64_t parent) { request(parent, p.level - 1); });
   }
 
   // Copy the leaves that stay; subdivide (depth first, so in Morton order) those that split.
