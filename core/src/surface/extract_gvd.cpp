@@ -650,6 +650,20 @@ struct SurfaceChunk {
   std::vector<uint32_t> table;  // scratch of add(): slot -> record - first
 };
 
+// Turns counts per [part][object] into each part's first index per object (the sum of the
+// parts before it) and returns the totals per object.
+std::vector<uint32_t> part_starts(std::vector<uint32_t>& base, size_t parts, size_t objects) {
+  std::vector<uint32_t> total(objects, 0);
+  for (size_t p = 0; p < parts; ++p) {
+    for (size_t o = 0; o < objects; ++o) {
+      const uint32_t in_part = base[p * objects + o];
+      base[p * objects + o] = total[o];
+      total[o] += in_part;
+    }
+  }
+  return total;
+}
+
 }  // namespace
 
 Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
@@ -844,14 +858,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         }
       },
       1);
-  std::vector<uint32_t> vertices(objects, 0);
-  for (size_t p = 0; p < parts; ++p) {
-    for (size_t o = 0; o < objects; ++o) {
-      const uint32_t in_part = vertex_base[p * objects + o];
-      vertex_base[p * objects + o] = vertices[o];
-      vertices[o] += in_part;
-    }
-  }
+  const std::vector<uint32_t> vertices = part_starts(vertex_base, parts, objects);
   for (GvdCell& cell : gvd.cells) {
     cell.positions.resize(vertices[cell.object]);
     cell.other.resize(vertices[cell.object]);
@@ -901,14 +908,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
               ++simplex_base[p * objects + t.object];
       },
       1);
-  std::vector<uint32_t> simplices(objects, 0);
-  for (size_t p = 0; p < simplex_parts; ++p) {
-    for (size_t o = 0; o < objects; ++o) {
-      const uint32_t in_part = simplex_base[p * objects + o];
-      simplex_base[p * objects + o] = simplices[o];
-      simplices[o] += in_part;
-    }
-  }
+  const std::vector<uint32_t> simplices = part_starts(simplex_base, simplex_parts, objects);
   for (GvdCell& cell : gvd.cells) cell.indices.resize(size_t{simplices[cell.object]} * arity);
   parallel_for(
       simplex_parts, threads,
