@@ -145,10 +145,6 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
   field.exact_reused = nv - todo.size();
 }
 
-}  // namespace
-
-namespace {
-
 // compute_distances; with `steal_vertices` (the previous field's vertices, incremental only)
 // they are moved into the new field instead of copied.
 DistanceField distances(const Octree& octree, const UnitGeometry& geometry, const SimplexBvh& bvh,

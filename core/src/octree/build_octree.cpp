@@ -631,6 +631,11 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   const size_t n = octree.leaf_count();
   const size_t grain = 4096;
   const int threads = resolve_threads(options.threads);
+  auto leaf_limit_error = [&] {
+    return Error(ErrorCode::kLimitExceeded,
+                 "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
+                     " during refinement (raise --max-leaves or lower --max-depth)");
+  };
   std::vector<Part> parts((n + grain - 1) / grain);
   parallel_for(
       n, threads,
@@ -684,22 +689,14 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
             for (auto it = children.rbegin(); it != children.rend(); ++it)
               stack.push_back(std::move(*it));
           }
-          if (part.leaves.size() > options.max_leaves) {
-            throw Error(ErrorCode::kLimitExceeded,
-                        "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
-                            " during refinement (raise --max-leaves or lower --max-depth)");
-          }
+          if (part.leaves.size() > options.max_leaves) throw leaf_limit_error();
         }
         parts[b / grain] = std::move(part);
       },
       grain);
   size_t total = 0;
   for (const Part& p : parts) total += p.leaves.size();
-  if (total > options.max_leaves) {
-    throw Error(ErrorCode::kLimitExceeded,
-                "octree exceeds the leaf limit of " + std::to_string(options.max_leaves) +
-                    " during refinement (raise --max-leaves or lower --max-depth)");
-  }
+  if (total > options.max_leaves) throw leaf_limit_error();
   Octree tree;
   tree.dimension = dim;
   tree.max_depth = max_depth;

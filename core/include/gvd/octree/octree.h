@@ -82,8 +82,8 @@ class LeafLocator {
   static constexpr int kPrefixBits = 16;
   const Octree* octree_;
   int shift_ = 0;
-  std::vector<uint32_t>
-      start_;  ///< per prefix (+1 at the end): first leaf with that prefix or later
+  /// Per prefix (and one past the last): the first leaf with that prefix or a later one.
+  std::vector<uint32_t> start_;
 };
 
 /// Builds the octree with the paper's SHOULD_SUBDIVIDE (§3): a cell is split when it
