@@ -22,24 +22,26 @@ inline int resolve_threads(int requested) {
 
 namespace detail {
 
-/// Worker threads kept for parallel_for: started when first needed, stopped at exit. Starting
-/// and joining a thread per loop cost ~50-150 us on this machine, and a pipeline run has
-/// hundreds of loops. One loop uses the pool at a time; a nested or concurrent one (another
-/// job of the server, a loop inside a loop) finds it busy and starts its own threads.
+/// Worker threads kept for parallel_for: started when first needed and kept for the life of
+/// the process (the pool is never destroyed, so a loop still running on another thread at
+/// exit cannot meet a destroyed pool; the idle workers end with the process). Starting and
+/// joining a thread per loop cost ~50-150 us on this machine, and a pipeline run has hundreds
+/// of loops. One loop uses the pool at a time; a nested or concurrent one (another job of the
+/// server, a loop inside a loop) finds it busy and starts its own threads.
 class WorkerPool {
  public:
   static WorkerPool& instance() {
-    static WorkerPool pool;
-    return pool;
+    static WorkerPool* const pool = new WorkerPool;
+    return *pool;
   }
   /// Starts task(t) for t = 1..workers on pool threads; false (nothing started) when busy.
   bool start(int workers, const std::function<void(int)>& task) {
     std::unique_lock<std::mutex> lock(mutex_);
-    if (busy_ || stop_) return false;
+    if (busy_) return false;
     busy_ = true;
-    while (static_cast<int>(threads_.size()) < workers) {
-      const int index = static_cast<int>(threads_.size()) + 1;
-      threads_.emplace_back([this, index] { loop(index); });
+    while (threads_ < workers) {
+      const int index = ++threads_;
+      std::thread([this, index] { loop(index); }).detach();
     }
     task_ = &task;
     workers_ = workers;
@@ -56,14 +58,6 @@ class WorkerPool {
     task_ = nullptr;
     busy_ = false;
   }
-  ~WorkerPool() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    for (std::thread& t : threads_) t.join();
-  }
 
  private:
   WorkerPool() = default;
@@ -71,8 +65,7 @@ class WorkerPool {
     uint64_t seen = 0;
     std::unique_lock<std::mutex> lock(mutex_);
     for (;;) {
-      wake_.wait(lock, [&] { return stop_ || (generation_ != seen && index <= workers_); });
-      if (generation_ == seen || index > workers_) return;  // stopping, and nothing to do
+      wake_.wait(lock, [&] { return generation_ != seen && index <= workers_; });
       seen = generation_;
       const std::function<void(int)>* task = task_;
       lock.unlock();
@@ -83,11 +76,10 @@ class WorkerPool {
   }
   std::mutex mutex_;
   std::condition_variable wake_, done_;
-  std::vector<std::thread> threads_;
   const std::function<void(int)>* task_ = nullptr;
   uint64_t generation_ = 0;
-  int workers_ = 0, running_ = 0;
-  bool busy_ = false, stop_ = false;
+  int threads_ = 0, workers_ = 0, running_ = 0;
+  bool busy_ = false;
 };
 
 }  // namespace detail
