@@ -98,10 +98,13 @@ struct CellSet {
   std::vector<uint32_t> pool;
 
   size_t size() const { return codes.size(); }
-  void add(uint64_t c, const std::vector<uint32_t>& list) {
+  void add(uint64_t c, const uint32_t* first, const uint32_t* last) {
     codes.push_back(c);
-    pool.insert(pool.end(), list.begin(), list.end());
+    pool.insert(pool.end(), first, last);
     begin.push_back(static_cast<uint32_t>(pool.size()));
+  }
+  void add(uint64_t c, const std::vector<uint32_t>& list) {
+    add(c, list.data(), list.data() + list.size());
   }
 };
 
@@ -386,12 +389,12 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
                 for (uint32_t c = 0; c < (1u << g.dimension); ++c) {
                   const uint64_t cc = child_code(g.dimension, code, level, c);
                   const uint32_t j = cache->index[level + 1].find(cc);
-                  scratch.clear();
-                  if (j != FlatMap64::kMissing) {
-                    scratch.assign(below.pool.begin() + below.begin[j],
-                                   below.pool.begin() + below.begin[j + 1]);
+                  if (j == FlatMap64::kMissing) {
+                    next.add(cc, nullptr, nullptr);
+                  } else {
+                    next.add(cc, below.pool.data() + below.begin[j],
+                             below.pool.data() + below.begin[j + 1]);
                   }
-                  next.add(cc, scratch);
                 }
                 continue;
               }
@@ -402,8 +405,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
               leaves.code.push_back(code);
               leaves.level.push_back(static_cast<uint8_t>(level));
               leaves.object.push_back(tag_of(g, lb, le));
-              scratch.assign(lb, le);
-              leaves.lists.add(0, scratch);
+              leaves.lists.add(0, lb, le);
             }
           }
           next_chunks.at(b) = std::move(next);
