@@ -72,6 +72,11 @@ compute options:
   --distance exact|wavefront closest points of the vertices of empty cells: exact for
                              every vertex (default; data-parallel) or the paper's
                              wavefront expansion (§4, serial, within 3/2 of the truth)
+  --refine certified|paper   where objects come close: certified pair cells (default: a
+                             cell is not split where exact distances prove that the GVD
+                             in it is the plane between two flat patches, so thin gaps
+                             cost what their geometry needs) or the paper's rule alone
+                             (§3: cells shrink to the gap over the whole contact)
   --contact-depth N          depth at which refinement between touching or intersecting
                              objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 12000000; peak memory is about
@@ -208,7 +213,7 @@ const std::vector<std::string>& compute_value_flags() {
       "--max-depth",        "--domain",        "--threads",       "--backend",
       "--max-leaves",       "--max-objects",   "--max-simplices", "--ambiguity-levels",
       "--ambiguity-rounds", "--contact-depth", "--unseen-rounds", "--octree-build",
-      "--distance"};
+      "--distance",         "--refine"};
   return flags;
 }
 
@@ -234,6 +239,9 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
   options.distance = args.value("--distance").value_or("exact");
   if (options.distance != "exact" && options.distance != "wavefront")
     throw UsageError{"--distance must be exact or wavefront"};
+  options.refine = args.value("--refine").value_or("certified");
+  if (options.refine != "certified" && options.refine != "paper")
+    throw UsageError{"--refine must be certified or paper"};
   if (options.max_depth < 0) throw UsageError{"--max-depth must be positive"};
   if (options.threads < 0) throw UsageError{"--threads must be positive"};
   if (const auto box = args.numbers("--domain")) {

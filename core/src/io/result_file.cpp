@@ -179,6 +179,7 @@ Json stats_to_value(const ResultStats& s) {
           {"ambiguous_cells_left", s.ambiguous_at_limit},
           {"thin_regions_left", s.unseen_left},
           {"touching_leaves", s.touching_leaves},
+          {"certified_leaves", s.certified_leaves},
           {"total_seconds", s.total_seconds}};
 }
 
@@ -761,6 +762,7 @@ ResultStats stats_from_json(std::string_view text) {
     s.ambiguous_at_limit = j.value("ambiguous_cells_left", s.ambiguous_at_limit);
     s.unseen_left = j.value("thin_regions_left", s.unseen_left);
     s.touching_leaves = j.value("touching_leaves", s.touching_leaves);
+    s.certified_leaves = j.value("certified_leaves", s.certified_leaves);
     s.total_seconds = j.value("total_seconds", s.total_seconds);
     if (const auto it = j.find("stages"); it != j.end()) {
       for (const Json& st : it->get_ref<const Json::array_t&>()) {

@@ -17,6 +17,9 @@ using lattice::Coord;
 
 // Internal (split) nodes of the tree, one hash set of corner Morton codes per level.
 using InternalSets = std::vector<FlatMap64>;
+// Certified pair cells (CellVerdict::kPair), one hash set of corner Morton codes per level:
+// their leaves, and every leaf below them, are marked in Octree::certified.
+using CertifiedSets = std::vector<FlatMap64>;
 
 void check_cancel(const OctreeOptions& options) {
   if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
@@ -91,20 +94,23 @@ ObjectId tag_with_contacts(const UnitGeometry& g, const uint32_t* begin, const u
   return kTouchingObjects;
 }
 
-// A set of cells of one level with their simplex lists (CSR).
+// A set of cells of one level with their simplex lists (CSR) and whether each lies inside a
+// certified pair cell.
 struct CellSet {
   std::vector<uint64_t> codes;
   std::vector<uint32_t> begin{0};
   std::vector<uint32_t> pool;
+  std::vector<uint8_t> certified;
 
   size_t size() const { return codes.size(); }
-  void add(uint64_t c, const uint32_t* first, const uint32_t* last) {
+  void add(uint64_t c, const uint32_t* first, const uint32_t* last, uint8_t cert = 0) {
     codes.push_back(c);
     pool.insert(pool.end(), first, last);
     begin.push_back(static_cast<uint32_t>(pool.size()));
+    certified.push_back(cert);
   }
-  void add(uint64_t c, const std::vector<uint32_t>& list) {
-    add(c, list.data(), list.data() + list.size());
+  void add(uint64_t c, const std::vector<uint32_t>& list, uint8_t cert = 0) {
+    add(c, list.data(), list.data() + list.size(), cert);
   }
 };
 
@@ -117,6 +123,7 @@ CellSet concat(std::vector<CellSet>& parts, int threads) {
   }
   CellSet out;
   out.codes.resize(code_at.back());
+  out.certified.resize(code_at.back());
   out.pool.resize(pool_at.back());
   out.begin.assign(code_at.back() + 1, 0);
   parallel_for(
@@ -125,6 +132,8 @@ CellSet concat(std::vector<CellSet>& parts, int threads) {
         for (size_t p = b; p < e; ++p) {
           const CellSet& part = parts[p];
           std::copy(part.codes.begin(), part.codes.end(), out.codes.begin() + code_at[p]);
+          std::copy(part.certified.begin(), part.certified.end(),
+                    out.certified.begin() + code_at[p]);
           std::copy(part.pool.begin(), part.pool.end(), out.pool.begin() + pool_at[p]);
           for (size_t i = 0; i < part.codes.size(); ++i)
             out.begin[code_at[p] + i + 1] = part.begin[i + 1] + static_cast<uint32_t>(pool_at[p]);
@@ -213,10 +222,11 @@ struct LevelCache {
 
 // Phase 1: SHOULD_SUBDIVIDE, level by level over the non-empty cells; returns internal sets.
 InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& options, int max_depth,
-                                int threads, LevelCache& cache) {
+                                int threads, LevelCache& cache, CertifiedSets& certified) {
   const int dim = g.dimension;
   const int contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
   InternalSets internal(max_depth + 1);
+  certified.assign(max_depth + 1, FlatMap64());
   CellSet current;
   {
     std::vector<uint32_t> all(g.simplices.size());
@@ -266,11 +276,34 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
         split[i] = s ? 1 : 0;
       }
     });
+    if (options.split_oracle != nullptr) {
+      // The thin-gaps refinement: a cell the rule splits stays a leaf when no GVD enters it
+      // or its bisector is certified (split = 2 marks the certified ones).
+      parallel_for(
+          n, threads,
+          [&](size_t b, size_t e, int) {
+            for (size_t i = b; i < e; ++i) {
+              if (!split[i]) continue;
+              const Box box =
+                  lattice::cell_box(dim, lattice::morton_decode(dim, current.codes[i]), level);
+              const CellVerdict v = options.split_oracle->classify(
+                  box, std::span<const uint32_t>(current.pool.data() + current.begin[i],
+                                                 current.begin[i + 1] - current.begin[i]));
+              if (v != CellVerdict::kSplit) split[i] = v == CellVerdict::kPair ? 2 : 0;
+            }
+          },
+          16);
+    }
     {
-      std::vector<uint64_t> split_codes;
-      for (size_t i = 0; i < n; ++i)
-        if (split[i]) split_codes.push_back(current.codes[i]);
+      std::vector<uint64_t> split_codes, certified_codes;
+      for (size_t i = 0; i < n; ++i) {
+        if (split[i] == 1) split_codes.push_back(current.codes[i]);
+        if (split[i] == 2) certified_codes.push_back(current.codes[i]);
+      }
+      for (size_t i = 0; i < n; ++i) split[i] = split[i] == 1;
       internal[level] = FlatMap64::of_distinct_keys(split_codes, threads);
+      if (!certified_codes.empty())
+        certified[level] = FlatMap64::of_distinct_keys(certified_codes, threads);
     }
     internal_count += internal[level].size();
     if (internal_count * children_per_split + 1 > options.max_leaves) {
@@ -343,12 +376,14 @@ void balance(int dim, InternalSets& internal, int threads) {
 // Phase 2: walk the tree top-down through the internal sets and emit the leaves with their
 // simplex lists, sorted by Morton code.
 Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_depth,
-                   const OctreeOptions& options, int threads, const LevelCache* cache) {
+                   const OctreeOptions& options, int threads, const LevelCache* cache,
+                   const CertifiedSets& certified) {
   const int dim = g.dimension;
   struct Leaves {
     std::vector<uint64_t> code;
     std::vector<uint8_t> level;
     std::vector<ObjectId> object;
+    std::vector<uint8_t> certified;
     CellSet lists;  // codes unused; begin/pool hold the simplex lists
   };
   std::vector<Leaves> per_level;
@@ -377,6 +412,9 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
             const uint64_t code = current.codes[i];
             const uint32_t* lb = current.pool.data() + current.begin[i];
             const uint32_t* le = current.pool.data() + current.begin[i + 1];
+            const uint8_t cert =
+                current.certified[i] ||
+                (level < static_cast<int>(certified.size()) && certified[level].contains(code));
             if (has_internal && internal[level].contains(code)) {
               bool cached = false;
               if (cache != nullptr && level + 1 < static_cast<int>(cache->sets.size())) {
@@ -390,21 +428,23 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
                   const uint64_t cc = child_code(g.dimension, code, level, c);
                   const uint32_t j = cache->index[level + 1].find(cc);
                   if (j == FlatMap64::kMissing) {
-                    next.add(cc, nullptr, nullptr);
+                    next.add(cc, nullptr, nullptr, cert);
                   } else {
                     next.add(cc, below.pool.data() + below.begin[j],
-                             below.pool.data() + below.begin[j + 1]);
+                             below.pool.data() + below.begin[j + 1], cert);
                   }
                 }
                 continue;
               }
-              split_cell(
-                  g, code, level, lb, le, scratch,
-                  [&](uint64_t cc, const std::vector<uint32_t>& list) { next.add(cc, list); });
+              split_cell(g, code, level, lb, le, scratch,
+                         [&](uint64_t cc, const std::vector<uint32_t>& list) {
+                           next.add(cc, list, cert);
+                         });
             } else {
               leaves.code.push_back(code);
               leaves.level.push_back(static_cast<uint8_t>(level));
               leaves.object.push_back(tag_of(g, lb, le));
+              leaves.certified.push_back(cert);
               leaves.lists.add(0, lb, le);
             }
           }
@@ -420,6 +460,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
       merged.code.insert(merged.code.end(), l.code.begin(), l.code.end());
       merged.level.insert(merged.level.end(), l.level.begin(), l.level.end());
       merged.object.insert(merged.object.end(), l.object.begin(), l.object.end());
+      merged.certified.insert(merged.certified.end(), l.certified.begin(), l.certified.end());
       lists.push_back(std::move(l.lists));
     }
     merged.lists = concat(lists, threads);
@@ -447,6 +488,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
   std::vector<uint64_t> codes(leaf_at.back());
   std::vector<uint8_t> levels(leaf_at.back());
   std::vector<ObjectId> objects(leaf_at.back());
+  std::vector<uint8_t> certs(leaf_at.back());
   std::vector<uint32_t> begins(leaf_at.back() + 1, 0);
   std::vector<uint32_t> pool(pool_at.back());
   parallel_for(
@@ -457,6 +499,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
           std::copy(lv.code.begin(), lv.code.end(), codes.begin() + leaf_at[l]);
           std::copy(lv.level.begin(), lv.level.end(), levels.begin() + leaf_at[l]);
           std::copy(lv.object.begin(), lv.object.end(), objects.begin() + leaf_at[l]);
+          std::copy(lv.certified.begin(), lv.certified.end(), certs.begin() + leaf_at[l]);
           std::copy(lv.lists.pool.begin(), lv.lists.pool.end(), pool.begin() + pool_at[l]);
           for (size_t i = 1; i < lv.lists.begin.size(); ++i)
             begins[leaf_at[l] + i] = lv.lists.begin[i] + static_cast<uint32_t>(pool_at[l]);
@@ -474,6 +517,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
   tree.code.resize(n);
   tree.level.resize(n);
   tree.object.resize(n);
+  tree.certified.resize(n);
   tree.simplex_begin.assign(n + 1, 0);
   for (size_t i = 0; i < n; ++i) {
     const uint32_t o = order[i].second;
@@ -486,6 +530,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
       tree.code[i] = codes[o];
       tree.level[i] = levels[o];
       tree.object[i] = objects[o];
+      tree.certified[i] = certs[o];
       std::copy(pool.begin() + begins[o], pool.begin() + begins[o + 1],
                 tree.simplex_index.begin() + tree.simplex_begin[i]);
     }
@@ -550,7 +595,7 @@ uint32_t Octree::locate(Vec3 u) const {
 }
 
 size_t Octree::structure_bytes() const {
-  return code.size() * (sizeof(uint64_t) + sizeof(uint8_t) + sizeof(ObjectId));
+  return code.size() * (sizeof(uint64_t) + sizeof(uint8_t) + sizeof(ObjectId)) + certified.size();
 }
 
 Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) {
@@ -559,23 +604,27 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
   const int max_depth = resolve_max_depth(dim, options.max_depth);
   const int threads = resolve_threads(options.threads);
   LevelCache cache;
-  InternalSets internal = subdivide_by_rules(geometry, options, max_depth, threads, cache);
+  CertifiedSets certified;
+  InternalSets internal =
+      subdivide_by_rules(geometry, options, max_depth, threads, cache, certified);
   close_upwards(dim, internal);
   balance(dim, internal, threads);
-  return materialize(geometry, internal, max_depth, options, threads, &cache);
+  return materialize(geometry, internal, max_depth, options, threads, &cache, certified);
 }
 
 Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,
-                               const OctreeOptions& options) {
+                               const OctreeOptions& options, std::span<const CellRef> certified) {
   const int dim = geometry.dimension;
   const int max_depth = resolve_max_depth(dim, options.max_depth);
   InternalSets internal(max_depth + 1);
   for (const CellRef& c : split)
     if (c.level < max_depth) internal[c.level].insert(c.code, 0);
+  CertifiedSets certified_sets(max_depth + 1);
+  for (const CellRef& c : certified) certified_sets[c.level].insert(c.code, 0);
   close_upwards(dim, internal);
   balance(dim, internal, resolve_threads(options.threads));
   return materialize(geometry, internal, max_depth, options, resolve_threads(options.threads),
-                     nullptr);
+                     nullptr, certified_sets);
 }
 
 CellRef child_cell(int dimension, CellRef cell, uint32_t child) {
@@ -584,7 +633,8 @@ CellRef child_cell(int dimension, CellRef cell, uint32_t child) {
 }
 
 Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
-                     std::span<const CellRef> cells_to_split, const OctreeOptions& options) {
+                     std::span<const CellRef> cells_to_split, const OctreeOptions& options,
+                     std::span<const CellRef> cells_to_certify) {
   // Incremental: only the cells that become internal are found (the requested ones, the
   // ancestors between them and the leaf that holds them, and what 2:1 balance then requires,
   // rippling outwards), and only the leaves they replace are re-subdivided; every other leaf
@@ -613,6 +663,9 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
     }
   };
   for (const CellRef& c : cells_to_split) request(c.code, c.level);
+  CertifiedSets certify(max_depth + 1);
+  for (const CellRef& c : cells_to_certify) certify[c.level].insert(c.code, 0);
+  const bool any_certify = !cells_to_certify.empty();
   while (!work.empty()) {
     const CellRef p = work.back();
     work.pop_back();
@@ -625,7 +678,7 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   // Copy the leaves that stay; subdivide (depth first, so in Morton order) those that split.
   // In parallel over chunks of leaves, each into its own part, then the parts in order.
   struct Part {
-    CellSet leaves;  // codes and simplex lists
+    CellSet leaves;  // codes, simplex lists and certified flags
     std::vector<uint8_t> level;
     std::vector<ObjectId> object;
     int depth = 0;
@@ -647,8 +700,9 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
         part.level.reserve(e - b);
         part.object.reserve(e - b);
         auto emit = [&](uint64_t code, int level, ObjectId object, const uint32_t* lb,
-                        const uint32_t* le) {
+                        const uint32_t* le, uint8_t cert) {
           part.leaves.codes.push_back(code);
+          part.leaves.certified.push_back(cert);
           part.level.push_back(static_cast<uint8_t>(level));
           part.object.push_back(object);
           part.leaves.pool.insert(part.leaves.pool.end(), lb, le);
@@ -659,6 +713,7 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
           uint64_t code;
           int level;
           std::vector<uint32_t> simplices;
+          uint8_t certified;
         };
         std::vector<Frame> stack;
         std::vector<uint32_t> scratch;
@@ -666,19 +721,22 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
           const uint32_t* lb = octree.simplex_index.data() + octree.simplex_begin[i];
           const uint32_t* le = octree.simplex_index.data() + octree.simplex_begin[i + 1];
           const int level = octree.level[i];
+          const uint8_t cert = octree.is_certified(static_cast<uint32_t>(i)) ||
+                               (any_certify && certify[level].contains(octree.code[i]));
           if (level >= max_depth || !added[level].contains(octree.code[i])) {
-            emit(octree.code[i], level, octree.object[i], lb, le);
+            emit(octree.code[i], level, octree.object[i], lb, le, cert);
             continue;
           }
-          stack.push_back({octree.code[i], level, std::vector<uint32_t>(lb, le)});
+          stack.push_back({octree.code[i], level, std::vector<uint32_t>(lb, le), cert});
           while (!stack.empty()) {
             Frame f = std::move(stack.back());
             stack.pop_back();
+            f.certified |= any_certify && certify[f.level].contains(f.code);
             const bool split = f.level < max_depth && added[f.level].contains(f.code);
             if (!split) {
               const uint32_t* fb = f.simplices.data();
               const uint32_t* fe = fb + f.simplices.size();
-              emit(f.code, f.level, tag_of(geometry, fb, fe), fb, fe);
+              emit(f.code, f.level, tag_of(geometry, fb, fe), fb, fe, f.certified);
               continue;
             }
             // Children pushed in reverse so that they pop in Morton order.
@@ -686,7 +744,7 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
             split_cell(geometry, f.code, f.level, f.simplices.data(),
                        f.simplices.data() + f.simplices.size(), scratch,
                        [&](uint64_t cc, const std::vector<uint32_t>& list) {
-                         children.push_back({cc, f.level + 1, list});
+                         children.push_back({cc, f.level + 1, list, f.certified});
                        });
             for (auto it = children.rbegin(); it != children.rend(); ++it)
               stack.push_back(std::move(*it));
@@ -723,6 +781,7 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   for (Part& p : parts) sets.push_back(std::move(p.leaves));
   CellSet leaves = concat(sets, threads);
   tree.code = std::move(leaves.codes);
+  tree.certified = std::move(leaves.certified);
   tree.simplex_begin = std::move(leaves.begin);
   tree.simplex_index = std::move(leaves.pool);
   return tree;

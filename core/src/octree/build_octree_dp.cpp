@@ -319,10 +319,16 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   st.seconds_facets = part.lap();
 
   // (3) Conflict cells: refine level by level (Algorithm 3, data-parallel over the frontier).
-  auto is_conflict = [&](const Objects& s, int level) {
+  auto is_conflict = [&](const Objects& s, int level, uint64_t code,
+                         std::span<const uint32_t> inside) {
     if (level >= max_depth) return false;
     const ObjectId t = tag_of(s, options.contacts);
-    return t == kManyObjects || (t == kTouching && level < contact_depth);
+    if (!(t == kManyObjects || (t == kTouching && level < contact_depth))) return false;
+    // A certified pair cell is resolved as it is (the rule below keeps it too).
+    return options.split_oracle == nullptr ||
+           options.split_oracle->classify(
+               lattice::cell_box(dim, lattice::morton_decode(dim, code), level), inside) ==
+               CellVerdict::kSplit;
   };
   // The resolved leaves and their lists, accumulated.
   std::vector<uint64_t> res_code;
@@ -338,7 +344,9 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     for (size_t i = 0; i < cur_code.size(); ++i) {
       const Objects s = objects_of(g, lists.items.data() + lists.begin[i],
                                    lists.items.data() + lists.begin[i + 1]);
-      if (is_conflict(s, cur_level[i])) {
+      if (is_conflict(s, cur_level[i], cur_code[i],
+                      std::span<const uint32_t>(lists.items.data() + lists.begin[i],
+                                                lists.begin[i + 1] - lists.begin[i]))) {
         frontier.push_back(static_cast<uint32_t>(i));
         internal[cur_level[i]].insert(cur_code[i], 0);
         if (first_round) ++st.conflict_cells;
@@ -422,7 +430,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   std::vector<uint32_t> sims(3 * g.simplices.size());
   for (size_t i = 0; i < g.simplices.size(); ++i)
     for (int k = 0; k < 3; ++k) sims[3 * i + k] = g.simplices[i].v[k];
-  std::vector<CellRef> splits;
+  std::vector<CellRef> splits, certified;
   std::vector<Cell> current{{0, {}, false}};
   for (int level = 0; level < max_depth && !current.empty(); ++level) {
     check_cancel(options);
@@ -481,6 +489,15 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
               s = true;
           }
       }
+      if (s && options.split_oracle != nullptr) {
+        const CellVerdict v = options.split_oracle->classify(
+            lattice::cell_box(dim, lattice::morton_decode(dim, current[i].code), level),
+            current[i].has_list ? std::span<const uint32_t>(current[i].list)
+                                : std::span<const uint32_t>());
+        if (v == CellVerdict::kPair)
+          certified.push_back({current[i].code, static_cast<uint8_t>(level)});
+        s = v == CellVerdict::kSplit;
+      }
       if (!s) continue;
       splits.push_back({current[i].code, static_cast<uint8_t>(level)});
       for (uint32_t ch = 0; ch < nchildren; ++ch) {
@@ -500,7 +517,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     current = std::move(next);
   }
   st.seconds_rule = part.lap();
-  Octree tree = octree_from_split_cells(g, splits, options);
+  Octree tree = octree_from_split_cells(g, splits, options, certified);
   st.seconds_materialize = part.lap();
   if (stats) *stats = st;
   return tree;

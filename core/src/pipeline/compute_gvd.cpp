@@ -1,5 +1,6 @@
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <set>
 
 #include "gvd/common/error.h"
@@ -9,6 +10,7 @@
 #include "gvd/octree/build_octree_dp.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/refine/pair_certificate.h"
 #include "gvd/surface/extract_gvd.h"
 
 namespace gvd {
@@ -23,6 +25,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   if (options.octree_build != "levels" && options.octree_build != "data-parallel") {
     throw Error(ErrorCode::kInvalidArgument,
                 "octree build '" + options.octree_build + "' is unknown (levels or data-parallel)");
+  }
+  if (options.refine != "certified" && options.refine != "paper") {
+    throw Error(ErrorCode::kInvalidArgument,
+                "refinement '" + options.refine + "' is unknown (certified or paper)");
   }
   if (options.distance != "exact" && options.distance != "wavefront") {
     throw Error(ErrorCode::kInvalidArgument,
@@ -55,7 +61,11 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   const int max_depth = resolve_max_depth(dim, options.max_depth);
   const ContactPairs contacts = find_contact_pairs(
       r.geometry, bvh, 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth), options.threads);
+  // The thin-gaps refinement: certified pair cells stay leaves (refine/pair_certificate.h).
+  std::optional<PairCertifier> certifier;
+  if (options.refine == "certified") certifier.emplace(r.geometry, bvh, &contacts);
   OctreeOptions oo;
+  oo.split_oracle = certifier ? &*certifier : nullptr;
   oo.contacts = &contacts;
   oo.contact_depth = options.contact_depth;
   oo.max_depth = options.max_depth;
@@ -125,8 +135,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     }
     ++rounds;
     progress("ambiguity", std::min(0.99, rounds / 8.0));
-    std::vector<CellRef> splits = plan_separation_splits(
-        r.octree, r.geometry, bvh, report.foreign, options.threads, &contacts, ro.contact_depth);
+    SeparationPlan plan =
+        plan_separation_splits(r.octree, r.geometry, bvh, report.foreign, options.threads,
+                               &contacts, ro.contact_depth, oo.split_oracle);
+    std::vector<CellRef>& splits = plan.splits;
     // Ambiguous and unseen leaves are split two levels at once: that halves the rounds, and
     // the flagged leaves are few (in 2D junctions are points; in 3D only junction cells).
     const size_t planned = splits.size();
@@ -140,7 +152,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     for (size_t i = planned; i < flagged_end; ++i)
       for (uint32_t c = 0; c < (1u << dim); ++c) splits.push_back(child_cell(dim, splits[i], c));
     Octree previous = std::move(r.octree);
-    r.octree = refine_octree(previous, r.geometry, splits, oo);
+    r.octree = refine_octree(previous, r.geometry, splits, oo, plan.certified);
     DistanceField next =
         compute_distances(r.octree, r.geometry, bvh, dopt, std::move(r.field), previous);
     r.field = std::move(next);
@@ -164,6 +176,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   r.stats.refine_rounds = rounds;
   r.stats.ambiguous_at_limit = report.ambiguous_at_limit + report.leaves.size();
   r.stats.touching_leaves = report.touching_leaves;
+  for (uint8_t c : r.octree.certified) r.stats.certified_leaves += c;
   r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(rounds)});
 
   progress("surface", 0);

@@ -32,15 +32,17 @@ inline int grid_index(int i, int j, int k) { return i + 3 * j + 9 * k; }
 /// keeps a hair inside the edge: where the GVD runs exactly through octree vertices (common
 /// in symmetric scenes) the vertex's label decides its side, and pieces of neighbouring cells
 /// never collapse onto a shared face.
-inline Vec3 bisector_on_edge(Vec3 x0, Vec3 x1, Vec3 a, Vec3 b) {
+/// `inside` is the hair as a fraction of the edge; callers on edges much longer than the
+/// distance to the objects (certified pair cells, thin gaps) pass less, so that the hair stays
+/// far below the local clearance.
+inline Vec3 bisector_on_edge(Vec3 x0, Vec3 x1, Vec3 a, Vec3 b, double inside = 1e-6) {
   const Vec3 ba = b - a;
   const Vec3 d = x1 - x0;
   const double den = dot(d, ba);
   double t = 0.5;
   if (den != 0) t = dot((a + b) * 0.5 - x0, ba) / den;
-  constexpr double kInside = 1e-6;
-  if (!(t >= kInside)) t = kInside;  // also NaN
-  if (t > 1 - kInside) t = 1 - kInside;
+  if (!(t >= inside)) t = inside;  // also NaN
+  if (t > 1 - inside) t = 1 - inside;
   return x0 + d * t;
 }
 

@@ -350,19 +350,31 @@ class CellSurfacer {
   }
 
   // Eq. (1) with the exact closest points of the two objects at the current estimate instead
-  // of the ends' ones; two rounds (the second only if the first moved the point).
+  // of the ends' ones; two rounds (the second only if the first moved the point). On an edge
+  // longer than the distance to the objects (a certified pair cell across a thin gap) up to
+  // six, and the point may come as close to the edge's ends as a millionth of that distance:
+  // the exact bisector there is known to rounding, and a hair of the edge would be a good
+  // part of the gap.
   Vec3 refine_bisector(uint32_t v0, uint32_t v1, Vec3 p) const {
     const Vec3 x0 = field_.vertices.position(v0), x1 = field_.vertices.position(v1);
     Vec3 a = field_.closest[field_.point[v0]], b = field_.closest[field_.point[v1]];
     const ObjectId la = field_.label[v0], lb = field_.label[v1];
-    for (int round = 0; round < 2; ++round) {
+    const double h2 = dist2(x0, x1);
+    int rounds = 2;
+    double inside = 1e-6;
+    for (int round = 0; round < rounds; ++round) {
       const ClosestHit ha = bvh_.nearest_in_object(p, la, dist2(p, a));
       const ClosestHit hb = bvh_.nearest_in_object(p, lb, dist2(p, b));
       if (!ha.found() && !hb.found()) break;  // a and b are already the closest points
       if (ha.found()) a = ha.point;
       if (hb.found()) b = hb.point;
-      const Vec3 next = detail::bisector_on_edge(x0, x1, a, b);
-      const bool moved = dist2(next, p) > 1e-12 * dist2(x0, x1);
+      const double d2 = std::min(dist2(p, a), dist2(p, b));
+      if (d2 < h2) {
+        rounds = 6;
+        inside = std::min(inside, std::max(1e-6 * std::sqrt(d2 / h2), 1e-15));
+      }
+      const Vec3 next = detail::bisector_on_edge(x0, x1, a, b, inside);
+      const bool moved = dist2(next, p) > (rounds > 2 ? 1e-24 : 1e-12) * h2;
       p = next;
       if (!moved) break;
     }

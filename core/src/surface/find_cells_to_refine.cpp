@@ -172,6 +172,7 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
         for (size_t i = b; i < e; ++i) {
           const uint32_t leaf = static_cast<uint32_t>(i);
           const ObjectId obj = octree.object[leaf];
+          if (octree.is_certified(leaf)) continue;
           if (!field.leaf_begin.empty()) {
             // From the leaf's row of vertices: an empty leaf seen by one object only (most
             // of them), or one that did not change, has nothing to check.
@@ -259,7 +260,8 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
   RefineReport report;
   for (size_t i = 0; i < n; ++i) {
     const uint8_t f = flag[i];
-    if (octree.object[i] == kManyObjects) ++report.touching_leaves;
+    if (octree.object[i] == kManyObjects && !octree.is_certified(static_cast<uint32_t>(i)))
+      ++report.touching_leaves;
     if (f == 0) continue;
     const bool at_limit = f & 4;
     const uint32_t leaf = static_cast<uint32_t>(i);
@@ -284,14 +286,14 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
   return report;
 }
 
-std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
-                                            const SimplexBvh& bvh, std::span<const uint32_t> leaves,
-                                            int threads, const ContactPairs* contacts,
-                                            int contact_depth) {
+SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
+                                      const SimplexBvh& bvh, std::span<const uint32_t> leaves,
+                                      int threads, const ContactPairs* contacts, int contact_depth,
+                                      const SplitOracle* oracle) {
   threads = resolve_threads(threads);
   const int dim = octree.dimension;
   const uint32_t nchildren = 1u << dim;
-  std::vector<std::vector<CellRef>> per_leaf(leaves.size());
+  std::vector<std::vector<CellRef>> per_leaf(leaves.size()), certified(leaves.size());
   parallel_for(
       leaves.size(), threads,
       [&](size_t b, size_t e, int) {
@@ -307,6 +309,13 @@ std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeom
             auto [cell, simplices] = std::move(stack.back());
             stack.pop_back();
             if (cell.level >= octree.max_depth) continue;
+            if (oracle != nullptr) {
+              const CellVerdict v = oracle->classify(
+                  lattice::cell_box(dim, lattice::morton_decode(dim, cell.code), cell.level),
+                  simplices);
+              if (v == CellVerdict::kPair) certified[i].push_back(cell);
+              if (v != CellVerdict::kSplit) continue;
+            }
             per_leaf[i].push_back(cell);
             const double slack = std::ldexp(1.0, -(cell.level + 1)) * 1e-9 + 1e-15;
             // The object nearest to each of the 3^D points of the cell's half-size grid (the
@@ -361,8 +370,9 @@ std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeom
         }
       },
       16);
-  std::vector<CellRef> out;
-  for (auto& v : per_leaf) out.insert(out.end(), v.begin(), v.end());
+  SeparationPlan out;
+  for (auto& v : per_leaf) out.splits.insert(out.splits.end(), v.begin(), v.end());
+  for (auto& v : certified) out.certified.insert(out.certified.end(), v.begin(), v.end());
   return out;
 }
 

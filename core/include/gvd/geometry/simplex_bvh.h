@@ -61,6 +61,10 @@ class SimplexBvh {
   /// that object are not entered (a pruning hint: its simplices in mixed leaves are visited).
   template <class Visit>
   void for_each_overlapping(const Box& box, Visit&& visit, uint32_t skip_object = kMixed) const;
+  /// Like for_each_overlapping, but `visit(simplex)` returns false to stop the walk; returns
+  /// false when it was stopped (a bounded gather: callers give up past a size).
+  template <class Visit>
+  bool visit_overlapping(const Box& box, Visit&& visit) const;
 
   size_t memory_bytes() const;
 
@@ -208,6 +212,30 @@ void SimplexBvh::for_each_overlapping(const Box& box, Visit&& visit, uint32_t sk
     stack[top++] = n.first;
     stack[top++] = self + 1;
   }
+}
+
+template <class Visit>
+bool SimplexBvh::visit_overlapping(const Box& box, Visit&& visit) const {
+  if (nodes_.empty()) return true;
+  uint32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& n = nodes_[stack[--top]];
+    bool overlap = true;
+    for (int i = 0; i < 3; ++i)
+      if (n.box.lo[i] > box.hi[i] || n.box.hi[i] < box.lo[i]) overlap = false;
+    if (!overlap) continue;
+    if (n.count > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count; ++k)
+        if (!visit(order_[k])) return false;
+      continue;
+    }
+    const uint32_t self = static_cast<uint32_t>(&n - nodes_.data());
+    stack[top++] = n.first;
+    stack[top++] = self + 1;
+  }
+  return true;
 }
 
 }  // namespace gvd

@@ -93,8 +93,10 @@ Octree build_octree_data_parallel(const UnitGeometry& geometry, const OctreeOpti
 
 /// The last steps of build_octree from a set of cells to split (SHOULD_SUBDIVIDE's outcome):
 /// the ancestors of every split cell, 2:1 balance over faces, edges and corners, and the
-/// leaves with their simplices. Used by build_octree_data_parallel.
+/// leaves with their simplices; the leaves at or below a cell of `certified` are marked
+/// certified. Used by build_octree_data_parallel.
 Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,
-                               const OctreeOptions& options = {});
+                               const OctreeOptions& options = {},
+                               std::span<const CellRef> certified = {});
 
 }  // namespace gvd

@@ -17,6 +17,24 @@ class ContactPairs;
 /// Progress report of a long stage: stage name and fraction done in [0, 1].
 using ProgressFn = std::function<void(const std::string& stage, double fraction)>;
 
+/// What the refinement decides for a cell that the paper's rule (§3) would split.
+enum class CellVerdict : uint8_t {
+  kSplit,      ///< split it (the paper's rule)
+  kOneObject,  ///< only one object can be nearest anywhere in the cell: no GVD enters it
+  kPair,       ///< certified pair cell: only two objects can be nearest in it and their
+               ///< bisector there is known exactly (refine/pair_certificate.h)
+};
+
+/// Decides, for a cell the paper's rule would split, whether it must be split (the
+/// thin-gaps refinement of refine/; the octree module only asks). Thread-safe.
+class SplitOracle {
+ public:
+  virtual ~SplitOracle() = default;
+  /// The verdict for the closed cell `box` (unit domain). `inside` (optional) lists the
+  /// simplices that touch the cell, which lets most cells that must split be told cheaply.
+  virtual CellVerdict classify(const Box& box, std::span<const uint32_t> inside = {}) const = 0;
+};
+
 /// Options of the octree build (paper §3).
 struct OctreeOptions {
   /// Deepest level a cell may reach; <= 0 picks the default: 26 in 2D (separates gaps of
@@ -32,6 +50,10 @@ struct OctreeOptions {
   /// such a pair stop at `contact_depth` (<= 0: 14 in 2D, 8 in 3D; at most max_depth).
   const ContactPairs* contacts = nullptr;
   int contact_depth = 0;
+  /// With an oracle, a cell the paper's rule would split is asked first, and kept as a leaf
+  /// when no GVD enters it (kOneObject) or its bisector is certified (kPair; the leaf and its
+  /// descendants are marked in Octree::certified). Null: the paper's rule alone.
+  const SplitOracle* split_oracle = nullptr;
 };
 
 /// Resolved contact depth (applies the defaults, clamps to the max depth).
@@ -51,11 +73,16 @@ struct Octree {
   std::vector<uint64_t> code;    ///< per leaf: Morton code of the lower corner (lattice units)
   std::vector<uint8_t> level;    ///< per leaf
   std::vector<ObjectId> object;  ///< per leaf: kNoObject, an object, or kManyObjects
+  /// Per leaf: 1 = inside a certified pair cell (CellVerdict::kPair): at most two objects are
+  /// nearest anywhere in it, and their bisector there is one exact sheet, so it may hold both
+  /// objects and the GVD (refinement checks skip it). Empty after loading from disk.
+  std::vector<uint8_t> certified;
   /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries).
   std::vector<uint32_t> simplex_begin;
   std::vector<uint32_t> simplex_index;
 
   size_t leaf_count() const { return code.size(); }
+  bool is_certified(uint32_t leaf) const { return !certified.empty() && certified[leaf] != 0; }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);
   }
@@ -102,9 +129,12 @@ struct CellRef {
 
 /// Splits the given cells (existing leaves, or cells inside leaves, whose ancestors are then
 /// split too; cells at max_depth are ignored), re-balances and recomputes the leaf -> simplex
-/// incidence. Used for ambiguity resolution (§5) and the separation guarantee.
+/// incidence. Leaves inside a certified leaf stay certified; the leaves that end up inside one
+/// of `cells_to_certify` (cells at or below an existing leaf) are marked certified too. Used
+/// for ambiguity resolution (§5) and the separation guarantee.
 Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
-                     std::span<const CellRef> cells_to_split, const OctreeOptions& options = {});
+                     std::span<const CellRef> cells_to_split, const OctreeOptions& options = {},
+                     std::span<const CellRef> cells_to_certify = {});
 
 /// The cell of leaf `leaf` as a CellRef.
 inline CellRef cell_of(const Octree& octree, uint32_t leaf) {

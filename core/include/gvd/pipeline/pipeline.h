@@ -17,7 +17,7 @@
 namespace gvd {
 
 /// Version of the algorithm; part of job ids and of the saved result.
-inline constexpr uint32_t kAlgorithmVersion = 2;
+inline constexpr uint32_t kAlgorithmVersion = 3;
 
 /// Options of the whole computation.
 struct PipelineOptions {
@@ -50,6 +50,11 @@ struct PipelineOptions {
   /// Closest points of the vertices of empty leaves: "exact" (every vertex by the BVH or the
   /// backend's kernel; the default) or "wavefront" (the paper's Algorithm 1). DistanceMethod.
   std::string distance = "exact";
+  /// Where different objects come close: "certified" (the default: a cell is not split where
+  /// exact distances certify that two objects' bisector in it is one plane, so cost follows
+  /// the geometry, not 1/gap; PairCertifier) or "paper" (the paper's rule of §3 alone: cells
+  /// shrink to the gap over the whole contact).
+  std::string refine = "certified";
   /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
   /// ResultStats::backend so that `gvd info` says so.
   std::string backend_note;
@@ -83,6 +88,7 @@ struct ResultStats {
   uint64_t ambiguous_at_limit = 0;
   uint64_t unseen_left = 0;  ///< cells still hiding a thin region (see PipelineOptions)
   uint64_t touching_leaves = 0;
+  uint64_t certified_leaves = 0;  ///< leaves inside certified pair cells (refine "certified")
   double total_seconds = 0;
 };
 

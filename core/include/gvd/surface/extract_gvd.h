@@ -36,6 +36,8 @@ struct RefineReport {
 /// had in `base` (the octree of the rules of §3), so degenerate configurations (four or more
 /// cells meeting where three would be generic, e.g. symmetric arrays) do not refine to the
 /// depth limit; those cells count as `ambiguous_at_limit` and are surfaced by the centroid rule.
+/// Certified leaves (Octree::certified) are never flagged: their certificate proves that only
+/// their two objects are nearest in them and that the bisector there is one exact sheet.
 struct RefineOptions {
   int threads = 0;
   const Octree* base = nullptr;  ///< null: ambiguity is resolved down to max_depth
@@ -62,10 +64,16 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
 /// them, recursively, until no non-empty descendant has a corner whose exact nearest object
 /// (BVH) differs from the one it intersects, or max_depth is reached. Plans in one pass what
 /// would otherwise take one global refinement round per level.
-std::vector<CellRef> plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
-                                            const SimplexBvh& bvh, std::span<const uint32_t> leaves,
-                                            int threads = 0, const ContactPairs* contacts = nullptr,
-                                            int contact_depth = 0);
+/// With `oracle`, a cell it certifies (CellVerdict::kPair) or finds seen by one object only is
+/// not split: certified ones go to `certified`, for refine_octree to mark.
+struct SeparationPlan {
+  std::vector<CellRef> splits;
+  std::vector<CellRef> certified;
+};
+SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
+                                      const SimplexBvh& bvh, std::span<const uint32_t> leaves,
+                                      int threads = 0, const ContactPairs* contacts = nullptr,
+                                      int contact_depth = 0, const SplitOracle* oracle = nullptr);
 
 /// Options of the surfacing stage.
 struct SurfaceOptions {

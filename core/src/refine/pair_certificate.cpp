@@ -1,0 +1,300 @@
+#include "gvd/refine/pair_certificate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <tuple>
+
+#include "gvd/geometry/primitives.h"
+
+namespace gvd {
+namespace {
+
+// A plane (2D: a line) n . x = offset with a unit normal.
+struct Plane {
+  Vec3 n;
+  double offset = 0;
+  double signed_distance(Vec3 x) const { return dot(n, x) - offset; }
+};
+
+bool simplex_touches(const UnitGeometry& g, uint32_t s, const Box& box, double slack) {
+  const Simplex& t = g.simplices[s];
+  if (g.dimension == 2) {
+    return segment_overlaps_box_2d(g.points[t.v[0]], g.points[t.v[1]], box, slack);
+  }
+  return triangle_overlaps_box(g.points[t.v[0]], g.points[t.v[1]], g.points[t.v[2]], box, slack);
+}
+
+// The plane of the patch, from its best-conditioned simplex (largest area / length).
+bool fit_plane(const UnitGeometry& g, const std::vector<uint32_t>& patch, Plane& plane) {
+  double best = 0;
+  for (uint32_t s : patch) {
+    const Simplex& t = g.simplices[s];
+    const Vec3 a = g.points[t.v[0]], b = g.points[t.v[1]];
+    if (g.dimension == 2) {
+      const Vec3 d = b - a;
+      const double l2 = norm2(d);
+      if (l2 > best) {
+        best = l2;
+        const double l = std::sqrt(l2);
+        plane.n = Vec3{-d.y / l, d.x / l, 0};
+        plane.offset = dot(plane.n, a);
+      }
+    } else {
+      const Vec3 m = cross(b - a, g.points[t.v[2]] - a);
+      const double m2 = norm2(m);
+      if (m2 > best) {
+        best = m2;
+        plane.n = m / std::sqrt(m2);
+        plane.offset = dot(plane.n, a);
+      }
+    }
+  }
+  return best > 0;
+}
+
+// Does the line (3D: the planes' intersection; 2D: the lines' intersection point) of two
+// planes meet the box (inflated by a hair)? Coincident planes count as meeting.
+bool planes_meet_in(int dim, const Plane& p, const Plane& q, const Box& box) {
+  const double hair = 1e-12;
+  if (dim == 2) {
+    const double det = p.n.x * q.n.y - p.n.y * q.n.x;
+    if (std::abs(det) < 1e-12) {
+      return std::abs(dot(q.n, p.n * p.offset) - q.offset) <= PairCertifier::kFlat;
+    }
+    const double x = (p.offset * q.n.y - q.offset * p.n.y) / det;
+    const double y = (p.n.x * q.offset - q.n.x * p.offset) / det;
+    return x >= box.lo.x - hair && x <= box.hi.x + hair && y >= box.lo.y - hair &&
+           y <= box.hi.y + hair;
+  }
+  const Vec3 m = cross(p.n, q.n);
+  const double m2 = norm2(m);
+  if (m2 < 1e-24) {
+    return std::abs(dot(q.n, p.n * p.offset) - q.offset) <= PairCertifier::kFlat;
+  }
+  const Vec3 x0 = (cross(q.n, m) * p.offset + cross(m, p.n) * q.offset) / m2;
+  double t0 = -1e300, t1 = 1e300;
+  for (int i = 0; i < 3; ++i) {
+    const double lo = box.lo[i] - hair, hi = box.hi[i] + hair;
+    if (std::abs(m[i]) < 1e-300) {
+      if (x0[i] < lo || x0[i] > hi) return false;
+      continue;
+    }
+    double a = (lo - x0[i]) / m[i], b = (hi - x0[i]) / m[i];
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+  }
+  return t0 <= t1;
+}
+
+}  // namespace
+
+PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
+                             const ContactPairs* contacts)
+    : geometry_(geometry), bvh_(bvh), contacts_(contacts) {
+  const std::vector<Vec3>& pts = geometry.points;
+  // Points at one position share one canonical index (exact positions: the lattice snap makes
+  // equal input coordinates bitwise equal).
+  std::vector<uint32_t> order(pts.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    return std::tie(pts[a].x, pts[a].y, pts[a].z, a) < std::tie(pts[b].x, pts[b].y, pts[b].z, b);
+  });
+  canonical_.resize(pts.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    canonical_[order[i]] =
+        i > 0 && pts[order[i]] == pts[order[i - 1]] ? canonical_[order[i - 1]] : order[i];
+  }
+  // Sides by (object, canonical end points); two records of one key are across each other.
+  const int dim = geometry.dimension;
+  const int sides = dim == 2 ? 2 : 3;
+  struct Record {
+    uint32_t object, lo, hi, side;
+  };
+  std::vector<Record> records;
+  records.reserve(geometry.simplices.size() * sides);
+  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
+    const Simplex& t = geometry.simplices[s];
+    for (int e = 0; e < sides; ++e) {
+      uint32_t a = canonical_[t.v[e]];
+      uint32_t b = dim == 2 ? a : canonical_[t.v[(e + 1) % 3]];
+      if (a > b) std::swap(a, b);
+      records.push_back({geometry.object_of[s], a, b, s * sides + e});
+    }
+  }
+  std::sort(records.begin(), records.end(), [](const Record& x, const Record& y) {
+    return std::tie(x.object, x.lo, x.hi, x.side) < std::tie(y.object, y.lo, y.hi, y.side);
+  });
+  across_.assign(records.size(), kOpen);
+  for (size_t i = 0; i < records.size();) {
+    size_t j = i + 1;
+    while (j < records.size() && records[j].object == records[i].object &&
+           records[j].lo == records[i].lo && records[j].hi == records[i].hi) {
+      ++j;
+    }
+    if (j - i == 2) {
+      across_[records[i].side] = records[i + 1].side / sides;
+      across_[records[i + 1].side] = records[i].side / sides;
+    } else if (j - i > 2) {
+      for (size_t k = i; k < j; ++k) across_[records[k].side] = kNonManifold;
+    }
+    i = j;
+  }
+}
+
+CellVerdict PairCertifier::classify(const Box& box, std::span<const uint32_t> inside) const {
+  // A quick necessary test first: the simplices touching the cell belong to at most two
+  // objects, and each object's lie on one plane (most cells that must split fail here,
+  // without a BVH query).
+  if (!inside.empty()) {
+    const UnitGeometry& g = geometry_;
+    ObjectId objects[2] = {kNoObject, kNoObject};
+    std::vector<uint32_t> patch[2];
+    for (uint32_t s : inside) {
+      const ObjectId o = g.object_of[s];
+      int k = o == objects[0] ? 0 : (o == objects[1] ? 1 : -1);
+      if (k < 0) {
+        if (objects[1] != kNoObject) return CellVerdict::kSplit;
+        k = objects[0] == kNoObject ? 0 : 1;
+        objects[k] = o;
+      }
+      patch[k].push_back(s);
+    }
+    const int arity = g.dimension == 2 ? 2 : 3;
+    for (const std::vector<uint32_t>& list : patch) {
+      Plane plane;
+      if (list.empty()) continue;
+      if (!fit_plane(g, list, plane)) return CellVerdict::kSplit;
+      for (uint32_t s : list)
+        for (int e = 0; e < arity; ++e)
+          if (std::abs(plane.signed_distance(g.points[g.simplices[s].v[e]])) > kFlat)
+            return CellVerdict::kSplit;
+    }
+  }
+  return certify(box).verdict;
+}
+
+PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
+  const UnitGeometry& g = geometry_;
+  const int dim = g.dimension;
+  Certificate out;
+  const Vec3 c = box.center();
+  const double r = 0.5 * norm(box.hi - box.lo);
+  // Distances a little generous, so rounding never drops a simplex that can be nearest.
+  auto widen = [](double d) { return d * (1 + 1e-9) + 1e-15; };
+
+  const ClosestHit first = bvh_.nearest(c);
+  if (!first.found()) return out;
+  const ObjectId a = g.object_of[first.simplex];
+  const double da = std::sqrt(first.dist2);
+  const double reach = widen(da + 2 * r);
+  const ClosestHit second = bvh_.nearest_excluding(c, &a, 1, reach * reach);
+  if (!second.found()) {
+    out.verdict = CellVerdict::kOneObject;
+    out.a = a;
+    return out;
+  }
+  const ObjectId b = g.object_of[second.simplex];
+  const uint32_t pair[2] = {a, b};
+  if (bvh_.nearest_excluding(c, pair, 2, reach * reach).found()) return out;
+  if (contacts_ != nullptr && contacts_->touching(a, b)) return out;
+
+  // The simplices of each object that can be nearest to a point of the cell.
+  const double dist_of[2] = {da, std::sqrt(second.dist2)};
+  double range2[2], slack[2];
+  for (int k = 0; k < 2; ++k) {
+    const double range = widen(dist_of[k] + 2 * r);
+    range2[k] = range * range;
+    slack[k] = widen(dist_of[k] + r);
+  }
+  Box query = box;
+  for (int i = 0; i < dim; ++i) {
+    query.lo[i] -= std::max(slack[0], slack[1]);
+    query.hi[i] += std::max(slack[0], slack[1]);
+  }
+  std::vector<uint32_t> patch[2];
+  const bool bounded = bvh_.visit_overlapping(query, [&](uint32_t s) {
+    const ObjectId o = g.object_of[s];
+    const int k = o == a ? 0 : (o == b ? 1 : -1);
+    if (k < 0) return true;
+    const Vec3 q = closest_point_on_simplex(dim, g.points, g.simplices[s], c);
+    if (dist2(c, q) > range2[k] || !simplex_touches(g, s, box, slack[k])) return true;
+    patch[k].push_back(s);
+    return patch[0].size() + patch[1].size() <= kMaxActive;
+  });
+  if (!bounded || patch[0].empty() || patch[1].empty()) return out;
+
+  Plane plane[2];
+  const int arity = dim == 2 ? 2 : 3;
+  for (int k = 0; k < 2; ++k) {
+    if (!fit_plane(g, patch[k], plane[k])) return out;
+    const Plane& p = plane[k];
+    auto on_plane = [&](uint32_t v) { return std::abs(p.signed_distance(g.points[v])) <= kFlat; };
+    for (uint32_t s : patch[k]) {
+      const Simplex& t = g.simplices[s];
+      for (int e = 0; e < arity; ++e)
+        if (!on_plane(t.v[e])) return out;
+      // Every side within reach continues, unfolded and on the plane, into another simplex:
+      // then no point of the cell has its nearest point on a rim of the patch.
+      for (int e = 0; e < arity; ++e) {
+        const Vec3 pe = g.points[t.v[e]];
+        const Vec3 qe = g.points[t.v[(e + 1) % arity]];
+        if (dim == 2 ? dist2(c, pe) > range2[k]
+                     : dist2(c, closest_point_on_segment(c, pe, qe)) > range2[k]) {
+          continue;
+        }
+        const uint32_t u = across_[s * arity + e];
+        if (u == kOpen || u == kNonManifold) return out;
+        const Simplex& w = g.simplices[u];
+        // The vertex of u off this side (2D: u's other end point).
+        uint32_t far = kOpen;
+        for (int i = 0; i < arity; ++i) {
+          const uint32_t cv = canonical_[w.v[i]];
+          if (cv != canonical_[t.v[e]] && (dim == 2 || cv != canonical_[t.v[(e + 1) % 3]])) {
+            far = w.v[i];
+          }
+        }
+        if (far == kOpen || !on_plane(far)) return out;
+        const Vec3 pf = g.points[far];
+        if (dim == 2) {
+          // u must go on beyond pe, away from this segment's other end.
+          if (!(dot(qe - pe, pf - pe) < 0)) return out;
+        } else {
+          const Vec3 own = g.points[t.v[(e + 2) % 3]];
+          const double side_own = dot(cross(qe - pe, own - pe), p.n);
+          const double side_far = dot(cross(qe - pe, pf - pe), p.n);
+          if (!(side_own * side_far < 0)) return out;
+        }
+      }
+    }
+  }
+  if (planes_meet_in(dim, plane[0], plane[1], box)) return out;
+  // Which bisector branches cross the cell: s_a = s_b and s_a = -s_b are affine, so their
+  // extremes over the cell are at its corners.
+  double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+  for (int corner = 0; corner < (1 << dim); ++corner) {
+    Vec3 x;
+    for (int i = 0; i < 3; ++i) x[i] = (corner >> i) & 1 ? box.hi[i] : box.lo[i];
+    const double sa = plane[0].signed_distance(x), sb = plane[1].signed_distance(x);
+    const double f[2] = {sa - sb, sa + sb};
+    for (int k = 0; k < 2; ++k) {
+      lo[k] = std::min(lo[k], f[k]);
+      hi[k] = std::max(hi[k], f[k]);
+    }
+  }
+  const bool crosses_plus = lo[0] <= kFlat && hi[0] >= -kFlat;
+  const bool crosses_minus = lo[1] <= kFlat && hi[1] >= -kFlat;
+  if (crosses_plus && crosses_minus) return out;
+  out.verdict = CellVerdict::kPair;
+  const int first_k = a < b ? 0 : 1;
+  out.a = pair[first_k];
+  out.b = pair[1 - first_k];
+  out.normal[0] = plane[first_k].n;
+  out.offset[0] = plane[first_k].offset;
+  out.normal[1] = plane[1 - first_k].n;
+  out.offset[1] = plane[1 - first_k].offset;
+  return out;
+}
+
+}  // namespace gvd

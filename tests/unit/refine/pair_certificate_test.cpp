@@ -1,0 +1,178 @@
+// The flat-pair certificate (refine/pair_certificate.h) against brute force: every cell it
+// certifies must have at most its two objects nearest at sampled points, with the distances
+// equal to the distances to its planes and the nearer object on the side its planes say.
+
+#include "gvd/refine/pair_certificate.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "gvd/octree/lattice.h"
+#include "support/oracles.h"
+#include "support/scenes.h"
+
+namespace gvd {
+namespace {
+
+struct World {
+  Scene scene;
+  Domain domain;
+  UnitGeometry geometry;
+  SimplexBvh bvh;
+  explicit World(Scene s) : scene(std::move(s)) {
+    domain = make_domain(scene);
+    geometry = make_unit_geometry(scene, domain);
+    bvh = SimplexBvh(scene.dimension, geometry.points, geometry.simplices, geometry.object_of);
+  }
+};
+
+// A square sheet [0,1]^2 at height z, split into n x n cells of two triangles each (welded).
+SceneObject make_sheet(const std::string& label, double z, int n) {
+  SceneObject o;
+  o.label = label;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) o.vertices.push_back({double(i) / n, double(j) / n, z});
+  auto at = [&](int i, int j) { return static_cast<uint32_t>(j * (n + 1) + i); };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      o.simplices.push_back({{at(i, j), at(i + 1, j), at(i + 1, j + 1)}});
+      o.simplices.push_back({{at(i, j), at(i + 1, j + 1), at(i, j + 1)}});
+    }
+  return o;
+}
+
+// The brute-force audit: `samples` points of a certified cell (corners, centre and random
+// points) keep to the certificate.
+void audit_cell(const World& s, const PairCertifier::Certificate& c, const Box& unit_box,
+                int samples, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  const int dim = s.scene.dimension;
+  for (int k = 0; k < samples; ++k) {
+    Vec3 x;
+    for (int i = 0; i < dim; ++i) {
+      const double t = k < (1 << dim) ? ((k >> i) & 1) : u(rng);
+      x[i] = unit_box.lo[i] + t * (unit_box.hi[i] - unit_box.lo[i]);
+    }
+    const Vec3 p = s.domain.from_unit(x);
+    const test::NearestAnswer nn = test::brute_nearest(s.scene, p);
+    const double da = test::brute_distance(s.scene, c.a, p) / s.domain.side;
+    const double db = test::brute_distance(s.scene, c.b, p) / s.domain.side;
+    const double sa = dot(c.normal[0], x) - c.offset[0];
+    const double sb = dot(c.normal[1], x) - c.offset[1];
+    ASSERT_NEAR(da, std::abs(sa), 1e-12) << "distance to " << c.a << " is not its plane's";
+    ASSERT_NEAR(db, std::abs(sb), 1e-12) << "distance to " << c.b << " is not its plane's";
+    // No third object is nearer than both (ties allowed at rounding level).
+    ASSERT_LE(nn.distance / s.domain.side, std::min(da, db) + 1e-12);
+    if (nn.object != c.a && nn.object != c.b) {
+      ASSERT_NEAR(nn.distance / s.domain.side, std::min(da, db), 1e-12);
+    }
+  }
+}
+
+// Certifies cells on a regular grid of one level and audits the certified ones; returns how
+// many were certified.
+int audit_level(const World& s, int level, int samples) {
+  const PairCertifier certifier(s.geometry, s.bvh);
+  const int dim = s.scene.dimension;
+  const uint32_t n = 1u << level;
+  std::mt19937_64 rng(level);
+  int certified = 0;
+  for (uint32_t k = 0; k < (dim == 2 ? n : n) && k < (dim == 2 ? 1u : n); ++k)
+    for (uint32_t j = 0; j < n; ++j)
+      for (uint32_t i = 0; i < n; ++i) {
+        lattice::Coord c;
+        const uint64_t size = lattice::cell_size(dim, level);
+        c.c[0] = static_cast<uint32_t>(i * size);
+        c.c[1] = static_cast<uint32_t>(j * size);
+        c.c[2] = static_cast<uint32_t>(k * size);
+        const Box box = lattice::cell_box(dim, c, level);
+        const PairCertifier::Certificate cert = certifier.certify(box);
+        if (cert.verdict != CellVerdict::kPair) continue;
+        ++certified;
+        audit_cell(s, cert, box, samples, rng);
+        if (::testing::Test::HasFatalFailure()) return certified;
+      }
+  return certified;
+}
+
+TEST(PairCertifier, ParallelPlatesAreCertifiedAcrossTheGap) {
+  const World s(test::make_scene(3, {test::make_box("low", {0, 0, 0}, {1, 1, 0.1}),
+                                     test::make_box("high", {0, 0, 0.1001}, {1, 1, 0.2})}));
+  const PairCertifier certifier(s.geometry, s.bvh);
+  // A cell in the middle of the plates holding both faces and the gap (0.1 .. 0.1001).
+  auto cell_at = [&](Vec3 lo_user, double size_user) {
+    Box b;
+    b.lo = s.domain.to_unit(lo_user);
+    b.hi = b.lo + Vec3{size_user, size_user, size_user} / s.domain.side;
+    return b;
+  };
+  const PairCertifier::Certificate mid = certifier.certify(cell_at({0.45, 0.45, 0.09}, 0.03));
+  ASSERT_EQ(mid.verdict, CellVerdict::kPair);
+  EXPECT_EQ(mid.a, 0u);
+  EXPECT_EQ(mid.b, 1u);
+  EXPECT_NEAR(std::abs(mid.normal[0].z), 1.0, 1e-15);
+  EXPECT_NEAR(std::abs(mid.normal[1].z), 1.0, 1e-15);
+  // Next to the plates' rim the nearest points can be on their side faces: not flat.
+  EXPECT_EQ(certifier.certify(cell_at({0.985, 0.45, 0.09}, 0.03)).verdict, CellVerdict::kSplit);
+  // Deep inside the low plate, far from the high one relative to the cell: one object.
+  EXPECT_EQ(certifier.certify(cell_at({0.45, 0.45, 0.02}, 0.01)).verdict, CellVerdict::kOneObject);
+}
+
+TEST(PairCertifier, CertifiedCellsHoldUnderBruteForce3D) {
+  const World s(test::make_scene(3, {make_sheet("floor", 0.0, 6), make_sheet("ceiling", 0.013, 5),
+                                     test::make_box("post", {0.8, 0.8, 0.3}, {0.9, 0.9, 0.5})}));
+  int certified = 0;
+  for (int level = 3; level <= 5; ++level) certified += audit_level(s, level, 24);
+  EXPECT_GT(certified, 1000);
+}
+
+TEST(PairCertifier, CertifiedCellsHoldUnderBruteForce2D) {
+  // Two bars, a tilted segment chain and a square: parallel and non-parallel flat pairs.
+  SceneObject chain;
+  chain.label = "chain";
+  for (int i = 0; i <= 8; ++i) chain.vertices.push_back({0.1 + 0.1 * i, 0.5 + 0.03 * i, 0});
+  for (uint32_t i = 0; i < 8; ++i) chain.simplices.push_back({{i, i + 1, 0}});
+  const World s(
+      test::make_scene(2, {test::make_rect("a", {0, 0, 0}, {1, 0.2, 0}),
+                           test::make_rect("b", {0, 0.2004, 0}, {1, 0.4, 0}), std::move(chain),
+                           test::make_rect("c", {0.2, 0.8, 0}, {0.4, 0.9, 0})}));
+  int certified = 0;
+  for (int level = 3; level <= 8; ++level) certified += audit_level(s, level, 32);
+  EXPECT_GT(certified, 1000);
+}
+
+TEST(PairCertifier, OpenRimsFoldsAndNonManifoldSidesAreNotCertified) {
+  // Two small sheets facing each other: cells reaching their open rims are not certified;
+  // cells well inside are.
+  {
+    const World s(test::make_scene(3, {make_sheet("a", 0.0, 4), make_sheet("b", 0.01, 4)}));
+    const PairCertifier certifier(s.geometry, s.bvh);
+    Box inner;
+    inner.lo = s.domain.to_unit({0.45, 0.45, -0.01});
+    inner.hi = s.domain.to_unit({0.5, 0.5, 0.04});
+    EXPECT_EQ(certifier.certify(inner).verdict, CellVerdict::kPair);
+    Box rim;
+    rim.lo = s.domain.to_unit({0.97, 0.45, -0.01});
+    rim.hi = s.domain.to_unit({1.02, 0.5, 0.04});
+    EXPECT_EQ(certifier.certify(rim).verdict, CellVerdict::kSplit);
+  }
+  // A sheet folded back onto itself (two coplanar triangles on the same side of their shared
+  // edge) is not a plane patch even though all its vertices are coplanar.
+  {
+    SceneObject folded;
+    folded.label = "folded";
+    folded.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.5, 0.8, 0}};
+    folded.simplices = {{{0, 1, 2}}, {{0, 1, 3}}};
+    const World s(test::make_scene(3, {std::move(folded), make_sheet("b", 0.01, 2)}));
+    const PairCertifier certifier(s.geometry, s.bvh);
+    Box cell;
+    cell.lo = s.domain.to_unit({0.2, -0.05, -0.01});
+    cell.hi = s.domain.to_unit({0.3, 0.05, 0.04});
+    EXPECT_EQ(certifier.certify(cell).verdict, CellVerdict::kSplit);
+  }
+}
+
+}  // namespace
+}  // namespace gvd
