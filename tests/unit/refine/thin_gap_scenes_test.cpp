@@ -1,0 +1,39 @@
+// The thin-gap scene generators (tests/support/thin_gap_scenes.h) keep their promises: they
+// check closed, oriented, welded meshes and the exact gap themselves and throw otherwise.
+
+#include "support/thin_gap_scenes.h"
+
+#include <gtest/gtest.h>
+
+namespace gvd {
+namespace {
+
+TEST(ThinGapScenes, EveryGeneratorBuildsItsSceneAtWideAndThinGaps) {
+  for (const double gap : {1e-2, 1e-5}) {
+    SCOPED_TRACE(gap);
+    test::BladeInSlotOptions blade;
+    blade.gap = gap;
+    EXPECT_EQ(test::make_blade_in_slot(blade).objects.size(), 2u);
+    test::StackedPlatesOptions plates;
+    plates.gap = gap;
+    EXPECT_EQ(test::make_stacked_plates(plates).objects.size(), 6u);
+    test::ShaftInBoreOptions shaft;
+    shaft.gap = gap;
+    EXPECT_EQ(test::make_shaft_in_bore(shaft).objects.size(), 2u);
+  }
+  for (const double gap : {1e-3, 1e-7}) {
+    SCOPED_TRACE(gap);
+    test::ParallelBarsOptions bars;
+    bars.gap = gap;
+    const Scene s = test::make_parallel_bars_2d(bars);
+    ASSERT_EQ(s.objects.size(), 2u);
+    EXPECT_NEAR(test::min_distance_2d(s.objects[0], s.objects[1]), gap * make_domain(s).side,
+                1e-9 * gap);
+    test::PolygonPairsOptions pairs;
+    pairs.min_gap = gap;
+    EXPECT_EQ(test::make_polygon_pairs_2d(pairs).objects.size(), 470u);
+  }
+}
+
+}  // namespace
+}  // namespace gvd
