@@ -178,8 +178,11 @@ void print_summary(const GvdResult& r, std::FILE* out) {
   std::fprintf(out, "  objects %zu, simplices %llu, dimension %d\n", r.scene.objects.size(),
                static_cast<unsigned long long>(r.scene.simplex_count()), r.scene.dimension);
   std::fprintf(out, "  backend %s, %d threads\n", s.backend.c_str(), s.threads);
-  std::fprintf(out, "  octree: depth %d (limit %d), %llu leaves, %llu vertices, %.1f bytes/leaf\n",
+  std::fprintf(out,
+               "  octree: depth %d (limit %d), %llu leaves (%llu in certified pair cells), %llu "
+               "vertices, %.1f bytes/leaf\n",
                s.depth, s.max_depth, static_cast<unsigned long long>(s.leaves),
+               static_cast<unsigned long long>(s.certified_leaves),
                static_cast<unsigned long long>(s.vertices), s.bytes_per_leaf);
   std::fprintf(out,
                "  gvd: %llu simplices (both sides), %llu neighbour pairs, %d refinement rounds\n",

@@ -60,13 +60,14 @@ constexpr std::array<ProblemExit, 22> kProblemExits = {{
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a
 // computation the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 6> kJobParams = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 7> kJobParams = {{
     {"--max-depth", "max_depth"},
     {"--contact-depth", "contact_depth"},
     {"--ambiguity-levels", "ambiguity_levels"},
     {"--ambiguity-rounds", "ambiguity_rounds"},
     {"--unseen-rounds", "unseen_rounds"},
     {"--domain", "domain"},
+    {"--refine", "refine"},
 }};
 constexpr std::array<std::pair<std::string_view, std::string_view>, 5> kServerSide = {{
     {"--threads", "--job-threads"},
@@ -356,9 +357,11 @@ void print_summary(const Json& doc, std::FILE* out) {
                num("simplices"), num("dimension"));
   std::fprintf(out, "  backend %s, %.0f threads\n", text(r, "backend", "?").c_str(),
                num("threads"));
-  std::fprintf(
-      out, "  octree: depth %.0f (limit %.0f), %.0f leaves, %.0f vertices, %.1f bytes/leaf\n",
-      num("depth"), num("max_depth"), num("leaves"), num("vertices"), num("bytes_per_leaf"));
+  std::fprintf(out,
+               "  octree: depth %.0f (limit %.0f), %.0f leaves (%.0f in certified pair cells), "
+               "%.0f vertices, %.1f bytes/leaf\n",
+               num("depth"), num("max_depth"), num("leaves"), num("certified_leaves"),
+               num("vertices"), num("bytes_per_leaf"));
   std::fprintf(out,
                "  gvd: %.0f simplices (both sides), %.0f neighbour pairs, %.0f refinement rounds\n",
                num("gvd_simplices"), num("graph_edges"), num("refine_rounds"));

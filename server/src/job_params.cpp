@@ -10,8 +10,8 @@
 namespace gvd::server {
 namespace {
 
-const char* const kNames[] = {"max_depth",        "contact_depth", "ambiguity_levels",
-                              "ambiguity_rounds", "unseen_rounds", "domain"};
+const char* const kNames[] = {"max_depth",     "contact_depth", "ambiguity_levels", "ambiguity_rounds",
+                              "unseen_rounds", "domain",        "refine"};
 
 [[noreturn]] void bad(const std::string& detail) {
   throw Error(ErrorCode::kInvalidArgument, detail);
@@ -51,6 +51,11 @@ void JobParams::set(const std::string& name, const std::string& value) {
     ambiguity_rounds = parse_int(name, value, -1, 1000);
   } else if (name == "unseen_rounds") {
     unseen_rounds = parse_int(name, value, -1, 1000);
+  } else if (name == "refine") {
+    if (value != "certified" && value != "paper") {
+      bad("parameter \"refine\" must be certified or paper, got \"" + value + "\"");
+    }
+    refine = value;
   } else if (name == "domain") {
     std::vector<double> box;
     std::stringstream s(value);
@@ -71,7 +76,7 @@ void JobParams::set(const std::string& name, const std::string& value) {
   } else {
     bad("unknown parameter \"" + name +
         "\" (known: max_depth, contact_depth, ambiguity_levels, ambiguity_rounds, "
-        "unseen_rounds, domain)");
+        "unseen_rounds, domain, refine)");
   }
 }
 
@@ -103,7 +108,8 @@ std::string JobParams::to_json() const {
                       {"ambiguity_levels", ambiguity_levels},
                       {"ambiguity_rounds", ambiguity_rounds},
                       {"unseen_rounds", unseen_rounds},
-                      {"domain", domain}};
+                      {"domain", domain},
+                      {"refine", refine}};
   return j.dump();  // nlohmann::json sorts object keys: a stable text
 }
 
@@ -116,6 +122,7 @@ JobParams JobParams::from_json(const std::string& text) {
   p.ambiguity_rounds = j.value("ambiguity_rounds", -1);
   p.unseen_rounds = j.value("unseen_rounds", -1);
   p.domain = j.value("domain", std::vector<double>{});
+  p.refine = j.value("refine", std::string("certified"));
   return p;
 }
 
@@ -129,6 +136,7 @@ PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
   o.ambiguity_levels = ambiguity_levels;
   o.ambiguity_rounds = ambiguity_rounds;
   o.unseen_rounds = unseen_rounds;
+  o.refine = refine;
   o.threads = server.job_threads;
   o.backend = server.compute ? "opencl" : "cpu";
   o.compute = server.compute;

@@ -19,6 +19,7 @@ struct JobParams {
   int ambiguity_rounds = -1;
   int unseen_rounds = -1;
   std::vector<double> domain;  ///< empty, or x0,y0[,z0],x1,y1[,z1]
+  std::string refine = "certified";  ///< PipelineOptions::refine: certified or paper
 
   /// Sets one parameter from its text form; gvd::Error{kInvalidArgument} for an unknown name
   /// or a bad value.

@@ -9,17 +9,20 @@
 #include <malloc.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "bench/boost_voronoi.h"
 #include "bench/table1_scenes.h"
+#include "support/thin_gap_scenes.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 
@@ -218,6 +221,168 @@ void BM_BoostVoronoi(benchmark::State& state) {
   }
 }
 
+// ---- Thin gaps: gap sweeps with the certified refinement and the paper's rule side by side.
+
+/// One point of a gap sweep: a thin-gap scene at one gap (fraction of the domain side).
+struct ThinGapCase {
+  std::string scene;  ///< blade_in_slot, stacked_plates, shaft_in_bore, bars_2d, pairs_2d
+  double gap = 0;
+  std::string refine;  ///< "certified" or "paper"
+};
+
+Scene make_thin_gap_scene(const std::string& name, double gap) {
+  if (name == "blade_in_slot") {
+    gvd::test::BladeInSlotOptions o;
+    o.gap = gap;
+    return gvd::test::make_blade_in_slot(o);
+  }
+  if (name == "stacked_plates") {
+    gvd::test::StackedPlatesOptions o;
+    o.gap = gap;
+    return gvd::test::make_stacked_plates(o);
+  }
+  if (name == "shaft_in_bore") {
+    gvd::test::ShaftInBoreOptions o;
+    o.gap = gap;
+    return gvd::test::make_shaft_in_bore(o);
+  }
+  if (name == "bars_2d") {
+    gvd::test::ParallelBarsOptions o;
+    o.gap = gap;
+    return gvd::test::make_parallel_bars_2d(o);
+  }
+  gvd::test::PolygonPairsOptions o;  // pairs_2d: gaps log-spaced from `gap` to 1e-3
+  o.min_gap = gap;
+  return gvd::test::make_polygon_pairs_2d(o);
+}
+
+struct ThinGapRun {
+  ThinGapCase c;
+  gvd::ResultStats stats;
+  double peak_rss_mib = 0;
+  std::string error;
+  // 2D: the dual graph against the exact segment Voronoi diagram of the same scene.
+  size_t boost_pairs = 0, only_ours = 0, only_boost = 0;
+  double boost_seconds = 0;
+};
+
+std::vector<ThinGapRun>& thin_gap_runs() {
+  static std::vector<ThinGapRun> all;
+  return all;
+}
+
+void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
+  const Scene scene = make_thin_gap_scene(c.scene, c.gap);
+  gvd::PipelineOptions options;
+  options.threads = kThreads;
+  options.refine = c.refine;
+  ThinGapRun run;
+  run.c = c;
+  reset_peak_rss();
+  for (auto _ : state) {
+    try {
+      gvd::GvdResult r = gvd::compute_gvd(scene, options);
+      state.PauseTiming();
+      run.stats = r.stats;
+      if (scene.dimension == 2) {
+        const gvd::bench::BoostAdjacency b = gvd::bench::boost_voronoi_adjacency(scene, r.domain.box());
+        run.boost_seconds = b.input_seconds + b.voronoi_seconds + b.adjacency_seconds;
+        std::set<std::pair<uint32_t, uint32_t>> mine, truth;
+        for (const gvd::DualEdge& e : r.graph.edges) mine.insert({e.a, e.b});
+        for (const auto& p : b.pairs) truth.insert({p.a, p.b});
+        run.boost_pairs = truth.size();
+        for (const auto& ab : mine) run.only_ours += truth.count(ab) == 0;
+        for (const auto& ab : truth) run.only_boost += mine.count(ab) == 0;
+      }
+      state.ResumeTiming();
+    } catch (const std::exception& e) {
+      run.error = e.what();
+      state.SkipWithError(run.error.c_str());
+      break;
+    }
+  }
+  run.peak_rss_mib = peak_rss_mib();
+  if (run.error.empty()) {
+    auto& k = state.counters;
+    k["total_s"] = run.stats.total_seconds;
+    k["depth"] = run.stats.depth;
+    k["leaves"] = static_cast<double>(run.stats.leaves);
+    k["certified"] = static_cast<double>(run.stats.certified_leaves);
+    k["gvd_simplices"] = static_cast<double>(run.stats.gvd_simplices);
+    k["peak_rss_MiB"] = run.peak_rss_mib;
+  }
+  thin_gap_runs().push_back(std::move(run));
+}
+
+/// The sweeps of `make bench`; --gvd_slow adds the thinnest gaps (which fail today in 3D).
+std::vector<ThinGapCase> thin_gap_cases(bool slow) {
+  std::vector<ThinGapCase> all;
+  auto add = [&](const char* scene, std::vector<double> certified, std::vector<double> paper) {
+    for (double g : certified) all.push_back({scene, g, "certified"});
+    for (double g : paper) all.push_back({scene, g, "paper"});
+  };
+  add("bars_2d", {1e-3, 1e-4, 1e-5, 1e-6, 1e-7}, {1e-3, 1e-4, 1e-5});
+  add("pairs_2d", {1e-3, 1e-5, 1e-7}, {1e-3});
+  add("blade_in_slot", {1e-2, 3e-3, 1e-3, 3e-4, 1e-4}, {1e-2, 3e-3});
+  add("stacked_plates", {1e-2, 3e-3, 1e-3}, {1e-2});
+  add("shaft_in_bore", {1e-2, 1e-3, 1e-4}, {1e-2});
+  if (slow) {
+    add("blade_in_slot", {1e-5}, {1e-3});
+    add("stacked_plates", {1e-4, 1e-5}, {});
+    add("shaft_in_bore", {1e-5}, {1e-3});
+  }
+  return all;
+}
+
+void print_thin_gap_summary() {
+  if (thin_gap_runs().empty()) return;
+  std::printf("\n== Thin gaps: gap sweeps, certified pair cells vs the paper's rule (threads = %d) ==\n",
+              kThreads);
+  std::printf("%-15s %-9s %7s %5s %9s %9s %9s %9s %8s %8s %8s %8s %9s %8s %s\n", "scene", "refine",
+              "gap", "depth", "leaves", "certified", "gvd_simp", "octree", "distance", "ambig",
+              "surface", "total", "RSS_MiB", "B/leaf", "2D: pairs vs Boost");
+  for (const ThinGapRun& r : thin_gap_runs()) {
+    if (!r.error.empty()) {
+      std::printf("%-15s %-9s %7.0e FAILED: %s\n", r.c.scene.c_str(), r.c.refine.c_str(), r.c.gap,
+                  r.error.c_str());
+      continue;
+    }
+    const gvd::ResultStats& s = r.stats;
+    char boost[96] = "";
+    if (r.boost_pairs > 0) {
+      std::snprintf(boost, sizeof boost, "boost %zu, only ours %zu, only boost %zu, boost %.0f ms",
+                    r.boost_pairs, r.only_ours, r.only_boost, 1e3 * r.boost_seconds);
+    }
+    std::printf("%-15s %-9s %7.0e %5d %9llu %9llu %9llu %9.0f %8.0f %8.0f %8.0f %8.0f %9.0f %8.0f %s\n",
+                r.c.scene.c_str(), r.c.refine.c_str(), r.c.gap, s.depth,
+                static_cast<unsigned long long>(s.leaves),
+                static_cast<unsigned long long>(s.certified_leaves),
+                static_cast<unsigned long long>(s.gvd_simplices), 1e3 * stage_seconds(s, "octree"),
+                1e3 * stage_seconds(s, "distance"), 1e3 * stage_seconds(s, "ambiguity"),
+                1e3 * stage_seconds(s, "surface"), 1e3 * s.total_seconds, r.peak_rss_mib,
+                s.leaves > 0 ? r.peak_rss_mib * 1048576.0 / s.leaves : 0.0, boost);
+  }
+  // Least-squares slope of log(leaves) against log(1/gap) per scene and refinement: the
+  // paper's rule grows like gap^-2 (3D) and gap^-1 (2D).
+  std::printf("fitted exponent of leaves against 1/gap (the successful points of each sweep):\n");
+  std::map<std::pair<std::string, std::string>, std::vector<std::pair<double, double>>> series;
+  for (const ThinGapRun& r : thin_gap_runs())
+    if (r.error.empty())
+      series[{r.c.scene, r.c.refine}].push_back(
+          {std::log(1 / r.c.gap), std::log(static_cast<double>(r.stats.leaves))});
+  for (const auto& [key, pts] : series) {
+    if (pts.size() < 2) continue;
+    double mx = 0, my = 0;
+    for (const auto& [x, y] : pts) mx += x, my += y;
+    mx /= pts.size();
+    my /= pts.size();
+    double sxy = 0, sxx = 0;
+    for (const auto& [x, y] : pts) sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
+    std::printf("  %-15s %-9s %.2f over %zu gaps\n", key.first.c_str(), key.second.c_str(),
+                sxx > 0 ? sxy / sxx : 0.0, pts.size());
+  }
+}
+
 /// Writes every scene as scene JSON (DESIGN.md) into `dir`, so that `gvd compute` can run the
 /// same input: --gvd_write_scenes=DIR. Returns the process exit code.
 int write_scenes(const std::string& dir, bool slow) {
@@ -264,6 +429,15 @@ void register_benchmarks(bool slow) {
       ->Iterations(1)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
+  for (const ThinGapCase& c : thin_gap_cases(slow)) {
+    char name[128];
+    std::snprintf(name, sizeof name, "BM_ThinGap/%s/%.0e/%s", c.scene.c_str(), c.gap,
+                  c.refine.c_str());
+    benchmark::RegisterBenchmark(name, BM_ThinGap, c)
+        ->Iterations(1)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  }
 }
 
 /// One run per scene: the fastest, when --benchmark_repetitions ran a scene several times.
@@ -473,5 +647,6 @@ int main(int argc, char** argv) {
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   print_summary();
+  print_thin_gap_summary();
   return 0;
 }
