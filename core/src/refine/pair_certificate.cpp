@@ -144,9 +144,11 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
 }
 
 CellVerdict PairCertifier::classify(const Box& box, std::span<const uint32_t> inside) const {
-  // A quick necessary test first: the simplices touching the cell belong to at most two
-  // objects, and each object's lie on one plane (most cells that must split fail here,
-  // without a BVH query).
+  // A quick test first, which gives the verdict certify would give: simplices of three
+  // objects touching the cell make three active objects, and with two objects touching it
+  // both are active, so either's simplices off one plane mean kSplit (most cells that must
+  // split fail here, without a BVH query). With one object only, certify decides (the cell
+  // may be seen by that object alone).
   if (!inside.empty()) {
     const UnitGeometry& g = geometry_;
     ObjectId objects[2] = {kNoObject, kNoObject};
@@ -163,6 +165,7 @@ CellVerdict PairCertifier::classify(const Box& box, std::span<const uint32_t> in
     }
     const int arity = g.dimension == 2 ? 2 : 3;
     for (const std::vector<uint32_t>& list : patch) {
+      if (objects[1] == kNoObject) break;
       Plane plane;
       if (list.empty()) continue;
       if (!fit_plane(g, list, plane)) return CellVerdict::kSplit;
