@@ -10,8 +10,9 @@
 namespace gvd::server {
 namespace {
 
-const char* const kNames[] = {"max_depth",     "contact_depth", "ambiguity_levels", "ambiguity_rounds",
-                              "unseen_rounds", "domain",        "refine"};
+const char* const kNames[] = {
+    "max_depth", "contact_depth", "ambiguity_levels", "ambiguity_rounds", "unseen_rounds",
+    "domain",    "refine"};
 
 [[noreturn]] void bad(const std::string& detail) {
   throw Error(ErrorCode::kInvalidArgument, detail);

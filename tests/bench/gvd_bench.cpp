@@ -22,9 +22,9 @@
 
 #include "bench/boost_voronoi.h"
 #include "bench/table1_scenes.h"
-#include "support/thin_gap_scenes.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
+#include "support/thin_gap_scenes.h"
 
 namespace {
 
@@ -230,27 +230,19 @@ struct ThinGapCase {
   std::string refine;  ///< "certified" or "paper"
 };
 
+/// The scene `make` builds with its options' gap set to `gap`.
+template <class Options>
+Scene with_gap(Scene (*make)(const Options&), double gap) {
+  Options o;
+  o.gap = gap;
+  return make(o);
+}
+
 Scene make_thin_gap_scene(const std::string& name, double gap) {
-  if (name == "blade_in_slot") {
-    gvd::test::BladeInSlotOptions o;
-    o.gap = gap;
-    return gvd::test::make_blade_in_slot(o);
-  }
-  if (name == "stacked_plates") {
-    gvd::test::StackedPlatesOptions o;
-    o.gap = gap;
-    return gvd::test::make_stacked_plates(o);
-  }
-  if (name == "shaft_in_bore") {
-    gvd::test::ShaftInBoreOptions o;
-    o.gap = gap;
-    return gvd::test::make_shaft_in_bore(o);
-  }
-  if (name == "bars_2d") {
-    gvd::test::ParallelBarsOptions o;
-    o.gap = gap;
-    return gvd::test::make_parallel_bars_2d(o);
-  }
+  if (name == "blade_in_slot") return with_gap(&gvd::test::make_blade_in_slot, gap);
+  if (name == "stacked_plates") return with_gap(&gvd::test::make_stacked_plates, gap);
+  if (name == "shaft_in_bore") return with_gap(&gvd::test::make_shaft_in_bore, gap);
+  if (name == "bars_2d") return with_gap(&gvd::test::make_parallel_bars_2d, gap);
   gvd::test::PolygonPairsOptions o;  // pairs_2d: gaps log-spaced from `gap` to 1e-3
   o.min_gap = gap;
   return gvd::test::make_polygon_pairs_2d(o);
@@ -285,7 +277,8 @@ void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
       state.PauseTiming();
       run.stats = r.stats;
       if (scene.dimension == 2) {
-        const gvd::bench::BoostAdjacency b = gvd::bench::boost_voronoi_adjacency(scene, r.domain.box());
+        const gvd::bench::BoostAdjacency b =
+            gvd::bench::boost_voronoi_adjacency(scene, r.domain.box());
         run.boost_seconds = b.input_seconds + b.voronoi_seconds + b.adjacency_seconds;
         std::set<std::pair<uint32_t, uint32_t>> mine, truth;
         for (const gvd::DualEdge& e : r.graph.edges) mine.insert({e.a, e.b});
@@ -336,8 +329,9 @@ std::vector<ThinGapCase> thin_gap_cases(bool slow) {
 
 void print_thin_gap_summary() {
   if (thin_gap_runs().empty()) return;
-  std::printf("\n== Thin gaps: gap sweeps, certified pair cells vs the paper's rule (threads = %d) ==\n",
-              kThreads);
+  std::printf(
+      "\n== Thin gaps: gap sweeps, certified pair cells vs the paper's rule (threads = %d) ==\n",
+      kThreads);
   std::printf("%-15s %-9s %7s %5s %9s %9s %9s %9s %8s %8s %8s %8s %9s %8s %s\n", "scene", "refine",
               "gap", "depth", "leaves", "certified", "gvd_simp", "octree", "distance", "ambig",
               "surface", "total", "RSS_MiB", "B/leaf", "2D: pairs vs Boost");
@@ -353,14 +347,15 @@ void print_thin_gap_summary() {
       std::snprintf(boost, sizeof boost, "boost %zu, only ours %zu, only boost %zu, boost %.0f ms",
                     r.boost_pairs, r.only_ours, r.only_boost, 1e3 * r.boost_seconds);
     }
-    std::printf("%-15s %-9s %7.0e %5d %9llu %9llu %9llu %9.0f %8.0f %8.0f %8.0f %8.0f %9.0f %8.0f %s\n",
-                r.c.scene.c_str(), r.c.refine.c_str(), r.c.gap, s.depth,
-                static_cast<unsigned long long>(s.leaves),
-                static_cast<unsigned long long>(s.certified_leaves),
-                static_cast<unsigned long long>(s.gvd_simplices), 1e3 * stage_seconds(s, "octree"),
-                1e3 * stage_seconds(s, "distance"), 1e3 * stage_seconds(s, "ambiguity"),
-                1e3 * stage_seconds(s, "surface"), 1e3 * s.total_seconds, r.peak_rss_mib,
-                s.leaves > 0 ? r.peak_rss_mib * 1048576.0 / s.leaves : 0.0, boost);
+    std::printf(
+        "%-15s %-9s %7.0e %5d %9llu %9llu %9llu %9.0f %8.0f %8.0f %8.0f %8.0f %9.0f %8.0f %s\n",
+        r.c.scene.c_str(), r.c.refine.c_str(), r.c.gap, s.depth,
+        static_cast<unsigned long long>(s.leaves),
+        static_cast<unsigned long long>(s.certified_leaves),
+        static_cast<unsigned long long>(s.gvd_simplices), 1e3 * stage_seconds(s, "octree"),
+        1e3 * stage_seconds(s, "distance"), 1e3 * stage_seconds(s, "ambiguity"),
+        1e3 * stage_seconds(s, "surface"), 1e3 * s.total_seconds, r.peak_rss_mib,
+        s.leaves > 0 ? r.peak_rss_mib * 1048576.0 / s.leaves : 0.0, boost);
   }
   // Least-squares slope of log(leaves) against log(1/gap) per scene and refinement: the
   // paper's rule grows like gap^-2 (3D) and gap^-1 (2D).

@@ -16,6 +16,12 @@ Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const
   return closest_point_on_triangle(p, points[s.v[0]], points[s.v[1]], points[s.v[2]]);
 }
 
+bool simplex_overlaps_box(int dimension, std::span<const Vec3> points, const Simplex& s,
+                          const Box& box, double slack) {
+  if (dimension == 2) return segment_overlaps_box_2d(points[s.v[0]], points[s.v[1]], box, slack);
+  return triangle_overlaps_box(points[s.v[0]], points[s.v[1]], points[s.v[2]], box, slack);
+}
+
 namespace {
 
 // Top-down median split along the largest axis of the centre bounds, in depth-first layout: a

@@ -39,11 +39,7 @@ uint64_t parent_code(int dim, uint64_t code, int level) {
 
 // Does simplex s of `geometry` touch `box`? Conservative: the box is inflated a hair.
 bool simplex_touches(const UnitGeometry& g, uint32_t s, const Box& box, double slack) {
-  const Simplex& t = g.simplices[s];
-  if (g.dimension == 2) {
-    return segment_overlaps_box_2d(g.points[t.v[0]], g.points[t.v[1]], box, slack);
-  }
-  return triangle_overlaps_box(g.points[t.v[0]], g.points[t.v[1]], g.points[t.v[2]], box, slack);
+  return simplex_overlaps_box(g.dimension, g.points, g.simplices[s], box, slack);
 }
 
 double slack_for(int dim, int level) {

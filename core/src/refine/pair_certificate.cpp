@@ -17,14 +17,6 @@ struct Plane {
   double signed_distance(Vec3 x) const { return dot(n, x) - offset; }
 };
 
-bool simplex_touches(const UnitGeometry& g, uint32_t s, const Box& box, double slack) {
-  const Simplex& t = g.simplices[s];
-  if (g.dimension == 2) {
-    return segment_overlaps_box_2d(g.points[t.v[0]], g.points[t.v[1]], box, slack);
-  }
-  return triangle_overlaps_box(g.points[t.v[0]], g.points[t.v[1]], g.points[t.v[2]], box, slack);
-}
-
 // The plane of the patch, from its best-conditioned simplex (largest area / length).
 bool fit_plane(const UnitGeometry& g, const std::vector<uint32_t>& patch, Plane& plane) {
   double best = 0;
@@ -222,7 +214,9 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
     const int k = o == a ? 0 : (o == b ? 1 : -1);
     if (k < 0) return true;
     const Vec3 q = closest_point_on_simplex(dim, g.points, g.simplices[s], c);
-    if (dist2(c, q) > range2[k] || !simplex_touches(g, s, box, slack[k])) return true;
+    if (dist2(c, q) > range2[k] ||
+        !simplex_overlaps_box(dim, g.points, g.simplices[s], box, slack[k]))
+      return true;
     patch[k].push_back(s);
     return patch[0].size() + patch[1].size() <= kMaxActive;
   });

@@ -330,16 +330,9 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
               const lattice::Coord lo = lattice::morton_decode(dim, child.code);
               const Box box = lattice::cell_box(dim, lo, child.level);
               std::vector<uint32_t> inside;
-              for (uint32_t s : simplices) {
-                const Simplex& t = geometry.simplices[s];
-                const bool touches =
-                    dim == 2
-                        ? segment_overlaps_box_2d(geometry.points[t.v[0]], geometry.points[t.v[1]],
-                                                  box, slack)
-                        : triangle_overlaps_box(geometry.points[t.v[0]], geometry.points[t.v[1]],
-                                                geometry.points[t.v[2]], box, slack);
-                if (touches) inside.push_back(s);
-              }
+              for (uint32_t s : simplices)
+                if (simplex_overlaps_box(dim, geometry.points, geometry.simplices[s], box, slack))
+                  inside.push_back(s);
               if (inside.empty()) continue;
               bool foreign = false;
               for (uint32_t k = 0; k < nchildren && !foreign; ++k) {

@@ -24,6 +24,11 @@ struct ClosestHit {
 Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const Simplex& s,
                               Vec3 p);
 
+/// Conservative overlap of simplex `s` with `box` inflated by `slack` (absolute): never false
+/// when they touch (triangle_overlaps_box in 3D, segment_overlaps_box_2d in 2D).
+bool simplex_overlaps_box(int dimension, std::span<const Vec3> points, const Simplex& s,
+                          const Box& box, double slack);
+
 /// Bounding volume hierarchy over the simplices of a scene for exact nearest-simplex queries.
 /// Flat arrays (nodes in depth-first order), built once in O(M log M), queried concurrently.
 class SimplexBvh {
