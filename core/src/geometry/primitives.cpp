@@ -106,12 +106,16 @@ bool segment_overlaps_box_2d(Vec3 a, Vec3 b, const Box& box, double slack) {
   return std::fabs(s) <= r + eps;
 }
 
-double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
+double segment_segment_closest(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1, Vec3& on_p, Vec3& on_q) {
   // Ericson, Real-Time Collision Detection §5.1.9, with degenerate segments handled.
   const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
   const double a = dot(d1, d1), e = dot(d2, d2), f = dot(d2, r);
   double s = 0, t = 0;
-  if (a <= 0 && e <= 0) return dist2(p0, q0);
+  if (a <= 0 && e <= 0) {
+    on_p = p0;
+    on_q = q0;
+    return dist2(p0, q0);
+  }
   if (a <= 0) {
     t = std::clamp(f / e, 0.0, 1.0);
   } else {
@@ -132,7 +136,14 @@ double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
       }
     }
   }
-  return dist2(p0 + d1 * s, q0 + d2 * t);
+  on_p = p0 + d1 * s;
+  on_q = q0 + d2 * t;
+  return dist2(on_p, on_q);
+}
+
+double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
+  Vec3 on_p, on_q;
+  return segment_segment_closest(p0, p1, q0, q1, on_p, on_q);
 }
 
 double segment_segment_dist2_2d(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
@@ -206,6 +217,40 @@ double segment_box_distance2_bound(Vec3 p0, Vec3 p1, const Box& b) {
   }
   const double mid = std::sqrt(box_distance2((p0 + p1) * 0.5, b)) - 0.5 * dist(p0, p1);
   return mid > 0 ? std::max(boxes, mid * mid) : boxes;
+}
+
+double simplex_simplex_closest(int dimension, const Vec3* q, const Vec3* s, Vec3& on_q) {
+  Vec3 a, b;
+  if (dimension == 2) {
+    const double d2 = segment_segment_dist2_2d(q[0], q[1], s[0], s[1]);
+    segment_segment_closest(Vec3{q[0].x, q[0].y, 0}, Vec3{q[1].x, q[1].y, 0},
+                            Vec3{s[0].x, s[0].y, 0}, Vec3{s[1].x, s[1].y, 0}, on_q, b);
+    return d2;
+  }
+  double best = 1e300;
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 on = closest_point_on_triangle(s[i], q[0], q[1], q[2]);
+    const double d2 = dist2(s[i], on);
+    if (d2 < best) {
+      best = d2;
+      on_q = on;
+    }
+    const double e2 = dist2(q[i], closest_point_on_triangle(q[i], s[0], s[1], s[2]));
+    if (e2 < best) {
+      best = e2;
+      on_q = q[i];
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const double d2 = segment_segment_closest(q[i], q[(i + 1) % 3], s[j], s[(j + 1) % 3], a, b);
+      if (d2 < best) {
+        best = d2;
+        on_q = a;
+      }
+    }
+  }
+  return best;
 }
 
 }  // namespace gvd

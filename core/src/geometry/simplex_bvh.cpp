@@ -243,4 +243,55 @@ double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
   return best;
 }
 
+ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2) const {
+  ClosestHit best;
+  best.dist2 = max_dist2;
+  if (nodes_.empty()) return best;
+  Box qb;
+  for (int i = 0; i < arity_; ++i) qb.extend(q[i]);
+  auto bound = [&](const Box& b) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double gap = std::max({b.lo[a] - qb.hi[a], qb.lo[a] - b.hi[a], 0.0});
+      d2 += gap * gap;
+    }
+    return d2;
+  };
+  struct Entry {
+    uint32_t node;
+    double dist2;
+  };
+  Entry stack[128];
+  int top = 0;
+  stack[top++] = {0, bound(nodes_[0].box)};
+  while (top > 0 && best.dist2 > 0) {
+    const Entry entry = stack[--top];
+    if (entry.dist2 >= best.dist2) continue;
+    const Node& n = nodes_[entry.node];
+    if (n.count > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+        Vec3 on;
+        const double d2 =
+            simplex_simplex_closest(dimension_, q, &corners_[static_cast<size_t>(k) * arity_], on);
+        if (d2 < best.dist2) {
+          best.dist2 = d2;
+          best.point = on;
+          best.simplex = order_[k];
+        }
+      }
+      continue;
+    }
+    const uint32_t l = entry.node + 1, r = n.first;
+    const double dl = bound(nodes_[l].box), dr = bound(nodes_[r].box);
+    if (dl <= dr) {
+      if (dr < best.dist2) stack[top++] = {r, dr};
+      if (dl < best.dist2) stack[top++] = {l, dl};
+    } else {
+      if (dl < best.dist2) stack[top++] = {l, dl};
+      if (dr < best.dist2) stack[top++] = {r, dr};
+    }
+  }
+  return best;
+}
+
 }  // namespace gvd

@@ -1,6 +1,8 @@
 #include <algorithm>
+#include <cmath>
 #include <map>
 
+#include "gvd/common/parallel.h"
 #include "gvd/graph/dual_graph.h"
 
 namespace gvd {
@@ -38,6 +40,60 @@ DualGraph build_dual_graph(const Gvd& gvd) {
   graph.edges.reserve(edges.size());
   for (auto& [key, e] : edges) graph.edges.push_back(e);
   return graph;
+}
+
+void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
+                        const Domain& domain, int threads) {
+  const int arity = gvd.dimension == 2 ? 2 : 3;
+  struct Piece {
+    uint32_t cell, first;  // the simplex's first index in cell.indices
+    uint32_t edge;         // its dual edge
+    double clearance;      // least vertex clearance (user units)
+  };
+  std::map<std::pair<ObjectId, ObjectId>, uint32_t> edge_of;
+  for (uint32_t e = 0; e < graph.edges.size(); ++e)
+    edge_of[{graph.edges[e].a, graph.edges[e].b}] = e;
+  std::vector<Piece> pieces;
+  for (uint32_t c = 0; c < gvd.cells.size(); ++c) {
+    const GvdCell& cell = gvd.cells[c];
+    for (size_t s = 0; s + arity <= cell.indices.size(); s += arity) {
+      const ObjectId other = cell.other[cell.indices[s]];
+      if (other == kNoObject || other <= cell.object) continue;
+      double clearance = 1e300, longest2 = 0;
+      for (int k = 0; k < arity; ++k) {
+        const uint32_t v = cell.indices[s + k], w = cell.indices[s + (k + 1) % arity];
+        clearance = std::min(clearance, cell.clearance[v]);
+        longest2 = std::max(longest2, dist2(cell.positions[v], cell.positions[w]));
+      }
+      if (longest2 <= 4 * clearance * clearance) continue;
+      const auto it = edge_of.find({cell.object, other});
+      if (it == edge_of.end()) continue;
+      pieces.push_back({c, static_cast<uint32_t>(s), it->second, clearance});
+    }
+  }
+  std::vector<ClosestHit> hits(pieces.size());
+  parallel_for(
+      pieces.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t i = b; i < e; ++i) {
+          const GvdCell& cell = gvd.cells[pieces[i].cell];
+          Vec3 q[3];
+          for (int k = 0; k < arity; ++k)
+            q[k] = domain.to_unit(cell.positions[cell.indices[pieces[i].first + k]]);
+          const double bound = pieces[i].clearance / domain.side;
+          hits[i] = bvh.closest_to_simplex(q, bound * bound);
+        }
+      },
+      64);
+  for (size_t i = 0; i < pieces.size(); ++i) {
+    if (!hits[i].found()) continue;
+    DualEdge& e = graph.edges[pieces[i].edge];
+    const double clearance = std::sqrt(hits[i].dist2) * domain.side;
+    if (clearance < e.min_clearance) {
+      e.min_clearance = clearance;
+      e.tightest_point = domain.from_unit(hits[i].point);
+    }
+  }
 }
 
 }  // namespace gvd

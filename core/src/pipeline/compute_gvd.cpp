@@ -196,6 +196,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   progress("graph", 0);
   sw = Stopwatch();
   r.graph = build_dual_graph(r.gvd);
+  tighten_clearances(r.graph, r.gvd, bvh, r.domain, options.threads);
   r.stats.stages.push_back(
       {"graph", sw.seconds(), r.graph.edges.size() * sizeof(DualEdge), r.graph.edges.size()});
 

@@ -1,6 +1,7 @@
 #include "gvd/refine/pair_certificate.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <tuple>
@@ -80,6 +81,130 @@ bool planes_meet_in(int dim, const Plane& p, const Plane& q, const Box& box) {
   return t0 <= t1;
 }
 
+// The plane (2D: line) of one simplex, its normal from the vertex order; false if degenerate.
+bool simplex_plane(const UnitGeometry& g, uint32_t s, Plane& plane) {
+  const Simplex& t = g.simplices[s];
+  const Vec3 a = g.points[t.v[0]], b = g.points[t.v[1]];
+  const Vec3 m =
+      g.dimension == 2 ? Vec3{a.y - b.y, b.x - a.x, 0} : cross(b - a, g.points[t.v[2]] - a);
+  const double l = norm(m);
+  if (!(l > 0)) return false;
+  plane.n = m / l;
+  plane.offset = dot(plane.n, a);
+  return true;
+}
+
+// A convex polygon in 3D: a triangle clipped by at most 6 box planes and 3 triangle sides.
+struct Polygon {
+  std::array<Vec3, 16> p;
+  int n = 0;
+};
+
+// Keeps the part of `poly` where dot(h, x) <= offset (Sutherland-Hodgman, one plane).
+void clip(Polygon& poly, Vec3 h, double offset) {
+  Polygon out;
+  for (int i = 0; i < poly.n && out.n + 2 <= static_cast<int>(out.p.size()); ++i) {
+    const Vec3 s = poly.p[(i + poly.n - 1) % poly.n], e = poly.p[i];
+    const double ds = dot(h, s) - offset, de = dot(h, e) - offset;
+    if (de <= 0) {
+      if (ds > 0) out.p[out.n++] = s + (e - s) * (ds / (ds - de));
+      out.p[out.n++] = e;
+    } else if (ds <= 0) {
+      out.p[out.n++] = s + (e - s) * (ds / (ds - de));
+    }
+  }
+  poly = out;
+}
+
+void clip_to_box(Polygon& poly, const Box& box) {
+  for (int i = 0; i < 3 && poly.n > 0; ++i) {
+    Vec3 h;
+    h[i] = 1;
+    clip(poly, h, box.hi[i]);
+    clip(poly, h * -1.0, -box.lo[i]);
+  }
+}
+
+double area(const Polygon& poly) {
+  Vec3 sum;
+  for (int i = 1; i + 1 < poly.n; ++i)
+    sum = sum + cross(poly.p[i] - poly.p[0], poly.p[i + 1] - poly.p[0]);
+  return 0.5 * norm(sum);
+}
+
+// A reflection x -> x - 2 (n . x - offset) n in a plane with unit normal n.
+Vec3 reflect_point(const Plane& p, Vec3 x) { return x - p.n * (2 * p.signed_distance(x)); }
+Vec3 reflect_vector(const Plane& p, Vec3 v) { return v - p.n * (2 * dot(p.n, v)); }
+
+// Do the triangles of object `from` clipped to `clip_box` lie strictly on the side `side`
+// (+1 / -1) of `mirror` and, reflected, on the triangles of object `onto`? Coverage by areas of
+// coplanar (within kMirrorRound), equally oriented triangles, which a closed mesh does not
+// overlap, up to kMirrorRound times the piece's perimeter; the candidates come from the BVH
+// around each reflected piece. False also when more than `cap` triangles of `from` meet the
+// box.
+bool reflects_onto(const UnitGeometry& g, const SimplexBvh& bvh, const Plane& mirror, int side,
+                   ObjectId from, ObjectId onto, const Box& clip_box, size_t cap) {
+  const int dim = g.dimension;
+  constexpr double kRound = PairCertifier::kMirrorRound;
+  std::vector<uint32_t> sources;
+  if (!bvh.visit_overlapping(clip_box, [&](uint32_t s) {
+        if (g.object_of[s] == from &&
+            simplex_overlaps_box(dim, g.points, g.simplices[s], clip_box, 0))
+          sources.push_back(s);
+        return sources.size() <= cap;
+      }))
+    return false;
+  // The simplices of `onto` coplanar with a reflected piece, with the same orientation.
+  auto for_each_cover = [&](const Box& piece, Vec3 normal, Vec3 on_plane, auto&& f) {
+    Box query = piece;
+    for (int i = 0; i < dim; ++i) {
+      query.lo[i] -= kRound;
+      query.hi[i] += kRound;
+    }
+    bvh.visit_overlapping(query, [&](uint32_t u) {
+      Plane other;
+      if (g.object_of[u] == onto && simplex_plane(g, u, other) &&
+          dot(other.n, normal) >= 1 - 1e-12 && std::abs(other.signed_distance(on_plane)) <= kRound)
+        f(u, other);
+      return true;
+    });
+  };
+  for (uint32_t s : sources) {
+    Plane own;
+    if (!simplex_plane(g, s, own)) return false;
+    const Vec3 rn = reflect_vector(mirror, own.n);
+    const Simplex& t = g.simplices[s];
+    Polygon poly;
+    for (int e = 0; e < 3; ++e) poly.p[poly.n++] = g.points[t.v[e]];
+    clip_to_box(poly, clip_box);
+    const double own_area = poly.n >= 3 ? area(poly) : 0;
+    if (!(own_area > 0)) continue;
+    Box piece;
+    double perimeter = 0;
+    for (int i = 0; i < poly.n; ++i) {
+      if (!(side * mirror.signed_distance(poly.p[i]) > PairCertifier::kFlat)) return false;
+      perimeter += dist(poly.p[i], poly.p[(i + 1) % poly.n]);
+    }
+    for (int i = 0; i < poly.n; ++i) {
+      poly.p[i] = reflect_point(mirror, poly.p[i]);
+      piece.extend(poly.p[i]);
+    }
+    double covered = 0;
+    for_each_cover(piece, rn, poly.p[0], [&](uint32_t u, const Plane& other) {
+      Polygon part = poly;
+      const Simplex& w = g.simplices[u];
+      for (int e = 0; e < 3 && part.n > 0; ++e) {
+        const Vec3 a = g.points[w.v[e]], b = g.points[w.v[(e + 1) % 3]];
+        const Vec3 outward = cross(b - a, other.n);  // w's inside is where this is <= 0
+        clip(part, outward, dot(outward, a));
+      }
+      if (part.n >= 3) covered += area(part);
+    });
+    if (covered < own_area - kRound * perimeter) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
@@ -137,14 +262,11 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
 
 CellVerdict PairCertifier::classify(const Box& box, std::span<const uint32_t> inside) const {
   // A quick test first, which gives the verdict certify would give: simplices of three
-  // objects touching the cell make three active objects, and with two objects touching it
-  // both are active, so either's simplices off one plane mean kSplit (most cells that must
-  // split fail here, without a BVH query). With one object only, certify decides (the cell
-  // may be seen by that object alone).
+  // objects touching the cell make three active objects (kSplit without a BVH query).
+  // Folded patches of two objects may still be mirror images, so certify decides those.
   if (!inside.empty()) {
     const UnitGeometry& g = geometry_;
     ObjectId objects[2] = {kNoObject, kNoObject};
-    std::vector<uint32_t> patch[2];
     for (uint32_t s : inside) {
       const ObjectId o = g.object_of[s];
       int k = o == objects[0] ? 0 : (o == objects[1] ? 1 : -1);
@@ -153,18 +275,6 @@ CellVerdict PairCertifier::classify(const Box& box, std::span<const uint32_t> in
         k = objects[0] == kNoObject ? 0 : 1;
         objects[k] = o;
       }
-      patch[k].push_back(s);
-    }
-    const int arity = g.dimension == 2 ? 2 : 3;
-    for (const std::vector<uint32_t>& list : patch) {
-      if (objects[1] == kNoObject) break;
-      Plane plane;
-      if (list.empty()) continue;
-      if (!fit_plane(g, list, plane)) return CellVerdict::kSplit;
-      for (uint32_t s : list)
-        for (int e = 0; e < arity; ++e)
-          if (std::abs(plane.signed_distance(g.points[g.simplices[s].v[e]])) > kFlat)
-            return CellVerdict::kSplit;
     }
   }
   return certify(box).verdict;
@@ -224,48 +334,52 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
 
   Plane plane[2];
   const int arity = dim == 2 ? 2 : 3;
-  for (int k = 0; k < 2; ++k) {
-    if (!fit_plane(g, patch[k], plane[k])) return out;
-    const Plane& p = plane[k];
-    auto on_plane = [&](uint32_t v) { return std::abs(p.signed_distance(g.points[v])) <= kFlat; };
-    for (uint32_t s : patch[k]) {
-      const Simplex& t = g.simplices[s];
-      for (int e = 0; e < arity; ++e)
-        if (!on_plane(t.v[e])) return out;
-      // Every side within reach continues, unfolded and on the plane, into another simplex:
-      // then no point of the cell has its nearest point on a rim of the patch.
-      for (int e = 0; e < arity; ++e) {
-        const Vec3 pe = g.points[t.v[e]];
-        const Vec3 qe = g.points[t.v[(e + 1) % arity]];
-        if (dim == 2 ? dist2(c, pe) > range2[k]
-                     : dist2(c, closest_point_on_segment(c, pe, qe)) > range2[k]) {
-          continue;
-        }
-        const uint32_t u = across_[s * arity + e];
-        if (u == kOpen || u == kNonManifold) return out;
-        const Simplex& w = g.simplices[u];
-        // The vertex of u off this side (2D: u's other end point).
-        uint32_t far = kOpen;
-        for (int i = 0; i < arity; ++i) {
-          const uint32_t cv = canonical_[w.v[i]];
-          if (cv != canonical_[t.v[e]] && (dim == 2 || cv != canonical_[t.v[(e + 1) % 3]])) {
-            far = w.v[i];
+  auto flat = [&]() {
+    for (int k = 0; k < 2; ++k) {
+      if (!fit_plane(g, patch[k], plane[k])) return false;
+      const Plane& p = plane[k];
+      auto on_plane = [&](uint32_t v) { return std::abs(p.signed_distance(g.points[v])) <= kFlat; };
+      for (uint32_t s : patch[k]) {
+        const Simplex& t = g.simplices[s];
+        for (int e = 0; e < arity; ++e)
+          if (!on_plane(t.v[e])) return false;
+        // Every side within reach continues, unfolded and on the plane, into another simplex:
+        // then no point of the cell has its nearest point on a rim of the patch.
+        for (int e = 0; e < arity; ++e) {
+          const Vec3 pe = g.points[t.v[e]];
+          const Vec3 qe = g.points[t.v[(e + 1) % arity]];
+          if (dim == 2 ? dist2(c, pe) > range2[k]
+                       : dist2(c, closest_point_on_segment(c, pe, qe)) > range2[k]) {
+            continue;
           }
-        }
-        if (far == kOpen || !on_plane(far)) return out;
-        const Vec3 pf = g.points[far];
-        if (dim == 2) {
-          // u must go on beyond pe, away from this segment's other end.
-          if (!(dot(qe - pe, pf - pe) < 0)) return out;
-        } else {
-          const Vec3 own = g.points[t.v[(e + 2) % 3]];
-          const double side_own = dot(cross(qe - pe, own - pe), p.n);
-          const double side_far = dot(cross(qe - pe, pf - pe), p.n);
-          if (!(side_own * side_far < 0)) return out;
+          const uint32_t u = across_[s * arity + e];
+          if (u == kOpen || u == kNonManifold) return false;
+          const Simplex& w = g.simplices[u];
+          // The vertex of u off this side (2D: u's other end point).
+          uint32_t far = kOpen;
+          for (int i = 0; i < arity; ++i) {
+            const uint32_t cv = canonical_[w.v[i]];
+            if (cv != canonical_[t.v[e]] && (dim == 2 || cv != canonical_[t.v[(e + 1) % 3]])) {
+              far = w.v[i];
+            }
+          }
+          if (far == kOpen || !on_plane(far)) return false;
+          const Vec3 pf = g.points[far];
+          if (dim == 2) {
+            // u must go on beyond pe, away from this segment's other end.
+            if (!(dot(qe - pe, pf - pe) < 0)) return false;
+          } else {
+            const Vec3 own = g.points[t.v[(e + 2) % 3]];
+            const double side_own = dot(cross(qe - pe, own - pe), p.n);
+            const double side_far = dot(cross(qe - pe, pf - pe), p.n);
+            if (!(side_own * side_far < 0)) return false;
+          }
         }
       }
     }
-  }
+    return true;
+  };
+  if (!flat()) return certify_mirror(box, pair, dist_of, r, patch);
   if (planes_meet_in(dim, plane[0], plane[1], box)) return out;
   // Which bisector branches cross the cell: s_a = s_b and s_a = -s_b are affine, so their
   // extremes over the cell are at its corners.
@@ -291,6 +405,73 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
   out.offset[0] = plane[first_k].offset;
   out.normal[1] = plane[1 - first_k].n;
   out.offset[1] = plane[1 - first_k].offset;
+  return out;
+}
+
+PairCertifier::Certificate PairCertifier::certify_mirror(
+    const Box& box, const ObjectId pair[2], const double dist[2], double r,
+    const std::vector<uint32_t> patch[2]) const {
+  const UnitGeometry& g = geometry_;
+  const int dim = g.dimension;
+  Certificate out;
+  if (dim != 3) return out;
+  // The distinct planes of each patch; mirror planes are the mid-planes of an antiparallel
+  // pair (one face of each object facing the other).
+  constexpr size_t kMaxPlanes = 8;
+  std::vector<Plane> planes[2];
+  for (int k = 0; k < 2; ++k) {
+    for (uint32_t s : patch[k]) {
+      Plane p;
+      if (!simplex_plane(g, s, p)) return out;
+      const bool seen = std::any_of(planes[k].begin(), planes[k].end(), [&](const Plane& q) {
+        return dot(p.n, q.n) >= 1 - 1e-12 && std::abs(p.offset - q.offset) <= kFlat;
+      });
+      if (!seen) planes[k].push_back(p);
+      if (planes[k].size() > kMaxPlanes) return out;
+    }
+  }
+  // Every simplex that can be nearest to a point of the cell overlaps the cell inflated by
+  // d_k(c) + r (see certify).
+  const double grow = (std::max(dist[0], dist[1]) + r) * (1 + 1e-9) + 1e-15;
+  Box near = box;
+  for (int i = 0; i < dim; ++i) {
+    near.lo[i] -= grow;
+    near.hi[i] += grow;
+  }
+  for (const Plane& pa : planes[0]) {
+    for (const Plane& pb : planes[1]) {
+      // Only thin gaps: across wider ones the paper's rule resolves the rims in a few cells
+      // and keeps the GVD's pieces about as fine as the clearance, which roadmap paths need.
+      const double gap = std::abs(pa.offset + pb.offset);
+      if (dot(pa.n, pb.n) > -1 + 1e-12 || gap > kMirrorGap) continue;
+      // Vertices off their mirror images by the rounding kMirrorRound tilt the bisector by
+      // about kMirrorRound / gap: over the cell it stays within kMirrorTolerance of the gap.
+      if (r * kMirrorRound > kMirrorTolerance * gap * gap) continue;
+      Plane mirror;
+      mirror.n = pa.n - pb.n;
+      mirror.n = mirror.n / norm(mirror.n);
+      mirror.offset = 0.5 * (pa.offset - pb.offset);
+      // A's side: where its facing plane lies.
+      const double sa = pa.offset - mirror.offset;
+      if (!(std::abs(sa) > kFlat)) continue;
+      const int side_a = sa < 0 ? -1 : 1;
+      if (!reflects_onto(g, bvh_, mirror, side_a, pair[0], pair[1], near, 4 * kMaxActive) ||
+          !reflects_onto(g, bvh_, mirror, -side_a, pair[1], pair[0], near, 4 * kMaxActive))
+        continue;
+      out.verdict = CellVerdict::kPair;
+      out.mirror = true;
+      const int first_k = pair[0] < pair[1] ? 0 : 1;
+      out.a = pair[first_k];
+      out.b = pair[1 - first_k];
+      // Normal from a towards b.
+      const double toward_b = first_k == 0 ? -side_a : side_a;
+      for (int k = 0; k < 2; ++k) {
+        out.normal[k] = mirror.n * toward_b;
+        out.offset[k] = mirror.offset * toward_b;
+      }
+      return out;
+    }
+  }
   return out;
 }
 

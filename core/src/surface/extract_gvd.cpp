@@ -56,10 +56,10 @@ class CellSurfacer {
   // per edge before surfacing (prepare); both cells of a face look up the same point.
   Vec3 bisector(uint32_t v0, uint32_t v1) const {
     if (v0 > v1) std::swap(v0, v1);
-    const Vec3 p = detail::bisector_point(field_, v0, v1);
-    if (!coarse(v0, v1, p)) return p;
     const uint32_t i = refined_index_.find(uint64_t{v0} << 32 | v1);
-    return i != FlatMap64::kMissing ? refined_[i] : refine_bisector(v0, v1, p);
+    if (i != FlatMap64::kMissing) return refined_[i];
+    const Vec3 p = detail::bisector_point(field_, v0, v1);
+    return coarse(v0, v1, p) ? refine_bisector(v0, v1, p) : p;
   }
 
   // One parallel scan before surfacing: refines the bisector points of every coarse edge the
@@ -101,6 +101,7 @@ class CellSurfacer {
             }
             if (mixed || on_domain) my_active.push_back(static_cast<uint32_t>(leaf));
             if (!mixed) continue;
+            const bool certified = octree_.is_certified(static_cast<uint32_t>(leaf));
             const LeafGrid grid = field_.grid(octree_, static_cast<uint32_t>(leaf));
             detail::for_each_face_polygon(
                 octree_, grid, static_cast<uint32_t>(leaf), [&](const detail::FacePolygon& poly) {
@@ -112,7 +113,10 @@ class CellSurfacer {
                     uint64_t& slot = recent[(key * 0x9e3779b97f4a7c15ull) >> 56];
                     if (slot == key) continue;
                     slot = key;
-                    if (coarse(v, w, detail::bisector_point(field_, v, w))) mine.push_back(key);
+                    // In a certified pair cell the ends' closest points can lie on other
+                    // parts of the pair (rims, mirror images) than the bisector's: refine.
+                    if (certified || coarse(v, w, detail::bisector_point(field_, v, w)))
+                      mine.push_back(key);
                   }
                 });
           }
@@ -350,19 +354,20 @@ class CellSurfacer {
   }
 
   // Eq. (1) with the exact closest points of the two objects at the current estimate instead
-  // of the ends' ones; two rounds (the second only if the first moved the point). On an edge
-  // longer than the distance to the objects (a certified pair cell across a thin gap) up to
-  // six, and the point may come as close to the edge's ends as a millionth of that distance:
-  // the exact bisector there is known to rounding, and a hair of the edge would be a good
-  // part of the gap.
+  // of the ends' ones, repeated while the point moves (by more than 1e-6 of the edge; at most
+  // 64 rounds): where the closest points slide along faces it converges in a few. On an edge
+  // longer than the distance to the objects (a certified pair cell across a thin gap) until
+  // it moves by less than 1e-12 of the edge, and the point may come as close to the edge's
+  // ends as a millionth of that distance: the exact bisector there is known to rounding, and
+  // a hair of the edge would be a good part of the gap.
   Vec3 refine_bisector(uint32_t v0, uint32_t v1, Vec3 p) const {
     const Vec3 x0 = field_.vertices.position(v0), x1 = field_.vertices.position(v1);
     Vec3 a = field_.closest[field_.point[v0]], b = field_.closest[field_.point[v1]];
     const ObjectId la = field_.label[v0], lb = field_.label[v1];
     const double h2 = dist2(x0, x1);
-    int rounds = 2;
+    bool long_edge = false;
     double inside = 1e-6;
-    for (int round = 0; round < rounds; ++round) {
+    for (int round = 0; round < 64; ++round) {
       const ClosestHit ha = bvh_.nearest_in_object(p, la, dist2(p, a));
       const ClosestHit hb = bvh_.nearest_in_object(p, lb, dist2(p, b));
       if (!ha.found() && !hb.found()) break;  // a and b are already the closest points
@@ -370,11 +375,11 @@ class CellSurfacer {
       if (hb.found()) b = hb.point;
       const double d2 = std::min(dist2(p, a), dist2(p, b));
       if (d2 < h2) {
-        rounds = 6;
+        long_edge = true;
         inside = std::min(inside, std::max(1e-6 * std::sqrt(d2 / h2), 1e-15));
       }
       const Vec3 next = detail::bisector_on_edge(x0, x1, a, b, inside);
-      const bool moved = dist2(next, p) > (rounds > 2 ? 1e-24 : 1e-12) * h2;
+      const bool moved = dist2(next, p) > (long_edge ? 1e-24 : 1e-12) * h2;
       p = next;
       if (!moved) break;
     }

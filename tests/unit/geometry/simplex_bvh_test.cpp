@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <set>
 
+#include "gvd/geometry/primitives.h"
 #include "support/scenes.h"
 
 namespace gvd {
@@ -59,6 +61,45 @@ TEST(SimplexBvh, NearestAndNearestInObjectMatchBruteForce) {
       EXPECT_NEAR(f.bvh.nearest_in_object(p, o, 2 * truth).dist2, truth, 1e-11 * truth);
     }
   }
+}
+
+// closest_to_simplex against sampling: the point it returns lies on the query triangle and is
+// as far from the scene as it says, and no sample of the triangle is nearer (while the
+// densest sampling comes within its spacing of the answer).
+TEST(SimplexBvh, ClosestToSimplexMatchesSampling) {
+  const Fixture f;
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(0, 1), small(-0.04, 0.04);
+  int checked = 0;
+  for (int i = 0; i < 200 && checked < 60; ++i) {
+    const Vec3 c{u(rng), u(rng), u(rng)};
+    Vec3 q[3];
+    for (Vec3& v : q) v = c + Vec3{small(rng), small(rng), small(rng)};
+    // Keep triangles in free space (the query must not cross the scene).
+    bool clear = true;
+    for (const Vec3& v : q) clear &= f.bvh.nearest(v).dist2 > 0.1 * 0.1;
+    if (!clear) continue;
+    ++checked;
+    const ClosestHit hit = f.bvh.closest_to_simplex(q);
+    ASSERT_TRUE(hit.found());
+    EXPECT_LT(dist2(hit.point, closest_point_on_triangle(hit.point, q[0], q[1], q[2])), 1e-24);
+    EXPECT_NEAR(f.bvh.nearest(hit.point).dist2, hit.dist2, 1e-9 * hit.dist2);
+    const int n = 24;
+    double sampled = 1e300;
+    for (int a = 0; a <= n; ++a) {
+      for (int b = 0; a + b <= n; ++b) {
+        const Vec3 x = q[0] + (q[1] - q[0]) * (double(a) / n) + (q[2] - q[0]) * (double(b) / n);
+        sampled = std::min(sampled, std::sqrt(f.bvh.nearest(x).dist2));
+      }
+    }
+    const double exact = std::sqrt(hit.dist2);
+    const double spacing = std::max({dist(q[0], q[1]), dist(q[1], q[2]), dist(q[2], q[0])}) / n;
+    EXPECT_LE(exact, sampled * (1 + 1e-12)) << "triangle " << i;
+    EXPECT_GE(exact, sampled - spacing) << "triangle " << i;
+    // A bound below the answer finds nothing.
+    EXPECT_FALSE(f.bvh.closest_to_simplex(q, 0.5 * hit.dist2).found());
+  }
+  EXPECT_GE(checked, 30);
 }
 
 TEST(SimplexBvh, NearestExcludingObjectsMatchesBruteForce) {

@@ -7,6 +7,7 @@
 #include "gvd/pipeline/pipeline.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
+#include "support/thin_gap_scenes.h"
 
 namespace gvd {
 namespace {
@@ -266,6 +267,48 @@ TEST(ComputeGvd, ThinGapBetweenPlatesIsTheirExactMidPlane3D) {
   }
   EXPECT_GT(on_plane, 0u);
   EXPECT_NEAR(r.graph.edges.at(0).min_clearance, gap / 2, 1e-6 * gap);
+}
+
+// Flush stacked plates at a full-face gap of 1e-5 of the domain: at their rims each plate is
+// the next one's mirror image, so the GVD is the mid-plane of every gap up to and beyond the
+// rims (mirror cells), in a number of leaves that does not depend on the gap.
+TEST(ComputeGvd, FlushStackedPlatesGiveExactMidPlanesAtAnyGap3D) {
+  std::vector<uint64_t> leaves;
+  for (const double gap : {1e-3, 1e-5}) {
+    SCOPED_TRACE("gap " + std::to_string(gap));
+    test::StackedPlatesOptions po;
+    po.count = 3;
+    po.gap = gap;
+    po.cell = 0.1;
+    const Scene scene = test::make_stacked_plates(po);
+    const double g = gap * make_domain(scene).side;
+    const GvdResult r = run(scene);
+    expect_valid(r);
+    leaves.push_back(r.stats.leaves);
+    ASSERT_EQ(graph_pairs(r.graph), (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {1, 2}}));
+    size_t checked = 0;
+    for (const GvdCell& cell : r.gvd.cells) {
+      for (size_t v = 0; v < cell.positions.size(); ++v) {
+        const ObjectId other = cell.other[v];
+        if (other == kNoObject) continue;
+        // Plate i spans y in [i (0.1 + g), i (0.1 + g) + 0.1]: the mid-plane of gap i, i + 1.
+        const ObjectId low = std::min(cell.object, other);
+        const double mid = low * (0.1 + g) + 0.1 + g / 2;
+        // To the hair that keeps edge points inside their edge: a millionth of the edge or,
+        // on edges longer than the distance, of the local clearance (>= g / 2).
+        const Vec3 p = cell.positions[v];
+        EXPECT_NEAR(p.y, mid, 1e-6 * (cell.clearance[v] + 2 * local_cell(r, p)) + 1e-14)
+            << "vertex " << v;
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 0u);
+    for (const DualEdge& e : r.graph.edges) {
+      EXPECT_NEAR(e.min_clearance, g / 2, 1e-6 * (g / 2 + 2 * local_cell(r, e.tightest_point)));
+    }
+  }
+  EXPECT_LE(leaves[1], 2 * leaves[0])
+      << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
 }
 
 TEST(ComputeGvd, SphereInShellGivesTheMidRadiusSphere) {

@@ -61,8 +61,23 @@ void audit_cell(const World& s, const PairCertifier::Certificate& c, const Box& 
     const double db = test::brute_distance(s.scene, c.b, p) / s.domain.side;
     const double sa = dot(c.normal[0], x) - c.offset[0];
     const double sb = dot(c.normal[1], x) - c.offset[1];
-    ASSERT_NEAR(da, std::abs(sa), 1e-12) << "distance to " << c.a << " is not its plane's";
-    ASSERT_NEAR(db, std::abs(sb), 1e-12) << "distance to " << c.b << " is not its plane's";
+    if (c.mirror) {
+      // The bisector is the mirror plane: a's side nearer to a, b's side nearer to b, equal
+      // distances on it (to the rounding the certificate allows).
+      const double band = 1e-9;
+      if (sa < -band) {
+        ASSERT_LT(da, db) << "a point on " << c.a << "'s side is nearer to " << c.b;
+      }
+      if (sa > band) {
+        ASSERT_LT(db, da) << "a point on " << c.b << "'s side is nearer to " << c.a;
+      }
+      if (std::abs(sa) <= 1e-15) {
+        ASSERT_NEAR(da, db, 1e-12);
+      }
+    } else {
+      ASSERT_NEAR(da, std::abs(sa), 1e-12) << "distance to " << c.a << " is not its plane's";
+      ASSERT_NEAR(db, std::abs(sb), 1e-12) << "distance to " << c.b << " is not its plane's";
+    }
     // No third object is nearer than both (ties allowed at rounding level).
     ASSERT_LE(nn.distance / s.domain.side, std::min(da, db) + 1e-12);
     if (nn.object != c.a && nn.object != c.b) {
@@ -72,8 +87,8 @@ void audit_cell(const World& s, const PairCertifier::Certificate& c, const Box& 
 }
 
 // Certifies cells on a regular grid of one level and audits the certified ones; returns how
-// many were certified.
-int audit_level(const World& s, int level, int samples) {
+// many were certified (and how many of them as mirror pairs in `mirrors`).
+int audit_level(const World& s, int level, int samples, int* mirrors = nullptr) {
   const PairCertifier certifier(s.geometry, s.bvh);
   const int dim = s.scene.dimension;
   const uint32_t n = 1u << level;
@@ -91,6 +106,7 @@ int audit_level(const World& s, int level, int samples) {
         const PairCertifier::Certificate cert = certifier.certify(box);
         if (cert.verdict != CellVerdict::kPair) continue;
         ++certified;
+        if (mirrors != nullptr) *mirrors += cert.mirror;
         audit_cell(s, cert, box, samples, rng);
         if (::testing::Test::HasFatalFailure()) return certified;
       }
@@ -114,10 +130,68 @@ TEST(PairCertifier, ParallelPlatesAreCertifiedAcrossTheGap) {
   EXPECT_EQ(mid.b, 1u);
   EXPECT_NEAR(std::abs(mid.normal[0].z), 1.0, 1e-15);
   EXPECT_NEAR(std::abs(mid.normal[1].z), 1.0, 1e-15);
-  // Next to the plates' rim the nearest points can be on their side faces: not flat.
-  EXPECT_EQ(certifier.certify(cell_at({0.985, 0.45, 0.09}, 0.03)).verdict, CellVerdict::kSplit);
+  EXPECT_FALSE(mid.mirror);
+  // Next to the plates' rim the nearest points can be on their side faces: not flat, but the
+  // rims are flush, so near the gap each plate is the other's mirror image across z = 0.10005.
+  const PairCertifier::Certificate rim = certifier.certify(cell_at({0.985, 0.45, 0.09}, 0.03));
+  ASSERT_EQ(rim.verdict, CellVerdict::kPair);
+  EXPECT_TRUE(rim.mirror);
+  EXPECT_NEAR(rim.normal[0].z, 1.0, 1e-15);  // from "low" towards "high"
+  EXPECT_NEAR(s.domain.from_unit(rim.normal[0] * rim.offset[0]).z, 0.10005, 1e-12);
   // Deep inside the low plate, far from the high one relative to the cell: one object.
   EXPECT_EQ(certifier.certify(cell_at({0.45, 0.45, 0.02}, 0.01)).verdict, CellVerdict::kOneObject);
+}
+
+TEST(PairCertifier, MirrorRimsNeedExactMirrorImages) {
+  // Flush plates, but the high one 0.002 shorter on +x: near that rim they are no mirror
+  // images, near the -x rim they are.
+  const World s(test::make_scene(3, {test::make_box("low", {0, 0, 0}, {1, 1, 0.1}),
+                                     test::make_box("high", {0, 0, 0.1001}, {0.998, 1, 0.2})}));
+  const PairCertifier certifier(s.geometry, s.bvh);
+  auto cell_at = [&](Vec3 lo_user, double size_user) {
+    Box b;
+    b.lo = s.domain.to_unit(lo_user);
+    b.hi = b.lo + Vec3{size_user, size_user, size_user} / s.domain.side;
+    return b;
+  };
+  EXPECT_EQ(certifier.certify(cell_at({0.985, 0.45, 0.09}, 0.03)).verdict, CellVerdict::kSplit);
+  const PairCertifier::Certificate rim = certifier.certify(cell_at({-0.015, 0.45, 0.09}, 0.03));
+  ASSERT_EQ(rim.verdict, CellVerdict::kPair);
+  EXPECT_TRUE(rim.mirror);
+  // Too wide a gap for mirror cells (0.03 of a 1.1 domain > kMirrorGap): the paper's rule
+  // resolves it.
+  const World wide(test::make_scene(3, {test::make_box("low", {0, 0, 0}, {1, 1, 0.1}),
+                                        test::make_box("high", {0, 0, 0.13}, {1, 1, 0.23})}));
+  const PairCertifier wide_certifier(wide.geometry, wide.bvh);
+  Box wide_rim;
+  wide_rim.lo = wide.domain.to_unit({0.985, 0.45, 0.09});
+  wide_rim.hi = wide_rim.lo + Vec3{0.03, 0.03, 0.03} / wide.domain.side;
+  EXPECT_EQ(wide_certifier.certify(wide_rim).verdict, CellVerdict::kSplit);
+}
+
+TEST(PairCertifier, MirrorCellsHoldUnderBruteForce3D) {
+  // Three flush stacked plates (every rim a mirror rim) and a tilted copy of two of them
+  // (rotated by 0.3 rad about a skew axis: mirror images only up to rounding).
+  for (const bool tilted : {false, true}) {
+    SCOPED_TRACE(tilted ? "tilted" : "axis-aligned");
+    std::vector<SceneObject> objects;
+    for (int i = 0; i < (tilted ? 2 : 3); ++i) {
+      const double z0 = i * 0.1004;
+      objects.push_back(
+          test::make_box("plate_" + std::to_string(i), {0, 0, z0}, {0.6, 0.5, z0 + 0.1}));
+    }
+    if (tilted) {
+      const Vec3 axis = Vec3{1, 2, 3} / std::sqrt(14.0);
+      const double c = std::cos(0.3), sn = std::sin(0.3);
+      for (SceneObject& o : objects)
+        for (Vec3& p : o.vertices)
+          p = p * c + cross(axis, p) * sn + axis * (dot(axis, p) * (1 - c));
+    }
+    const World s(test::make_scene(3, std::move(objects)));
+    int certified = 0, mirrors = 0;
+    for (int level = 3; level <= 5; ++level) certified += audit_level(s, level, 24, &mirrors);
+    EXPECT_GT(mirrors, 100) << certified << " certified";
+  }
 }
 
 TEST(PairCertifier, CertifiedCellsHoldUnderBruteForce3D) {

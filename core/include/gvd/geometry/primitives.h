@@ -29,6 +29,9 @@ bool triangle_overlaps_box(Vec3 a, Vec3 b, Vec3 c, const Box& box, double slack)
 /// Conservative overlap test of a closed 2D segment (z ignored) and a closed box (x, y).
 bool segment_overlaps_box_2d(Vec3 a, Vec3 b, const Box& box, double slack);
 
+/// Squared distance between segments [p0, p1] and [q0, q1] and their closest points.
+double segment_segment_closest(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1, Vec3& on_p, Vec3& on_q);
+
 /// Squared distance between segments [p0, p1] and [q0, q1] (3D; 2D data has z = 0).
 double segment_segment_dist2(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1);
 
@@ -50,5 +53,11 @@ double segment_triangle_dist2(Vec3 p0, Vec3 p1, Vec3 a, Vec3 b, Vec3 c);
 /// may touch): the larger of the box-to-box distance of the segment's bounding box and the
 /// distance from the midpoint less half the length.
 double segment_box_distance2_bound(Vec3 p0, Vec3 p1, const Box& b);
+
+/// Squared distance between two simplices that do not cross (2D: segments q[0..1], s[0..1];
+/// 3D: triangles q[0..2], s[0..2]) and the point of q nearest to s: the least of the
+/// vertex-to-simplex and edge-to-edge distances, where the closest pair of two disjoint
+/// convex polygons lies.
+double simplex_simplex_closest(int dimension, const Vec3* q, const Vec3* s, Vec3& on_q);
 
 }  // namespace gvd

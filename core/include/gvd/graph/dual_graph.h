@@ -2,6 +2,7 @@
 
 #include <vector>
 
+#include "gvd/geometry/simplex_bvh.h"
 #include "gvd/geometry/vec.h"
 #include "gvd/scene/scene.h"
 #include "gvd/surface/gvd.h"
@@ -27,5 +28,15 @@ struct DualGraph {
 /// cells share at least one simplex of positive measure; area summed over the shared simplices
 /// (each counted once), clearance = minimum over their vertices. O(GVD size). Paper §7.3.
 DualGraph build_dual_graph(const Gvd& gvd);
+
+/// The vertex minimum of build_dual_graph is the clearance only where the GVD's simplices are
+/// small next to it. Certified pair cells (refine/pair_certificate.h) span thin gaps and
+/// rims with few large pieces whose least clearance lies inside them (between flush plates'
+/// rims, the pieces' vertices sit far outside the gap). For every interface simplex longer
+/// than twice its least vertex clearance this finds the exact least distance from the simplex
+/// to the scene's simplices (`bvh`, unit domain; SimplexBvh::closest_to_simplex) and lowers
+/// the edge's min_clearance and tightest_point to it.
+void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
+                        const Domain& domain, int threads);
 
 }  // namespace gvd

@@ -28,6 +28,17 @@ namespace gvd {
 ///   (s = signed distance to the plane). The planes must not meet inside the cell (that would
 ///   be a contact), and exactly one of the two bisector branches s_A = s_B, s_A = -s_B may
 ///   cross the cell: the GVD in the cell is then that plane, exactly (kPair).
+/// - Mirror pairs (3D; folded patches, e.g. the rims of flush stacked plates): when B's surface
+///   near the cell is A's reflected in a plane P that strictly separates them, every point on
+///   A's side of P is nearer to A (its nearest point q on B reflects to a point of A, nearer
+///   to it), so the GVD in the cell is P, exactly (kPair, `mirror`). Checked on the polygons
+///   of each object's triangles clipped to the box Q around the cell that holds every
+///   simplex that can be nearest (the cell inflated by max d_k(c) + r): each one, reflected,
+///   must be covered by the other object's coplanar, equally oriented triangles (areas, to
+///   kMirrorRound) and lie strictly on its own side of P. Only across thin gaps (kMirrorGap:
+///   wider ones the paper's rule resolves cheaply, with finer pieces) and in cells small
+///   enough that rounding cannot tilt the bisector visibly (kMirrorTolerance). 2D needs no
+///   mirrors: its rims are points, and flat cells already cost log(1/g) there.
 ///
 /// Anything else (three objects, curved or folded patches, open edges, contact pairs, more
 /// than kMaxActive simplices in reach) is kSplit: the paper's rule applies. Thread-safe;
@@ -47,6 +58,9 @@ class PairCertifier final : public SplitOracle {
     /// kPair: the plane (2D: line) of a and of b, as unit normal . x = offset (unit domain).
     Vec3 normal[2];
     double offset[2] = {0, 0};
+    /// kPair of mirror images: the bisector is the plane normal[0] . x = offset[0] (normal
+    /// pointing from a to b; normal[1], offset[1] the same plane).
+    bool mirror = false;
   };
   Certificate certify(const Box& box) const;
 
@@ -55,8 +69,19 @@ class PairCertifier final : public SplitOracle {
   /// Largest distance of a vertex from its patch's plane (unit domain) accepted as flat. The
   /// lattice snaps coordinates to 2^-48, so exactly coplanar input stays within ~1e-14.
   static constexpr double kFlat = 1e-12;
+  /// Mirror pairs are certified only across gaps (between the facing planes) up to this,
+  /// as a fraction of the domain side.
+  static constexpr double kMirrorGap = 1.0 / 64;
+  /// How far a mirror image may be off (unit domain): the lattice's 2^-48 and a little.
+  static constexpr double kMirrorRound = 4.0 / (1ull << 48);
+  /// Mirror cells are at most kMirrorTolerance * gap^2 / kMirrorRound in half-diagonal, so
+  /// that the bisector's tilt from kMirrorRound stays within this part of the gap.
+  static constexpr double kMirrorTolerance = 1e-4;
 
  private:
+  Certificate certify_mirror(const Box& box, const ObjectId pair[2], const double dist[2], double r,
+                             const std::vector<uint32_t> patch[2]) const;
+
   static constexpr uint32_t kOpen = 0xFFFFFFFFu;         ///< a side with no simplex across
   static constexpr uint32_t kNonManifold = 0xFFFFFFFEu;  ///< a side with several
 
