@@ -53,7 +53,8 @@ object each, labelled by file stem (gvd compute a.stl b.stl c.stl).
 
 compute options:
   -o, --output FILE.glb      the GVD as binary glTF (one node per object, EXT_mesh_features)
-  --graph FILE.json          the dual graph (neighbouring objects, interface area, clearance)
+  --graph FILE.json          the dual graph (neighbouring objects, interface area, clearance,
+                             gap between the objects, touching)
   --json FILE.json           the GVD with float64 coordinates (for gaps below float32 resolution)
   --save FILE.gvd            the whole result (octree, distance field, GVD, graph), reloadable
   --max-depth N              deepest octree level (default 26 in 2D, 21 in 3D = the limit)

@@ -294,4 +294,86 @@ ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2) const
   return best;
 }
 
+SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, double max_dist2) const {
+  GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
+            "object_distance needs the objects of the simplices at construction");
+  ObjectPair best;
+  best.dist2 = max_dist2;
+  if (a >= object_root_.size() || b >= object_root_.size() || object_root_[a] == kNoRoot ||
+      object_root_[b] == kNoRoot)
+    return best;
+  auto box_gap2 = [](const Box& x, const Box& y) {
+    double d2 = 0;
+    for (int i = 0; i < 3; ++i) {
+      const double gap = std::max({x.lo[i] - y.hi[i], y.lo[i] - x.hi[i], 0.0});
+      d2 += gap * gap;
+    }
+    return d2;
+  };
+  // The exact distance of two simplices (0 when they cross) and a closest pair.
+  auto pair_distance = [&](uint32_t ka, uint32_t kb, Vec3& pa, Vec3& pb) {
+    const Vec3* p = &corners_[static_cast<size_t>(ka) * arity_];
+    const Vec3* q = &corners_[static_cast<size_t>(kb) * arity_];
+    if (arity_ == 2) {
+      const double d2 = segment_segment_dist2_2d(p[0], p[1], q[0], q[1]);
+      segment_segment_closest(Vec3{p[0].x, p[0].y, 0}, Vec3{p[1].x, p[1].y, 0},
+                              Vec3{q[0].x, q[0].y, 0}, Vec3{q[1].x, q[1].y, 0}, pa, pb);
+      return d2;
+    }
+    double d2 = 1e300;
+    for (int e = 0; e < 3; ++e) {
+      d2 = std::min(d2, segment_triangle_dist2(p[e], p[(e + 1) % 3], q[0], q[1], q[2]));
+      d2 = std::min(d2, segment_triangle_dist2(q[e], q[(e + 1) % 3], p[0], p[1], p[2]));
+    }
+    simplex_simplex_closest(3, p, q, pa);
+    pb = closest_point_on_triangle(pa, q[0], q[1], q[2]);
+    return d2;
+  };
+  struct Entry {
+    uint32_t na, nb;
+    double dist2;
+  };
+  std::vector<Entry> stack;
+  const uint32_t ra = object_root_[a], rb = object_root_[b];
+  stack.push_back({ra, rb, box_gap2(object_nodes_[ra].box, object_nodes_[rb].box)});
+  while (!stack.empty() && best.dist2 > 0) {
+    const Entry entry = stack.back();
+    stack.pop_back();
+    if (entry.dist2 > best.dist2) continue;
+    const Node& x = object_nodes_[entry.na];
+    const Node& y = object_nodes_[entry.nb];
+    if (x.count > 0 && y.count > 0) {
+      for (uint32_t i = x.first; i < x.first + x.count; ++i) {
+        for (uint32_t j = y.first; j < y.first + y.count; ++j) {
+          Vec3 pa, pb;
+          const double d2 = pair_distance(object_items_[i], object_items_[j], pa, pb);
+          if (d2 < best.dist2 || (!best.found && d2 <= best.dist2)) {
+            best.dist2 = d2;
+            best.on_a = pa;
+            best.on_b = pb;
+            best.found = true;
+          }
+        }
+      }
+      continue;
+    }
+    // Open the inner node with the larger box (a leaf against an inner node: the inner one).
+    auto extent = [](const Box& bx) { return norm2(bx.hi - bx.lo); };
+    const bool open_a = y.count > 0 || (x.count == 0 && extent(x.box) >= extent(y.box));
+    Entry children[2];
+    if (open_a) {
+      children[0] = {entry.na + 1, entry.nb, 0};
+      children[1] = {x.first, entry.nb, 0};
+    } else {
+      children[0] = {entry.na, entry.nb + 1, 0};
+      children[1] = {entry.na, y.first, 0};
+    }
+    for (Entry& c : children) c.dist2 = box_gap2(object_nodes_[c.na].box, object_nodes_[c.nb].box);
+    if (children[0].dist2 < children[1].dist2) std::swap(children[0], children[1]);
+    for (const Entry& c : children)
+      if (c.dist2 <= best.dist2) stack.push_back(c);  // the nearer one last: searched first
+  }
+  return best;
+}
+
 }  // namespace gvd

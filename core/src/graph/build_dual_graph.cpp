@@ -96,4 +96,26 @@ void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
   }
 }
 
+void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
+                  const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads) {
+  std::vector<SimplexBvh::ObjectPair> pairs(graph.edges.size());
+  parallel_for(
+      graph.edges.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t i = b; i < e; ++i)
+          pairs[i] = bvh.object_distance(graph.edges[i].a, graph.edges[i].b);
+      },
+      1);
+  for (size_t i = 0; i < graph.edges.size(); ++i) {
+    DualEdge& e = graph.edges[i];
+    if (!pairs[i].found) continue;
+    e.gap = std::sqrt(pairs[i].dist2) * domain.side;
+    e.touching = std::binary_search(contacts.begin(), contacts.end(), std::pair{e.a, e.b});
+    if (e.touching) {
+      e.min_clearance = 0;
+      e.tightest_point = domain.from_unit((pairs[i].on_a + pairs[i].on_b) * 0.5);
+    }
+  }
+}
+
 }  // namespace gvd

@@ -548,7 +548,7 @@ std::vector<RingNeighbor> GvdIndex::neighbors(ObjectId object, int ring) const {
         depth[to] = r;
         next.push_back(to);
         const DualEdge& e = m.result->graph.edges[m.dual.edge[k]];
-        out.push_back({to, r, from, e.area, e.min_clearance, e.tightest_point});
+        out.push_back({to, r, from, e.area, e.min_clearance, e.tightest_point, e.gap, e.touching});
       }
     }
     std::swap(frontier, next);
@@ -770,7 +770,9 @@ std::vector<TightSpot> GvdIndex::tight(double below) const {
   }
   std::vector<TightSpot> out;
   for (const DualEdge& e : impl_->result->graph.edges) {
-    if (e.min_clearance < below) out.push_back({e.a, e.b, e.min_clearance, e.tightest_point});
+    if (e.min_clearance < below) {
+      out.push_back({e.a, e.b, e.min_clearance, e.tightest_point, e.gap, e.touching});
+    }
   }
   std::sort(out.begin(), out.end(), [](const TightSpot& x, const TightSpot& y) {
     return std::tuple{x.min_clearance, x.a, x.b} < std::tuple{y.min_clearance, y.a, y.b};

@@ -84,7 +84,9 @@ std::string neighbors_to_json(const GvdIndex& index, ObjectId object, int ring,
                     {"via", n.via},
                     {"area", n.area},
                     {"min_clearance", n.min_clearance},
-                    {"tightest_point", point_json(n.tightest_point, dim)}});
+                    {"tightest_point", point_json(n.tightest_point, dim)},
+                    {"gap", n.gap >= 0 ? json(n.gap) : json(nullptr)},
+                    {"touching", n.touching}});
   }
   return json{{"object", object},
               {"label", label(index, object)},
@@ -134,7 +136,9 @@ std::string tight_to_json(const GvdIndex& index, double below, std::span<const T
                      {"label_a", label(index, t.a)},
                      {"label_b", label(index, t.b)},
                      {"min_clearance", t.min_clearance},
-                     {"point", point_json(t.point, dim)}});
+                     {"point", point_json(t.point, dim)},
+                     {"gap", t.gap >= 0 ? json(t.gap) : json(nullptr)},
+                     {"touching", t.touching}});
   }
   return json{{"below", below}, {"pairs", std::move(pairs)}}.dump();
 }

@@ -52,6 +52,8 @@ constexpr Tag kDistance{'D', 'I', 'S', 'T'};
 constexpr Tag kGvd{'G', 'V', 'D', ' '};
 constexpr Tag kGraph{'G', 'R', 'P', 'H'};
 constexpr Tag kStats{'S', 'T', 'A', 'T'};
+// Optional (files written before it have none): the dual edges' measured gaps.
+constexpr Tag kGaps{'G', 'A', 'P', 'S'};
 
 uint64_t fnv1a64(std::span<const uint8_t> bytes) {
   uint64_t h = 0xcbf29ce484222325ull;
@@ -291,7 +293,7 @@ struct Section {
 /// Splits the section area into known sections (unknown tags are skipped; a known tag twice is
 /// an error).
 std::map<Tag, Section> split_sections(std::span<const uint8_t> bytes) {
-  const std::array<Tag, 7> known{kScene, kDomain, kOctree, kDistance, kGvd, kGraph, kStats};
+  const std::array<Tag, 8> known{kScene, kDomain, kOctree, kDistance, kGvd, kGraph, kStats, kGaps};
   std::map<Tag, Section> sections;
   const size_t end = bytes.size() - kTrailerBytes;
   size_t pos = kHeaderBytes;
@@ -323,7 +325,7 @@ std::map<Tag, Section> split_sections(std::span<const uint8_t> bytes) {
     pos = payload + static_cast<size_t>(length);
   }
   for (const Tag& tag : known) {
-    if (!sections.count(tag)) bad_file("missing section " + tag_name(tag));
+    if (!sections.count(tag) && tag != kGaps) bad_file("missing section " + tag_name(tag));
   }
   return sections;
 }
@@ -476,6 +478,24 @@ DualGraph read_graph(Reader in) {
     g.edges[i] = {a[i], b[i], area[i], min_clearance[i], tightest[i]};
   }
   return g;
+}
+
+void read_gaps(Reader in, DualGraph& g) {
+  const auto gap = in.array<double>("gap[]");
+  const auto touching = in.array<uint8_t>("touching[]");
+  in.expect_end();
+  if (gap.size() != g.edges.size() || touching.size() != g.edges.size()) {
+    in.fail("the gap arrays have " + std::to_string(gap.size()) + " / " +
+            std::to_string(touching.size()) + " entries for " + std::to_string(g.edges.size()) +
+            " graph edges");
+  }
+  for (size_t i = 0; i < g.edges.size(); ++i) {
+    if (!(gap[i] >= 0 || gap[i] == -1) || touching[i] > 1) {
+      in.fail("graph edge " + std::to_string(i) + " has an invalid gap or touching flag");
+    }
+    g.edges[i].gap = gap[i];
+    g.edges[i].touching = touching[i] != 0;
+  }
 }
 
 ResultStats read_stats(Reader in) {
@@ -657,6 +677,17 @@ std::vector<uint8_t> result_to_bytes(const GvdResult& r) {
   out.array(tightest);
   out.end_section();
 
+  out.begin_section(kGaps);
+  std::vector<double> gap(edges);
+  std::vector<uint8_t> touching(edges);
+  for (size_t i = 0; i < edges; ++i) {
+    gap[i] = r.graph.edges[i].gap;
+    touching[i] = r.graph.edges[i].touching ? 1 : 0;
+  }
+  out.array(gap);
+  out.array(touching);
+  out.end_section();
+
   out.begin_section(kStats);
   out.string(stats_to_json(r.stats));
   out.end_section();
@@ -713,6 +744,7 @@ GvdResult load_result_bytes(std::span<const uint8_t> bytes) {
   r.field = read_distance(reader_for(sections, kDistance));
   r.gvd = read_gvd(reader_for(sections, kGvd));
   r.graph = read_graph(reader_for(sections, kGraph));
+  if (sections.count(kGaps) != 0) read_gaps(reader_for(sections, kGaps), r.graph);
   r.stats = read_stats(reader_for(sections, kStats));
   check_consistency(r);
 

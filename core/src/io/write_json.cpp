@@ -129,7 +129,9 @@ std::string graph_to_json(const DualGraph& graph, const Scene& scene) {
                      {"label_b", label_of(scene, edge.b)},
                      {"area", edge.area},
                      {"min_clearance", edge.min_clearance},
-                     {"tightest_point", point_json(edge.tightest_point, scene.dimension)}});
+                     {"tightest_point", point_json(edge.tightest_point, scene.dimension)},
+                     {"gap", edge.gap >= 0 ? json(edge.gap) : json(nullptr)},
+                     {"touching", edge.touching}});
   }
   const json out = {{"nodes", std::move(nodes)}, {"edges", std::move(edges)}};
   return out.dump();

@@ -1,7 +1,9 @@
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <optional>
 #include <set>
+#include <string>
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
@@ -14,6 +16,16 @@
 #include "gvd/surface/extract_gvd.h"
 
 namespace gvd {
+namespace {
+
+// A length for a message: 3 significant digits ("2.01e-05 units").
+std::string format_length(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", x);
+  return std::string(text) + " units";
+}
+
+}  // namespace
 
 GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   if (options.backend != "cpu" && (options.backend != "opencl" || !options.compute)) {
@@ -59,8 +71,9 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   // Objects closer than a couple of finest cells cannot be separated: find those pairs first,
   // so that refinement between them stops at the contact depth.
   const int max_depth = resolve_max_depth(dim, options.max_depth);
-  const ContactPairs contacts = find_contact_pairs(
-      r.geometry, bvh, 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth), options.threads);
+  const double contact_tolerance = 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth);
+  const ContactPairs contacts =
+      find_contact_pairs(r.geometry, bvh, contact_tolerance, options.threads);
   // The thin-gaps refinement: certified pair cells stay leaves (refine/pair_certificate.h).
   std::optional<PairCertifier> certifier;
   if (options.refine == "certified") certifier.emplace(r.geometry, bvh, &contacts);
@@ -197,14 +210,17 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   sw = Stopwatch();
   r.graph = build_dual_graph(r.gvd);
   tighten_clearances(r.graph, r.gvd, bvh, r.domain, options.threads);
+  measure_gaps(r.graph, bvh, r.domain, contacts.pairs(), options.threads);
   r.stats.stages.push_back(
       {"graph", sw.seconds(), r.graph.edges.size() * sizeof(DualEdge), r.graph.edges.size()});
 
   // Warnings found by the computation itself.
   if (!contacts.empty()) {
     std::string detail =
-        "objects that touch or intersect (closer than the finest cells can separate); their "
-        "cells are separated only down to the contact depth:";
+        "objects that touch, intersect or come closer than the finest cells can separate (" +
+        format_length(contact_tolerance * r.domain.side) +
+        "): reported as touching, with clearance 0 and their measured gap; their cells are "
+        "separated only down to the contact depth:";
     int listed = 0;
     for (const auto& [a, b] : contacts.pairs()) {
       if (++listed > 20) {

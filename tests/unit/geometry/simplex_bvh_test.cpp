@@ -9,6 +9,7 @@
 
 #include "gvd/geometry/primitives.h"
 #include "support/scenes.h"
+#include "support/thin_gap_scenes.h"
 
 namespace gvd {
 namespace {
@@ -100,6 +101,40 @@ TEST(SimplexBvh, ClosestToSimplexMatchesSampling) {
     EXPECT_FALSE(f.bvh.closest_to_simplex(q, 0.5 * hit.dist2).found());
   }
   EXPECT_GE(checked, 30);
+}
+
+// object_distance against the brute-force mesh distance of tests/support (its own code):
+// three spheres 0.05 and ~0.2 apart, and two of them pushed into each other.
+TEST(SimplexBvh, ObjectDistanceMatchesBruteForce) {
+  const Fixture f;
+  for (uint32_t a = 0; a < 3; ++a) {
+    for (uint32_t b = a + 1; b < 3; ++b) {
+      const double truth = test::min_distance_3d(f.scene.objects[a], f.scene.objects[b]);
+      const SimplexBvh::ObjectPair p = f.bvh.object_distance(a, b);
+      ASSERT_TRUE(p.found);
+      EXPECT_NEAR(std::sqrt(p.dist2) * f.domain.side, truth, 1e-9 * truth) << a << "/" << b;
+      // The witnesses are as far apart as the distance, one on each object.
+      EXPECT_NEAR(dist(p.on_a, p.on_b), std::sqrt(p.dist2), 1e-12);
+      EXPECT_NEAR(f.bvh.nearest_in_object(p.on_a, a).dist2, 0, 1e-24);
+      EXPECT_NEAR(f.bvh.nearest_in_object(p.on_b, b).dist2, 0, 1e-24);
+      EXPECT_FALSE(f.bvh.object_distance(a, b, 0.25 * p.dist2).found);
+    }
+  }
+  const Scene overlap = test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 12, 24),
+                                             test::make_sphere("b", {1.5, 0, 0}, 1, 12, 24)});
+  const Domain d = make_domain(overlap);
+  const UnitGeometry g = make_unit_geometry(overlap, d);
+  const SimplexBvh bvh(3, g.points, g.simplices, g.object_of);
+  EXPECT_EQ(bvh.object_distance(0, 1).dist2, 0.0);
+  // 2D: two rectangles 1e-6 apart diagonally (corner to corner).
+  const Scene rects =
+      test::make_scene(2, {test::make_rect("a", {0, 0, 0}, {1, 1, 0}),
+                           test::make_rect("b", {1 + 1e-6, 1 + 1e-6, 0}, {2, 2, 0})});
+  const Domain d2 = make_domain(rects);
+  const UnitGeometry g2 = make_unit_geometry(rects, d2);
+  const SimplexBvh bvh2(2, g2.points, g2.simplices, g2.object_of);
+  EXPECT_NEAR(std::sqrt(bvh2.object_distance(0, 1).dist2) * d2.side, std::sqrt(2.0) * 1e-6,
+              2e-14);  // lattice snap: ~1e-14
 }
 
 TEST(SimplexBvh, NearestExcludingObjectsMatchesBruteForce) {

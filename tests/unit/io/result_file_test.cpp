@@ -131,6 +131,8 @@ void expect_same_result(const GvdResult& a, const GvdResult& b) {
     EXPECT_EQ(x.area, y.area);
     EXPECT_EQ(x.min_clearance, y.min_clearance);
     EXPECT_TRUE(bit_equal(x.tightest_point, y.tightest_point));
+    EXPECT_EQ(x.gap, y.gap);
+    EXPECT_EQ(x.touching, y.touching);
   }
   // Stats (doubles through JSON must round-trip exactly).
   const ResultStats& s = a.stats;
@@ -278,8 +280,8 @@ TEST(ResultFile, HeaderLayout) {
   EXPECT_EQ(h.algorithm_version, kAlgorithmVersion);
   std::vector<std::string> tags;
   for (const SectionAt& s : sections_of(bytes)) tags.push_back(s.tag);
-  EXPECT_EQ(tags,
-            (std::vector<std::string>{"SCNE", "DOMN", "OCTR", "DIST", "GVD ", "GRPH", "STAT"}));
+  EXPECT_EQ(tags, (std::vector<std::string>{"SCNE", "DOMN", "OCTR", "DIST", "GVD ", "GRPH", "GAPS",
+                                            "STAT"}));
   const SectionAt last = sections_of(bytes).back();
   EXPECT_EQ(last.payload + last.length + 8, bytes.size());
   EXPECT_EQ(fnv1a64(bytes.data(), bytes.size() - 8), [&] {
@@ -287,6 +289,24 @@ TEST(ResultFile, HeaderLayout) {
     std::memcpy(&h64, bytes.data() + bytes.size() - 8, 8);
     return h64;
   }());
+}
+
+// Files written before the gaps were measured have no GAPS section: they load, with every
+// gap "not measured" (< 0) and no pair touching.
+TEST(ResultFile, FilesWithoutGapsLoadWithGapsNotMeasured) {
+  const GvdResult& r = result_3d();
+  std::vector<uint8_t> bytes = result_to_bytes(r);
+  const SectionAt gaps = section(bytes, "GAPS");
+  bytes.erase(bytes.begin() + static_cast<std::ptrdiff_t>(gaps.header),
+              bytes.begin() + static_cast<std::ptrdiff_t>(gaps.payload + gaps.length));
+  reseal(bytes);
+  const GvdResult loaded = load_result_bytes(bytes);
+  ASSERT_EQ(loaded.graph.edges.size(), r.graph.edges.size());
+  for (const DualEdge& e : loaded.graph.edges) {
+    EXPECT_LT(e.gap, 0);
+    EXPECT_FALSE(e.touching);
+  }
+  for (const DualEdge& e : r.graph.edges) EXPECT_GE(e.gap, 0);
 }
 
 TEST(ResultFile, RejectsEmptyAndForeignFiles) {

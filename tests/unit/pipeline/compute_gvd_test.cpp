@@ -311,6 +311,38 @@ TEST(ComputeGvd, FlushStackedPlatesGiveExactMidPlanesAtAnyGap3D) {
       << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
 }
 
+// Two curved objects almost touching at a point, 3e-5 apart on an 11-unit domain (the
+// lattice resolves ~6e-6 there): default options report their true gap and half of it as
+// the clearance, not "touching". Pushed into each other they are touching, with clearance 0.
+TEST(ComputeGvd, NearContactReportsTheTrueGapAndTouchingOnlyWhenUnresolvable) {
+  for (const double gap : {3e-5, -1e-3}) {
+    SCOPED_TRACE("gap " + std::to_string(gap));
+    SceneObject a = test::make_sphere("a", {0, 0, 0}, 2.5, 48, 96);
+    SceneObject b = test::make_sphere("b", {2.5 + 3.0, 0, 0}, 3.0, 48, 96);
+    // Both meshes have a vertex on the x axis (their poles are on z): a's at x = 2.5, b's at
+    // x = 2.5; shift b to the gap asked for.
+    for (Vec3& v : b.vertices) v.x += gap;
+    const double truth = gap > 0 ? test::min_distance_3d(a, b) : 0.0;
+    const GvdResult r = run(test::make_scene(3, {a, b}));
+    EXPECT_GT(r.domain.side, 11.0);
+    ASSERT_EQ(r.graph.edges.size(), 1u);
+    const DualEdge& e = r.graph.edges[0];
+    bool warned = false;
+    for (const SceneWarning& w : r.scene.warnings) warned |= w.kind == "objects_touch";
+    if (gap > 0) {
+      EXPECT_NEAR(e.gap, truth, 1e-9 * truth);
+      EXPECT_FALSE(e.touching);
+      EXPECT_FALSE(warned);
+      EXPECT_NEAR(e.min_clearance, truth / 2, 0.02 * truth / 2);
+    } else {
+      EXPECT_EQ(e.gap, 0.0);
+      EXPECT_TRUE(e.touching);
+      EXPECT_TRUE(warned);
+      EXPECT_EQ(e.min_clearance, 0.0);
+    }
+  }
+}
+
 TEST(ComputeGvd, SphereInShellGivesTheMidRadiusSphere) {
   SceneObject inner = test::make_sphere("inner", {0, 0, 0}, 0.5, 16, 32);
   SceneObject shell = test::make_sphere("shell", {0, 0, 0}, 1.0, 16, 32);

@@ -57,6 +57,18 @@ class SimplexBvh {
   /// the point of q where it is reached (`point`); not found when nothing is nearer than
   /// `max_dist2`. Exact up to rounding (simplex_simplex_closest).
   ClosestHit closest_to_simplex(const Vec3* q, double max_dist2 = 1e300) const;
+  /// The least squared distance between objects a and b (needs `object_of` at construction;
+  /// 0 when they touch or intersect) and a closest pair of points, one on each (`on_a`,
+  /// `on_b`; where they intersect, points of the crossing simplices). Both objects' trees are
+  /// walked together, pairs of boxes farther apart than the best pair so far pruned. Exact up
+  /// to rounding (segment/triangle distances with crossing tests). Not found when an object
+  /// has no simplices or nothing is nearer than `max_dist2`.
+  struct ObjectPair {
+    double dist2 = 1e300;
+    Vec3 on_a, on_b;
+    bool found = false;
+  };
+  ObjectPair object_distance(uint32_t a, uint32_t b, double max_dist2 = 1e300) const;
   /// The exact closest point on the simplices of objects other than excluded[0..count) (needs
   /// `object_of` at construction): subtrees holding only excluded objects are not entered,
   /// so it is cheap where those objects crowd the query point.

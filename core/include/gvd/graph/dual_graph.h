@@ -16,6 +16,14 @@ struct DualEdge {
   double area = 0;           ///< interface area (3D) or length (2D) inside the domain, user units
   double min_clearance = 0;  ///< least distance from the shared boundary to the objects
   Vec3 tightest_point;       ///< a boundary point where `min_clearance` is attained
+  /// The gap: the least distance between the two objects themselves (user units; 0 when
+  /// they touch or intersect), measured exactly (measure_gaps). Where nothing else comes
+  /// between them it is twice min_clearance. < 0: not measured (results saved before it was).
+  double gap = -1;
+  /// A contact pair: they touch, intersect or come closer than the finest cells can
+  /// separate (contacts.h). Then min_clearance is 0 and tightest_point the middle of their
+  /// closest points; `gap` still says how far apart they are.
+  bool touching = false;
 };
 
 /// Objects as nodes (by index), edges sorted by (a, b).
@@ -36,6 +44,11 @@ DualGraph build_dual_graph(const Gvd& gvd);
 /// than twice its least vertex clearance this finds the exact least distance from the simplex
 /// to the scene's simplices (`bvh`, unit domain; SimplexBvh::closest_to_simplex) and lowers
 /// the edge's min_clearance and tightest_point to it.
+/// Measures every edge's `gap` exactly (SimplexBvh::object_distance over the unit-domain
+/// `bvh`) and marks the contact pairs (`contacts`, a < b) `touching`, with min_clearance 0.
+void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
+                  const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads);
+
 void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
                         const Domain& domain, int threads);
 

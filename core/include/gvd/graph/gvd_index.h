@@ -35,6 +35,8 @@ struct RingNeighbor {
   double area = 0;           ///< interface area (length in 2D) between `via` and `object`
   double min_clearance = 0;  ///< least clearance on that interface
   Vec3 tightest_point;       ///< where it is attained
+  double gap = -1;           ///< least distance between `via` and `object` (< 0: not measured)
+  bool touching = false;     ///< a contact pair (DualEdge::touching)
 };
 
 /// What a path minimises.
@@ -86,7 +88,9 @@ struct TightSpot {
   ObjectId a = kNoObject;
   ObjectId b = kNoObject;
   double min_clearance = 0;
-  Vec3 point;  ///< tightest point of the interface
+  Vec3 point;       ///< tightest point of the interface
+  double gap = -1;  ///< least distance between a and b (< 0: not measured)
+  bool touching = false;
 };
 
 /// Answers from a finished GVD. Built once (O(result size)); afterwards every method is const

@@ -34,6 +34,8 @@ struct ResultFileHeader {
 ///                   other[], clearance[], indices[]
 ///            "GRPH" node_count, edge count, a[], b[], area[], min_clearance[],
 ///                   tightest_point[] (xyz doubles)
+///            "GAPS" (optional: older files have none, and load with every gap -1 = not
+///                   measured) per graph edge gap[] (double), touching[] (u8, 0 or 1)
 ///            "STAT" ResultStats as JSON text
 ///   trailer  u64 FNV-1a-64 of every preceding byte.
 ///
