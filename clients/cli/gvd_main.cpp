@@ -198,6 +198,11 @@ void print_summary(const GvdResult& r, std::FILE* out) {
     if (st.bytes > 0) std::fprintf(out, " %s %.1f MB;", st.name.c_str(), st.bytes / 1e6);
   }
   std::fprintf(out, " (data each stage produced)\n");
+  if (s.peak_rss_bytes > 0) {
+    std::fprintf(out, "  peak memory %.1f MB (process high-water mark), %.0f bytes/leaf\n",
+                 s.peak_rss_bytes / 1e6,
+                 s.leaves > 0 ? static_cast<double>(s.peak_rss_bytes) / s.leaves : 0.0);
+  }
   for (const SceneWarning& w : r.scene.warnings) {
     std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", w.kind.c_str(),
                  w.object.empty() ? "" : " ", w.object.c_str(),

@@ -370,6 +370,12 @@ void print_summary(const Json& doc, std::FILE* out) {
     std::fprintf(out, " %s %.3f s;", text(st, "name", "").c_str(), number(st, "seconds", 0.0));
   }
   std::fprintf(out, " total %.3f s\n", num("total_seconds"));
+  if (num("peak_rss_bytes") > 0) {
+    std::fprintf(out,
+                 "  peak memory %.1f MB (the server process's high-water mark), %.0f bytes/leaf\n",
+                 num("peak_rss_bytes") / 1e6,
+                 num("leaves") > 0 ? num("peak_rss_bytes") / num("leaves") : 0.0);
+  }
   for (const Json& w : member(r, "warnings", Json::array())) {
     const std::string object = text(w, "object", "");
     std::fprintf(out, "  warning [%s]%s%s (%.0f): %s\n", text(w, "kind", "").c_str(),

@@ -7,6 +7,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/peak_memory.h"
 #include "gvd/common/stopwatch.h"
 #include "gvd/distance/closest_points.h"
 #include "gvd/octree/build_octree_dp.h"
@@ -256,6 +257,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   r.stats.gvd_simplices = simplices;
   r.stats.graph_edges = r.graph.edges.size();
   r.stats.total_seconds = total.seconds();
+  r.stats.peak_rss_bytes = peak_rss_bytes();
   r.scene = std::move(scene);
   progress("done", 1);
   return r;

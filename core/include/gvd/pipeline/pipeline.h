@@ -90,6 +90,10 @@ struct ResultStats {
   uint64_t touching_leaves = 0;
   uint64_t certified_leaves = 0;  ///< leaves inside certified pair cells (refine "certified")
   double total_seconds = 0;
+  /// The process's peak resident memory when the job finished (common/peak_memory.h; 0:
+  /// unknown). Process-wide, so in a server it can include earlier jobs; per leaf it is what
+  /// `gvd info` and the benchmark report as peak bytes per leaf.
+  uint64_t peak_rss_bytes = 0;
 };
 
 /// A finished GVD: everything later commands and the server need.
