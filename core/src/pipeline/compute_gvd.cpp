@@ -14,6 +14,7 @@
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/refine/pair_certificate.h"
+#include "gvd/refine/refine.h"
 #include "gvd/surface/extract_gvd.h"
 
 namespace gvd {
@@ -114,84 +115,29 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   // Ambiguity resolution (§5) and the separation guarantee: split, recompute, repeat.
   progress("ambiguity", 0);
   sw = Stopwatch();
-  RefineReport report;
-  int rounds = 0;
-  // The octree before any refinement (ambiguity limits count levels from it): the current one
-  // until the first round replaces it, then kept from that round (no copy).
-  Octree base;
-  RefineOptions ro;
-  ro.threads = options.threads;
-  ro.base = &r.octree;
-  const int ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
-                               : dim == 2                    ? options.max_refine_rounds
-                                                             : 3;
-  ro.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
+  RefineLoopOptions lo;
+  lo.max_rounds = options.max_refine_rounds;
+  lo.ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
+                        : dim == 2                    ? options.max_refine_rounds
+                                                      : 3;
+  lo.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
                         : dim == 2                    ? lattice_bits(2)
                                                       : 2;
-  const int unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
-                            : dim == 2                 ? options.max_refine_rounds
-                                                       : 4;
-  ro.geometry = &r.geometry;
-  ro.bvh = &bvh;
-  ro.contacts = &contacts;
-  ro.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
-  uint64_t ambiguity_seen = 0;  // ambiguous cells found by any pass
-  for (;;) {
-    ro.changed_only = rounds > 0;
-    report = find_cells_to_refine(r.octree, r.field, ro);
-    ambiguity_seen += report.ambiguous;
-    const bool split_ambiguous = rounds < ambiguity_rounds;
-    const bool split_unseen = rounds < unseen_rounds;
-    if ((report.foreign.empty() && (!split_unseen || report.unseen.empty()) &&
-         (!split_ambiguous || report.leaves.empty())) ||
-        rounds >= options.max_refine_rounds) {
-      break;
-    }
-    ++rounds;
-    progress("ambiguity", std::min(0.99, rounds / 8.0));
-    SeparationPlan plan =
-        plan_separation_splits(r.octree, r.geometry, bvh, report.foreign, options.threads,
-                               &contacts, ro.contact_depth, oo.split_oracle);
-    std::vector<CellRef>& splits = plan.splits;
-    // Ambiguous and unseen leaves are split two levels at once: that halves the rounds, and
-    // the flagged leaves are few (in 2D junctions are points; in 3D only junction cells).
-    const size_t planned = splits.size();
-    if (split_ambiguous) {
-      for (uint32_t leaf : report.leaves) splits.push_back(cell_of(r.octree, leaf));
-    }
-    if (split_unseen) {
-      for (uint32_t leaf : report.unseen) splits.push_back(cell_of(r.octree, leaf));
-    }
-    const size_t flagged_end = splits.size();
-    for (size_t i = planned; i < flagged_end; ++i)
-      for (uint32_t c = 0; c < (1u << dim); ++c) splits.push_back(child_cell(dim, splits[i], c));
-    Octree previous = std::move(r.octree);
-    r.octree = refine_octree(previous, r.geometry, splits, oo, plan.certified);
-    DistanceField next =
-        compute_distances(r.octree, r.geometry, bvh, dopt, std::move(r.field), previous);
-    r.field = std::move(next);
-    if (rounds == 1) {
-      base = std::move(previous);
-      ro.base = &base;
-    }
-  }
-  sort_vertices(r.field, options.threads);  // incremental rounds appended vertices
-  // The last report holds the thin regions no round resolved (earlier ones were split).
-  r.stats.unseen_left = report.misplaced;
-  if (rounds > 0 && ambiguity_seen > 0) {
-    // The last rounds looked only at changed leaves: count the ambiguity left over all of
-    // them (the other checks have nothing left to find). Not needed when no pass found any:
-    // the first looked at every leaf, the later ones at every leaf that changed.
-    ro.changed_only = false;
-    ro.geometry = nullptr;
-    ro.bvh = nullptr;
-    report = find_cells_to_refine(r.octree, r.field, ro);
-  }
-  r.stats.refine_rounds = rounds;
-  r.stats.ambiguous_at_limit = report.ambiguous_at_limit + report.leaves.size();
-  r.stats.touching_leaves = report.touching_leaves;
+  lo.unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
+                     : dim == 2                 ? options.max_refine_rounds
+                                                : 4;
+  lo.contacts = &contacts;
+  lo.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
+  lo.octree = oo;
+  lo.distance = dopt;
+  lo.progress = [&](double f) { progress("ambiguity", f); };
+  const RefineLoopResult refined = refine_until_resolved(r.octree, r.field, r.geometry, bvh, lo);
+  r.stats.unseen_left = refined.unseen_left;
+  r.stats.refine_rounds = refined.rounds;
+  r.stats.ambiguous_at_limit = refined.ambiguous_at_limit;
+  r.stats.touching_leaves = refined.touching_leaves;
   for (uint8_t c : r.octree.certified) r.stats.certified_leaves += c;
-  r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(rounds)});
+  r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(refined.rounds)});
 
   progress("surface", 0);
   sw = Stopwatch();

@@ -2,10 +2,11 @@
 #include <cmath>
 #include <numeric>
 
-#include "cell_faces.h"
+// The ambiguity test runs on the faces the surfacer walks (§5 is defined on them).
+#include "../surface/cell_faces.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
-#include "gvd/surface/extract_gvd.h"
+#include "gvd/refine/find_cells_to_refine.h"
 
 namespace gvd {
 namespace {

@@ -1,0 +1,49 @@
+#pragma once
+
+// The refinement loop between the distance transform and surfacing: decide which leaves must
+// be split (find_cells_to_refine.h: foreign labels in non-empty leaves, §5 ambiguity, regions
+// hidden between a leaf's vertices), plan the splits (the separation in one pass, certified
+// pair cells left whole: pair_certificate.h), split (refine_octree) and update the distance
+// field incrementally, until nothing is left to split or the round limits are reached.
+
+#include <cstdint>
+#include <functional>
+
+#include "gvd/distance/distance_field.h"
+#include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/contacts.h"
+#include "gvd/octree/octree.h"
+#include "gvd/scene/scene.h"
+
+namespace gvd {
+
+struct RefineLoopOptions {
+  int max_rounds = 0;        ///< rounds of splitting in all
+  int ambiguity_rounds = 0;  ///< rounds that may split ambiguous leaves (§5)
+  int unseen_rounds = 0;     ///< rounds that may split leaves hiding an unseen region
+  /// Ambiguity is resolved at most this many levels below the octree the loop starts from.
+  int ambiguity_levels = 0;
+  const ContactPairs* contacts = nullptr;
+  int contact_depth = 0;  ///< resolved (resolve_contact_depth)
+  /// How splits rebuild the octree (its split_oracle keeps certified cells whole) and how
+  /// the distance field is updated.
+  OctreeOptions octree;
+  DistanceOptions distance;
+  /// Called after each round with an estimate of the fraction done (< 1).
+  std::function<void(double)> progress;
+};
+
+struct RefineLoopResult {
+  int rounds = 0;
+  uint64_t unseen_left = 0;         ///< cells still hiding a region after the allowed rounds
+  uint64_t ambiguous_at_limit = 0;  ///< ambiguous cells left (at a limit), surfaced by §6's rule
+  uint64_t touching_leaves = 0;     ///< leaves that intersect several objects at the limit
+};
+
+/// Refines `octree` and `field` (its distance field, updated in place) until no leaf must be
+/// split or the round limits are reached; the field's vertices end in key order.
+RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
+                                       const UnitGeometry& geometry, const SimplexBvh& bvh,
+                                       const RefineLoopOptions& options);
+
+}  // namespace gvd

@@ -1,0 +1,88 @@
+#include "gvd/refine/refine.h"
+
+#include <algorithm>
+#include <utility>
+#include <vector>
+
+#include "gvd/refine/find_cells_to_refine.h"
+
+namespace gvd {
+
+RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
+                                       const UnitGeometry& geometry, const SimplexBvh& bvh,
+                                       const RefineLoopOptions& options) {
+  const int dim = geometry.dimension;
+  const int threads = options.octree.threads;
+  RefineLoopResult out;
+  RefineReport report;
+  // The octree before any refinement (ambiguity limits count levels from it): the current one
+  // until the first round replaces it, then kept from that round (no copy).
+  Octree base;
+  RefineOptions ro;
+  ro.threads = threads;
+  ro.base = &octree;
+  ro.ambiguity_levels = options.ambiguity_levels;
+  ro.geometry = &geometry;
+  ro.bvh = &bvh;
+  ro.contacts = options.contacts;
+  ro.contact_depth = options.contact_depth;
+  uint64_t ambiguity_seen = 0;  // ambiguous cells found by any pass
+  int rounds = 0;
+  for (;;) {
+    ro.changed_only = rounds > 0;
+    report = find_cells_to_refine(octree, field, ro);
+    ambiguity_seen += report.ambiguous;
+    const bool split_ambiguous = rounds < options.ambiguity_rounds;
+    const bool split_unseen = rounds < options.unseen_rounds;
+    if ((report.foreign.empty() && (!split_unseen || report.unseen.empty()) &&
+         (!split_ambiguous || report.leaves.empty())) ||
+        rounds >= options.max_rounds) {
+      break;
+    }
+    ++rounds;
+    if (options.progress) options.progress(std::min(0.99, rounds / 8.0));
+    SeparationPlan plan =
+        plan_separation_splits(octree, geometry, bvh, report.foreign, threads, options.contacts,
+                               options.contact_depth, options.octree.split_oracle);
+    std::vector<CellRef>& splits = plan.splits;
+    // Ambiguous and unseen leaves are split two levels at once: that halves the rounds, and
+    // the flagged leaves are few (in 2D junctions are points; in 3D only junction cells).
+    const size_t planned = splits.size();
+    if (split_ambiguous) {
+      for (uint32_t leaf : report.leaves) splits.push_back(cell_of(octree, leaf));
+    }
+    if (split_unseen) {
+      for (uint32_t leaf : report.unseen) splits.push_back(cell_of(octree, leaf));
+    }
+    const size_t flagged_end = splits.size();
+    for (size_t i = planned; i < flagged_end; ++i)
+      for (uint32_t c = 0; c < (1u << dim); ++c) splits.push_back(child_cell(dim, splits[i], c));
+    Octree previous = std::move(octree);
+    octree = refine_octree(previous, geometry, splits, options.octree, plan.certified);
+    DistanceField next =
+        compute_distances(octree, geometry, bvh, options.distance, std::move(field), previous);
+    field = std::move(next);
+    if (rounds == 1) {
+      base = std::move(previous);
+      ro.base = &base;
+    }
+  }
+  sort_vertices(field, threads);  // incremental rounds appended vertices
+  // The last report holds the thin regions no round resolved (earlier ones were split).
+  out.unseen_left = report.misplaced;
+  if (rounds > 0 && ambiguity_seen > 0) {
+    // The last rounds looked only at changed leaves: count the ambiguity left over all of
+    // them (the other checks have nothing left to find). Not needed when no pass found any:
+    // the first looked at every leaf, the later ones at every leaf that changed.
+    ro.changed_only = false;
+    ro.geometry = nullptr;
+    ro.bvh = nullptr;
+    report = find_cells_to_refine(octree, field, ro);
+  }
+  out.rounds = rounds;
+  out.ambiguous_at_limit = report.ambiguous_at_limit + report.leaves.size();
+  out.touching_leaves = report.touching_leaves;
+  return out;
+}
+
+}  // namespace gvd
