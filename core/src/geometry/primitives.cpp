@@ -161,13 +161,17 @@ double segment_segment_dist2_2d(Vec3 p0, Vec3 p1, Vec3 q0, Vec3 q1) {
 
 namespace {
 
-// Does segment [p, q] cross triangle t (Möller–Trumbore, segment parameter in [0, 1])?
+// Does segment [p, q] cross triangle t (Möller–Trumbore, segment parameter in [0, 1])? A
+// segment (nearly) parallel to the triangle's plane — det below 1e-12 of |d| |e1| |e2|, an
+// angle under ~1e-12 — does not count: there the test's rounding is unbounded (coplanar faces
+// of flush parts, once rotated, looked like crossings), and the callers' vertex and edge
+// distances already give the distance of such a segment to within ~1e-12 of its length.
 bool segment_crosses_triangle(Vec3 p, Vec3 q, const Vec3 t[3]) {
   const Vec3 d = q - p;
   const Vec3 e1 = t[1] - t[0], e2 = t[2] - t[0];
   const Vec3 h = cross(d, e2);
   const double det = dot(e1, h);
-  if (det == 0) return false;
+  if (!(std::abs(det) > 1e-12 * norm(d) * norm(e1) * norm(e2))) return false;
   const double inv = 1.0 / det;
   const Vec3 s = p - t[0];
   const double u = dot(s, h) * inv;

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -107,6 +108,26 @@ TEST(Primitives, SegmentBoxOverlapMatchesClipping) {
                  clip({a, b}, out).empty(), i);
   }
   verdicts.expect_both_sides_covered();
+}
+
+// Coplanar triangles a gap apart inside their plane (the flush side faces of stacked parts),
+// rotated off the axes so that the plane is only coplanar up to rounding: no false crossing.
+TEST(Primitives, CoplanarTrianglesApartInTheirPlaneAreNotCrossing) {
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> angle(0.1, 3.0);
+  for (int k = 0; k < 200; ++k) {
+    const double t = angle(rng), c = std::cos(t), s = std::sin(t);
+    auto turn = [&](Vec3 p) {
+      return p * c + cross(axis, p) * s + axis * (dot(axis, p) * (1 - c));
+    };
+    const double gap = 1e-4;
+    const Vec3 a[3] = {turn({0, 0, 0}), turn({1, 0, 0}), turn({0, 0.1, 0})};
+    const Vec3 b[3] = {turn({0, 0.1 + gap, 0}), turn({1, 0.1 + gap, 0}), turn({0, 0.2 + gap, 0})};
+    const double d = std::sqrt(triangle_triangle_dist2(a, b));
+    ASSERT_NEAR(d, gap, 1e-12) << "rotation " << k;
+    ASSERT_NEAR(std::sqrt(segment_triangle_dist2(b[0], b[1], a[0], a[1], a[2])), gap, 1e-12);
+  }
 }
 
 }  // namespace

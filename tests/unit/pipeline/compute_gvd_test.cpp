@@ -269,6 +269,101 @@ TEST(ComputeGvd, ThinGapBetweenPlatesIsTheirExactMidPlane3D) {
   EXPECT_NEAR(r.graph.edges.at(0).min_clearance, gap / 2, 1e-6 * gap);
 }
 
+// Thin-gap answers do not depend on the frame or the order of the objects: two flush plates
+// 1e-4 apart, then rotated about a skew axis, translated and listed in the other order, give
+// the same pair, the same gap and the mid-plane (to the certificate's tolerance), at a cost
+// that does not grow with 1 / g.
+TEST(ComputeGvd, ThinGapAnswersAreInvariantUnderRotationTranslationAndRelabelling3D) {
+  test::StackedPlatesOptions po;
+  po.count = 2;
+  po.gap = 1e-4;
+  po.cell = 0.25;
+  const Scene straight = test::make_stacked_plates(po);
+  const double g = po.gap * make_domain(straight).side;
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  const double c = std::cos(0.7), sn = std::sin(0.7);
+  const Vec3 shift{3.25, -1.5, 0.75};
+  auto move = [&](Vec3 p) {
+    return p * c + cross(axis, p) * sn + axis * (dot(axis, p) * (1 - c)) + shift;
+  };
+  Scene moved = straight;
+  for (SceneObject& o : moved.objects)
+    for (Vec3& v : o.vertices) v = move(v);
+  std::swap(moved.objects[0], moved.objects[1]);
+  const GvdResult a = run(straight);
+  const GvdResult b = run(moved);
+  expect_valid(a);
+  expect_valid(b);
+  ASSERT_EQ(a.graph.edges.size(), 1u);
+  ASSERT_EQ(b.graph.edges.size(), 1u);
+  EXPECT_NEAR(b.graph.edges[0].gap, a.graph.edges[0].gap, 1e-9 * g);
+  EXPECT_NEAR(a.graph.edges[0].min_clearance, g / 2, 1e-6 * g);
+  EXPECT_NEAR(b.graph.edges[0].min_clearance, g / 2, 1e-4 * g);
+  // The moved mid-plane: through move({0, 0.1 + g / 2, 0}) with normal R e_y.
+  const Vec3 normal = move(Vec3{0, 1, 0}) - move(Vec3{0, 0, 0});
+  const Vec3 on = move(Vec3{0, 0.1 + g / 2, 0});
+  size_t checked = 0;
+  for (size_t v = 0; v < b.gvd.cells[0].positions.size(); ++v) {
+    if (b.gvd.cells[0].other[v] != 1) continue;
+    const Vec3 p = b.gvd.cells[0].positions[v];
+    EXPECT_NEAR(dot(p - on, normal), 0,
+                1e-4 * g + 1e-6 * (b.gvd.cells[0].clearance[v] + 2 * local_cell(b, p)))
+        << "vertex " << v;
+    ++checked;
+  }
+  EXPECT_GT(checked, 0u);
+  // In the moved frame too the cost does not grow with 1 / g: 100 times thinner than the
+  // same plates at 1e-2, at most twice the leaves.
+  po.gap = 1e-2;
+  Scene wide = test::make_stacked_plates(po);
+  for (SceneObject& o : wide.objects)
+    for (Vec3& v : o.vertices) v = move(v);
+  const GvdResult w = run(wide);
+  EXPECT_LE(b.stats.leaves, 2 * w.stats.leaves) << w.stats.leaves << " leaves at 1e-2";
+}
+
+// A hexagonal shaft in a hexagonal bore, g between every pair of facing faces: inside the bore
+// and away from the corners (where the shaft's edge is nearer than its faces) the GVD is the
+// mid surface, the hexagonal prism whose apothem is the bore's less g / 2, exactly.
+TEST(ComputeGvd, ShaftInBoreGivesTheMidSurface3D) {
+  test::ShaftInBoreOptions so;
+  so.gap = 1e-2;
+  so.cell = 0.1;
+  const Scene scene = test::make_shaft_in_bore(so);
+  const double g = so.gap * make_domain(scene).side;
+  const double pi = std::acos(-1.0);
+  const double mid = so.radius * std::cos(pi / so.sides) - g / 2;
+  const GvdResult r = run(scene);
+  expect_valid(r);
+  EXPECT_GT(r.stats.certified_leaves, 0u);
+  ASSERT_EQ(r.graph.edges.size(), 1u);
+  EXPECT_NEAR(r.graph.edges[0].gap, g, 1e-9 * g);
+  size_t checked = 0;
+  for (size_t v = 0; v < r.gvd.cells[0].positions.size(); ++v) {
+    if (r.gvd.cells[0].other[v] != 1) continue;
+    const Vec3 p = r.gvd.cells[0].positions[v];
+    if (p.z < 0.05 || p.z > 0.55) continue;  // away from the bore's ends
+    // Face normals at pi / n + 2 pi k / n (the polygon has a vertex on +x): the largest
+    // projection is the apothem coordinate, the second says how near a corner p is.
+    double first = -1e300, second = -1e300;
+    for (int k = 0; k < so.sides; ++k) {
+      const double a = pi / so.sides + 2 * pi * k / so.sides;
+      const double h = std::cos(a) * p.x + std::sin(a) * p.y;
+      if (h > first) {
+        second = first;
+        first = h;
+      } else {
+        second = std::max(second, h);
+      }
+    }
+    if (second > mid - 3 * g) continue;  // near a corner
+    EXPECT_NEAR(first, mid, 1e-6 * (r.gvd.cells[0].clearance[v] + 2 * local_cell(r, p)) + 1e-14)
+        << "vertex " << v << " at " << p.x << ", " << p.y << ", " << p.z;
+    ++checked;
+  }
+  EXPECT_GT(checked, 100u);
+}
+
 // Flush stacked plates at a full-face gap of 1e-5 of the domain: at their rims each plate is
 // the next one's mirror image, so the GVD is the mid-plane of every gap up to and beyond the
 // rims (mirror cells), in a number of leaves that does not depend on the gap.
