@@ -78,6 +78,9 @@ compute options:
                              in it is the plane between two flat patches, so thin gaps
                              cost what their geometry needs) or the paper's rule alone
                              (§3: cells shrink to the gap over the whole contact)
+  --resolution compact|full  GVD output: flat parts merged into large pieces (default;
+                             the dual graph is measured before) or one piece per octree
+                             leaf, as surfaced
   --contact-depth N          depth at which refinement between touching or intersecting
                              objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 12000000; peak memory is about
@@ -222,7 +225,7 @@ const std::vector<std::string>& compute_value_flags() {
       "--max-depth",        "--domain",        "--threads",       "--backend",
       "--max-leaves",       "--max-objects",   "--max-simplices", "--ambiguity-levels",
       "--ambiguity-rounds", "--contact-depth", "--unseen-rounds", "--octree-build",
-      "--distance",         "--refine"};
+      "--distance",         "--refine",        "--resolution"};
   return flags;
 }
 
@@ -248,6 +251,9 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
   options.distance = args.value("--distance").value_or("exact");
   if (options.distance != "exact" && options.distance != "wavefront")
     throw UsageError{"--distance must be exact or wavefront"};
+  options.resolution = args.value("--resolution").value_or("compact");
+  if (options.resolution != "compact" && options.resolution != "full")
+    throw UsageError{"--resolution must be compact or full"};
   options.refine = args.value("--refine").value_or("certified");
   if (options.refine != "certified" && options.refine != "paper")
     throw UsageError{"--refine must be certified or paper"};

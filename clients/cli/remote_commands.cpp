@@ -60,7 +60,7 @@ constexpr std::array<ProblemExit, 22> kProblemExits = {{
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a
 // computation the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 7> kJobParams = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 8> kJobParams = {{
     {"--max-depth", "max_depth"},
     {"--contact-depth", "contact_depth"},
     {"--ambiguity-levels", "ambiguity_levels"},
@@ -68,6 +68,7 @@ constexpr std::array<std::pair<std::string_view, std::string_view>, 7> kJobParam
     {"--unseen-rounds", "unseen_rounds"},
     {"--domain", "domain"},
     {"--refine", "refine"},
+    {"--resolution", "resolution"},
 }};
 constexpr std::array<std::pair<std::string_view, std::string_view>, 5> kServerSide = {{
     {"--threads", "--job-threads"},

@@ -10,9 +10,9 @@
 namespace gvd::server {
 namespace {
 
-const char* const kNames[] = {
-    "max_depth", "contact_depth", "ambiguity_levels", "ambiguity_rounds", "unseen_rounds",
-    "domain",    "refine"};
+const char* const kNames[] = {"max_depth",        "contact_depth", "ambiguity_levels",
+                              "ambiguity_rounds", "unseen_rounds", "domain",
+                              "refine",           "resolution"};
 
 [[noreturn]] void bad(const std::string& detail) {
   throw Error(ErrorCode::kInvalidArgument, detail);
@@ -57,6 +57,11 @@ void JobParams::set(const std::string& name, const std::string& value) {
       bad("parameter \"refine\" must be certified or paper, got \"" + value + "\"");
     }
     refine = value;
+  } else if (name == "resolution") {
+    if (value != "compact" && value != "full") {
+      bad("parameter \"resolution\" must be compact or full, got \"" + value + "\"");
+    }
+    resolution = value;
   } else if (name == "domain") {
     std::vector<double> box;
     std::stringstream s(value);
@@ -77,7 +82,7 @@ void JobParams::set(const std::string& name, const std::string& value) {
   } else {
     bad("unknown parameter \"" + name +
         "\" (known: max_depth, contact_depth, ambiguity_levels, ambiguity_rounds, "
-        "unseen_rounds, domain, refine)");
+        "unseen_rounds, domain, refine, resolution)");
   }
 }
 
@@ -110,7 +115,8 @@ std::string JobParams::to_json() const {
                       {"ambiguity_rounds", ambiguity_rounds},
                       {"unseen_rounds", unseen_rounds},
                       {"domain", domain},
-                      {"refine", refine}};
+                      {"refine", refine},
+                      {"resolution", resolution}};
   return j.dump();  // nlohmann::json sorts object keys: a stable text
 }
 
@@ -124,6 +130,7 @@ JobParams JobParams::from_json(const std::string& text) {
   p.unseen_rounds = j.value("unseen_rounds", -1);
   p.domain = j.value("domain", std::vector<double>{});
   p.refine = j.value("refine", std::string("certified"));
+  p.resolution = j.value("resolution", std::string("compact"));
   return p;
 }
 
@@ -138,6 +145,7 @@ PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
   o.ambiguity_rounds = ambiguity_rounds;
   o.unseen_rounds = unseen_rounds;
   o.refine = refine;
+  o.resolution = resolution;
   o.threads = server.job_threads;
   o.backend = server.compute ? "opencl" : "cpu";
   o.compute = server.compute;

@@ -18,8 +18,9 @@ struct JobParams {
   int ambiguity_levels = -1;  ///< < 0 = default
   int ambiguity_rounds = -1;
   int unseen_rounds = -1;
-  std::vector<double> domain;        ///< empty, or x0,y0[,z0],x1,y1[,z1]
-  std::string refine = "certified";  ///< PipelineOptions::refine: certified or paper
+  std::vector<double> domain;          ///< empty, or x0,y0[,z0],x1,y1[,z1]
+  std::string refine = "certified";    ///< PipelineOptions::refine: certified or paper
+  std::string resolution = "compact";  ///< PipelineOptions::resolution: compact or full
 
   /// Sets one parameter from its text form; gvd::Error{kInvalidArgument} for an unknown name
   /// or a bad value.

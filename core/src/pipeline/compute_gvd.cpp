@@ -15,6 +15,7 @@
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/refine/pair_certificate.h"
 #include "gvd/refine/refine.h"
+#include "gvd/surface/compact_gvd.h"
 #include "gvd/surface/extract_gvd.h"
 
 namespace gvd {
@@ -39,6 +40,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   if (options.octree_build != "levels" && options.octree_build != "data-parallel") {
     throw Error(ErrorCode::kInvalidArgument,
                 "octree build '" + options.octree_build + "' is unknown (levels or data-parallel)");
+  }
+  if (options.resolution != "compact" && options.resolution != "full") {
+    throw Error(ErrorCode::kInvalidArgument,
+                "resolution '" + options.resolution + "' is unknown (compact or full)");
   }
   if (options.refine != "certified" && options.refine != "paper") {
     throw Error(ErrorCode::kInvalidArgument,
@@ -160,6 +165,14 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   measure_gaps(r.graph, bvh, r.domain, contacts.pairs(), options.threads);
   r.stats.stages.push_back(
       {"graph", sw.seconds(), r.graph.edges.size() * sizeof(DualEdge), r.graph.edges.size()});
+  if (options.resolution == "compact") {
+    // After the graph: its areas and clearances are those of the full-resolution GVD.
+    progress("compact", 0);
+    sw = Stopwatch();
+    const CompactStats compacted = compact_gvd(r.gvd, options.threads);
+    simplices = compacted.simplices_after;
+    r.stats.stages.push_back({"compact", sw.seconds(), 0, compacted.simplices_after});
+  }
 
   // Warnings found by the computation itself.
   if (!contacts.empty()) {

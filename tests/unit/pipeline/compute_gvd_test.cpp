@@ -15,11 +15,12 @@ namespace {
 using test::brute_nearest;
 
 GvdResult run(Scene scene, int max_depth = 0, const std::string& distance = "exact",
-              const std::string& refine = "certified") {
+              const std::string& refine = "certified", const std::string& resolution = "compact") {
   PipelineOptions o;
   o.max_depth = max_depth;
   o.distance = distance;
   o.refine = refine;
+  o.resolution = resolution;
   o.threads = 2;
   return compute_gvd(std::move(scene), o);
 }
@@ -122,8 +123,10 @@ std::set<std::pair<ObjectId, ObjectId>> graph_pairs(const DualGraph& g) {
 }
 
 TEST(ComputeGvd, TwoSegmentsGiveTheirBisector2D) {
+  // Full resolution: the surfaced vertices themselves (the compact output keeps a subset).
   auto r = run(test::make_scene(2, {test::make_segment("a", {0, 0, 0}, {0, 1, 0}),
-                                    test::make_segment("b", {1, 0, 0}, {1, 1, 0})}));
+                                    test::make_segment("b", {1, 0, 0}, {1, 1, 0})}),
+               0, "exact", "certified", "full");
   expect_valid(r);
   // Between the segments the interface is the line x = 0.5.
   const GvdCell& a = r.gvd.cells[0];
@@ -215,7 +218,8 @@ TEST(ComputeGvd, ThinGapBetweenBarsIsTheirExactMidLine2D) {
       for (const bool swap : {false, true}) {
         SCOPED_TRACE("gap " + std::to_string(gap) + " angle " + std::to_string(angle) +
                      (swap ? " swapped" : ""));
-        const GvdResult r = run(parallel_bars(gap, angle, swap));
+        // Full resolution: the surfaced vertices (the compact output keeps a subset).
+        const GvdResult r = run(parallel_bars(gap, angle, swap), 0, "exact", "certified", "full");
         expect_valid(r);
         ASSERT_EQ(graph_pairs(r.graph), (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}}));
         EXPECT_NEAR(r.graph.edges[0].min_clearance, gap / 2, 1e-6 * gap);

@@ -55,6 +55,9 @@ struct PipelineOptions {
   /// the geometry, not 1/gap; PairCertifier) or "paper" (the paper's rule of §3 alone: cells
   /// shrink to the gap over the whole contact).
   std::string refine = "certified";
+  /// "compact" (default: flat parts of the GVD merged into large pieces, compact_gvd.h) or
+  /// "full" (one piece per octree leaf it crosses, as surfaced).
+  std::string resolution = "compact";
   /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
   /// ResultStats::backend so that `gvd info` says so.
   std::string backend_note;

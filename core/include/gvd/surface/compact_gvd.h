@@ -1,0 +1,26 @@
+#pragma once
+
+#include <cstdint>
+
+#include "gvd/surface/gvd.h"
+
+namespace gvd {
+
+struct CompactStats {
+  uint64_t simplices_before = 0;  ///< over all cells (each interface simplex once per side)
+  uint64_t simplices_after = 0;
+};
+
+/// Compact output: the GVD's pieces as large as its geometry needs, not as the octree. A
+/// vertex inside a flat (2D: straight) part of one interface — every simplex around it in one
+/// plane (line), to 1e-12 relative, its link a closed loop — is removed and its star
+/// re-triangulated from the link (ear clipping: the star is a simple, star-shaped polygon, so
+/// the new triangles cover exactly the old ones). Boundary vertices of an interface (where it
+/// meets another interface, the domain box or a curved part) stay, so every cell stays closed
+/// and oriented, no simplex moves off the surface it was on (none can cross an object), and
+/// every simplex keeps both its objects. Curved parts are left as they are. Removed vertices
+/// take their clearance with them: the dual graph must be built before (its clearances and
+/// areas are those of the full-resolution GVD, which this does not change). O(GVD size).
+CompactStats compact_gvd(Gvd& gvd, int threads = 0);
+
+}  // namespace gvd
