@@ -92,6 +92,41 @@ bool nearer_unclaimed(const UnitGeometry& geometry, const SimplexBvh& bvh, Vec3 
 
 double unseen_margin(int dimension, double size) { return (dimension == 2 ? 1e-9 : 0.05) * size; }
 
+// The bisector point of edge (v, w) that surfacing will use: Eq. (1) from the ends' closest
+// points, and on an edge long next to the distance (where those points slide and Eq. (1) can
+// miss the bisector by a good part of the edge) iterated on the exact closest points of the
+// two objects at the estimate, as the surfacer does. Returns the point and, in `claimed2`, the
+// larger squared distance from it to the two objects.
+Vec3 edge_bisector(const DistanceField& field, const SimplexBvh& bvh, uint32_t v, uint32_t w,
+                   double& claimed2) {
+  if (v > w) std::swap(v, w);
+  const Vec3 x0 = field.vertices.position(v), x1 = field.vertices.position(w);
+  Vec3 a = field.closest[field.point[v]], b = field.closest[field.point[w]];
+  Vec3 p = detail::bisector_on_edge(x0, x1, a, b);
+  const double h2 = dist2(x0, x1);
+  constexpr double kCoarse = 0.05;
+  if (h2 > kCoarse * kCoarse * std::min(dist2(p, a), dist2(p, b))) {
+    for (int round = 0; round < 16; ++round) {
+      const ClosestHit ha = bvh.nearest_in_object(p, field.label[v], dist2(p, a));
+      const ClosestHit hb = bvh.nearest_in_object(p, field.label[w], dist2(p, b));
+      if (!ha.found() && !hb.found()) break;
+      if (ha.found()) a = ha.point;
+      if (hb.found()) b = hb.point;
+      const Vec3 next = detail::bisector_on_edge(x0, x1, a, b);
+      const bool moved = dist2(next, p) > 1e-24 * h2;
+      p = next;
+      if (!moved) break;
+    }
+    // The exact distances at the final point.
+    const ClosestHit ha = bvh.nearest_in_object(p, field.label[v], dist2(p, a));
+    const ClosestHit hb = bvh.nearest_in_object(p, field.label[w], dist2(p, b));
+    if (ha.found()) a = ha.point;
+    if (hb.found()) b = hb.point;
+  }
+  claimed2 = std::max(dist2(p, a), dist2(p, b));
+  return p;
+}
+
 // The per-cell part of the unseen test (RefineOptions): true when a face or cell centroid of
 // the GVD is nearer to an object that no vertex of the leaf carries. The edge bisectors are
 // tested once per edge by the caller: their edges (smaller vertex << 32 | larger) are appended
@@ -240,9 +275,8 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
             const uint64_t edge = pairs[starts[k]].first;
             const uint32_t v = static_cast<uint32_t>(edge >> 32);
             const uint32_t w = static_cast<uint32_t>(edge);
-            const Vec3 p = detail::bisector_point(field, v, w);
-            const double claimed = std::max(dist2(p, field.closest[field.point[v]]),
-                                            dist2(p, field.closest[field.point[w]]));
+            double claimed = 0;
+            const Vec3 p = edge_bisector(field, *options.bvh, v, w, claimed);
             const ObjectId pair[2] = {field.label[v], field.label[w]};
             const double length = dist(field.vertices.position(v), field.vertices.position(w));
             flagged[k] = nearer_unclaimed(*options.geometry, *options.bvh, p, claimed, pair, 2,

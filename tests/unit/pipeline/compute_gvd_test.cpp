@@ -4,6 +4,7 @@
 #include <set>
 #include <tuple>
 
+#include "bench/boost_voronoi.h"
 #include "gvd/pipeline/pipeline.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
@@ -439,6 +440,28 @@ TEST(ComputeGvd, NearContactReportsTheTrueGapAndTouchingOnlyWhenUnresolvable) {
       EXPECT_TRUE(warned);
       EXPECT_EQ(e.min_clearance, 0.0);
     }
+  }
+}
+
+// 470 convex polygons cut in 235 pairs, flat-to-flat gaps log-spaced from 1e-3 down to 1e-6 or
+// 1e-7 of the domain: the dual graph is the exact segment Voronoi diagram's (Boost.Polygon),
+// also where a thin wedge of a third object separates two regions at the domain's edge.
+TEST(ComputeGvd, PolygonPairsDualGraphIsTheExactSegmentVoronoiOnes2D) {
+  for (const double gap : {1e-6, 1e-7}) {
+    SCOPED_TRACE("gap " + std::to_string(gap));
+    test::PolygonPairsOptions po;
+    po.min_gap = gap;
+    const GvdResult r = run(test::make_polygon_pairs_2d(po));
+    const bench::BoostAdjacency truth = bench::boost_voronoi_adjacency(r.scene, r.domain.box());
+    std::set<std::pair<ObjectId, ObjectId>> exact;
+    for (const bench::BoostAdjacentPair& p : truth.pairs) exact.insert({p.a, p.b});
+    const std::set<std::pair<ObjectId, ObjectId>> ours = graph_pairs(r.graph);
+    for (const auto& [a, b] : ours)
+      EXPECT_TRUE(exact.count({a, b}))
+          << "only ours: " << r.scene.objects[a].label << "/" << r.scene.objects[b].label;
+    for (const auto& [a, b] : exact)
+      EXPECT_TRUE(ours.count({a, b})) << "only the exact diagram: " << r.scene.objects[a].label
+                                      << "/" << r.scene.objects[b].label;
   }
 }
 
