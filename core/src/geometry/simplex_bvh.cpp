@@ -339,12 +339,22 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
   while (!stack.empty() && best.dist2 > 0) {
     const Entry entry = stack.back();
     stack.pop_back();
-    if (entry.dist2 > best.dist2) continue;
+    // Boxes no nearer than the best pair cannot improve it (ties pruned: across a uniform
+    // gap every facing pair ties).
+    if (best.found ? entry.dist2 >= best.dist2 : entry.dist2 > best.dist2) continue;
     const Node& x = object_nodes_[entry.na];
     const Node& y = object_nodes_[entry.nb];
     if (x.count > 0 && y.count > 0) {
       for (uint32_t i = x.first; i < x.first + x.count; ++i) {
+        const uint32_t ka = object_items_[i];
+        Box ba;
+        for (int k = 0; k < arity_; ++k) ba.extend(corners_[static_cast<size_t>(ka) * arity_ + k]);
         for (uint32_t j = y.first; j < y.first + y.count; ++j) {
+          // The simplices' own boxes first: no nearer than the best pair, no exact test.
+          Box bb;
+          for (int k = 0; k < arity_; ++k)
+            bb.extend(corners_[static_cast<size_t>(object_items_[j]) * arity_ + k]);
+          if (best.found && box_gap2(ba, bb) >= best.dist2) continue;
           Vec3 pa, pb;
           const double d2 = pair_distance(object_items_[i], object_items_[j], pa, pb);
           if (d2 < best.dist2 || (!best.found && d2 <= best.dist2)) {
@@ -370,8 +380,8 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
     }
     for (Entry& c : children) c.dist2 = box_gap2(object_nodes_[c.na].box, object_nodes_[c.nb].box);
     if (children[0].dist2 < children[1].dist2) std::swap(children[0], children[1]);
-    for (const Entry& c : children)
-      if (c.dist2 <= best.dist2) stack.push_back(c);  // the nearer one last: searched first
+    for (const Entry& c : children)  // the nearer one last: searched first
+      if (best.found ? c.dist2 < best.dist2 : c.dist2 <= best.dist2) stack.push_back(c);
   }
   return best;
 }
