@@ -17,7 +17,7 @@ build_packages=(
   opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd
 )
 test_packages=(
-  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev libopenvdb-dev
   ccache clinfo wrk curl python3 clang-format clang-tidy chromium
 )
 runtime_packages=(

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "bench/boost_voronoi.h"
+#include "bench/sphere_lattice.h"
 #include "bench/table1_scenes.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
@@ -646,11 +647,13 @@ int main(int argc, char** argv) {
   if (!scene_dir.empty()) return write_scenes(scene_dir, slow);
   argc = kept;
   register_benchmarks(slow);
+  gvd::bench::register_sphere_lattice_benchmarks();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   print_summary();
   print_thin_gap_summary();
+  gvd::bench::print_sphere_lattice_summary();
   return 0;
 }

@@ -1,0 +1,215 @@
+#include "bench/sphere_lattice.h"
+
+#include <benchmark/benchmark.h>
+#include <malloc.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <optional>
+
+#include "gvd/common/stopwatch.h"
+#include "gvd/pipeline/pipeline.h"
+
+#ifdef GVD_BENCH_OPENVDB
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/MeshToVolume.h>
+#endif
+
+namespace gvd::bench {
+namespace {
+
+SceneObject icosphere(const std::string& label, Vec3 centre, double radius, int subdivisions) {
+  const double t = (1 + std::sqrt(5.0)) / 2;
+  std::vector<Vec3> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+  std::vector<Simplex> f = {{{0, 11, 5}}, {{0, 5, 1}},  {{0, 1, 7}},   {{0, 7, 10}}, {{0, 10, 11}},
+                            {{1, 5, 9}},  {{5, 11, 4}}, {{11, 10, 2}}, {{10, 7, 6}}, {{7, 1, 8}},
+                            {{3, 9, 4}},  {{3, 4, 2}},  {{3, 2, 6}},   {{3, 6, 8}},  {{3, 8, 9}},
+                            {{4, 9, 5}},  {{2, 4, 11}}, {{6, 2, 10}},  {{8, 6, 7}},  {{9, 8, 1}}};
+  for (Vec3& p : v) p = p / norm(p);
+  for (int s = 0; s < subdivisions; ++s) {
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+    auto middle = [&](uint32_t a, uint32_t b) {
+      const auto key = std::minmax(a, b);
+      const auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      const Vec3 m = (v[a] + v[b]) * 0.5;
+      v.push_back(m / norm(m));
+      return mid[key] = static_cast<uint32_t>(v.size() - 1);
+    };
+    std::vector<Simplex> next;
+    for (const Simplex& x : f) {
+      const uint32_t a = x.v[0], b = x.v[1], c = x.v[2];
+      const uint32_t ab = middle(a, b), bc = middle(b, c), ca = middle(c, a);
+      next.push_back({{a, ab, ca}});
+      next.push_back({{b, bc, ab}});
+      next.push_back({{c, ca, bc}});
+      next.push_back({{ab, bc, ca}});
+    }
+    f = std::move(next);
+  }
+  SceneObject o;
+  o.label = label;
+  for (const Vec3& p : v) o.vertices.push_back(centre + p * radius);
+  o.simplices = std::move(f);
+  return o;
+}
+
+bool reset_peak() {
+  malloc_trim(0);
+  std::ofstream f("/proc/self/clear_refs");
+  f << "5";
+  f.flush();
+  return static_cast<bool>(f);
+}
+
+double peak_mib() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return 0;
+}
+
+struct Run {
+  double peak_mib = 0, seconds = 0;
+  uint64_t items = 0;  // gvd: leaves; OpenVDB: active voxels
+  std::string error;
+};
+std::map<std::string, Run>& results() {
+  static std::map<std::string, Run> r;
+  return r;
+}
+
+const Scene& lattice() {
+  static const Scene s = make_sphere_lattice();
+  return s;
+}
+
+void BM_SphereLatticeGvd(benchmark::State& state) {
+  const Scene& scene = lattice();
+  for (auto _ : state) {
+    Run run;
+    reset_peak();
+    Stopwatch sw;
+    try {
+      PipelineOptions o;
+      o.threads = 2;
+      const GvdResult r = compute_gvd(scene, o);
+      run.items = r.stats.leaves;
+      state.counters["leaves"] = static_cast<double>(r.stats.leaves);
+    } catch (const std::exception& e) {
+      run.error = e.what();
+      state.SkipWithError(e.what());
+    }
+    run.seconds = sw.seconds();
+    run.peak_mib = peak_mib();
+    state.counters["peak_rss_MiB"] = run.peak_mib;
+    results()["gvd"] = run;
+  }
+}
+
+#ifdef GVD_BENCH_OPENVDB
+void BM_SphereLatticeOpenVdb(benchmark::State& state) {
+  const Scene& scene = lattice();
+  constexpr double kVoxel = 0.02;
+  constexpr float kBand = 15.0f;
+  openvdb::initialize();
+  for (auto _ : state) {
+    Run run;
+    {
+      // Points in index space (the adapter's contract), all objects in one mesh.
+      std::vector<openvdb::Vec3s> points;
+      std::vector<openvdb::Vec3I> triangles;
+      for (const SceneObject& o : scene.objects) {
+        const auto base = static_cast<uint32_t>(points.size());
+        for (const Vec3& p : o.vertices)
+          points.emplace_back(float(p.x / kVoxel), float(p.y / kVoxel), float(p.z / kVoxel));
+        for (const Simplex& t : o.simplices)
+          triangles.emplace_back(base + t.v[0], base + t.v[1], base + t.v[2]);
+      }
+      reset_peak();
+      Stopwatch sw;
+      const openvdb::math::Transform::Ptr xform =
+          openvdb::math::Transform::createLinearTransform(kVoxel);
+      openvdb::Int32Grid::Ptr index = openvdb::Int32Grid::create(0);
+      openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> mesh(points,
+                                                                                      triangles);
+      const openvdb::FloatGrid::Ptr grid = openvdb::tools::meshToVolume<openvdb::FloatGrid>(
+          mesh, *xform, kBand, kBand, 0, index.get());
+      run.seconds = sw.seconds();
+      run.items = grid->activeVoxelCount();
+      run.peak_mib = peak_mib();
+      state.counters["active_voxels"] = static_cast<double>(run.items);
+      state.counters["peak_rss_MiB"] = run.peak_mib;
+    }
+    results()["openvdb"] = run;
+  }
+}
+#endif
+
+}  // namespace
+
+Scene make_sphere_lattice() {
+  Scene s;
+  s.dimension = 3;
+  for (int k = 0; k < 4; ++k)
+    for (int j = 0; j < 4; ++j)
+      for (int i = 0; i < 4; ++i) {
+        const std::string label =
+            "sphere_" + std::to_string(i) + "_" + std::to_string(j) + "_" + std::to_string(k);
+        s.objects.push_back(icosphere(label, Vec3{double(i), double(j), double(k)}, 0.45, 4));
+      }
+  return s;
+}
+
+void register_sphere_lattice_benchmarks() {
+  benchmark::RegisterBenchmark("BM_SphereLattice/gvd", BM_SphereLatticeGvd)
+      ->Iterations(1)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+#ifdef GVD_BENCH_OPENVDB
+  benchmark::RegisterBenchmark("BM_SphereLattice/openvdb_mesh_to_volume", BM_SphereLatticeOpenVdb)
+      ->Iterations(1)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+#endif
+}
+
+void print_sphere_lattice_summary() {
+  const auto& r = results();
+  if (r.empty()) return;
+  std::printf(
+      "\n== 64-sphere lattice (4x4x4 icospheres, 327,680 triangles): peak memory beside "
+      "OpenVDB ==\n");
+  const auto gvd = r.find("gvd");
+  if (gvd != r.end()) {
+    if (gvd->second.error.empty()) {
+      std::printf("gvd:     %8.1f MiB peak, %.2f s, %llu leaves (%.0f B/leaf)\n",
+                  gvd->second.peak_mib, gvd->second.seconds,
+                  static_cast<unsigned long long>(gvd->second.items),
+                  gvd->second.peak_mib * 1048576.0 / std::max<uint64_t>(1, gvd->second.items));
+    } else {
+      std::printf("gvd:     FAILED: %s\n", gvd->second.error.c_str());
+    }
+  }
+  const auto vdb = r.find("openvdb");
+  if (vdb == r.end()) {
+    std::printf("openvdb: not built (no OpenVDB found at configure time)\n");
+    return;
+  }
+  std::printf(
+      "openvdb: %8.1f MiB peak, %.2f s, %llu active voxels (meshToVolume, voxel 0.02, band "
+      "15 + closest-polygon index grid)\n",
+      vdb->second.peak_mib, vdb->second.seconds,
+      static_cast<unsigned long long>(vdb->second.items));
+  if (gvd != r.end() && gvd->second.error.empty() && vdb->second.peak_mib > 0) {
+    const double ratio = gvd->second.peak_mib / vdb->second.peak_mib;
+    std::printf("target gvd <= 1/6 of OpenVDB: %.2f of it (1/%.1f) %s\n", ratio, 1 / ratio,
+                ratio <= 1.0 / 6 ? "PASS" : "FAIL");
+  }
+}
+
+}  // namespace gvd::bench
