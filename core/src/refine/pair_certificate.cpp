@@ -455,8 +455,8 @@ PairCertifier::Certificate PairCertifier::certify_mirror(
       const double sa = pa.offset - mirror.offset;
       if (!(std::abs(sa) > kFlat)) continue;
       const int side_a = sa < 0 ? -1 : 1;
-      if (!reflects_onto(g, bvh_, mirror, side_a, pair[0], pair[1], near, 4 * kMaxActive) ||
-          !reflects_onto(g, bvh_, mirror, -side_a, pair[1], pair[0], near, 4 * kMaxActive))
+      if (!reflects_onto(g, bvh_, mirror, side_a, pair[0], pair[1], near, kMaxActive) ||
+          !reflects_onto(g, bvh_, mirror, -side_a, pair[1], pair[0], near, kMaxActive))
         continue;
       out.verdict = CellVerdict::kPair;
       out.mirror = true;
