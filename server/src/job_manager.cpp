@@ -27,8 +27,8 @@ namespace {
 // Share of the whole computation each progress stage roughly takes (for the overall fraction
 // of a running job; an estimate, documented as such).
 const std::pair<const char*, double> kStageWeights[] = {
-    {"scene", 0.02},     {"octree", 0.20},  {"distance", 0.30},
-    {"ambiguity", 0.25}, {"surface", 0.18}, {"graph", 0.05},
+    {"scene", 0.02},   {"octree", 0.20}, {"distance", 0.30}, {"ambiguity", 0.25},
+    {"surface", 0.16}, {"graph", 0.05},  {"compact", 0.02},
 };
 
 double stage_weight(const std::string& name) {
