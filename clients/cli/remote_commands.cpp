@@ -195,6 +195,14 @@ class Remote {
                          std::string(server_flag) + ")"};
       }
     }
+    // Choices the server does not offer: refused rather than silently ignored.
+    for (const char* flag : {"--distance", "--octree-build"}) {
+      if (args.has(flag)) {
+        throw UsageError{std::string(flag) +
+                         " is not available from a server (it computes exact distances "
+                         "with the level-by-level octree build); run without --server"};
+      }
+    }
     HttpAnswer a;
     if (files.size() == 1) {
       const std::string ext = lower_extension(files[0]);
