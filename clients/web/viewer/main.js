@@ -252,7 +252,11 @@ async function select(label) {
       name.append(sw, `${n.label}`);
       const info = document.createElement('span');
       info.className = 'muted';
-      info.textContent = `ring ${n.ring} · clearance ${fmt(n.min_clearance, 3)}`;
+      // Clearance: interface to objects; gap: between the two objects (via and this one).
+      const gap = n.gap == null ? '' : ` · gap ${fmt(n.gap, 3)}`;
+      info.textContent = n.touching
+        ? `ring ${n.ring} · touching (clearance 0)${gap}`
+        : `ring ${n.ring} · clearance ${fmt(n.min_clearance, 3)}${gap}`;
       li.append(name, info);
       li.dataset.label = n.label;
       return li;
