@@ -81,6 +81,9 @@ compute options:
   --resolution compact|full  GVD output: flat parts merged into large pieces (default;
                              the dual graph is measured before) or one piece per octree
                              leaf, as surfaced
+  --curved-tolerance F       with compact output, merge curved parts too while they stay
+                             within F of the local clearance of the surfaced GVD and clear
+                             of every object by half of it (default 0: flat parts only)
   --contact-depth N          depth at which refinement between touching or intersecting
                              objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 12000000; peak memory is about
@@ -225,7 +228,7 @@ const std::vector<std::string>& compute_value_flags() {
       "--max-depth",        "--domain",        "--threads",       "--backend",
       "--max-leaves",       "--max-objects",   "--max-simplices", "--ambiguity-levels",
       "--ambiguity-rounds", "--contact-depth", "--unseen-rounds", "--octree-build",
-      "--distance",         "--refine",        "--resolution"};
+      "--distance",         "--refine",        "--resolution",    "--curved-tolerance"};
   return flags;
 }
 
@@ -254,6 +257,11 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
   options.resolution = args.value("--resolution").value_or("compact");
   if (options.resolution != "compact" && options.resolution != "full")
     throw UsageError{"--resolution must be compact or full"};
+  if (const auto t = args.numbers("--curved-tolerance")) {
+    if (t->size() != 1 || !((*t)[0] >= 0 && (*t)[0] < 1))
+      throw UsageError{"--curved-tolerance expects one number in [0, 1)"};
+    options.curved_tolerance = (*t)[0];
+  }
   options.refine = args.value("--refine").value_or("certified");
   if (options.refine != "certified" && options.refine != "paper")
     throw UsageError{"--refine must be certified or paper"};

@@ -60,7 +60,7 @@ constexpr std::array<ProblemExit, 22> kProblemExits = {{
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a
 // computation the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 8> kJobParams = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 9> kJobParams = {{
     {"--max-depth", "max_depth"},
     {"--contact-depth", "contact_depth"},
     {"--ambiguity-levels", "ambiguity_levels"},
@@ -69,6 +69,7 @@ constexpr std::array<std::pair<std::string_view, std::string_view>, 8> kJobParam
     {"--domain", "domain"},
     {"--refine", "refine"},
     {"--resolution", "resolution"},
+    {"--curved-tolerance", "curved_tolerance"},
 }};
 constexpr std::array<std::pair<std::string_view, std::string_view>, 5> kServerSide = {{
     {"--threads", "--job-threads"},

@@ -12,7 +12,7 @@ namespace {
 
 const char* const kNames[] = {"max_depth",        "contact_depth", "ambiguity_levels",
                               "ambiguity_rounds", "unseen_rounds", "domain",
-                              "refine",           "resolution"};
+                              "refine",           "resolution",    "curved_tolerance"};
 
 [[noreturn]] void bad(const std::string& detail) {
   throw Error(ErrorCode::kInvalidArgument, detail);
@@ -62,6 +62,14 @@ void JobParams::set(const std::string& name, const std::string& value) {
       bad("parameter \"resolution\" must be compact or full, got \"" + value + "\"");
     }
     resolution = value;
+  } else if (name == "curved_tolerance") {
+    double v = -1;
+    const char* end = value.data() + value.size();
+    const auto [ptr, ec] = std::from_chars(value.data(), end, v);
+    if (value.empty() || ec != std::errc() || ptr != end || !(v >= 0 && v < 1)) {
+      bad("parameter \"curved_tolerance\" must be a number in [0, 1), got \"" + value + "\"");
+    }
+    curved_tolerance = v;
   } else if (name == "domain") {
     std::vector<double> box;
     std::stringstream s(value);
@@ -82,7 +90,7 @@ void JobParams::set(const std::string& name, const std::string& value) {
   } else {
     bad("unknown parameter \"" + name +
         "\" (known: max_depth, contact_depth, ambiguity_levels, ambiguity_rounds, "
-        "unseen_rounds, domain, refine, resolution)");
+        "unseen_rounds, domain, refine, resolution, curved_tolerance)");
   }
 }
 
@@ -116,7 +124,8 @@ std::string JobParams::to_json() const {
                       {"unseen_rounds", unseen_rounds},
                       {"domain", domain},
                       {"refine", refine},
-                      {"resolution", resolution}};
+                      {"resolution", resolution},
+                      {"curved_tolerance", curved_tolerance}};
   return j.dump();  // nlohmann::json sorts object keys: a stable text
 }
 
@@ -131,6 +140,7 @@ JobParams JobParams::from_json(const std::string& text) {
   p.domain = j.value("domain", std::vector<double>{});
   p.refine = j.value("refine", std::string("certified"));
   p.resolution = j.value("resolution", std::string("compact"));
+  p.curved_tolerance = j.value("curved_tolerance", 0.0);
   return p;
 }
 
@@ -146,6 +156,7 @@ PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
   o.unseen_rounds = unseen_rounds;
   o.refine = refine;
   o.resolution = resolution;
+  o.curved_tolerance = curved_tolerance;
   o.threads = server.job_threads;
   o.backend = server.compute ? "opencl" : "cpu";
   o.compute = server.compute;

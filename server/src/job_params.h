@@ -21,6 +21,7 @@ struct JobParams {
   std::vector<double> domain;          ///< empty, or x0,y0[,z0],x1,y1[,z1]
   std::string refine = "certified";    ///< PipelineOptions::refine: certified or paper
   std::string resolution = "compact";  ///< PipelineOptions::resolution: compact or full
+  double curved_tolerance = 0;         ///< PipelineOptions::curved_tolerance, in [0, 1)
 
   /// Sets one parameter from its text form; gvd::Error{kInvalidArgument} for an unknown name
   /// or a bad value.

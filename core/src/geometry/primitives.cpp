@@ -231,6 +231,16 @@ double simplex_simplex_closest(int dimension, const Vec3* q, const Vec3* s, Vec3
                             Vec3{s[0].x, s[0].y, 0}, Vec3{s[1].x, s[1].y, 0}, on_q, b);
     return d2;
   }
+  for (int i = 0; i < 3; ++i) {
+    if (segment_crosses_triangle(s[i], s[(i + 1) % 3], q)) {
+      on_q = closest_point_on_triangle(s[i], q[0], q[1], q[2]);
+      return 0;
+    }
+    if (segment_crosses_triangle(q[i], q[(i + 1) % 3], s)) {
+      on_q = q[i];
+      return 0;
+    }
+  }
   double best = 1e300;
   for (int i = 0; i < 3; ++i) {
     const Vec3 on = closest_point_on_triangle(s[i], q[0], q[1], q[2]);

@@ -169,7 +169,12 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     // After the graph: its areas and clearances are those of the full-resolution GVD.
     progress("compact", 0);
     sw = Stopwatch();
-    const CompactStats compacted = compact_gvd(r.gvd, options.threads);
+    CompactOptions co;
+    co.threads = options.threads;
+    co.curved_tolerance = options.curved_tolerance;
+    co.bvh = &bvh;
+    co.domain = &r.domain;
+    const CompactStats compacted = compact_gvd(r.gvd, co);
     simplices = compacted.simplices_after;
     r.stats.stages.push_back({"compact", sw.seconds(), 0, compacted.simplices_after});
   }

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "gvd/common/parallel.h"
+#include "gvd/geometry/simplex_bvh.h"
 
 namespace gvd {
 namespace {
@@ -93,7 +94,15 @@ bool ear_clip(const std::vector<double>& x, const std::vector<double>& y,
   return true;
 }
 
-void compact_cell_3d(GvdCell& cell) {
+// Curved stars: where the removal may move the surface (`tolerance` > 0), the bound of how far
+// each triangle is from the surfaced GVD, and what every new triangle must keep clear of.
+struct CurvedRemoval {
+  double tolerance = 0;  // of the least clearance at the star's vertices
+  const SimplexBvh* bvh = nullptr;
+  const Domain* domain = nullptr;
+};
+
+void compact_cell_3d(GvdCell& cell, const CurvedRemoval& curved) {
   const size_t nv = cell.positions.size();
   std::vector<uint32_t>& idx = cell.indices;
   const size_t nt0 = idx.size() / 3;
@@ -108,6 +117,7 @@ void compact_cell_3d(GvdCell& cell) {
   }
   std::vector<uint32_t> head(nv, ~0u), next, added;  // added[i]: a new triangle, next[i]: link
   std::vector<uint8_t> dead(nt0, 0);
+  std::vector<double> error(nt0, 0.0);  // how far each triangle may be from the surfaced GVD
   std::vector<uint32_t> around, link, made, sorted_link;
   std::vector<std::pair<uint32_t, uint32_t>> edges;
   std::vector<double> px, py;
@@ -157,17 +167,33 @@ void compact_cell_3d(GvdCell& cell) {
                  c = cell.positions[idx[3 * t + 2]];
       n = n + cross(b - a, c - a);
     }
-    bool flat = radius > 0 && norm(n) > 0;
-    if (!flat) continue;
+    if (!(radius > 0 && norm(n) > 0)) continue;
     n = n / norm(n);
+    // Every triangle facing along n (within 60 degrees when the star is curved, so that it
+    // projects onto the plane without folding).
+    double least_cos = 1;
     for (uint32_t t : around) {
       const Vec3 a = cell.positions[idx[3 * t]], b = cell.positions[idx[3 * t + 1]],
                  c = cell.positions[idx[3 * t + 2]];
-      flat &= dot(cross(b - a, c - a), n) > 0;
+      const Vec3 m = cross(b - a, c - a);
+      least_cos = std::min(least_cos, dot(m, n) / norm(m));
     }
+    if (!(least_cos > 0)) continue;
     const double tolerance = kFlat * radius + 1e-15 * magnitude;
-    for (uint32_t w : link) flat &= std::abs(dot(cell.positions[w] - o, n)) <= tolerance;
-    if (!flat) continue;
+    double off = 0;  // how far the link is from the plane through v
+    for (uint32_t w : link) off = std::max(off, std::abs(dot(cell.positions[w] - o, n)));
+    double star_error = 0;
+    for (uint32_t t : around) star_error = std::max(star_error, error[t]);
+    double new_error = star_error;
+    if (!(off <= tolerance)) {
+      // Curved: the old star and the new patch both lie within `off` of the plane over the
+      // same region of it, so they are within 2 off of each other.
+      if (curved.tolerance <= 0 || curved.bvh == nullptr || !(least_cos > 0.5)) continue;
+      double clearance = cell.clearance[v];
+      for (uint32_t w : link) clearance = std::min(clearance, cell.clearance[w]);
+      new_error = star_error + 2 * off;
+      if (!(new_error <= curved.tolerance * clearance)) continue;
+    }
     // The link in the plane's coordinates (counter-clockwise seen along n, as the triangles).
     Vec3 u = std::abs(n.x) < 0.9 ? cross(n, Vec3{1, 0, 0}) : cross(n, Vec3{0, 1, 0});
     u = u / norm(u);
@@ -180,6 +206,21 @@ void compact_cell_3d(GvdCell& cell) {
     }
     made.clear();
     if (!ear_clip(px, py, made)) continue;
+    if (new_error > star_error) {
+      // A moved piece must keep clear of every object by half the least clearance of its
+      // star (exact triangle distances; crossings count as 0).
+      double clearance = cell.clearance[v];
+      for (uint32_t w : link) clearance = std::min(clearance, cell.clearance[w]);
+      const double keep = 0.5 * clearance / curved.domain->side;
+      bool clear = true;
+      for (size_t k = 0; k < made.size() && clear; k += 3) {
+        Vec3 q[3];
+        for (int j = 0; j < 3; ++j)
+          q[j] = curved.domain->to_unit(cell.positions[link[made[k + j]]]);
+        clear = !curved.bvh->closest_to_simplex(q, keep * keep).found();
+      }
+      if (!clear) continue;
+    }
     for (uint32_t t : around) dead[t] = 1;
     for (size_t k = 0; k < made.size(); k += 3) {
       const uint32_t t = static_cast<uint32_t>(idx.size() / 3);
@@ -191,6 +232,7 @@ void compact_cell_3d(GvdCell& cell) {
         head[w] = static_cast<uint32_t>(added.size() - 1);
       }
       dead.push_back(0);
+      error.push_back(new_error);
     }
   }
   std::vector<uint32_t> kept;
@@ -221,7 +263,14 @@ void drop_unused(GvdCell& cell) {
 
 }  // namespace
 
-CompactStats compact_gvd(Gvd& gvd, int threads) {
+CompactStats compact_gvd(Gvd& gvd, const CompactOptions& options) {
+  const int threads = options.threads;
+  CurvedRemoval curved;
+  if (options.bvh != nullptr && options.domain != nullptr) {
+    curved.tolerance = options.curved_tolerance;
+    curved.bvh = options.bvh;
+    curved.domain = options.domain;
+  }
   const int arity = gvd.dimension == 2 ? 2 : 3;
   CompactStats stats;
   for (const GvdCell& c : gvd.cells) stats.simplices_before += c.indices.size() / arity;
@@ -233,7 +282,7 @@ CompactStats compact_gvd(Gvd& gvd, int threads) {
           if (gvd.dimension == 2) {
             compact_cell_2d(cell);
           } else {
-            compact_cell_3d(cell);
+            compact_cell_3d(cell, curved);
           }
           drop_unused(cell);
         }

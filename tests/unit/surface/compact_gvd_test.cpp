@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
@@ -97,6 +98,46 @@ TEST(CompactGvd, FlatInterfacesShrinkToTheirOutlines3D) {
   so.cell = 0.1;
   const Scene shaft = test::make_shaft_in_bore(so);
   expect_same_surface(run(shaft, "full"), run(shaft, "compact"), 1.5);
+}
+
+// With a curved tolerance the curved parts merge too: cells stay closed, only surfaced
+// vertices remain, nothing crosses an object, and volumes and interface areas move no more
+// than the tolerance allows (each point within tolerance x its local clearance).
+TEST(CompactGvd, CurvedInterfacesMergeWithinTheirTolerance3D) {
+  const Scene scene =
+      test::make_scene(3, {test::make_sphere("ball", {0, 0, 0}, 1.0, 16, 32),
+                           test::make_box("box", {-1.01, -1.01, -1.01}, {1.01, 1.01, 1.01})});
+  PipelineOptions o;
+  o.threads = 2;
+  o.resolution = "full";
+  const GvdResult full = compute_gvd(scene, o);
+  o.resolution = "compact";
+  o.curved_tolerance = 1e-2;
+  const GvdResult compact = compute_gvd(scene, o);
+  EXPECT_EQ(test::count_gvd_object_crossings(compact.scene, compact.gvd), 0u);
+  size_t before = 0, after = 0;
+  for (size_t i = 0; i < full.gvd.cells.size(); ++i) {
+    const GvdCell& f = full.gvd.cells[i];
+    const GvdCell& c = compact.gvd.cells[i];
+    before += f.indices.size() / 3;
+    after += c.indices.size() / 3;
+    EXPECT_EQ(test::count_open_edges(c, 3), 0u) << "cell " << i << " is not closed";
+    double largest = 0;
+    for (double x : f.clearance) largest = std::max(largest, x);
+    const Measures mf = measure(f, 3), mc = measure(c, 3);
+    double area = 0;
+    for (const auto& [other, a] : mf.interface) area += a;
+    EXPECT_NEAR(mc.enclosed, mf.enclosed, o.curved_tolerance * largest * area) << "cell " << i;
+    std::set<std::tuple<double, double, double, ObjectId>> surfaced;
+    for (size_t v = 0; v < f.positions.size(); ++v)
+      surfaced.insert({f.positions[v].x, f.positions[v].y, f.positions[v].z, f.other[v]});
+    for (size_t v = 0; v < c.positions.size(); ++v) {
+      ASSERT_TRUE(
+          surfaced.count({c.positions[v].x, c.positions[v].y, c.positions[v].z, c.other[v]}))
+          << "cell " << i << " vertex " << v << " was not surfaced";
+    }
+  }
+  EXPECT_LE(after * 3, before * 2) << before << " simplices full, " << after << " compact";
 }
 
 TEST(CompactGvd, CurvedInterfacesKeepTheirPieces3D) {

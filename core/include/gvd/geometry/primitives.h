@@ -54,10 +54,10 @@ double segment_triangle_dist2(Vec3 p0, Vec3 p1, Vec3 a, Vec3 b, Vec3 c);
 /// distance from the midpoint less half the length.
 double segment_box_distance2_bound(Vec3 p0, Vec3 p1, const Box& b);
 
-/// Squared distance between two simplices that do not cross (2D: segments q[0..1], s[0..1];
-/// 3D: triangles q[0..2], s[0..2]) and the point of q nearest to s: the least of the
-/// vertex-to-simplex and edge-to-edge distances, where the closest pair of two disjoint
-/// convex polygons lies.
+/// Squared distance between two simplices (2D: segments q[0..1], s[0..1]; 3D: triangles
+/// q[0..2], s[0..2]) and a point of q nearest to s: 0 when they cross (a point near the
+/// crossing), else the least of the vertex-to-simplex and edge-to-edge distances, where the
+/// closest pair of two disjoint convex polygons lies.
 double simplex_simplex_closest(int dimension, const Vec3* q, const Vec3* s, Vec3& on_q);
 
 }  // namespace gvd

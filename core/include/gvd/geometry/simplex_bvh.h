@@ -53,7 +53,7 @@ class SimplexBvh {
   /// `max_dist2` when nothing is nearer. Exact up to rounding.
   double segment_distance2(Vec3 a, Vec3 b, double max_dist2 = 1e300) const;
   /// The least squared distance between a simplex q of the BVH's dimension (2D: segment
-  /// q[0..1], 3D: triangle q[0..2]) that crosses none of its simplices and any of them, with
+  /// q[0..1], 3D: triangle q[0..2]) and any of its simplices (0 when q crosses one), with
   /// the point of q where it is reached (`point`); not found when nothing is nearer than
   /// `max_dist2`. Exact up to rounding (simplex_simplex_closest).
   ClosestHit closest_to_simplex(const Vec3* q, double max_dist2 = 1e300) const;

@@ -58,6 +58,9 @@ struct PipelineOptions {
   /// "compact" (default: flat parts of the GVD merged into large pieces, compact_gvd.h) or
   /// "full" (one piece per octree leaf it crosses, as surfaced).
   std::string resolution = "compact";
+  /// With "compact": curved parts are merged too while they stay within this fraction of the
+  /// local clearance of the surfaced GVD (compact_gvd.h); 0 = flat parts only.
+  double curved_tolerance = 0;
   /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
   /// ResultStats::backend so that `gvd info` says so.
   std::string backend_note;

@@ -2,6 +2,8 @@
 
 #include <cstdint>
 
+#include "gvd/geometry/simplex_bvh.h"
+#include "gvd/scene/scene.h"
 #include "gvd/surface/gvd.h"
 
 namespace gvd {
@@ -18,9 +20,23 @@ struct CompactStats {
 /// the new triangles cover exactly the old ones). Boundary vertices of an interface (where it
 /// meets another interface, the domain box or a curved part) stay, so every cell stays closed
 /// and oriented, no simplex moves off the surface it was on (none can cross an object), and
-/// every simplex keeps both its objects. Curved parts are left as they are. Removed vertices
+/// every simplex keeps both its objects. Curved parts are left as they are unless
+/// CompactOptions::curved_tolerance allows them to move (then the cells stay closed and
+/// oriented, and every piece stays clear of the objects, but volumes and areas change within
+/// that tolerance). Removed vertices
 /// take their clearance with them: the dual graph must be built before (its clearances and
 /// areas are those of the full-resolution GVD, which this does not change). O(GVD size).
-CompactStats compact_gvd(Gvd& gvd, int threads = 0);
+struct CompactOptions {
+  int threads = 0;
+  /// Curved parts too: a vertex whose star is not flat is removed when the new patch stays
+  /// within this fraction of the least clearance at the star's vertices of the surfaced GVD
+  /// (the bound accumulates over removals) and every new triangle keeps clear of every
+  /// object by half that clearance (exact triangle distances through `bvh`, unit domain, and
+  /// `domain`). 0, or no bvh: flat parts only (nothing moves).
+  double curved_tolerance = 0;
+  const SimplexBvh* bvh = nullptr;
+  const Domain* domain = nullptr;
+};
+CompactStats compact_gvd(Gvd& gvd, const CompactOptions& options = {});
 
 }  // namespace gvd
