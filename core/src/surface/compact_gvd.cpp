@@ -206,11 +206,15 @@ void compact_cell_3d(GvdCell& cell, const CurvedRemoval& curved) {
     }
     made.clear();
     if (!ear_clip(px, py, made)) continue;
-    if (new_error > star_error) {
-      // A moved piece must keep clear of every object by half the least clearance of its
-      // star (exact triangle distances; crossings count as 0).
-      double clearance = cell.clearance[v];
-      for (uint32_t w : link) clearance = std::min(clearance, cell.clearance[w]);
+    double least_clearance = cell.clearance[v];
+    for (uint32_t w : link) least_clearance = std::min(least_clearance, cell.clearance[w]);
+    // A moved piece must keep clear of every object by half the least clearance of its star.
+    // The distance to the objects is 1-Lipschitz: the old star's points are at least that
+    // clearance less the star's radius away, the new patch within new_error of them, so the
+    // exact test is needed only when those two together exceed half the clearance.
+    if (new_error > star_error && radius + new_error > 0.5 * least_clearance) {
+      // Exact triangle distances; crossings count as 0.
+      const double clearance = least_clearance;
       const double keep = 0.5 * clearance / curved.domain->side;
       bool clear = true;
       for (size_t k = 0; k < made.size() && clear; k += 3) {
