@@ -176,7 +176,9 @@ void compact_cell_3d(GvdCell& cell, const CurvedRemoval& curved) {
       const Vec3 a = cell.positions[idx[3 * t]], b = cell.positions[idx[3 * t + 1]],
                  c = cell.positions[idx[3 * t + 2]];
       const Vec3 m = cross(b - a, c - a);
-      least_cos = std::min(least_cos, dot(m, n) / norm(m));
+      const double l = norm(m);
+      least_cos = l > 0 ? std::min(least_cos, dot(m, n) / l) : -1;  // a sliver: keep the star
+      if (!(least_cos > 0)) break;
     }
     if (!(least_cos > 0)) continue;
     const double tolerance = kFlat * radius + 1e-15 * magnitude;
@@ -204,6 +206,14 @@ void compact_cell_3d(GvdCell& cell, const CurvedRemoval& curved) {
       px.push_back(dot(cell.positions[w] - o, u));
       py.push_back(dot(cell.positions[w] - o, w2));
     }
+    // The link goes once around v in the plane (its angles add up to one turn), so it bounds
+    // the star's projection and ear clipping covers exactly the star.
+    double turn = 0;
+    for (size_t i = 0; i < link.size(); ++i) {
+      const size_t j = (i + 1) % link.size();
+      turn += std::atan2(px[i] * py[j] - py[i] * px[j], px[i] * px[j] + py[i] * py[j]);
+    }
+    if (!(std::abs(turn - 2 * std::acos(-1.0)) < 1e-6)) continue;
     made.clear();
     if (!ear_clip(px, py, made)) continue;
     double least_clearance = cell.clearance[v];
