@@ -54,6 +54,7 @@ test-asan: deps
 # Best of 3 per scene (this shared VM's timings vary by up to +-30 % from run to run).
 bench: build
 	$(BUILD)/tests/gvd_bench --benchmark_repetitions=3
+	@if [ -x $(BUILD)/tests/gvd_bench_openvdb ]; then $(BUILD)/tests/gvd_bench_openvdb; fi
 	@$(MAKE) --no-print-directory bench-server
 
 # gvd-server under wrk on loopback (bounded runs, 127.0.0.1 only).

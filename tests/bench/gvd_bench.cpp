@@ -88,26 +88,8 @@ const Scene& scene_of(const SceneCase& c) {
   return it->second;
 }
 
-/// Resets the peak resident set size (Linux >= 4.0: "5" > /proc/self/clear_refs), after
-/// handing the memory earlier benchmarks freed back to the system (else it stays resident
-/// and counts towards this scene's peak).
-bool reset_peak_rss() {
-  malloc_trim(0);
-  std::ofstream f("/proc/self/clear_refs");
-  f << "5";
-  f.flush();
-  return static_cast<bool>(f);
-}
-
-/// VmHWM of this process in MiB, 0 when unavailable.
-double peak_rss_mib() {
-  std::ifstream f("/proc/self/status");
-  std::string line;
-  while (std::getline(f, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
-  }
-  return 0;
-}
+using gvd::bench::peak_rss_mib;
+using gvd::bench::reset_peak_rss;
 
 /// What the summary prints for one scene (the last iteration's figures).
 struct SceneRun {

@@ -9,6 +9,7 @@
 #include <map>
 #include <optional>
 
+#include "gvd/common/peak_memory.h"
 #include "gvd/common/stopwatch.h"
 #include "gvd/pipeline/pipeline.h"
 
@@ -57,22 +58,6 @@ SceneObject icosphere(const std::string& label, Vec3 centre, double radius, int 
   return o;
 }
 
-bool reset_peak() {
-  malloc_trim(0);
-  std::ofstream f("/proc/self/clear_refs");
-  f << "5";
-  f.flush();
-  return static_cast<bool>(f);
-}
-
-double peak_mib() {
-  std::ifstream f("/proc/self/status");
-  std::string line;
-  while (std::getline(f, line))
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  return 0;
-}
-
 struct Run {
   double peak_mib = 0, seconds = 0;
   uint64_t items = 0;  // gvd: leaves; OpenVDB: active voxels
@@ -92,7 +77,7 @@ void BM_SphereLatticeGvd(benchmark::State& state) {
   const Scene& scene = lattice();
   for (auto _ : state) {
     Run run;
-    reset_peak();
+    reset_peak_rss();
     Stopwatch sw;
     try {
       PipelineOptions o;
@@ -105,7 +90,7 @@ void BM_SphereLatticeGvd(benchmark::State& state) {
       state.SkipWithError(e.what());
     }
     run.seconds = sw.seconds();
-    run.peak_mib = peak_mib();
+    run.peak_mib = peak_rss_mib();
     state.counters["peak_rss_MiB"] = run.peak_mib;
     results()["gvd"] = run;
   }
@@ -130,7 +115,7 @@ void BM_SphereLatticeOpenVdb(benchmark::State& state) {
         for (const Simplex& t : o.simplices)
           triangles.emplace_back(base + t.v[0], base + t.v[1], base + t.v[2]);
       }
-      reset_peak();
+      reset_peak_rss();
       Stopwatch sw;
       const openvdb::math::Transform::Ptr xform =
           openvdb::math::Transform::createLinearTransform(kVoxel);
@@ -141,7 +126,7 @@ void BM_SphereLatticeOpenVdb(benchmark::State& state) {
           mesh, *xform, kBand, kBand, 0, index.get());
       run.seconds = sw.seconds();
       run.items = grid->activeVoxelCount();
-      run.peak_mib = peak_mib();
+      run.peak_mib = peak_rss_mib();
       state.counters["active_voxels"] = static_cast<double>(run.items);
       state.counters["peak_rss_MiB"] = run.peak_mib;
     }
@@ -151,6 +136,16 @@ void BM_SphereLatticeOpenVdb(benchmark::State& state) {
 #endif
 
 }  // namespace
+
+bool reset_peak_rss() {
+  malloc_trim(0);
+  std::ofstream f("/proc/self/clear_refs");
+  f << "5";
+  f.flush();
+  return static_cast<bool>(f);
+}
+
+double peak_rss_mib() { return static_cast<double>(peak_rss_bytes()) / 1048576.0; }
 
 Scene make_sphere_lattice() {
   Scene s;
@@ -197,7 +192,8 @@ void print_sphere_lattice_summary() {
   }
   const auto vdb = r.find("openvdb");
   if (vdb == r.end()) {
-    std::printf("openvdb: not built (no OpenVDB found at configure time)\n");
+    std::printf(
+        "openvdb: not in this program (build/tests/gvd_bench_openvdb runs both side by side)\n");
     return;
   }
   std::printf(

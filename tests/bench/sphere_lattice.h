@@ -10,6 +10,13 @@
 
 namespace gvd::bench {
 
+/// Resets the peak resident set size (Linux >= 4.0: "5" > /proc/self/clear_refs), after
+/// handing the memory earlier benchmarks freed back to the system (else it stays resident
+/// and counts towards the next run's peak). False when the kernel refuses.
+bool reset_peak_rss();
+/// VmHWM of this process in MiB (common/peak_memory.h), 0 when unavailable.
+double peak_rss_mib();
+
 /// 4 x 4 x 4 icospheres of 4 subdivisions (5,120 triangles each), radius 0.45, centres on
 /// the unit lattice (gaps 0.1).
 Scene make_sphere_lattice();

@@ -43,6 +43,14 @@ SceneObject make_sheet(const std::string& label, double z, int n) {
   return o;
 }
 
+// The unit-domain box of a cube with corner lo_user and side size_user (user units).
+Box user_cube(const World& s, Vec3 lo_user, double size_user) {
+  Box b;
+  b.lo = s.domain.to_unit(lo_user);
+  b.hi = b.lo + Vec3{size_user, size_user, size_user} / s.domain.side;
+  return b;
+}
+
 // The brute-force audit: `samples` points of a certified cell (corners, centre and random
 // points) keep to the certificate.
 void audit_cell(const World& s, const PairCertifier::Certificate& c, const Box& unit_box,
@@ -118,12 +126,7 @@ TEST(PairCertifier, ParallelPlatesAreCertifiedAcrossTheGap) {
                                      test::make_box("high", {0, 0, 0.1001}, {1, 1, 0.2})}));
   const PairCertifier certifier(s.geometry, s.bvh);
   // A cell in the middle of the plates holding both faces and the gap (0.1 .. 0.1001).
-  auto cell_at = [&](Vec3 lo_user, double size_user) {
-    Box b;
-    b.lo = s.domain.to_unit(lo_user);
-    b.hi = b.lo + Vec3{size_user, size_user, size_user} / s.domain.side;
-    return b;
-  };
+  auto cell_at = [&](Vec3 lo_user, double size_user) { return user_cube(s, lo_user, size_user); };
   const PairCertifier::Certificate mid = certifier.certify(cell_at({0.45, 0.45, 0.09}, 0.03));
   ASSERT_EQ(mid.verdict, CellVerdict::kPair);
   EXPECT_EQ(mid.a, 0u);
@@ -148,12 +151,7 @@ TEST(PairCertifier, MirrorRimsNeedExactMirrorImages) {
   const World s(test::make_scene(3, {test::make_box("low", {0, 0, 0}, {1, 1, 0.1}),
                                      test::make_box("high", {0, 0, 0.1001}, {0.998, 1, 0.2})}));
   const PairCertifier certifier(s.geometry, s.bvh);
-  auto cell_at = [&](Vec3 lo_user, double size_user) {
-    Box b;
-    b.lo = s.domain.to_unit(lo_user);
-    b.hi = b.lo + Vec3{size_user, size_user, size_user} / s.domain.side;
-    return b;
-  };
+  auto cell_at = [&](Vec3 lo_user, double size_user) { return user_cube(s, lo_user, size_user); };
   EXPECT_EQ(certifier.certify(cell_at({0.985, 0.45, 0.09}, 0.03)).verdict, CellVerdict::kSplit);
   const PairCertifier::Certificate rim = certifier.certify(cell_at({-0.015, 0.45, 0.09}, 0.03));
   ASSERT_EQ(rim.verdict, CellVerdict::kPair);
@@ -163,10 +161,8 @@ TEST(PairCertifier, MirrorRimsNeedExactMirrorImages) {
   const World wide(test::make_scene(3, {test::make_box("low", {0, 0, 0}, {1, 1, 0.1}),
                                         test::make_box("high", {0, 0, 0.13}, {1, 1, 0.23})}));
   const PairCertifier wide_certifier(wide.geometry, wide.bvh);
-  Box wide_rim;
-  wide_rim.lo = wide.domain.to_unit({0.985, 0.45, 0.09});
-  wide_rim.hi = wide_rim.lo + Vec3{0.03, 0.03, 0.03} / wide.domain.side;
-  EXPECT_EQ(wide_certifier.certify(wide_rim).verdict, CellVerdict::kSplit);
+  EXPECT_EQ(wide_certifier.certify(user_cube(wide, {0.985, 0.45, 0.09}, 0.03)).verdict,
+            CellVerdict::kSplit);
 }
 
 TEST(PairCertifier, MirrorCellsHoldUnderBruteForce3D) {

@@ -51,6 +51,18 @@ Measures measure(const GvdCell& cell, int dim) {
   return m;
 }
 
+// Every vertex of the compact cell is one the surfacer made (same position, same pair).
+void expect_only_surfaced_vertices(const GvdCell& full, const GvdCell& compact, size_t cell) {
+  std::set<std::tuple<double, double, double, ObjectId>> surfaced;
+  for (size_t v = 0; v < full.positions.size(); ++v)
+    surfaced.insert({full.positions[v].x, full.positions[v].y, full.positions[v].z, full.other[v]});
+  for (size_t v = 0; v < compact.positions.size(); ++v) {
+    const Vec3 p = compact.positions[v];
+    EXPECT_TRUE(surfaced.count({p.x, p.y, p.z, compact.other[v]}))
+        << "cell " << cell << " vertex " << v << " was not surfaced";
+  }
+}
+
 void expect_same_surface(const GvdResult& full, const GvdResult& compact, double reduction) {
   const int dim = full.scene.dimension;
   ASSERT_EQ(full.gvd.cells.size(), compact.gvd.cells.size());
@@ -67,14 +79,7 @@ void expect_same_surface(const GvdResult& full, const GvdResult& compact, double
     ASSERT_EQ(mc.interface.size(), mf.interface.size()) << "cell " << i;
     for (const auto& [other, area] : mf.interface)
       EXPECT_NEAR(mc.interface.at(other), area, 1e-9 * area) << "cell " << i << " / " << other;
-    std::set<std::tuple<double, double, double, ObjectId>> surfaced;
-    for (size_t v = 0; v < f.positions.size(); ++v)
-      surfaced.insert({f.positions[v].x, f.positions[v].y, f.positions[v].z, f.other[v]});
-    for (size_t v = 0; v < c.positions.size(); ++v) {
-      ASSERT_TRUE(
-          surfaced.count({c.positions[v].x, c.positions[v].y, c.positions[v].z, c.other[v]}))
-          << "cell " << i << " vertex " << v << " was not surfaced";
-    }
+    expect_only_surfaced_vertices(f, c, i);
   }
   EXPECT_LE(after * reduction, before) << before / (dim == 2 ? 2 : 3) << " simplices full, "
                                        << after / (dim == 2 ? 2 : 3) << " compact";
@@ -128,14 +133,7 @@ TEST(CompactGvd, CurvedInterfacesMergeWithinTheirTolerance3D) {
     double area = 0;
     for (const auto& [other, a] : mf.interface) area += a;
     EXPECT_NEAR(mc.enclosed, mf.enclosed, o.curved_tolerance * largest * area) << "cell " << i;
-    std::set<std::tuple<double, double, double, ObjectId>> surfaced;
-    for (size_t v = 0; v < f.positions.size(); ++v)
-      surfaced.insert({f.positions[v].x, f.positions[v].y, f.positions[v].z, f.other[v]});
-    for (size_t v = 0; v < c.positions.size(); ++v) {
-      ASSERT_TRUE(
-          surfaced.count({c.positions[v].x, c.positions[v].y, c.positions[v].z, c.other[v]}))
-          << "cell " << i << " vertex " << v << " was not surfaced";
-    }
+    expect_only_surfaced_vertices(f, c, i);
   }
   EXPECT_LE(after * 3, before * 2) << before << " simplices full, " << after << " compact";
 }
