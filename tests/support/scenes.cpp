@@ -5,6 +5,11 @@
 
 namespace gvd::test {
 
+Vec3 rotate(Vec3 p, Vec3 axis, double angle) {
+  const double c = std::cos(angle), s = std::sin(angle);
+  return p * c + cross(axis, p) * s + axis * (dot(axis, p) * (1 - c));
+}
+
 SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi) {
   SceneObject o;
   o.label = label;

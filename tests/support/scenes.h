@@ -10,6 +10,9 @@ namespace gvd::test {
 
 /// A closed box [lo, hi] as 12 outward triangles.
 SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi);
+
+/// p rotated by `angle` (radians) about the unit axis `axis` through the origin (Rodrigues).
+Vec3 rotate(Vec3 p, Vec3 axis, double angle);
 /// A closed UV sphere with `rings` x `segments` quads split into triangles.
 SceneObject make_sphere(const std::string& label, Vec3 centre, double radius, int rings = 12,
                         int segments = 24);

@@ -92,31 +92,16 @@ bool nearer_unclaimed(const UnitGeometry& geometry, const SimplexBvh& bvh, Vec3 
 
 double unseen_margin(int dimension, double size) { return (dimension == 2 ? 1e-9 : 0.05) * size; }
 
-// The bisector point of edge (v, w) that surfacing will use: Eq. (1) from the ends' closest
-// points, and on an edge long next to the distance (where those points slide and Eq. (1) can
-// miss the bisector by a good part of the edge) iterated on the exact closest points of the
-// two objects at the estimate, as the surfacer does. Returns the point and, in `claimed2`, the
-// larger squared distance from it to the two objects.
+// The bisector point of edge (v, w) that surfacing will use (detail::refine_bisector where
+// Eq. (1) is coarse, as the surfacer does) and, in `claimed2`, the larger squared distance
+// from it to the edge's two objects, exact where it was refined.
 Vec3 edge_bisector(const DistanceField& field, const SimplexBvh& bvh, uint32_t v, uint32_t w,
                    double& claimed2) {
   if (v > w) std::swap(v, w);
-  const Vec3 x0 = field.vertices.position(v), x1 = field.vertices.position(w);
   Vec3 a = field.closest[field.point[v]], b = field.closest[field.point[w]];
-  Vec3 p = detail::bisector_on_edge(x0, x1, a, b);
-  const double h2 = dist2(x0, x1);
-  constexpr double kCoarse = 0.05;
-  if (h2 > kCoarse * kCoarse * std::min(dist2(p, a), dist2(p, b))) {
-    for (int round = 0; round < 16; ++round) {
-      const ClosestHit ha = bvh.nearest_in_object(p, field.label[v], dist2(p, a));
-      const ClosestHit hb = bvh.nearest_in_object(p, field.label[w], dist2(p, b));
-      if (!ha.found() && !hb.found()) break;
-      if (ha.found()) a = ha.point;
-      if (hb.found()) b = hb.point;
-      const Vec3 next = detail::bisector_on_edge(x0, x1, a, b);
-      const bool moved = dist2(next, p) > 1e-24 * h2;
-      p = next;
-      if (!moved) break;
-    }
+  Vec3 p = detail::bisector_point(field, v, w);
+  if (detail::coarse_edge(field, v, w, p)) {
+    p = detail::refine_bisector(field, bvh, v, w, p, &a, &b);
     // The exact distances at the final point.
     const ClosestHit ha = bvh.nearest_in_object(p, field.label[v], dist2(p, a));
     const ClosestHit hb = bvh.nearest_in_object(p, field.label[w], dist2(p, b));

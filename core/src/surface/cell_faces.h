@@ -3,10 +3,13 @@
 // Internal to core/surface: the boundary polygons of a leaf, shared by ambiguity detection
 // and surfacing so both see the same graph.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <utility>
 
 #include "gvd/distance/distance_field.h"
+#include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/octree.h"
 #include "gvd/octree/vertices.h"
 
@@ -51,6 +54,53 @@ inline Vec3 bisector_point(const DistanceField& field, uint32_t v0, uint32_t v1)
   if (v0 > v1) std::swap(v0, v1);
   return bisector_on_edge(field.vertices.position(v0), field.vertices.position(v1),
                           field.closest[field.point[v0]], field.closest[field.point[v1]]);
+}
+
+/// Whether Eq. (1) needs refining on edge (v0, v1) with first estimate p: the edge is longer
+/// than a twentieth of the distance from p to the ends' closest points.
+inline bool coarse_edge(const DistanceField& field, uint32_t v0, uint32_t v1, Vec3 p) {
+  constexpr double kCoarse = 0.05;
+  const double h2 = dist2(field.vertices.position(v0), field.vertices.position(v1));
+  const double d2 =
+      std::min(dist2(p, field.closest[field.point[v0]]), dist2(p, field.closest[field.point[v1]]));
+  return h2 > kCoarse * kCoarse * d2;
+}
+
+/// Eq. (1) with the exact closest points of the two objects at the current estimate instead
+/// of the ends' ones, repeated while the point moves (by more than 1e-6 of the edge; at most
+/// 64 rounds): where the closest points slide along faces it converges in a few. On an edge
+/// longer than the distance to the objects (a certified pair cell across a thin gap) until
+/// it moves by less than 1e-12 of the edge, and the point may come as close to the edge's
+/// ends as a millionth of that distance: the exact bisector there is known to rounding, and
+/// a hair of the edge would be a good part of the gap. The surfacer's edge points, and the
+/// ones the unseen-region test checks. With `a`, `b`: the objects' last closest points.
+inline Vec3 refine_bisector(const DistanceField& field, const SimplexBvh& bvh, uint32_t v0,
+                            uint32_t v1, Vec3 p, Vec3* a_out = nullptr, Vec3* b_out = nullptr) {
+  const Vec3 x0 = field.vertices.position(v0), x1 = field.vertices.position(v1);
+  Vec3 a = field.closest[field.point[v0]], b = field.closest[field.point[v1]];
+  const ObjectId la = field.label[v0], lb = field.label[v1];
+  const double h2 = dist2(x0, x1);
+  bool long_edge = false;
+  double inside = 1e-6;
+  for (int round = 0; round < 64; ++round) {
+    const ClosestHit ha = bvh.nearest_in_object(p, la, dist2(p, a));
+    const ClosestHit hb = bvh.nearest_in_object(p, lb, dist2(p, b));
+    if (!ha.found() && !hb.found()) break;  // a and b are already the closest points
+    if (ha.found()) a = ha.point;
+    if (hb.found()) b = hb.point;
+    const double d2 = std::min(dist2(p, a), dist2(p, b));
+    if (d2 < h2) {
+      long_edge = true;
+      inside = std::min(inside, std::max(1e-6 * std::sqrt(d2 / h2), 1e-15));
+    }
+    const Vec3 next = bisector_on_edge(x0, x1, a, b, inside);
+    const bool moved = dist2(next, p) > (long_edge ? 1e-24 : 1e-12) * h2;
+    p = next;
+    if (!moved) break;
+  }
+  if (a_out != nullptr) *a_out = a;
+  if (b_out != nullptr) *b_out = b;
+  return p;
 }
 
 // Cyclic order of a square's boundary on the half grid, starting at the lower corner.

@@ -336,14 +336,8 @@ class CellSurfacer {
   }
 
  private:
-  // Whether eq. (1) needs refining on edge (v0 < v1) with first estimate p: the edge is longer
-  // than a twentieth of the distance from p to the ends' closest points.
   bool coarse(uint32_t v0, uint32_t v1, Vec3 p) const {
-    constexpr double kCoarse = 0.05;
-    const double h2 = dist2(field_.vertices.position(v0), field_.vertices.position(v1));
-    const double d2 = std::min(dist2(p, field_.closest[field_.point[v0]]),
-                               dist2(p, field_.closest[field_.point[v1]]));
-    return h2 > kCoarse * kCoarse * d2;
+    return detail::coarse_edge(field_, v0, v1, p);
   }
 
   // Whether a cell or face is large next to the squared distance `near2` to the objects (as
@@ -353,37 +347,8 @@ class CellSurfacer {
     return norm2(box.hi - box.lo) > kCoarse * kCoarse * near2;
   }
 
-  // Eq. (1) with the exact closest points of the two objects at the current estimate instead
-  // of the ends' ones, repeated while the point moves (by more than 1e-6 of the edge; at most
-  // 64 rounds): where the closest points slide along faces it converges in a few. On an edge
-  // longer than the distance to the objects (a certified pair cell across a thin gap) until
-  // it moves by less than 1e-12 of the edge, and the point may come as close to the edge's
-  // ends as a millionth of that distance: the exact bisector there is known to rounding, and
-  // a hair of the edge would be a good part of the gap.
   Vec3 refine_bisector(uint32_t v0, uint32_t v1, Vec3 p) const {
-    const Vec3 x0 = field_.vertices.position(v0), x1 = field_.vertices.position(v1);
-    Vec3 a = field_.closest[field_.point[v0]], b = field_.closest[field_.point[v1]];
-    const ObjectId la = field_.label[v0], lb = field_.label[v1];
-    const double h2 = dist2(x0, x1);
-    bool long_edge = false;
-    double inside = 1e-6;
-    for (int round = 0; round < 64; ++round) {
-      const ClosestHit ha = bvh_.nearest_in_object(p, la, dist2(p, a));
-      const ClosestHit hb = bvh_.nearest_in_object(p, lb, dist2(p, b));
-      if (!ha.found() && !hb.found()) break;  // a and b are already the closest points
-      if (ha.found()) a = ha.point;
-      if (hb.found()) b = hb.point;
-      const double d2 = std::min(dist2(p, a), dist2(p, b));
-      if (d2 < h2) {
-        long_edge = true;
-        inside = std::min(inside, std::max(1e-6 * std::sqrt(d2 / h2), 1e-15));
-      }
-      const Vec3 next = detail::bisector_on_edge(x0, x1, a, b, inside);
-      const bool moved = dist2(next, p) > (long_edge ? 1e-24 : 1e-12) * h2;
-      p = next;
-      if (!moved) break;
-    }
-    return p;
+    return detail::refine_bisector(field_, bvh_, v0, v1, p);
   }
 
   static void emit(Sink& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {

@@ -9,6 +9,8 @@
 #include <random>
 #include <vector>
 
+#include "support/scenes.h"
+
 namespace gvd {
 namespace {
 
@@ -117,10 +119,8 @@ TEST(Primitives, CoplanarTrianglesApartInTheirPlaneAreNotCrossing) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> angle(0.1, 3.0);
   for (int k = 0; k < 200; ++k) {
-    const double t = angle(rng), c = std::cos(t), s = std::sin(t);
-    auto turn = [&](Vec3 p) {
-      return p * c + cross(axis, p) * s + axis * (dot(axis, p) * (1 - c));
-    };
+    const double t = angle(rng);
+    auto turn = [&](Vec3 p) { return test::rotate(p, axis, t); };
     const double gap = 1e-4;
     const Vec3 a[3] = {turn({0, 0, 0}), turn({1, 0, 0}), turn({0, 0.1, 0})};
     const Vec3 b[3] = {turn({0, 0.1 + gap, 0}), turn({1, 0.1 + gap, 0}), turn({0, 0.2 + gap, 0})};

@@ -286,11 +286,8 @@ TEST(ComputeGvd, ThinGapAnswersAreInvariantUnderRotationTranslationAndRelabellin
   const Scene straight = test::make_stacked_plates(po);
   const double g = po.gap * make_domain(straight).side;
   const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
-  const double c = std::cos(0.7), sn = std::sin(0.7);
   const Vec3 shift{3.25, -1.5, 0.75};
-  auto move = [&](Vec3 p) {
-    return p * c + cross(axis, p) * sn + axis * (dot(axis, p) * (1 - c)) + shift;
-  };
+  auto move = [&](Vec3 p) { return test::rotate(p, axis, 0.7) + shift; };
   Scene moved = straight;
   for (SceneObject& o : moved.objects)
     for (Vec3& v : o.vertices) v = move(v);

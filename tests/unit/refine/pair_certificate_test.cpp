@@ -178,10 +178,8 @@ TEST(PairCertifier, MirrorCellsHoldUnderBruteForce3D) {
     }
     if (tilted) {
       const Vec3 axis = Vec3{1, 2, 3} / std::sqrt(14.0);
-      const double c = std::cos(0.3), sn = std::sin(0.3);
       for (SceneObject& o : objects)
-        for (Vec3& p : o.vertices)
-          p = p * c + cross(axis, p) * sn + axis * (dot(axis, p) * (1 - c));
+        for (Vec3& p : o.vertices) p = test::rotate(p, axis, 0.3);
     }
     const World s(test::make_scene(3, std::move(objects)));
     int certified = 0, mirrors = 0;
