@@ -17,9 +17,16 @@ using lattice::Coord;
 
 // Internal (split) nodes of the tree, one hash set of corner Morton codes per level.
 using InternalSets = std::vector<FlatMap64>;
-// Certified pair cells (CellVerdict::kPair), one hash set of corner Morton codes per level:
+// Certified pair cells, one map of corner Morton codes per level to their certified_mark:
 // their leaves, and every leaf below them, are marked in Octree::certified.
 using CertifiedSets = std::vector<FlatMap64>;
+
+// The mark of cell (code, level) in `sets`, 0 if none.
+uint8_t mark_in(const CertifiedSets& sets, int level, uint64_t code) {
+  if (level >= static_cast<int>(sets.size())) return 0;
+  const uint32_t m = sets[level].find(code);
+  return m == FlatMap64::kMissing ? 0 : static_cast<uint8_t>(m);
+}
 
 void check_cancel(const OctreeOptions& options) {
   if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
@@ -274,7 +281,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     });
     if (options.split_oracle != nullptr) {
       // The thin-gaps refinement: a cell the rule splits stays a leaf when no GVD enters it
-      // or its bisector is certified (split = 2 marks the certified ones).
+      // or its bisector is certified (split = 1 + certified_mark marks the certified ones).
       parallel_for(
           n, threads,
           [&](size_t b, size_t e, int) {
@@ -285,21 +292,30 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
               const CellVerdict v = options.split_oracle->classify(
                   box, std::span<const uint32_t>(current.pool.data() + current.begin[i],
                                                  current.begin[i + 1] - current.begin[i]));
-              if (v != CellVerdict::kSplit) split[i] = v == CellVerdict::kPair ? 2 : 0;
+              if (v == CellVerdict::kSplit) continue;
+              const uint8_t mark = certified_mark(v);  // kOneObject: 0, a leaf unmarked
+              split[i] = mark == 0 ? 0 : static_cast<uint8_t>(1 + mark);
             }
           },
           16);
     }
     {
       std::vector<uint64_t> split_codes, certified_codes;
+      std::vector<uint8_t> marks;
       for (size_t i = 0; i < n; ++i) {
         if (split[i] == 1) split_codes.push_back(current.codes[i]);
-        if (split[i] == 2) certified_codes.push_back(current.codes[i]);
+        if (split[i] >= 2) {
+          certified_codes.push_back(current.codes[i]);
+          marks.push_back(static_cast<uint8_t>(split[i] - 1));
+        }
       }
       for (size_t i = 0; i < n; ++i) split[i] = split[i] == 1;
       internal[level] = FlatMap64::of_distinct_keys(split_codes, threads);
-      if (!certified_codes.empty())
-        certified[level] = FlatMap64::of_distinct_keys(certified_codes, threads);
+      if (!certified_codes.empty()) {
+        FlatMap64 m(certified_codes.size());
+        for (size_t i = 0; i < certified_codes.size(); ++i) m.insert(certified_codes[i], marks[i]);
+        certified[level] = std::move(m);
+      }
     }
     internal_count += internal[level].size();
     if (internal_count * children_per_split + 1 > options.max_leaves) {
@@ -409,8 +425,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
             const uint32_t* lb = current.pool.data() + current.begin[i];
             const uint32_t* le = current.pool.data() + current.begin[i + 1];
             const uint8_t cert =
-                current.certified[i] ||
-                (level < static_cast<int>(certified.size()) && certified[level].contains(code));
+                current.certified[i] != 0 ? current.certified[i] : mark_in(certified, level, code);
             if (has_internal && internal[level].contains(code)) {
               bool cached = false;
               if (cache != nullptr && level + 1 < static_cast<int>(cache->sets.size())) {
@@ -616,7 +631,7 @@ Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const Cel
   for (const CellRef& c : split)
     if (c.level < max_depth) internal[c.level].insert(c.code, 0);
   CertifiedSets certified_sets(max_depth + 1);
-  for (const CellRef& c : certified) certified_sets[c.level].insert(c.code, 0);
+  for (const CellRef& c : certified) certified_sets[c.level].insert(c.code, c.mark);
   close_upwards(dim, internal);
   balance(dim, internal, resolve_threads(options.threads));
   return materialize(geometry, internal, max_depth, options, resolve_threads(options.threads),
@@ -660,7 +675,7 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   };
   for (const CellRef& c : cells_to_split) request(c.code, c.level);
   CertifiedSets certify(max_depth + 1);
-  for (const CellRef& c : cells_to_certify) certify[c.level].insert(c.code, 0);
+  for (const CellRef& c : cells_to_certify) certify[c.level].insert(c.code, c.mark);
   const bool any_certify = !cells_to_certify.empty();
   while (!work.empty()) {
     const CellRef p = work.back();
@@ -717,8 +732,9 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
           const uint32_t* lb = octree.simplex_index.data() + octree.simplex_begin[i];
           const uint32_t* le = octree.simplex_index.data() + octree.simplex_begin[i + 1];
           const int level = octree.level[i];
-          const uint8_t cert = octree.is_certified(static_cast<uint32_t>(i)) ||
-                               (any_certify && certify[level].contains(octree.code[i]));
+          const uint8_t cert = octree.is_certified(static_cast<uint32_t>(i)) ? octree.certified[i]
+                               : any_certify ? mark_in(certify, level, octree.code[i])
+                                             : uint8_t{0};
           if (level >= max_depth || !added[level].contains(octree.code[i])) {
             emit(octree.code[i], level, octree.object[i], lb, le, cert);
             continue;
@@ -727,7 +743,7 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
           while (!stack.empty()) {
             Frame f = std::move(stack.back());
             stack.pop_back();
-            f.certified |= any_certify && certify[f.level].contains(f.code);
+            if (f.certified == 0 && any_certify) f.certified = mark_in(certify, f.level, f.code);
             const bool split = f.level < max_depth && added[f.level].contains(f.code);
             if (!split) {
               const uint32_t* fb = f.simplices.data();

@@ -494,8 +494,8 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
             lattice::cell_box(dim, lattice::morton_decode(dim, current[i].code), level),
             current[i].has_list ? std::span<const uint32_t>(current[i].list)
                                 : std::span<const uint32_t>());
-        if (v == CellVerdict::kPair)
-          certified.push_back({current[i].code, static_cast<uint8_t>(level)});
+        if (certified_mark(v) != 0)
+          certified.push_back({current[i].code, static_cast<uint8_t>(level), certified_mark(v)});
         s = v == CellVerdict::kSplit;
       }
       if (!s) continue;

@@ -141,7 +141,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   r.stats.refine_rounds = refined.rounds;
   r.stats.ambiguous_at_limit = refined.ambiguous_at_limit;
   r.stats.touching_leaves = refined.touching_leaves;
-  for (uint8_t c : r.octree.certified) r.stats.certified_leaves += c;
+  for (uint8_t c : r.octree.certified) r.stats.certified_leaves += c != 0;
   r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(refined.rounds)});
 
   progress("surface", 0);

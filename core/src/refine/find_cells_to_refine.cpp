@@ -333,7 +333,10 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
               const CellVerdict v = oracle->classify(
                   lattice::cell_box(dim, lattice::morton_decode(dim, cell.code), cell.level),
                   simplices);
-              if (v == CellVerdict::kPair) certified[i].push_back(cell);
+              if (certified_mark(v) != 0) {
+                cell.mark = certified_mark(v);
+                certified[i].push_back(cell);
+              }
               if (v != CellVerdict::kSplit) continue;
             }
             per_leaf[i].push_back(cell);

@@ -208,8 +208,8 @@ bool reflects_onto(const UnitGeometry& g, const SimplexBvh& bvh, const Plane& mi
 }  // namespace
 
 PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
-                             const ContactPairs* contacts)
-    : geometry_(geometry), bvh_(bvh), contacts_(contacts) {
+                             const ContactPairs* contacts, bool extruded)
+    : geometry_(geometry), bvh_(bvh), contacts_(contacts), extruded_(extruded) {
   const std::vector<Vec3>& pts = geometry.points;
   // Points at one position share one canonical index (exact positions: the lattice snap makes
   // equal input coordinates bitwise equal).
@@ -257,6 +257,33 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
       for (size_t k = i; k < j; ++k) across_[records[k].side] = kNonManifold;
     }
     i = j;
+  }
+  if (dim != 3) return;
+  // Closed and consistently oriented objects: every edge has one triangle across, which runs
+  // it the other way; then the sign of the enclosed volume says where the normals point.
+  const uint32_t objects = geometry.object_count;
+  std::vector<uint8_t> closed(objects, 1);
+  std::vector<double> volume(objects, 0.0);
+  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
+    const Simplex& t = geometry.simplices[s];
+    const ObjectId o = geometry.object_of[s];
+    if (o >= objects) continue;
+    volume[o] += dot(pts[t.v[0]], cross(pts[t.v[1]], pts[t.v[2]]));
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t u = across_[s * 3 + e];
+      if (u == kOpen || u == kNonManifold) {
+        closed[o] = 0;
+        continue;
+      }
+      const uint32_t from = canonical_[t.v[e]], to = canonical_[t.v[(e + 1) % 3]];
+      const Simplex& w = geometry.simplices[u];
+      for (int i = 0; i < 3; ++i)
+        if (canonical_[w.v[i]] == from && canonical_[w.v[(i + 1) % 3]] == to) closed[o] = 0;
+    }
+  }
+  outward_.assign(objects, 0);
+  for (uint32_t o = 0; o < objects; ++o) {
+    if (closed[o] && volume[o] != 0) outward_[o] = volume[o] > 0 ? 1 : -1;
   }
 }
 
@@ -379,7 +406,11 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
     }
     return true;
   };
-  if (!flat()) return certify_mirror(box, pair, dist_of, r, patch);
+  if (!flat()) {
+    Certificate mirror = certify_mirror(box, pair, dist_of, r, patch);
+    if (mirror.verdict != CellVerdict::kSplit || !extruded_) return mirror;
+    return certify_extruded(box, pair, dist_of, r, patch);
+  }
   if (planes_meet_in(dim, plane[0], plane[1], box)) return out;
   // Which bisector branches cross the cell: s_a = s_b and s_a = -s_b are affine, so their
   // extremes over the cell are at its corners.
@@ -472,6 +503,103 @@ PairCertifier::Certificate PairCertifier::certify_mirror(
       return out;
     }
   }
+  return out;
+}
+
+PairCertifier::Certificate PairCertifier::certify_extruded(
+    const Box& box, const ObjectId pair[2], const double dist[2], double r,
+    const std::vector<uint32_t> patch[2]) const {
+  const UnitGeometry& g = geometry_;
+  Certificate out;
+  if (g.dimension != 3 || outward_.empty()) return out;
+  const int sign[2] = {outward_[pair[0]], outward_[pair[1]]};
+  if (sign[0] == 0 || sign[1] == 0) return out;
+  // Surfacing closes cells on the domain box with straight cuts; keep extruded cells off it.
+  for (int i = 0; i < 3; ++i)
+    if (!(box.lo[i] > 0) || !(box.hi[i] < 1)) return out;
+  // The gradient directions: a's outward normals and b's inward ones.
+  constexpr double kPerpendicular = 1e-12;
+  std::vector<Vec3> normals;
+  std::vector<Plane> planes[2];
+  constexpr size_t kMaxPlanes = 8;
+  for (int k = 0; k < 2; ++k) {
+    for (uint32_t s : patch[k]) {
+      Plane p;
+      if (!simplex_plane(g, s, p)) return out;
+      normals.push_back(p.n * static_cast<double>(k == 0 ? sign[0] : -sign[1]));
+      const bool seen = std::any_of(planes[k].begin(), planes[k].end(), [&](const Plane& q) {
+        return dot(p.n, q.n) >= 1 - 1e-12 && std::abs(p.offset - q.offset) <= kFlat;
+      });
+      if (!seen) planes[k].push_back(p);
+      if (planes[k].size() > kMaxPlanes) return out;
+    }
+  }
+  int axis = -1;
+  for (int a = 0; a < 3 && axis < 0; ++a) {
+    if (std::all_of(normals.begin(), normals.end(),
+                    [&](Vec3 n) { return std::abs(n[a]) <= kPerpendicular; }))
+      axis = a;
+  }
+  if (axis < 0) return out;
+  // One quadrant of the cross-section holds them all.
+  Vec3 rise;
+  for (int a = 0; a < 3; ++a) {
+    if (a == axis) continue;
+    const bool up = std::all_of(normals.begin(), normals.end(),
+                                [&](Vec3 n) { return n[a] >= -kPerpendicular; });
+    const bool down =
+        std::all_of(normals.begin(), normals.end(), [&](Vec3 n) { return n[a] <= kPerpendicular; });
+    if (!up && !down) return out;
+    rise[a] = up ? 1 : -1;
+  }
+  // Every simplex that can be nearest to a point of the cell lies in the cell inflated by
+  // max d_k(c) + r (see certify); on each plane of the nearest simplices, the object's
+  // triangles must cover a strip across that box along the axis, so that the surface there is
+  // invariant along it: triangles of a closed mesh do not overlap, so the clipped areas add
+  // up to the strip's exactly when they cover it.
+  const double grow = (std::max(dist[0], dist[1]) + r) * (1 + 1e-9) + 1e-15;
+  Box near = box;
+  for (int i = 0; i < 3; ++i) {
+    near.lo[i] -= grow;
+    near.hi[i] += grow;
+  }
+  const double length = near.hi[axis] - near.lo[axis];
+  Vec3 along;
+  along[axis] = 1;
+  for (int k = 0; k < 2; ++k) {
+    for (const Plane& plane : planes[k]) {
+      const Vec3 u = cross(along, plane.n);
+      double area_sum = 0, lo = 1e300, hi = -1e300;
+      size_t seen = 0;
+      const bool bounded = bvh_.visit_overlapping(near, [&](uint32_t s) {
+        if (g.object_of[s] != pair[k]) return true;
+        Plane own;
+        if (!simplex_plane(g, s, own) || dot(own.n, plane.n) < 1 - 1e-12 ||
+            std::abs(plane.signed_distance(g.points[g.simplices[s].v[0]])) > kFlat)
+          return true;
+        Polygon poly;
+        for (int e = 0; e < 3; ++e) poly.p[poly.n++] = g.points[g.simplices[s].v[e]];
+        clip_to_box(poly, near);
+        if (poly.n < 3) return true;
+        area_sum += area(poly);
+        for (int i = 0; i < poly.n; ++i) {
+          lo = std::min(lo, dot(u, poly.p[i]));
+          hi = std::max(hi, dot(u, poly.p[i]));
+        }
+        return ++seen <= 4 * kMaxActive;
+      });
+      if (!bounded || !(hi > lo)) return out;
+      const double strip = (hi - lo) * length;
+      if (std::abs(area_sum - strip) > 1e-9 * strip) return out;
+    }
+  }
+  out.verdict = extruded_verdict(axis);
+  out.axis = axis;
+  const int first_k = pair[0] < pair[1] ? 0 : 1;
+  out.a = pair[first_k];
+  out.b = pair[1 - first_k];
+  // rise is where d_pair[0] - d_pair[1] grows; for a = pair[1] it is the other way.
+  out.rise = rise * ((first_k == 0 ? 1.0 : -1.0) / std::sqrt(2.0));
   return out;
 }
 

@@ -12,6 +12,7 @@
 #include "gvd/octree/lattice.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
+#include "support/thin_gap_scenes.h"
 
 namespace gvd {
 namespace {
@@ -119,6 +120,138 @@ int audit_level(const World& s, int level, int samples, int* mirrors = nullptr) 
         if (::testing::Test::HasFatalFailure()) return certified;
       }
   return certified;
+}
+
+// The audit of an extruded pair cell (brute-force distances): both distances are invariant
+// along its axis, and d_a - d_b changes sign at most once, from - to +, along every line in
+// the direction `rise` and along both cross-section axes (in rise's sense) through sampled
+// points: the bisector is one monotone curve of the cross-section swept along the axis.
+void audit_extruded(const World& s, const PairCertifier::Certificate& c, const Box& box,
+                    std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  auto point = [&] {
+    Vec3 x;
+    for (int i = 0; i < 3; ++i) x[i] = box.lo[i] + u(rng) * (box.hi[i] - box.lo[i]);
+    return x;
+  };
+  auto dist_to = [&](ObjectId o, Vec3 x) {
+    return test::brute_distance(s.scene, o, s.domain.from_unit(x)) / s.domain.side;
+  };
+  auto sign_of = [&](Vec3 x) {
+    const double f = dist_to(c.a, x) - dist_to(c.b, x);
+    return std::abs(f) <= 1e-13 ? 0 : (f < 0 ? -1 : 1);
+  };
+  const double side = box.hi.x - box.lo.x;
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 x = point();
+    Vec3 y = x;
+    y[c.axis] = box.lo[c.axis] + u(rng) * side;
+    ASSERT_NEAR(dist_to(c.a, x), dist_to(c.a, y), 1e-12) << "d_a varies along the axis";
+    ASSERT_NEAR(dist_to(c.b, x), dist_to(c.b, y), 1e-12) << "d_b varies along the axis";
+    // Lines through x: along rise, and along each cross-section axis.
+    Vec3 dirs[3];
+    int nd = 0;
+    dirs[nd++] = c.rise;
+    for (int a = 0; a < 3; ++a) {
+      if (a == c.axis) continue;
+      Vec3 d;
+      d[a] = c.rise[a] > 0 ? 1 : -1;
+      dirs[nd++] = d;
+    }
+    for (int l = 0; l < nd; ++l) {
+      int last = -1, changes = 0;
+      for (int i = -16; i <= 16; ++i) {
+        const Vec3 p = x + dirs[l] * (side * i / 16.0);
+        bool in = true;
+        for (int a = 0; a < 3; ++a) in &= p[a] >= box.lo[a] && p[a] <= box.hi[a];
+        if (!in) continue;
+        const int sg = sign_of(p);
+        if (sg == 0) continue;
+        ASSERT_FALSE(last == 1 && sg == -1) << "d_a - d_b falls along the rise, line " << l;
+        changes += last == -1 && sg == 1;
+        last = sg;
+      }
+      ASSERT_LE(changes, 1);
+    }
+  }
+}
+
+TEST(PairCertifier, ExtrudedCellsHoldUnderBruteForce3D) {
+  // A blade in a slot, clearance g = 1e-3 of the domain on both faces and the floor: every
+  // rim of it is straight (the blade's edges, the slot's floor corners and mouth).
+  test::BladeInSlotOptions o;
+  o.gap = 1e-3;
+  o.cell = 0.1;
+  const World s(test::make_blade_in_slot(o));
+  const PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
+  const double g = o.gap * s.domain.side;
+  const double x0 = 0.5 - 0.5 * o.width, x1 = 0.5 + 0.5 * o.width, floor_y = 0.5 - o.depth;
+  // Points near the rims (user units): bottom edges, floor corners, mouth, blade ends.
+  const Vec3 rims[] = {{x0, floor_y + g, 0}, {x1, floor_y + g, 0},    {x0 - g, 0.5, 0},
+                       {x1 + g, 0.5, 0},     {0.5, floor_y + g, 0.1}, {x0, 0.4, 0.9}};
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int extruded[3] = {0, 0, 0}, tried = 0;
+  for (int level = 7; level <= 11; ++level) {
+    const double cell = std::ldexp(1.0, -level);
+    for (const Vec3& rim : rims) {
+      for (int k = 0; k < 3; ++k) {
+        Vec3 p = rim;
+        if (rim.z == 0) p.z = 0.3 + 0.4 * (u(rng) + 1) / 2;
+        Vec3 unit = s.domain.to_unit(p);
+        for (int a = 0; a < 3; ++a) unit[a] += u(rng) * cell;
+        lattice::Coord c;
+        const uint64_t size = lattice::cell_size(3, level);
+        for (int a = 0; a < 3; ++a)
+          c.c[a] = static_cast<uint32_t>(std::floor(unit[a] / cell) * static_cast<double>(size));
+        const Box box = lattice::cell_box(3, c, level);
+        const PairCertifier::Certificate cert = certifier.certify(box);
+        ++tried;
+        if (cert.axis < 0) continue;
+        ASSERT_EQ(cert.verdict, extruded_verdict(cert.axis));
+        ++extruded[cert.axis];
+        audit_extruded(s, cert, box, rng);
+        if (HasFatalFailure()) return;
+      }
+    }
+  }
+  // The long rims run along z, the blade's bottom ends along x and its end edges along y.
+  EXPECT_GT(extruded[2], tried / 4);
+  EXPECT_GT(extruded[0] + extruded[1], 0);
+}
+
+TEST(PairCertifier, ExtrudedCellsNeedClosedStraightQuadrantRims) {
+  // Rims of a blade in a slot that are not straight along an axis: the ends (the blade's
+  // corners, where rims along two axes meet) and a copy tilted about x.
+  test::BladeInSlotOptions o;
+  o.gap = 1e-3;
+  o.cell = 0.1;
+  const World s(test::make_blade_in_slot(o));
+  const PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
+  const double g = o.gap * s.domain.side;
+  const double x0 = 0.5 - 0.5 * o.width, floor_y = 0.5 - o.depth;
+  const Box corner = user_cube(s, Vec3{x0, floor_y + g, 0.1} - Vec3{g, g, g}, 2 * g);
+  EXPECT_LT(certifier.certify(corner).axis, 0) << "the blade's corner";
+  // Straight rims along z, but the cell reaches both walls of the slot: the blade's outward
+  // normals -x and +x lie in no quadrant.
+  const Box across = user_cube(s, {x0 - 0.01, floor_y - 0.01, 0.5}, o.width + 0.02);
+  EXPECT_LT(certifier.certify(across).axis, 0) << "both bottom edges";
+  Scene tilted = s.scene;
+  for (SceneObject& obj : tilted.objects)
+    for (Vec3& v : obj.vertices) v = test::rotate(v, {1, 0, 0}, 0.2);
+  const World t(std::move(tilted));
+  const PairCertifier tilted_certifier(t.geometry, t.bvh, nullptr, true);
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 rim = test::rotate({x0, floor_y + g, 0.3 + 0.05 * k}, {1, 0, 0}, 0.2);
+    const Box box = user_cube(t, rim - Vec3{2 * g, 2 * g, 2 * g}, 4 * g);
+    EXPECT_LT(tilted_certifier.certify(box).axis, 0) << "a rim off the axes";
+  }
+  // An open sheet over a box: the sheet is not closed.
+  const World open(test::make_scene(
+      3, {make_sheet("sheet", 0.2, 4), test::make_box("box", {0.2, 0.2, 0}, {0.8, 0.8, 0.199})}));
+  const PairCertifier open_certifier(open.geometry, open.bvh, nullptr, true);
+  const Box edge = user_cube(open, {0.19, 0.5, 0.19}, 0.02);
+  EXPECT_LT(open_certifier.certify(edge).axis, 0) << "an open sheet";
 }
 
 TEST(PairCertifier, ParallelPlatesAreCertifiedAcrossTheGap) {

@@ -23,7 +23,33 @@ enum class CellVerdict : uint8_t {
   kOneObject,  ///< only one object can be nearest anywhere in the cell: no GVD enters it
   kPair,       ///< certified pair cell: only two objects can be nearest in it and their
                ///< bisector there is known exactly (refine/pair_certificate.h)
+  /// Extruded pair cells (3D): two objects, whose surfaces near the cell are invariant along
+  /// axis 0, 1 or 2, so the bisector is a curve of the cross-section swept along that axis.
+  kExtrudedX,
+  kExtrudedY,
+  kExtrudedZ,
 };
+
+/// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair) or 2 + axis (the
+/// extruded pair cells).
+inline uint8_t certified_mark(CellVerdict v) {
+  switch (v) {
+    case CellVerdict::kPair:
+      return 1;
+    case CellVerdict::kExtrudedX:
+    case CellVerdict::kExtrudedY:
+    case CellVerdict::kExtrudedZ:
+      return static_cast<uint8_t>(
+          2 + (static_cast<int>(v) - static_cast<int>(CellVerdict::kExtrudedX)));
+    default:
+      return 0;
+  }
+}
+
+/// The extruded verdict along `axis` (0, 1, 2).
+inline CellVerdict extruded_verdict(int axis) {
+  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kExtrudedX) + axis);
+}
 
 /// Decides, for a cell the paper's rule would split, whether it must be split (the
 /// thin-gaps refinement of refine/; the octree module only asks). Thread-safe.
@@ -73,9 +99,10 @@ struct Octree {
   std::vector<uint64_t> code;    ///< per leaf: Morton code of the lower corner (lattice units)
   std::vector<uint8_t> level;    ///< per leaf
   std::vector<ObjectId> object;  ///< per leaf: kNoObject, an object, or kManyObjects
-  /// Per leaf: 1 = inside a certified pair cell (CellVerdict::kPair): at most two objects are
-  /// nearest anywhere in it, and their bisector there is one exact sheet, so it may hold both
-  /// objects and the GVD (refinement checks skip it). Empty after loading from disk.
+  /// Per leaf: the certified_mark of the certified pair cell it lies in (0: none): at most two
+  /// objects are nearest anywhere in it, and their bisector there is one exact sheet (1: a
+  /// plane; 2 + a: a curve swept along axis a), so it may hold both objects and the GVD
+  /// (refinement checks skip it). Empty after loading from disk.
   std::vector<uint8_t> certified;
   /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries).
   std::vector<uint32_t> simplex_begin;
@@ -83,6 +110,10 @@ struct Octree {
 
   size_t leaf_count() const { return code.size(); }
   bool is_certified(uint32_t leaf) const { return !certified.empty() && certified[leaf] != 0; }
+  /// The axis of the extruded pair cell the leaf lies in, or -1.
+  int extruded_axis(uint32_t leaf) const {
+    return certified.empty() || certified[leaf] < 2 ? -1 : certified[leaf] - 2;
+  }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);
   }
@@ -125,6 +156,7 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options =
 struct CellRef {
   uint64_t code = 0;
   uint8_t level = 0;
+  uint8_t mark = 0;  ///< in cells_to_certify: the certified_mark to give
 };
 
 /// Splits the given cells (existing leaves, or cells inside leaves, whose ancestors are then

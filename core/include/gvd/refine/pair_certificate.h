@@ -39,14 +39,26 @@ namespace gvd {
 ///   wider ones the paper's rule resolves cheaply, with finer pieces) and in cells small
 ///   enough that rounding cannot tilt the bisector visibly (kMirrorTolerance). 2D needs no
 ///   mirrors: its rims are points, and flat cells already cost log(1/g) there.
+/// - Extruded pairs (3D; straight rims: an edge facing a face or a corner across g): both
+///   objects are closed and consistently oriented, every simplex that can be nearest has its
+///   normal perpendicular to one axis e, and on each of their planes the object's triangles
+///   cover, within the box Q, a full strip across Q along e. Then both distance functions are
+///   invariant along e in the cell, and the bisector is C x e for a curve C of the cross-section
+///   (kExtrudedX + e). Also, all outward normals of a and all inward normals of b lie in one
+///   quadrant of the cross-section (`rise`, its diagonal): the Clarke gradient of the signed
+///   d_a - d_b lies in that quadrant and has a component >= 1 along `rise`, so C is a monotone
+///   curve that meets every line along `rise` at most once and every side of a cross-section
+///   square at most once (no saddles, no hidden arcs: the corners' labels show where it runs).
+///   The surfacer traces C on the faces perpendicular to e and sweeps it along e.
 ///
 /// Anything else (three objects, curved or folded patches, open edges, contact pairs, more
 /// than kMaxActive simplices in reach) is kSplit: the paper's rule applies. Thread-safe;
 /// the geometry and BVH must outlive it.
 class PairCertifier final : public SplitOracle {
  public:
+  /// `extruded`: also certify extruded pairs (the surfacer must then sweep their bisectors).
   PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
-                const ContactPairs* contacts = nullptr);
+                const ContactPairs* contacts = nullptr, bool extruded = false);
 
   CellVerdict classify(const Box& box, std::span<const uint32_t> inside = {}) const override;
 
@@ -61,6 +73,10 @@ class PairCertifier final : public SplitOracle {
     /// kPair of mirror images: the bisector is the plane normal[0] . x = offset[0] (normal
     /// pointing from a to b; normal[1], offset[1] the same plane).
     bool mirror = false;
+    /// Extruded pairs: the axis e (else -1) and the unit diagonal of the cross-section along
+    /// which d_a - d_b increases (signed distances: at a rate of at least sqrt(2)).
+    int axis = -1;
+    Vec3 rise;
   };
   Certificate certify(const Box& box) const;
 
@@ -81,6 +97,8 @@ class PairCertifier final : public SplitOracle {
  private:
   Certificate certify_mirror(const Box& box, const ObjectId pair[2], const double dist[2], double r,
                              const std::vector<uint32_t> patch[2]) const;
+  Certificate certify_extruded(const Box& box, const ObjectId pair[2], const double dist[2],
+                               double r, const std::vector<uint32_t> patch[2]) const;
 
   static constexpr uint32_t kOpen = 0xFFFFFFFFu;         ///< a side with no simplex across
   static constexpr uint32_t kNonManifold = 0xFFFFFFFEu;  ///< a side with several
@@ -88,11 +106,15 @@ class PairCertifier final : public SplitOracle {
   const UnitGeometry& geometry_;
   const SimplexBvh& bvh_;
   const ContactPairs* contacts_;
+  bool extruded_;
   /// Per point: the lowest index of a point at the same position (soups share no indices).
   std::vector<uint32_t> canonical_;
   /// Per simplex side (3D: edge v[e] v[e+1]; 2D: end v[e]): the simplex of the same object
   /// across it, kOpen or kNonManifold.
   std::vector<uint32_t> across_;
+  /// Per object (3D): +1 when it is closed, consistently oriented and its normals (from the
+  /// vertex order) point out of it, -1 when they point in, 0 when it is not closed.
+  std::vector<int8_t> outward_;
 };
 
 }  // namespace gvd
