@@ -111,9 +111,21 @@ void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
     if (!pairs[i].found) continue;
     e.gap = std::sqrt(pairs[i].dist2) * domain.side;
     e.touching = std::binary_search(contacts.begin(), contacts.end(), std::pair{e.a, e.b});
+    const Vec3 middle = (pairs[i].on_a + pairs[i].on_b) * 0.5;
     if (e.touching) {
       e.min_clearance = 0;
-      e.tightest_point = domain.from_unit((pairs[i].on_a + pairs[i].on_b) * 0.5);
+      e.tightest_point = domain.from_unit(middle);
+      continue;
+    }
+    // Every point equidistant from a and b is at least half the gap from them, and the middle
+    // of their closest pair is exactly that far: where no third object is nearer to it, it
+    // lies on the interface and the interface's least clearance is half the gap, exactly
+    // (the GVD's pieces, curved ones kept within a tolerance of it, may pass a little nearer).
+    const uint32_t pair[2] = {e.a, e.b};
+    const double half = 0.5 * std::sqrt(pairs[i].dist2);
+    if (!bvh.nearest_excluding(middle, pair, 2, half * half * (1 - 1e-12)).found()) {
+      e.min_clearance = half * domain.side;
+      e.tightest_point = domain.from_unit(middle);
     }
   }
 }

@@ -83,7 +83,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
       find_contact_pairs(r.geometry, bvh, contact_tolerance, options.threads);
   // The thin-gaps refinement: certified pair cells stay leaves (refine/pair_certificate.h).
   std::optional<PairCertifier> certifier;
-  if (options.refine == "certified") certifier.emplace(r.geometry, bvh, &contacts);
+  if (options.refine == "certified") certifier.emplace(r.geometry, bvh, &contacts, true);
   OctreeOptions oo;
   oo.split_oracle = certifier ? &*certifier : nullptr;
   oo.contacts = &contacts;

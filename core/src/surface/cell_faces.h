@@ -98,6 +98,59 @@ inline Vec3 refine_bisector(const DistanceField& field, const SimplexBvh& bvh, u
     p = next;
     if (!moved) break;
   }
+  // The iteration can stall where the edge enters an object (the unsigned distance bends
+  // there, at a rim or an end face inside the cell): check the point and, where it is not
+  // equidistant, bracket the root of d_a - d_b on the edge instead (its ends are labelled a
+  // and b, so it changes sign there; regula falsi with the Illinois step).
+  {
+    auto gap_at = [&](Vec3 x, Vec3& pa, Vec3& pb) {
+      const ClosestHit ha = bvh.nearest_in_object(x, la, dist2(x, pa) * (1 + 1e-12) + 1e-300);
+      const ClosestHit hb = bvh.nearest_in_object(x, lb, dist2(x, pb) * (1 + 1e-12) + 1e-300);
+      if (ha.found()) pa = ha.point;
+      if (hb.found()) pb = hb.point;
+      return std::sqrt(dist2(x, pa)) - std::sqrt(dist2(x, pb));
+    };
+    Vec3 pa = a, pb = b;
+    const double f = gap_at(p, pa, pb);
+    const double scale = std::max(dist(p, pa), dist(p, pb));
+    if (std::abs(f) > 1e-9 * scale + 1e-15) {
+      Vec3 qa = field.closest[field.point[v0]], qb = field.closest[field.point[v1]];
+      double t_lo = 0, t_hi = 1;
+      double f_lo = gap_at(x0, qa, qb);
+      Vec3 ra = field.closest[field.point[v0]], rb = field.closest[field.point[v1]];
+      double f_hi = gap_at(x1, ra, rb);
+      if (f_lo <= 0 && f_hi >= 0 && f_lo < f_hi) {
+        double t = 0.5;
+        int side = 0;
+        for (int it = 0; it < 200; ++it) {
+          t = (t_lo * f_hi - t_hi * f_lo) / (f_hi - f_lo);
+          if (!(t > t_lo && t < t_hi)) t = 0.5 * (t_lo + t_hi);
+          Vec3 ta = pa, tb = pb;
+          const Vec3 x = x0 + (x1 - x0) * t;
+          const double fx = gap_at(x, ta, tb);
+          pa = ta;
+          pb = tb;
+          if (std::abs(fx) <= 1e-12 * std::max(dist(x, ta), dist(x, tb)) || t_hi - t_lo <= 1e-15)
+            break;
+          if (fx < 0) {
+            t_lo = t;
+            f_lo = fx;
+            if (side < 0) f_hi *= 0.5;
+            side = -1;
+          } else {
+            t_hi = t;
+            f_hi = fx;
+            if (side > 0) f_lo *= 0.5;
+            side = 1;
+          }
+        }
+        t = std::clamp(t, inside, 1 - inside);
+        p = x0 + (x1 - x0) * t;
+        a = pa;
+        b = pb;
+      }
+    }
+  }
   if (a_out != nullptr) *a_out = a;
   if (b_out != nullptr) *b_out = b;
   return p;

@@ -42,12 +42,19 @@ struct PolygonGvd {
   int n = 0;
   Spoke spokes[8];
   Vec3 centroid;
+  /// On a face perpendicular to the axis of an extruded pair cell (either side of it), with
+  /// two spokes: the bisector curve traced between them, its points after spokes[0] and
+  /// before spokes[1] (empty where the curve is straight).
+  std::vector<Vec3> curve;
 };
 
 class CellSurfacer {
  public:
   CellSurfacer(const Octree& octree, const DistanceField& field, const SimplexBvh& bvh)
-      : octree_(octree), field_(field), bvh_(bvh), dim_(octree.dimension) {}
+      : octree_(octree), field_(field), bvh_(bvh), dim_(octree.dimension) {
+    for (size_t i = 0; i < octree.certified.size() && !any_extruded_; ++i)
+      any_extruded_ = octree.certified[i] >= 2;
+  }
 
   // Eq. (1) places the bisector between the closest points of the edge's two ends, as if those
   // points stayed the closest ones all along the edge. Where the edge is long next to the
@@ -174,6 +181,16 @@ class CellSurfacer {
     }
     if (out.n > 0) out.centroid = sum / out.n;
     if (out.n >= 3) out.centroid = junction_point(poly, out);
+    return out;
+  }
+
+  // A polygon's bisector with the curve traced where the face is perpendicular to the axis of
+  // an extruded pair cell on either side of it (the same answer from both cells).
+  PolygonGvd polygon(uint32_t leaf, const detail::FacePolygon& poly) const {
+    PolygonGvd out = polygon(poly);
+    if (out.n == 2 && any_extruded_ && traced_face(leaf, poly)) {
+      out.curve = trace_curve(poly, out.spokes[0], out.spokes[1]);
+    }
     return out;
   }
 
@@ -351,6 +368,107 @@ class CellSurfacer {
     return detail::refine_bisector(field_, bvh_, v0, v1, p);
   }
 
+  // Whether face polygon `poly` of `leaf` is perpendicular to the axis of an extruded pair
+  // cell on one of its sides: this leaf or the leaf across the polygon.
+  bool traced_face(uint32_t leaf, const detail::FacePolygon& poly) const {
+    if (octree_.extruded_axis(leaf) == poly.axis) return true;
+    if (poly.on_domain) return false;
+    lattice::Coord lo = lattice::vertex_coord(3, field_.vertices.key[poly.v[0]]);
+    for (int i = 1; i < poly.n; ++i) {
+      const lattice::Coord c = lattice::vertex_coord(3, field_.vertices.key[poly.v[i]]);
+      for (int a = 0; a < 3; ++a) lo.c[a] = std::min(lo.c[a], c.c[a]);
+    }
+    if (poly.side == 0) lo.c[poly.axis] -= 1;  // the finest cell just below the face
+    const uint32_t across = octree_.locate_lattice(lo);
+    return octree_.extruded_axis(across) == poly.axis;
+  }
+
+  // d_a - d_b at x (exact, by the BVH), and d_a.
+  double bisector_gap(Vec3 x, ObjectId a, ObjectId b, double* da = nullptr) const {
+    const ClosestHit ha = bvh_.nearest_in_object(x, a);
+    const ClosestHit hb = bvh_.nearest_in_object(x, b);
+    if (da != nullptr) *da = std::sqrt(ha.dist2);
+    return std::sqrt(ha.dist2) - std::sqrt(hb.dist2);
+  }
+
+  // The bisector curve of objects a and b on a face (axis `axis`, bounds `face`) between two of
+  // its points p and q, as the points strictly between them: each chord is split where the
+  // line through its midpoint, perpendicular to it in the face, meets the bisector (an
+  // extruded pair cell's curve meets every such line once, pair_certificate.h), until the
+  // curve stays within kCurveTolerance of the local clearance of the chord. A function of the
+  // face and the two points alone, so both cells of the face get the same curve.
+  static constexpr double kCurveTolerance = 1e-3;
+  static constexpr int kCurveDepth = 48;
+  std::vector<Vec3> trace_curve(const detail::FacePolygon& poly, const Spoke& s0,
+                                const Spoke& s1) const {
+    const bool flip = s1.edge < s0.edge;  // canonical order: from the smaller octree edge
+    const Spoke& from = flip ? s1 : s0;
+    const Spoke& to = flip ? s0 : s1;
+    Box face;
+    for (int i = 0; i < poly.n; ++i) face.extend(field_.vertices.position(poly.v[i]));
+    const ObjectId a = std::min(from.label_a, from.label_b);
+    const ObjectId b = std::max(from.label_a, from.label_b);
+    std::vector<Vec3> out;
+    double cp = 0, cq = 0;
+    bisector_gap(from.p, a, b, &cp);
+    bisector_gap(to.p, a, b, &cq);
+    subdivide_curve(from.p, to.p, cp, cq, a, b, poly.axis, face, 0, out);
+    if (flip) std::reverse(out.begin(), out.end());
+    return out;
+  }
+
+  void subdivide_curve(Vec3 p, Vec3 q, double cp, double cq, ObjectId a, ObjectId b, int axis,
+                       const Box& face, int depth, std::vector<Vec3>& out) const {
+    if (depth >= kCurveDepth) return;
+    const Vec3 m = (p + q) * 0.5;
+    Vec3 nu = q - p;
+    nu[axis] = 0;
+    std::swap(nu[(axis + 1) % 3], nu[(axis + 2) % 3]);
+    nu[(axis + 1) % 3] = -nu[(axis + 1) % 3];
+    const double len = norm(nu);
+    if (!(len > 0)) return;
+    nu = nu / len;
+    // The line m + t nu inside the face.
+    double t_lo = -1e300, t_hi = 1e300;
+    for (int i = 0; i < 3; ++i) {
+      if (i == axis || nu[i] == 0) continue;
+      double t0 = (face.lo[i] - m[i]) / nu[i], t1 = (face.hi[i] - m[i]) / nu[i];
+      if (t0 > t1) std::swap(t0, t1);
+      t_lo = std::max(t_lo, t0);
+      t_hi = std::min(t_hi, t1);
+    }
+    if (!(t_lo < t_hi)) return;
+    double f_lo = bisector_gap(m + nu * t_lo, a, b), f_hi = bisector_gap(m + nu * t_hi, a, b);
+    if (!(f_lo * f_hi < 0)) return;  // no crossing on the line: keep the chord
+    // Regula falsi with the Illinois step (the bisector is one simple root on the line).
+    double t = 0, side = 0, da = 0;
+    for (int it = 0; it < 100; ++it) {
+      t = (t_lo * f_hi - t_hi * f_lo) / (f_hi - f_lo);
+      if (!(t > t_lo && t < t_hi)) t = 0.5 * (t_lo + t_hi);
+      const double f = bisector_gap(m + nu * t, a, b, &da);
+      if (std::abs(f) <= 1e-12 * da || t_hi - t_lo <= 1e-13 * len) break;
+      if ((f < 0) == (f_lo < 0)) {
+        t_lo = t;
+        f_lo = f;
+        if (side < 0) f_hi *= 0.5;
+        side = -1;
+      } else {
+        t_hi = t;
+        f_hi = f;
+        if (side > 0) f_lo *= 0.5;
+        side = 1;
+      }
+    }
+    const Vec3 x = m + nu * t;
+    const double clearance = std::min({cp, cq, da});
+    if (std::abs(t) <= kCurveTolerance * clearance &&
+        (depth > 0 || std::abs(t) <= 1e-9 * clearance))
+      return;
+    subdivide_curve(p, x, cp, da, a, b, axis, face, depth + 1, out);
+    out.push_back(x);
+    subdivide_curve(x, q, da, cq, a, b, axis, face, depth + 1, out);
+  }
+
   static void emit(Sink& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {
     if (obj == kNoObject || obj == kManyObjects) return;
     if (a == b || b == c || a == c) return;  // collapsed: removing it keeps the surface closed
@@ -413,11 +531,14 @@ class CellSurfacer {
     detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
       if (!mixed && !p.on_domain) return;
       polys[np] = p;
-      gvds[np] = mixed ? polygon(p) : PolygonGvd{};
+      gvds[np] = mixed ? polygon(leaf, p) : PolygonGvd{};
       any_domain |= p.on_domain;
       ++np;
     });
     if (!mixed && !any_domain) return;
+    if (mixed && !any_domain && octree_.extruded_axis(leaf) >= 0 &&
+        extruded_cell(octree_.extruded_axis(leaf), polys, gvds, np, out))
+      return;
     // The spokes form closed curves on the cell surface; faces sharing a bisector belong to
     // the same curve. Each connected curve is coned to the centroid of its own bisectors
     // (the paper's cell centroid when there is one curve), so two sheets crossing one cell
@@ -461,6 +582,24 @@ class CellSurfacer {
         placed[c] = true;
       }
       const Vec3 rc = count[c] > 0 ? centre[c] : Vec3{};
+      if (g.n == 2 && !g.curve.empty()) {
+        // A traced curve: a fan from the apex over its chords.
+        const Spoke& s0 = g.spokes[0];
+        out.witness = witness(s0);
+        Vec3 prev = s0.p;
+        for (size_t k = 0; k <= g.curve.size(); ++k) {
+          const Vec3 next = k < g.curve.size() ? g.curve[k] : g.spokes[1].p;
+          if (outward_plus) {
+            emit(out, prev, next, rc, s0.label_a, s0.label_b);
+            emit(out, next, prev, rc, s0.label_b, s0.label_a);
+          } else {
+            emit(out, next, prev, rc, s0.label_a, s0.label_b);
+            emit(out, prev, next, rc, s0.label_b, s0.label_a);
+          }
+          prev = next;
+        }
+        continue;
+      }
       if (g.n == 2) {
         // Two spokes meet at their midpoint in a straight line: one triangle per side instead
         // of two, with the same edges as the cell across (which merges the same face).
@@ -490,6 +629,190 @@ class CellSurfacer {
       }
       if (polys[f].on_domain) domain_face(polys[f], g, out);
     }
+  }
+
+  // An extruded pair cell (pair_certificate.h): the bisector is the curve C of the cross-section
+  // swept along `axis`. Its boundary on the cell is C on both faces perpendicular to the axis
+  // (traced, P on the lower face, Q on the upper one, each possibly over quarter faces) and
+  // two rungs along the axis on the side faces (straight, possibly through a midpoint where a
+  // side face is split). The sheet is the ruled ladder between P and Q, merged by position
+  // along C's chord; the rungs' midpoints split the first and last triangles. False (and
+  // nothing emitted) when the faces do not show that structure; the cone is used then.
+  bool extruded_cell(int axis, const detail::FacePolygon* polys, const PolygonGvd* gvds, int np,
+                     Sink& out) const {
+    ObjectId x = kNoObject, y = kNoObject;
+    for (int f = 0; f < np; ++f) {
+      for (int i = 0; i < gvds[f].n; ++i) {
+        const Spoke& s = gvds[f].spokes[i];
+        const ObjectId lo = std::min(s.label_a, s.label_b), hi = std::max(s.label_a, s.label_b);
+        if (x == kNoObject) {
+          x = lo;
+          y = hi;
+        }
+        if (lo != x || hi != y) return false;
+      }
+    }
+    if (x == kNoObject) return false;
+    // One oriented piece per polygon with two spokes: from the spoke where the ring passes
+    // from x to y. On both faces perpendicular to the axis the rings run the same way round
+    // the axis, so these pieces follow C in the same sense.
+    struct Run {
+      uint64_t from, to;
+      std::vector<Vec3> points;  // from .. to, ends included
+    };
+    std::vector<Run> ends[2], sides;
+    for (int f = 0; f < np; ++f) {
+      const PolygonGvd& g = gvds[f];
+      if (g.n == 0) continue;
+      if (g.n != 2) return false;
+      const bool forward = g.spokes[0].label_a == x;
+      const Spoke& s0 = g.spokes[forward ? 0 : 1];
+      const Spoke& s1 = g.spokes[forward ? 1 : 0];
+      Run r{s0.edge, s1.edge, {s0.p}};
+      if (forward) {
+        r.points.insert(r.points.end(), g.curve.begin(), g.curve.end());
+      } else {
+        r.points.insert(r.points.end(), g.curve.rbegin(), g.curve.rend());
+      }
+      r.points.push_back(s1.p);
+      if (polys[f].axis == axis) {
+        ends[polys[f].side / 2].push_back(std::move(r));
+      } else {
+        sides.push_back(std::move(r));
+      }
+    }
+    // Each end face's pieces chained into one path.
+    std::vector<Vec3> path[2];
+    uint64_t first_key[2] = {0, 0}, last_key[2] = {0, 0};
+    for (int e = 0; e < 2; ++e) {
+      std::vector<Run>& runs = ends[e];
+      if (runs.empty()) return false;
+      size_t start = runs.size();
+      for (size_t i = 0; i < runs.size() && start == runs.size(); ++i) {
+        bool continues = false;
+        for (const Run& r : runs) continues |= r.to == runs[i].from;
+        if (!continues) start = i;
+      }
+      if (start == runs.size()) return false;  // a closed loop: not C
+      std::vector<uint8_t> used(runs.size(), 0);
+      size_t at = start;
+      first_key[e] = runs[at].from;
+      path[e] = runs[at].points;
+      used[at] = 1;
+      for (size_t steps = 1; steps < runs.size(); ++steps) {
+        size_t next = runs.size();
+        for (size_t i = 0; i < runs.size(); ++i)
+          if (!used[i] && runs[i].from == runs[at].to) next = i;
+        if (next == runs.size()) return false;
+        path[e].insert(path[e].end(), runs[next].points.begin() + 1, runs[next].points.end());
+        used[next] = 1;
+        at = next;
+      }
+      last_key[e] = runs[at].to;
+    }
+    // The rungs: side-face pieces from an end of P to the same end of Q (either direction).
+    auto rung = [&](uint64_t from, uint64_t to, std::vector<Vec3>& mid) {
+      uint64_t at = from;
+      std::vector<uint8_t> used(sides.size(), 0);
+      for (size_t steps = 0; steps <= sides.size(); ++steps) {
+        if (at == to) return true;
+        bool moved = false;
+        for (size_t i = 0; i < sides.size() && !moved; ++i) {
+          if (used[i]) continue;
+          const Run& r = sides[i];
+          if (r.from != at && r.to != at) continue;
+          used[i] = 1;
+          const bool fwd = r.from == at;
+          std::vector<Vec3> pts = r.points;
+          if (!fwd) std::reverse(pts.begin(), pts.end());
+          if (at != from) mid.push_back(pts.front());
+          mid.insert(mid.end(), pts.begin() + 1, pts.end() - 1);
+          at = fwd ? r.to : r.from;
+          moved = true;
+        }
+        if (!moved) return false;
+      }
+      return at == to;
+    };
+    std::vector<Vec3> rung_first, rung_last;
+    if (!rung(first_key[0], first_key[1], rung_first) || !rung(last_key[0], last_key[1], rung_last))
+      return false;
+    // The ladder, by position along P's chord in the cross-section.
+    const std::vector<Vec3>& p = path[0];
+    const std::vector<Vec3>& q = path[1];
+    Vec3 chord = p.back() - p.front();
+    chord[axis] = 0;
+    const double chord_len = norm(chord);
+    if (!(chord_len > 0)) return false;
+    chord = chord / chord_len;
+    auto along = [&](Vec3 v) { return dot(v - p.front(), chord); };
+    struct Tri {
+      Vec3 v[3];
+    };
+    std::vector<Tri> tris;
+    size_t i = 0, j = 0;
+    const size_t m = p.size() - 1, n = q.size() - 1;
+    while (i < m || j < n) {
+      if (j == n || (i < m && along(p[i + 1]) <= along(q[j + 1]))) {
+        tris.push_back({{p[i + 1], p[i], q[j]}});
+        ++i;
+      } else {
+        tris.push_back({{q[j], q[j + 1], p[i]}});
+        ++j;
+      }
+    }
+    // Splits the triangle's edge between u and w (either direction) at the points `mid`
+    // (ordered from u to w), fanning from the opposite vertex.
+    auto split_edge = [](const Tri& t, Vec3 u, Vec3 w, const std::vector<Vec3>& mid,
+                         std::vector<Tri>& into) {
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 a = t.v[k], b = t.v[(k + 1) % 3], c = t.v[(k + 2) % 3];
+        std::vector<Vec3> chain;
+        if (a == u && b == w) {
+          chain = mid;
+        } else if (a == w && b == u) {
+          chain.assign(mid.rbegin(), mid.rend());
+        } else {
+          continue;
+        }
+        Vec3 prev = a;
+        for (const Vec3& r : chain) {
+          into.push_back({{prev, r, c}});
+          prev = r;
+        }
+        into.push_back({{prev, b, c}});
+        return true;
+      }
+      return false;
+    };
+    std::vector<Tri> final_tris;
+    for (size_t k = 0; k < tris.size(); ++k) {
+      Tri t = tris[k];
+      std::vector<Tri> parts{t};
+      if (k == 0 && !rung_first.empty()) {
+        parts.clear();
+        if (!split_edge(t, p.front(), q.front(), rung_first, parts)) return false;
+      }
+      if (k + 1 == tris.size() && !rung_last.empty()) {
+        std::vector<Tri> again;
+        for (const Tri& u : parts)
+          if (!split_edge(u, p.back(), q.back(), rung_last, again)) again.push_back(u);
+        if (again.size() == parts.size()) return false;
+        parts = std::move(again);
+      }
+      final_tris.insert(final_tris.end(), parts.begin(), parts.end());
+    }
+    for (int f = 0; f < np; ++f) {
+      if (gvds[f].n > 0) {
+        out.witness = witness(gvds[f].spokes[0]);
+        break;
+      }
+    }
+    for (const Tri& t : final_tris) {
+      emit(out, t.v[0], t.v[1], t.v[2], x, y);
+      emit(out, t.v[1], t.v[0], t.v[2], y, x);
+    }
+    return true;
   }
 
   // The part of a domain face nearer to each object closes that object's cell: a fan from the
@@ -555,6 +878,7 @@ class CellSurfacer {
   std::vector<uint32_t> active_;
   size_t refined_count_ = 0;
   int dim_;
+  bool any_extruded_ = false;
 };
 
 uint64_t position_hash(Vec3 p) {

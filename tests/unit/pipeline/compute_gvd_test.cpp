@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <tuple>
@@ -335,7 +336,9 @@ TEST(ComputeGvd, ShaftInBoreGivesTheMidSurface3D) {
   const double g = so.gap * make_domain(scene).side;
   const double pi = std::acos(-1.0);
   const double mid = so.radius * std::cos(pi / so.sides) - g / 2;
-  const GvdResult r = run(scene);
+  // Full resolution: every surfaced vertex is checked (compaction removes those inside flat
+  // parts, which the extruded cells along the bore leave few of).
+  const GvdResult r = run(scene, 0, "exact", "certified", "full");
   expect_valid(r);
   EXPECT_GT(r.stats.certified_leaves, 0u);
   ASSERT_EQ(r.graph.edges.size(), 1u);
@@ -364,6 +367,52 @@ TEST(ComputeGvd, ShaftInBoreGivesTheMidSurface3D) {
     ++checked;
   }
   EXPECT_GT(checked, 100u);
+}
+
+// A blade fully in a slot, clearance g to both walls and the floor over the whole faces: every
+// rim is straight along an axis (the blade's edges, the slot's floor corners and mouth), so
+// extruded pair cells sweep the bisector along the rims and the cost does not follow 1 / g.
+// Valid (closed, oriented, no crossings, equidistant vertices), the exact gap, the mid-planes
+// of the wall gaps exactly, and 100 times thinner for at most twice the leaves.
+TEST(ComputeGvd, BladeFullyInSlotCostsTheSameAtAnyGap3D) {
+  uint64_t leaves[2] = {0, 0};
+  const double gaps[2] = {1e-3, 1e-5};
+  for (int k = 0; k < 2; ++k) {
+    test::BladeInSlotOptions o;
+    o.gap = gaps[k];
+    const Scene scene = test::make_blade_in_slot(o);
+    const double g = o.gap * make_domain(scene).side;
+    const GvdResult r = run(scene);
+    expect_valid(r);
+    leaves[k] = r.stats.leaves;
+    ASSERT_EQ(r.graph.edges.size(), 1u);
+    EXPECT_FALSE(r.graph.edges[0].touching);
+    EXPECT_NEAR(r.graph.edges[0].gap, g, 1e-9 * g);
+    EXPECT_NEAR(r.graph.edges[0].min_clearance, g / 2, 1e-2 * g);
+    const double x0 = 0.5 - 0.5 * o.width, floor_y = 0.5 - o.depth;
+    size_t on_plane = 0;
+    std::vector<double> relative;
+    const GvdCell& cell = r.gvd.cells[0];
+    for (size_t v = 0; v < cell.positions.size(); ++v) {
+      if (cell.other[v] != 1) continue;
+      const Vec3 p = cell.positions[v];
+      const double da = test::brute_distance(r.scene, 0, p);
+      const double db = test::brute_distance(r.scene, 1, p);
+      if (relative.size() < 4000) relative.push_back(std::abs(da - db) / std::max(da, db));
+      // The left wall's gap, away from the floor, the mouth and the blade's ends.
+      if (p.x < x0 - g || p.x > x0 || p.y < floor_y + 0.02 || p.y > 0.48 || p.z < 0.12 ||
+          p.z > 0.88)
+        continue;
+      EXPECT_NEAR(p.x, x0 - g / 2, 1e-6 * g) << "vertex " << v;
+      ++on_plane;
+    }
+    EXPECT_GT(on_plane, 0u);
+    ASSERT_FALSE(relative.empty());
+    std::nth_element(relative.begin(), relative.begin() + relative.size() / 2, relative.end());
+    EXPECT_LT(relative[relative.size() / 2], 1e-6) << "median relative gap at GVD vertices";
+  }
+  EXPECT_LE(leaves[1], 2 * leaves[0])
+      << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
 }
 
 // Flush stacked plates at a full-face gap of 1e-5 of the domain: at their rims each plate is

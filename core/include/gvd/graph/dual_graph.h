@@ -46,6 +46,9 @@ DualGraph build_dual_graph(const Gvd& gvd);
 /// the edge's min_clearance and tightest_point to it.
 /// Measures every edge's `gap` exactly (SimplexBvh::object_distance over the unit-domain
 /// `bvh`) and marks the contact pairs (`contacts`, a < b) `touching`, with min_clearance 0.
+/// Where no third object is nearer to the middle of the pair's closest points than half the
+/// gap, that middle lies on the interface and no interface point is nearer to the objects:
+/// min_clearance becomes half the gap, exactly, and tightest_point that middle.
 void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
                   const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads);
 
