@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <tuple>
+#include <unordered_map>
 
 #include "cell_faces.h"
 #include "gvd/common/default_init.h"
@@ -152,6 +153,46 @@ class CellSurfacer {
     for (size_t i = 0; i < keys.size(); ++i)
       refined_index_.insert(keys[i], static_cast<uint32_t>(i));
     refined_count_ = keys.size();
+    if (any_extruded_) trace_curves(threads);
+  }
+
+  // The curves of all traced faces, each once: from the extruded leaf below the face (side 2),
+  // or from the one above when the leaf below is not extruded along the same axis.
+  void trace_curves(int threads) {
+    const size_t n = octree_.leaf_count();
+    const size_t grain = 256;
+    std::vector<std::vector<Curve>> found((n + grain - 1) / grain);
+    parallel_for(
+        n, threads,
+        [&](size_t b, size_t e, int) {
+          std::vector<Curve> mine;
+          for (size_t i = b; i < e; ++i) {
+            const uint32_t leaf = static_cast<uint32_t>(i);
+            const int axis = octree_.extruded_axis(leaf);
+            if (axis < 0) continue;
+            const LeafGrid grid = field_.grid(octree_, leaf);
+            detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
+              if (p.axis != axis) return;
+              const PolygonGvd g = polygon(p);
+              if (g.n != 2) return;
+              if (p.side == 0 && !p.on_domain && leaf_across_extruded(p)) return;
+              const bool forward = g.spokes[0].edge < g.spokes[1].edge;
+              const Spoke& lo = g.spokes[forward ? 0 : 1];
+              const Spoke& hi = g.spokes[forward ? 1 : 0];
+              mine.push_back({lo.edge, hi.edge, trace_curve(p, lo, hi)});
+            });
+          }
+          found[b / grain] = std::move(mine);
+        },
+        grain);
+    for (auto& f : found)
+      for (Curve& c : f) {
+        const uint64_t h = curve_hash(c.lo, c.hi);
+        if (curve_index_.count(h) == 0) {
+          curve_index_.emplace(h, curves_.size());
+          curves_.push_back(std::move(c));
+        }
+      }
   }
   size_t refined_count() const { return refined_count_; }
   /// The leaves that emit pieces (listed by prepare): those the GVD crosses and those
@@ -189,7 +230,21 @@ class CellSurfacer {
   PolygonGvd polygon(uint32_t leaf, const detail::FacePolygon& poly) const {
     PolygonGvd out = polygon(poly);
     if (out.n == 2 && any_extruded_ && traced_face(leaf, poly)) {
-      out.curve = trace_curve(poly, out.spokes[0], out.spokes[1]);
+      const uint64_t lo = std::min(out.spokes[0].edge, out.spokes[1].edge);
+      const uint64_t hi = std::max(out.spokes[0].edge, out.spokes[1].edge);
+      const auto it = curve_index_.find(curve_hash(lo, hi));
+      if (it != curve_index_.end() && curves_[it->second].lo == lo &&
+          curves_[it->second].hi == hi) {
+        const Curve& c = curves_[it->second];
+        // Stored from the smaller spoke edge to the larger one.
+        if (out.spokes[0].edge == lo) {
+          out.curve = c.points;
+        } else {
+          out.curve.assign(c.points.rbegin(), c.points.rend());
+        }
+      } else {
+        out.curve = trace_curve(poly, out.spokes[0], out.spokes[1]);
+      }
     }
     return out;
   }
@@ -372,7 +427,11 @@ class CellSurfacer {
   // cell on one of its sides: this leaf or the leaf across the polygon.
   bool traced_face(uint32_t leaf, const detail::FacePolygon& poly) const {
     if (octree_.extruded_axis(leaf) == poly.axis) return true;
-    if (poly.on_domain) return false;
+    return !poly.on_domain && leaf_across_extruded(poly);
+  }
+
+  // Whether the leaf across polygon `poly` (not on the domain box) is extruded along its axis.
+  bool leaf_across_extruded(const detail::FacePolygon& poly) const {
     lattice::Coord lo = lattice::vertex_coord(3, field_.vertices.key[poly.v[0]]);
     for (int i = 1; i < poly.n; ++i) {
       const lattice::Coord c = lattice::vertex_coord(3, field_.vertices.key[poly.v[i]]);
@@ -383,12 +442,33 @@ class CellSurfacer {
     return octree_.extruded_axis(across) == poly.axis;
   }
 
+  // The last point where the tracer measured both distances: distance is 1-Lipschitz, so
+  // d(x) <= d(last) + |x - last| bounds the next searches (the answers stay exact).
+  struct Probe {
+    Vec3 x;
+    double da = 0, db = 0;
+    bool valid = false;
+    Vec3 grad;  ///< the gradient of d_a - d_b at x (from the closest points)
+  };
+
   // d_a - d_b at x (exact, by the BVH), and d_a.
-  double bisector_gap(Vec3 x, ObjectId a, ObjectId b, double* da = nullptr) const {
-    const ClosestHit ha = bvh_.nearest_in_object(x, a);
-    const ClosestHit hb = bvh_.nearest_in_object(x, b);
-    if (da != nullptr) *da = std::sqrt(ha.dist2);
-    return std::sqrt(ha.dist2) - std::sqrt(hb.dist2);
+  double bisector_gap(Vec3 x, ObjectId a, ObjectId b, Probe& last, double* da = nullptr) const {
+    auto distance = [&](ObjectId o, double before) {
+      double bound2 = 1e300;
+      if (last.valid) {
+        const double bound = before + dist(x, last.x);
+        bound2 = bound * bound * (1 + 1e-9) + 1e-300;
+      }
+      ClosestHit h = bvh_.nearest_in_object(x, o, bound2);
+      if (!h.found()) h = bvh_.nearest_in_object(x, o);
+      return h;
+    };
+    const ClosestHit ha = distance(a, last.da), hb = distance(b, last.db);
+    const double a_dist = std::sqrt(ha.dist2), b_dist = std::sqrt(hb.dist2);
+    last = {x, a_dist, b_dist, true, Vec3{}};
+    if (a_dist > 0 && b_dist > 0) last.grad = (x - ha.point) / a_dist - (x - hb.point) / b_dist;
+    if (da != nullptr) *da = a_dist;
+    return a_dist - b_dist;
   }
 
   // The bisector curve of objects a and b on a face (axis `axis`, bounds `face`) between two of
@@ -410,15 +490,16 @@ class CellSurfacer {
     const ObjectId b = std::max(from.label_a, from.label_b);
     std::vector<Vec3> out;
     double cp = 0, cq = 0;
-    bisector_gap(from.p, a, b, &cp);
-    bisector_gap(to.p, a, b, &cq);
-    subdivide_curve(from.p, to.p, cp, cq, a, b, poly.axis, face, 0, out);
+    Probe last;
+    bisector_gap(from.p, a, b, last, &cp);
+    bisector_gap(to.p, a, b, last, &cq);
+    subdivide_curve(from.p, to.p, cp, cq, a, b, poly.axis, face, 0, last, out);
     if (flip) std::reverse(out.begin(), out.end());
     return out;
   }
 
   void subdivide_curve(Vec3 p, Vec3 q, double cp, double cq, ObjectId a, ObjectId b, int axis,
-                       const Box& face, int depth, std::vector<Vec3>& out) const {
+                       const Box& face, int depth, Probe& last, std::vector<Vec3>& out) const {
     if (depth >= kCurveDepth) return;
     const Vec3 m = (p + q) * 0.5;
     Vec3 nu = q - p;
@@ -438,14 +519,42 @@ class CellSurfacer {
       t_hi = std::min(t_hi, t1);
     }
     if (!(t_lo < t_hi)) return;
-    double f_lo = bisector_gap(m + nu * t_lo, a, b), f_hi = bisector_gap(m + nu * t_hi, a, b);
-    if (!(f_lo * f_hi < 0)) return;  // no crossing on the line: keep the chord
+    // Newton steps from the chord's midpoint (the slope along nu from the closest points)
+    // until the root is bracketed; the line's ends in the face bracket it otherwise.
+    double t = 0, da = 0;
+    double f = bisector_gap(m, a, b, last, &da);
+    bool bracketed = false, done = std::abs(f) <= 1e-12 * da;
+    double f_lo = 0, f_hi = 0;
+    for (int it = 0; it < 4 && !done && !bracketed; ++it) {
+      const double slope = dot(last.grad, nu);
+      if (!(std::abs(slope) > 0.1)) break;
+      const double tn = std::clamp(t - f / slope, t_lo, t_hi);
+      double dn = 0;
+      const double fn = bisector_gap(m + nu * tn, a, b, last, &dn);
+      if (fn * f < 0) {
+        bracketed = true;
+        if (tn < t) {
+          t_lo = tn, f_lo = fn, t_hi = t, f_hi = f;
+        } else {
+          t_lo = t, f_lo = f, t_hi = tn, f_hi = fn;
+        }
+      }
+      t = tn;
+      f = fn;
+      da = dn;
+      done = std::abs(f) <= 1e-12 * da;
+    }
+    if (!done && !bracketed) {
+      f_lo = bisector_gap(m + nu * t_lo, a, b, last);
+      f_hi = bisector_gap(m + nu * t_hi, a, b, last);
+      if (!(f_lo * f_hi < 0)) return;  // no crossing on the line: keep the chord
+    }
     // Regula falsi with the Illinois step (the bisector is one simple root on the line).
-    double t = 0, side = 0, da = 0;
-    for (int it = 0; it < 100; ++it) {
+    double side = 0;
+    for (int it = 0; it < 100 && !done; ++it) {
       t = (t_lo * f_hi - t_hi * f_lo) / (f_hi - f_lo);
       if (!(t > t_lo && t < t_hi)) t = 0.5 * (t_lo + t_hi);
-      const double f = bisector_gap(m + nu * t, a, b, &da);
+      f = bisector_gap(m + nu * t, a, b, last, &da);
       if (std::abs(f) <= 1e-12 * da || t_hi - t_lo <= 1e-13 * len) break;
       if ((f < 0) == (f_lo < 0)) {
         t_lo = t;
@@ -464,9 +573,9 @@ class CellSurfacer {
     if (std::abs(t) <= kCurveTolerance * clearance &&
         (depth > 0 || std::abs(t) <= 1e-9 * clearance))
       return;
-    subdivide_curve(p, x, cp, da, a, b, axis, face, depth + 1, out);
+    subdivide_curve(p, x, cp, da, a, b, axis, face, depth + 1, last, out);
     out.push_back(x);
-    subdivide_curve(x, q, da, cq, a, b, axis, face, depth + 1, out);
+    subdivide_curve(x, q, da, cq, a, b, axis, face, depth + 1, last, out);
   }
 
   static void emit(Sink& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {
@@ -870,9 +979,20 @@ class CellSurfacer {
     }
   }
 
+  // A traced face's curve between its spokes on octree edges lo < hi, from lo to hi.
+  struct Curve {
+    uint64_t lo, hi;
+    std::vector<Vec3> points;
+  };
+  static uint64_t curve_hash(uint64_t lo, uint64_t hi) {
+    return lo * 0x9e3779b97f4a7c15ull ^ (hi + 0x632be59bd9b4e019ull + (lo << 6) + (lo >> 2));
+  }
+
   const Octree& octree_;
   const DistanceField& field_;
   const SimplexBvh& bvh_;
+  std::vector<Curve> curves_;
+  std::unordered_map<uint64_t, size_t> curve_index_;
   std::vector<Vec3> refined_;
   FlatMap64 refined_index_;
   std::vector<uint32_t> active_;
