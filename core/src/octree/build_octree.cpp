@@ -427,6 +427,8 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
             const uint8_t cert =
                 current.certified[i] != 0 ? current.certified[i] : mark_in(certified, level, code);
             if (has_internal && internal[level].contains(code)) {
+              // Children of a split cell carry its mark when it holds for sub-cells.
+              const uint8_t child_cert = mark_inherited(cert) ? cert : 0;
               bool cached = false;
               if (cache != nullptr && level + 1 < static_cast<int>(cache->sets.size())) {
                 const uint32_t at = cache->index[level].find(code);
@@ -439,17 +441,17 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
                   const uint64_t cc = child_code(g.dimension, code, level, c);
                   const uint32_t j = cache->index[level + 1].find(cc);
                   if (j == FlatMap64::kMissing) {
-                    next.add(cc, nullptr, nullptr, cert);
+                    next.add(cc, nullptr, nullptr, child_cert);
                   } else {
                     next.add(cc, below.pool.data() + below.begin[j],
-                             below.pool.data() + below.begin[j + 1], cert);
+                             below.pool.data() + below.begin[j + 1], child_cert);
                   }
                 }
                 continue;
               }
               split_cell(g, code, level, lb, le, scratch,
                          [&](uint64_t cc, const std::vector<uint32_t>& list) {
-                           next.add(cc, list, cert);
+                           next.add(cc, list, child_cert);
                          });
             } else {
               leaves.code.push_back(code);
@@ -753,11 +755,13 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
             }
             // Children pushed in reverse so that they pop in Morton order.
             std::vector<Frame> children;
-            split_cell(geometry, f.code, f.level, f.simplices.data(),
-                       f.simplices.data() + f.simplices.size(), scratch,
-                       [&](uint64_t cc, const std::vector<uint32_t>& list) {
-                         children.push_back({cc, f.level + 1, list, f.certified});
-                       });
+            split_cell(
+                geometry, f.code, f.level, f.simplices.data(),
+                f.simplices.data() + f.simplices.size(), scratch,
+                [&](uint64_t cc, const std::vector<uint32_t>& list) {
+                  children.push_back({cc, f.level + 1, list,
+                                      mark_inherited(f.certified) ? f.certified : uint8_t{0}});
+                });
             for (auto it = children.rbegin(); it != children.rend(); ++it)
               stack.push_back(std::move(*it));
           }

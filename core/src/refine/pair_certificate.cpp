@@ -541,16 +541,34 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       axis = a;
   }
   if (axis < 0) return out;
-  // One quadrant of the cross-section holds them all.
+  // One quadrant of the cross-section holds them all; or else one cone of at most 2 kMaxCone
+  // around their mean, which can straddle one cross-section axis (`mixed`): lines along it
+  // may then meet the curve twice, so the cell's own lines along it are checked below.
   Vec3 rise;
+  int mixed = -1;
   for (int a = 0; a < 3; ++a) {
     if (a == axis) continue;
     const bool up = std::all_of(normals.begin(), normals.end(),
                                 [&](Vec3 n) { return n[a] >= -kPerpendicular; });
     const bool down =
         std::all_of(normals.begin(), normals.end(), [&](Vec3 n) { return n[a] <= kPerpendicular; });
-    if (!up && !down) return out;
+    if (!up && !down) {
+      if (mixed >= 0) return out;
+      mixed = a;
+    }
     rise[a] = up ? 1 : -1;
+  }
+  if (mixed >= 0) {
+    Vec3 mean;
+    for (Vec3 n : normals) mean = mean + n;
+    mean[axis] = 0;
+    const double len = norm(mean);
+    if (!(len > 0)) return out;
+    mean = mean / len;
+    const double cos_cone = std::cos(kMaxCone);
+    for (Vec3 n : normals)
+      if (dot(n, mean) < cos_cone) return out;
+    rise = mean * std::sqrt(2.0);  // scaled back by 1/sqrt(2) below
   }
   // Every simplex that can be nearest to a point of the cell lies in the cell inflated by
   // max d_k(c) + r (see certify); on each plane of the nearest simplices, the object's
@@ -593,7 +611,23 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       if (std::abs(area_sum - strip) > 1e-9 * strip) return out;
     }
   }
-  out.verdict = extruded_verdict(axis);
+  if (mixed >= 0) {
+    // The lines of the cell along `mixed` where octree edges can run: its two sides and its
+    // middle, across the monotone axis, at any point along the axis (all alike).
+    const int mono = 3 - axis - mixed;
+    for (int k = 0; k < 3; ++k) {
+      Vec3 p0 = box.center(), p1;
+      p0[mono] =
+          k == 0 ? box.lo[mono] : (k == 1 ? 0.5 * (box.lo[mono] + box.hi[mono]) : box.hi[mono]);
+      p1 = p0;
+      p0[mixed] = box.lo[mixed];
+      p1[mixed] = box.hi[mixed];
+      if (line_crossings(pair, p0, p1, mixed, patch) > 1) return out;
+    }
+    out.inherited = false;
+    out.mixed = mixed;
+  }
+  out.verdict = extruded_verdict(axis, mixed < 0);
   out.axis = axis;
   const int first_k = pair[0] < pair[1] ? 0 : 1;
   out.a = pair[first_k];
@@ -601,6 +635,64 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   // rise is where d_pair[0] - d_pair[1] grows; for a = pair[1] it is the other way.
   out.rise = rise * ((first_k == 0 ? 1.0 : -1.0) / std::sqrt(2.0));
   return out;
+}
+
+int PairCertifier::line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int along,
+                                  const std::vector<uint32_t> patch[2]) const {
+  const UnitGeometry& g = geometry_;
+  // d_pair[0] - d_pair[1] at x, exact (nearest simplex among the cell's patch: every point of
+  // the cell has its nearest simplices there).
+  auto gap_at = [&](Vec3 x) {
+    double d[2];
+    for (int k = 0; k < 2; ++k) {
+      double best = 1e300;
+      for (uint32_t s : patch[k])
+        best = std::min(best, dist2(x, closest_point_on_simplex(3, g.points, g.simplices[s], x)));
+      d[k] = std::sqrt(best);
+    }
+    return d[0] - d[1];
+  };
+  // Whether d_0 - d_1 is monotone along the segment [a, b]: the simplices of its patch that can
+  // be nearest to a point of it (within d_k(c) + 2r of its middle c) have gradient directions
+  // (outward normals of 0, inward ones of 1) whose components along `along` share a sign.
+  auto monotone = [&](Vec3 a, Vec3 b) {
+    const Vec3 c = (a + b) * 0.5;
+    const double r = 0.5 * dist(a, b);
+    bool up = true, down = true;
+    for (int k = 0; k < 2; ++k) {
+      double best = 1e300;
+      for (uint32_t s : patch[k])
+        best = std::min(best, dist2(c, closest_point_on_simplex(3, g.points, g.simplices[s], c)));
+      const double range = (std::sqrt(best) + 2 * r) * (1 + 1e-9) + 1e-15;
+      const double sign = k == 0 ? outward_[pair[0]] : -outward_[pair[1]];
+      for (uint32_t s : patch[k]) {
+        if (dist2(c, closest_point_on_simplex(3, g.points, g.simplices[s], c)) > range * range)
+          continue;
+        Plane p;
+        if (!simplex_plane(g, s, p)) return false;
+        const double n = p.n[along] * sign;
+        up &= n >= -1e-12;
+        down &= n <= 1e-12;
+      }
+    }
+    return up || down;
+  };
+  int evaluations = 0;
+  // Crossings of [a, b] (values fa, fb at the ends); -1: undecided. d_0 - d_1 is 2-Lipschitz.
+  auto count = [&](auto&& self, Vec3 a, Vec3 b, double fa, double fb, int depth) -> int {
+    if (fa == 0 || fb == 0 || depth > 24 || ++evaluations > 256) return -1;
+    const bool change = (fa < 0) != (fb < 0);
+    if (!change && 0.5 * (std::abs(fa) + std::abs(fb)) > dist(a, b)) return 0;
+    if (monotone(a, b)) return change ? 1 : 0;
+    const Vec3 m = (a + b) * 0.5;
+    const double fm = gap_at(m);
+    const int left = self(self, a, m, fa, fm, depth + 1);
+    if (left < 0) return -1;
+    const int right = self(self, m, b, fm, fb, depth + 1);
+    return right < 0 ? -1 : left + right;
+  };
+  const int n = count(count, p0, p1, gap_at(p0), gap_at(p1), 0);
+  return n < 0 ? 2 : n;
 }
 
 }  // namespace gvd

@@ -148,31 +148,52 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
     y[c.axis] = box.lo[c.axis] + u(rng) * side;
     ASSERT_NEAR(dist_to(c.a, x), dist_to(c.a, y), 1e-12) << "d_a varies along the axis";
     ASSERT_NEAR(dist_to(c.b, x), dist_to(c.b, y), 1e-12) << "d_b varies along the axis";
-    // Lines through x: along rise, and along each cross-section axis.
-    Vec3 dirs[3];
+    // Lines through x: along rise, and along each cross-section axis; where the certificate
+    // straddles an axis (c.mixed), lines along that axis only where octree edges can run (the
+    // cell's sides and middle).
+    Vec3 dirs[4], from[4];
     int nd = 0;
+    from[nd] = x;
     dirs[nd++] = c.rise;
     for (int a = 0; a < 3; ++a) {
       if (a == c.axis) continue;
       Vec3 d;
       d[a] = c.rise[a] > 0 ? 1 : -1;
+      if (a == c.mixed) continue;  // checked below
+      from[nd] = x;
       dirs[nd++] = d;
     }
     for (int l = 0; l < nd; ++l) {
-      int last = -1, changes = 0;
+      int last = 0, changes = 0;
       for (int i = -16; i <= 16; ++i) {
-        const Vec3 p = x + dirs[l] * (side * i / 16.0);
+        const Vec3 p = from[l] + dirs[l] * (side * i / 16.0);
         bool in = true;
         for (int a = 0; a < 3; ++a) in &= p[a] >= box.lo[a] && p[a] <= box.hi[a];
         if (!in) continue;
         const int sg = sign_of(p);
         if (sg == 0) continue;
         ASSERT_FALSE(last == 1 && sg == -1) << "d_a - d_b falls along the rise, line " << l;
-        changes += last == -1 && sg == 1;
+        changes += last != 0 && sg != last;
         last = sg;
       }
       ASSERT_LE(changes, 1);
     }
+  }
+  if (c.mixed < 0) return;
+  // Along the straddled axis: the cell's sides and middle, finely.
+  const int mono = 3 - c.axis - c.mixed;
+  for (int k = 0; k < 3; ++k) {
+    Vec3 p = point();
+    p[mono] = box.lo[mono] + 0.5 * k * side;
+    int last = 0, changes = 0;
+    for (int i = 0; i <= 128; ++i) {
+      p[c.mixed] = box.lo[c.mixed] + side * i / 128.0;
+      const int sg = sign_of(p);
+      if (sg == 0) continue;
+      changes += last != 0 && sg != last;
+      last = sg;
+    }
+    ASSERT_LE(changes, 1) << "a line along the straddled axis meets the bisector twice";
   }
 }
 
@@ -218,6 +239,83 @@ TEST(PairCertifier, ExtrudedCellsHoldUnderBruteForce3D) {
   // The long rims run along z, the blade's bottom ends along x and its end edges along y.
   EXPECT_GT(extruded[2], tried / 4);
   EXPECT_GT(extruded[0] + extruded[1], 0);
+}
+
+TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {
+  // A hexagonal shaft in its bore: at the corners on the x axis the normals of the two faces
+  // (+-30 degrees) straddle the x axis, so only the cell's own lines along y are checked and
+  // sub-cells are asked again (inherited = false).
+  test::ShaftInBoreOptions o;
+  o.gap = 1e-3;
+  o.cell = 0.1;
+  const double g = o.gap * make_domain(test::make_shaft_in_bore(o)).side;
+  // The apex of the bisector at the corner on +x, between the shaft's corner and the bore's:
+  // lines along y just inside it meet the bisector twice.
+  const double apex = o.radius - 0.5 * g / std::cos(std::acos(-1.0) / 6);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int cone = 0, quadrant = 0;
+  // A small block far off makes the domain lopsided, so that the apex falls inside cells
+  // rather than on the lattice planes through the domain's middle; four sizes of it place the
+  // apex differently in the cells.
+  for (double far_y : {0.6113, 0.6291, 0.6457, 0.6702}) {
+    Scene scene = test::make_shaft_in_bore(o);
+    scene.objects.push_back(test::make_box("far", {0.3, 0.55, 0.3}, {0.35, far_y, 0.35}));
+    const World s(std::move(scene));
+    const PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
+    for (int level = 8; level <= 12; ++level) {
+      const double cell = std::ldexp(1.0, -level);
+      const uint64_t size = lattice::cell_size(3, level);
+      const Vec3 at = s.domain.to_unit({apex, 0, 0.3});
+      for (int i = -1; i <= 0; ++i)
+        for (int j = -1; j <= 1; ++j) {
+          lattice::Coord c;
+          c.c[0] = static_cast<uint32_t>((std::floor(at.x / cell) + i) * static_cast<double>(size));
+          c.c[1] = static_cast<uint32_t>((std::floor(at.y / cell) + j) * static_cast<double>(size));
+          c.c[2] = static_cast<uint32_t>(std::floor(at.z / cell) * static_cast<double>(size));
+          const Box box = lattice::cell_box(3, c, level);
+          const PairCertifier::Certificate cert = certifier.certify(box);
+          if (cert.axis < 0) continue;
+          ASSERT_EQ(cert.axis, 2);
+          ASSERT_EQ(cert.verdict, extruded_verdict(2, cert.inherited));
+          cone += !cert.inherited;
+          audit_extruded(s, cert, box, rng);
+          if (HasFatalFailure()) return;
+        }
+    }
+    if (far_y != 0.6113) continue;
+    // Cells along the rims at three corners: 0 degrees (a cone), 60 (a quadrant), 180 (a cone).
+    for (int level = 7; level <= 11; ++level) {
+      const double cell = std::ldexp(1.0, -level);
+      for (double corner : {0.0, 60.0, 180.0}) {
+        const double a = corner * std::acos(-1.0) / 180;
+        const Vec3 rim{(o.radius - g) * std::cos(a), (o.radius - g) * std::sin(a), 0};
+        for (int k = 0; k < 4; ++k) {
+          Vec3 p = rim;
+          p.z = 0.3 + 0.1 * u(rng);
+          Vec3 unit = s.domain.to_unit(p);
+          for (int i = 0; i < 3; ++i) unit[i] += 0.5 * u(rng) * cell;
+          lattice::Coord c;
+          const uint64_t size = lattice::cell_size(3, level);
+          for (int i = 0; i < 3; ++i)
+            c.c[i] = static_cast<uint32_t>(std::floor(unit[i] / cell) * static_cast<double>(size));
+          const Box box = lattice::cell_box(3, c, level);
+          const PairCertifier::Certificate cert = certifier.certify(box);
+          if (cert.axis < 0) continue;
+          ASSERT_EQ(cert.axis, 2);
+          ASSERT_EQ(cert.verdict, extruded_verdict(2, cert.inherited));
+          (cert.inherited ? quadrant : cone) += 1;
+          if (!cert.inherited) {
+            ASSERT_EQ(cert.mixed, 1);
+          }
+          audit_extruded(s, cert, box, rng);
+          if (HasFatalFailure()) return;
+        }
+      }
+    }
+  }
+  EXPECT_GT(cone, 0);
+  EXPECT_GT(quadrant, 0);
 }
 
 TEST(PairCertifier, ExtrudedCellsNeedClosedStraightQuadrantRims) {

@@ -28,27 +28,30 @@ enum class CellVerdict : uint8_t {
   kExtrudedX,
   kExtrudedY,
   kExtrudedZ,
+  /// The same, certified for this cell only: its sub-cells must be asked again.
+  kExtrudedOnlyX,
+  kExtrudedOnlyY,
+  kExtrudedOnlyZ,
 };
 
-/// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair) or 2 + axis (the
-/// extruded pair cells).
+/// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair), 2 + axis (the
+/// extruded pair cells) or 5 + axis (kExtrudedOnly...).
 inline uint8_t certified_mark(CellVerdict v) {
-  switch (v) {
-    case CellVerdict::kPair:
-      return 1;
-    case CellVerdict::kExtrudedX:
-    case CellVerdict::kExtrudedY:
-    case CellVerdict::kExtrudedZ:
-      return static_cast<uint8_t>(
-          2 + (static_cast<int>(v) - static_cast<int>(CellVerdict::kExtrudedX)));
-    default:
-      return 0;
-  }
+  const int i = static_cast<int>(v);
+  if (v == CellVerdict::kPair) return 1;
+  if (i >= static_cast<int>(CellVerdict::kExtrudedX) &&
+      i <= static_cast<int>(CellVerdict::kExtrudedOnlyZ))
+    return static_cast<uint8_t>(2 + i - static_cast<int>(CellVerdict::kExtrudedX));
+  return 0;
 }
 
-/// The extruded verdict along `axis` (0, 1, 2).
-inline CellVerdict extruded_verdict(int axis) {
-  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kExtrudedX) + axis);
+/// Whether cells inside a cell with this mark carry it too (all but kExtrudedOnly...).
+inline bool mark_inherited(uint8_t mark) { return mark <= 4; }
+
+/// The extruded verdict along `axis` (0, 1, 2); `inherited`: its sub-cells are certified too.
+inline CellVerdict extruded_verdict(int axis, bool inherited = true) {
+  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kExtrudedX) + axis +
+                                  (inherited ? 0 : 3));
 }
 
 /// Decides, for a cell the paper's rule would split, whether it must be split (the
@@ -112,7 +115,7 @@ struct Octree {
   bool is_certified(uint32_t leaf) const { return !certified.empty() && certified[leaf] != 0; }
   /// The axis of the extruded pair cell the leaf lies in, or -1.
   int extruded_axis(uint32_t leaf) const {
-    return certified.empty() || certified[leaf] < 2 ? -1 : certified[leaf] - 2;
+    return certified.empty() || certified[leaf] < 2 ? -1 : (certified[leaf] - 2) % 3;
   }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);

@@ -49,7 +49,12 @@ namespace gvd {
 ///   d_a - d_b lies in that quadrant and has a component >= 1 along `rise`, so C is a monotone
 ///   curve that meets every line along `rise` at most once and every side of a cross-section
 ///   square at most once (no saddles, no hidden arcs: the corners' labels show where it runs).
-///   The surfacer traces C on the faces perpendicular to e and sweeps it along e.
+///   The surfacer traces C on the faces perpendicular to e and sweeps it along e. Where the
+///   normals lie in a cone of at most 80 degrees that straddles a cross-section axis (a
+///   hexagonal shaft's corner on an axis), C stays a graph but a line along that axis can meet
+///   it twice: the cell's own lines along it (sides and middle) are checked exactly
+///   (line_crossings), and its sub-cells are not certified with it (kExtruded..., not
+///   inherited).
 ///
 /// Anything else (three objects, curved or folded patches, open edges, contact pairs, more
 /// than kMaxActive simplices in reach) is kSplit: the paper's rule applies. Thread-safe;
@@ -77,6 +82,10 @@ class PairCertifier final : public SplitOracle {
     /// which d_a - d_b increases (signed distances: at a rate of at least sqrt(2)).
     int axis = -1;
     Vec3 rise;
+    /// Extruded pairs: whether every sub-cell is certified too (one quadrant). A cone that
+    /// straddles an axis is checked on the cell's own lines only, so sub-cells are asked again.
+    bool inherited = true;
+    int mixed = -1;  ///< then: the cross-section axis the cone straddles
   };
   Certificate certify(const Box& box) const;
 
@@ -93,12 +102,20 @@ class PairCertifier final : public SplitOracle {
   /// Mirror cells are at most kMirrorTolerance * gap^2 / kMirrorRound in half-diagonal, so
   /// that the bisector's tilt from kMirrorRound stays within this part of the gap.
   static constexpr double kMirrorTolerance = 1e-4;
+  /// Extruded pairs whose gradient directions straddle a cross-section axis: they must lie
+  /// within this angle of their mean (so that the traced curve's chords keep a normal along
+  /// which d_a - d_b is monotone: 2 kMaxCone < 90 degrees).
+  static constexpr double kMaxCone = 40.0 * 3.14159265358979323846 / 180.0;
 
  private:
   Certificate certify_mirror(const Box& box, const ObjectId pair[2], const double dist[2], double r,
                              const std::vector<uint32_t> patch[2]) const;
   Certificate certify_extruded(const Box& box, const ObjectId pair[2], const double dist[2],
                                double r, const std::vector<uint32_t> patch[2]) const;
+  /// How often d_pair[0] - d_pair[1] changes sign on the segment [p0, p1] along axis `along`
+  /// inside the cell whose nearest simplices are `patch` (2: twice or more, or undecided).
+  int line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int along,
+                     const std::vector<uint32_t> patch[2]) const;
 
   static constexpr uint32_t kOpen = 0xFFFFFFFFu;         ///< a side with no simplex across
   static constexpr uint32_t kNonManifold = 0xFFFFFFFEu;  ///< a side with several
