@@ -21,6 +21,17 @@ using InternalSets = std::vector<FlatMap64>;
 // their leaves, and every leaf below them, are marked in Octree::certified.
 using CertifiedSets = std::vector<FlatMap64>;
 
+// The mark a child (code, level, simplices) of a split cell with mark `parent` gets: the
+// parent's where it holds for sub-cells; else (a cell certified for itself only) the oracle's
+// verdict for the child, so that 2:1 balance does not undo certificates round after round.
+uint8_t child_mark(int dim, const OctreeOptions& options, uint8_t parent, uint64_t code, int level,
+                   const std::vector<uint32_t>& list) {
+  const uint8_t inherited = inherited_mark(parent);
+  if (inherited != 0 || parent == 0 || options.split_oracle == nullptr) return inherited;
+  const Box box = lattice::cell_box(dim, lattice::morton_decode(dim, code), level);
+  return certified_mark(options.split_oracle->classify(box, list));
+}
+
 // The mark of cell (code, level) in `sets`, 0 if none.
 uint8_t mark_in(const CertifiedSets& sets, int level, uint64_t code) {
   if (level >= static_cast<int>(sets.size())) return 0;
@@ -428,7 +439,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
                 current.certified[i] != 0 ? current.certified[i] : mark_in(certified, level, code);
             if (has_internal && internal[level].contains(code)) {
               // Children of a split cell carry its mark when it holds for sub-cells.
-              const uint8_t child_cert = mark_inherited(cert) ? cert : 0;
+              const uint8_t child_cert = inherited_mark(cert);
               bool cached = false;
               if (cache != nullptr && level + 1 < static_cast<int>(cache->sets.size())) {
                 const uint32_t at = cache->index[level].find(code);
@@ -451,7 +462,11 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
               }
               split_cell(g, code, level, lb, le, scratch,
                          [&](uint64_t cc, const std::vector<uint32_t>& list) {
-                           next.add(cc, list, child_cert);
+                           next.add(
+                               cc, list,
+                               child_cert != 0 || cert == 0
+                                   ? child_cert
+                                   : child_mark(g.dimension, options, cert, cc, level + 1, list));
                          });
             } else {
               leaves.code.push_back(code);
@@ -755,13 +770,13 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
             }
             // Children pushed in reverse so that they pop in Morton order.
             std::vector<Frame> children;
-            split_cell(
-                geometry, f.code, f.level, f.simplices.data(),
-                f.simplices.data() + f.simplices.size(), scratch,
-                [&](uint64_t cc, const std::vector<uint32_t>& list) {
-                  children.push_back({cc, f.level + 1, list,
-                                      mark_inherited(f.certified) ? f.certified : uint8_t{0}});
-                });
+            split_cell(geometry, f.code, f.level, f.simplices.data(),
+                       f.simplices.data() + f.simplices.size(), scratch,
+                       [&](uint64_t cc, const std::vector<uint32_t>& list) {
+                         children.push_back({cc, f.level + 1, list,
+                                             child_mark(geometry.dimension, options, f.certified,
+                                                        cc, f.level + 1, list)});
+                       });
             for (auto it = children.rbegin(); it != children.rend(); ++it)
               stack.push_back(std::move(*it));
           }

@@ -612,13 +612,13 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     }
   }
   if (mixed >= 0) {
-    // The lines of the cell along `mixed` where octree edges can run: its two sides and its
-    // middle, across the monotone axis, at any point along the axis (all alike).
+    // The lines of the cell along `mixed` where octree edges of it and of its children can
+    // run: at 0, 1/4, ... 1 of the cell across the monotone axis, at any point along the axis
+    // (all alike). Then its children are certified with it (kExtrudedOnly...).
     const int mono = 3 - axis - mixed;
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k <= 4; ++k) {
       Vec3 p0 = box.center(), p1;
-      p0[mono] =
-          k == 0 ? box.lo[mono] : (k == 1 ? 0.5 * (box.lo[mono] + box.hi[mono]) : box.hi[mono]);
+      p0[mono] = box.lo[mono] + 0.25 * k * (box.hi[mono] - box.lo[mono]);
       p1 = p0;
       p0[mixed] = box.lo[mixed];
       p1[mixed] = box.hi[mixed];
@@ -679,11 +679,14 @@ int PairCertifier::line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int 
   };
   int evaluations = 0;
   // Crossings of [a, b] (values fa, fb at the ends); -1: undecided. d_0 - d_1 is 2-Lipschitz.
+  // Pieces of 2^-30 of the segment count by their ends' signs: a loop of the bisector that
+  // small is below what any octree edge resolves (the edge points keep a hair of 1e-6 of the
+  // edge), as where the two crossings meet at the apex of a roof.
   auto count = [&](auto&& self, Vec3 a, Vec3 b, double fa, double fb, int depth) -> int {
-    if (fa == 0 || fb == 0 || depth > 24 || ++evaluations > 256) return -1;
+    if (fa == 0 || fb == 0 || ++evaluations > 512) return -1;
     const bool change = (fa < 0) != (fb < 0);
     if (!change && 0.5 * (std::abs(fa) + std::abs(fb)) > dist(a, b)) return 0;
-    if (monotone(a, b)) return change ? 1 : 0;
+    if (depth >= 30 || monotone(a, b)) return change ? 1 : 0;
     const Vec3 m = (a + b) * 0.5;
     const double fm = gap_at(m);
     const int left = self(self, a, m, fa, fm, depth + 1);

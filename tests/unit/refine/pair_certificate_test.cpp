@@ -180,11 +180,11 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
     }
   }
   if (c.mixed < 0) return;
-  // Along the straddled axis: the cell's sides and middle, finely.
+  // Along the straddled axis: the lines of the cell and its children (quarters), finely.
   const int mono = 3 - c.axis - c.mixed;
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k <= 4; ++k) {
     Vec3 p = point();
-    p[mono] = box.lo[mono] + 0.5 * k * side;
+    p[mono] = box.lo[mono] + 0.25 * k * side;
     int last = 0, changes = 0;
     for (int i = 0; i <= 128; ++i) {
       p[c.mixed] = box.lo[c.mixed] + side * i / 128.0;

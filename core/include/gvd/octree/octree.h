@@ -28,14 +28,16 @@ enum class CellVerdict : uint8_t {
   kExtrudedX,
   kExtrudedY,
   kExtrudedZ,
-  /// The same, certified for this cell only: its sub-cells must be asked again.
+  /// The same where the cell's lines along one cross-section axis were checked one by one
+  /// (pair_certificate.h): its children are certified too, its grandchildren must be asked.
   kExtrudedOnlyX,
   kExtrudedOnlyY,
   kExtrudedOnlyZ,
 };
 
 /// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair), 2 + axis (the
-/// extruded pair cells) or 5 + axis (kExtrudedOnly...).
+/// extruded pair cells) or 5 + axis (kExtrudedOnly...). Children of a 5 + axis cell carry
+/// 8 + axis (certified; their own children must be asked again).
 inline uint8_t certified_mark(CellVerdict v) {
   const int i = static_cast<int>(v);
   if (v == CellVerdict::kPair) return 1;
@@ -45,8 +47,11 @@ inline uint8_t certified_mark(CellVerdict v) {
   return 0;
 }
 
-/// Whether cells inside a cell with this mark carry it too (all but kExtrudedOnly...).
-inline bool mark_inherited(uint8_t mark) { return mark <= 4; }
+/// The mark the children of a cell with mark `mark` carry without asking again (0: ask).
+inline uint8_t inherited_mark(uint8_t mark) {
+  if (mark <= 4) return mark;
+  return mark <= 7 ? static_cast<uint8_t>(mark + 3) : uint8_t{0};
+}
 
 /// The extruded verdict along `axis` (0, 1, 2); `inherited`: its sub-cells are certified too.
 inline CellVerdict extruded_verdict(int axis, bool inherited = true) {

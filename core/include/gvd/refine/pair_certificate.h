@@ -52,9 +52,9 @@ namespace gvd {
 ///   The surfacer traces C on the faces perpendicular to e and sweeps it along e. Where the
 ///   normals lie in a cone of at most 80 degrees that straddles a cross-section axis (a
 ///   hexagonal shaft's corner on an axis), C stays a graph but a line along that axis can meet
-///   it twice: the cell's own lines along it (sides and middle) are checked exactly
-///   (line_crossings), and its sub-cells are not certified with it (kExtruded..., not
-///   inherited).
+///   it twice: the lines along it where octree edges of the cell and its children can run
+///   (at quarters of the cell) are checked exactly (line_crossings), and the cell's
+///   grandchildren are asked again (kExtrudedOnly...).
 ///
 /// Anything else (three objects, curved or folded patches, open edges, contact pairs, more
 /// than kMaxActive simplices in reach) is kSplit: the paper's rule applies. Thread-safe;
@@ -83,7 +83,8 @@ class PairCertifier final : public SplitOracle {
     int axis = -1;
     Vec3 rise;
     /// Extruded pairs: whether every sub-cell is certified too (one quadrant). A cone that
-    /// straddles an axis is checked on the cell's own lines only, so sub-cells are asked again.
+    /// straddles an axis is checked on the lines of the cell and its children only, so
+    /// grandchildren are asked again.
     bool inherited = true;
     int mixed = -1;  ///< then: the cross-section axis the cone straddles
   };
