@@ -66,6 +66,37 @@ inline bool coarse_edge(const DistanceField& field, uint32_t v0, uint32_t v1, Ve
   return h2 > kCoarse * kCoarse * d2;
 }
 
+/// The root of f on [t_lo, t_hi], where f(t_lo) = f_lo and f(t_hi) = f_hi have opposite signs:
+/// regula falsi with the Illinois step (the stale end's value halved when the same end moves
+/// twice), at most `steps` evaluations `eval(t)`, until `done(t, f(t), t_hi - t_lo)`. Returns
+/// the last point evaluated (an end where f is 0 there).
+template <class Eval, class Done>
+double bracketed_root(double t_lo, double f_lo, double t_hi, double f_hi, int steps, Eval&& eval,
+                      Done&& done) {
+  if (f_lo == 0) return t_lo;
+  if (f_hi == 0) return t_hi;
+  double t = 0.5 * (t_lo + t_hi);
+  int side = 0;
+  for (int it = 0; it < steps; ++it) {
+    t = (t_lo * f_hi - t_hi * f_lo) / (f_hi - f_lo);
+    if (!(t > t_lo && t < t_hi)) t = 0.5 * (t_lo + t_hi);
+    const double f = eval(t);
+    if (done(t, f, t_hi - t_lo)) break;
+    if ((f < 0) == (f_lo < 0)) {
+      t_lo = t;
+      f_lo = f;
+      if (side < 0) f_hi *= 0.5;
+      side = -1;
+    } else {
+      t_hi = t;
+      f_hi = f;
+      if (side > 0) f_lo *= 0.5;
+      side = 1;
+    }
+  }
+  return t;
+}
+
 /// Eq. (1) with the exact closest points of the two objects at the current estimate instead
 /// of the ends' ones, repeated while the point moves (by more than 1e-6 of the edge; at most
 /// 64 rounds): where the closest points slide along faces it converges in a few. On an edge
@@ -120,30 +151,13 @@ inline Vec3 refine_bisector(const DistanceField& field, const SimplexBvh& bvh, u
       Vec3 ra = field.closest[field.point[v0]], rb = field.closest[field.point[v1]];
       double f_hi = gap_at(x1, ra, rb);
       if (f_lo <= 0 && f_hi >= 0 && f_lo < f_hi) {
-        double t = 0.5;
-        int side = 0;
-        for (int it = 0; it < 200; ++it) {
-          t = (t_lo * f_hi - t_hi * f_lo) / (f_hi - f_lo);
-          if (!(t > t_lo && t < t_hi)) t = 0.5 * (t_lo + t_hi);
-          Vec3 ta = pa, tb = pb;
-          const Vec3 x = x0 + (x1 - x0) * t;
-          const double fx = gap_at(x, ta, tb);
-          pa = ta;
-          pb = tb;
-          if (std::abs(fx) <= 1e-12 * std::max(dist(x, ta), dist(x, tb)) || t_hi - t_lo <= 1e-15)
-            break;
-          if (fx < 0) {
-            t_lo = t;
-            f_lo = fx;
-            if (side < 0) f_hi *= 0.5;
-            side = -1;
-          } else {
-            t_hi = t;
-            f_hi = fx;
-            if (side > 0) f_lo *= 0.5;
-            side = 1;
-          }
-        }
+        double t = bracketed_root(
+            t_lo, f_lo, t_hi, f_hi, 200,
+            [&](double s) { return gap_at(x0 + (x1 - x0) * s, pa, pb); },
+            [&](double s, double fs, double width) {
+              const Vec3 x = x0 + (x1 - x0) * s;
+              return std::abs(fs) <= 1e-12 * std::max(dist(x, pa), dist(x, pb)) || width <= 1e-15;
+            });
         t = std::clamp(t, inside, 1 - inside);
         p = x0 + (x1 - x0) * t;
         a = pa;

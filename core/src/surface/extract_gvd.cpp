@@ -549,24 +549,14 @@ class CellSurfacer {
       f_hi = bisector_gap(m + nu * t_hi, a, b, last);
       if (!(f_lo * f_hi < 0)) return;  // no crossing on the line: keep the chord
     }
-    // Regula falsi with the Illinois step (the bisector is one simple root on the line).
-    double side = 0;
-    for (int it = 0; it < 100 && !done; ++it) {
-      t = (t_lo * f_hi - t_hi * f_lo) / (f_hi - f_lo);
-      if (!(t > t_lo && t < t_hi)) t = 0.5 * (t_lo + t_hi);
-      f = bisector_gap(m + nu * t, a, b, last, &da);
-      if (std::abs(f) <= 1e-12 * da || t_hi - t_lo <= 1e-13 * len) break;
-      if ((f < 0) == (f_lo < 0)) {
-        t_lo = t;
-        f_lo = f;
-        if (side < 0) f_hi *= 0.5;
-        side = -1;
-      } else {
-        t_hi = t;
-        f_hi = f;
-        if (side > 0) f_lo *= 0.5;
-        side = 1;
-      }
+    // The bisector is one simple root on the line.
+    if (!done) {
+      t = detail::bracketed_root(
+          t_lo, f_lo, t_hi, f_hi, 100,
+          [&](double s) { return bisector_gap(m + nu * s, a, b, last, &da); },
+          [&](double, double fs, double width) {
+            return std::abs(fs) <= 1e-12 * da || width <= 1e-13 * len;
+          });
     }
     const Vec3 x = m + nu * t;
     const double clearance = std::min({cp, cq, da});

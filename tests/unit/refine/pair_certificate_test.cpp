@@ -197,16 +197,39 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
   }
 }
 
+// The box of the level-`level` lattice cell holding unit point `unit`.
+Box lattice_cell_at(Vec3 unit, int level) {
+  const double cell = std::ldexp(1.0, -level);
+  const uint64_t size = lattice::cell_size(3, level);
+  lattice::Coord c;
+  for (int a = 0; a < 3; ++a)
+    c.c[a] = static_cast<uint32_t>(std::floor(unit[a] / cell) * static_cast<double>(size));
+  return lattice::cell_box(3, c, level);
+}
+
+// A blade in a slot at 1e-3 (coarse triangles) with an extruding certifier and its rims'
+// coordinates (user units).
+struct BladeCase {
+  test::BladeInSlotOptions options = [] {
+    test::BladeInSlotOptions o;
+    o.gap = 1e-3;
+    o.cell = 0.1;
+    return o;
+  }();
+  World world{test::make_blade_in_slot(options)};
+  PairCertifier certifier{world.geometry, world.bvh, nullptr, true};
+  double g = options.gap * world.domain.side;
+  double x0 = 0.5 - 0.5 * options.width, x1 = 0.5 + 0.5 * options.width;
+  double floor_y = 0.5 - options.depth;
+};
+
 TEST(PairCertifier, ExtrudedCellsHoldUnderBruteForce3D) {
   // A blade in a slot, clearance g = 1e-3 of the domain on both faces and the floor: every
   // rim of it is straight (the blade's edges, the slot's floor corners and mouth).
-  test::BladeInSlotOptions o;
-  o.gap = 1e-3;
-  o.cell = 0.1;
-  const World s(test::make_blade_in_slot(o));
-  const PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
-  const double g = o.gap * s.domain.side;
-  const double x0 = 0.5 - 0.5 * o.width, x1 = 0.5 + 0.5 * o.width, floor_y = 0.5 - o.depth;
+  const BladeCase blade;
+  const World& s = blade.world;
+  const PairCertifier& certifier = blade.certifier;
+  const double g = blade.g, x0 = blade.x0, x1 = blade.x1, floor_y = blade.floor_y;
   // Points near the rims (user units): bottom edges, floor corners, mouth, blade ends.
   const Vec3 rims[] = {{x0, floor_y + g, 0}, {x1, floor_y + g, 0},    {x0 - g, 0.5, 0},
                        {x1 + g, 0.5, 0},     {0.5, floor_y + g, 0.1}, {x0, 0.4, 0.9}};
@@ -221,11 +244,7 @@ TEST(PairCertifier, ExtrudedCellsHoldUnderBruteForce3D) {
         if (rim.z == 0) p.z = 0.3 + 0.4 * (u(rng) + 1) / 2;
         Vec3 unit = s.domain.to_unit(p);
         for (int a = 0; a < 3; ++a) unit[a] += u(rng) * cell;
-        lattice::Coord c;
-        const uint64_t size = lattice::cell_size(3, level);
-        for (int a = 0; a < 3; ++a)
-          c.c[a] = static_cast<uint32_t>(std::floor(unit[a] / cell) * static_cast<double>(size));
-        const Box box = lattice::cell_box(3, c, level);
+        const Box box = lattice_cell_at(unit, level);
         const PairCertifier::Certificate cert = certifier.certify(box);
         ++tried;
         if (cert.axis < 0) continue;
@@ -265,15 +284,10 @@ TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {
     const PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
     for (int level = 8; level <= 12; ++level) {
       const double cell = std::ldexp(1.0, -level);
-      const uint64_t size = lattice::cell_size(3, level);
       const Vec3 at = s.domain.to_unit({apex, 0, 0.3});
       for (int i = -1; i <= 0; ++i)
         for (int j = -1; j <= 1; ++j) {
-          lattice::Coord c;
-          c.c[0] = static_cast<uint32_t>((std::floor(at.x / cell) + i) * static_cast<double>(size));
-          c.c[1] = static_cast<uint32_t>((std::floor(at.y / cell) + j) * static_cast<double>(size));
-          c.c[2] = static_cast<uint32_t>(std::floor(at.z / cell) * static_cast<double>(size));
-          const Box box = lattice::cell_box(3, c, level);
+          const Box box = lattice_cell_at(at + Vec3{i * cell, j * cell, 0}, level);
           const PairCertifier::Certificate cert = certifier.certify(box);
           if (cert.axis < 0) continue;
           ASSERT_EQ(cert.axis, 2);
@@ -295,11 +309,7 @@ TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {
           p.z = 0.3 + 0.1 * u(rng);
           Vec3 unit = s.domain.to_unit(p);
           for (int i = 0; i < 3; ++i) unit[i] += 0.5 * u(rng) * cell;
-          lattice::Coord c;
-          const uint64_t size = lattice::cell_size(3, level);
-          for (int i = 0; i < 3; ++i)
-            c.c[i] = static_cast<uint32_t>(std::floor(unit[i] / cell) * static_cast<double>(size));
-          const Box box = lattice::cell_box(3, c, level);
+          const Box box = lattice_cell_at(unit, level);
           const PairCertifier::Certificate cert = certifier.certify(box);
           if (cert.axis < 0) continue;
           ASSERT_EQ(cert.axis, 2);
@@ -321,13 +331,11 @@ TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {
 TEST(PairCertifier, ExtrudedCellsNeedClosedStraightQuadrantRims) {
   // Rims of a blade in a slot that are not straight along an axis: the ends (the blade's
   // corners, where rims along two axes meet) and a copy tilted about x.
-  test::BladeInSlotOptions o;
-  o.gap = 1e-3;
-  o.cell = 0.1;
-  const World s(test::make_blade_in_slot(o));
-  const PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
-  const double g = o.gap * s.domain.side;
-  const double x0 = 0.5 - 0.5 * o.width, floor_y = 0.5 - o.depth;
+  const BladeCase blade;
+  const World& s = blade.world;
+  const PairCertifier& certifier = blade.certifier;
+  const test::BladeInSlotOptions& o = blade.options;
+  const double g = blade.g, x0 = blade.x0, floor_y = blade.floor_y;
   const Box corner = user_cube(s, Vec3{x0, floor_y + g, 0.1} - Vec3{g, g, g}, 2 * g);
   EXPECT_LT(certifier.certify(corner).axis, 0) << "the blade's corner";
   // Straight rims along z, but the cell reaches both walls of the slot: the blade's outward
