@@ -810,9 +810,11 @@ class CellSurfacer {
       last_key[e] = runs[at].to;
     }
     // The rungs: side-face pieces from an end of P to the same end of Q (either direction).
+    // Every side-face piece must belong to one of the two rungs (else C meets the side faces
+    // elsewhere, and the ladder would leave a hole).
+    std::vector<uint8_t> used(sides.size(), 0);
     auto rung = [&](uint64_t from, uint64_t to, std::vector<Vec3>& mid) {
       uint64_t at = from;
-      std::vector<uint8_t> used(sides.size(), 0);
       for (size_t steps = 0; steps <= sides.size(); ++steps) {
         if (at == to) return true;
         bool moved = false;
@@ -834,7 +836,9 @@ class CellSurfacer {
       return at == to;
     };
     std::vector<Vec3> rung_first, rung_last;
-    if (!rung(first_key[0], first_key[1], rung_first) || !rung(last_key[0], last_key[1], rung_last))
+    if (!rung(first_key[0], first_key[1], rung_first) ||
+        !rung(last_key[0], last_key[1], rung_last) ||
+        std::count(used.begin(), used.end(), 1) != static_cast<std::ptrdiff_t>(sides.size()))
       return false;
     // The ladder, by position along P's chord in the cross-section.
     const std::vector<Vec3>& p = path[0];
