@@ -75,9 +75,10 @@ compute options:
                              wavefront expansion (§4, serial, within 3/2 of the truth)
   --refine certified|paper   where objects come close: certified pair cells (default: a
                              cell is not split where exact distances prove that the GVD
-                             in it is the plane between two flat patches, so thin gaps
-                             cost what their geometry needs) or the paper's rule alone
-                             (§3: cells shrink to the gap over the whole contact)
+                             in it is the plane between two flat patches or mirror images,
+                             or a curve swept along a straight rim parallel to an axis,
+                             so thin gaps cost what their geometry needs) or the paper's
+                             rule alone (§3: cells shrink to the gap over the whole contact)
   --resolution compact|full  GVD output: flat parts merged into large pieces (default;
                              the dual graph is measured before) or one piece per octree
                              leaf, as surfaced

@@ -51,9 +51,10 @@ struct PipelineOptions {
   /// backend's kernel; the default) or "wavefront" (the paper's Algorithm 1). DistanceMethod.
   std::string distance = "exact";
   /// Where different objects come close: "certified" (the default: a cell is not split where
-  /// exact distances certify that two objects' bisector in it is one plane, so cost follows
-  /// the geometry, not 1/gap; PairCertifier) or "paper" (the paper's rule of §3 alone: cells
-  /// shrink to the gap over the whole contact).
+  /// exact distances certify that two objects' bisector in it is one plane, or a curve swept
+  /// along a straight rim parallel to an axis, so cost follows the geometry, not 1/gap;
+  /// PairCertifier) or "paper" (the paper's rule of §3 alone: cells shrink to the gap over
+  /// the whole contact).
   std::string refine = "certified";
   /// "compact" (default: flat parts of the GVD merged into large pieces, compact_gvd.h) or
   /// "full" (one piece per octree leaf it crosses, as surfaced).
