@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <tuple>
+#include <type_traits>
 #include <unordered_map>
 
 #include "cell_faces.h"
@@ -21,13 +22,14 @@ struct Piece {
   Vec3 p[3];
   ObjectId object;
   ObjectId other;
-  Vec3 witness;  // a point on an object near the piece: bounds the clearance search
+  uint32_t witness;  // a closest point (DistanceField::closest) near the piece: bounds the
+                     // clearance search
 };
 
 // Where a cell's pieces go, with the witness for all of them.
 struct Sink {
   std::vector<Piece>& out;
-  Vec3 witness;
+  uint32_t witness;
 };
 
 // A bisector point on a polygon edge and the labels / positions of the edge's ends, in the
@@ -203,6 +205,10 @@ class CellSurfacer {
   // which bounds the clearance search at the pieces made from it.
   Vec3 witness(const Spoke& s) const {
     return field_.closest[field_.point[static_cast<uint32_t>(s.edge >> 32)]];
+  }
+  // The same point as an index into DistanceField::closest (what pieces carry).
+  uint32_t witness_index(const Spoke& s) const {
+    return field_.point[static_cast<uint32_t>(s.edge >> 32)];
   }
 
   PolygonGvd polygon(const detail::FacePolygon& poly) const {
@@ -395,7 +401,7 @@ class CellSurfacer {
 
   void cell(uint32_t leaf, std::vector<Piece>& pieces) const {
     const LeafGrid grid = field_.grid(octree_, leaf);
-    Sink out{pieces, field_.closest[field_.point[grid[0]]]};
+    Sink out{pieces, field_.point[grid[0]]};
     bool mixed = false;
     const ObjectId first = field_.label[grid[0]];
     for (uint32_t v : grid)
@@ -587,13 +593,13 @@ class CellSurfacer {
     // The ring runs counter-clockwise, so label_a lies to the left of bisector -> centroid.
     // Two spokes through their midpoint are one straight segment: emit it whole.
     if (g.n == 2) {
-      out.witness = witness(g.spokes[0]);
+      out.witness = witness_index(g.spokes[0]);
       emit(out, g.spokes[0].p, g.spokes[1].p, g.spokes[0].label_a, g.spokes[0].label_b);
       emit(out, g.spokes[1].p, g.spokes[0].p, g.spokes[0].label_b, g.spokes[0].label_a);
     } else {
       for (int i = 0; i < g.n; ++i) {
         const Spoke& s = g.spokes[i];
-        out.witness = witness(s);
+        out.witness = witness_index(s);
         emit(out, s.p, g.centroid, s.label_a, s.label_b);
         emit(out, g.centroid, s.p, s.label_b, s.label_a);
       }
@@ -684,7 +690,7 @@ class CellSurfacer {
       if (g.n == 2 && !g.curve.empty()) {
         // A traced curve: a fan from the apex over its chords.
         const Spoke& s0 = g.spokes[0];
-        out.witness = witness(s0);
+        out.witness = witness_index(s0);
         Vec3 prev = s0.p;
         for (size_t k = 0; k <= g.curve.size(); ++k) {
           const Vec3 next = k < g.curve.size() ? g.curve[k] : g.spokes[1].p;
@@ -703,7 +709,7 @@ class CellSurfacer {
         // Two spokes meet at their midpoint in a straight line: one triangle per side instead
         // of two, with the same edges as the cell across (which merges the same face).
         const Spoke& s0 = g.spokes[0];
-        out.witness = witness(s0);
+        out.witness = witness_index(s0);
         const Spoke& s1 = g.spokes[1];
         if (outward_plus) {
           emit(out, s0.p, s1.p, rc, s0.label_a, s0.label_b);
@@ -717,7 +723,7 @@ class CellSurfacer {
       }
       for (int i = 0; i < g.n; ++i) {
         const Spoke& s = g.spokes[i];
-        out.witness = witness(s);
+        out.witness = witness_index(s);
         if (outward_plus) {
           emit(out, s.p, g.centroid, rc, s.label_a, s.label_b);
           emit(out, g.centroid, s.p, rc, s.label_b, s.label_a);
@@ -907,7 +913,7 @@ class CellSurfacer {
     }
     for (int f = 0; f < np; ++f) {
       if (gvds[f].n > 0) {
-        out.witness = witness(gvds[f].spokes[0]);
+        out.witness = witness_index(gvds[f].spokes[0]);
         break;
       }
     }
@@ -927,7 +933,7 @@ class CellSurfacer {
       // The straight GVD segment p0 -> p1 splits the face into two convex parts; fan each
       // from its first point so that the segment itself is an edge (as in the GVD triangles).
       const Spoke& s0 = g.spokes[0];
-      out.witness = witness(s0);
+      out.witness = witness_index(s0);
       const Spoke& s1 = g.spokes[1];
       auto fan = [&](Vec3 from, int first, int last, Vec3 to, ObjectId obj) {
         Vec3 prev = field_.vertices.position(poly.v[first]);
@@ -1017,7 +1023,7 @@ struct SurfaceChunk {
     Vec3 p;
     ObjectId lo, hi;  // the pair, lo < hi (hi = kNoObject on the domain box)
     uint32_t sides;
-    Vec3 witness;  // the nearest of its pieces' witnesses: bounds the clearance search
+    uint32_t witness;  // the nearest of its pieces' witnesses (DistanceField::closest index)
   };
   struct Simplex {
     uint32_t v[3];
@@ -1028,7 +1034,7 @@ struct SurfaceChunk {
 
   // Appends one leaf's pieces, merging equal (point, pair) within the leaf (a small
   // open-addressing table over the leaf's records; the scan covers only a collision chain).
-  void add(const std::vector<Piece>& pieces, int arity) {
+  void add(const std::vector<Piece>& pieces, int arity, const std::vector<Vec3>& closest) {
     const size_t first = corners.size();
     size_t bits = 6;
     while ((size_t{1} << bits) < 4 * pieces.size() * arity) ++bits;
@@ -1056,7 +1062,9 @@ struct SurfaceChunk {
           corners.push_back({p, lo, hi, side, piece.witness});
         } else {
           corners[at].sides |= side;
-          if (dist2(p, piece.witness) < dist2(p, corners[at].witness))
+          if (piece.witness != kNoVertex &&
+              (corners[at].witness == kNoVertex ||
+               dist2(p, closest[piece.witness]) < dist2(p, closest[corners[at].witness])))
             corners[at].witness = piece.witness;
         }
         t.v[k] = at;
@@ -1113,7 +1121,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         for (size_t i = b; i < e; ++i) {
           local.clear();
           surfacer.cell(active[i], local);
-          chunk.add(local, arity);
+          chunk.add(local, arity, field.closest);
         }
         chunks[b / grain] = std::move(chunk);
       },
@@ -1124,7 +1132,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   for (size_t c = 0; c < chunks.size(); ++c)
     chunk_start[c + 1] = chunk_start[c] + chunks[c].corners.size();
   const size_t nc = chunk_start.back();
-  UninitVector<const SurfaceChunk::Corner*> record(nc);  // filled below, in parallel
+  UninitVector<SurfaceChunk::Corner*> record(nc);  // filled below, in parallel
   parallel_for(
       chunks.size(), threads,
       [&](size_t b, size_t e, int) {
@@ -1182,34 +1190,24 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         64);
   }
 
-  // The records in sorted order (one parallel gather, so the passes below read sequentially);
-  // runs of one position; within a run, groups of one pair, whose records' sides together
-  // say which of the pair's objects get a vertex.
-  struct Sorted {
-    Vec3 p;
-    ObjectId lo, hi;
-    uint32_t sides;
-  };
-  std::vector<Sorted> sorted(nc);
+  // The records in sorted order (through `record`: no copy, the chunks hold them); runs of
+  // one position; within a run, groups of one pair, whose records' sides together say which
+  // of the pair's objects get a vertex.
+  auto sorted = [&](size_t i) -> SurfaceChunk::Corner& { return *record[keyed[i].record]; };
   std::vector<uint8_t> new_group(nc), new_point(nc);
   parallel_for(nc, threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) {
-      const SurfaceChunk::Corner& c = *record[keyed[i].record];
-      sorted[i] = {c.p, c.lo, c.hi, c.sides};
-    }
-  });
-  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) {
-      const Sorted* before = i == 0 ? nullptr : &sorted[i - 1];
-      new_point[i] = before == nullptr || sorted[i].p != before->p;
-      new_group[i] = new_point[i] || sorted[i].lo != before->lo || sorted[i].hi != before->hi;
+      const SurfaceChunk::Corner* before = i == 0 ? nullptr : &sorted(i - 1);
+      const SurfaceChunk::Corner& c = sorted(i);
+      new_point[i] = before == nullptr || c.p != before->p;
+      new_group[i] = new_point[i] || c.lo != before->lo || c.hi != before->hi;
     }
   });
   // The sides of each group, on its first record.
   parallel_for(nc, threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) {
       if (!new_group[i]) continue;
-      for (size_t j = i + 1; j < nc && !new_group[j]; ++j) sorted[i].sides |= sorted[j].sides;
+      for (size_t j = i + 1; j < nc && !new_group[j]; ++j) sorted(i).sides |= sorted(j).sides;
     }
   });
   std::vector<size_t> run_start;
@@ -1240,10 +1238,11 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         bool have_previous = false;
         for (size_t o = b; o < e; ++o) {
           const size_t r = run_order[o].second;
-          const Vec3 p = sorted[run_start[r]].p;
+          const Vec3 p = sorted(run_start[r]).p;
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
-            bound2 = std::min(bound2, dist2(p, record[keyed[i].record]->witness));
+            if (record[keyed[i].record]->witness != kNoVertex)
+              bound2 = std::min(bound2, dist2(p, field.closest[record[keyed[i].record]->witness]));
           if (have_previous) bound2 = std::min(bound2, dist2(p, previous) * (1 + 1e-9));
           const ClosestHit hit = bvh.nearest(p, bound2);
           run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
@@ -1272,8 +1271,9 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         for (size_t p = b; p < e; ++p) {
           for (size_t i = run_start[part_run[p]]; i < run_start[part_run[p + 1]]; ++i) {
             if (!new_group[i]) continue;
-            if (sorted[i].sides & 1) ++vertex_base[p * objects + sorted[i].lo];
-            if (sorted[i].sides & 2) ++vertex_base[p * objects + sorted[i].hi];
+            const SurfaceChunk::Corner& c = sorted(i);
+            if (c.sides & 1) ++vertex_base[p * objects + c.lo];
+            if (c.sides & 2) ++vertex_base[p * objects + c.hi];
           }
         }
       },
@@ -1293,12 +1293,13 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
           uint32_t* next = &vertex_base[p * objects];  // the part's next vertex per object
           uint32_t at[2] = {0, 0};
           for (size_t r = part_run[p]; r < part_run[p + 1]; ++r) {
-            const Vec3 user = domain.from_unit(sorted[run_start[r]].p);
+            const Vec3 user = domain.from_unit(sorted(run_start[r]).p);
             for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
               if (new_group[i]) {
-                const ObjectId pair[2] = {sorted[i].lo, sorted[i].hi};
+                const SurfaceChunk::Corner& c = sorted(i);
+                const ObjectId pair[2] = {c.lo, c.hi};
                 for (int side = 0; side < 2; ++side) {
-                  if (!(sorted[i].sides >> side & 1)) continue;
+                  if (!(c.sides >> side & 1)) continue;
                   const ObjectId o = pair[side];
                   GvdCell& cell = gvd.cells[o];
                   at[side] = next[o]++;
@@ -1314,6 +1315,19 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
         }
       },
       1);
+  // The sorting state is done with; of the records only each one's lower object is still
+  // needed (which side of index_of a simplex takes): drop the rest before the simplices are
+  // written, which is where the peak of this stage would otherwise be.
+  std::vector<ObjectId> record_lo(nc);
+  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) record_lo[i] = record[i]->lo;
+  });
+  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
+  release(record);
+  release(keyed);
+  release(new_group);
+  release(new_point);
+  for (SurfaceChunk& chunk : chunks) release(chunk.corners);
   // Simplices: parts of whole chunks.
   const size_t simplex_parts = std::min(chunks.size(), 8 * static_cast<size_t>(threads));
   std::vector<size_t> part_chunk(simplex_parts + 1);
@@ -1340,7 +1354,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
               uint32_t* out = &gvd.cells[t.object].indices[size_t{next[t.object]++} * arity];
               for (int k = 0; k < arity; ++k) {
                 const size_t rec = chunk_start[c] + t.v[k];
-                out[k] = index_of[2 * rec + (t.object == chunks[c].corners[t.v[k]].lo ? 0 : 1)];
+                out[k] = index_of[2 * rec + (t.object == record_lo[rec] ? 0 : 1)];
               }
             }
           }
