@@ -551,9 +551,21 @@ class CellSurfacer {
       done = std::abs(f) <= 1e-12 * da;
     }
     if (!done && !bracketed) {
-      f_lo = bisector_gap(m + nu * t_lo, a, b, last);
-      f_hi = bisector_gap(m + nu * t_hi, a, b, last);
-      if (!(f_lo * f_hi < 0)) return;  // no crossing on the line: keep the chord
+      // An end of the line on the bisector (to rounding) is a root too: where the bisector
+      // runs along the face's edge (a gap's mid-plane on a lattice plane), the curve reaches
+      // that edge and follows it.
+      double d_lo = 0, d_hi = 0;
+      f_lo = bisector_gap(m + nu * t_lo, a, b, last, &d_lo);
+      f_hi = bisector_gap(m + nu * t_hi, a, b, last, &d_hi);
+      if (std::abs(f_lo) <= 1e-12 * d_lo) f_lo = 0;
+      if (std::abs(f_hi) <= 1e-12 * d_hi) f_hi = 0;
+      if (f_lo == 0 && f_hi == 0) return;
+      if (!(f_lo * f_hi <= 0)) return;  // no crossing on the line: keep the chord
+      if (f_lo == 0 || f_hi == 0) {
+        t = f_lo == 0 ? t_lo : t_hi;
+        da = f_lo == 0 ? d_lo : d_hi;
+        done = true;
+      }
     }
     // The bisector is one simple root on the line.
     if (!done) {

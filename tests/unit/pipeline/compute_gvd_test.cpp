@@ -418,6 +418,36 @@ TEST(ComputeGvd, BladeFullyInSlotCostsTheSameAtAnyGap3D) {
       << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
 }
 
+// Six stacked plates, every other one inset (so each rim is a plate's edge over the next
+// plate's face, not a mirror image), full-face gaps g: extruded cells along the rims. The
+// middle gap's mid-plane lies on a lattice plane, so traced curves there reach a face's edge
+// and follow it (a chord across the rim would cut the plate). Valid at 1e-3 and 1e-5, and
+// 100 times thinner for at most twice the leaves.
+TEST(ComputeGvd, StackedPlatesOfDifferentSizesCostTheSameAtAnyGap3D) {
+  uint64_t leaves[2] = {0, 0};
+  const double gaps[2] = {1e-3, 1e-5};
+  for (int k = 0; k < 2; ++k) {
+    std::vector<SceneObject> plates;
+    double y = 0;
+    for (int i = 0; i < 6; ++i) {
+      const double inset = i % 2 == 1 ? 0.1 : 0.0;
+      plates.push_back(test::make_box("p" + std::to_string(i), {inset, y, inset},
+                                      {1 - inset, y + 0.1, 1 - 0.5 * inset}));
+      y += 0.1 + gaps[k];
+    }
+    const GvdResult r = run(test::make_scene(3, std::move(plates)));
+    expect_valid(r);
+    leaves[k] = r.stats.leaves;
+    for (const DualEdge& e : r.graph.edges) {
+      if (e.b != e.a + 1) continue;  // consecutive plates
+      EXPECT_NEAR(e.gap, gaps[k], 1e-9 * gaps[k]);
+      EXPECT_NEAR(e.min_clearance, gaps[k] / 2, 1e-9 * gaps[k]);
+    }
+  }
+  EXPECT_LE(leaves[1], 2 * leaves[0])
+      << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
+}
+
 // Flush stacked plates at a full-face gap of 1e-5 of the domain: at their rims each plate is
 // the next one's mirror image, so the GVD is the mid-plane of every gap up to and beyond the
 // rims (mirror cells), in a number of leaves that does not depend on the gap.
