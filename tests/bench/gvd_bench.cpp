@@ -208,7 +208,8 @@ void BM_BoostVoronoi(benchmark::State& state) {
 
 /// One point of a gap sweep: a thin-gap scene at one gap (fraction of the domain side).
 struct ThinGapCase {
-  std::string scene;  ///< blade_in_slot, stacked_plates, shaft_in_bore, bars_2d, pairs_2d
+  std::string scene;  ///< blade_in_slot, stacked_plates, inset_plates, shaft_in_bore, bars_2d,
+                      ///< pairs_2d
   double gap = 0;
   std::string refine;  ///< "certified" or "paper"
 };
@@ -224,6 +225,12 @@ Scene with_gap(Scene (*make)(const Options&), double gap) {
 Scene make_thin_gap_scene(const std::string& name, double gap) {
   if (name == "blade_in_slot") return with_gap(&gvd::test::make_blade_in_slot, gap);
   if (name == "stacked_plates") return with_gap(&gvd::test::make_stacked_plates, gap);
+  if (name == "inset_plates") {
+    gvd::test::StackedPlatesOptions o;
+    o.gap = gap;
+    o.inset = 0.1;
+    return gvd::test::make_stacked_plates(o);
+  }
   if (name == "shaft_in_bore") return with_gap(&gvd::test::make_shaft_in_bore, gap);
   if (name == "bars_2d") return with_gap(&gvd::test::make_parallel_bars_2d, gap);
   gvd::test::PolygonPairsOptions o;  // pairs_2d: gaps log-spaced from `gap` to 1e-3
@@ -302,6 +309,7 @@ std::vector<ThinGapCase> thin_gap_cases(bool slow) {
   add("pairs_2d", {1e-3, 1e-5, 1e-7}, {1e-3});
   add("blade_in_slot", {1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 1e-5}, {1e-2, 3e-3});
   add("stacked_plates", {1e-2, 3e-3, 1e-3, 1e-4, 1e-5}, {1e-2});
+  add("inset_plates", {1e-2, 1e-3, 1e-4, 1e-5}, {1e-2});
   add("shaft_in_bore", {1e-2, 1e-3, 1e-4}, {1e-2});
   if (slow) {
     add("blade_in_slot", {}, {1e-3});

@@ -848,23 +848,27 @@ Scene make_stacked_plates(const StackedPlatesOptions& options) {
   if (!(options.gap > 0) || !(options.cell > 0) || !(t > 0)) {
     bad_option(where, "gap, cell and thickness must be > 0");
   }
+  if (!(options.inset >= 0 && options.inset < 0.5)) bad_option(where, "inset must be in [0, 0.5)");
   // The stack is count t + (count - 1) g high with g = gap 1.1 E; if that exceeds the unit
   // width, E solves E = count t + (count - 1) gap 1.1 E.
   const double shrink = 1 - (count - 1) * kDomainPerExtent * options.gap;
   if (!(shrink > 0)) bad_option(where, "gap too large for the stack");
   const double extent = std::max(1.0, count * t / shrink);
   const double g = options.gap * kDomainPerExtent * extent;
-  const std::vector<double> xs = grid_lines({0.0, 1.0}, options.cell);
+  const std::vector<double> wide = grid_lines({0.0, 1.0}, options.cell);
+  const std::vector<double> inset = grid_lines({options.inset, 1.0 - options.inset}, options.cell);
+  auto is_inset = [&](int i) { return options.inset > 0 && i % 2 == 1; };
   std::vector<SceneObject> objects;
   std::vector<double> y0(count), y1(count);
   for (int i = 0; i < count; ++i) {
     y0[i] = i * (t + g);
     y1[i] = y0[i] + t;
+    const std::vector<double>& xs = is_inset(i) ? inset : wide;
     const Cap cap =
         grid_cap(xs, grid_lines({y0[i], y1[i]}, options.cell), [](size_t, size_t) { return true; });
     const std::string label = "plate_" + std::to_string(i);
     check_cap(where + ": " + quoted(label), cap);
-    objects.push_back(extrude(label, cap, xs));  // z in [0, 1], split as x
+    objects.push_back(extrude(label, cap, xs));  // z split as x
   }
 
   verify_objects(where, objects, 3);
@@ -873,10 +877,15 @@ Scene make_stacked_plates(const StackedPlatesOptions& options) {
     for (int j = i + 1; j < count; ++j) {
       if (j == i + 1) {
         check_gap(where, objects[i], objects[j], 3, g_scene);
-        check_face_gap(where, objects[i], objects[j], 3, g_scene,
-                       [&](Vec3 p) { return p.y == y0[j]; });
-        check_face_gap(where, objects[j], objects[i], 3, g_scene,
-                       [&](Vec3 p) { return p.y == y1[i]; });
+        // The facing face of the narrower plate lies at g from the other one everywhere.
+        if (!is_inset(i)) {
+          check_face_gap(where, objects[i], objects[j], 3, g_scene,
+                         [&](Vec3 p) { return p.y == y0[j]; });
+        }
+        if (!is_inset(j)) {
+          check_face_gap(where, objects[j], objects[i], 3, g_scene,
+                         [&](Vec3 p) { return p.y == y1[i]; });
+        }
       } else {
         check_apart(where, objects[i], objects[j], 3, 2 * g_scene);
       }

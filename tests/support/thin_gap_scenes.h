@@ -50,9 +50,14 @@ struct StackedPlatesOptions {
   double thickness = 0.1;  ///< plate thickness along y (scene units)
   double gap = 1e-5;       ///< gap between consecutive plates, fraction of the domain side
   double cell = 0.05;      ///< target triangle edge length (scene units)
+  /// Every other plate (odd indices) inset by this much on its four sides, x and z in
+  /// [inset, 1 - inset]: its rims are edges over the next plates' faces, not mirror images.
+  /// In [0, 0.5); 0: flush.
+  double inset = 0;
 };
 /// Objects "plate_0" .. "plate_<count-1>". Checks the gap of each consecutive pair (and that
-/// every vertex of each facing face is exactly g from the other plate), the others > 2 g apart.
+/// every vertex of each facing face — of the inset plate's, with an inset — is exactly g from
+/// the other plate), the others > 2 g apart.
 Scene make_stacked_plates(const StackedPlatesOptions& options = {});
 
 /// make_shaft_in_bore: a housing block [-0.5,0.5] x [-0.5,0.5] x [0,0.6] with a bore along z,

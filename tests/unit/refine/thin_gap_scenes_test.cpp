@@ -17,10 +17,15 @@ TEST(ThinGapScenes, EveryGeneratorBuildsItsSceneAtWideAndThinGaps) {
     test::StackedPlatesOptions plates;
     plates.gap = gap;
     EXPECT_EQ(test::make_stacked_plates(plates).objects.size(), 6u);
+    plates.inset = 0.1;
+    EXPECT_EQ(test::make_stacked_plates(plates).objects.size(), 6u);
     test::ShaftInBoreOptions shaft;
     shaft.gap = gap;
     EXPECT_EQ(test::make_shaft_in_bore(shaft).objects.size(), 2u);
   }
+  test::StackedPlatesOptions bad;
+  bad.inset = 0.5;
+  EXPECT_THROW(test::make_stacked_plates(bad), std::exception);
   for (const double gap : {1e-3, 1e-7}) {
     SCOPED_TRACE(gap);
     test::ParallelBarsOptions bars;
