@@ -281,6 +281,31 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
         if (canonical_[w.v[i]] == from && canonical_[w.v[(i + 1) % 3]] == to) closed[o] = 0;
     }
   }
+  // One shell per object: with several, the enclosed volume's sign would not say which way
+  // each one's normals point (a cavity's shell faces inward, an inverted one too).
+  std::vector<uint32_t> parent(geometry.simplices.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto root = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t u = across_[s * 3 + e];
+      if (u != kOpen && u != kNonManifold) parent[root(s)] = root(u);
+    }
+  }
+  std::vector<uint32_t> shell(objects, kOpen);
+  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
+    const ObjectId o = geometry.object_of[s];
+    if (o >= objects) continue;
+    const uint32_t r = root(s);
+    if (shell[o] == kOpen) {
+      shell[o] = r;
+    } else if (shell[o] != r) {
+      closed[o] = 0;
+    }
+  }
   outward_.assign(objects, 0);
   for (uint32_t o = 0; o < objects; ++o) {
     if (closed[o] && volume[o] != 0) outward_[o] = volume[o] > 0 ? 1 : -1;

@@ -358,6 +358,27 @@ TEST(PairCertifier, ExtrudedCellsNeedClosedStraightQuadrantRims) {
   const PairCertifier open_certifier(open.geometry, open.bvh, nullptr, true);
   const Box edge = user_cube(open, {0.19, 0.5, 0.19}, 0.02);
   EXPECT_LT(open_certifier.certify(edge).axis, 0) << "an open sheet";
+  // A box over a slab, 1e-3 apart: its rim along y is extruded — but not when the box is one of
+  // two shells of one object (the volume's sign cannot say where each shell's normals point).
+  auto box_over_slab = [](bool second_shell) {
+    SceneObject box = test::make_box("box", {0.2, 0.1001, 0.2}, {0.6, 0.3, 0.6});
+    if (second_shell) {
+      const SceneObject other = test::make_box("x", {0.7, 0.5, 0.7}, {0.9, 0.7, 0.9});
+      const uint32_t base = static_cast<uint32_t>(box.vertices.size());
+      box.vertices.insert(box.vertices.end(), other.vertices.begin(), other.vertices.end());
+      for (Simplex tri : other.simplices) {
+        for (uint32_t& v : tri.v) v += base;
+        box.simplices.push_back(tri);
+      }
+    }
+    return test::make_scene(3, {test::make_box("slab", {0, 0, 0}, {1, 0.1, 1}), box});
+  };
+  for (const bool second_shell : {false, true}) {
+    const World w(box_over_slab(second_shell));
+    const PairCertifier c(w.geometry, w.bvh, nullptr, true);
+    const Box rim = user_cube(w, {0.195, 0.0995, 0.4}, 0.01);
+    EXPECT_EQ(c.certify(rim).axis >= 0, !second_shell) << (second_shell ? "two shells" : "one");
+  }
 }
 
 TEST(PairCertifier, ParallelPlatesAreCertifiedAcrossTheGap) {

@@ -40,7 +40,7 @@ namespace gvd {
 ///   enough that rounding cannot tilt the bisector visibly (kMirrorTolerance). 2D needs no
 ///   mirrors: its rims are points, and flat cells already cost log(1/g) there.
 /// - Extruded pairs (3D; straight rims: an edge facing a face or a corner across g): both
-///   objects are closed and consistently oriented, every simplex that can be nearest has its
+///   objects are single closed, consistently oriented shells, every simplex that can be nearest has its
 ///   normal perpendicular to one axis e, and on each of their planes the object's triangles
 ///   cover, within the box Q, a full strip across Q along e. Then both distance functions are
 ///   invariant along e in the cell, and the bisector is C x e for a curve C of the cross-section
@@ -130,8 +130,8 @@ class PairCertifier final : public SplitOracle {
   /// Per simplex side (3D: edge v[e] v[e+1]; 2D: end v[e]): the simplex of the same object
   /// across it, kOpen or kNonManifold.
   std::vector<uint32_t> across_;
-  /// Per object (3D): +1 when it is closed, consistently oriented and its normals (from the
-  /// vertex order) point out of it, -1 when they point in, 0 when it is not closed.
+  /// Per object (3D): +1 when it is one closed, consistently oriented shell whose normals
+  /// (from the vertex order) point out of it, -1 when they point in, 0 otherwise.
   std::vector<int8_t> outward_;
 };
 
