@@ -67,8 +67,8 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
 /// them, recursively, until no non-empty descendant has a corner whose exact nearest object
 /// (BVH) differs from the one it intersects, or max_depth is reached. Plans in one pass what
 /// would otherwise take one global refinement round per level.
-/// With `oracle`, a cell it certifies (CellVerdict::kPair) or finds seen by one object only is
-/// not split: certified ones go to `certified`, for refine_octree to mark.
+/// With `oracle`, a cell it certifies (a certified_mark verdict) or finds seen by one object only
+/// is not split: certified ones go to `certified`, for refine_octree to mark.
 struct SeparationPlan {
   std::vector<CellRef> splits;
   std::vector<CellRef> certified;

@@ -40,8 +40,8 @@ namespace gvd {
 ///   enough that rounding cannot tilt the bisector visibly (kMirrorTolerance). 2D needs no
 ///   mirrors: its rims are points, and flat cells already cost log(1/g) there.
 /// - Extruded pairs (3D; straight rims: an edge facing a face or a corner across g): both
-///   objects are single closed, consistently oriented shells, every simplex that can be nearest has its
-///   normal perpendicular to one axis e, and on each of their planes the object's triangles
+///   objects are single closed, consistently oriented shells, every simplex that can be nearest has
+///   its normal perpendicular to one axis e, and on each of their planes the object's triangles
 ///   cover, within the box Q, a full strip across Q along e. Then both distance functions are
 ///   invariant along e in the cell, and the bisector is C x e for a curve C of the cross-section
 ///   (kExtrudedX + e). Also, all outward normals of a and all inward normals of b lie in one
