@@ -60,6 +60,11 @@ compute options:
   --max-depth N              deepest octree level (default 26 in 2D, 21 in 3D = the limit)
   --domain x0,y0[,z0],x1,y1[,z1]
                              domain box (made a cube); default: bounding box + 5 % padding
+  --frame auto|world         the octree's axes: auto (default) turns them to the scene's
+                             faces in 3D when more of their area lies square to another
+                             frame than to x, y, z (a tilted part: its straight rims then
+                             cost what they cost untilted); world keeps x, y, z. Results are
+                             in your coordinates either way
   --threads N                worker threads (default: all cores)
   --backend opencl|cpu|auto  where the data-parallel steps run (default auto: OpenCL when a
                              device with fp64 exists, else the CPU twins, saying why; an
@@ -115,9 +120,10 @@ remote mode (--server URL, or the environment variable GVD_SERVER; --local ignor
         [--save r.gvd] [--no-wait]
                              submits the scene, prints the job id on stdout, shows the job's
                              progress, downloads the outputs asked for; --no-wait: only submit.
-                             Job parameters: --max-depth, --contact-depth, --domain,
-                             --ambiguity-levels, --ambiguity-rounds, --unseen-rounds (threads,
-                             backend and limits are the server's own settings)
+                             Job parameters: --max-depth, --contact-depth, --domain, --frame,
+                             --ambiguity-levels, --ambiguity-rounds, --unseen-rounds, --refine,
+                             --resolution, --curved-tolerance (threads, backend and limits are
+                             the server's own settings)
   gvd --server URL neighbors|nearest|path|explode|tight --job ID [query options]
                              a query on a finished job; the same JSON on stdout as locally.
                              Scene files instead of --job ID: submitted and waited for first
@@ -225,11 +231,23 @@ std::function<void(const std::string&, double)> progress_display(bool enabled) {
 }
 
 const std::vector<std::string>& compute_value_flags() {
-  static const std::vector<std::string> flags = {
-      "--max-depth",        "--domain",        "--threads",       "--backend",
-      "--max-leaves",       "--max-objects",   "--max-simplices", "--ambiguity-levels",
-      "--ambiguity-rounds", "--contact-depth", "--unseen-rounds", "--octree-build",
-      "--distance",         "--refine",        "--resolution",    "--curved-tolerance"};
+  static const std::vector<std::string> flags = {"--max-depth",
+                                                 "--domain",
+                                                 "--threads",
+                                                 "--backend",
+                                                 "--max-leaves",
+                                                 "--max-objects",
+                                                 "--max-simplices",
+                                                 "--ambiguity-levels",
+                                                 "--ambiguity-rounds",
+                                                 "--contact-depth",
+                                                 "--unseen-rounds",
+                                                 "--octree-build",
+                                                 "--distance",
+                                                 "--refine",
+                                                 "--resolution",
+                                                 "--curved-tolerance",
+                                                 "--frame"};
   return flags;
 }
 
@@ -266,6 +284,9 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
   options.refine = args.value("--refine").value_or("certified");
   if (options.refine != "certified" && options.refine != "paper")
     throw UsageError{"--refine must be certified or paper"};
+  const std::string frame = args.value("--frame").value_or("auto");
+  if (frame != "auto" && frame != "world") throw UsageError{"--frame must be auto or world"};
+  options.domain.frame = parse_domain_frame(frame);
   if (options.max_depth < 0) throw UsageError{"--max-depth must be positive"};
   if (options.threads < 0) throw UsageError{"--threads must be positive"};
   if (const auto box = args.numbers("--domain")) {

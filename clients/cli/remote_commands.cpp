@@ -60,13 +60,14 @@ constexpr std::array<ProblemExit, 22> kProblemExits = {{
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a
 // computation the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 9> kJobParams = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 10> kJobParams = {{
     {"--max-depth", "max_depth"},
     {"--contact-depth", "contact_depth"},
     {"--ambiguity-levels", "ambiguity_levels"},
     {"--ambiguity-rounds", "ambiguity_rounds"},
     {"--unseen-rounds", "unseen_rounds"},
     {"--domain", "domain"},
+    {"--frame", "frame"},
     {"--refine", "refine"},
     {"--resolution", "resolution"},
     {"--curved-tolerance", "curved_tolerance"},

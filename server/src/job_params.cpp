@@ -10,9 +10,9 @@
 namespace gvd::server {
 namespace {
 
-const char* const kNames[] = {"max_depth",        "contact_depth", "ambiguity_levels",
-                              "ambiguity_rounds", "unseen_rounds", "domain",
-                              "refine",           "resolution",    "curved_tolerance"};
+const char* const kNames[] = {
+    "max_depth", "contact_depth", "ambiguity_levels", "ambiguity_rounds", "unseen_rounds",
+    "domain",    "refine",        "resolution",       "curved_tolerance", "frame"};
 
 [[noreturn]] void bad(const std::string& detail) {
   throw Error(ErrorCode::kInvalidArgument, detail);
@@ -70,6 +70,11 @@ void JobParams::set(const std::string& name, const std::string& value) {
       bad("parameter \"curved_tolerance\" must be a number in [0, 1), got \"" + value + "\"");
     }
     curved_tolerance = v;
+  } else if (name == "frame") {
+    if (value != "auto" && value != "world") {
+      bad("parameter \"frame\" must be auto or world, got \"" + value + "\"");
+    }
+    frame = value;
   } else if (name == "domain") {
     std::vector<double> box;
     std::stringstream s(value);
@@ -90,7 +95,7 @@ void JobParams::set(const std::string& name, const std::string& value) {
   } else {
     bad("unknown parameter \"" + name +
         "\" (known: max_depth, contact_depth, ambiguity_levels, ambiguity_rounds, "
-        "unseen_rounds, domain, refine, resolution, curved_tolerance)");
+        "unseen_rounds, domain, frame, refine, resolution, curved_tolerance)");
   }
 }
 
@@ -123,6 +128,7 @@ std::string JobParams::to_json() const {
                       {"ambiguity_rounds", ambiguity_rounds},
                       {"unseen_rounds", unseen_rounds},
                       {"domain", domain},
+                      {"frame", frame},
                       {"refine", refine},
                       {"resolution", resolution},
                       {"curved_tolerance", curved_tolerance}};
@@ -138,6 +144,7 @@ JobParams JobParams::from_json(const std::string& text) {
   p.ambiguity_rounds = j.value("ambiguity_rounds", -1);
   p.unseen_rounds = j.value("unseen_rounds", -1);
   p.domain = j.value("domain", std::vector<double>{});
+  p.frame = j.value("frame", std::string("auto"));
   p.refine = j.value("refine", std::string("certified"));
   p.resolution = j.value("resolution", std::string("compact"));
   p.curved_tolerance = j.value("curved_tolerance", 0.0);
@@ -157,6 +164,7 @@ PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
   o.refine = refine;
   o.resolution = resolution;
   o.curved_tolerance = curved_tolerance;
+  o.domain.frame = parse_domain_frame(frame);
   o.threads = server.job_threads;
   o.backend = server.compute ? "opencl" : "cpu";
   o.compute = server.compute;

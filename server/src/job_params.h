@@ -19,6 +19,7 @@ struct JobParams {
   int ambiguity_rounds = -1;
   int unseen_rounds = -1;
   std::vector<double> domain;          ///< empty, or x0,y0[,z0],x1,y1[,z1]
+  std::string frame = "auto";          ///< DomainOptions::frame: auto or world
   std::string refine = "certified";    ///< PipelineOptions::refine: certified or paper
   std::string resolution = "compact";  ///< PipelineOptions::resolution: compact or full
   double curved_tolerance = 0;         ///< PipelineOptions::curved_tolerance, in [0, 1)

@@ -128,6 +128,12 @@ TEST(JobParams, NormalizedTextAndValidation) {
   EXPECT_THROW(a.set("domain", "0,0,1"), Error);
   EXPECT_THROW(a.set("domain", "0,nan,1,1"), Error);
   EXPECT_THROW(a.set("colour", "red"), Error);
+  EXPECT_THROW(a.set("frame", "tilted"), Error);
+  a.set("frame", "world");
+  EXPECT_EQ(JobParams::from_json(a.to_json()).frame, "world");
+  EXPECT_EQ(JobParams::from_json(a.to_json()).pipeline_options({}).domain.frame,
+            DomainFrame::kWorld);
+  EXPECT_EQ(JobParams{}.pipeline_options({}).domain.frame, DomainFrame::kAuto);
   ServerOptions server;
   EXPECT_THROW(a.check(3, server), Error);  // a 2D box for a 3D scene
   EXPECT_NO_THROW(a.check(2, server));

@@ -207,14 +207,21 @@ export class GvdView {
     this.clearanceMax = clearanceMax;
 
     // The domain box, for orientation.
+    // `axes` (3D, when the octree turned to the scene's faces): the cube's edge directions.
     const o = domain?.origin ?? [0, 0, 0];
     const side = domain?.side ?? 1;
-    const min = new THREE.Vector3(o[0], o[1], dimension === 2 ? 0 : o[2]);
-    const max = new THREE.Vector3(o[0] + side, o[1] + side, dimension === 2 ? 0 : o[2] + side);
-    this.domainBox = new THREE.Box3(min, max);
-    const helper = new THREE.Box3Helper(this.domainBox, 0x6b7480);
+    const origin = new THREE.Vector3(o[0], o[1], dimension === 2 ? 0 : o[2]);
+    const axes = (domain?.axes ?? [[1, 0, 0], [0, 1, 0], [0, 0, 1]]).map((a) => new THREE.Vector3(...a));
+    const cube = new THREE.Box3(new THREE.Vector3(0, 0, 0),
+                                new THREE.Vector3(side, side, dimension === 2 ? 0 : side));
+    const helper = new THREE.Group();
+    helper.add(new THREE.Box3Helper(cube, 0x6b7480));
+    helper.matrixAutoUpdate = false;
+    helper.matrix.makeBasis(axes[0], axes[1], axes[2]).setPosition(origin);
     helper.userData.domain = true;
     this.overlay.add(helper);
+    helper.updateMatrixWorld(true);
+    this.domainBox = new THREE.Box3().setFromObject(helper);
     this.size = side;
     this.frame();
     this.setExplode(this.explodeT);

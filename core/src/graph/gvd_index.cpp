@@ -106,17 +106,31 @@ struct GvdIndex::Impl {
 };
 
 void GvdIndex::Impl::check_inside(Vec3 p, const char* what) const {
-  const Box box = result->domain.box();
+  const Domain& domain = result->domain;
   const int dim = dimension;
   for (int a = 0; a < dim; ++a) {
     if (!std::isfinite(p[a])) {
       throw Error(ErrorCode::kInvalidArgument, std::string(what) + " has a non-finite coordinate");
     }
-    if (p[a] < box.lo[a] || p[a] > box.hi[a]) {
-      throw Error(ErrorCode::kOutsideDomain,
-                  std::string(what) + " " + format_point(p, dim) + " is outside the domain " +
-                      format_point(box.lo, dim) + " .. " + format_point(box.hi, dim));
+  }
+  if (domain.aligned()) {
+    const Box box = domain.box();
+    for (int a = 0; a < dim; ++a) {
+      if (p[a] < box.lo[a] || p[a] > box.hi[a]) {
+        throw Error(ErrorCode::kOutsideDomain,
+                    std::string(what) + " " + format_point(p, dim) + " is outside the domain " +
+                        format_point(box.lo, dim) + " .. " + format_point(box.hi, dim));
+      }
     }
+  } else if (!domain.contains(p)) {
+    char side[32];
+    std::snprintf(side, sizeof side, "%.17g", domain.side);
+    throw Error(
+        ErrorCode::kOutsideDomain,
+        std::string(what) + " " + format_point(p, dim) + " is outside the domain, a cube of side " +
+            side + " from " + format_point(domain.origin, dim) +
+            " along the octree's axes (the scene's faces) " + format_point(domain.axis[0], dim) +
+            ", " + format_point(domain.axis[1], dim) + ", " + format_point(domain.axis[2], dim));
   }
 }
 

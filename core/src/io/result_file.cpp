@@ -387,11 +387,26 @@ Domain read_domain(Reader in) {
   d.dimension = read_dimension(in);
   d.origin = in.vec3("origin");
   d.side = in.f64("side");
+  // The octree's frame, when it is not the user's axes (files without it: the user's).
+  if (in.remaining() > 0) {
+    for (Vec3& a : d.axis) a = in.vec3("axis");
+  }
   in.expect_end();
   if (!std::isfinite(d.origin.x) || !std::isfinite(d.origin.y) || !std::isfinite(d.origin.z) ||
       !std::isfinite(d.side) || !(d.side > 0)) {
     in.fail("the domain must have a finite origin and a positive finite side");
   }
+  // A rotation, to rounding.
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const double want = i == j ? 1 : 0;
+      if (!(std::abs(dot(d.axis[i], d.axis[j]) - want) <= 1e-12))
+        in.fail("the domain's axes are not orthonormal");
+    }
+  }
+  if (!(dot(cross(d.axis[0], d.axis[1]), d.axis[2]) > 0))
+    in.fail("the domain's axes are a reflection");
+  if (d.dimension == 2 && !d.aligned()) in.fail("a 2D domain must have the user's axes");
   return d;
 }
 
@@ -620,6 +635,9 @@ std::vector<uint8_t> result_to_bytes(const GvdResult& r) {
   out.u32(static_cast<uint32_t>(r.domain.dimension));
   out.vec3(r.domain.origin);
   out.f64(r.domain.side);
+  if (!r.domain.aligned()) {
+    for (const Vec3& a : r.domain.axis) out.vec3(a);
+  }
   out.end_section();
 
   out.begin_section(kOctree);
@@ -820,6 +838,11 @@ std::string result_info_json(const GvdResult& r) {
   doc["simplices"] = r.scene.simplex_count();
   doc["domain"] = {{"origin", dim == 2 ? Json::array({o.x, o.y}) : Json::array({o.x, o.y, o.z})},
                    {"side", r.domain.side}};
+  if (!r.domain.aligned()) {
+    Json axes = Json::array();
+    for (const Vec3& a : r.domain.axis) axes.push_back(Json::array({a.x, a.y, a.z}));
+    doc["domain"]["axes"] = std::move(axes);
+  }
   Json warnings = Json::array();
   for (const SceneWarning& w : r.scene.warnings) {
     warnings.push_back(

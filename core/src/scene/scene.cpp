@@ -221,24 +221,57 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
   }
 }
 
+bool Domain::aligned() const {
+  return axis[0] == Vec3{1, 0, 0} && axis[1] == Vec3{0, 1, 0} && axis[2] == Vec3{0, 0, 1};
+}
+
 Vec3 Domain::to_unit(Vec3 p) const {
-  Vec3 u = (p - origin) / side;
+  Vec3 u;
+  if (aligned()) {
+    u = (p - origin) / side;
+  } else {
+    const Vec3 d = p - origin;
+    u = Vec3{dot(d, axis[0]), dot(d, axis[1]), dot(d, axis[2])} / side;
+  }
   if (dimension == 2) u.z = 0.0;
   return u;
 }
 
 Vec3 Domain::from_unit(Vec3 u) const {
-  Vec3 p = origin + u * side;
+  Vec3 p = aligned() ? origin + u * side
+                     : origin + (axis[0] * u.x + axis[1] * u.y + axis[2] * u.z) * side;
   if (dimension == 2) p.z = 0.0;
   return p;
 }
 
 Box Domain::box() const {
   Box b;
-  b.lo = origin;
-  b.hi = origin + Vec3{side, side, dimension == 2 ? 0.0 : side};
+  if (aligned()) {
+    b.lo = origin;
+    b.hi = origin + Vec3{side, side, dimension == 2 ? 0.0 : side};
+  } else {
+    for (int corner = 0; corner < 8; ++corner)
+      b.extend(from_unit(Vec3{double(corner & 1), double(corner >> 1 & 1), double(corner >> 2)}));
+  }
   if (dimension == 2) b.lo.z = b.hi.z = 0.0;
   return b;
+}
+
+bool Domain::contains(Vec3 p, double slack) const {
+  const Vec3 u = to_unit(p);
+  for (int i = 0; i < dimension; ++i)
+    if (!(u[i] >= -slack && u[i] <= 1 + slack)) return false;
+  return true;
+}
+
+DomainFrame parse_domain_frame(const std::string& name) {
+  if (name == "auto") return DomainFrame::kAuto;
+  if (name == "world") return DomainFrame::kWorld;
+  throw Error(ErrorCode::kInvalidArgument, "the frame must be auto or world, got \"" + name + "\"");
+}
+
+const char* domain_frame_name(DomainFrame frame) {
+  return frame == DomainFrame::kWorld ? "world" : "auto";
 }
 
 Domain make_domain(const Scene& scene, const DomainOptions& options) {
@@ -275,9 +308,19 @@ Domain make_domain(const Scene& scene, const DomainOptions& options) {
     domain.side = extent;
     domain.origin = c - Vec3{extent, extent, extent} * 0.5;
   } else {
+    if (dim == 3 && options.frame == DomainFrame::kAuto) {
+      const std::array<Vec3, 3> frame = scene_frame(scene);
+      std::copy(frame.begin(), frame.end(), domain.axis);
+    }
+    // The bounds in the frame's coordinates.
+    const bool aligned = domain.aligned();
     Box bounds;
     for (const SceneObject& object : scene.objects) {
-      for (const Vec3& p : object.vertices) bounds.extend(p);
+      for (const Vec3& p : object.vertices) {
+        bounds.extend(
+            aligned ? p
+                    : Vec3{dot(p, domain.axis[0]), dot(p, domain.axis[1]), dot(p, domain.axis[2])});
+      }
     }
     if (bounds.is_empty()) {
       domain.origin = {};
@@ -288,7 +331,9 @@ Domain make_domain(const Scene& scene, const DomainOptions& options) {
       if (!(extent > 0.0)) extent = 1.0;
       const double side = extent * (1.0 + 2.0 * options.padding);
       domain.side = side;
-      domain.origin = bounds.center() - Vec3{side, side, side} * 0.5;
+      const Vec3 lo = bounds.center() - Vec3{side, side, side} * 0.5;
+      domain.origin =
+          aligned ? lo : domain.axis[0] * lo.x + domain.axis[1] * lo.y + domain.axis[2] * lo.z;
     }
   }
   if (dim == 2) domain.origin.z = 0.0;

@@ -82,6 +82,7 @@ void expect_same_result(const GvdResult& a, const GvdResult& b) {
   // Domain and the rebuilt geometry.
   EXPECT_EQ(a.domain.dimension, b.domain.dimension);
   EXPECT_TRUE(bit_equal(a.domain.origin, b.domain.origin));
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(a.domain.axis[i], b.domain.axis[i]) << "axis " << i;
   EXPECT_EQ(a.domain.side, b.domain.side);
   EXPECT_EQ(a.geometry.dimension, b.geometry.dimension);
   EXPECT_EQ(a.geometry.object_count, b.geometry.object_count);
@@ -269,6 +270,38 @@ TEST(ResultFile, RoundTrip3D) {
   expect_queries_work(r, loaded);
   // Saving the loaded result gives the same bytes: nothing is lost or reordered.
   EXPECT_EQ(result_to_bytes(loaded), read_file_bytes(path));
+}
+
+// A tilted scene gets the octree's own frame (scene.h, DomainFrame): the axes are saved,
+// loaded bit for bit, and the loaded result answers in user coordinates; a DOMN section whose
+// axes are not a rotation is rejected.
+TEST(ResultFile, RoundTripOfATiltedSceneKeepsTheOctreesAxes) {
+  const Vec3 axis = Vec3{1, 2, 2} / 3.0;
+  Scene scene = test::make_scene(3, {test::make_box("a", {0, 0, 0}, {1, 1, 0.5}),
+                                     test::make_box("b", {0, 0, 0.6}, {1, 1, 1})});
+  for (SceneObject& o : scene.objects)
+    for (Vec3& v : o.vertices) v = test::rotate(v, axis, 0.5);
+  const GvdResult r = compute(scene, 5);
+  ASSERT_FALSE(r.domain.aligned());
+  const std::string path = output_path("round_trip_tilted.gvdres");
+  save_result(r, path);
+  const GvdResult loaded = load_result(path);
+  expect_same_result(r, loaded);
+  expect_queries_work(r, loaded);
+  const Vec3 p = test::rotate(Vec3{0.5, 0.5, 0.55}, axis, 0.5);
+  EXPECT_EQ(loaded.domain.to_unit(p), r.domain.to_unit(p));
+  EXPECT_EQ(result_to_bytes(loaded), read_file_bytes(path));
+
+  std::vector<uint8_t> bytes = read_file_bytes(path);
+  const SectionAt domain = section(bytes, "DOMN");
+  // dimension u32, origin 3 x f64, side f64, then the first axis' x.
+  const size_t first_axis = domain.payload + 4 + 24 + 8;
+  double x = 0;
+  std::memcpy(&x, bytes.data() + first_axis, 8);
+  x *= 1.01;
+  std::memcpy(bytes.data() + first_axis, &x, 8);
+  reseal(bytes);
+  expect_rejected(bytes, "not orthonormal");
 }
 
 TEST(ResultFile, HeaderLayout) {

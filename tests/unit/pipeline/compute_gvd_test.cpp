@@ -418,6 +418,44 @@ TEST(ComputeGvd, BladeFullyInSlotCostsTheSameAtAnyGap3D) {
       << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
 }
 
+// The blade in its slot tilted about a skew axis: the octree turns to the scene's faces
+// (DomainFrame::kAuto), so its rims are extruded cells again and it costs what the untilted
+// one costs (with the user's axes its rims refine to the gap: ~40x the leaves at 1e-3,
+// 430x at 1e-4). The answers come back in the user's frame: the left wall's gap has its
+// mid-plane at x0 - g / 2 in the blade's own coordinates.
+TEST(ComputeGvd, TiltedBladeInSlotCostsWhatItCostsUntilted3D) {
+  test::BladeInSlotOptions o;
+  o.gap = 1e-4;
+  const Scene straight = test::make_blade_in_slot(o);
+  const double g = o.gap * make_domain(straight).side;
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  const double angle = 0.7;
+  Scene tilted = straight;
+  for (SceneObject& ob : tilted.objects)
+    for (Vec3& v : ob.vertices) v = test::rotate(v, axis, angle);
+  const GvdResult a = run(straight);
+  const GvdResult b = run(tilted);
+  ASSERT_FALSE(b.domain.aligned());
+  expect_valid(b);
+  EXPECT_LE(b.stats.leaves, a.stats.leaves + a.stats.leaves / 10) << a.stats.leaves << " untilted";
+  ASSERT_EQ(b.graph.edges.size(), 1u);
+  EXPECT_FALSE(b.graph.edges[0].touching);
+  EXPECT_NEAR(b.graph.edges[0].gap, g, 1e-9 * g);
+  EXPECT_NEAR(b.graph.edges[0].min_clearance, g / 2, 1e-2 * g);
+  const double x0 = 0.5 - 0.5 * o.width, floor_y = 0.5 - o.depth;
+  size_t on_plane = 0;
+  const GvdCell& cell = b.gvd.cells[0];
+  for (size_t v = 0; v < cell.positions.size(); ++v) {
+    if (cell.other[v] != 1) continue;
+    const Vec3 p = test::rotate(cell.positions[v], axis, -angle);  // the blade's own frame
+    if (p.x < x0 - g || p.x > x0 || p.y < floor_y + 0.02 || p.y > 0.48 || p.z < 0.12 || p.z > 0.88)
+      continue;
+    EXPECT_NEAR(p.x, x0 - g / 2, 1e-6 * g) << "vertex " << v;
+    ++on_plane;
+  }
+  EXPECT_GT(on_plane, 0u);
+}
+
 // Six stacked plates, every other one inset (so each rim is a plate's edge over the next
 // plate's face, not a mirror image), full-face gaps g: extruded cells along the rims. The
 // middle gap's mid-plane lies on a lattice plane, so traced curves there reach a face's edge

@@ -22,8 +22,12 @@ struct World {
   Domain domain;
   UnitGeometry geometry;
   SimplexBvh bvh;
+  // The user's axes, so that tilted copies stay tilted against the octree (user_cube maps
+  // axis-aligned boxes).
   explicit World(Scene s) : scene(std::move(s)) {
-    domain = make_domain(scene);
+    DomainOptions options;
+    options.frame = DomainFrame::kWorld;
+    domain = make_domain(scene, options);
     geometry = make_unit_geometry(scene, domain);
     bvh = SimplexBvh(scene.dimension, geometry.points, geometry.simplices, geometry.object_of);
   }

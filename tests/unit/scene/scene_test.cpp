@@ -7,6 +7,7 @@
 #include <string>
 
 #include "gvd/common/error.h"
+#include "support/scenes.h"
 
 namespace gvd {
 namespace {
@@ -322,6 +323,73 @@ TEST(Domain, EmptyUserBoxIsAnError) {
   DomainOptions options;
   options.box = Box{};
   expect_error([&] { make_domain(s, options); }, ErrorCode::kInvalidArgument, "box");
+}
+
+// A box tilted about a skew axis: the octree's frame is the box's own (each axis parallel to
+// one of the rotated x, y, z), right-handed and orthonormal; every face of the box lies on a
+// plane of constant unit coordinate, the cube is the box's largest extent padded, and
+// to_unit / from_unit / contains work in it.
+TEST(Domain, TiltedBoxGetsItsOwnFrame) {
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  const double angle = 0.7;
+  Scene s = scene3({test::make_box("box", {-1, 0, 0}, {3, 2, 1})});  // extents 4, 2, 1
+  for (Vec3& v : s.objects[0].vertices) v = test::rotate(v, axis, angle);
+  const Domain d = make_domain(s);
+  ASSERT_FALSE(d.aligned());
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 want =
+        test::rotate(Vec3{i == 0 ? 1.0 : 0, i == 1 ? 1.0 : 0, i == 2 ? 1.0 : 0}, axis, angle);
+    int parallel = 0;
+    for (int j = 0; j < 3; ++j) parallel += norm(cross(d.axis[j], want)) < 1e-12;
+    EXPECT_EQ(parallel, 1) << "rotated axis " << i;
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(dot(d.axis[i], d.axis[j]), i == j ? 1 : 0, 1e-15);
+  }
+  EXPECT_GT(dot(cross(d.axis[0], d.axis[1]), d.axis[2]), 0.999);
+  EXPECT_NEAR(d.side, 4 * 1.1, 1e-12);
+  const UnitGeometry g = make_unit_geometry(s, d);
+  for (const Simplex& t : g.simplices) {
+    const Vec3 a = g.points[t.v[0]], b = g.points[t.v[1]], c = g.points[t.v[2]];
+    int flat = 0;
+    for (int i = 0; i < 3; ++i) flat += a[i] == b[i] && b[i] == c[i];
+    EXPECT_EQ(flat, 1) << "a face of the box is not on a plane of the octree";
+  }
+  for (const Vec3& v : s.objects[0].vertices) {
+    EXPECT_TRUE(d.contains(v, 1e-12));
+    const Vec3 back = d.from_unit(d.to_unit(v));
+    EXPECT_NEAR(dist(back, v), 0, 1e-14);
+  }
+  // Inside the cube's bounding box but outside the (tilted) cube: near a corner of the box.
+  const Box bounds = d.box();
+  EXPECT_TRUE(d.contains(bounds.center()));
+  EXPECT_FALSE(d.contains(bounds.lo * 0.999 + bounds.center() * 0.001));
+}
+
+// The user's axes stay where no other frame holds more of the faces' area (a tetrahedron's
+// three square faces against its one slanted face), where nothing is flat (a tilted sphere),
+// in 2D, with a user box and with frame = world.
+TEST(Domain, OtherScenesKeepTheUsersAxes) {
+  EXPECT_TRUE(make_domain(scene3({tetrahedron("t")})).aligned());
+  Scene sphere = scene3({test::make_sphere("ball", {0.3, 0.1, 0.2}, 1.0, 12, 24)});
+  for (Vec3& v : sphere.objects[0].vertices)
+    v = test::rotate(v, Vec3{1, 1, 0} / std::sqrt(2.0), 0.3);
+  EXPECT_TRUE(make_domain(sphere).aligned());
+  Scene flat;
+  flat.dimension = 2;
+  flat.objects = {square_2d("sq")};
+  for (Vec3& v : flat.objects[0].vertices) v = test::rotate(v, Vec3{0, 0, 1}, 0.4);
+  EXPECT_TRUE(make_domain(flat).aligned());
+  Scene box = scene3({test::make_box("box", {0, 0, 0}, {1, 2, 3})});
+  for (Vec3& v : box.objects[0].vertices) v = test::rotate(v, Vec3{0, 0.6, 0.8}, 0.9);
+  ASSERT_FALSE(make_domain(box).aligned());
+  DomainOptions world;
+  world.frame = DomainFrame::kWorld;
+  EXPECT_TRUE(make_domain(box, world).aligned());
+  DomainOptions user;
+  user.box = Box{{-5, -5, -5}, {5, 5, 5}};
+  EXPECT_TRUE(make_domain(box, user).aligned());
+  EXPECT_EQ(parse_domain_frame("world"), DomainFrame::kWorld);
+  EXPECT_EQ(std::string(domain_frame_name(DomainFrame::kAuto)), "auto");
+  expect_error([] { parse_domain_frame("tilted"); }, ErrorCode::kInvalidArgument, "auto or world");
 }
 
 // ------------------------------------------------------------------------- UnitGeometry

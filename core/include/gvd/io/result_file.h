@@ -26,7 +26,8 @@ struct ResultFileHeader {
 ///            u32 kAlgorithmVersion
 ///   sections u32 tag (4 ASCII chars in file order) + u64 payload length + payload:
 ///            "SCNE" scene JSON (scene_to_json) + warnings JSON array
-///            "DOMN" dimension, origin xyz, side
+///            "DOMN" dimension, origin xyz, side[, axis x, y, z as 3 x xyz: only when the
+///                   octree's frame is not the user's axes; older readers reject those]
 ///            "OCTR" dimension, max_depth, depth, leaf count, code[], level[], object[]
 ///            "DIST" dimension, key[], label[], point[], closest[] (xyz doubles), exact[],
 ///                   exact_count, exact_reused, exact_near_gvd
@@ -69,7 +70,7 @@ GvdResult load_result_bytes(std::span<const uint8_t> bytes);
 ResultFileHeader read_result_header(std::span<const uint8_t> bytes);
 
 /// The summary `gvd info` prints and the server's job status reuses, as compact JSON:
-/// {"dimension","objects","simplices","domain":{"origin":[x,y(,z)],"side"},"backend","threads",
+/// {"dimension","objects","simplices","domain":{"origin":[x,y(,z)],"side"[,"axes"]},"backend","threads",
 /// "max_depth","depth","leaves","vertices","octree_bytes","bytes_per_leaf","distance_bytes",
 /// "gvd_simplices","graph_edges","refine_rounds","ambiguous_cells_left","touching_leaves",
 /// "total_seconds","stages":[{"name","seconds","bytes","items"}],

@@ -17,7 +17,7 @@
 namespace gvd {
 
 /// Version of the algorithm; part of job ids and of the saved result.
-inline constexpr uint32_t kAlgorithmVersion = 3;
+inline constexpr uint32_t kAlgorithmVersion = 4;
 
 /// Options of the whole computation.
 struct PipelineOptions {

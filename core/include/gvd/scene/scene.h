@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -60,17 +61,40 @@ struct SceneLimits {
 /// objects with several connected components. O(V + S log S).
 void validate_scene(Scene& scene, const SceneLimits& limits = {});
 
-/// The computational domain: an axis-aligned square/cube in user coordinates, and the map
-/// to the unit lattice [0,1]^D in which the octree works.
+/// The computational domain: a square/cube in user coordinates, and the map to the unit
+/// lattice [0,1]^D in which the octree works. The cube's edges run along `axis` (the octree's
+/// frame): the user's x, y, z unless make_domain turned it to the scene's faces (3D).
 struct Domain {
   int dimension = 3;
-  Vec3 origin;        ///< lower corner (user units)
+  Vec3 origin;        ///< the corner at unit (0, 0, 0) (user units)
   double side = 1.0;  ///< edge length (user units)
+  /// Unit vectors (user coordinates) of the unit domain's x, y, z: a rotation (orthonormal,
+  /// right-handed). 2D: always the identity.
+  Vec3 axis[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
 
   Vec3 to_unit(Vec3 p) const;
   Vec3 from_unit(Vec3 u) const;
-  Box box() const;  ///< the domain in user units (z = 0..0 in 2D)
+  /// Whether the frame is the user's own (axis = identity).
+  bool aligned() const;
+  /// The smallest axis-aligned box (user units) holding the domain (z = 0..0 in 2D); the
+  /// domain itself when aligned().
+  Box box() const;
+  /// Whether a point (user units) lies in the domain, up to `slack` of the side.
+  bool contains(Vec3 p, double slack = 0) const;
 };
+
+/// How make_domain orients the octree.
+enum class DomainFrame {
+  /// 3D: along the scene's faces when more of their area lies on planes perpendicular to one
+  /// frame than to the user's axes (a tilted part, an assembly drawn at an angle): the octree's
+  /// certified cells follow straight rims only along its axes (docs/ALGORITHM.md). 2D, a user
+  /// box, or no such frame: the user's axes.
+  kAuto,
+  kWorld,  ///< always the user's axes
+};
+/// "auto" / "world"; throws gvd::Error{kInvalidArgument} for anything else.
+DomainFrame parse_domain_frame(const std::string& name);
+const char* domain_frame_name(DomainFrame frame);
 
 /// Options of `make_domain`.
 struct DomainOptions {
@@ -78,11 +102,22 @@ struct DomainOptions {
   std::optional<Box> box;
   /// Padding on every side as a fraction of the largest extent (default 5 %).
   double padding = 0.05;
+  DomainFrame frame = DomainFrame::kAuto;
 };
 
-/// The default domain: bounding box of all vertices made a cube (side = largest extent,
-/// centred) and padded by `padding` of the side on every side. A user box must contain every
-/// vertex, else gvd::Error{kInvalidArgument}.
+/// The frame of a 3D scene's faces: three orthonormal right-handed axes such that the area
+/// of triangles perpendicular (within 1e-7 rad) to one of them is as large as the greedy
+/// choice finds: for each of the directions with the most such area, the one perpendicular
+/// to it with the most; ordered and signed to stay nearest the user's x, y, z. The user's axes
+/// unless that frame holds at least 10 % of the total area on its planes and 5 % more than
+/// they do (curved meshes, scenes already drawn along x, y, z keep them). O(T) for T
+/// triangles.
+std::array<Vec3, 3> scene_frame(const Scene& scene);
+
+/// The default domain: bounding box of all vertices in the frame (options.frame) made a cube
+/// (side = largest extent, centred) and padded by `padding` of the side on every side. A user
+/// box (always in the user's axes) must contain every vertex, else
+/// gvd::Error{kInvalidArgument}.
 Domain make_domain(const Scene& scene, const DomainOptions& options = {});
 
 /// Bits of the unit lattice in which octree cells live: cells at level l span 2^(bits-l)

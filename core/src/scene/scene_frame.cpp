@@ -1,0 +1,198 @@
+// The octree's frame for a 3D scene (scene.h, scene_frame). Certified cells along a straight
+// rim need the rim parallel to an octree axis (pair_certificate.h), so a part drawn at an
+// angle would otherwise refine its rims to the gap; turning the octree to the scene's faces
+// makes the cost of a tilted assembly that of the same assembly drawn along x, y, z.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <tuple>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "gvd/scene/scene.h"
+
+namespace gvd {
+
+namespace {
+
+/// Two unit normals are parallel (either sign) when the sine of their angle is below this.
+constexpr double kParallel = 1e-7;
+/// The frame must hold this share of the total area on its planes, and this much more than
+/// the user's axes do.
+constexpr double kMinShare = 0.1;
+constexpr double kMinGain = 0.05;
+/// First axes tried (the heaviest bins of the quantised normals).
+constexpr size_t kCandidates = 4;
+
+struct Facet {
+  Vec3 n;  ///< unit normal, sign made canonical
+  double area;
+};
+
+bool parallel(Vec3 a, Vec3 b) { return norm2(cross(a, b)) <= kParallel * kParallel; }
+
+/// The area of facets parallel to d, and their area-weighted mean normal signed along d.
+std::pair<double, Vec3> parallel_area(const std::vector<Facet>& facets, Vec3 d) {
+  double area = 0;
+  Vec3 mean;
+  for (const Facet& f : facets) {
+    if (!parallel(f.n, d)) continue;
+    area += f.area;
+    mean = mean + f.n * (dot(f.n, d) < 0 ? -f.area : f.area);
+  }
+  return {area, mean};
+}
+
+double aligned_area(const std::vector<Facet>& facets, const std::array<Vec3, 3>& frame) {
+  double area = 0;
+  for (const Facet& f : facets)
+    if (parallel(f.n, frame[0]) || parallel(f.n, frame[1]) || parallel(f.n, frame[2]))
+      area += f.area;
+  return area;
+}
+
+}  // namespace
+
+std::array<Vec3, 3> scene_frame(const Scene& scene) {
+  const std::array<Vec3, 3> world = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
+  if (scene.dimension != 3) return world;
+  std::vector<Facet> facets;
+  facets.reserve(scene.simplex_count());
+  double total = 0;
+  for (const SceneObject& o : scene.objects) {
+    for (const Simplex& s : o.simplices) {
+      const Vec3 c =
+          cross(o.vertices[s.v[1]] - o.vertices[s.v[0]], o.vertices[s.v[2]] - o.vertices[s.v[0]]);
+      const double len = norm(c);
+      if (!(len > 0) || !std::isfinite(len)) continue;
+      Vec3 n = c / len;
+      // Canonical sign: the largest component positive (a tie flips some; the exact recount
+      // below counts both signs).
+      int big = 0;
+      for (int i = 1; i < 3; ++i)
+        if (std::abs(n[i]) > std::abs(n[big])) big = i;
+      if (n[big] < 0) n = n * -1.0;
+      facets.push_back({n, 0.5 * len});
+      total += 0.5 * len;
+    }
+  }
+  if (!(total > 0)) return world;
+
+  // Bins of the normals quantised to 1e-6: the frames are ranked on them, then the chosen one
+  // is measured on the facets.
+  struct Bin {
+    double area = 0;
+    Vec3 sum;  ///< area-weighted normals, signed along the first member
+    Vec3 n;    ///< their mean direction
+  };
+  auto key = [](Vec3 n) {
+    uint64_t k = 0;
+    for (int i = 0; i < 3; ++i)
+      k = k * 0x9e3779b97f4a7c15ull + static_cast<uint64_t>(std::llround(n[i] * 1e6) + (1ll << 40));
+    return k;
+  };
+  std::unordered_map<uint64_t, Bin> bins;
+  for (const Facet& f : facets) {
+    Bin& b = bins[key(f.n)];
+    b.sum = b.sum + f.n * (dot(b.sum, f.n) < 0 ? -f.area : f.area);
+    b.area += f.area;
+  }
+  std::vector<Bin> sorted;
+  sorted.reserve(bins.size());
+  for (auto& [k, b] : bins) {
+    if (!(norm(b.sum) > 0)) continue;
+    b.n = b.sum / norm(b.sum);
+    sorted.push_back(b);
+  }
+  std::sort(sorted.begin(), sorted.end(), [](const Bin& x, const Bin& y) {
+    if (x.area != y.area) return x.area > y.area;
+    return std::make_tuple(x.n.x, x.n.y, x.n.z) < std::make_tuple(y.n.x, y.n.y, y.n.z);
+  });
+  // Ranking on bins: parallel within a few bin widths.
+  constexpr double kBinParallel = 4e-6;
+  auto bin_parallel = [&](Vec3 a, Vec3 b) {
+    return norm2(cross(a, b)) <= kBinParallel * kBinParallel;
+  };
+  auto frame_of = [&](Vec3 first, std::array<Vec3, 3>& frame) {
+    Vec3 second;
+    bool found = false;
+    for (const Bin& b : sorted) {
+      if (std::abs(dot(b.n, first)) <= kBinParallel) {
+        second = b.n;
+        found = true;
+        break;
+      }
+    }
+    if (!found) {
+      // Nothing perpendicular: the user's axis least along the first.
+      int least = 0;
+      for (int i = 1; i < 3; ++i)
+        if (std::abs(first[i]) < std::abs(first[least])) least = i;
+      second = world[least];
+    }
+    second = second - first * dot(second, first);
+    second = second / norm(second);
+    frame = {first, second, cross(first, second)};
+    return found;
+  };
+  std::array<Vec3, 3> frame = world;
+  double best_area = -1;
+  for (size_t c = 0; c < std::min(kCandidates, sorted.size()); ++c) {
+    std::array<Vec3, 3> f;
+    frame_of(sorted[c].n, f);
+    double area = 0;
+    for (const Bin& b : sorted)
+      if (bin_parallel(b.n, f[0]) || bin_parallel(b.n, f[1]) || bin_parallel(b.n, f[2]))
+        area += b.area;
+    if (area > best_area) {
+      best_area = area;
+      frame = f;
+    }
+  }
+  // Measured on the facets: each of the first two axes as the mean normal of its facets.
+  const auto [first_area, first_mean] = parallel_area(facets, frame[0]);
+  if (!(first_area > 0 && norm(first_mean) > 0)) return world;
+  const Vec3 first = first_mean / norm(first_mean);
+  Vec3 second = frame[1];
+  const auto [second_area, second_mean] = parallel_area(facets, second);
+  if (second_area > 0 && norm(second_mean) > 0) second = second_mean / norm(second_mean);
+  second = second - first * dot(second, first);
+  second = second / norm(second);
+  frame = {first, second, cross(first, second)};
+  // Worth turning only for a good share of the area (a few facets of a tessellated sphere
+  // that happen to be square to each other are not a frame).
+  const double area = aligned_area(facets, frame);
+  if (!(area >= kMinShare * total && area > aligned_area(facets, world) + kMinGain * total))
+    return world;
+
+  // Nearest the user's axes: the permutation with the largest |cos| to x, y, z, each axis
+  // signed towards its own, then the least aligned flipped if that made it a reflection.
+  std::array<int, 3> order = {0, 1, 2}, best_order = order;
+  double best_fit = -1;
+  do {
+    double fit = 0;
+    for (int i = 0; i < 3; ++i) fit += std::abs(frame[order[i]][i]);
+    if (fit > best_fit + 1e-12) {
+      best_fit = fit;
+      best_order = order;
+    }
+  } while (std::next_permutation(order.begin(), order.end()));
+  std::array<Vec3, 3> out;
+  for (int i = 0; i < 3; ++i) {
+    out[i] = frame[best_order[i]];
+    if (out[i][i] < 0) out[i] = out[i] * -1.0;
+  }
+  if (dot(cross(out[0], out[1]), out[2]) < 0) {
+    int least = 0;
+    for (int i = 1; i < 3; ++i)
+      if (std::abs(out[i][i]) < std::abs(out[least][least])) least = i;
+    out[least] = out[least] * -1.0;
+  }
+  out[2] = cross(out[0], out[1]);  // right-handed to the last bit
+  return out;
+}
+
+}  // namespace gvd
