@@ -291,6 +291,12 @@ TEST(ResultFile, RoundTripOfATiltedSceneKeepsTheOctreesAxes) {
   const Vec3 p = test::rotate(Vec3{0.5, 0.5, 0.55}, axis, 0.5);
   EXPECT_EQ(loaded.domain.to_unit(p), r.domain.to_unit(p));
   EXPECT_EQ(result_to_bytes(loaded), read_file_bytes(path));
+  const nlohmann::json info = nlohmann::json::parse(result_info_json(loaded));
+  ASSERT_EQ(info["domain"]["axes"].size(), 3u);
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(info["domain"]["axes"][i][k].get<double>(), r.domain.axis[i][k]);
+  EXPECT_FALSE(nlohmann::json::parse(result_info_json(result_3d()))["domain"].contains("axes"));
 
   std::vector<uint8_t> bytes = read_file_bytes(path);
   const SectionAt domain = section(bytes, "DOMN");
