@@ -81,7 +81,8 @@ compute options:
   --refine certified|paper   where objects come close: certified pair cells (default: a
                              cell is not split where exact distances prove that the GVD
                              in it is the plane between two flat patches or mirror images,
-                             or a curve swept along a straight rim parallel to an axis,
+                             or a curve swept along a straight rim parallel or square
+                             to an axis,
                              so thin gaps cost what their geometry needs) or the paper's
                              rule alone (§3: cells shrink to the gap over the whole contact)
   --resolution compact|full  GVD output: flat parts merged into large pieces (default;

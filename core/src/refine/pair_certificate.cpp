@@ -565,23 +565,60 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
                     [&](Vec3 n) { return std::abs(n[a]) <= kPerpendicular; }))
       axis = a;
   }
-  if (axis < 0) return out;
-  // One quadrant of the cross-section holds them all; or else one cone of at most 2 kMaxCone
-  // around their mean, which can straddle one cross-section axis (`mixed`): lines along it
-  // may then meet the curve twice, so the cell's own lines along it are checked below.
+  // The direction e of extrusion and the cross-section's axes b[0], b[1] (both perpendicular
+  // to e). Along a coordinate axis: the other two. Else slanted, perpendicular to one axis
+  // `slanted` (e = the normals' common perpendicular in the plane of the other two): that
+  // axis and the one perpendicular to e in that plane, along which every octree edge not
+  // along `slanted` runs in the cross-section; so the quadrant keeps every octree edge
+  // crossing the bisector at most once.
+  Vec3 along, b[2];
+  int slanted = -1;
+  if (axis >= 0) {
+    along[axis] = 1;
+    b[0][(axis + 1) % 3] = 1;
+    b[1][(axis + 2) % 3] = 1;
+  } else {
+    for (int a = 0; a < 3 && slanted < 0; ++a) {
+      // The normal with the largest part in the plane perpendicular to a.
+      Vec3 w;
+      for (Vec3 n : normals) {
+        Vec3 in = n;
+        in[a] = 0;
+        if (norm2(in) > norm2(w)) w = in;
+      }
+      if (!(norm(w) > 0.1)) continue;
+      w = w / norm(w);
+      const Vec3 e = cross(w, Vec3{a == 0 ? 1.0 : 0, a == 1 ? 1.0 : 0, a == 2 ? 1.0 : 0});
+      // Nearly along an axis, the faces it crosses at a glancing angle would carry long,
+      // barely sloping curves: left to splitting.
+      constexpr double kMinSlant = 0.01;
+      if (std::abs(e[(a + 1) % 3]) < kMinSlant || std::abs(e[(a + 2) % 3]) < kMinSlant) continue;
+      if (std::all_of(normals.begin(), normals.end(),
+                      [&](Vec3 n) { return std::abs(dot(n, e)) <= kPerpendicular; })) {
+        slanted = a;
+        along = e / norm(e);
+        b[0][a] = 1;
+        b[1] = w;
+      }
+    }
+    if (slanted < 0) return out;
+  }
+  // One quadrant of the cross-section holds them all; or else (along an axis) one cone of at
+  // most 2 kMaxCone around their mean, which can straddle one cross-section axis (`mixed`):
+  // lines along it may then meet the curve twice, so the cell's own lines along it are
+  // checked below.
   Vec3 rise;
   int mixed = -1;
-  for (int a = 0; a < 3; ++a) {
-    if (a == axis) continue;
+  for (int k = 0; k < 2; ++k) {
     const bool up = std::all_of(normals.begin(), normals.end(),
-                                [&](Vec3 n) { return n[a] >= -kPerpendicular; });
-    const bool down =
-        std::all_of(normals.begin(), normals.end(), [&](Vec3 n) { return n[a] <= kPerpendicular; });
+                                [&](Vec3 n) { return dot(n, b[k]) >= -kPerpendicular; });
+    const bool down = std::all_of(normals.begin(), normals.end(),
+                                  [&](Vec3 n) { return dot(n, b[k]) <= kPerpendicular; });
     if (!up && !down) {
-      if (mixed >= 0) return out;
-      mixed = a;
+      if (mixed >= 0 || axis < 0) return out;
+      mixed = (axis + 1 + k) % 3;
     }
-    rise[a] = up ? 1 : -1;
+    rise = rise + b[k] * (up ? 1.0 : -1.0);
   }
   if (mixed >= 0) {
     Vec3 mean;
@@ -597,7 +634,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   }
   // Every simplex that can be nearest to a point of the cell lies in the cell inflated by
   // max d_k(c) + r (see certify); on each plane of the nearest simplices, the object's
-  // triangles must cover a strip across that box along the axis, so that the surface there is
+  // triangles must cover a strip across that box along e, so that the surface there is
   // invariant along it: triangles of a closed mesh do not overlap, so the clipped areas add
   // up to the strip's exactly when they cover it.
   const double grow = (std::max(dist[0], dist[1]) + r) * (1 + 1e-9) + 1e-15;
@@ -606,9 +643,6 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     near.lo[i] -= grow;
     near.hi[i] += grow;
   }
-  const double length = near.hi[axis] - near.lo[axis];
-  Vec3 along;
-  along[axis] = 1;
   for (int k = 0; k < 2; ++k) {
     for (const Plane& plane : planes[k]) {
       const Vec3 u = cross(along, plane.n);
@@ -632,8 +666,23 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
         return ++seen <= 4 * kMaxActive;
       });
       if (!bounded || !(hi > lo)) return out;
-      const double strip = (hi - lo) * length;
-      if (std::abs(area_sum - strip) > 1e-9 * strip) return out;
+      double strip = 0;
+      if (axis >= 0) {
+        strip = (hi - lo) * (near.hi[axis] - near.lo[axis]);
+      } else {
+        // The plane inside the box, between lo and hi across e.
+        const Vec3 m = near.center();
+        const Vec3 on = m - plane.n * plane.signed_distance(m);
+        const double reach = norm(near.hi - near.lo);
+        Polygon poly;
+        for (const auto& [x, y] : {std::pair{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}})
+          poly.p[poly.n++] = on + along * (x * reach) + u * (y * reach);
+        clip_to_box(poly, near);
+        clip(poly, u, hi);
+        clip(poly, u * -1.0, -lo);
+        strip = poly.n >= 3 ? area(poly) : 0;
+      }
+      if (!(strip > 0) || std::abs(area_sum - strip) > 1e-9 * strip) return out;
     }
   }
   if (mixed >= 0) {
@@ -652,8 +701,15 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     out.inherited = false;
     out.mixed = mixed;
   }
-  out.verdict = extruded_verdict(axis, mixed < 0);
+  if (axis >= 0) {
+    out.verdict = extruded_verdict(axis, mixed < 0);
+  } else {
+    const int i = (slanted + 1) % 3, j = (slanted + 2) % 3;
+    out.verdict = slanted_verdict(slanted, along[i] * along[j] < 0);
+  }
   out.axis = axis;
+  out.slanted = slanted;
+  out.along = along;
   const int first_k = pair[0] < pair[1] ? 0 : 1;
   out.a = pair[first_k];
   out.b = pair[1 - first_k];

@@ -53,8 +53,9 @@ struct PolygonGvd {
 
 class CellSurfacer {
  public:
-  CellSurfacer(const Octree& octree, const DistanceField& field, const SimplexBvh& bvh)
-      : octree_(octree), field_(field), bvh_(bvh), dim_(octree.dimension) {
+  CellSurfacer(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
+               const SimplexBvh& bvh)
+      : octree_(octree), field_(field), geometry_(geometry), bvh_(bvh), dim_(octree.dimension) {
     for (size_t i = 0; i < octree.certified.size() && !any_extruded_; ++i)
       any_extruded_ = octree.certified[i] >= 2;
   }
@@ -159,7 +160,7 @@ class CellSurfacer {
   }
 
   // The curves of all traced faces, each once: from the extruded leaf below the face (side 2),
-  // or from the one above when the leaf below is not extruded along the same axis.
+  // or from the one above when the leaf below does not trace it.
   void trace_curves(int threads) {
     const size_t n = octree_.leaf_count();
     const size_t grain = 256;
@@ -170,14 +171,13 @@ class CellSurfacer {
           std::vector<Curve> mine;
           for (size_t i = b; i < e; ++i) {
             const uint32_t leaf = static_cast<uint32_t>(i);
-            const int axis = octree_.extruded_axis(leaf);
-            if (axis < 0) continue;
+            if (octree_.extruded_axis(leaf) < 0 && octree_.slanted_axis(leaf) < 0) continue;
             const LeafGrid grid = field_.grid(octree_, leaf);
             detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
-              if (p.axis != axis) return;
+              if (!traces(leaf, p.axis)) return;
               const PolygonGvd g = polygon(p);
               if (g.n != 2) return;
-              if (p.side == 0 && !p.on_domain && leaf_across_extruded(p)) return;
+              if (p.side == 0 && !p.on_domain && leaf_across_traces(p)) return;
               const bool forward = g.spokes[0].edge < g.spokes[1].edge;
               const Spoke& lo = g.spokes[forward ? 0 : 1];
               const Spoke& hi = g.spokes[forward ? 1 : 0];
@@ -429,15 +429,25 @@ class CellSurfacer {
     return detail::refine_bisector(field_, bvh_, v0, v1, p);
   }
 
-  // Whether face polygon `poly` of `leaf` is perpendicular to the axis of an extruded pair
-  // cell on one of its sides: this leaf or the leaf across the polygon.
-  bool traced_face(uint32_t leaf, const detail::FacePolygon& poly) const {
-    if (octree_.extruded_axis(leaf) == poly.axis) return true;
-    return !poly.on_domain && leaf_across_extruded(poly);
+  // Whether an extruded pair cell traces the bisector's curve on its faces perpendicular to
+  // `face_axis`: along an axis, its two faces across it; slanted, the four faces its
+  // direction crosses (not the two it runs along, where the bisector is straight).
+  bool traces(uint32_t leaf, int face_axis) const {
+    const int axis = octree_.extruded_axis(leaf);
+    if (axis >= 0) return face_axis == axis;
+    const int slanted = octree_.slanted_axis(leaf);
+    return slanted >= 0 && face_axis != slanted;
   }
 
-  // Whether the leaf across polygon `poly` (not on the domain box) is extruded along its axis.
-  bool leaf_across_extruded(const detail::FacePolygon& poly) const {
+  // Whether face polygon `poly` of `leaf` is traced by an extruded pair cell on one of its
+  // sides: this leaf or the leaf across the polygon (both then use the same curve).
+  bool traced_face(uint32_t leaf, const detail::FacePolygon& poly) const {
+    if (traces(leaf, poly.axis)) return true;
+    return !poly.on_domain && leaf_across_traces(poly);
+  }
+
+  // Whether the leaf across polygon `poly` (not on the domain box) traces it.
+  bool leaf_across_traces(const detail::FacePolygon& poly) const {
     lattice::Coord lo = lattice::vertex_coord(3, field_.vertices.key[poly.v[0]]);
     for (int i = 1; i < poly.n; ++i) {
       const lattice::Coord c = lattice::vertex_coord(3, field_.vertices.key[poly.v[i]]);
@@ -445,7 +455,7 @@ class CellSurfacer {
     }
     if (poly.side == 0) lo.c[poly.axis] -= 1;  // the finest cell just below the face
     const uint32_t across = octree_.locate_lattice(lo);
-    return octree_.extruded_axis(across) == poly.axis;
+    return traces(across, poly.axis);
   }
 
   // The last point where the tracer measured both distances: distance is 1-Lipschitz, so
@@ -653,8 +663,9 @@ class CellSurfacer {
       ++np;
     });
     if (!mixed && !any_domain) return;
-    if (mixed && !any_domain && octree_.extruded_axis(leaf) >= 0 &&
-        extruded_cell(octree_.extruded_axis(leaf), polys, gvds, np, out))
+    if (mixed && !any_domain &&
+        (octree_.extruded_axis(leaf) >= 0 || octree_.slanted_axis(leaf) >= 0) &&
+        extruded_cell(leaf, polys, gvds, np, out))
       return;
     // The spokes form closed curves on the cell surface; faces sharing a bisector belong to
     // the same curve. Each connected curve is coned to the centroid of its own bisectors
@@ -748,15 +759,51 @@ class CellSurfacer {
     }
   }
 
-  // An extruded pair cell (pair_certificate.h): the bisector is the curve C of the cross-section
-  // swept along `axis`. Its boundary on the cell is C on both faces perpendicular to the axis
-  // (traced, P on the lower face, Q on the upper one, each possibly over quarter faces) and
-  // two rungs along the axis on the side faces (straight, possibly through a midpoint where a
-  // side face is split). The sheet is the ruled ladder between P and Q, merged by position
+  // The direction of a slanted extruded cell (perpendicular to axis `slanted`): perpendicular
+  // to the normals of the simplices of x and y nearest to its centre and corners (all of them
+  // are perpendicular to it, pair_certificate.h), the first with a part in the plane of the
+  // other two axes; when none has (the bisector is then invariant along every direction of
+  // that plane), the diagonal of the mark's quadrant.
+  Vec3 slanted_direction(uint32_t leaf, int slanted, bool opposite, ObjectId x, ObjectId y) const {
+    const Box box = octree_.box(leaf);
+    Vec3 axis;
+    axis[slanted] = 1;
+    for (int k = 0; k <= 8; ++k) {
+      Vec3 p = box.center();
+      if (k < 8)
+        for (int i = 0; i < 3; ++i) p[i] = (k >> i & 1) ? box.hi[i] : box.lo[i];
+      for (ObjectId o : {x, y}) {
+        const ClosestHit h = bvh_.nearest_in_object(p, o);
+        if (!h.found()) continue;
+        const Simplex& t = geometry_.simplices[h.simplex];
+        const Vec3 a = geometry_.points[t.v[0]];
+        Vec3 n = cross(geometry_.points[t.v[1]] - a, geometry_.points[t.v[2]] - a);
+        if (!(norm(n) > 0)) continue;
+        n = n / norm(n);
+        n[slanted] = 0;
+        if (!(norm(n) > 0.1)) continue;
+        const Vec3 e = cross(n, axis);
+        return e / norm(e);
+      }
+    }
+    Vec3 e;
+    e[(slanted + 1) % 3] = 1;
+    e[(slanted + 2) % 3] = opposite ? -1 : 1;
+    return e / norm(e);
+  }
+
+  // An extruded pair cell (pair_certificate.h): the bisector is the curve C of the
+  // cross-section swept along e (an axis, or slanted). Its boundary on the cell is C traced on
+  // the faces e enters by (P) and on those it leaves by (Q) — for an axis the two faces
+  // across it, each possibly over quarter faces; slanted, two adjacent faces each, joined
+  // where C crosses their common edge — and at most two rungs along e on the faces parallel
+  // to e (straight, possibly through a midpoint where a side face is split); slanted, where C
+  // leaves the cell's shadow across an edge between an entry and an exit face, P and Q end
+  // at one point there. The sheet is the ruled ladder between P and Q, merged by position
   // along C's chord; the rungs' midpoints split the first and last triangles. False (and
   // nothing emitted) when the faces do not show that structure; the cone is used then.
-  bool extruded_cell(int axis, const detail::FacePolygon* polys, const PolygonGvd* gvds, int np,
-                     Sink& out) const {
+  bool extruded_cell(uint32_t leaf, const detail::FacePolygon* polys, const PolygonGvd* gvds,
+                     int np, Sink& out) const {
     ObjectId x = kNoObject, y = kNoObject;
     for (int f = 0; f < np; ++f) {
       for (int i = 0; i < gvds[f].n; ++i) {
@@ -770,9 +817,20 @@ class CellSurfacer {
       }
     }
     if (x == kNoObject) return false;
+    const int axis = octree_.extruded_axis(leaf);
+    bool opposite = false;
+    const int slanted = octree_.slanted_axis(leaf, &opposite);
+    Vec3 dir;
+    if (axis >= 0) {
+      dir[axis] = 1;
+    } else {
+      dir = slanted_direction(leaf, slanted, opposite, x, y);
+    }
     // One oriented piece per polygon with two spokes: from the spoke where the ring passes
-    // from x to y. On both faces perpendicular to the axis the rings run the same way round
-    // the axis, so these pieces follow C in the same sense.
+    // from x to y. The rings run counter-clockwise seen from +axis, that is seen from outside
+    // on upper faces and from inside on lower ones; reversed on the lower entry faces' and the
+    // upper exit faces' opposites, the pieces on the entry faces and those on the exit faces
+    // follow C in the same sense (for an axis: as the rings of both faces across it do).
     struct Run {
       uint64_t from, to;
       std::vector<Vec3> points;  // from .. to, ends included
@@ -782,7 +840,11 @@ class CellSurfacer {
       const PolygonGvd& g = gvds[f];
       if (g.n == 0) continue;
       if (g.n != 2) return false;
-      const bool forward = g.spokes[0].label_a == x;
+      // Where e crosses the face: -1 in (entry), +1 out (exit), 0 along it.
+      const double across = dir[polys[f].axis] * (polys[f].side == 2 ? 1.0 : -1.0);
+      const int end = across < 0 ? 0 : (across > 0 ? 1 : -1);
+      const bool flip = (end == 0 && polys[f].side == 2) || (end == 1 && polys[f].side == 0);
+      const bool forward = (g.spokes[0].label_a == x) != flip;
       const Spoke& s0 = g.spokes[forward ? 0 : 1];
       const Spoke& s1 = g.spokes[forward ? 1 : 0];
       Run r{s0.edge, s1.edge, {s0.p}};
@@ -792,8 +854,8 @@ class CellSurfacer {
         r.points.insert(r.points.end(), g.curve.rbegin(), g.curve.rend());
       }
       r.points.push_back(s1.p);
-      if (polys[f].axis == axis) {
-        ends[polys[f].side / 2].push_back(std::move(r));
+      if (end >= 0) {
+        ends[end].push_back(std::move(r));
       } else {
         sides.push_back(std::move(r));
       }
@@ -862,7 +924,7 @@ class CellSurfacer {
     const std::vector<Vec3>& p = path[0];
     const std::vector<Vec3>& q = path[1];
     Vec3 chord = p.back() - p.front();
-    chord[axis] = 0;
+    chord = chord - dir * dot(chord, dir);
     const double chord_len = norm(chord);
     if (!(chord_len > 0)) return false;
     chord = chord / chord_len;
@@ -1002,6 +1064,7 @@ class CellSurfacer {
 
   const Octree& octree_;
   const DistanceField& field_;
+  const UnitGeometry& geometry_;
   const SimplexBvh& bvh_;
   std::vector<Curve> curves_;
   std::unordered_map<uint64_t, size_t> curve_index_;
@@ -1115,7 +1178,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
   // Each leaf's pieces share most of their corners (the cone apex, the spokes): they are
   // deduplicated per leaf first, so the global pass below sorts distinct (point, object,
   // other) records of each leaf rather than every corner.
-  CellSurfacer surfacer(octree, field, bvh);
+  CellSurfacer surfacer(octree, field, geometry, bvh);
   surfacer.prepare(threads);
   // Only the leaves that emit anything: those the GVD crosses and those on the domain box.
   const std::vector<uint32_t>& active = surfacer.active_leaves();

@@ -127,9 +127,10 @@ int audit_level(const World& s, int level, int samples, int* mirrors = nullptr) 
 }
 
 // The audit of an extruded pair cell (brute-force distances): both distances are invariant
-// along its axis, and d_a - d_b changes sign at most once, from - to +, along every line in
-// the direction `rise` and along both cross-section axes (in rise's sense) through sampled
-// points: the bisector is one monotone curve of the cross-section swept along the axis.
+// along its direction e (an axis or slanted), and d_a - d_b changes sign at most once, from -
+// to +, along every line in the direction `rise` and along every axis but e (in rise's sense)
+// through sampled points: the bisector is one monotone curve of the cross-section swept along
+// e, and every octree edge meets it at most once.
 void audit_extruded(const World& s, const PairCertifier::Certificate& c, const Box& box,
                     std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0, 1);
@@ -148,13 +149,21 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
   const double side = box.hi.x - box.lo.x;
   for (int k = 0; k < 3; ++k) {
     const Vec3 x = point();
-    Vec3 y = x;
-    y[c.axis] = box.lo[c.axis] + u(rng) * side;
-    ASSERT_NEAR(dist_to(c.a, x), dist_to(c.a, y), 1e-12) << "d_a varies along the axis";
-    ASSERT_NEAR(dist_to(c.b, x), dist_to(c.b, y), 1e-12) << "d_b varies along the axis";
-    // Lines through x: along rise, and along each cross-section axis; where the certificate
-    // straddles an axis (c.mixed), lines along that axis only where octree edges can run (the
-    // cell's sides and middle).
+    // Another point of the cell on the line through x along e.
+    double t_lo = -1e300, t_hi = 1e300;
+    for (int a = 0; a < 3; ++a) {
+      if (c.along[a] == 0) continue;
+      double t0 = (box.lo[a] - x[a]) / c.along[a], t1 = (box.hi[a] - x[a]) / c.along[a];
+      if (t0 > t1) std::swap(t0, t1);
+      t_lo = std::max(t_lo, t0);
+      t_hi = std::min(t_hi, t1);
+    }
+    const Vec3 y = x + c.along * (t_lo + u(rng) * (t_hi - t_lo));
+    ASSERT_NEAR(dist_to(c.a, x), dist_to(c.a, y), 1e-12) << "d_a varies along e";
+    ASSERT_NEAR(dist_to(c.b, x), dist_to(c.b, y), 1e-12) << "d_b varies along e";
+    // Lines through x: along rise, and along each axis but e (slanted: all three); where the
+    // certificate straddles an axis (c.mixed), lines along that axis only where octree edges
+    // can run (the cell's sides and middle).
     Vec3 dirs[4], from[4];
     int nd = 0;
     from[nd] = x;
@@ -163,7 +172,8 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
       if (a == c.axis) continue;
       Vec3 d;
       d[a] = c.rise[a] > 0 ? 1 : -1;
-      if (a == c.mixed) continue;  // checked below
+      if (std::abs(c.rise[a]) < 1e-9) continue;  // slanted: e's plane, none of e's sense
+      if (a == c.mixed) continue;                // checked below
       from[nd] = x;
       dirs[nd++] = d;
     }
@@ -264,6 +274,76 @@ TEST(PairCertifier, ExtrudedCellsHoldUnderBruteForce3D) {
   EXPECT_GT(extruded[0] + extruded[1], 0);
 }
 
+TEST(PairCertifier, SlantedCellsHoldUnderBruteForce3D) {
+  // Rims square to an axis but along neither other one: the blade in its slot tilted about x
+  // (its long rims then run in the yz plane), and the hexagonal bore's edges at 60 and 120
+  // degrees in the planes of its ends.
+  const BladeCase blade;
+  const double g = blade.g, x0 = blade.x0, x1 = blade.x1, floor_y = blade.floor_y;
+  Scene tilted = blade.world.scene;
+  const Vec3 about_x{1, 0, 0};
+  for (SceneObject& obj : tilted.objects)
+    for (Vec3& v : obj.vertices) v = test::rotate(v, about_x, 0.3);
+  const World t(std::move(tilted));
+  const PairCertifier tilted_certifier(t.geometry, t.bvh, nullptr, true);
+  test::ShaftInBoreOptions so;
+  so.gap = 1e-3;
+  so.cell = 0.1;
+  const World shaft(test::make_shaft_in_bore(so));
+  const PairCertifier shaft_certifier(shaft.geometry, shaft.bvh, nullptr, true);
+  const double gs = so.gap * shaft.domain.side, pi = std::acos(-1.0);
+  // Points on the rims (user units) with the world they are in.
+  struct Rim {
+    const World* world;
+    const PairCertifier* certifier;
+    Vec3 at;
+    int slanted;  ///< the axis square to the rim
+  };
+  std::vector<Rim> rims;
+  for (double z : {0.35, 0.5, 0.65}) {
+    for (const Vec3& p : {Vec3{x0, floor_y + g, z}, Vec3{x1, floor_y + g, z}, Vec3{x0 - g, 0.5, z}})
+      rims.push_back({&t, &tilted_certifier, test::rotate(p, about_x, 0.3), 0});
+  }
+  // Mid-edges of the bore's ends on the faces whose normals are at 30, 150 and 330 degrees
+  // (the edges run at 120, 60 and 60 degrees), in the gap.
+  for (double deg : {30.0, 150.0, 330.0}) {
+    const double a = deg * pi / 180, apothem = so.radius * std::cos(pi / 6) - gs / 2;
+    for (double z : {0.0, 0.6})
+      rims.push_back(
+          {&shaft, &shaft_certifier, Vec3{apothem * std::cos(a), apothem * std::sin(a), z}, 2});
+  }
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int slanted = 0, tried = 0, in_shaft = 0;
+  for (int level = 7; level <= 11; ++level) {
+    const double cell = std::ldexp(1.0, -level);
+    for (const Rim& rim : rims) {
+      for (int k = 0; k < 3; ++k) {
+        Vec3 unit = rim.world->domain.to_unit(rim.at);
+        for (int a = 0; a < 3; ++a) unit[a] += 0.5 * u(rng) * cell;
+        const Box box = lattice_cell_at(unit, level);
+        const PairCertifier::Certificate cert = rim.certifier->certify(box);
+        ++tried;
+        if (cert.slanted < 0) continue;
+        ASSERT_EQ(cert.slanted, rim.slanted);
+        ASSERT_LT(cert.axis, 0);
+        ASSERT_EQ(
+            certified_mark(cert.verdict),
+            11 + 2 * cert.slanted +
+                (cert.along[(cert.slanted + 1) % 3] * cert.along[(cert.slanted + 2) % 3] < 0));
+        ASSERT_NEAR(cert.along[cert.slanted], 0, 1e-12);
+        ++slanted;
+        in_shaft += rim.world == &shaft;
+        audit_extruded(*rim.world, cert, box, rng);
+        if (HasFatalFailure()) return;
+      }
+    }
+  }
+  EXPECT_GT(slanted, tried / 4) << "of " << tried;
+  EXPECT_GT(in_shaft, 0);
+  EXPECT_GT(slanted - in_shaft, 0);
+}
+
 TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {
   // A hexagonal shaft in its bore: at the corners on the x axis the normals of the two faces
   // (+-30 degrees) straddle the x axis, so only the cell's own lines along y are checked and
@@ -346,15 +426,20 @@ TEST(PairCertifier, ExtrudedCellsNeedClosedStraightQuadrantRims) {
   // normals -x and +x lie in no quadrant.
   const Box across = user_cube(s, {x0 - 0.01, floor_y - 0.01, 0.5}, o.width + 0.02);
   EXPECT_LT(certifier.certify(across).axis, 0) << "both bottom edges";
+  // Tilted about a skew axis (the octree kept on x, y, z): rims along no axis nor square to
+  // one are not certified.
   Scene tilted = s.scene;
+  const Vec3 skew = Vec3{2, -1, 3} / std::sqrt(14.0);
   for (SceneObject& obj : tilted.objects)
-    for (Vec3& v : obj.vertices) v = test::rotate(v, {1, 0, 0}, 0.2);
+    for (Vec3& v : obj.vertices) v = test::rotate(v, skew, 0.2);
   const World t(std::move(tilted));
   const PairCertifier tilted_certifier(t.geometry, t.bvh, nullptr, true);
   for (int k = 0; k < 8; ++k) {
-    const Vec3 rim = test::rotate({x0, floor_y + g, 0.3 + 0.05 * k}, {1, 0, 0}, 0.2);
+    const Vec3 rim = test::rotate({x0, floor_y + g, 0.3 + 0.05 * k}, skew, 0.2);
     const Box box = user_cube(t, rim - Vec3{2 * g, 2 * g, 2 * g}, 4 * g);
-    EXPECT_LT(tilted_certifier.certify(box).axis, 0) << "a rim off the axes";
+    const PairCertifier::Certificate cert = tilted_certifier.certify(box);
+    EXPECT_LT(cert.axis, 0) << "a rim off the axes";
+    EXPECT_LT(cert.slanted, 0) << "a rim off the axes";
   }
   // An open sheet over a box: the sheet is not closed.
   const World open(test::make_scene(

@@ -33,24 +33,44 @@ enum class CellVerdict : uint8_t {
   kExtrudedOnlyX,
   kExtrudedOnlyY,
   kExtrudedOnlyZ,
+  /// Slanted extruded pair cells (3D): the same along a direction e perpendicular to axis 0, 1
+  /// or 2 but along neither of the other two (a hexagonal bore's edge at 60 degrees in the
+  /// plane of its end); ...Opposite: e's two non-zero components have opposite signs.
+  kSlantedX,
+  kSlantedXOpposite,
+  kSlantedY,
+  kSlantedYOpposite,
+  kSlantedZ,
+  kSlantedZOpposite,
 };
 
 /// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair), 2 + axis (the
-/// extruded pair cells) or 5 + axis (kExtrudedOnly...). Children of a 5 + axis cell carry
-/// 8 + axis (certified; their own children must be asked again).
+/// extruded pair cells) or 5 + axis (kExtrudedOnly...); children of a 5 + axis cell carry
+/// 8 + axis (certified; their own children must be asked again); 11 + 2 axis + opposite
+/// (kSlanted...).
 inline uint8_t certified_mark(CellVerdict v) {
   const int i = static_cast<int>(v);
   if (v == CellVerdict::kPair) return 1;
   if (i >= static_cast<int>(CellVerdict::kExtrudedX) &&
       i <= static_cast<int>(CellVerdict::kExtrudedOnlyZ))
     return static_cast<uint8_t>(2 + i - static_cast<int>(CellVerdict::kExtrudedX));
+  if (i >= static_cast<int>(CellVerdict::kSlantedX) &&
+      i <= static_cast<int>(CellVerdict::kSlantedZOpposite))
+    return static_cast<uint8_t>(11 + i - static_cast<int>(CellVerdict::kSlantedX));
   return 0;
 }
 
 /// The mark the children of a cell with mark `mark` carry without asking again (0: ask).
 inline uint8_t inherited_mark(uint8_t mark) {
-  if (mark <= 4) return mark;
+  if (mark <= 4 || mark >= 11) return mark;
   return mark <= 7 ? static_cast<uint8_t>(mark + 3) : uint8_t{0};
+}
+
+/// The slanted verdict for a direction perpendicular to `axis` whose other two components
+/// have opposite signs or not.
+inline CellVerdict slanted_verdict(int axis, bool opposite) {
+  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kSlantedX) + 2 * axis +
+                                  (opposite ? 1 : 0));
 }
 
 /// The extruded verdict along `axis` (0, 1, 2); `inherited`: its sub-cells are certified too.
@@ -109,7 +129,8 @@ struct Octree {
   std::vector<ObjectId> object;  ///< per leaf: kNoObject, an object, or kManyObjects
   /// Per leaf: the certified_mark of the certified pair cell it lies in (0: none): at most two
   /// objects are nearest anywhere in it, and their bisector there is one exact sheet (1: a
-  /// plane; 2 + a: a curve swept along axis a), so it may hold both objects and the GVD
+  /// plane; 2 + a ... 10: a curve swept along axis a; 11 ... 16: along a direction
+  /// perpendicular to one axis), so it may hold both objects and the GVD
   /// (refinement checks skip it). Empty after loading from disk.
   std::vector<uint8_t> certified;
   /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries).
@@ -120,7 +141,15 @@ struct Octree {
   bool is_certified(uint32_t leaf) const { return !certified.empty() && certified[leaf] != 0; }
   /// The axis of the extruded pair cell the leaf lies in, or -1.
   int extruded_axis(uint32_t leaf) const {
-    return certified.empty() || certified[leaf] < 2 ? -1 : (certified[leaf] - 2) % 3;
+    if (certified.empty() || certified[leaf] < 2 || certified[leaf] > 10) return -1;
+    return (certified[leaf] - 2) % 3;
+  }
+  /// The axis perpendicular to the direction of the slanted extruded pair cell the leaf lies
+  /// in, or -1; `opposite`: whether the direction's other two components differ in sign.
+  int slanted_axis(uint32_t leaf, bool* opposite = nullptr) const {
+    if (certified.empty() || certified[leaf] < 11) return -1;
+    if (opposite != nullptr) *opposite = (certified[leaf] - 11) % 2 == 1;
+    return (certified[leaf] - 11) / 2;
   }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);

@@ -55,6 +55,12 @@ namespace gvd {
 ///   it twice: the lines along it where octree edges of the cell and its children can run
 ///   (at quarters of the cell) are checked exactly (line_crossings), and the cell's
 ///   grandchildren are asked again (kExtrudedOnly...).
+/// - Slanted extruded pairs (kSlanted...): the same along a direction e square to one axis a
+///   but along neither other one (a hexagonal bore's edge at 60 degrees in its end plane):
+///   the quadrant is taken on a and on w, the unit vector square to e in the plane of the
+///   other two axes, onto which every octree edge not along a projects; so every octree edge
+///   still meets the bisector at most once. The surfacer traces C on the four faces e
+///   crosses and keeps the rungs on the two square to a. No cones here.
 ///
 /// Anything else (three objects, curved or folded patches, open edges, contact pairs, more
 /// than kMaxActive simplices in reach) is kSplit: the paper's rule applies. Thread-safe;
@@ -87,6 +93,9 @@ class PairCertifier final : public SplitOracle {
     /// grandchildren are asked again.
     bool inherited = true;
     int mixed = -1;  ///< then: the cross-section axis the cone straddles
+    /// Slanted extruded pairs (kSlanted...): the axis perpendicular to e (axis is -1 then).
+    int slanted = -1;
+    Vec3 along;  ///< extruded pairs: e, a unit vector (the axis, or the slanted direction)
   };
   Certificate certify(const Box& box) const;
 
