@@ -627,7 +627,8 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     const double len = norm(mean);
     if (!(len > 0)) return out;
     mean = mean / len;
-    const double cos_cone = std::cos(kMaxCone);
+    // A quadrant turned against the axes has its extremes at exactly kMaxCone: allow rounding.
+    const double cos_cone = std::cos(kMaxCone) - 1e-12;
     for (Vec3 n : normals)
       if (dot(n, mean) < cos_cone) return out;
     rise = mean * std::sqrt(2.0);  // scaled back by 1/sqrt(2) below

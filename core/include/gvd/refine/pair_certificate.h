@@ -50,7 +50,7 @@ namespace gvd {
 ///   curve that meets every line along `rise` at most once and every side of a cross-section
 ///   square at most once (no saddles, no hidden arcs: the corners' labels show where it runs).
 ///   The surfacer traces C on the faces perpendicular to e and sweeps it along e. Where the
-///   normals lie in a cone of at most 80 degrees that straddles a cross-section axis (a
+///   normals lie in a cone of at most 90 degrees that straddles a cross-section axis (a
 ///   hexagonal shaft's corner on an axis), C stays a graph but a line along that axis can meet
 ///   it twice: the lines along it where octree edges of the cell and its children can run
 ///   (at quarters of the cell) are checked exactly (line_crossings), and the cell's
@@ -114,8 +114,8 @@ class PairCertifier final : public SplitOracle {
   static constexpr double kMirrorTolerance = 1e-4;
   /// Extruded pairs whose gradient directions straddle a cross-section axis: they must lie
   /// within this angle of their mean (so that the traced curve's chords keep a normal along
-  /// which d_a - d_b is monotone: 2 kMaxCone < 90 degrees).
-  static constexpr double kMaxCone = 40.0 * 3.14159265358979323846 / 180.0;
+  /// which d_a - d_b is monotone: 2 kMaxCone <= 90 degrees, as in a quadrant).
+  static constexpr double kMaxCone = 45.0 * 3.14159265358979323846 / 180.0;
 
  private:
   Certificate certify_mirror(const Box& box, const ObjectId pair[2], const double dist[2], double r,
