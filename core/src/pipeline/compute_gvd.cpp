@@ -105,7 +105,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   progress("distance", 0);
   sw = Stopwatch();
   // Exact closest points: the backend's kernel, else the CPU twin (same per-item function).
-  const std::unique_ptr<ClosestPointSolver> solver =
+  std::unique_ptr<ClosestPointSolver> solver =
       options.compute ? options.compute->closest_points(r.geometry, bvh)
                       : make_cpu_closest_point_solver(r.geometry, bvh, options.threads);
   DistanceOptions dopt;
@@ -143,6 +143,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   r.stats.touching_leaves = refined.touching_leaves;
   for (uint8_t c : r.octree.certified) r.stats.certified_leaves += c != 0;
   r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(refined.rounds)});
+  // Refinement is over: the closest-point solver's copy of the tree and geometry (its device
+  // layout) and the certifier's adjacency go before surfacing, where memory peaks.
+  solver.reset();
+  certifier.reset();
 
   progress("surface", 0);
   sw = Stopwatch();
