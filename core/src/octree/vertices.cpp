@@ -98,13 +98,17 @@ LeafGrid leaf_grid(const Octree& octree, const OctreeVertices& vertices, uint32_
         }
         const uint64_t key = lattice::vertex_key(dim, p);
         if (!vertices.maybe(key)) continue;
-        vertices.index.prefetch(key);
+        if (vertices.indexed()) vertices.index.prefetch(key);
         keys[n] = key;
         slots[n++] = static_cast<uint8_t>(i + 3 * j + 9 * k);
       }
     }
   }
-  for (int m = 0; m < n; ++m) g[slots[m]] = vertices.index.find(keys[m]);
+  if (vertices.indexed()) {
+    for (int m = 0; m < n; ++m) g[slots[m]] = vertices.index.find(keys[m]);
+  } else {
+    for (int m = 0; m < n; ++m) g[slots[m]] = vertices.find(keys[m]);
+  }
   return g;
 }
 

@@ -147,6 +147,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   // layout) and the certifier's adjacency go before surfacing, where memory peaks.
   solver.reset();
   certifier.reset();
+  // Surfacing reads each leaf's vertices from the field's per-leaf lists, never by key: the
+  // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks
+  // there; lookups by key binary-search the sorted keys from now on (OctreeVertices::find).
+  r.field.vertices.drop_index();
 
   progress("surface", 0);
   sw = Stopwatch();

@@ -1,9 +1,11 @@
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
 
+#include "gvd/common/error.h"
 #include "gvd/common/flat_hash.h"
 #include "gvd/octree/octree.h"
 
@@ -23,13 +25,20 @@ struct OctreeVertices {
   std::vector<uint64_t> filter;
 
   size_t size() const { return key.size(); }
+  /// Whether `index` maps every key (else it was dropped: drop_index).
+  bool indexed() const { return index.size() == key.size(); }
   uint32_t find(uint64_t k) const {
     if (!filter.empty()) {
       const uint64_t h = filter_hash(k);
       if (!(filter[h >> 6] >> (h & 63) & 1)) return kNoVertex;
     }
-    return index.find(k);
+    if (indexed()) return index.find(k);
+    const auto it = std::lower_bound(key.begin(), key.end(), k);
+    return it != key.end() && *it == k ? static_cast<uint32_t>(it - key.begin()) : kNoVertex;
   }
+  /// Frees the hash index of a finished vertex set (its keys sorted): find then
+  /// binary-searches the keys (O(log n)); rebuild_index restores it. insert needs it.
+  void drop_index() { index = FlatMap64(); }
   /// Whether k may be a vertex (false: certainly not), by the filter alone.
   bool maybe(uint64_t k) const {
     if (filter.empty()) return true;
@@ -40,6 +49,7 @@ struct OctreeVertices {
   void rebuild_index(int threads = 1);
   /// Appends k unless present; returns its index.
   uint32_t insert(uint64_t k) {
+    GVD_CHECK(indexed(), "OctreeVertices::insert after drop_index");
     const uint32_t next = static_cast<uint32_t>(key.size());
     const uint32_t at = index.insert(k, next);
     if (at == next) {

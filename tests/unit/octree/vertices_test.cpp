@@ -1,0 +1,56 @@
+// OctreeVertices: the key -> vertex lookups with and without the hash index (drop_index).
+#include "gvd/octree/vertices.h"
+
+#include <gtest/gtest.h>
+
+#include "gvd/common/error.h"
+#include "support/scenes.h"
+
+namespace gvd {
+namespace {
+
+// The octree of a sphere beside a box (3D) or two squares (2D), max depth 6.
+Octree small_octree(int dim) {
+  const Scene scene = dim == 3
+                          ? test::make_scene(3, {test::make_sphere("ball", {0, 0, 0}, 1, 8, 16),
+                                                 test::make_box("box", {1.2, -1, -1}, {2, 1, 1})})
+                          : test::make_scene(2, {test::make_rect("a", {0, 0, 0}, {1, 1, 0}),
+                                                 test::make_rect("b", {1.1, 0.2, 0}, {2, 1.5, 0})});
+  const UnitGeometry geometry = make_unit_geometry(scene, make_domain(scene));
+  OctreeOptions o;
+  o.max_depth = 6;
+  return build_octree(geometry, o);
+}
+
+// Without the hash, find binary-searches the sorted keys: the same answer for every vertex,
+// for keys that are no vertex, and for every leaf's grid; insert refuses.
+TEST(OctreeVertices, FindsTheSameWithoutTheHashIndex) {
+  for (int dim : {2, 3}) {
+    const Octree octree = small_octree(dim);
+    OctreeVertices v = enumerate_vertices(octree, 2);
+    ASSERT_TRUE(v.indexed());
+    ASSERT_GT(v.size(), 100u);
+    std::vector<LeafGrid> grids;
+    for (uint32_t leaf = 0; leaf < octree.leaf_count(); ++leaf)
+      grids.push_back(leaf_grid(octree, v, leaf));
+    v.drop_index();
+    EXPECT_FALSE(v.indexed());
+    for (uint32_t i = 0; i < v.size(); ++i) {
+      ASSERT_EQ(v.find(v.key[i]), i);
+      const uint64_t between = v.key[i] + 1;
+      if (i + 1 < v.size() && between != v.key[i + 1]) {
+        ASSERT_EQ(v.find(between), kNoVertex);
+      }
+    }
+    EXPECT_EQ(v.find(0), v.key.front() == 0 ? 0u : kNoVertex);
+    for (uint32_t leaf = 0; leaf < octree.leaf_count(); ++leaf)
+      ASSERT_EQ(leaf_grid(octree, v, leaf), grids[leaf]) << "leaf " << leaf;
+    EXPECT_THROW(v.insert(v.key.back() + 1), Error);
+    v.rebuild_index(2);
+    EXPECT_TRUE(v.indexed());
+    EXPECT_EQ(v.find(v.key[v.size() / 2]), v.size() / 2);
+  }
+}
+
+}  // namespace
+}  // namespace gvd
