@@ -172,6 +172,36 @@ bool has_unseen_object(const Octree& octree, const DistanceField& field, const L
   return found;
 }
 
+// The one object of `simplices`, kManyObjects for several, kNoObject for none.
+template <class Range>
+ObjectId object_of_list(const UnitGeometry& geometry, const Range& simplices) {
+  ObjectId obj = kNoObject;
+  for (uint32_t s : simplices) {
+    const ObjectId o = geometry.object_of[s];
+    if (obj == kNoObject) obj = o;
+    if (o != obj) return kManyObjects;
+  }
+  return obj;
+}
+
+// Whether a cell at `level` holding the simplices `simplices` of several objects may stay a
+// leaf without a certificate: only at the contact depth, when every two of its objects touch
+// (the depth limit is checked by the callers).
+template <class Range>
+bool touching_only(const UnitGeometry& geometry, const Range& simplices, int level,
+                   const ContactPairs* contacts, int contact_depth) {
+  if (contacts == nullptr || level < contact_depth) return false;
+  std::vector<ObjectId> objects;
+  for (uint32_t s : simplices) {
+    const ObjectId o = geometry.object_of[s];
+    if (std::find(objects.begin(), objects.end(), o) == objects.end()) objects.push_back(o);
+  }
+  for (size_t i = 0; i < objects.size(); ++i)
+    for (size_t j = i + 1; j < objects.size(); ++j)
+      if (!contacts->touching(objects[i], objects[j])) return false;
+  return true;
+}
+
 }  // namespace
 
 RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field,
@@ -213,6 +243,17 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
             if (!changed) continue;
           }
           uint8_t f = 0;
+          if (obj == kManyObjects && options.geometry != nullptr && !octree.simplex_begin.empty()) {
+            // Several objects in an uncertified leaf above the depth limit (a sub-cell of a
+            // certified cell that 2:1 balance split and whose own certificate failed): the
+            // paper's rule splits it, unless only touching pairs meet there.
+            const std::span<const uint32_t> inside(
+                octree.simplex_index.data() + octree.simplex_begin[leaf],
+                octree.simplex_begin[leaf + 1] - octree.simplex_begin[leaf]);
+            if (!touching_only(*options.geometry, inside, octree.level[leaf], options.contacts,
+                               options.contact_depth))
+              f = 2;
+          }
           if (obj != kNoObject && obj != kManyObjects) {
             const bool at_contact =
                 options.contacts != nullptr && octree.level[leaf] >= options.contact_depth;
@@ -320,7 +361,6 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
         std::vector<std::pair<CellRef, std::vector<uint32_t>>> stack;
         for (size_t i = b; i < e; ++i) {
           const uint32_t leaf = leaves[i];
-          const ObjectId obj = octree.object[leaf];
           std::vector<uint32_t> list(octree.simplex_index.begin() + octree.simplex_begin[leaf],
                                      octree.simplex_index.begin() + octree.simplex_begin[leaf + 1]);
           stack.clear();
@@ -333,11 +373,15 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
               const CellVerdict v = oracle->classify(
                   lattice::cell_box(dim, lattice::morton_decode(dim, cell.code), cell.level),
                   simplices);
-              if (certified_mark(v) != 0) {
+              // Only certificates that hold for every sub-cell: a cone's (kExtrudedOnly...)
+              // is checked on the lines of its children, and 2:1 balance after this round can
+              // split its grandchildren, which then need this plan again, round after round.
+              const bool whole = v < CellVerdict::kExtrudedOnlyX || v > CellVerdict::kExtrudedOnlyZ;
+              if (whole && certified_mark(v) != 0) {
                 cell.mark = certified_mark(v);
                 certified[i].push_back(cell);
               }
-              if (v != CellVerdict::kSplit) continue;
+              if (whole && v != CellVerdict::kSplit) continue;
             }
             per_leaf[i].push_back(cell);
             const double slack = std::ldexp(1.0, -(cell.level + 1)) * 1e-9 + 1e-15;
@@ -357,6 +401,14 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
                 if (simplex_overlaps_box(dim, geometry.points, geometry.simplices[s], box, slack))
                   inside.push_back(s);
               if (inside.empty()) continue;
+              // Several objects in the child: split on, but at the contact depth where they
+              // all touch (as the leaf's own rule in find_cells_to_refine).
+              const ObjectId own = object_of_list(geometry, inside);
+              if (own == kManyObjects) {
+                if (!touching_only(geometry, inside, child.level, contacts, contact_depth))
+                  stack.push_back({child, std::move(inside)});
+                continue;
+              }
               bool foreign = false;
               for (uint32_t k = 0; k < nchildren && !foreign; ++k) {
                 int local[3] = {0, 0, 0};
@@ -377,8 +429,8 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
                 }
                 const ObjectId near = near_at[slot];
                 if (near == kNoObject) continue;
-                foreign = near != obj && !(contacts != nullptr && child.level >= contact_depth &&
-                                           contacts->touching(obj, near));
+                foreign = near != own && !(contacts != nullptr && child.level >= contact_depth &&
+                                           contacts->touching(own, near));
               }
               if (foreign) stack.push_back({child, std::move(inside)});
             }

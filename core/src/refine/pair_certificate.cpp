@@ -208,8 +208,8 @@ bool reflects_onto(const UnitGeometry& g, const SimplexBvh& bvh, const Plane& mi
 }  // namespace
 
 PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
-                             const ContactPairs* contacts, bool extruded)
-    : geometry_(geometry), bvh_(bvh), contacts_(contacts), extruded_(extruded) {
+                             const ContactPairs* contacts, bool extruded, bool cones)
+    : geometry_(geometry), bvh_(bvh), contacts_(contacts), extruded_(extruded), cones_(cones) {
   const std::vector<Vec3>& pts = geometry.points;
   // Points at one position share one canonical index (exact positions: the lattice snap makes
   // equal input coordinates bitwise equal).
@@ -615,7 +615,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     const bool down = std::all_of(normals.begin(), normals.end(),
                                   [&](Vec3 n) { return dot(n, b[k]) <= kPerpendicular; });
     if (!up && !down) {
-      if (mixed >= 0 || axis < 0) return out;
+      if (mixed >= 0 || axis < 0 || !cones_) return out;
       mixed = (axis + 1 + k) % 3;
     }
     rise = rise + b[k] * (up ? 1.0 : -1.0);

@@ -365,7 +365,7 @@ TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {
     Scene scene = test::make_shaft_in_bore(o);
     scene.objects.push_back(test::make_box("far", {0.3, 0.55, 0.3}, {0.35, far_y, 0.35}));
     const World s(std::move(scene));
-    const PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
+    const PairCertifier certifier(s.geometry, s.bvh, nullptr, true, true);
     for (int level = 8; level <= 12; ++level) {
       const double cell = std::ldexp(1.0, -level);
       const Vec3 at = s.domain.to_unit({apex, 0, 0.3});
