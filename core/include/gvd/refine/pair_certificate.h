@@ -49,12 +49,12 @@ namespace gvd {
 ///   d_a - d_b lies in that quadrant and has a component >= 1 along `rise`, so C is a monotone
 ///   curve that meets every line along `rise` at most once and every side of a cross-section
 ///   square at most once (no saddles, no hidden arcs: the corners' labels show where it runs).
-///   The surfacer traces C on the faces perpendicular to e and sweeps it along e. Where the
-///   normals lie in a cone of at most 90 degrees that straddles a cross-section axis (a
-///   hexagonal shaft's corner on an axis), C stays a graph but a line along that axis can meet
-///   it twice: the lines along it where octree edges of the cell and its children can run
-///   (at quarters of the cell) are checked exactly (line_crossings), and the cell's
-///   grandchildren are asked again (kExtrudedOnly...).
+///   The surfacer traces C on the faces perpendicular to e and sweeps it along e. With `cones`
+///   (off in the pipeline, see the constructor), where the normals lie in a cone of at most
+///   90 degrees that straddles a cross-section axis (a hexagonal shaft's corner on an axis),
+///   C stays a graph but a line along that axis can meet it twice: the lines along it where
+///   octree edges of the cell and its children can run (at quarters of the cell) are checked
+///   exactly (line_crossings), and the cell's grandchildren are asked again (kExtrudedOnly...).
 /// - Slanted extruded pairs (kSlanted...): the same along a direction e square to one axis a
 ///   but along neither other one (a hexagonal bore's edge at 60 degrees in its end plane):
 ///   the quadrant is taken on a and on w, the unit vector square to e in the plane of the
