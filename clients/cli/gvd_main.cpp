@@ -193,6 +193,16 @@ void print_summary(const GvdResult& r, std::FILE* out) {
   std::fprintf(out, "  objects %zu, simplices %llu, dimension %d\n", r.scene.objects.size(),
                static_cast<unsigned long long>(r.scene.simplex_count()), r.scene.dimension);
   std::fprintf(out, "  backend %s, %d threads\n", s.backend.c_str(), s.threads);
+  const Domain& d = r.domain;
+  std::fprintf(out, "  domain: a %s of side %.9g from (%.9g, %.9g%s",
+               d.dimension == 2 ? "square" : "cube", d.side, d.origin.x, d.origin.y,
+               d.dimension == 2 ? ")" : "");
+  if (d.dimension == 3) std::fprintf(out, ", %.9g)", d.origin.z);
+  if (!d.aligned()) {
+    std::fprintf(out, ", its edges along the scene's faces:");
+    for (const Vec3& a : d.axis) std::fprintf(out, " (%.6f, %.6f, %.6f)", a.x, a.y, a.z);
+  }
+  std::fprintf(out, "\n");
   std::fprintf(out,
                "  octree: depth %d (limit %d), %llu leaves (%llu in certified pair cells), %llu "
                "vertices, %.1f bytes/leaf\n",

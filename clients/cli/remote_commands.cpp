@@ -368,6 +368,28 @@ void print_summary(const Json& doc, std::FILE* out) {
                num("simplices"), num("dimension"));
   std::fprintf(out, "  backend %s, %.0f threads\n", text(r, "backend", "?").c_str(),
                num("threads"));
+  const Json domain = member(r, "domain", Json::object());
+  const Json origin = member(domain, "origin", Json::array());
+  if (origin.is_array() && !origin.empty()) {
+    std::fprintf(out, "  domain: a %s of side %.9g from (", origin.size() == 2 ? "square" : "cube",
+                 number(domain, "side", 0.0));
+    for (size_t i = 0; i < origin.size(); ++i)
+      std::fprintf(out, "%s%.9g", i > 0 ? ", " : "",
+                   origin[i].is_number() ? origin[i].get<double>() : 0.0);
+    std::fprintf(out, ")");
+    const Json axes = member(domain, "axes", Json::array());
+    if (axes.is_array() && !axes.empty()) {
+      std::fprintf(out, ", its edges along the scene's faces:");
+      for (const Json& a : axes) {
+        if (!a.is_array() || a.size() != 3 || !a[0].is_number() || !a[1].is_number() ||
+            !a[2].is_number())
+          continue;
+        std::fprintf(out, " (%.6f, %.6f, %.6f)", a[0].get<double>(), a[1].get<double>(),
+                     a[2].get<double>());
+      }
+    }
+    std::fprintf(out, "\n");
+  }
   std::fprintf(out,
                "  octree: depth %.0f (limit %.0f), %.0f leaves (%.0f in certified pair cells), "
                "%.0f vertices, %.1f bytes/leaf\n",
