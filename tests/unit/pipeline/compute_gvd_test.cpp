@@ -397,6 +397,14 @@ TEST(ComputeGvd, LeavesHoldingTwoObjectsAreCertifiedOrAtTheLimit3D) {
   }
 }
 
+// Whether p (the blade's own frame) lies in the gap between the blade and the slot's left wall,
+// away from the floor, the mouth and the blade's ends: there the GVD is the mid-plane.
+bool in_left_wall_gap(const test::BladeInSlotOptions& o, double g, Vec3 p) {
+  const double x0 = 0.5 - 0.5 * o.width, floor_y = 0.5 - o.depth;
+  return p.x >= x0 - g && p.x <= x0 && p.y >= floor_y + 0.02 && p.y <= 0.48 && p.z >= 0.12 &&
+         p.z <= 0.88;
+}
+
 // A blade fully in a slot, clearance g to both walls and the floor over the whole faces: every
 // rim is straight along an axis (the blade's edges, the slot's floor corners and mouth), so
 // extruded pair cells sweep the bisector along the rims and the cost does not follow 1 / g.
@@ -417,7 +425,7 @@ TEST(ComputeGvd, BladeFullyInSlotCostsTheSameAtAnyGap3D) {
     EXPECT_FALSE(r.graph.edges[0].touching);
     EXPECT_NEAR(r.graph.edges[0].gap, g, 1e-9 * g);
     EXPECT_NEAR(r.graph.edges[0].min_clearance, g / 2, 1e-2 * g);
-    const double x0 = 0.5 - 0.5 * o.width, floor_y = 0.5 - o.depth;
+    const double x0 = 0.5 - 0.5 * o.width;
     size_t on_plane = 0;
     std::vector<double> relative;
     const GvdCell& cell = r.gvd.cells[0];
@@ -427,10 +435,7 @@ TEST(ComputeGvd, BladeFullyInSlotCostsTheSameAtAnyGap3D) {
       const double da = test::brute_distance(r.scene, 0, p);
       const double db = test::brute_distance(r.scene, 1, p);
       if (relative.size() < 4000) relative.push_back(std::abs(da - db) / std::max(da, db));
-      // The left wall's gap, away from the floor, the mouth and the blade's ends.
-      if (p.x < x0 - g || p.x > x0 || p.y < floor_y + 0.02 || p.y > 0.48 || p.z < 0.12 ||
-          p.z > 0.88)
-        continue;
+      if (!in_left_wall_gap(o, g, p)) continue;
       EXPECT_NEAR(p.x, x0 - g / 2, 1e-6 * g) << "vertex " << v;
       ++on_plane;
     }
@@ -445,8 +450,8 @@ TEST(ComputeGvd, BladeFullyInSlotCostsTheSameAtAnyGap3D) {
 
 // The blade in its slot tilted about a skew axis: the octree turns to the scene's faces
 // (DomainFrame::kAuto), so its rims are extruded cells again and it costs what the untilted
-// one costs (with the user's axes its rims refine to the gap: ~40x the leaves at 1e-3,
-// 430x at 1e-4). The answers come back in the user's frame: the left wall's gap has its
+// one costs (with the user's axes its rims refine to the gap: ~59x the leaves at 1e-3,
+// ~430x at 1e-4). The answers come back in the user's frame: the left wall's gap has its
 // mid-plane at x0 - g / 2 in the blade's own coordinates.
 TEST(ComputeGvd, TiltedBladeInSlotCostsWhatItCostsUntilted3D) {
   test::BladeInSlotOptions o;
@@ -467,14 +472,13 @@ TEST(ComputeGvd, TiltedBladeInSlotCostsWhatItCostsUntilted3D) {
   EXPECT_FALSE(b.graph.edges[0].touching);
   EXPECT_NEAR(b.graph.edges[0].gap, g, 1e-9 * g);
   EXPECT_NEAR(b.graph.edges[0].min_clearance, g / 2, 1e-2 * g);
-  const double x0 = 0.5 - 0.5 * o.width, floor_y = 0.5 - o.depth;
+  const double x0 = 0.5 - 0.5 * o.width;
   size_t on_plane = 0;
   const GvdCell& cell = b.gvd.cells[0];
   for (size_t v = 0; v < cell.positions.size(); ++v) {
     if (cell.other[v] != 1) continue;
     const Vec3 p = test::rotate(cell.positions[v], axis, -angle);  // the blade's own frame
-    if (p.x < x0 - g || p.x > x0 || p.y < floor_y + 0.02 || p.y > 0.48 || p.z < 0.12 || p.z > 0.88)
-      continue;
+    if (!in_left_wall_gap(o, g, p)) continue;
     EXPECT_NEAR(p.x, x0 - g / 2, 1e-6 * g) << "vertex " << v;
     ++on_plane;
   }
