@@ -23,11 +23,11 @@ ClosestPointData make_closest_point_data(const UnitGeometry& geometry, const Sim
   for (size_t i = 0; i < nodes.size(); ++i) {
     item::GvdBvhNode& n = d.nodes[i];
     for (int a = 0; a < 3; ++a) {
-      n.lo[a] = nodes[i].box.lo[a];
-      n.hi[a] = nodes[i].box.hi[a];
+      n.lo[a] = nodes[i].box().lo[a];
+      n.hi[a] = nodes[i].box().hi[a];
     }
     n.first = nodes[i].first;
-    n.count = nodes[i].count;
+    n.count = nodes[i].count();
   }
   d.order.assign(bvh.order().begin(), bvh.order().end());
   d.points.resize(geometry.points.size());

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <exception>
 #include <numeric>
+#include <string>
 #include <thread>
 
 #include "gvd/common/error.h"
 #include "gvd/geometry/primitives.h"
 
 namespace gvd {
+
+static_assert(sizeof(SimplexBvh::Node) == 56);
 
 Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const Simplex& s,
                               Vec3 p) {
@@ -24,13 +27,21 @@ bool simplex_overlaps_box(int dimension, std::span<const Vec3> points, const Sim
 
 namespace {
 
+constexpr uint32_t kLeafSize = 4;
+
+// The number of nodes build_tree makes for n items (median splits down to kLeafSize), so the
+// arrays are allocated once at their size.
+size_t tree_nodes(uint32_t n) {
+  if (n <= kLeafSize) return 1;
+  return 1 + tree_nodes(n / 2) + tree_nodes(n - n / 2);
+}
+
 // Top-down median split along the largest axis of the centre bounds, in depth-first layout: a
 // left child directly follows its parent, the parent stores the index of its right child.
 // Leaf ranges index `items[begin, end)` (positions in that array). Appends to `nodes`.
 template <class BoxOf, class CenterOf>
 void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxOf&& box_of,
                 CenterOf&& center_of, std::vector<SimplexBvh::Node>& nodes) {
-  constexpr uint32_t kLeafSize = 4;
   struct Frame {
     uint32_t begin, end, parent;  // parent: node whose `first` (right child) to set, or ~0
   };
@@ -47,10 +58,10 @@ void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxO
       box.extend(box_of(items[k]));
       cbox.extend(center_of(items[k]));
     }
-    nodes[self].box = box;
+    nodes[self].set_box(box);
     if (f.end - f.begin <= kLeafSize) {
       nodes[self].first = f.begin;
-      nodes[self].count = f.end - f.begin;
+      nodes[self].set_count(f.end - f.begin);
       continue;
     }
     const Vec3 ext = cbox.hi - cbox.lo;
@@ -72,6 +83,11 @@ void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxO
 SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
                        std::span<const Simplex> simplices, std::span<const uint32_t> object_of)
     : dimension_(dimension) {
+  if (simplices.size() > kMaxSimplices) {
+    throw Error(ErrorCode::kLimitExceeded, "the scene has " + std::to_string(simplices.size()) +
+                                               " simplices; the BVH indexes at most " +
+                                               std::to_string(kMaxSimplices));
+  }
   const uint32_t m = static_cast<uint32_t>(simplices.size());
   if (m == 0) return;
   const int arity = dimension == 2 ? 2 : 3;
@@ -97,6 +113,11 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
   } joiner{object_builder};
   if (object_of.size() == m) {
     for (uint32_t o : object_of) objects = std::max(objects, o + 1);
+    if (objects > kMaxObjects) {
+      throw Error(ErrorCode::kLimitExceeded, "the scene has " + std::to_string(objects) +
+                                                 " objects; the BVH indexes at most " +
+                                                 std::to_string(kMaxObjects));
+    }
     start.assign(objects + 1, 0);
     for (uint32_t s : object_of) ++start[s + 1];
     for (uint32_t o = 0; o < objects; ++o) start[o + 1] += start[o];
@@ -106,7 +127,10 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
       for (uint32_t s = 0; s < m; ++s) object_items_[fill[object_of[s]]++] = s;
     }
     object_root_.assign(objects, kNoRoot);
-    object_nodes_.reserve(m / 2 + 2 * objects);
+    size_t object_tree_nodes = 0;
+    for (uint32_t o = 0; o < objects; ++o)
+      if (start[o] < start[o + 1]) object_tree_nodes += tree_nodes(start[o + 1] - start[o]);
+    object_nodes_.reserve(object_tree_nodes);
     auto build_objects = [&] {
       for (uint32_t o = 0; o < objects; ++o) {
         if (start[o] == start[o + 1]) continue;
@@ -131,16 +155,26 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
   }
   order_.resize(m);
   std::iota(order_.begin(), order_.end(), 0u);
-  nodes_.reserve(m / 2 + 2);
+  nodes_.reserve(tree_nodes(m));
   build_tree(
       order_, 0, m, [&](uint32_t s) -> const Box& { return boxes[s]; },
       [&](uint32_t s) -> const Vec3& { return centers[s]; }, nodes_);
   arity_ = arity;
-  corners_.resize(static_cast<size_t>(m) * arity);
-  for (uint32_t k = 0; k < m; ++k) {
-    for (int j = 0; j < arity; ++j) {
-      corners_[static_cast<size_t>(k) * arity + j] = points[simplices[order_[k]].v[j]];
+  corner_.resize(static_cast<size_t>(m) * arity);
+  {
+    constexpr uint32_t kUnused = 0xFFFFFFFFu;
+    std::vector<uint32_t> renumber(points.size(), kUnused);
+    uint32_t used = 0;
+    for (uint32_t k = 0; k < m; ++k) {
+      for (int j = 0; j < arity; ++j) {
+        uint32_t& v = renumber[simplices[order_[k]].v[j]];
+        if (v == kUnused) v = used++;
+        corner_[static_cast<size_t>(k) * arity + j] = v;
+      }
     }
+    points_.resize(used);
+    for (size_t i = 0; i < points.size(); ++i)
+      if (renumber[i] != kUnused) points_[renumber[i]] = points[i];
   }
   if (object_of.size() == m) {
     object_in_order_.resize(m);
@@ -148,13 +182,14 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
     // Children follow their parents in the array: one backward pass fills every node.
     for (size_t i = nodes_.size(); i-- > 0;) {
       Node& n = nodes_[i];
-      if (n.count > 0) {
-        n.object = object_in_order_[n.first];
-        for (uint32_t k = n.first + 1; k < n.first + n.count; ++k)
-          if (object_in_order_[k] != n.object) n.object = kMixed;
+      if (n.count() > 0) {
+        uint32_t object = object_in_order_[n.first];
+        for (uint32_t k = n.first + 1; k < n.first + n.count(); ++k)
+          if (object_in_order_[k] != object) object = kMixed;
+        n.set_object(object);
       } else {
-        const uint32_t l = nodes_[i + 1].object, r = nodes_[n.first].object;
-        n.object = l == r ? l : kMixed;
+        const uint32_t l = nodes_[i + 1].object(), r = nodes_[n.first].object();
+        n.set_object(l == r ? l : kMixed);
       }
     }
     if (object_builder.joinable()) object_builder.join();
@@ -184,7 +219,7 @@ ClosestHit SimplexBvh::nearest_excluding(Vec3 p, const uint32_t* excluded, int c
   return nearest_impl(
       p, [&](uint32_t k) { return !is_excluded(object_in_order_[k]); },
       [&](uint32_t node) {
-        const uint32_t object = nodes_[node].object;
+        const uint32_t object = nodes_[node].object();
         return object != kMixed && is_excluded(object);
       },
       max_dist2);
@@ -194,7 +229,7 @@ size_t SimplexBvh::memory_bytes() const {
   return (nodes_.size() + object_nodes_.size()) * sizeof(Node) +
          (order_.size() + object_in_order_.size() + object_items_.size() + object_root_.size()) *
              sizeof(uint32_t) +
-         corners_.size() * sizeof(Vec3);
+         corner_.size() * sizeof(uint32_t) + points_.size() * sizeof(Vec3);
 }
 
 }  // namespace gvd
@@ -215,14 +250,15 @@ double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
   };
   Entry stack[128];
   int top = 0;
-  stack[top++] = {0, segment_box_distance2_bound(a, b, nodes_[0].box)};
+  stack[top++] = {0, segment_box_distance2_bound(a, b, nodes_[0].box())};
   while (top > 0 && best > 0) {
     const Entry entry = stack[--top];
     if (entry.dist2 >= best) continue;
     const Node& n = nodes_[entry.node];
-    if (n.count > 0) {
-      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
-        const Vec3* c = &corners_[static_cast<size_t>(k) * arity_];
+    if (n.count() > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count(); ++k) {
+        Vec3 c[3];
+        load_corners(k, c);
         const double d2 = arity_ == 2 ? segment_segment_dist2_2d(a, b, c[0], c[1])
                                       : segment_triangle_dist2(a, b, c[0], c[1], c[2]);
         best = std::min(best, d2);
@@ -230,8 +266,8 @@ double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
       continue;
     }
     const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = segment_box_distance2_bound(a, b, nodes_[l].box);
-    const double dr = segment_box_distance2_bound(a, b, nodes_[r].box);
+    const double dl = segment_box_distance2_bound(a, b, nodes_[l].box());
+    const double dr = segment_box_distance2_bound(a, b, nodes_[r].box());
     if (dl <= dr) {
       if (dr < best) stack[top++] = {r, dr};
       if (dl < best) stack[top++] = {l, dl};
@@ -263,16 +299,16 @@ ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2) const
   };
   Entry stack[128];
   int top = 0;
-  stack[top++] = {0, bound(nodes_[0].box)};
+  stack[top++] = {0, bound(nodes_[0].box())};
   while (top > 0 && best.dist2 > 0) {
     const Entry entry = stack[--top];
     if (entry.dist2 >= best.dist2) continue;
     const Node& n = nodes_[entry.node];
-    if (n.count > 0) {
-      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
-        Vec3 on;
-        const double d2 =
-            simplex_simplex_closest(dimension_, q, &corners_[static_cast<size_t>(k) * arity_], on);
+    if (n.count() > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count(); ++k) {
+        Vec3 on, c[3];
+        load_corners(k, c);
+        const double d2 = simplex_simplex_closest(dimension_, q, c, on);
         if (d2 < best.dist2) {
           best.dist2 = d2;
           best.point = on;
@@ -282,7 +318,7 @@ ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2) const
       continue;
     }
     const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = bound(nodes_[l].box), dr = bound(nodes_[r].box);
+    const double dl = bound(nodes_[l].box()), dr = bound(nodes_[r].box());
     if (dl <= dr) {
       if (dr < best.dist2) stack[top++] = {r, dr};
       if (dl < best.dist2) stack[top++] = {l, dl};
@@ -312,8 +348,9 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
   };
   // The exact distance of two simplices (0 when they cross) and a closest pair.
   auto pair_distance = [&](uint32_t ka, uint32_t kb, Vec3& pa, Vec3& pb) {
-    const Vec3* p = &corners_[static_cast<size_t>(ka) * arity_];
-    const Vec3* q = &corners_[static_cast<size_t>(kb) * arity_];
+    Vec3 p[3], q[3];
+    load_corners(ka, p);
+    load_corners(kb, q);
     if (arity_ == 2) {
       const double d2 = segment_segment_dist2_2d(p[0], p[1], q[0], q[1]);
       segment_segment_closest(Vec3{p[0].x, p[0].y, 0}, Vec3{p[1].x, p[1].y, 0},
@@ -335,7 +372,7 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
   };
   std::vector<Entry> stack;
   const uint32_t ra = object_root_[a], rb = object_root_[b];
-  stack.push_back({ra, rb, box_gap2(object_nodes_[ra].box, object_nodes_[rb].box)});
+  stack.push_back({ra, rb, box_gap2(object_nodes_[ra].box(), object_nodes_[rb].box())});
   while (!stack.empty() && best.dist2 > 0) {
     const Entry entry = stack.back();
     stack.pop_back();
@@ -344,16 +381,18 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
     if (best.found ? entry.dist2 >= best.dist2 : entry.dist2 > best.dist2) continue;
     const Node& x = object_nodes_[entry.na];
     const Node& y = object_nodes_[entry.nb];
-    if (x.count > 0 && y.count > 0) {
-      for (uint32_t i = x.first; i < x.first + x.count; ++i) {
+    if (x.count() > 0 && y.count() > 0) {
+      for (uint32_t i = x.first; i < x.first + x.count(); ++i) {
         const uint32_t ka = object_items_[i];
         Box ba;
-        for (int k = 0; k < arity_; ++k) ba.extend(corners_[static_cast<size_t>(ka) * arity_ + k]);
-        for (uint32_t j = y.first; j < y.first + y.count; ++j) {
+        Vec3 c[3];
+        load_corners(ka, c);
+        for (int k = 0; k < arity_; ++k) ba.extend(c[k]);
+        for (uint32_t j = y.first; j < y.first + y.count(); ++j) {
           // The simplices' own boxes first: no nearer than the best pair, no exact test.
           Box bb;
-          for (int k = 0; k < arity_; ++k)
-            bb.extend(corners_[static_cast<size_t>(object_items_[j]) * arity_ + k]);
+          load_corners(object_items_[j], c);
+          for (int k = 0; k < arity_; ++k) bb.extend(c[k]);
           if (best.found && box_gap2(ba, bb) >= best.dist2) continue;
           Vec3 pa, pb;
           const double d2 = pair_distance(object_items_[i], object_items_[j], pa, pb);
@@ -369,7 +408,7 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
     }
     // Open the inner node with the larger box (a leaf against an inner node: the inner one).
     auto extent = [](const Box& bx) { return norm2(bx.hi - bx.lo); };
-    const bool open_a = y.count > 0 || (x.count == 0 && extent(x.box) >= extent(y.box));
+    const bool open_a = y.count() > 0 || (x.count() == 0 && extent(x.box()) >= extent(y.box()));
     Entry children[2];
     if (open_a) {
       children[0] = {entry.na + 1, entry.nb, 0};
@@ -378,7 +417,8 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
       children[0] = {entry.na, entry.nb + 1, 0};
       children[1] = {entry.na, y.first, 0};
     }
-    for (Entry& c : children) c.dist2 = box_gap2(object_nodes_[c.na].box, object_nodes_[c.nb].box);
+    for (Entry& c : children)
+      c.dist2 = box_gap2(object_nodes_[c.na].box(), object_nodes_[c.nb].box());
     if (children[0].dist2 < children[1].dist2) std::swap(children[0], children[1]);
     for (const Entry& c : children)  // the nearer one last: searched first
       if (best.found ? c.dist2 < best.dist2 : c.dist2 <= best.dist2) stack.push_back(c);
