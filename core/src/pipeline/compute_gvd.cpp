@@ -157,7 +157,13 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   SurfaceOptions so;
   so.threads = options.threads;
   so.cancel = options.cancel;
-  r.gvd = extract_gvd(r.octree, r.field, r.geometry, bvh, r.domain, so);
+  {
+    LeafPieces pieces = surface_leaves(r.octree, r.field, r.geometry, bvh, so);
+    // Only the leaves needed the per-leaf vertex lists (~50 B per leaf): they go before the
+    // weld, where memory peaks.
+    r.field.drop_leaf_lists();
+    r.gvd = weld_gvd(std::move(pieces), r.field.closest, r.geometry, bvh, r.domain, so);
+  }
   uint64_t simplices = 0, gvd_bytes = 0;
   for (const GvdCell& c : r.gvd.cells) {
     simplices += c.indices.size() / (dim == 2 ? 2 : 3);

@@ -1169,20 +1169,32 @@ std::vector<uint32_t> part_starts(std::vector<uint32_t>& base, size_t parts, siz
 
 }  // namespace
 
-Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
-                const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
-  const int dim = octree.dimension;
+struct LeafPieces::Impl {
+  std::vector<SurfaceChunk> chunks;
+};
+
+LeafPieces::LeafPieces() = default;
+LeafPieces::~LeafPieces() = default;
+LeafPieces::LeafPieces(LeafPieces&&) noexcept = default;
+LeafPieces& LeafPieces::operator=(LeafPieces&&) noexcept = default;
+
+LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
+                          const UnitGeometry& geometry, const SimplexBvh& bvh,
+                          const SurfaceOptions& options) {
   const int threads = resolve_threads(options.threads);
   const size_t grain = 512;
-  const int arity = dim == 2 ? 2 : 3;
+  const int arity = octree.dimension == 2 ? 2 : 3;
   // Each leaf's pieces share most of their corners (the cone apex, the spokes): they are
-  // deduplicated per leaf first, so the global pass below sorts distinct (point, object,
-  // other) records of each leaf rather than every corner.
+  // deduplicated per leaf first, so the global pass in weld_gvd sorts distinct (point,
+  // object, other) records of each leaf rather than every corner.
   CellSurfacer surfacer(octree, field, geometry, bvh);
   surfacer.prepare(threads);
   // Only the leaves that emit anything: those the GVD crosses and those on the domain box.
   const std::vector<uint32_t>& active = surfacer.active_leaves();
-  std::vector<SurfaceChunk> chunks((active.size() + grain - 1) / grain + 1);
+  LeafPieces out;
+  out.impl_ = std::make_unique<LeafPieces::Impl>();
+  std::vector<SurfaceChunk>& chunks = out.impl_->chunks;
+  chunks.resize((active.size() + grain - 1) / grain + 1);
   parallel_for(
       active.size(), threads,
       [&](size_t b, size_t e, int) {
@@ -1198,9 +1210,30 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
           surfacer.cell(active[i], local);
           chunk.add(local, arity, field.closest);
         }
+        // Kept until the weld, where memory peaks: without the growth's slack (a third on
+        // average), at the cost of one copy of a chunk that is still in cache.
+        chunk.corners.shrink_to_fit();
+        chunk.simplices.shrink_to_fit();
         chunks[b / grain] = std::move(chunk);
       },
       grain);
+  return out;
+}
+
+Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
+                const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
+  return weld_gvd(surface_leaves(octree, field, geometry, bvh, options), field.closest, geometry,
+                  bvh, domain, options);
+}
+
+Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeometry& geometry,
+             const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
+  GVD_CHECK(pieces.impl_ != nullptr, "weld_gvd: the pieces were already welded");
+  const int dim = geometry.dimension;
+  const int threads = resolve_threads(options.threads);
+  const int arity = dim == 2 ? 2 : 3;
+  std::vector<SurfaceChunk> chunks = std::move(pieces.impl_->chunks);
+  pieces.impl_.reset();
   // All records by one index (chunk by chunk): a pointer to each, not a copy. A chunk's
   // triangles index its own records, so they are offset by the chunk's start.
   std::vector<size_t> chunk_start(chunks.size() + 1, 0);
@@ -1317,7 +1350,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
             if (record[keyed[i].record]->witness != kNoVertex)
-              bound2 = std::min(bound2, dist2(p, field.closest[record[keyed[i].record]->witness]));
+              bound2 = std::min(bound2, dist2(p, closest[record[keyed[i].record]->witness]));
           if (have_previous) bound2 = std::min(bound2, dist2(p, previous) * (1 + 1e-9));
           const ClosestHit hit = bvh.nearest(p, bound2);
           run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;

@@ -37,6 +37,12 @@ struct DistanceField {
   std::vector<uint8_t> leaf_slot;
 
   size_t size() const { return label.size(); }
+  /// Frees the per-leaf lists (grid() then looks vertices up by key, as in a loaded field).
+  void drop_leaf_lists() {
+    std::vector<uint32_t>().swap(leaf_begin);
+    std::vector<uint32_t>().swap(leaf_vertex);
+    std::vector<uint8_t>().swap(leaf_slot);
+  }
   /// The LeafGrid of a leaf, from the CSR when present, else by hash lookups.
   LeafGrid grid(const Octree& octree, uint32_t leaf) const;
   /// Distance from vertex v to its assigned closest point (unit domain; inf if none).
