@@ -74,15 +74,53 @@ void check_cancel(const DistanceOptions& options) {
 // vertices are the previous field's, by index (incremental topology); else found by key.
 void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const SimplexBvh& bvh,
                       const DistanceOptions& options, const DistanceField* previous,
-                      uint32_t old_count, int threads) {
+                      uint32_t old_count, DistanceField* owned, int threads) {
   const size_t nv = field.vertices.size();
-  field.label.assign(nv, kNoObject);
-  field.point.assign(nv, kNoVertex);
-  field.closest.assign(nv, Vec3{});
-  field.exact.assign(nv, 1);
-  field.changed.assign(nv, 1);
+  // An owned previous field whose vertices keep their indices (old_count > 0) and whose
+  // closest points are indexed by vertex (as this function leaves them) gives its arrays up:
+  // they are extended in place instead of copied (36 B per vertex less at the peak).
+  bool in_place = owned != nullptr && old_count > 0 && owned->point.size() == old_count &&
+                  owned->closest.size() == old_count && owned->label.size() == old_count &&
+                  owned->exact.size() == old_count;
+  if (in_place) {
+    std::atomic<bool> indexed{true};
+    parallel_for(old_count, threads, [&](size_t b, size_t e, int) {
+      for (size_t v = b; v < e; ++v)
+        if (owned->point[v] != kNoVertex && owned->point[v] != v) indexed = false;
+    });
+    in_place = indexed;
+  }
   std::vector<uint8_t> reused(nv, 0);
-  if (previous != nullptr) {
+  if (in_place) {
+    field.label = std::move(owned->label);
+    field.point = std::move(owned->point);
+    field.closest = std::move(owned->closest);
+    std::vector<uint8_t> was_exact = std::move(owned->exact);
+    field.label.resize(nv, kNoObject);
+    field.point.resize(nv, kNoVertex);
+    field.closest.resize(nv, Vec3{});
+    field.exact.assign(nv, 1);
+    field.changed.assign(nv, 1);
+    parallel_for(old_count, threads, [&](size_t b, size_t e, int) {
+      for (size_t v = b; v < e; ++v) {
+        if (!was_exact[v] || field.point[v] == kNoVertex) {
+          field.label[v] = kNoObject;
+          field.point[v] = kNoVertex;
+          field.closest[v] = Vec3{};
+          continue;
+        }
+        field.changed[v] = 0;
+        reused[v] = 1;
+      }
+    });
+  } else {
+    field.label.assign(nv, kNoObject);
+    field.point.assign(nv, kNoVertex);
+    field.closest.assign(nv, Vec3{});
+    field.exact.assign(nv, 1);
+    field.changed.assign(nv, 1);
+  }
+  if (previous != nullptr && !in_place) {
     parallel_for(nv, threads, [&](size_t b, size_t e, int) {
       for (size_t v = b; v < e; ++v) {
         const uint32_t pv = old_count > 0 ? (v < old_count ? static_cast<uint32_t>(v) : kNoVertex)
@@ -145,11 +183,12 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
   field.exact_reused = nv - todo.size();
 }
 
-// compute_distances; with `steal_vertices` (the previous field's vertices, incremental only)
-// they are moved into the new field instead of copied.
+// compute_distances; with `owned` (the previous field itself, given up by the caller) its
+// parts are moved into the new field instead of copied, or freed once used: the vertices, the
+// per-vertex arrays (exact_everywhere) and the per-leaf lists.
 DistanceField distances(const Octree& octree, const UnitGeometry& geometry, const SimplexBvh& bvh,
                         const DistanceOptions& options, const DistanceField* previous,
-                        const Octree* previous_octree, OctreeVertices* steal_vertices) {
+                        const Octree* previous_octree, DistanceField* owned) {
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
   DistanceField field;
@@ -179,8 +218,8 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         ++j;
       }
     }
-    if (steal_vertices != nullptr) {
-      field.vertices = std::move(*steal_vertices);
+    if (owned != nullptr) {
+      field.vertices = std::move(owned->vertices);
     } else {
       field.vertices = previous->vertices;
     }
@@ -262,8 +301,10 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         nl, threads,
         [&](size_t b, size_t e, int) {
           Compact mine;  // moved in at the end (no false sharing)
-          mine.vertex.reserve((e - b) * 10);
-          mine.slot.reserve((e - b) * 10);
+          size_t looked_up = 0;
+          for (size_t i = b; i < e; ++i) looked_up += recompute[i];
+          mine.vertex.reserve(looked_up * 12);
+          mine.slot.reserve(looked_up * 12);
           for (size_t i = b; i < e; ++i) {
             if (!recompute[i]) {
               const uint32_t ol = old_leaf[i];
@@ -280,6 +321,9 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
             }
             count[i] = c;
           }
+          // Kept until every chunk is done: without unused capacity.
+          mine.vertex.shrink_to_fit();
+          mine.slot.shrink_to_fit();
           compact[b / grain] = std::move(mine);
         },
         grain);
@@ -310,9 +354,12 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         },
         grain);
   }
+  // The previous field's lists are copied where they still hold.
+  if (owned != nullptr) owned->drop_leaf_lists();
   if (options.method == DistanceMethod::kExact) {
     field.seconds_topology = part.lap();
-    exact_everywhere(field, geometry, bvh, options, previous, incremental ? old_count : 0, threads);
+    exact_everywhere(field, geometry, bvh, options, previous, incremental ? old_count : 0,
+                     incremental ? owned : nullptr, threads);
     field.seconds_init = part.lap();
     field.leaf_begin = std::move(leaf_verts.begin);
     field.leaf_vertex = std::move(leaf_verts.items);
@@ -603,8 +650,7 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
   const bool incremental = !previous.leaf_begin.empty() &&
                            previous.leaf_begin.size() == previous_octree.leaf_count() + 1;
   if (!incremental) return distances(octree, geometry, bvh, options, &previous, nullptr, nullptr);
-  OctreeVertices vertices = std::move(previous.vertices);
-  return distances(octree, geometry, bvh, options, &previous, &previous_octree, &vertices);
+  return distances(octree, geometry, bvh, options, &previous, &previous_octree, &previous);
 }
 
 }  // namespace gvd

@@ -105,6 +105,12 @@ TEST_P(ComputeDistancesMethod, IncrementalRefinementEqualsAFullRecomputation) {
     EXPECT_EQ(consumed.label, incremental.label);
     EXPECT_EQ(consumed.point, incremental.point);
     EXPECT_EQ(consumed.leaf_vertex, incremental.leaf_vertex);
+    EXPECT_EQ(consumed.leaf_slot, incremental.leaf_slot);
+    EXPECT_EQ(consumed.leaf_begin, incremental.leaf_begin);
+    // (The exact method extends the consumed field's arrays in place.)
+    EXPECT_TRUE(consumed.closest == incremental.closest);
+    EXPECT_EQ(consumed.exact, incremental.exact);
+    EXPECT_EQ(consumed.changed, incremental.changed);
     for (uint32_t v = 0; v < consumed.size(); ++v)
       ASSERT_EQ(consumed.vertices.find(consumed.vertices.key[v]), v);
     ASSERT_EQ(incremental.size(), full.size());
