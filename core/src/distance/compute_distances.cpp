@@ -96,6 +96,10 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
     field.point = std::move(owned->point);
     field.closest = std::move(owned->closest);
     std::vector<uint8_t> was_exact = std::move(owned->exact);
+    // At their size: growing by resize alone would double the capacity, kept to the end.
+    field.label.reserve(nv);
+    field.point.reserve(nv);
+    field.closest.reserve(nv);
     field.label.resize(nv, kNoObject);
     field.point.resize(nv, kNoVertex);
     field.closest.resize(nv, Vec3{});
