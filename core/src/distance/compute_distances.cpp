@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <queue>
@@ -19,8 +20,8 @@ LeafGrid DistanceField::grid(const Octree& octree, uint32_t leaf) const {
   if (leaf_begin.empty()) return leaf_grid(octree, vertices, leaf);
   LeafGrid g;
   g.fill(kNoVertex);
-  for (uint32_t k = leaf_begin[leaf]; k < leaf_begin[leaf + 1]; ++k)
-    g[leaf_slot[k]] = leaf_vertex[k];
+  uint32_t k = leaf_begin[leaf];
+  for (uint32_t m = leaf_slots[leaf]; m != 0; m &= m - 1) g[std::countr_zero(m)] = leaf_vertex[k++];
   return g;
 }
 
@@ -293,12 +294,12 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
       });
     }
     // Grids of the leaves looked up again, compacted per chunk of leaves into their boundary
-    // vertices and slots (no full-size array of grids); the other leaves copy their CSR rows.
+    // vertices (no full-size array of grids); the other leaves copy their CSR rows.
     const size_t grain = 2048;
     struct Compact {
       std::vector<uint32_t> vertex;
-      std::vector<uint8_t> slot;
     };
+    field.leaf_slots.resize(nl);
     std::vector<Compact> compact((nl + grain - 1) / grain);
     std::vector<uint32_t> count(nl);
     parallel_for(
@@ -308,32 +309,31 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
           size_t looked_up = 0;
           for (size_t i = b; i < e; ++i) looked_up += recompute[i];
           mine.vertex.reserve(looked_up * 12);
-          mine.slot.reserve(looked_up * 12);
           for (size_t i = b; i < e; ++i) {
             if (!recompute[i]) {
               const uint32_t ol = old_leaf[i];
               count[i] = previous->leaf_begin[ol + 1] - previous->leaf_begin[ol];
+              field.leaf_slots[i] = previous->leaf_slots[ol];
               continue;
             }
             const LeafGrid g = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
-            uint32_t c = 0;
+            uint32_t c = 0, slots = 0;
             for (int k = 0; k < grid_points; ++k) {
               if (g[k] == kNoVertex) continue;
               mine.vertex.push_back(g[k]);
-              mine.slot.push_back(static_cast<uint8_t>(k));
+              slots |= 1u << k;
               ++c;
             }
             count[i] = c;
+            field.leaf_slots[i] = slots;
           }
           // Kept until every chunk is done: without unused capacity.
           mine.vertex.shrink_to_fit();
-          mine.slot.shrink_to_fit();
           compact[b / grain] = std::move(mine);
         },
         grain);
     for (size_t i = 0; i < nl; ++i) leaf_verts.begin[i + 1] = leaf_verts.begin[i] + count[i];
     leaf_verts.items.resize(leaf_verts.begin[nl]);
-    field.leaf_slot.resize(leaf_verts.begin[nl]);
     parallel_for(
         nl, threads,
         [&](size_t b, size_t e, int) {
@@ -346,13 +346,10 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
               const uint32_t from = previous->leaf_begin[ol], to = previous->leaf_begin[ol + 1];
               std::copy(previous->leaf_vertex.begin() + from, previous->leaf_vertex.begin() + to,
                         leaf_verts.items.begin() + pos);
-              std::copy(previous->leaf_slot.begin() + from, previous->leaf_slot.begin() + to,
-                        field.leaf_slot.begin() + pos);
               continue;
             }
             std::copy_n(mine.vertex.begin() + from_compact, count[i],
                         leaf_verts.items.begin() + pos);
-            std::copy_n(mine.slot.begin() + from_compact, count[i], field.leaf_slot.begin() + pos);
             from_compact += count[i];
           }
         },

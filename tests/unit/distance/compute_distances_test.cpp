@@ -105,7 +105,7 @@ TEST_P(ComputeDistancesMethod, IncrementalRefinementEqualsAFullRecomputation) {
     EXPECT_EQ(consumed.label, incremental.label);
     EXPECT_EQ(consumed.point, incremental.point);
     EXPECT_EQ(consumed.leaf_vertex, incremental.leaf_vertex);
-    EXPECT_EQ(consumed.leaf_slot, incremental.leaf_slot);
+    EXPECT_EQ(consumed.leaf_slots, incremental.leaf_slots);
     EXPECT_EQ(consumed.leaf_begin, incremental.leaf_begin);
     // (The exact method extends the consumed field's arrays in place.)
     EXPECT_TRUE(consumed.closest == incremental.closest);

@@ -34,14 +34,16 @@ struct DistanceField {
   /// the surfacing; empty in a field loaded from disk.
   std::vector<uint32_t> leaf_begin;
   std::vector<uint32_t> leaf_vertex;
-  std::vector<uint8_t> leaf_slot;
+  /// Per leaf: bit k set when slot k of its LeafGrid holds a vertex; the leaf's row of
+  /// leaf_vertex lists those vertices in slot order.
+  std::vector<uint32_t> leaf_slots;
 
   size_t size() const { return label.size(); }
   /// Frees the per-leaf lists (grid() then looks vertices up by key, as in a loaded field).
   void drop_leaf_lists() {
     std::vector<uint32_t>().swap(leaf_begin);
     std::vector<uint32_t>().swap(leaf_vertex);
-    std::vector<uint8_t>().swap(leaf_slot);
+    std::vector<uint32_t>().swap(leaf_slots);
   }
   /// The LeafGrid of a leaf, from the CSR when present, else by hash lookups.
   LeafGrid grid(const Octree& octree, uint32_t leaf) const;
