@@ -1,12 +1,13 @@
 // The uniform-grid discrete GVD with CuRV range culling (Sud et al. 2006, §4-5).
 //
-// Sites are the scene's simplices (the paper's primitives); a cell's label is its nearest
-// simplex's object. The paper's pivot point becomes the whole site: a site is in the swept
-// set S(T) of every range its geometry touches. With that, the chain argument of Theorems 1-2
-// holds for segments and triangles under any norm: for a cell centre q in V(p) with nearest
-// point s(q) on p, the straight segment [s(q), q] lies in V(p) and crosses ranges
-// monotonically, in the sweep direction given by the signs of q - s(q); every range it
-// crosses sees p as visible (conservatively, §5.3), so p is carried along to q's range.
+// Sites are the scene's objects (each evaluated through a BVH of its own simplices); a cell's
+// label is its nearest object. The paper's pivot point becomes the whole site: an object is
+// in the swept set S(T) of every range its geometry touches. With that, the chain argument of
+// Theorems 1-2 holds for any objects (connected or not) under any norm: for a cell centre q
+// in V(p) with nearest point s(q) on p, the straight segment [s(q), q] lies in V(p) and
+// crosses ranges monotonically, in the sweep direction given by the signs of q - s(q); every
+// range it crosses sees p as visible (conservatively, §5.3), so p is carried along to q's
+// range.
 
 #include "gvd/grid/compute_grid.h"
 
@@ -174,27 +175,7 @@ struct Ranges {
   }
 };
 
-GridGeometry make_grid_geometry(const Scene& scene) {
-  GridGeometry g;
-  g.dimension = scene.dimension;
-  for (ObjectId o = 0; o < scene.objects.size(); ++o) {
-    const SceneObject& obj = scene.objects[o];
-    const uint32_t base = static_cast<uint32_t>(g.points.size());
-    for (Vec3 v : obj.vertices) {
-      if (scene.dimension == 2) v.z = 0;
-      g.points.push_back(v);
-    }
-    for (const Simplex& s : obj.simplices) {
-      g.simplices.push_back(base + s.v[0]);
-      g.simplices.push_back(base + s.v[1]);
-      g.simplices.push_back(base + (scene.dimension == 2 ? s.v[0] : s.v[2]));
-      g.object_of.push_back(o);
-    }
-  }
-  return g;
-}
-
-/// S(T) for every range: the sites whose geometry touches the closed range box.
+/// S(T) for every range: the objects whose geometry touches the closed range box (sorted).
 std::vector<Sites> swept_sets(const GridGeometry& g, const GridSpec& spec, const Ranges& r) {
   std::vector<Sites> swept(r.count());
   const double slack = spec.h * 1e-6;
@@ -221,7 +202,10 @@ std::vector<Sites> swept_sets(const GridGeometry& g, const GridSpec& spec, const
           box.hi = {box.lo.x + side, box.lo.y + side, spec.dimension == 2 ? 0.0 : box.lo.z + side};
           const bool touches = spec.dimension == 2 ? segment_overlaps_box_2d(a, b, box, slack)
                                                    : triangle_overlaps_box(a, b, c, box, slack);
-          if (touches) swept[r.index(x, y, z)].push_back(s);
+          Sites& into = swept[r.index(x, y, z)];
+          // Simplices come object by object: one entry per object.
+          if (touches && (into.empty() || into.back() != g.object_of[s]))
+            into.push_back(g.object_of[s]);
         }
       }
     }
@@ -250,7 +234,9 @@ class Culler {
       brute_force();
       return;
     }
+    const Stopwatch sw;
     const std::vector<Sites> swept = swept_sets(g_, spec_, r_);
+    stats_.bin_seconds = sw.seconds();
     const int dirs = 1 << spec_.dimension;
     for (int sigma = 0; sigma < dirs; ++sigma) sweep(sigma, swept);
   }
@@ -266,6 +252,11 @@ class Culler {
   uint32_t cells_of(size_t t) const {
     const std::array<int, 3> s = size_of(t);
     return static_cast<uint32_t>(s[0] * s[1] * s[2]);
+  }
+  /// Work items of a range: one per row of cells along x.
+  uint32_t rows_of(size_t t) const {
+    const std::array<int, 3> s = size_of(t);
+    return static_cast<uint32_t>(s[1] * s[2]);
   }
 
   /// One sweep direction (bit i of sigma set = towards -axis i): ranges in wavefronts of
@@ -329,7 +320,9 @@ class Culler {
     auto flush = [&] {
       if (jobs.empty()) return;
       std::vector<int32_t> visible(sites.size(), 0);
+      const Stopwatch sw;
       eval_.evaluate(jobs, sites, static_cast<uint32_t>(items), visible);
+      stats_.evaluate_seconds += sw.seconds();
       ++stats_.batches;
       stats_.pairs_evaluated += pairs;
       for (size_t n = 0; track_ && n < in_batch.size(); ++n) {
@@ -363,14 +356,14 @@ class Culler {
         continue;
       }
       const uint64_t block = cells * job.fresh.size();
-      if (pairs + block > GridEvaluator::max_pairs() || items + cells > 0xFFFFFFFFull) flush();
+      if (pairs + block > GridEvaluator::max_pairs()) flush();
       job.first = sites.size();
       jobs.push_back(make_job(job.tile, static_cast<uint32_t>(sites.size()),
                               static_cast<uint32_t>(job.fresh.size()), static_cast<uint32_t>(items),
                               static_cast<uint32_t>(pairs)));
       sites.insert(sites.end(), job.fresh.begin(), job.fresh.end());
       pairs += block;
-      items += cells;
+      items += rows_of(job.tile);
       in_batch.push_back(n);
     }
     flush();
@@ -385,6 +378,7 @@ class Culler {
       const Sites chunk(job.fresh.begin() + static_cast<std::ptrdiff_t>(first),
                         job.fresh.begin() + static_cast<std::ptrdiff_t>(first + count));
       std::vector<int32_t> visible(count, 0);
+      const Stopwatch sw;
       const item::GvdGridJob j = make_job(job.tile, 0, static_cast<uint32_t>(count), 0, 0);
       eval_.evaluate(std::span<const item::GvdGridJob>(&j, 1), chunk, static_cast<uint32_t>(cells),
                      visible);
@@ -444,7 +438,7 @@ class Culler {
   /// Every site at every cell, ranges batched and sites chunked to the scratch buffer.
   void brute_force() {
     track_ = false;  // nothing is culled: no sets to keep
-    const uint32_t sites = static_cast<uint32_t>(g_.object_of.size());
+    const uint32_t sites = g_.object_count();
     std::vector<Pending> pending;
     for (size_t t = 0; t < r_.count(); ++t) {
       Pending job;
@@ -586,9 +580,9 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
     throw Error(ErrorCode::kInvalidArgument, "range_cells must be positive (0 = default)");
   }
   const GridGeometry g = make_grid_geometry(scene);
-  GVD_CHECK(g.object_of.size() < GVD_NO_SIMPLEX, "too many simplices for 32-bit site ids");
+  GVD_CHECK(g.object_of.size() < GVD_NO_SIMPLEX, "too many simplices for 32-bit indices");
   Ranges r;
-  r.b = options.range_cells > 0 ? options.range_cells : (spec.dimension == 2 ? 16 : 8);
+  r.b = options.range_cells > 0 ? options.range_cells : (spec.dimension == 2 ? 8 : 4);
   for (size_t i = 0; i < static_cast<size_t>(spec.dimension); ++i)
     r.k[i] = (spec.n[i] + r.b - 1) / r.b;
   out.range_cells = r.b;
@@ -599,10 +593,10 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
   out.stats.backend = eval ? options.compute->name() : "cpu";
   if (!eval) eval = make_cpu_grid_evaluator(g, item_spec, options.threads);
 
-  out.stats.sites = static_cast<uint32_t>(g.object_of.size());
+  out.stats.sites = g.object_count();
   out.stats.ranges = r.count();
-  out.stats.brute_force_pairs = spec.cell_count() * g.object_of.size();
-  out.site_bounds.assign(g.object_of.size(), RangeBounds{});
+  out.stats.brute_force_pairs = spec.cell_count() * g.object_count();
+  out.site_bounds.assign(g.object_count(), RangeBounds{});
   Culler culler(g, spec, r, *eval, out.stats, out.site_bounds);
   culler.run(options.cull);
 
@@ -616,7 +610,7 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
   parallel_for(cells, resolve_threads(options.threads), [&](size_t b, size_t e, int) {
     for (size_t c = b; c < e; ++c) {
       const bool found = site[c] != GVD_NO_SIMPLEX;
-      out.label[c] = found ? static_cast<int32_t>(g.object_of[site[c]]) : -1;
+      out.label[c] = found ? static_cast<int32_t>(site[c]) : -1;
       out.distance[c] = found ? item::gvd_key_distance(key[c], item_spec.metric)
                               : std::numeric_limits<double>::infinity();
     }

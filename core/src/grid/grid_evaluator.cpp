@@ -1,5 +1,6 @@
 #include "gvd/grid/grid_evaluator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -11,6 +12,36 @@ namespace gvd {
 static_assert(sizeof(item::GvdGridSpec) == 64, "GvdGridSpec must match the device layout");
 static_assert(sizeof(item::GvdGridJob) == 40, "GvdGridJob must match the device layout");
 static_assert(sizeof(Vec3) == sizeof(item::GvdPoint));
+
+namespace {
+uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end);
+}  // namespace
+
+GridGeometry make_grid_geometry(const Scene& scene) {
+  GridGeometry g;
+  g.dimension = scene.dimension;
+  for (ObjectId o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& obj = scene.objects[o];
+    const uint32_t base = static_cast<uint32_t>(g.points.size());
+    for (Vec3 v : obj.vertices) {
+      if (scene.dimension == 2) v.z = 0;
+      g.points.push_back(v);
+    }
+    const uint32_t first = static_cast<uint32_t>(g.object_of.size());
+    for (const Simplex& s : obj.simplices) {
+      g.simplices.push_back(base + s.v[0]);
+      g.simplices.push_back(base + s.v[1]);
+      g.simplices.push_back(base + (scene.dimension == 2 ? s.v[0] : s.v[2]));
+      g.object_of.push_back(o);
+    }
+    const uint32_t count = static_cast<uint32_t>(g.object_of.size()) - first;
+    GVD_CHECK(count > 0, "make_grid_geometry: an object without simplices");
+    const uint32_t begin = static_cast<uint32_t>(g.order.size());
+    for (uint32_t s = 0; s < count; ++s) g.order.push_back(first + s);
+    g.roots.push_back(build_bvh_node(g, begin, begin + count));
+  }
+  return g;
+}
 
 item::GvdGridSpec make_item_spec(const GridSpec& spec, GridMetric metric) {
   item::GvdGridSpec s{};
@@ -37,6 +68,49 @@ item::GvdGridSpec make_item_spec(const GridSpec& spec, GridMetric metric) {
 
 namespace {
 
+/// Lays out the BVH node of order[begin, end) at the end of g.nodes and its subtrees after
+/// it (depth-first: left child next, right child after the left subtree); median split on
+/// the longest axis of the simplices' centres, leaves of at most 4. Returns the node.
+uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end) {
+  auto centre = [&](uint32_t s, int axis) {
+    double lo = 1e300, hi = -1e300;
+    for (uint32_t k = 0; k < 3; ++k) {
+      const double v = g.points[g.simplices[3 * s + k]][axis];
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+    return 0.5 * (lo + hi);
+  };
+  Box box, cbox;
+  for (uint32_t i = begin; i < end; ++i) {
+    const uint32_t s = g.order[i];
+    for (uint32_t k = 0; k < 3; ++k) box.extend(g.points[g.simplices[3 * s + k]]);
+    cbox.extend(Vec3{centre(s, 0), centre(s, 1), centre(s, 2)});
+  }
+  const uint32_t node = static_cast<uint32_t>(g.nodes.size());
+  g.nodes.emplace_back();
+  for (int a = 0; a < 3; ++a) {
+    g.nodes[node].lo[a] = box.lo[a];
+    g.nodes[node].hi[a] = box.hi[a];
+  }
+  if (end - begin <= 4) {
+    g.nodes[node].first = begin;
+    g.nodes[node].count = end - begin;
+    return node;
+  }
+  int axis = 0;
+  for (int a = 1; a < 3; ++a)
+    if (cbox.hi[a] - cbox.lo[a] > cbox.hi[axis] - cbox.lo[axis]) axis = a;
+  const uint32_t mid = begin + (end - begin) / 2;
+  std::nth_element(g.order.begin() + begin, g.order.begin() + mid, g.order.begin() + end,
+                   [&](uint32_t l, uint32_t r) { return centre(l, axis) < centre(r, axis); });
+  build_bvh_node(g, begin, mid);
+  const uint32_t right = build_bvh_node(g, mid, end);
+  g.nodes[node].first = right;
+  g.nodes[node].count = 0;
+  return node;
+}
+
 class CpuGridEvaluator final : public GridEvaluator {
  public:
   CpuGridEvaluator(const GridGeometry& geometry, const item::GvdGridSpec& spec, int threads)
@@ -51,8 +125,10 @@ class CpuGridEvaluator final : public GridEvaluator {
                 uint32_t items, std::span<int32_t> visible) override {
     GVD_CHECK(visible.size() == sites.size(), "grid evaluator: one flag per site entry");
     if (jobs.empty() || items == 0) return;
+    // Only lists longer than the private key array (GVD_GRID_LOCAL) touch dist.
     uint64_t pairs = 0;
     for (const item::GvdGridJob& j : jobs) {
+      if (j.site_count <= GVD_GRID_LOCAL) continue;
       pairs = std::max<uint64_t>(
           pairs, j.dist_first + uint64_t{j.site_count} * j.size[0] * j.size[1] * j.size[2]);
     }
@@ -64,12 +140,13 @@ class CpuGridEvaluator final : public GridEvaluator {
         items, threads_,
         [&](size_t b, size_t e, int) {
           for (size_t i = b; i < e; ++i) {
-            item::gvd_grid_item(&spec_, points, simplices, jobs.data(), job_count, sites.data(),
-                                static_cast<uint32_t>(i), best_key_.data(), best_site_.data(),
-                                dist_.data(), visible.data());
+            item::gvd_grid_item(&spec_, geometry_.nodes.data(), geometry_.order.data(),
+                                geometry_.roots.data(), points, simplices, jobs.data(), job_count,
+                                sites.data(), static_cast<uint32_t>(i), best_key_.data(),
+                                best_site_.data(), dist_.data(), visible.data());
           }
         },
-        64);
+        4);
   }
 
   void read_best(std::span<double> key, std::span<uint32_t> site) override {

@@ -53,7 +53,8 @@ struct GridOptions {
   /// by `padding` of its longest side on every side.
   std::optional<Box> box;
   double padding = 0.05;
-  /// Cells along each side of a range (the paper's tile; 3D: a cube). 0 = 16 in 2D, 8 in 3D.
+  /// Cells along each side of a range (the paper's tile; 3D: a cube). 0 = 8 in 2D, 4 in 3D
+  /// (the fastest on the bench scenes: smaller ranges cull more, but cost more bookkeeping).
   int range_cells = 0;
   /// false = no culling: every site is evaluated at every cell (the brute-force baseline).
   bool cull = true;
@@ -75,9 +76,11 @@ struct GridStats {
   uint64_t batches = 0;  ///< launches of the per-range evaluation
   uint32_t sites = 0;    ///< simplices (the paper's primitive sites)
   uint32_t closed_objects = 0;
-  double seconds = 0;       ///< whole computation
-  double sign_seconds = 0;  ///< the inside test
-  std::string backend;      ///< "cpu" or "opencl (<platform> / <device>)"
+  double seconds = 0;           ///< whole computation
+  double sign_seconds = 0;      ///< the inside test
+  double evaluate_seconds = 0;  ///< in the per-range evaluation (kernel or CPU twin)
+  double bin_seconds = 0;       ///< binning the sites into ranges (the swept sets S(T))
+  std::string backend;          ///< "cpu" or "opencl (<platform> / <device>)"
   double culled_fraction() const {
     return brute_force_pairs == 0 ? 0.0 : static_cast<double>(pairs_evaluated) / brute_force_pairs;
   }
@@ -101,8 +104,8 @@ struct DistanceGrid {
   std::vector<int32_t> label;
   /// Per object: whether it is closed (its distances are signed).
   std::vector<uint8_t> closed;
-  /// Per site (simplex, numbered object by object): the conservative bound V^(p) of §5 in
-  /// ranges — the box of ranges in which it was found visible; its Voronoi region lies in it.
+  /// Per object: the conservative bound V^(p) of §5 in ranges — the box of ranges in which it
+  /// was found visible; its Voronoi region lies in it (empty when culling was off).
   std::vector<RangeBounds> site_bounds;
   int range_cells = 0;
   GridStats stats;
@@ -118,11 +121,11 @@ GridSpec make_grid_spec(const Scene& scene, const GridOptions& options = {});
 /// non_manifold warnings). Vertices are matched by index, so an unwelded mesh is open.
 bool is_closed_object(const SceneObject& object, int dimension);
 
-/// The discrete GVD of paper §4-5 on make_grid_spec's grid: the sites (the scene's
-/// simplices) are binned into ranges; 2^D sweeps (3D: slice after slice) carry each range's
-/// potentially intersecting swept set from the preceding ranges along every axis (Theorems
-/// 1-2), evaluate it at every cell centre of the range (the per-range kernel, on
-/// options.compute or the CPU twin) and keep the sites visible there, conservatively
+/// The discrete GVD of paper §4-5 on make_grid_spec's grid: the sites (the scene's objects,
+/// each searched through a BVH of its simplices) are binned into ranges; 2^D sweeps (3D: slice
+/// after slice) carry each range's potentially intersecting swept set from the preceding ranges
+/// along every axis (Theorems 1-2), evaluate it at every cell centre of the range (the per-range
+/// kernel, on options.compute or the CPU twin) and keep the sites visible there, conservatively
 /// (§5.3: within one cell diagonal of the nearest distance). A site evaluated in a range by
 /// one sweep is not evaluated there again by the next. Labels are the exact nearest object at
 /// each cell centre (no cell is lost to culling: docs/ALGORITHM.md), distances exact in

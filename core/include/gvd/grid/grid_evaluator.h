@@ -15,14 +15,24 @@
 
 namespace gvd {
 
-/// The sites of a grid computation: every simplex of the scene in one flat list (three
-/// vertex indices each; segments repeat their first vertex), numbered object by object.
+/// The sites of a grid computation: the scene's objects. Every simplex in one flat list
+/// (three vertex indices each; segments repeat their first vertex), numbered object by
+/// object, and one BVH per object over its own simplices, all in `nodes` (depth-first; inner
+/// nodes: left child next, right child at `first`, count 0; leaves: order[first ..
+/// first + count) are simplex indices).
 struct GridGeometry {
   int dimension = 3;
   std::vector<Vec3> points;
-  std::vector<uint32_t> simplices;  ///< 3 per site
-  std::vector<ObjectId> object_of;  ///< per site
+  std::vector<uint32_t> simplices;  ///< 3 per simplex
+  std::vector<ObjectId> object_of;  ///< per simplex
+  std::vector<item::GvdBvhNode> nodes;
+  std::vector<uint32_t> order;
+  std::vector<uint32_t> roots;  ///< per object: its BVH's root in `nodes`
+  uint32_t object_count() const { return static_cast<uint32_t>(roots.size()); }
 };
+
+/// The sites of a scene (user coordinates; 2D with z = 0). O(S log S).
+GridGeometry make_grid_geometry(const Scene& scene);
 
 /// The device-side grid description of a spec and metric.
 item::GvdGridSpec make_item_spec(const GridSpec& spec, GridMetric metric);
@@ -34,8 +44,8 @@ class GridEvaluator {
   virtual ~GridEvaluator() = default;
   /// gvd_grid_item for every item 0..items-1 of one batch: `jobs` are disjoint ranges with
   /// their candidate sites in `sites`; `visible` (one flag per entry of `sites`, zeroed by
-  /// the caller) gets the visibility flags. `items` = total cells of the jobs; the largest
-  /// site x cell block is at most max_pairs().
+  /// the caller) gets the visibility flags. `items` = total rows (y, z) of the jobs; every
+  /// job's dist_first + site_count x cells is at most max_pairs().
   virtual void evaluate(std::span<const item::GvdGridJob> jobs, std::span<const uint32_t> sites,
                         uint32_t items, std::span<int32_t> visible) = 0;
   /// Each cell's best key and site so far.

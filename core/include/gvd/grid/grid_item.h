@@ -9,9 +9,10 @@
  * after closest_point_item.h in front of kernels/cl/grid_distance.cl. The kernel is built
  * without FP contraction or relaxed math, so twin and kernel agree bit for bit.
  *
- * Sites are simplices (segments in 2D, triangles in 3D); a cell's label is the object of its
- * nearest simplex. Distances are kept as "keys": the squared distance for L2 (no sqrt in the
- * kernel), the distance itself for L1 and L-infinity; keys order like distances. */
+ * Sites are the scene's objects, each with a BVH of its own simplices (segments in 2D,
+ * triangles in 3D); a cell's label is its nearest object. Distances are kept as "keys": the squared
+ * distance for L2 (no sqrt in the kernel), the distance itself for L1 and L-infinity; keys order
+ * like distances. */
 #ifndef GVD_GRID_GRID_ITEM_H
 #define GVD_GRID_GRID_ITEM_H
 
@@ -31,6 +32,11 @@ namespace gvd::item {
 #define GVD_METRIC_L2 0
 #define GVD_METRIC_L1 1
 #define GVD_METRIC_LINF 2
+/* Keys of a cell kept in private memory (the rest go through the batch's dist buffer). */
+#define GVD_GRID_LOCAL 64
+/* "Farther than the bound": the key of an object no nearer than the bound (+infinity would
+ * do, but OpenCL C 1.2 and C++ spell it differently). */
+#define GVD_GRID_FAR 1e300
 
 /* The grid: cell (i, j, k) has its centre at origin + (i + 0.5, j + 0.5, k + 0.5) * h; cells
  * are stored x fastest. `threshold` is the conservative-sampling slack of §5.3 (the metric
@@ -46,9 +52,9 @@ typedef struct GvdGridSpec {
 } GvdGridSpec;
 
 /* One range of a batch: its cells [lo, lo + size), its candidate sites
- * sites[site_first .. site_first + site_count), the first work item of its cells (items of a
- * batch are numbered range after range) and the first entry of its site x cell distance
- * block (site-major). 40 bytes. */
+ * sites[site_first .. site_first + site_count), the first work item of its rows (items of a
+ * batch are numbered range after range, one per row of cells along x) and the first entry of
+ * its site x cell distance block (site-major). 40 bytes. */
 typedef struct GvdGridJob {
   int lo[3];
   int size[3];
@@ -190,21 +196,92 @@ GVD_ITEM_FN double gvd_key_distance(double key, int metric) {
 #endif
 }
 
+/* The key of the metric distance from p to a box (0 inside): a lower bound of the key of
+ * anything in it. */
+GVD_ITEM_FN double gvd_box_key(GvdPoint p, GVD_GLOBAL const GvdBvhNode* n, int metric) {
+  const double q[3] = {p.x, p.y, p.z};
+  double g[3];
+  for (int i = 0; i < 3; ++i) {
+    double d = 0;
+    if (q[i] < n->lo[i]) d = n->lo[i] - q[i];
+    if (q[i] > n->hi[i]) d = q[i] - n->hi[i];
+    g[i] = d;
+  }
+  return gvd_metric_key(gvd_pt(g[0], g[1], g[2]), metric);
+}
+
+/* The key from p to object `site`: the least key over its simplices, by a depth-first walk
+ * of the object's own BVH (root node roots[site]; inner nodes: left child next, right child
+ * at `first`; leaves: order[first .. first + count) are simplex indices). Only keys <= bound
+ * count: returns GVD_GRID_FAR (> bound) when the object is farther, pruning every box beyond
+ * the bound or the best key so far. Exact up to rounding otherwise. */
+GVD_ITEM_FN double gvd_grid_object_key(
+    int dimension, int metric, GVD_GLOBAL const GvdBvhNode* nodes, GVD_GLOBAL const gvd_uint* order,
+    GVD_GLOBAL const gvd_uint* roots, GVD_GLOBAL const GvdPoint* points,
+    GVD_GLOBAL const gvd_uint* simplices, gvd_uint site, GvdPoint p, double bound) {
+  double best = GVD_GRID_FAR;
+  gvd_uint stack[GVD_BVH_STACK];
+  int top = 0;
+  stack[top++] = roots[site];
+  while (top > 0) {
+    const gvd_uint node = stack[--top];
+    GVD_GLOBAL const GvdBvhNode* n = nodes + node;
+    const double limit = best < bound ? best : bound;
+    if (gvd_box_key(p, n, metric) > limit) continue;
+    if (n->count > 0) {
+      for (gvd_uint k = n->first; k < n->first + n->count; ++k) {
+        /* The simplex's own box first (a lower bound, like the node's). */
+        const gvd_uint s = order[k];
+        const GvdPoint a = points[simplices[3 * s]], b = points[simplices[3 * s + 1]],
+                       c = points[simplices[3 * s + 2]];
+        double g[3];
+        const double q[3] = {p.x, p.y, p.z};
+        const double pa[3] = {a.x, a.y, a.z}, pb[3] = {b.x, b.y, b.z}, pc[3] = {c.x, c.y, c.z};
+        for (int i = 0; i < 3; ++i) {
+          double lo = pa[i] < pb[i] ? pa[i] : pb[i];
+          double hi = pa[i] < pb[i] ? pb[i] : pa[i];
+          lo = pc[i] < lo ? pc[i] : lo;
+          hi = pc[i] > hi ? pc[i] : hi;
+          g[i] = q[i] < lo ? lo - q[i] : (q[i] > hi ? q[i] - hi : 0.0);
+        }
+        const double lim = best < bound ? best : bound;
+        if (gvd_metric_key(gvd_pt(g[0], g[1], g[2]), metric) > lim) continue;
+        const double key = gvd_grid_site_key(dimension, metric, points, simplices, s, p);
+        if (key <= bound && key < best) best = key;
+      }
+      continue;
+    }
+    const gvd_uint l = node + 1, r = n->first;
+    /* The nearer child is searched first (pushed last). */
+    if (gvd_box_key(p, nodes + l, metric) <= gvd_box_key(p, nodes + r, metric)) {
+      stack[top++] = r;
+      stack[top++] = l;
+    } else {
+      stack[top++] = l;
+      stack[top++] = r;
+    }
+  }
+  return best;
+}
+
 /* Whether site s at key k beats the cell's best (best_key, best_site): smaller key, or an
- * exact tie and the lower simplex index (so the lower object: simplices are numbered object
- * by object). Exact ties only: the order of evaluation must not change the answer. */
+ * exact tie and the lower site (object) index. Exact ties only: the order of evaluation must
+ * not change the answer. */
 GVD_ITEM_FN int gvd_grid_better(double k, gvd_uint s, double best_key, gvd_uint best_site) {
   return k < best_key || (k == best_key && s < best_site);
 }
 
-/* Work item `item` of a batch of `job_count` ranges: the cell it stands for, its keys to the
- * range's sites (written to dist, site-major within the range's block), the cell's running
- * best (best_key / best_site, for the whole grid, read and written here only) and, once its
+/* Work item `item` of a batch of `job_count` ranges stands for one row of cells (along x) of
+ * one range: for each cell, its keys to the range's sites (the first GVD_GRID_LOCAL in
+ * private memory, the rest in dist, site-major within the range's block), the cell's running
+ * best (best_key / best_site, for the whole grid, read and written here only) and, once that
  * best is final for this batch, the range's visibility flags: visible[site_first + k] is set
- * when site k's distance at this cell is within spec->threshold of the best distance
- * (the site's Voronoi region, grown by a cell diagonal, reaches the cell; §5.3). */
+ * when site k's distance at the cell is within spec->threshold of the best distance (the
+ * site's Voronoi region, grown by one cell diagonal, reaches the cell; §5.3). Items of a
+ * batch are numbered range after range, sy * sz rows each. */
 GVD_ITEM_FN void gvd_grid_item(GVD_GLOBAL const GvdGridSpec* spec,
-                               GVD_GLOBAL const GvdPoint* points,
+                               GVD_GLOBAL const GvdBvhNode* nodes, GVD_GLOBAL const gvd_uint* order,
+                               GVD_GLOBAL const gvd_uint* roots, GVD_GLOBAL const GvdPoint* points,
                                GVD_GLOBAL const gvd_uint* simplices,
                                GVD_GLOBAL const GvdGridJob* jobs, gvd_uint job_count,
                                GVD_GLOBAL const gvd_uint* sites, gvd_uint item,
@@ -220,37 +297,51 @@ GVD_ITEM_FN void gvd_grid_item(GVD_GLOBAL const GvdGridSpec* spec,
       hi = mid;
   }
   GVD_GLOBAL const GvdGridJob* job = jobs + lo;
-  const gvd_uint local = item - job->item_first;
+  const gvd_uint row = item - job->item_first;
   const gvd_uint sx = (gvd_uint)job->size[0], sy = (gvd_uint)job->size[1];
   const gvd_uint cells = sx * sy * (gvd_uint)job->size[2];
-  const int ix = job->lo[0] + (int)(local % sx);
-  const int iy = job->lo[1] + (int)((local / sx) % sy);
-  const int iz = job->lo[2] + (int)(local / (sx * sy));
-  const gvd_uint cell =
-      ((gvd_uint)iz * (gvd_uint)spec->n[1] + (gvd_uint)iy) * (gvd_uint)spec->n[0] + (gvd_uint)ix;
-  const GvdPoint p =
-      gvd_pt(spec->origin[0] + (ix + 0.5) * spec->h, spec->origin[1] + (iy + 0.5) * spec->h,
-             spec->dimension == 2 ? 0.0 : spec->origin[2] + (iz + 0.5) * spec->h);
-  double bk = best_key[cell];
-  gvd_uint bs = best_site[cell];
-  for (gvd_uint k = 0; k < job->site_count; ++k) {
-    const gvd_uint s = sites[job->site_first + k];
-    const double key = gvd_grid_site_key(spec->dimension, spec->metric, points, simplices, s, p);
-    dist[job->dist_first + k * cells + local] = key;
-    if (gvd_grid_better(key, s, bk, bs)) {
-      bk = key;
-      bs = s;
+  const int iy = job->lo[1] + (int)(row % sy);
+  const int iz = job->lo[2] + (int)(row / sy);
+  const double py = spec->origin[1] + (iy + 0.5) * spec->h;
+  const double pz = spec->dimension == 2 ? 0.0 : spec->origin[2] + (iz + 0.5) * spec->h;
+  const gvd_uint row_cell =
+      ((gvd_uint)iz * (gvd_uint)spec->n[1] + (gvd_uint)iy) * (gvd_uint)spec->n[0];
+  /* Keys of one cell kept in private memory; longer lists spill to dist. */
+  double keys[GVD_GRID_LOCAL];
+  for (gvd_uint c = 0; c < sx; ++c) {
+    const int ix = job->lo[0] + (int)c;
+    const gvd_uint cell = row_cell + (gvd_uint)ix;
+    const gvd_uint at = row * sx + c; /* cell within the range ("local" is reserved in OpenCL C) */
+    const GvdPoint p = gvd_pt(spec->origin[0] + (ix + 0.5) * spec->h, py, pz);
+    double bk = best_key[cell];
+    gvd_uint bs = best_site[cell];
+    for (gvd_uint k = 0; k < job->site_count; ++k) {
+      const gvd_uint s = sites[job->site_first + k];
+      /* Farther than the best so far plus the threshold: neither better nor visible (the
+       * final best is no larger), so the walk may stop there. */
+      double bound = gvd_key_distance(bk, spec->metric) + spec->threshold;
+      if (spec->metric == GVD_METRIC_L2) bound = bound * bound;
+      const double key = gvd_grid_object_key(spec->dimension, spec->metric, nodes, order, roots,
+                                             points, simplices, s, p, bound);
+      if (k < GVD_GRID_LOCAL)
+        keys[k] = key;
+      else
+        dist[job->dist_first + k * cells + at] = key;
+      if (gvd_grid_better(key, s, bk, bs)) {
+        bk = key;
+        bs = s;
+      }
     }
-  }
-  best_key[cell] = bk;
-  best_site[cell] = bs;
-  /* Visibility: distance <= best distance + threshold, compared as keys. */
-  double limit = gvd_key_distance(bk, spec->metric) + spec->threshold;
-  if (spec->metric == GVD_METRIC_L2) limit = limit * limit;
-  for (gvd_uint k = 0; k < job->site_count; ++k) {
-    GVD_GLOBAL int* flag = visible + job->site_first + k;
-    if (dist[job->dist_first + k * cells + local] <= limit && GVD_GRID_FLAG(flag) == 0)
-      GVD_GRID_SET_FLAG(flag);
+    best_key[cell] = bk;
+    best_site[cell] = bs;
+    /* Visibility: distance <= best distance + threshold, compared as keys. */
+    double limit = gvd_key_distance(bk, spec->metric) + spec->threshold;
+    if (spec->metric == GVD_METRIC_L2) limit = limit * limit;
+    for (gvd_uint k = 0; k < job->site_count; ++k) {
+      GVD_GLOBAL int* flag = visible + job->site_first + k;
+      const double key = k < GVD_GRID_LOCAL ? keys[k] : dist[job->dist_first + k * cells + at];
+      if (key <= limit && GVD_GRID_FLAG(flag) == 0) GVD_GRID_SET_FLAG(flag);
+    }
   }
 }
 
