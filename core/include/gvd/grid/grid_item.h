@@ -308,6 +308,7 @@ GVD_ITEM_FN void gvd_grid_item(GVD_GLOBAL const GvdGridSpec* spec,
       ((gvd_uint)iz * (gvd_uint)spec->n[1] + (gvd_uint)iy) * (gvd_uint)spec->n[0];
   /* Keys of one cell kept in private memory; longer lists spill to dist. */
   double keys[GVD_GRID_LOCAL];
+  gvd_uint hint = 0, next_hint = 0;
   for (gvd_uint c = 0; c < sx; ++c) {
     const int ix = job->lo[0] + (int)c;
     const gvd_uint cell = row_cell + (gvd_uint)ix;
@@ -315,7 +316,12 @@ GVD_ITEM_FN void gvd_grid_item(GVD_GLOBAL const GvdGridSpec* spec,
     const GvdPoint p = gvd_pt(spec->origin[0] + (ix + 0.5) * spec->h, py, pz);
     double bk = best_key[cell];
     gvd_uint bs = best_site[cell];
-    for (gvd_uint k = 0; k < job->site_count; ++k) {
+    for (gvd_uint j = 0; j < job->site_count; ++j) {
+      /* Start with the site nearest to the previous cell of the row: its distance bounds the
+       * other walks early. The answer does not depend on the order (exact minimum, ties by
+       * index; a walk is cut only where the site can be neither nearest nor visible). */
+      gvd_uint k = hint + j;
+      if (k >= job->site_count) k -= job->site_count;
       const gvd_uint s = sites[job->site_first + k];
       /* Farther than the best so far plus the threshold: neither better nor visible (the
        * final best is no larger), so the walk may stop there. */
@@ -330,8 +336,10 @@ GVD_ITEM_FN void gvd_grid_item(GVD_GLOBAL const GvdGridSpec* spec,
       if (gvd_grid_better(key, s, bk, bs)) {
         bk = key;
         bs = s;
+        next_hint = k;
       }
     }
+    hint = next_hint;
     best_key[cell] = bk;
     best_site[cell] = bs;
     /* Visibility: distance <= best distance + threshold, compared as keys. */
