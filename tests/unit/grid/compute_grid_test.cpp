@@ -260,7 +260,7 @@ TEST(ComputeGrid, ClosedPolygonsAreSignedInside2D) {
   // degenerate case) and an open polyline.
   std::vector<SceneObject> objs;
   objs.push_back(make_circle("circle", {0.3, 0.3, 0}, 0.2, 40));
-  objs.push_back(make_rect("square", {0.55, 0.55, 0}, {0.9, 0.9, 0}));
+  objs.push_back(make_rect("square", {0.555, 0.555, 0}, {0.905, 0.905, 0}));
   SceneObject open = make_segment("open", {0.1, 0.8, 0}, {0.4, 0.95, 0});
   open.vertices.push_back({0.45, 0.7, 0});
   open.simplices.push_back({{1, 2, 0}});
@@ -271,7 +271,8 @@ TEST(ComputeGrid, ClosedPolygonsAreSignedInside2D) {
   o.box = Box{{0, 0, 0}, {1, 1, 0}};
   o.range_cells = 16;
   const DistanceGrid g = compute_grid(scene, o);
-  // Cell centres at (i + 0.5) / 100: the square's sides at 0.55 / 0.9 run through them.
+  // Cell centres at (i + 0.5) / 100: the square's sides at 0.555 / 0.905 run through them,
+  // its corners are cell centres.
   EXPECT_NEAR(g.spec.h, 0.01, 1e-15);
   EXPECT_EQ(g.closed, (std::vector<uint8_t>{1, 1, 0}));
   const Checked c = check_against_oracle(scene, g, {true, true, false});
@@ -284,10 +285,11 @@ TEST(ComputeGrid, ClosedPolygonsAreSignedInside2D) {
 }
 
 TEST(ComputeGrid, ClosedMeshesAreSignedInside3D) {
-  // A sphere and a box with faces on planes of cell centres, an open triangle fan.
+  // A sphere and a box whose faces lie on planes of cell centres (centres at (i + 0.5) / 16:
+  // rows of centres run along its edges and face diagonals), an open triangle fan.
   std::vector<SceneObject> objs;
   objs.push_back(make_sphere("ball", {0.3, 0.35, 0.4}, 0.22, 8, 12));
-  objs.push_back(make_box("box", {0.6, 0.125, 0.125}, {0.9, 0.875, 0.625}));
+  objs.push_back(make_box("box", {0.59375, 0.15625, 0.15625}, {0.90625, 0.84375, 0.65625}));
   SceneObject fan;
   fan.label = "fan";
   fan.vertices = {{0.1, 0.8, 0.8}, {0.4, 0.9, 0.85}, {0.2, 0.95, 0.6}, {0.05, 0.7, 0.95}};
