@@ -1,10 +1,10 @@
 // The uniform-grid discrete GVD (CuRV range culling, Sud et al. 2006) on the paper's headline
-// case — 20,000 segments on a 1200^2 grid — and on a 3D scene of >= 60k triangles on a 256^3
-// grid, each beside a brute-force grid (every site at every cell; measured on a coarser grid
-// of the same scene and scaled by the pair count, which is what its cost is proportional to)
-// and beside the adaptive octree (compute_gvd) on the same scene. Counters: seconds, the
-// fraction of brute-force site-cell pairs evaluated, and the backend. A summary table follows
-// Google Benchmark's report.
+// case — 20,000 segments on a 1200^2 grid — and on two 3D scenes of >= 60k triangles on a
+// 256^3 grid (5,120 small boxes; 64 large spheres, whose insides are the costly case), each beside
+// a brute-force grid (every site at every cell; measured on a coarser grid of the same scene and
+// scaled by the pair count, which is what its cost is proportional to) and beside the adaptive
+// octree (compute_gvd) on the same scene. Counters: seconds, the fraction of brute-force site-cell
+// pairs evaluated, and the backend. A summary table follows Google Benchmark's report.
 
 #include <benchmark/benchmark.h>
 
@@ -68,11 +68,40 @@ Scene make_spheres64() {
   return gvd::test::make_scene(3, std::move(objs));
 }
 
+/// 5,120 closed boxes (a jittered 16 x 16 x 20 lattice, one box per lattice cell, sides
+/// 0.3-0.7 of the cell, kept clear of its faces): 61,440 triangles in many small objects,
+/// the 3D counterpart of the segments (most cells are near some object's surface, few deep
+/// inside one).
+Scene make_boxes5k() {
+  std::mt19937 rng(5120);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<gvd::SceneObject> objs;
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 16; ++j)
+      for (int i = 0; i < 16; ++i) {
+        gvd::Vec3 lo, hi;
+        const int c[3] = {i, j, k};
+        for (int a = 0; a < 3; ++a) {
+          const double side = 0.3 + 0.4 * u(rng);
+          const double start = c[a] + 0.1 + (0.8 - side) * u(rng);
+          lo[a] = start;
+          hi[a] = start + side;
+        }
+        objs.push_back(gvd::test::make_box("box_" + std::to_string(objs.size()), lo, hi));
+      }
+  return gvd::test::make_scene(3, std::move(objs));
+}
+
 const Scene& scene_named(const std::string& name) {
   static std::map<std::string, Scene> cache;
   auto it = cache.find(name);
-  if (it == cache.end())
-    it = cache.emplace(name, name == "segments20k" ? make_segments20k() : make_spheres64()).first;
+  if (it == cache.end()) {
+    it = cache
+             .emplace(name, name == "segments20k" ? make_segments20k()
+                            : name == "boxes5k"   ? make_boxes5k()
+                                                  : make_spheres64())
+             .first;
+  }
   return it->second;
 }
 
@@ -185,7 +214,7 @@ void print_grid_summary() {
 }
 
 const bool registered = [] {
-  for (const char* scene : {"segments20k", "spheres64"})
+  for (const char* scene : {"segments20k", "boxes5k", "spheres64"})
     for (const char* impl : {"curv", "curv_opencl", "brute", "octree"})
       benchmark::RegisterBenchmark((std::string("BM_Grid/") + scene + "/" + impl).c_str(),
                                    [s = std::string(scene), i = std::string(impl)](
