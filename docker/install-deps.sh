@@ -18,7 +18,7 @@ build_packages=(
 )
 test_packages=(
   libgtest-dev libgmock-dev libbenchmark-dev libboost-dev libopenvdb-dev
-  ccache clinfo wrk curl python3 clang-format clang-tidy chromium
+  ccache clinfo wrk curl python3 python3-numpy clang-format clang-tidy chromium
 )
 runtime_packages=(
   libcpp-httplib0.11 libtinygltf2d libssl3 libbrotli1 ocl-icd-libopencl1 pocl-opencl-icd

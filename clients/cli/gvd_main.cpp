@@ -41,6 +41,9 @@ Usage:
   gvd explode INPUT --anchor LABEL [-o FILE.glb] [--scale S] [--seconds T]
                                    exploded view: displacement per object (+ animated GLB)
   gvd tight INPUT --below B        object pairs whose interface comes closer than B
+  gvd grid SCENE --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]
+                                   uniform-grid discrete GVD: distance and nearest object
+                                   per cell (CuRV range culling, Sud et al. 2006)
   gvd --server URL COMMAND ...     the same commands against gvd-server (see "remote mode")
   gvd --help | --version
 
@@ -103,6 +106,27 @@ compute options:
   --unseen-rounds N          rounds that refine cells hiding a thin region of another object
                              (default: 48 in 2D, 4 in 3D)
   -q, --quiet                no progress or summary on stderr
+
+grid options:
+  --resolution N             cells along the longest side of the domain (cells are cubes;
+                             the other sides get as many as cover them)
+  -o, --output FILE          distance per cell (negative inside closed objects: closed
+                             polygons in 2D, watertight meshes in 3D), float32 by default;
+                             FILE.npy (numpy), FILE.nrrd (NRRD, data attached) or FILE.nhdr
+                             (NRRD header + FILE.raw)
+  --labels FILE              index of the nearest object per cell (int32, -1 = none), same
+                             formats. Arrays are [y, x] (2D) / [z, y, x] (3D), x fastest
+  --float64                  distances as float64
+  --unsigned                 no signs
+  --metric l2|l1|linf        the distance (default l2)
+  --domain x0,y0[,z0],x1,y1[,z1]
+                             domain box; it must hold every vertex (default: bounding box
+                             + 5 % of its longest side on every side)
+  --max-cells N              refuse grids of more cells (default 134217728; checked before
+                             any work, exit 4)
+  --range-cells N            cells along a side of a culling range (default 8 in 2D, 4 in 3D)
+  --backend opencl|cpu|auto  where the per-range kernel runs (default auto, as for compute)
+  --threads N                CPU twin threads (default: all cores)
 
 query options:
   --points FILE.json         points as [[x,y,z],...] or {"points":[...]} ("-" = stdin)
@@ -444,6 +468,7 @@ int run(int argc, char** argv) {
   if (command == "path") return cmd_path(argc, argv);
   if (command == "explode") return cmd_explode(argc, argv);
   if (command == "tight") return cmd_tight(argc, argv);
+  if (command == "grid") return cmd_grid(argc, argv);
   throw UsageError{"unknown command \"" + command + "\""};
 }
 

@@ -19,6 +19,8 @@ struct OpenClBackend::Impl {
   cl::Kernel closest_kernel;
   cl::Program octree_program;
   std::map<std::string, cl::Kernel> octree_kernels;
+  cl::Program grid_program;
+  cl::Kernel grid_kernel;
   size_t local_size = 64;  // work-group size of the launches (<= the kernels' maximum)
   KernelBuildReport report;
   std::mutex mutex;  // one launch sequence at a time on the shared queue and kernel objects
@@ -29,5 +31,10 @@ inline size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
 /// The OpenCL implementation of the data-parallel octree build steps.
 std::unique_ptr<OctreeBuildSteps> make_opencl_octree_steps(
     std::shared_ptr<OpenClBackend::Impl> impl, const UnitGeometry& geometry);
+
+/// The OpenCL implementation of the uniform grid's per-range evaluation.
+std::unique_ptr<GridEvaluator> make_opencl_grid_evaluator(std::shared_ptr<OpenClBackend::Impl> impl,
+                                                          const GridGeometry& geometry,
+                                                          const GridSpec& spec, GridMetric metric);
 
 }  // namespace gvd::kernels

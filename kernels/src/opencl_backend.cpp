@@ -10,6 +10,8 @@
 #include "gvd/common/error.h"
 #include "gvd/common/stopwatch.h"
 #include "gvd/distance/closest_points.h"
+#include "gvd/grid/compute_grid.h"
+#include "gvd/grid/grid_evaluator.h"
 #include "gvd/kernels/embedded_sources.h"
 #include "gvd/octree/build_octree_dp.h"
 
@@ -122,6 +124,26 @@ void warm_up(OpenClBackend& backend) {
   const auto steps = backend.octree_build_steps(g);
   const Octree t = build_octree_data_parallel(g, o, steps.get());
   GVD_CHECK(t.leaf_count() > 1, "OpenCL warm-up: the octree kernels split nothing");
+  // The grid kernel: a 2D grid of two segments.
+  Scene scene;
+  scene.dimension = 2;
+  scene.objects.resize(2);
+  scene.objects[0] = {
+      "a",
+      {{0.1, 0.1, 0}, {0.4, 0.2, 0}},
+      {Simplex{{0, 1, 0}}},
+  };
+  scene.objects[1] = {
+      "b",
+      {{0.6, 0.8, 0}, {0.9, 0.7, 0}},
+      {Simplex{{0, 1, 0}}},
+  };
+  GridOptions go;
+  go.resolution = 16;
+  go.compute = std::shared_ptr<ComputeBackend>(&backend, [](ComputeBackend*) {});
+  const DistanceGrid grid = compute_grid(scene, go);
+  GVD_CHECK(grid.label.front() == 0 && grid.label.back() == 1,
+            "OpenCL warm-up: the grid kernel labelled the cells wrongly");
 }
 
 }  // namespace
@@ -134,6 +156,12 @@ const KernelBuildReport& OpenClBackend::build_report() const { return impl_->rep
 
 std::unique_ptr<OctreeBuildSteps> OpenClBackend::octree_build_steps(const UnitGeometry& geometry) {
   return make_opencl_octree_steps(impl_, geometry);
+}
+
+std::unique_ptr<GridEvaluator> OpenClBackend::grid_evaluator(const GridGeometry& geometry,
+                                                             const GridSpec& spec,
+                                                             GridMetric metric) {
+  return make_opencl_grid_evaluator(impl_, geometry, spec, metric);
 }
 
 std::unique_ptr<ClosestPointSolver> OpenClBackend::closest_points(const UnitGeometry& geometry,
@@ -165,10 +193,18 @@ std::shared_ptr<OpenClBackend> make_opencl_backend(const OpenClOptions& options)
                             ? std::string(kBuildOptions)
                             : std::string(kBuildOptions) + " " + options.extra_build_options,
                         cl::resolve_cache_dir(options.cache_dir), &octree_info);
-  impl->report.seconds = info.seconds + octree_info.seconds;
-  impl->report.from_cache = info.from_cache && octree_info.from_cache;
+  cl::BuildInfo grid_info;
+  impl->grid_program =
+      cl::build_program(impl->rt, embedded::k_grid,
+                        options.extra_build_options.empty()
+                            ? std::string(kBuildOptions)
+                            : std::string(kBuildOptions) + " " + options.extra_build_options,
+                        cl::resolve_cache_dir(options.cache_dir), &grid_info);
+  impl->report.seconds = info.seconds + octree_info.seconds + grid_info.seconds;
+  impl->report.from_cache = info.from_cache && octree_info.from_cache && grid_info.from_cache;
   impl->report.cache_file = info.cache_file;
   impl->closest_kernel = cl::make_kernel(impl->closest_program, "gvd_closest_points");
+  impl->grid_kernel = cl::make_kernel(impl->grid_program, "gvd_grid_distance");
   for (const char* name : {"gvd_vertex_keys", "gvd_radix_nodes", "gvd_radix_parents",
                            "gvd_facet_cell_lists", "gvd_cell_facets", "gvd_child_facets"})
     impl->octree_kernels.emplace(name, cl::make_kernel(impl->octree_program, name));

@@ -8,8 +8,12 @@ namespace gvd {
 // Declared in gvd/distance/closest_points.h and gvd/octree/build_octree_dp.h; forward
 // declarations keep the device-shared headers out of everything that includes pipeline.h.
 class ClosestPointSolver;
+class GridEvaluator;
 class OctreeBuildSteps;
 class SimplexBvh;
+struct GridGeometry;
+struct GridSpec;
+enum class GridMetric;
 struct UnitGeometry;
 
 /// The data-parallel parts of the pipeline behind one interface, so that core stays free of
@@ -27,6 +31,11 @@ class ComputeBackend {
   /// The steps of the data-parallel octree build (build_octree_dp.h) bound to one scene;
   /// null when the backend has none (the CPU twins then run).
   virtual std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry);
+  /// The per-range evaluation of the uniform-grid GVD (gvd/grid/grid_evaluator.h) bound to
+  /// one grid and its sites; null when the backend has none (the CPU twin then runs).
+  /// `geometry` must outlive the evaluator.
+  virtual std::unique_ptr<GridEvaluator> grid_evaluator(const GridGeometry& geometry,
+                                                        const GridSpec& spec, GridMetric metric);
 };
 
 /// The CPU twin as a solver over a ClosestPointData copy of the scene: closest_points_cpu's

@@ -46,6 +46,8 @@ class OpenClBackend : public ComputeBackend {
   std::unique_ptr<ClosestPointSolver> closest_points(const UnitGeometry& geometry,
                                                      const SimplexBvh& bvh) override;
   std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry) override;
+  std::unique_ptr<GridEvaluator> grid_evaluator(const GridGeometry& geometry, const GridSpec& spec,
+                                                GridMetric metric) override;
   const KernelBuildReport& build_report() const;
   struct Impl;
 

@@ -1,0 +1,62 @@
+#pragma once
+
+// The per-range distance evaluation of the uniform-grid GVD (paper §5) behind an interface,
+// so that it runs on the OpenCL backend (kernels/cl/grid_distance.cl) or on its CPU twin;
+// both run gvd_grid_item (grid_item.h) per cell.
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "gvd/geometry/vec.h"
+#include "gvd/grid/compute_grid.h"
+#include "gvd/grid/grid_item.h"
+
+namespace gvd {
+
+/// The sites of a grid computation: the scene's objects. Every simplex in one flat list
+/// (three vertex indices each; segments repeat their first vertex), numbered object by
+/// object, and one BVH per object over its own simplices, all in `nodes` (depth-first; inner
+/// nodes: left child next, right child at `first`, count 0; leaves: order[first ..
+/// first + count) are simplex indices).
+struct GridGeometry {
+  int dimension = 3;
+  std::vector<Vec3> points;
+  std::vector<uint32_t> simplices;  ///< 3 per simplex
+  std::vector<ObjectId> object_of;  ///< per simplex
+  std::vector<item::GvdBvhNode> nodes;
+  std::vector<uint32_t> order;
+  std::vector<uint32_t> roots;  ///< per object: its BVH's root in `nodes`
+  uint32_t object_count() const { return static_cast<uint32_t>(roots.size()); }
+};
+
+/// The sites of a scene (user coordinates; 2D with z = 0). O(S log S).
+GridGeometry make_grid_geometry(const Scene& scene);
+
+/// The device-side grid description of a spec and metric.
+item::GvdGridSpec make_item_spec(const GridSpec& spec, GridMetric metric);
+
+/// Runs the per-range evaluation batch after batch on one grid; holds each cell's best key
+/// and site (initially +inf / none).
+class GridEvaluator {
+ public:
+  virtual ~GridEvaluator() = default;
+  /// gvd_grid_item for every item 0..items-1 of one batch: `jobs` are disjoint ranges with
+  /// their candidate sites in `sites`; `visible` (one flag per entry of `sites`, zeroed by
+  /// the caller) gets the visibility flags. `items` = total rows (y, z) of the jobs; every
+  /// job's dist_first + site_count x cells is at most max_pairs().
+  virtual void evaluate(std::span<const item::GvdGridJob> jobs, std::span<const uint32_t> sites,
+                        uint32_t items, std::span<int32_t> visible) = 0;
+  /// Each cell's best key and site so far.
+  virtual void read_best(std::span<double> key, std::span<uint32_t> site) = 0;
+  /// How many site x cell distances one batch may hold (the scratch buffer).
+  static constexpr uint64_t max_pairs() { return uint64_t{1} << 22; }
+};
+
+/// The CPU twin: gvd_grid_item over the items on `threads` threads (0 = all cores).
+std::unique_ptr<GridEvaluator> make_cpu_grid_evaluator(const GridGeometry& geometry,
+                                                       const item::GvdGridSpec& spec,
+                                                       int threads = 0);
+
+}  // namespace gvd

@@ -1,0 +1,60 @@
+# End-to-end check of `gvd grid`: the bundled examples to .npy and NRRD, the log naming the
+# backend and the culling, numpy reading the arrays back (when /usr/bin/python3 has numpy),
+# and the exit codes of bad input (usage 2, bad input 3, limit 4).
+# Invoked by CTest with -DGVD=<gvd binary> -DDATA=<tests/data> -DOUT=<output dir>.
+
+function(run_rc expected)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL expected)
+    message(FATAL_ERROR "expected exit ${expected}, got ${rc}: ${ARGN}\n${out}\n${err}")
+  endif()
+  set(LAST_ERR "${err}" PARENT_SCOPE)
+endfunction()
+
+set(prefix ${OUT}/cli_grid)
+run_rc(0 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 200 -o ${prefix}_gears.npy
+       --labels ${prefix}_gears_labels.npy)
+if(NOT LAST_ERR MATCHES "backend (cpu|opencl)" OR NOT LAST_ERR MATCHES "site-cell pairs evaluated")
+  message(FATAL_ERROR "the log does not say which backend ran and what was culled:\n${LAST_ERR}")
+endif()
+run_rc(0 ${GVD} grid ${DATA}/scenes/balls_on_plate.json --resolution 40 -o ${prefix}_balls.nrrd
+       --labels ${prefix}_balls_labels.nhdr --float64 --metric linf -q)
+foreach(f ${prefix}_gears.npy ${prefix}_gears_labels.npy ${prefix}_balls.nrrd
+          ${prefix}_balls_labels.nhdr ${prefix}_balls_labels.raw)
+  if(NOT EXISTS ${f})
+    message(FATAL_ERROR "missing output ${f}")
+  endif()
+endforeach()
+file(STRINGS ${prefix}_balls.nrrd header LIMIT_COUNT 12)
+if(NOT header MATCHES "type: double" OR NOT header MATCHES "space origin")
+  message(FATAL_ERROR "unexpected NRRD header: ${header}")
+endif()
+
+execute_process(COMMAND /usr/bin/python3 -c "import numpy" RESULT_VARIABLE no_numpy
+                OUTPUT_QUIET ERROR_QUIET)
+if(no_numpy EQUAL 0)
+  # The gears: three closed gear outlines, so some cells are inside (negative) and every
+  # label is one of the three objects.
+  run_rc(0 /usr/bin/python3 -c "
+import numpy as np
+d = np.load('${prefix}_gears.npy'); l = np.load('${prefix}_gears_labels.npy')
+assert d.dtype == np.float32 and l.dtype == np.int32 and d.shape == l.shape, (d.dtype, l.dtype)
+assert d.shape[1] == 200, d.shape
+assert set(np.unique(l)) == {0, 1, 2}, np.unique(l)
+assert (d < 0).any() and (d > 0).any()
+")
+endif()
+
+run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 0 -o ${prefix}_x.npy)
+run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json -o ${prefix}_x.npy)
+run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.vtk)
+run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.npy --metric l3)
+run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.npy
+       --domain 0,0,1,1)
+run_rc(4 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 5000 -o ${prefix}_x.npy
+       --max-cells 1000000)
+if(NOT LAST_ERR MATCHES "cell limit")
+  message(FATAL_ERROR "the limit error does not say which limit:\n${LAST_ERR}")
+endif()
+file(WRITE ${prefix}_empty.json "{\"dimension\": 2, \"objects\": []}")
+run_rc(3 ${GVD} grid ${prefix}_empty.json --resolution 10 -o ${prefix}_x.npy)
