@@ -156,10 +156,13 @@ class FlatMap64 {
     h ^= h >> 33;
     return static_cast<size_t>(h) & mask_;
   }
-  struct Slot {
+  // 12 bytes, not 16: the tables are the largest index of the refinement (the vertex map
+  // ~40 B per vertex at 16). A key may straddle a cache line (x86 loads it unaligned).
+  struct __attribute__((packed, aligned(4))) Slot {
     uint64_t key;
     uint32_t value;
   };
+  static_assert(sizeof(Slot) == 12);
   void rehash(size_t capacity) {
     UninitVector<Slot> old = std::move(slots_);
     slots_.assign(capacity, Slot{kEmptyKey, 0});
