@@ -247,9 +247,17 @@ void print_summary(const GvdResult& r, std::FILE* out) {
   }
   std::fprintf(out, " (data each stage produced)\n");
   if (s.peak_rss_bytes > 0) {
-    std::fprintf(out, "  peak memory %.1f MB (process high-water mark), %.0f bytes/leaf\n",
+    std::fprintf(out, "  peak memory %.1f MB (process high-water mark), %.0f bytes/leaf",
                  s.peak_rss_bytes / 1e6,
                  s.leaves > 0 ? static_cast<double>(s.peak_rss_bytes) / s.leaves : 0.0);
+    if (s.start_rss_bytes > 0 && s.start_rss_bytes < s.peak_rss_bytes) {
+      // What the computation added: the process held start_rss_bytes before it (the OpenCL
+      // runtime, the scene as read).
+      const double added = static_cast<double>(s.peak_rss_bytes - s.start_rss_bytes);
+      std::fprintf(out, "; %.1f MB above the %.1f MB held before the computation, %.0f bytes/leaf",
+                   added / 1e6, s.start_rss_bytes / 1e6, s.leaves > 0 ? added / s.leaves : 0.0);
+    }
+    std::fprintf(out, "\n");
   }
   for (const SceneWarning& w : r.scene.warnings) {
     std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", w.kind.c_str(),

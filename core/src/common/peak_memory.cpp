@@ -5,13 +5,16 @@
 
 namespace gvd {
 
-uint64_t peak_rss_bytes() {
+namespace {
+
+// A "Name:  <n> kB" line of /proc/self/status, in bytes (0 if absent).
+uint64_t status_kb(const std::string& name) {
   std::ifstream status("/proc/self/status");
   std::string line;
   while (std::getline(status, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) {
+    if (line.rfind(name, 0) == 0) {
       try {
-        return static_cast<uint64_t>(std::stoull(line.substr(6))) * 1024;  // kB
+        return static_cast<uint64_t>(std::stoull(line.substr(name.size()))) * 1024;
       } catch (...) {
         return 0;
       }
@@ -19,5 +22,11 @@ uint64_t peak_rss_bytes() {
   }
   return 0;
 }
+
+}  // namespace
+
+uint64_t peak_rss_bytes() { return status_kb("VmHWM:"); }
+
+uint64_t rss_bytes() { return status_kb("VmRSS:"); }
 
 }  // namespace gvd

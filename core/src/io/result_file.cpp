@@ -183,7 +183,8 @@ Json stats_to_value(const ResultStats& s) {
           {"touching_leaves", s.touching_leaves},
           {"certified_leaves", s.certified_leaves},
           {"total_seconds", s.total_seconds},
-          {"peak_rss_bytes", s.peak_rss_bytes}};
+          {"peak_rss_bytes", s.peak_rss_bytes},
+          {"start_rss_bytes", s.start_rss_bytes}};
 }
 
 size_t expected_size(const GvdResult& r) {
@@ -816,6 +817,7 @@ ResultStats stats_from_json(std::string_view text) {
     s.certified_leaves = j.value("certified_leaves", s.certified_leaves);
     s.total_seconds = j.value("total_seconds", s.total_seconds);
     s.peak_rss_bytes = j.value("peak_rss_bytes", s.peak_rss_bytes);
+    s.start_rss_bytes = j.value("start_rss_bytes", s.start_rss_bytes);
     if (const auto it = j.find("stages"); it != j.end()) {
       for (const Json& st : it->get_ref<const Json::array_t&>()) {
         s.stages.push_back({st.at("name").get<std::string>(), st.at("seconds").get<double>(),

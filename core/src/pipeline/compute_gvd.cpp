@@ -54,6 +54,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
                 "distance method '" + options.distance + "' is unknown (exact or wavefront)");
   }
   const Stopwatch total;
+  const uint64_t start_rss = rss_bytes();
   auto progress = [&](const std::string& stage, double f) {
     if (options.progress) options.progress(stage, f);
   };
@@ -236,6 +237,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   r.stats.graph_edges = r.graph.edges.size();
   r.stats.total_seconds = total.seconds();
   r.stats.peak_rss_bytes = peak_rss_bytes();
+  r.stats.start_rss_bytes = start_rss;
   r.scene = std::move(scene);
   progress("done", 1);
   return r;

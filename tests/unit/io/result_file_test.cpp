@@ -168,6 +168,11 @@ void expect_same_result(const GvdResult& a, const GvdResult& b) {
   EXPECT_EQ(s.ambiguous_at_limit, t.ambiguous_at_limit);
   EXPECT_EQ(s.touching_leaves, t.touching_leaves);
   EXPECT_EQ(s.total_seconds, t.total_seconds);
+  EXPECT_EQ(s.peak_rss_bytes, t.peak_rss_bytes);
+  EXPECT_EQ(s.start_rss_bytes, t.start_rss_bytes);
+  // The process held something before the computation, and its peak is no lower.
+  EXPECT_GT(s.start_rss_bytes, 0u);
+  EXPECT_GE(s.peak_rss_bytes, s.start_rss_bytes);
 }
 
 // Lookups that depend on what load_result rebuilds.

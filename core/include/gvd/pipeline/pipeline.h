@@ -101,6 +101,10 @@ struct ResultStats {
   /// unknown). Process-wide, so in a server it can include earlier jobs; per leaf it is what
   /// `gvd info` and the benchmark report as peak bytes per leaf.
   uint64_t peak_rss_bytes = 0;
+  /// The process's resident memory when compute_gvd began (the OpenCL runtime, the scene as
+  /// read; 0: unknown). In a process that ran nothing bigger before, peak_rss_bytes minus this
+  /// is at least what the computation itself added at its peak.
+  uint64_t start_rss_bytes = 0;
 };
 
 /// A finished GVD: everything later commands and the server need.
