@@ -65,3 +65,10 @@ run("compiling with pkg-config" ${CXX} -std=c++20 -O1 ${SRC}/consumer/main.cpp $
 set(ENV{OCL_ICD_VENDORS} ${NO_OPENCL})
 run("the pkg-config consumer without OpenCL" ${OUT}/gvd_example_pc)
 
+# docs/CPP.md shows exactly this example.
+file(READ ${SRC}/consumer/main.cpp example)
+file(READ ${DOC} doc)
+string(FIND "${doc}" "```cpp\n${example}```" at)
+if(at EQUAL -1)
+  message(FATAL_ERROR "docs/CPP.md does not show tests/install/consumer/main.cpp as it is")
+endif()
