@@ -34,7 +34,9 @@ bool simplex_overlaps_box(int dimension, std::span<const Vec3> points, const Sim
 class SimplexBvh {
  public:
   SimplexBvh() = default;
-  /// Copies the simplices' vertices (in tree order), so the inputs need not outlive it.
+  /// Copies the vertices the simplices use (in the order the tree first meets them) and the
+  /// simplices' indices into them, so the inputs need not outlive it. At most kMaxSimplices
+  /// simplices and kMaxObjects objects (gvd::Error{kLimitExceeded}).
   /// With `object_of` (the object of every simplex), nodes remember when all their simplices
   /// belong to one object, which lets nearest_in_object skip other objects' subtrees.
   SimplexBvh(int dimension, std::span<const Vec3> points, std::span<const Simplex> simplices,
