@@ -44,6 +44,9 @@ Usage:
   gvd grid SCENE --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]
                                    uniform-grid discrete GVD: distance and nearest object
                                    per cell (CuRV range culling, Sud et al. 2006)
+  gvd grid RESULT.gvd --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]
+                                   the same grid sampled from a saved adaptive result, exactly
+                                   (see "grid options")
   gvd --server URL COMMAND ...     the same commands against gvd-server (see "remote mode")
   gvd --help | --version
 
@@ -127,6 +130,12 @@ grid options:
   --range-cells N            cells along a side of a culling range (default 8 in 2D, 4 in 3D)
   --backend opencl|cpu|auto  where the per-range kernel runs (default auto, as for compute)
   --threads N                CPU twin threads (default: all cores)
+  From RESULT.gvd (compute --save): the box defaults to the result's domain (a cube: N^D
+  cells); each cell's search is bounded by the closest points stored on its octree leaf's
+  vertices, then decided by exact distances to the scene's simplices. Guaranteed: the labels
+  are the exact nearest object at every cell centre (exact ties: the lower index) and the
+  distances exact (float32 in the file), the same cells as `gvd grid SCENE` over that box,
+  bit for bit; not interpolated from the octree. --range-cells and --backend do not apply.
 
 query options:
   --points FILE.json         points as [[x,y,z],...] or {"points":[...]} ("-" = stdin)
