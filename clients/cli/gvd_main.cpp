@@ -16,6 +16,7 @@
 #include "commands.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/grid/grid_advice.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
@@ -221,6 +222,29 @@ class Progress {
   std::string last_;
 };
 
+/// When a uniform grid would do: the resolution that separates the closest pair.
+void print_grid_advice(const GvdResult& r, std::FILE* out) {
+  const GridAdvice a = grid_advice(r.scene, r.graph);
+  if (!a.measured) return;
+  if (a.touching_pairs > 0) {
+    std::fprintf(out,
+                 "  uniform grid: %llu neighbour pair(s) touch or intersect (gap 0): no grid "
+                 "separates them\n",
+                 static_cast<unsigned long long>(a.touching_pairs));
+  }
+  if (a.gap <= 0) return;
+  std::fprintf(out,
+               "  uniform grid: the closest objects, %s and %s, are %.3g apart; a grid with a cell "
+               "diagonal below that needs resolution %.0f (%.3g cells): %s\n",
+               r.scene.objects[a.a].label.c_str(), r.scene.objects[a.b].label.c_str(), a.gap,
+               a.resolution, a.cells,
+               a.fits ? "within gvd grid's default limit, so `gvd grid --resolution` that high "
+                        "resolves it too"
+                      : ("beyond gvd grid's default limit of " + std::to_string(a.cell_limit) +
+                         " cells: the octree is the right tool here")
+                            .c_str());
+}
+
 void print_summary(const GvdResult& r, std::FILE* out) {
   const ResultStats& s = r.stats;
   std::fprintf(out, "  objects %zu, simplices %llu, dimension %d\n", r.scene.objects.size(),
@@ -260,6 +284,7 @@ void print_summary(const GvdResult& r, std::FILE* out) {
                  s.peak_rss_bytes / 1e6,
                  s.leaves > 0 ? static_cast<double>(s.peak_rss_bytes) / s.leaves : 0.0);
   }
+  print_grid_advice(r, out);
   for (const SceneWarning& w : r.scene.warnings) {
     std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", w.kind.c_str(),
                  w.object.empty() ? "" : " ", w.object.c_str(),
