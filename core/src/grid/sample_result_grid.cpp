@@ -35,7 +35,6 @@ namespace {
 /// What one cell's search needs: the sites as compute_grid sees them, one BVH over all of
 /// them, and the result's octree and field for the first bound.
 struct Sampler {
-  const GvdResult& result;
   const GridGeometry& g;
   const SimplexBvh& all;
   int metric = GVD_METRIC_L2;
@@ -91,7 +90,7 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
     for (int i = 0; i < 3; ++i) simplices[s].v[i] = g.simplices[3 * s + static_cast<size_t>(i)];
   const SimplexBvh all(dim, g.points, simplices, g.object_of);
 
-  Sampler sampler{result, g, all};
+  Sampler sampler{g, all};
   sampler.metric = make_item_spec(spec, options.metric).metric;
   double extent = 0;
   for (int i = 0; i < dim; ++i) extent = std::max(extent, spec.n[static_cast<size_t>(i)] * spec.h);
@@ -150,11 +149,13 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
               if (first != kNoObject) {
                 ++my_bounded;
                 ++my_evaluated;
+                // Found unless the vertex's label is not its point's object (then the
+                // search below, unbounded, finds everything).
                 const double key = sampler.object_key(first, q, sampler.enlarged_key(bound));
-                excluded.push_back(first);
                 if (key < GVD_GRID_FAR) {
                   best = key;
                   site = first;
+                  excluded.push_back(first);
                 }
               }
             }
