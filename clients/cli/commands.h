@@ -28,6 +28,9 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
 /// nothing when `enabled` is false): call with the stage name and the fraction done, 0..1.
 std::function<void(const std::string&, double)> progress_display(bool enabled);
 
+/// True when the file starts with the result file magic (a result saved by `compute --save`).
+bool is_result_file(const std::string& path);
+
 // Query commands (query_commands.cpp): answers as JSON on stdout.
 int cmd_nearest(int argc, char** argv);
 int cmd_neighbors(int argc, char** argv);

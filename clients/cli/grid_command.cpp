@@ -1,7 +1,9 @@
 // `gvd grid`: the uniform-grid discrete GVD (CuRV range culling, core/include/gvd/grid):
-// distance (signed inside closed objects) and nearest object per cell, as .npy or NRRD.
+// distance (signed inside closed objects) and nearest object per cell, as .npy or NRRD; from a
+// scene, or sampled exactly from a saved adaptive result (sample_result_grid.h).
 
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -9,11 +11,105 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/grid/compute_grid.h"
+#include "gvd/grid/sample_result_grid.h"
+#include "gvd/io/result_file.h"
 #include "gvd/io/write_grid.h"
 #include "gvd/kernels/opencl_backend.h"
 #include "gvd/scene/load_scene.h"
 
 namespace gvd::cli {
+namespace {
+
+/// --domain for a scene or result of `dimension`.
+std::optional<Box> domain_arg(const Args& args, int dimension) {
+  const auto box = args.numbers("--domain");
+  if (!box) return std::nullopt;
+  const size_t d = static_cast<size_t>(dimension);
+  if (box->size() != 2 * d) {
+    throw UsageError{"--domain expects " + std::to_string(2 * d) + " numbers for a " +
+                     std::to_string(d) + "D input (x0,y0[,z0],x1,y1[,z1])"};
+  }
+  Box b;
+  for (size_t i = 0; i < d; ++i) {
+    b.lo[static_cast<int>(i)] = (*box)[i];
+    b.hi[static_cast<int>(i)] = (*box)[d + i];
+  }
+  if (d == 2) b.lo.z = b.hi.z = 0;
+  return b;
+}
+
+void log_spec(const GridSpec& spec, GridMetric metric) {
+  std::fprintf(stderr,
+               "gvd: grid %d x %d%s%s cells of %.6g (%llu cells), metric %s; computing...\n",
+               spec.n[0], spec.n[1], spec.dimension == 3 ? " x " : "",
+               spec.dimension == 3 ? std::to_string(spec.n[2]).c_str() : "", spec.h,
+               static_cast<unsigned long long>(spec.cell_count()), grid_metric_name(metric));
+}
+
+std::vector<std::string> write_outputs(const DistanceGrid& grid,
+                                       const std::optional<std::string>& output,
+                                       const std::optional<std::string>& labels, bool float64) {
+  std::vector<std::string> written;
+  if (output) {
+    for (const std::string& f : write_grid_distance(grid, *output, float64)) written.push_back(f);
+  }
+  if (labels) {
+    for (const std::string& f : write_grid_labels(grid, *labels)) written.push_back(f);
+  }
+  return written;
+}
+
+/// `gvd grid RESULT.gvd`: the grid sampled from a saved adaptive result.
+int grid_from_result(const Args& args, const GridOptions& scene_options, bool quiet,
+                     const std::optional<std::string>& output,
+                     const std::optional<std::string>& labels) {
+  for (const char* flag : {"--range-cells", "--backend", "--max-objects", "--max-simplices"}) {
+    if (args.value(flag)) {
+      throw UsageError{std::string(flag) +
+                       " applies to scenes; a saved result is sampled through its own octree "
+                       "on the CPU"};
+    }
+  }
+  const GvdResult result = load_result(args.positional[0]);
+  ResultGridOptions options;
+  options.resolution = scene_options.resolution;
+  options.metric = scene_options.metric;
+  options.threads = scene_options.threads;
+  options.max_cells = scene_options.max_cells;
+  options.signed_distance = scene_options.signed_distance;
+  options.box = domain_arg(args, result.scene.dimension);
+  // The limits (cell count, box) before any work.
+  const GridSpec spec = make_result_grid_spec(result, options);
+  if (!quiet) {
+    std::fprintf(stderr,
+                 "gvd: result %s: %zu objects, %llu simplices, %dD, %llu octree leaves; sampled "
+                 "exactly on %d threads\n",
+                 args.positional[0].c_str(), result.scene.objects.size(),
+                 static_cast<unsigned long long>(result.scene.simplex_count()),
+                 result.scene.dimension,
+                 static_cast<unsigned long long>(result.octree.leaf_count()),
+                 resolve_threads(options.threads));
+    log_spec(spec, options.metric);
+  }
+  const DistanceGrid grid = sample_result_grid(result, options);
+  const std::vector<std::string> written =
+      write_outputs(grid, output, labels, args.has("--float64"));
+  if (!quiet) {
+    const GridStats& s = grid.stats;
+    std::fprintf(stderr,
+                 "gvd: grid done in %.3f s from the adaptive result: %llu of %llu cells bounded "
+                 "by their octree leaf, %llu exact object distances (%.3f %% of brute force), "
+                 "%u closed objects (signed)%s\n",
+                 s.seconds, static_cast<unsigned long long>(s.octree_bounded),
+                 static_cast<unsigned long long>(spec.cell_count()),
+                 static_cast<unsigned long long>(s.pairs_evaluated), 100 * s.culled_fraction(),
+                 s.closed_objects, options.signed_distance ? "" : ", --unsigned: not signed");
+    for (const std::string& w : written) std::fprintf(stderr, "  wrote %s\n", w.c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace
 
 int cmd_grid(int argc, char** argv) {
   const Args args =
@@ -21,7 +117,7 @@ int cmd_grid(int argc, char** argv) {
                  {"-o", "--output", "--labels", "--resolution", "--metric", "--domain", "--threads",
                   "--backend", "--max-cells", "--range-cells", "--max-objects", "--max-simplices"},
                  {"--float64", "--unsigned", "-q", "--quiet"});
-  if (args.positional.empty()) throw UsageError{"grid needs a scene file"};
+  if (args.positional.empty()) throw UsageError{"grid needs a scene file or a saved result"};
   const bool quiet = args.has("-q") || args.has("--quiet");
   const auto output = args.value("-o") ? args.value("-o") : args.value("--output");
   const auto labels = args.value("--labels");
@@ -44,24 +140,14 @@ int cmd_grid(int argc, char** argv) {
       throw UsageError{"grid outputs must end in .npy, .nrrd or .nhdr (got " + *p + ")"};
   }
 
+  if (args.positional.size() == 1 && is_result_file(args.positional[0]))
+    return grid_from_result(args, options, quiet, output, labels);
+
   SceneLimits limits;
   limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
   limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
   const Scene scene = load_scene(args.positional, limits);
-  if (const auto box = args.numbers("--domain")) {
-    const size_t d = static_cast<size_t>(scene.dimension);
-    if (box->size() != 2 * d) {
-      throw UsageError{"--domain expects " + std::to_string(2 * d) + " numbers for a " +
-                       std::to_string(d) + "D scene (x0,y0[,z0],x1,y1[,z1])"};
-    }
-    Box b;
-    for (size_t i = 0; i < d; ++i) {
-      b.lo[static_cast<int>(i)] = (*box)[i];
-      b.hi[static_cast<int>(i)] = (*box)[d + i];
-    }
-    if (d == 2) b.lo.z = b.hi.z = 0;
-    options.box = b;
-  }
+  options.box = domain_arg(args, scene.dimension);
   // The limits (cell count, domain) before the backend starts or any memory is taken.
   const GridSpec spec = make_grid_spec(scene, options);
   const kernels::BackendChoice choice =
@@ -71,24 +157,14 @@ int cmd_grid(int argc, char** argv) {
     std::fprintf(stderr, "gvd: %zu objects, %llu simplices, %dD; %s; %d threads\n",
                  scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
                  scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
-    std::fprintf(
-        stderr, "gvd: grid %d x %d%s%s cells of %.6g (%llu cells), metric %s; computing...\n",
-        spec.n[0], spec.n[1], spec.dimension == 3 ? " x " : "",
-        spec.dimension == 3 ? std::to_string(spec.n[2]).c_str() : "", spec.h,
-        static_cast<unsigned long long>(spec.cell_count()), grid_metric_name(options.metric));
+    log_spec(spec, options.metric);
     if (scene.objects.size() == 1)
       std::fprintf(stderr, "gvd: one object: every cell's label is 0 (a distance field)\n");
   }
   const DistanceGrid grid = compute_grid(scene, options);
 
-  std::vector<std::string> written;
-  if (output) {
-    for (const std::string& f : write_grid_distance(grid, *output, args.has("--float64")))
-      written.push_back(f);
-  }
-  if (labels) {
-    for (const std::string& f : write_grid_labels(grid, *labels)) written.push_back(f);
-  }
+  const std::vector<std::string> written =
+      write_outputs(grid, output, labels, args.has("--float64"));
   if (!quiet) {
     const GridStats& s = grid.stats;
     std::fprintf(stderr,

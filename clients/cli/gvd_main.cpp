@@ -16,6 +16,7 @@
 #include "commands.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/grid/grid_advice.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
@@ -44,6 +45,9 @@ Usage:
   gvd grid SCENE --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]
                                    uniform-grid discrete GVD: distance and nearest object
                                    per cell (CuRV range culling, Sud et al. 2006)
+  gvd grid RESULT.gvd --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]
+                                   the same grid sampled from a saved adaptive result, exactly
+                                   (see "grid options")
   gvd --server URL COMMAND ...     the same commands against gvd-server (see "remote mode")
   gvd --help | --version
 
@@ -127,6 +131,12 @@ grid options:
   --range-cells N            cells along a side of a culling range (default 8 in 2D, 4 in 3D)
   --backend opencl|cpu|auto  where the per-range kernel runs (default auto, as for compute)
   --threads N                CPU twin threads (default: all cores)
+  From RESULT.gvd (compute --save): the box defaults to the result's domain (a cube: N^D
+  cells); each cell's search is bounded by the closest points stored on its octree leaf's
+  vertices, then decided by exact distances to the scene's simplices. Guaranteed: the labels
+  are the exact nearest object at every cell centre (exact ties: the lower index) and the
+  distances exact (float32 in the file), the same cells as `gvd grid SCENE` over that box,
+  bit for bit; not interpolated from the octree. --range-cells and --backend do not apply.
 
 query options:
   --points FILE.json         points as [[x,y,z],...] or {"points":[...]} ("-" = stdin)
@@ -212,6 +222,29 @@ class Progress {
   std::string last_;
 };
 
+/// When a uniform grid would do: the resolution that separates the closest pair.
+void print_grid_advice(const GvdResult& r, std::FILE* out) {
+  const GridAdvice a = grid_advice(r.scene, r.graph);
+  if (!a.measured) return;
+  if (a.touching_pairs > 0) {
+    std::fprintf(out,
+                 "  uniform grid: %llu neighbour pair(s) touch or intersect (gap 0): no grid "
+                 "separates them\n",
+                 static_cast<unsigned long long>(a.touching_pairs));
+  }
+  if (a.gap <= 0) return;
+  std::fprintf(out,
+               "  uniform grid: the closest objects, %s and %s, are %.3g apart; a grid with a cell "
+               "diagonal below that needs resolution %.0f (%.3g cells): %s\n",
+               r.scene.objects[a.a].label.c_str(), r.scene.objects[a.b].label.c_str(), a.gap,
+               a.resolution, a.cells,
+               a.fits ? "within gvd grid's default limit, so `gvd grid --resolution` that high "
+                        "resolves it too"
+                      : ("beyond gvd grid's default limit of " + std::to_string(a.cell_limit) +
+                         " cells: the octree is the right tool here")
+                            .c_str());
+}
+
 void print_summary(const GvdResult& r, std::FILE* out) {
   const ResultStats& s = r.stats;
   std::fprintf(out, "  objects %zu, simplices %llu, dimension %d\n", r.scene.objects.size(),
@@ -259,6 +292,7 @@ void print_summary(const GvdResult& r, std::FILE* out) {
     }
     std::fprintf(out, "\n");
   }
+  print_grid_advice(r, out);
   for (const SceneWarning& w : r.scene.warnings) {
     std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", w.kind.c_str(),
                  w.object.empty() ? "" : " ", w.object.c_str(),

@@ -14,6 +14,16 @@
 #include "gvd/io/write_outputs.h"
 
 namespace gvd::cli {
+
+bool is_result_file(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) return false;
+  char magic[6] = {};
+  const size_t n = std::fread(magic, 1, sizeof magic, f);
+  std::fclose(f);
+  return n == sizeof magic && std::string(magic, sizeof magic) == "GVDRES";
+}
+
 namespace {
 
 /// Parses the command line of a query: its own flags plus the compute flags.
@@ -22,16 +32,6 @@ Args parse_query(int argc, char** argv, std::vector<std::string> value_flags,
   value_flags.insert(value_flags.end(), compute_value_flags().begin(), compute_value_flags().end());
   boolean.insert(boolean.end(), {"-q", "--quiet"});
   return parse_args(argc, argv, 2, value_flags, boolean);
-}
-
-/// True when the file starts with the result file magic.
-bool is_result_file(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) return false;
-  char magic[6] = {};
-  const size_t n = std::fread(magic, 1, sizeof magic, f);
-  std::fclose(f);
-  return n == sizeof magic && std::string(magic, sizeof magic) == "GVDRES";
 }
 
 /// The index of the command's input: a saved result, or the GVD of a scene computed now.

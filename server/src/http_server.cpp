@@ -114,7 +114,10 @@ curl -o gvd.glb http://HOST/v1/jobs/ID/gvd.glb</pre>
 
 struct HttpServer::Impl {
   explicit Impl(const ServerOptions& o)
-      : options(o), jobs(o, metrics), queries(jobs), web(o.web_root) {}
+      : options(o),
+        jobs(o, metrics),
+        queries(jobs, o.max_grid_cells, o.job_threads),
+        web(o.web_root) {}
 
   ServerOptions options;
   Metrics metrics;
@@ -792,6 +795,10 @@ void HttpServer::Impl::setup() {
         [this](const auto& req, auto& res) { queries.explode(req, res); });
   route("GET", "/v1/jobs/{id}/tight",
         [this](const auto& req, auto& res) { queries.tight(req, res); });
+  route("GET", "/v1/jobs/{id}/field.npy",
+        [this](const auto& req, auto& res) { queries.grid(req, res, false); });
+  route("GET", "/v1/jobs/{id}/labels.npy",
+        [this](const auto& req, auto& res) { queries.grid(req, res, true); });
   route("GET", "/problems/{name}", [this](const auto& req, auto& res) { problem_doc(req, res); });
   GVD_CHECK(registered.size() == kRoutes.size(), "every route of routes.h has a handler");
 

@@ -8,6 +8,8 @@
 
 #include "gvd/common/error.h"
 #include "gvd/graph/gvd_index.h"
+#include "gvd/grid/sample_result_grid.h"
+#include "gvd/io/write_grid.h"
 #include "gvd/io/write_outputs.h"
 #include "job_manager.h"
 #include "problem.h"
@@ -86,6 +88,14 @@ void QueryHandlers::neighbors(const httplib::Request& req, httplib::Response& re
   const ObjectId object = index.object(req.matches[2].str());
   const std::vector<RingNeighbor> found = index.neighbors(object, ring);
   send_json(res, neighbors_to_json(index, object, ring, found));
+}
+
+/// A boolean query parameter: absent = false; 1/true or 0/false.
+bool flag_param(const httplib::Request& req, const char* name) {
+  const std::string v = param(req, name, false);
+  if (v.empty() || v == "false" || v == "0") return false;
+  if (v == "true" || v == "1") return true;
+  bad(std::string("query parameter \"") + name + "\" is true or false (1 or 0), not \"" + v + "\"");
 }
 
 // `fast=true`: the paper's rule alone away from objects (GvdIndex::nearest, approximate).
@@ -184,6 +194,81 @@ void QueryHandlers::tight(const httplib::Request& req, httplib::Response& res) {
   if (below < 0) bad("\"below\" must be >= 0");
   const std::vector<TightSpot> spots = index.tight(below);
   send_json(res, tight_to_json(index, below, spots));
+}
+
+void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bool labels) {
+  // Everything about the request is checked before the result is loaded or any cell is
+  // sampled: resolution, metric, flags, the box (its dimension against the job's), cells.
+  ResultGridOptions options;
+  const std::string r = param(req, "resolution", true);
+  {
+    const auto [ptr, ec] = std::from_chars(r.data(), r.data() + r.size(), options.resolution);
+    if (r.empty() || ec != std::errc() || ptr != r.data() + r.size() || options.resolution < 1)
+      bad("\"resolution\" must be a positive number of cells along the longest side, got \"" + r +
+          "\"");
+  }
+  if (const std::string m = param(req, "metric", false); !m.empty())
+    options.metric = parse_grid_metric(m);
+  const bool float64 = flag_param(req, "float64");
+  options.signed_distance = !flag_param(req, "unsigned");
+  options.max_cells = max_grid_cells_;
+  options.threads = grid_threads_;
+  const auto result = jobs_.result(req.matches[1].str());
+  const GvdResult& gvd = result->result();
+  if (const std::string d = param(req, "domain", false); !d.empty()) {
+    const int dim = gvd.scene.dimension;
+    std::vector<double> v;
+    size_t start = 0;
+    while (start <= d.size()) {
+      size_t comma = d.find(',', start);
+      if (comma == std::string::npos) comma = d.size();
+      v.push_back(parse_double("domain", d.substr(start, comma - start)));
+      start = comma + 1;
+    }
+    if (v.size() != static_cast<size_t>(2 * dim)) {
+      bad("\"domain\" needs " + std::to_string(2 * dim) + " numbers (x0,y0" +
+          (dim == 3 ? ",z0" : "") + ",x1,y1" + (dim == 3 ? ",z1" : "") + ") for a " +
+          std::to_string(dim) + "D result, got " + std::to_string(v.size()));
+    }
+    Box b;
+    for (int i = 0; i < dim; ++i) {
+      b.lo[i] = v[static_cast<size_t>(i)];
+      b.hi[i] = v[static_cast<size_t>(dim + i)];
+    }
+    if (dim == 2) b.lo.z = b.hi.z = 0;
+    options.box = b;
+  }
+  (void)make_result_grid_spec(gvd, options);  // the limits, before any work
+  const DistanceGrid grid = sample_result_grid(gvd, options);
+  const std::vector<uint64_t> shape = grid_shape(grid.spec);
+  std::vector<uint8_t> bytes;
+  if (labels) {
+    bytes = npy_bytes(GridValueType::kInt32, shape, grid.label.data());
+  } else if (float64) {
+    bytes = npy_bytes(GridValueType::kFloat64, shape, grid.distance.data());
+  } else {
+    std::vector<float> f(grid.distance.begin(), grid.distance.end());
+    bytes = npy_bytes(GridValueType::kFloat32, shape, f.data());
+  }
+  // The grid's geometry, for clients that read only the array.
+  const GridSpec& s = grid.spec;
+  char origin[160];
+  std::snprintf(origin, sizeof origin, "%.17g,%.17g,%.17g", s.origin.x, s.origin.y, s.origin.z);
+  char h[40];
+  std::snprintf(h, sizeof h, "%.17g", s.h);
+  res.set_header("X-Gvd-Grid-Origin", origin);
+  res.set_header("X-Gvd-Grid-Cell", h);
+  res.set_header("X-Gvd-Grid-Metric", grid_metric_name(grid.metric));
+  res.set_header("Content-Disposition",
+                 std::string("attachment; filename=\"") + (labels ? "labels" : "field") + ".npy\"");
+  res.set_header("Cache-Control", "public, max-age=86400");
+  auto body = std::make_shared<std::vector<uint8_t>>(std::move(bytes));
+  res.set_content_provider(body->size(), "application/octet-stream",
+                           [body](size_t offset, size_t length, httplib::DataSink& sink) {
+                             const size_t n = std::min(length, body->size() - offset);
+                             return sink.write(reinterpret_cast<const char*>(body->data()) + offset,
+                                               n);
+                           });
 }
 
 }  // namespace gvd::server

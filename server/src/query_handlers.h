@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cstdint>
+
 namespace httplib {
 struct Request;
 struct Response;
@@ -10,20 +12,28 @@ namespace gvd::server {
 class JobManager;
 
 /// The query endpoints on a finished job (neighbours, nearest, paths, exploded view,
-/// clearance report): parse the request, ask the job's GvdIndex, write its JSON. Throw
-/// ProblemError / gvd::Error for the catch boundary of the HTTP layer.
+/// clearance report, sampled grids): parse the request, ask the job's GvdIndex (or
+/// sample_result_grid), write its answer. Throw ProblemError / gvd::Error for the catch
+/// boundary of the HTTP layer.
 class QueryHandlers {
  public:
-  explicit QueryHandlers(JobManager& jobs) : jobs_(jobs) {}
+  /// `max_grid_cells`: the cell limit of grid(); `grid_threads`: its threads (0 = all cores).
+  QueryHandlers(JobManager& jobs, uint64_t max_grid_cells, int grid_threads)
+      : jobs_(jobs), max_grid_cells_(max_grid_cells), grid_threads_(grid_threads) {}
   void neighbors(const httplib::Request& req, httplib::Response& res);
   void nearest(const httplib::Request& req, httplib::Response& res);
   void nearest_batch(const httplib::Request& req, httplib::Response& res);
   void paths(const httplib::Request& req, httplib::Response& res);
   void explode(const httplib::Request& req, httplib::Response& res);
   void tight(const httplib::Request& req, httplib::Response& res);
+  /// GET .../field.npy (`labels` false: distances) or .../labels.npy: the job's result sampled
+  /// on a uniform grid (sample_result_grid), as a numpy .npy file.
+  void grid(const httplib::Request& req, httplib::Response& res, bool labels);
 
  private:
   JobManager& jobs_;
+  uint64_t max_grid_cells_;
+  int grid_threads_;
 };
 
 }  // namespace gvd::server

@@ -28,10 +28,13 @@ struct ServerOptions {
   uint64_t max_simplices = 2'000'000;
   int max_depth = 0;                ///< cap on octree depth (0 = the lattice limit)
   uint64_t max_leaves = 4'000'000;  ///< per job
-  double job_seconds = 300;         ///< wall time per job
-  uint64_t max_memory_mb = 4096;    ///< resident memory of the process; 0 = unlimited
-  int cache_entries = 16;           ///< finished results kept in memory
-  std::string backend = "cpu";      ///< cpu | opencl | auto (as requested)
+  /// Cells of a grid sampled from a result (GET .../field.npy, labels.npy), checked before
+  /// any work: 2^24 = 256^3 (~200 MB while it is built, 64 MB of float32 answer).
+  uint64_t max_grid_cells = uint64_t{1} << 24;
+  double job_seconds = 300;       ///< wall time per job
+  uint64_t max_memory_mb = 4096;  ///< resident memory of the process; 0 = unlimited
+  int cache_entries = 16;         ///< finished results kept in memory
+  std::string backend = "cpu";    ///< cpu | opencl | auto (as requested)
   /// Set at start-up from `backend` (gvd::kernels::choose_backend, once, before any job): the
   /// OpenCL backend, or null for the CPU twins, and why the CPU runs when auto found no device.
   std::shared_ptr<gvd::ComputeBackend> compute;

@@ -58,3 +58,36 @@ if(NOT LAST_ERR MATCHES "cell limit")
 endif()
 file(WRITE ${prefix}_empty.json "{\"dimension\": 2, \"objects\": []}")
 run_rc(3 ${GVD} grid ${prefix}_empty.json --resolution 10 -o ${prefix}_x.npy)
+
+# From a saved adaptive result: the same grid, byte for byte, as CuRV on the scene over the
+# same box (the result's domain is the box given to compute: already a square).
+run_rc(0 ${GVD} compute ${DATA}/scenes/gears2d.json --domain -2,-3,4,3 --save ${prefix}_gears.gvd
+       -q)
+run_rc(0 ${GVD} grid ${prefix}_gears.gvd --resolution 150 -o ${prefix}_from_result.npy
+       --labels ${prefix}_from_result_labels.npy)
+if(NOT LAST_ERR MATCHES "from the adaptive result" OR NOT LAST_ERR MATCHES "bounded")
+  message(FATAL_ERROR "the log does not say the grid was sampled from the result:\n${LAST_ERR}")
+endif()
+run_rc(0 ${GVD} grid ${DATA}/scenes/gears2d.json --domain -2,-3,4,3 --resolution 150
+       -o ${prefix}_from_scene.npy --labels ${prefix}_from_scene_labels.npy -q)
+foreach(kind "" "_labels")
+  execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${prefix}_from_result${kind}.npy
+                          ${prefix}_from_scene${kind}.npy RESULT_VARIABLE differ)
+  if(differ)
+    message(FATAL_ERROR "gvd grid RESULT and gvd grid SCENE differ (${kind})")
+  endif()
+endforeach()
+# Bad input on a result: a 3D box for a 2D result, scene-only flags (usage, 2), too many
+# cells (4), a truncated result file (3).
+run_rc(2 ${GVD} grid ${prefix}_gears.gvd --resolution 10 -o ${prefix}_x.npy --domain 0,0,0,1,1,1)
+run_rc(2 ${GVD} grid ${prefix}_gears.gvd --resolution 10 -o ${prefix}_x.npy --range-cells 4)
+run_rc(4 ${GVD} grid ${prefix}_gears.gvd --resolution 100000 -o ${prefix}_x.npy)
+execute_process(COMMAND /usr/bin/python3 -c
+                "open('${prefix}_cut.gvd','wb').write(open('${prefix}_gears.gvd','rb').read()[:200])")
+if(NOT EXISTS ${prefix}_cut.gvd)
+  message(FATAL_ERROR "could not write the truncated result")
+endif()
+run_rc(3 ${GVD} grid ${prefix}_cut.gvd --resolution 10 -o ${prefix}_x.npy)
+if(NOT LAST_ERR MATCHES "checksum|past the end|truncated")
+  message(FATAL_ERROR "the truncated result is not reported as such:\n${LAST_ERR}")
+endif()

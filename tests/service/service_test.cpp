@@ -934,6 +934,70 @@ TEST(ServiceQueries, ExplodeJsonAndGlbAndClearanceReport) {
   EXPECT_EQ(f.c->Get(f.url("/tight?below=-1").c_str())->status, 400);
 }
 
+/// Runs the gvd CLI (`args` after the binary); true when it exits 0.
+bool run_cli(const std::string& args, const std::string& log) {
+  const std::string cmd = std::string(GVD_CLI_BINARY) + " " + args + " > " + log + " 2>&1";
+  return std::system(cmd.c_str()) == 0;
+}
+
+TEST(ServiceQueries, GridFieldAndLabelsAreTheCliGrid) {
+  QueryFixture f;
+  const std::string dir = fresh_dir("grid-npy");
+  // The job's result as the CLI sees it.
+  auto r = f.c->Get(f.url("/result.gvd").c_str());
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  std::ofstream(dir + "/result.gvd", std::ios::binary) << r->body;
+  struct Case {
+    std::string query, cli;
+  };
+  for (const Case& k :
+       {Case{"resolution=60", "--resolution 60"}, Case{"resolution=45&metric=l1&float64=1",
+                                                       "--resolution 45 --metric l1 "
+                                                       "--float64"}}) {
+    const auto field = f.c->Get(f.url("/field.npy?" + k.query).c_str());
+    const auto labels = f.c->Get(f.url("/labels.npy?" + k.query).c_str());
+    ASSERT_TRUE(field && labels);
+    ASSERT_EQ(field->status, 200) << field->body;
+    ASSERT_EQ(labels->status, 200) << labels->body;
+    EXPECT_EQ(field->get_header_value("Content-Type"), "application/octet-stream");
+    EXPECT_EQ(field->body.substr(0, 6), "\x93NUMPY");
+    ASSERT_TRUE(run_cli("grid " + dir + "/result.gvd " + k.cli + " -o " + dir + "/f.npy --labels " +
+                            dir + "/l.npy -q",
+                        dir + "/cli.log"))
+        << read_text(dir + "/cli.log");
+    EXPECT_TRUE(field->body == read_text(dir + "/f.npy")) << k.query;
+    EXPECT_TRUE(labels->body == read_text(dir + "/l.npy")) << k.query;
+  }
+  // The same as CuRV on the scene over the job's domain (the grid's box by default).
+  const Json status = status_of(*f.c, f.id);
+  const Json& domain = status["result"]["domain"];
+  const double x0 = domain["origin"][0], y0 = domain["origin"][1], side = domain["side"];
+  char box[200];
+  std::snprintf(box, sizeof box, "%.17g,%.17g,%.17g,%.17g", x0, y0, x0 + side, y0 + side);
+  ASSERT_TRUE(run_cli("grid " + std::string(GVD_TEST_DATA_DIR) +
+                          "/scenes/gears2d.json --resolution 60 --domain " + box + " --labels " +
+                          dir + "/scene_l.npy -q",
+                      dir + "/cli.log"))
+      << read_text(dir + "/cli.log");
+  EXPECT_TRUE(f.c->Get(f.url("/labels.npy?resolution=60").c_str())->body ==
+              read_text(dir + "/scene_l.npy"));
+  // The advice of grid_advice is in the job's summary.
+  EXPECT_TRUE(status["result"]["grid"].is_object());
+  // Bad requests: a clear problem, checked before any work.
+  for (const char* q : {"", "?resolution=0", "?resolution=x", "?resolution=10&metric=l3",
+                        "?resolution=10&float64=maybe", "?resolution=10&domain=0,0,0,1,1,1"}) {
+    r = f.c->Get(f.url(std::string("/field.npy") + q).c_str());
+    EXPECT_EQ(r->status, 400) << q << " " << r->body;
+    EXPECT_EQ(r->get_header_value("Content-Type"), "application/problem+json");
+  }
+  r = f.c->Get(f.url("/field.npy?resolution=100000").c_str());
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Json::parse(r->body)["type"], "/problems/limit-exceeded");
+  EXPECT_EQ(f.c->Get("/v1/jobs/ffffffffffffffffffffffffffffffff/field.npy?resolution=8")->status,
+            404);
+}
+
 TEST(ServiceQueries, UnfinishedJobsAnswer409) {
   ServerProcess server(fresh_dir("queries-409"), {"--workers", "1"});
   auto c = client(server.port());
@@ -943,6 +1007,7 @@ TEST(ServiceQueries, UnfinishedJobsAnswer409) {
   EXPECT_EQ(r->status, 409);
   EXPECT_EQ(Json::parse(r->body)["type"], "/problems/job-not-finished");
   EXPECT_EQ(c->Get(("/v1/jobs/" + slow.id + "/gvd.glb").c_str())->status, 409);
+  EXPECT_EQ(c->Get(("/v1/jobs/" + slow.id + "/field.npy?resolution=8").c_str())->status, 409);
   c->Delete(("/v1/jobs/" + slow.id).c_str());
   wait_for(*c, slow.id, {"cancelled"}, 10);
 }

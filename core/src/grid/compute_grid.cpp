@@ -489,9 +489,10 @@ int side_of_edge(double uy, double uz, double wy, double wz, double py, double p
   return wy > uy ? 1 : -1;
 }
 
-/// Signs the distances of cells inside closed objects (ray parity along each row of cells).
-void sign_distances(const Scene& scene, const GridGeometry& g, const GridSpec& spec,
-                    const std::vector<uint8_t>& closed, DistanceGrid& out, int threads) {
+}  // namespace
+
+void sign_grid_distances(const Scene& scene, const GridGeometry& g, const GridSpec& spec,
+                         const std::vector<uint8_t>& closed, DistanceGrid& out, int threads) {
   const int dim = spec.dimension;
   const size_t rows = static_cast<size_t>(spec.n[1]) * static_cast<size_t>(spec.n[2]);
   std::vector<std::vector<Crossing>> crossings(rows);
@@ -568,8 +569,6 @@ void sign_distances(const Scene& scene, const GridGeometry& g, const GridSpec& s
       1);
 }
 
-}  // namespace
-
 DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
   const Stopwatch total;
   DistanceGrid out;
@@ -624,7 +623,7 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
         static_cast<uint32_t>(std::count(out.closed.begin(), out.closed.end(), uint8_t{1}));
     if (out.stats.closed_objects > 0) {
       const Stopwatch sw;
-      sign_distances(scene, g, spec, out.closed, out, options.threads);
+      sign_grid_distances(scene, g, spec, out.closed, out, options.threads);
       out.stats.sign_seconds = sw.seconds();
     }
   }

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "gvd/common/error.h"
+#include "gvd/grid/grid_advice.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/octree/lattice.h"
 #include "gvd/scene/load_scene.h"
@@ -851,6 +852,28 @@ std::string result_info_json(const GvdResult& r) {
         {{"kind", w.kind}, {"object", w.object}, {"count", w.count}, {"detail", w.detail}});
   }
   doc["warnings"] = std::move(warnings);
+  // When a uniform grid would do (grid_advice.h): null when no gap was measured.
+  const GridAdvice advice = grid_advice(r.scene, r.graph);
+  if (advice.measured) {
+    Json grid = {{"closest_gap", advice.gap},
+                 {"touching_pairs", advice.touching_pairs},
+                 {"longest_side", advice.longest_side},
+                 {"cell_limit", advice.cell_limit}};
+    if (advice.gap > 0) {
+      grid["pair"] = {r.scene.objects[advice.a].label, r.scene.objects[advice.b].label};
+      grid["resolution"] = advice.resolution;
+      grid["cells"] = advice.cells;
+      grid["fits_cell_limit"] = advice.fits;
+    } else {
+      grid["pair"] = nullptr;
+      grid["resolution"] = nullptr;
+      grid["cells"] = nullptr;
+      grid["fits_cell_limit"] = false;
+    }
+    doc["grid"] = std::move(grid);
+  } else {
+    doc["grid"] = nullptr;
+  }
   return doc.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 

@@ -76,6 +76,9 @@ struct GridStats {
   uint64_t batches = 0;  ///< launches of the per-range evaluation
   uint32_t sites = 0;    ///< simplices (the paper's primitive sites)
   uint32_t closed_objects = 0;
+  /// sample_result_grid: cells whose search the result's octree bounded (the closest points of
+  /// the leaf holding the cell centre); 0 for compute_grid.
+  uint64_t octree_bounded = 0;
   double seconds = 0;           ///< whole computation
   double sign_seconds = 0;      ///< the inside test
   double evaluate_seconds = 0;  ///< in the per-range evaluation (kernel or CPU twin)

@@ -34,6 +34,15 @@ struct GridGeometry {
 /// The sites of a scene (user coordinates; 2D with z = 0). O(S log S).
 GridGeometry make_grid_geometry(const Scene& scene);
 
+/// Signs the distances of the cells whose centre lies inside their nearest object when that
+/// object is closed (`closed`, per object): ray parity along each row of cells (x), with the
+/// symbolic perturbation of docs/ALGORITHM.md ("Signs") for rows through vertices and edges.
+/// `out.label` and `out.distance` (unsigned) are read and the distances negated in place.
+/// Shared by compute_grid and sample_result_grid, so both sign the same cells. O(simplices x
+/// rows they cross + cells).
+void sign_grid_distances(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
+                         const std::vector<uint8_t>& closed, DistanceGrid& out, int threads);
+
 /// The device-side grid description of a spec and metric.
 item::GvdGridSpec make_item_spec(const GridSpec& spec, GridMetric metric);
 
