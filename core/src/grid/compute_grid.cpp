@@ -131,32 +131,8 @@ GridSpec make_grid_spec(const Scene& scene, const GridOptions& options) {
 
 bool is_closed_object(const SceneObject& object, int dimension) {
   if (object.simplices.empty()) return false;
-  if (dimension == 2) {
-    std::vector<uint32_t> degree(object.vertices.size(), 0);
-    for (const Simplex& s : object.simplices) {
-      ++degree[s.v[0]];
-      ++degree[s.v[1]];
-    }
-    for (uint32_t d : degree)
-      if (d != 0 && d != 2) return false;
-    return true;
-  }
-  std::vector<std::pair<uint32_t, uint32_t>> edges;
-  edges.reserve(object.simplices.size() * 3);
-  for (const Simplex& s : object.simplices) {
-    for (int i = 0; i < 3; ++i) {
-      const uint32_t a = s.v[i], b = s.v[(i + 1) % 3];
-      edges.emplace_back(std::min(a, b), std::max(a, b));
-    }
-  }
-  std::sort(edges.begin(), edges.end());
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
-    if (j - i != 2) return false;
-    i = j;
-  }
-  return true;
+  const MeshTopology t = mesh_topology(object, dimension);
+  return t.open == 0 && t.non_manifold == 0;
 }
 
 namespace {
@@ -569,6 +545,20 @@ void sign_grid_distances(const Scene& scene, const GridGeometry& g, const GridSp
       1);
 }
 
+void sign_closed_objects(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
+                         bool signed_distance, int threads, DistanceGrid& out) {
+  out.closed.assign(scene.objects.size(), 0);
+  if (!signed_distance) return;
+  for (size_t o = 0; o < scene.objects.size(); ++o)
+    out.closed[o] = is_closed_object(scene.objects[o], scene.dimension);
+  out.stats.closed_objects =
+      static_cast<uint32_t>(std::count(out.closed.begin(), out.closed.end(), uint8_t{1}));
+  if (out.stats.closed_objects == 0) return;
+  const Stopwatch sw;
+  sign_grid_distances(scene, geometry, spec, out.closed, out, threads);
+  out.stats.sign_seconds = sw.seconds();
+}
+
 DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
   const Stopwatch total;
   DistanceGrid out;
@@ -615,18 +605,7 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
     }
   });
 
-  out.closed.assign(scene.objects.size(), 0);
-  if (options.signed_distance) {
-    for (size_t o = 0; o < scene.objects.size(); ++o)
-      out.closed[o] = is_closed_object(scene.objects[o], scene.dimension);
-    out.stats.closed_objects =
-        static_cast<uint32_t>(std::count(out.closed.begin(), out.closed.end(), uint8_t{1}));
-    if (out.stats.closed_objects > 0) {
-      const Stopwatch sw;
-      sign_grid_distances(scene, g, spec, out.closed, out, options.threads);
-      out.stats.sign_seconds = sw.seconds();
-    }
-  }
+  sign_closed_objects(scene, g, spec, options.signed_distance, options.threads, out);
   out.stats.seconds = total.seconds();
   return out;
 }

@@ -196,18 +196,7 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
   out.stats.backend = "cpu (sampled from the adaptive result)";
   out.stats.evaluate_seconds = total.seconds();
 
-  out.closed.assign(scene.objects.size(), 0);
-  if (options.signed_distance) {
-    for (size_t o = 0; o < scene.objects.size(); ++o)
-      out.closed[o] = is_closed_object(scene.objects[o], scene.dimension);
-    out.stats.closed_objects =
-        static_cast<uint32_t>(std::count(out.closed.begin(), out.closed.end(), uint8_t{1}));
-    if (out.stats.closed_objects > 0) {
-      const Stopwatch sw;
-      sign_grid_distances(scene, g, spec, out.closed, out, options.threads);
-      out.stats.sign_seconds = sw.seconds();
-    }
-  }
+  sign_closed_objects(scene, g, spec, options.signed_distance, options.threads, out);
   out.stats.seconds = total.seconds();
   return out;
 }

@@ -51,10 +51,9 @@ struct UnionFind {
   void unite(uint32_t a, uint32_t b) { parent[find(a)] = find(b); }
 };
 
-/// Structural warnings of one object (its simplices are valid and non-degenerate).
-void add_topology_warnings(const SceneObject& object, int dimension,
-                           std::vector<SceneWarning>& out) {
-  const int arity = dimension == 2 ? 2 : 3;
+}  // namespace
+
+MeshTopology mesh_topology(const SceneObject& object, int dimension) {
   uint64_t open = 0, non_manifold = 0;
   if (dimension == 2) {
     std::vector<uint32_t> degree(object.vertices.size(), 0);
@@ -84,6 +83,16 @@ void add_topology_warnings(const SceneObject& object, int dimension,
       i = j;
     }
   }
+  return {open, non_manifold};
+}
+
+namespace {
+
+/// Structural warnings of one object (its simplices are valid and non-degenerate).
+void add_topology_warnings(const SceneObject& object, int dimension,
+                           std::vector<SceneWarning>& out) {
+  const int arity = dimension == 2 ? 2 : 3;
+  const auto [open, non_manifold] = mesh_topology(object, dimension);
   const char* unit = dimension == 2 ? "vertices" : "edges";
   if (open > 0) {
     out.push_back({"open_mesh", object.label, open,

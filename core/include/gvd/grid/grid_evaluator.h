@@ -42,6 +42,11 @@ GridGeometry make_grid_geometry(const Scene& scene);
 /// rows they cross + cells).
 void sign_grid_distances(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
                          const std::vector<uint8_t>& closed, DistanceGrid& out, int threads);
+/// Sets `out.closed` (is_closed_object per object; all 0 without `signed_distance`) and signs
+/// the distances of the closed ones (sign_grid_distances), with their count and time in
+/// `out.stats`. The last step of compute_grid and sample_result_grid.
+void sign_closed_objects(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
+                         bool signed_distance, int threads, DistanceGrid& out);
 
 /// The device-side grid description of a spec and metric.
 item::GvdGridSpec make_item_spec(const GridSpec& spec, GridMetric metric);

@@ -61,6 +61,15 @@ struct SceneLimits {
 /// objects with several connected components. O(V + S log S).
 void validate_scene(Scene& scene, const SceneLimits& limits = {});
 
+/// An object's boundary and non-manifold elements: in 2D vertices of degree 1 and > 2, in 3D
+/// edges used by one and by more than two triangles (vertices matched by index). Both 0: the
+/// object is closed (validate_scene's open_mesh and non_manifold warnings count the same).
+struct MeshTopology {
+  uint64_t open = 0;
+  uint64_t non_manifold = 0;
+};
+MeshTopology mesh_topology(const SceneObject& object, int dimension);
+
 /// The computational domain: a square/cube in user coordinates, and the map to the unit
 /// lattice [0,1]^D in which the octree works. The cube's edges run along `axis` (the octree's
 /// frame): the user's x, y, z unless make_domain turned it to the scene's faces (3D).
