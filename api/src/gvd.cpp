@@ -283,6 +283,8 @@ NearestBatch Result::nearest(std::span<const double> points, bool fast, int thre
   out.object.assign(n, kNone);
   out.distance.assign(n, kNan);
   out.closest.assign(points.size(), kNan);
+  out.inside.assign(n, -1);
+  out.signed_distance.assign(n, kNan);
   parallel_for(n, resolve_threads(threads), [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
       const Vec3 p = point_of(points.subspan(i * dim, dim), dim, "a point");
@@ -297,6 +299,8 @@ NearestBatch Result::nearest(std::span<const double> points, bool fast, int thre
       }
       out.object[i] = object_of(a.object);
       out.distance[i] = a.distance;
+      out.inside[i] = a.inside;
+      out.signed_distance[i] = a.signed_distance();
       for (int k = 0; k < dim; ++k) out.closest[i * dim + k] = a.closest[k];
     }
   });

@@ -34,7 +34,8 @@ Usage:
   gvd compute SCENE... [options]   compute the GVD of a scene
   gvd info RESULT.gvd [--json]     depth, leaves, bytes per leaf, stage timings, warnings
   gvd nearest INPUT (--points FILE.json | --point x,y[,z]...) [--fast]
-                                   nearest object and distance, one JSON line per point
+                                   nearest object, distance (signed, with inside, for
+                                   closed objects), one JSON line per point
   gvd neighbors INPUT --object LABEL [--ring K]
                                    objects within K rings of the dual graph (default 1)
   gvd path INPUT --from x,y[,z] --to x,y[,z] [--min-clearance R] [--cost shortest|clearance]

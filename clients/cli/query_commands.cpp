@@ -80,13 +80,23 @@ int cmd_nearest(int argc, char** argv) {
       points.push_back(point_arg("--point", text, index.dimension()));
     }
   }
+  // Every point gets its line; one outside the domain gets an error entry (and says so on
+  // stderr), and the exit status is then kExitBadInput.
   std::string out;
-  for (const Vec3& p : points) {
-    out += nearest_to_json(index, index.nearest(p, args.has("--fast")));
+  size_t outside = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    try {
+      out += nearest_to_json(index, index.nearest(points[i], args.has("--fast")));
+    } catch (const Error& e) {
+      if (e.code() != ErrorCode::kOutsideDomain) throw;
+      out += nearest_error_to_json(index, points[i], e);
+      std::fprintf(stderr, "gvd: point %zu: %s\n", i, e.detail().c_str());
+      ++outside;
+    }
     out += '\n';
   }
   std::fwrite(out.data(), 1, out.size(), stdout);
-  return kExitOk;
+  return outside > 0 ? kExitBadInput : kExitOk;
 }
 
 int cmd_neighbors(int argc, char** argv) {

@@ -527,9 +527,17 @@ int remote_nearest(const std::string& url, int argc, char** argv) {
                   Json{{"points", points}}.dump(), "application/json");
   const Json answers = Json::parse(a.body).at("answers");
   std::string out;
-  for (const Json& answer : answers) out += answer.dump() + "\n";
+  size_t outside = 0;
+  for (size_t i = 0; i < answers.size(); ++i) {
+    out += answers[i].dump() + "\n";
+    if (answers[i].contains("error")) {
+      std::fprintf(stderr, "gvd: point %zu: %s\n", i,
+                   text(answers[i]["error"], "detail", "").c_str());
+      ++outside;
+    }
+  }
   std::fwrite(out.data(), 1, out.size(), stdout);
-  return kExitOk;
+  return outside > 0 ? kExitBadInput : kExitOk;
 }
 
 int remote_neighbors(const std::string& url, int argc, char** argv) {

@@ -124,7 +124,11 @@ void QueryHandlers::nearest_batch(const httplib::Request& req, httplib::Response
     try {
       out += nearest_to_json(index, index.nearest(points[i], fast));
     } catch (const Error& e) {
-      throw Error(e.code(), "point " + std::to_string(i) + ": " + e.detail());
+      // Outside the domain: this point's entry says so; the others are answered.
+      if (e.code() != ErrorCode::kOutsideDomain) {
+        throw Error(e.code(), "point " + std::to_string(i) + ": " + e.detail());
+      }
+      out += nearest_error_to_json(index, points[i], e);
     }
   }
   out += "]}";

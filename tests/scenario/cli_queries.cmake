@@ -31,6 +31,12 @@ if(NOT nlines EQUAL 2 OR NOT LAST_OUT MATCHES "\"point\":\\[0.1,0.2,0.3\\]")
   message(FATAL_ERROR "nearest should print one line per point: ${LAST_OUT}")
 endif()
 run_expect(3 ${GVD} nearest ${result} --point 100,0,0)
+# Every point is answered; one outside the domain gets an error entry (and exit 3).
+run_expect(3 ${GVD} nearest ${result} --point 0.1,0.2,0.3 --point 100,0,0)
+if(NOT LAST_OUT MATCHES "\"point\":\\[0.1,0.2,0.3\\]" OR
+   NOT LAST_OUT MATCHES "\"code\":\"outside_domain\"")
+  message(FATAL_ERROR "nearest should answer the inner point and flag the outer one: ${LAST_OUT}")
+endif()
 run_expect(2 ${GVD} nearest ${result} --point 1,2)
 
 # Paths: found above the balls; none from the centre of a ball (exit 7, reason given).

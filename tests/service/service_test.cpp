@@ -844,6 +844,19 @@ TEST(ServiceQueries, NearestSingleAndBatch) {
     EXPECT_EQ(batch[i]["label"], probes[i].first);
     EXPECT_EQ(batch[i]["point"], probes[i].second);  // echoed as given
   }
+  // A batch answers every point: the centre of gear_a (a closed outline) is inside it, with
+  // the distance negative; a point outside the domain gets an error entry of its own.
+  r = f.c->Post(f.url("/nearest").c_str(), R"({"points":[[0,0],[100,0]]})", "application/json");
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json mixed = Json::parse(r->body)["answers"];
+  ASSERT_EQ(mixed.size(), 2u) << r->body;
+  EXPECT_EQ(mixed[0]["label"], "gear_a");
+  EXPECT_EQ(mixed[0]["inside"], true);
+  EXPECT_EQ(mixed[0]["signed_distance"].get<double>(), -mixed[0]["distance"].get<double>());
+  EXPECT_EQ(mixed[0]["closest"].size(), 2u);
+  EXPECT_TRUE(mixed[1]["object"].is_null());
+  EXPECT_EQ(mixed[1]["error"]["code"], "outside_domain");
+  EXPECT_EQ(mixed[1]["point"], Json::parse("[100,0]"));
   // Errors: outside the domain (422), wrong arity / not a number / missing (400), bad JSON,
   // wrong content type.
   r = f.c->Get(f.url("/nearest?point=100,0").c_str());

@@ -144,6 +144,12 @@ struct NearestBatch {
   std::vector<Object> object;    ///< kNone for a point outside the domain or not finite
   std::vector<double> distance;  ///< to `closest` (never below the true distance); NaN: none
   std::vector<double> closest;   ///< dimension() numbers per point: the point on `object`
+  /// 1 inside `object`, 0 outside, -1 when `object` is not closed (then it has no inside) or
+  /// there is none. Closed: every edge (2D: vertex) of the object is shared by exactly two of
+  /// its simplices; exact ray parity decides.
+  std::vector<int8_t> inside;
+  /// `distance`, negative inside a closed object (equal to `distance` for an open one).
+  std::vector<double> signed_distance;
 };
 
 struct PathOptions {

@@ -267,4 +267,42 @@ double simplex_simplex_closest(int dimension, const Vec3* q, const Vec3* s, Vec3
   return best;
 }
 
+namespace {
+
+/// Which side of the directed line u -> w (in the (y, z) plane) the point (py, pz) perturbed
+/// by (eps, eps^2) lies on: +1 left, -1 right; never on it. Computed from the
+/// lexicographically smaller end, so both triangles of an edge get the same answer bit for bit.
+int side_of_edge(double uy, double uz, double wy, double wz, double py, double pz) {
+  if (uy > wy || (uy == wy && uz > wz)) return -side_of_edge(wy, wz, uy, uz, py, pz);
+  const double e = (wy - uy) * (pz - uz) - (wz - uz) * (py - uy);
+  if (e > 0) return 1;
+  if (e < 0) return -1;
+  // On the line: the perturbation decides (dE = (wy - uy) eps^2 - (wz - uz) eps).
+  if (wz != uz) return wz > uz ? -1 : 1;
+  return wy > uy ? 1 : -1;
+}
+
+}  // namespace
+
+bool row_crosses_triangle(Vec3 a, Vec3 b, Vec3 c, double y, double z, double& x) {
+  const double area = (b.y - a.y) * (c.z - a.z) - (b.z - a.z) * (c.y - a.y);
+  if (area == 0) return false;  // edge-on: its neighbours decide
+  const int s0 = side_of_edge(a.y, a.z, b.y, b.z, y, z);
+  const int s1 = side_of_edge(b.y, b.z, c.y, c.z, y, z);
+  const int s2 = side_of_edge(c.y, c.z, a.y, a.z, y, z);
+  if (s0 != s1 || s1 != s2) return false;
+  // Barycentric coordinates of (y, z) in the projected triangle: x on its plane.
+  const double wa = ((b.y - y) * (c.z - z) - (b.z - z) * (c.y - y)) / area;
+  const double wb = ((c.y - y) * (a.z - z) - (c.z - z) * (a.y - y)) / area;
+  x = wa * a.x + wb * b.x + (1 - wa - wb) * c.x;
+  return true;
+}
+
+bool row_crosses_segment(Vec3 a, Vec3 b, double y, double& x) {
+  if (a.y == b.y) return false;  // along the line: the perturbed line misses it
+  if ((a.y <= y) == (b.y <= y)) return false;
+  x = a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y);
+  return true;
+}
+
 }  // namespace gvd

@@ -14,6 +14,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/geometry/primitives.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/lattice.h"
 #include "gvd/octree/vertices.h"
@@ -54,6 +55,7 @@ struct GvdIndex::Impl {
   std::shared_ptr<const GvdResult> result;
   int dimension = 3;
   SimplexBvh bvh;
+  std::vector<uint8_t> closed;  ///< per object: is_closed_object
 
   // Nearest: the exact closest point of every octree vertex (`closest`, shared, with its
   // object), and per leaf the distinct closest points of its boundary vertices.
@@ -97,6 +99,10 @@ struct GvdIndex::Impl {
   /// Exact least distance (user units) from segment [a, b] (user units) to any object,
   /// or `stop` when it is at least `stop`.
   double segment_clearance(Vec3 a, Vec3 b, double stop = kInf) const;
+  /// Whether the point (unit coordinates) is inside the closed object: the parity of the
+  /// object's crossings with the ray from u towards -x (row_crosses_*: symbolically perturbed,
+  /// so edges and vertices on the ray count consistently).
+  bool inside_closed(Vec3 u, ObjectId object) const;
   /// Exact distance (user units) and nearest object of a point (user units), by the BVH.
   std::pair<double, ObjectId> exact_nearest(Vec3 p) const;
   /// Roadmap vertices joined to point p by a segment with clearance >= min_clearance, with
@@ -373,6 +379,24 @@ double GvdIndex::Impl::segment_clearance(Vec3 a, Vec3 b, double stop) const {
   return std::sqrt(d2) * side;
 }
 
+bool GvdIndex::Impl::inside_closed(Vec3 u, ObjectId object) const {
+  const UnitGeometry& g = result->geometry;
+  Box ray;
+  ray.lo = {-1e300, u.y, u.z};
+  ray.hi = u;
+  bool odd = false;
+  bvh.for_each_overlapping_in_object(object, ray, [&](uint32_t s) {
+    const Simplex& t = g.simplices[s];
+    double x = 0;
+    const bool crosses = dimension == 2
+                             ? row_crosses_segment(g.points[t.v[0]], g.points[t.v[1]], u.y, x)
+                             : row_crosses_triangle(g.points[t.v[0]], g.points[t.v[1]],
+                                                    g.points[t.v[2]], u.y, u.z, x);
+    if (crosses && x < u.x) odd = !odd;
+  });
+  return odd;
+}
+
 std::pair<double, ObjectId> GvdIndex::Impl::exact_nearest(Vec3 p) const {
   const ClosestHit hit = bvh.nearest(to_unit(p));
   if (!hit.found()) return {kInf, kNoObject};
@@ -412,6 +436,9 @@ GvdIndex::GvdIndex(std::shared_ptr<const GvdResult> result) : impl_(std::make_un
   impl_->dimension = r.scene.dimension;
   impl_->bvh = SimplexBvh(r.geometry.dimension, r.geometry.points, r.geometry.simplices,
                           r.geometry.object_of);
+  impl_->closed.resize(r.scene.objects.size());
+  for (size_t o = 0; o < r.scene.objects.size(); ++o)
+    impl_->closed[o] = is_closed_object(r.scene.objects[o], r.scene.dimension);
   impl_->build_nearest();
   impl_->build_dual();
   impl_->build_roadmap();
@@ -430,6 +457,10 @@ ObjectId GvdIndex::object(std::string_view label) const {
     throw Error(ErrorCode::kNotFound, "no object labelled '" + std::string(label) + "'");
   }
   return *found;
+}
+
+bool GvdIndex::is_closed(ObjectId object) const {
+  return object < impl_->closed.size() && impl_->closed[object] != 0;
 }
 
 NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
@@ -528,6 +559,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
       answer.distance = std::sqrt(hit.dist2) * side;
       answer.closest = m.result->domain.from_unit(hit.point);
       answer.exact = true;
+      if (m.closed[answer.object]) answer.inside = m.inside_closed(u, answer.object) ? 1 : 0;
       return answer;
     }
     answer.exact = true;  // nothing nearer than the answer so far: it is exact
@@ -536,6 +568,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
   answer.object = best_object;
   answer.distance = answer_distance * side;
   answer.closest = m.result->domain.from_unit(best_at);
+  if (m.closed[answer.object]) answer.inside = m.inside_closed(u, answer.object) ? 1 : 0;
   return answer;
 }
 

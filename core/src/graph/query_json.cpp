@@ -69,7 +69,22 @@ std::string nearest_to_json(const GvdIndex& index, const NearestAnswer& answer) 
   return json{{"point", point_json(answer.point, dim)},
               {"object", answer.object},
               {"label", label(index, answer.object)},
-              {"distance", answer.distance}}
+              {"distance", answer.distance},
+              {"signed_distance", answer.signed_distance()},
+              {"inside", answer.inside < 0 ? json(nullptr) : json(answer.inside == 1)},
+              {"closest", point_json(answer.closest, dim)}}
+      .dump();
+}
+
+std::string nearest_error_to_json(const GvdIndex& index, Vec3 point, const Error& error) {
+  return json{{"point", point_json(point, index.dimension())},
+              {"object", nullptr},
+              {"label", nullptr},
+              {"distance", nullptr},
+              {"signed_distance", nullptr},
+              {"inside", nullptr},
+              {"closest", nullptr},
+              {"error", {{"code", error_code_name(error.code())}, {"detail", error.detail()}}}}
       .dump();
 }
 

@@ -129,12 +129,6 @@ GridSpec make_grid_spec(const Scene& scene, const GridOptions& options) {
   return spec;
 }
 
-bool is_closed_object(const SceneObject& object, int dimension) {
-  if (object.simplices.empty()) return false;
-  const MeshTopology t = mesh_topology(object, dimension);
-  return t.open == 0 && t.non_manifold == 0;
-}
-
 namespace {
 
 using Sites = std::vector<uint32_t>;
@@ -451,20 +445,6 @@ struct Crossing {
   ObjectId object;
 };
 
-/// Which side of the directed line u -> w (y, z plane of the 3D row test; x, y of the 2D one
-/// uses its own rule) the row point p perturbed by (eps, eps^2) lies on: +1 left, -1 right.
-/// Computed from the lexicographically smaller end, so the two triangles of an edge get the
-/// same answer bit for bit.
-int side_of_edge(double uy, double uz, double wy, double wz, double py, double pz) {
-  if (uy > wy || (uy == wy && uz > wz)) return -side_of_edge(wy, wz, uy, uz, py, pz);
-  const double e = (wy - uy) * (pz - uz) - (wz - uz) * (py - uy);
-  if (e > 0) return 1;
-  if (e < 0) return -1;
-  // On the line: the perturbation decides (dE = (wy - uy) eps^2 - (wz - uz) eps).
-  if (wz != uz) return wz > uz ? -1 : 1;
-  return wy > uy ? 1 : -1;
-}
-
 }  // namespace
 
 void sign_grid_distances(const Scene& scene, const GridGeometry& g, const GridSpec& spec,
@@ -491,32 +471,22 @@ void sign_grid_distances(const Scene& scene, const GridGeometry& g, const GridSp
       int j0, j1;
       row_range(1, std::min(a.y, b.y), std::max(a.y, b.y), j0, j1);
       for (int j = j0; j <= j1; ++j) {
-        const double y = spec.origin.y + (j + 0.5) * spec.h;
-        // The row perturbed to y + eps: a vertex exactly on it counts as above.
-        if ((a.y <= y) == (b.y <= y)) continue;
-        const double x = a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y);
-        crossings[static_cast<size_t>(j)].push_back({x, o});
+        double x;
+        if (row_crosses_segment(a, b, spec.origin.y + (j + 0.5) * spec.h, x))
+          crossings[static_cast<size_t>(j)].push_back({x, o});
       }
       continue;
     }
     int j0, j1, k0, k1;
     row_range(1, std::min({a.y, b.y, c.y}), std::max({a.y, b.y, c.y}), j0, j1);
     row_range(2, std::min({a.z, b.z, c.z}), std::max({a.z, b.z, c.z}), k0, k1);
-    const double area = (b.y - a.y) * (c.z - a.z) - (b.z - a.z) * (c.y - a.y);
-    if (area == 0) continue;  // edge-on: its neighbours decide
+    if ((b.y - a.y) * (c.z - a.z) == (b.z - a.z) * (c.y - a.y)) continue;  // edge-on
     for (int k = k0; k <= k1; ++k) {
       const double z = spec.origin.z + (k + 0.5) * spec.h;
       for (int j = j0; j <= j1; ++j) {
-        const double y = spec.origin.y + (j + 0.5) * spec.h;
-        const int s0 = side_of_edge(a.y, a.z, b.y, b.z, y, z);
-        const int s1 = side_of_edge(b.y, b.z, c.y, c.z, y, z);
-        const int s2 = side_of_edge(c.y, c.z, a.y, a.z, y, z);
-        if (s0 != s1 || s1 != s2) continue;
-        // Barycentric coordinates of (y, z) in the projected triangle: x on its plane.
-        const double wa = ((b.y - y) * (c.z - z) - (b.z - z) * (c.y - y)) / area;
-        const double wb = ((c.y - y) * (a.z - z) - (c.z - z) * (a.y - y)) / area;
-        const double x = wa * a.x + wb * b.x + (1 - wa - wb) * c.x;
-        crossings[static_cast<size_t>(k) * spec.n[1] + static_cast<size_t>(j)].push_back({x, o});
+        double x;
+        if (row_crosses_triangle(a, b, c, spec.origin.y + (j + 0.5) * spec.h, z, x))
+          crossings[static_cast<size_t>(k) * spec.n[1] + static_cast<size_t>(j)].push_back({x, o});
       }
     }
   }

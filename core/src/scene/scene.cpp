@@ -86,6 +86,12 @@ MeshTopology mesh_topology(const SceneObject& object, int dimension) {
   return {open, non_manifold};
 }
 
+bool is_closed_object(const SceneObject& object, int dimension) {
+  if (object.simplices.empty()) return false;
+  const MeshTopology t = mesh_topology(object, dimension);
+  return t.open == 0 && t.non_manifold == 0;
+}
+
 namespace {
 
 /// Structural warnings of one object (its simplices are valid and non-degenerate).

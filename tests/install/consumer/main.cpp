@@ -72,6 +72,14 @@ int two_cubes() {
   expect(near(2, 0, 0.4) && std::abs(nearest.closest[8] - 1) < 1e-9, "nearest above the left cube");
   expect(nearest.object[3] == gvd::api::kNone && std::isnan(nearest.distance[3]),
          "a point outside the domain has no nearest object");
+  // The cubes are closed: a point says whether it is inside, with the distance signed.
+  const std::vector<double> within = {0.5, 0.5, 0.6};
+  const gvd::api::NearestBatch in = result.nearest(within);
+  expect(nearest.inside[0] == 0 && nearest.signed_distance[0] == nearest.distance[0],
+         "outside the left cube: positive");
+  expect(in.object[0] == 0 && in.inside[0] == 1 && in.signed_distance[0] == -in.distance[0] &&
+             in.distance[0] >= 0.4 - 1e-12 && in.distance[0] <= 1.5 * 0.4,
+         "inside the left cube: negative, 0.4 from its top face");
 
   // A path from above one cube to above the other, and one from inside a cube (none).
   const std::vector<double> from = {0.5, 0.5, 1.3}, to = {1.6, 0.5, 1.3};

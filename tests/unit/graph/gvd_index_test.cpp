@@ -13,6 +13,7 @@
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
 #include "support/gltf_validate.h"
+#include "support/grid_oracle.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
 
@@ -127,6 +128,91 @@ TEST(GvdIndexNearest, SameAnswersFromSavedResultAndFromManyThreads) {
   }
   for (std::thread& th : threads) th.join();
   for (int m : mismatches) EXPECT_EQ(m, 0);
+}
+
+// Signed answers against the winding-number oracle (grid_oracle.h: solid angles in 3D,
+// turning angles in 2D): a closed object says whether the point is inside it, with the
+// distance negative there; an open one has no inside (-1). `extra` points lie exactly on the
+// rows of the objects' vertices, where the ray of the parity test runs along edges and
+// through vertices.
+void expect_signs_match_winding_numbers(const GvdIndex& index, int samples,
+                                        const std::vector<Vec3>& extra) {
+  const GvdResult& r = index.result();
+  std::mt19937 rng(11);
+  std::vector<Vec3> points = extra;
+  for (int i = 0; i < samples; ++i) points.push_back(random_point(r, rng));
+  int inside = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Vec3 p = points[i];
+    for (const bool fast : {false, true}) {
+      const NearestAnswer a = index.nearest(p, fast);
+      const SceneObject& object = r.scene.objects[a.object];
+      if (!is_closed_object(object, r.scene.dimension)) {
+        EXPECT_FALSE(index.is_closed(a.object));
+        EXPECT_EQ(a.inside, -1) << "point " << i;
+        EXPECT_EQ(a.signed_distance(), a.distance);
+        continue;
+      }
+      EXPECT_TRUE(index.is_closed(a.object));
+      ASSERT_NE(a.inside, -1) << "point " << i;
+      // On the surface (within rounding) both answers are right.
+      if (a.distance < 1e-9 * r.domain.side) continue;
+      const bool truth = test::oracle_inside(object, r.scene.dimension, p);
+      EXPECT_EQ(a.inside == 1, truth) << "point " << i << " (" << p.x << ", " << p.y << ", " << p.z
+                                      << ") object " << object.label;
+      EXPECT_EQ(a.signed_distance(), truth ? -a.distance : a.distance);
+      inside += truth && !fast;
+    }
+  }
+  EXPECT_GT(inside, samples / 50) << "the samples should reach inside the objects";
+}
+
+/// Points on the rows (3D: same y and z; 2D: same y) of every vertex of the scene, at
+/// x positions inside and outside the objects.
+std::vector<Vec3> vertex_rows(const GvdResult& r) {
+  std::vector<Vec3> out;
+  const Box box = r.domain.box();
+  for (const SceneObject& o : r.scene.objects) {
+    for (const Vec3& v : o.vertices) {
+      for (const double t : {0.1, 0.37, 0.5, 0.81}) {
+        Vec3 p = v;
+        p.x = box.lo.x + t * (box.hi.x - box.lo.x);
+        out.push_back(p);
+      }
+    }
+  }
+  return out;
+}
+
+TEST(GvdIndexNearest, InsideAndSignedDistanceMatchWindingNumbers3d) {
+  std::vector<SceneObject> objects;
+  objects.push_back(test::make_sphere("ball", {0, 0, 0}, 1.0));
+  objects.push_back(test::make_box("box", {1.3, -0.5, -0.5}, {2.3, 0.5, 0.5}));
+  // A box turned about a skew axis (the domain frame stays the world's: several directions).
+  SceneObject turned = test::make_box("turned", {-0.4, -0.4, -0.4}, {0.4, 0.4, 0.4});
+  for (Vec3& v : turned.vertices)
+    v = test::rotate(v, Vec3{1, 2, 3} * (1 / std::sqrt(14.0)), 0.7) + Vec3{0, 2, 0};
+  objects.push_back(std::move(turned));
+  // An open sheet: two triangles, no inside.
+  SceneObject sheet;
+  sheet.label = "sheet";
+  sheet.vertices = {{-1, -1.5, -1}, {1, -1.5, -1}, {1, -1.5, 1}, {-1, -1.5, 1}};
+  sheet.simplices = {Simplex{{0, 1, 2}}, Simplex{{0, 2, 3}}};
+  objects.push_back(std::move(sheet));
+  const auto result = run(test::make_scene(3, std::move(objects)));
+  const GvdIndex index(result);
+  expect_signs_match_winding_numbers(index, 1500, vertex_rows(*result));
+}
+
+TEST(GvdIndexNearest, InsideAndSignedDistanceMatchWindingNumbers2d) {
+  std::vector<SceneObject> objects;
+  objects.push_back(test::make_gear2d("gear", {0, 0, 0}, 0.8, 1.0, 12, 0.0));
+  objects.push_back(test::make_rect("rect", {1.3, -0.5, 0}, {2.3, 0.5, 0}));
+  objects.push_back(test::make_circle("circle", {0, 1.8, 0}, 0.5, 7));
+  objects.push_back(test::make_segment("wire", {-1, -1.4, 0}, {1.5, -1.2, 0}));
+  const auto result = run(test::make_scene(2, std::move(objects)));
+  const GvdIndex index(result);
+  expect_signs_match_winding_numbers(index, 3000, vertex_rows(*result));
 }
 
 TEST(GvdIndexNeighbors, TwoObjectsAreEachOthersOneRing) {

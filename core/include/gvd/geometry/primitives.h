@@ -60,4 +60,16 @@ double segment_box_distance2_bound(Vec3 p0, Vec3 p1, const Box& b);
 /// closest pair of two disjoint convex polygons lies.
 double simplex_simplex_closest(int dimension, const Vec3* q, const Vec3* s, Vec3& on_q);
 
+/// Whether the line {(t, y, z) : t real} (3D), perturbed to (t, y + eps, z + eps^2) for an
+/// infinitesimal eps > 0, crosses triangle abc, and at which t (`x`). The perturbation
+/// (simulation of simplicity) makes the answer consistent where the line meets an edge or a
+/// vertex: every such line crosses a closed mesh an even number of times, and the two
+/// triangles of an edge decide their shared edge bit for bit alike, so the parity of the
+/// crossings on one side of a point says whether it is inside (ray casting). Edge-on
+/// triangles are never crossed.
+bool row_crosses_triangle(Vec3 a, Vec3 b, Vec3 c, double y, double z, double& x);
+/// 2D: whether the line {(t, y)}, perturbed to y + eps, crosses segment ab (a vertex exactly
+/// on the line counts as below it), and at which t (`x`). Segments along the line never are.
+bool row_crosses_segment(Vec3 a, Vec3 b, double y, double& x);
+
 }  // namespace gvd

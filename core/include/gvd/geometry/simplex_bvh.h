@@ -89,6 +89,10 @@ class SimplexBvh {
   /// false when it was stopped (a bounded gather: callers give up past a size).
   template <class Visit>
   bool visit_overlapping(const Box& box, Visit&& visit) const;
+  /// Calls `visit(simplex)` for every simplex of `object` whose bounding box overlaps `box`
+  /// (needs `object_of` at construction); walks that object's own tree only.
+  template <class Visit>
+  void for_each_overlapping_in_object(uint32_t object, const Box& box, Visit&& visit) const;
 
   size_t memory_bytes() const;
 
@@ -279,6 +283,29 @@ bool SimplexBvh::visit_overlapping(const Box& box, Visit&& visit) const {
     stack[top++] = self + 1;
   }
   return true;
+}
+
+template <class Visit>
+void SimplexBvh::for_each_overlapping_in_object(uint32_t object, const Box& box,
+                                                Visit&& visit) const {
+  if (object >= object_root_.size() || object_root_[object] == kNoRoot) return;
+  uint32_t stack[128];
+  int top = 0;
+  stack[top++] = object_root_[object];
+  while (top > 0) {
+    const uint32_t self = stack[--top];
+    const Node& n = object_nodes_[self];
+    bool overlap = true;
+    for (int i = 0; i < 3; ++i)
+      if (n.bounds.lo[i] > box.hi[i] || n.bounds.hi[i] < box.lo[i]) overlap = false;
+    if (!overlap) continue;
+    if (n.count() > 0) {
+      for (uint32_t i = n.first; i < n.first + n.count(); ++i) visit(order_[object_items_[i]]);
+      continue;
+    }
+    stack[top++] = n.first;
+    stack[top++] = self + 1;
+  }
 }
 
 }  // namespace gvd

@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "gvd/common/error.h"
 #include "gvd/geometry/vec.h"
 #include "gvd/pipeline/pipeline.h"
 
@@ -25,6 +26,12 @@ struct NearestAnswer {
   /// True when the leaf's vertices could not prove the 3/2 bound and the BVH answered
   /// (exactly); false for the fast path of §4.
   bool exact = false;
+  /// Whether the point is inside `object`: 1 inside, 0 outside, -1 unknown (the object is not
+  /// closed, so it has no inside; is_closed_object). Exact (ray parity with symbolic
+  /// perturbation), also on the fast path.
+  int8_t inside = -1;
+  /// The distance, negative inside a closed object (equal to `distance` for an open one).
+  double signed_distance() const { return inside == 1 ? -distance : distance; }
 };
 
 /// An object within k rings of another in the dual graph (paper §7.3).
@@ -119,6 +126,10 @@ class GvdIndex {
   /// object may flip within a cell of a Voronoi boundary.
   NearestAnswer nearest(Vec3 point, bool approximate = false) const;
 
+  /// Whether the object is closed (is_closed_object), so that nearest answers say whether a
+  /// point is inside it.
+  bool is_closed(ObjectId object) const;
+
   /// Objects within `ring` rings of `object` (1 <= ring; rings beyond the graph's reach just
   /// return everything connected), sorted by (ring, object). Breadth-first on the dual graph.
   std::vector<RingNeighbor> neighbors(ObjectId object, int ring) const;
@@ -149,8 +160,14 @@ class GvdIndex {
 std::vector<Vec3> parse_points_json(std::string_view text, int dimension);
 
 /// JSON of the answers (DESIGN.md contracts); labels are added next to object indices.
-/// Nearest: {"point":[...],"object":i,"label":"...","distance":d}.
+/// Nearest: {"point":[...],"object":i,"label":"...","distance":d,"signed_distance":s,
+/// "inside":true|false|null,"closest":[...]} (inside null: the object is not closed; then
+/// signed_distance = distance).
 std::string nearest_to_json(const GvdIndex& index, const NearestAnswer& answer);
+/// A batch entry for a point without an answer (outside the domain): {"point":[...],
+/// "object":null,"label":null,"distance":null,"signed_distance":null,"inside":null,
+/// "closest":null,"error":{"code":"outside_domain","detail":"..."}}.
+std::string nearest_error_to_json(const GvdIndex& index, Vec3 point, const Error& error);
 /// {"object":i,"label":"...","ring":k,"neighbors":[{"object","label","ring","via","area",
 /// "min_clearance","tightest_point"}]}
 std::string neighbors_to_json(const GvdIndex& index, ObjectId object, int ring,

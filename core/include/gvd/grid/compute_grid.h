@@ -119,11 +119,6 @@ struct DistanceGrid {
 /// {kLimitExceeded} otherwise). Cheap: use it to check limits before work starts.
 GridSpec make_grid_spec(const Scene& scene, const GridOptions& options = {});
 
-/// Whether an object is closed: 2D every vertex of its segments has degree 2; 3D every edge
-/// of its triangles is used by exactly two (the rule of validate_scene's open_mesh and
-/// non_manifold warnings). Vertices are matched by index, so an unwelded mesh is open.
-bool is_closed_object(const SceneObject& object, int dimension);
-
 /// The discrete GVD of paper §4-5 on make_grid_spec's grid: the sites (the scene's objects,
 /// each searched through a BVH of its simplices) are binned into ranges; 2^D sweeps (3D: slice
 /// after slice) carry each range's potentially intersecting swept set from the preceding ranges

@@ -69,6 +69,11 @@ struct MeshTopology {
   uint64_t non_manifold = 0;
 };
 MeshTopology mesh_topology(const SceneObject& object, int dimension);
+/// Whether an object is closed: it has simplices, and mesh_topology finds no open and no
+/// non-manifold element (2D: every vertex of its segments has degree 2; 3D: every edge of its
+/// triangles is used by exactly two). Vertices are matched by index, so an unwelded mesh is
+/// open. Closed objects have an inside: ray parity (row_crosses_triangle) decides it.
+bool is_closed_object(const SceneObject& object, int dimension);
 
 /// The computational domain: a square/cube in user coordinates, and the map to the unit
 /// lattice [0,1]^D in which the octree works. The cube's edges run along `axis` (the octree's
