@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "gvd/common/parallel.h"
+#include "gvd/graph/contact_report.h"
 #include "gvd/graph/gvd_index.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
@@ -242,6 +243,25 @@ const std::string& Result::label(Object object) const {
 }
 Object Result::object(std::string_view label) const {
   return object_of(impl_->index().object(label));
+}
+
+std::vector<Contact> Result::contacts(double max_gap) const {
+  auto array = [](Vec3 p) { return std::array<double, 3>{p.x, p.y, p.z}; };
+  std::vector<Contact> out;
+  for (const gvd::Contact& c : find_contacts(impl_->index(), max_gap)) {
+    Contact& o = out.emplace_back();
+    o.a = object_of(c.a);
+    o.b = object_of(c.b);
+    o.gap = c.gap;
+    o.on_a = array(c.on_a);
+    o.on_b = array(c.on_b);
+    o.interference = c.interference;
+    o.depth_lower_bound = c.depth_lower_bound;
+    o.interface_area = c.interface_area;
+    for (const gvd::ContactSite& s : c.sites)
+      o.sites.push_back({s.area, array(s.centroid), s.min_gap, array(s.on_a), array(s.on_b)});
+  }
+  return out;
 }
 
 std::vector<Edge> Result::graph() const {

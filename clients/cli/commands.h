@@ -37,6 +37,7 @@ int cmd_neighbors(int argc, char** argv);
 int cmd_path(int argc, char** argv);
 int cmd_explode(int argc, char** argv);
 int cmd_tight(int argc, char** argv);
+int cmd_contacts(int argc, char** argv);
 
 // The uniform grid (grid_command.cpp): distance and labels per cell to .npy / NRRD.
 int cmd_grid(int argc, char** argv);

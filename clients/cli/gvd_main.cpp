@@ -43,6 +43,9 @@ Usage:
   gvd explode INPUT --anchor LABEL [-o FILE.glb] [--scale S] [--seconds T]
                                    exploded view: displacement per object (+ animated GLB)
   gvd tight INPUT --below B        object pairs whose interface comes closer than B
+  gvd contacts INPUT --max-gap G   object pairs closer than G (and every pair that touches or
+                                   intersects): exact gap, closest points, interface area,
+                                   contact sites
   gvd grid SCENE --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]
                                    uniform-grid discrete GVD: distance and nearest object
                                    per cell (CuRV range culling, Sud et al. 2006)
@@ -160,7 +163,7 @@ remote mode (--server URL, or the environment variable GVD_SERVER; --local ignor
                              --ambiguity-levels, --ambiguity-rounds, --unseen-rounds, --refine,
                              --resolution, --curved-tolerance (threads, backend and limits are
                              the server's own settings)
-  gvd --server URL neighbors|nearest|path|explode|tight --job ID [query options]
+  gvd --server URL neighbors|nearest|path|explode|tight|contacts --job ID [query options]
                              a query on a finished job; the same JSON on stdout as locally.
                              Scene files instead of --job ID: submitted and waited for first
   gvd --server URL info --job ID [--json]
@@ -511,6 +514,7 @@ int run(int argc, char** argv) {
   if (command == "path") return cmd_path(argc, argv);
   if (command == "explode") return cmd_explode(argc, argv);
   if (command == "tight") return cmd_tight(argc, argv);
+  if (command == "contacts") return cmd_contacts(argc, argv);
   if (command == "grid") return cmd_grid(argc, argv);
   throw UsageError{"unknown command \"" + command + "\""};
 }

@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "gvd/common/error.h"
+#include "gvd/graph/contact_report.h"
 #include "gvd/graph/gvd_index.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
@@ -178,6 +179,18 @@ int cmd_tight(int argc, char** argv) {
   const GvdIndex index = load_index(args);
   const std::vector<TightSpot> spots = index.tight((*below)[0]);
   std::printf("%s\n", tight_to_json(index, (*below)[0], spots).c_str());
+  return kExitOk;
+}
+
+int cmd_contacts(int argc, char** argv) {
+  const Args args = parse_query(argc, argv, {"--max-gap"});
+  const auto bound = args.numbers("--max-gap");
+  if (!bound || bound->size() != 1 || !((*bound)[0] >= 0)) {
+    throw UsageError{"contacts needs --max-gap G (a distance >= 0)"};
+  }
+  const GvdIndex index = load_index(args);
+  const std::vector<Contact> contacts = find_contacts(index, (*bound)[0]);
+  std::printf("%s\n", contacts_to_json(index, (*bound)[0], contacts).c_str());
   return kExitOk;
 }
 

@@ -1,7 +1,7 @@
-// `gvd --server URL compute | info | nearest | neighbors | path | explode | tight`: the same
-// commands as the local ones, answered by gvd-server. Query answers are printed exactly as the
-// local commands print them (the server builds them with the same functions), so scripts do
-// not care where the answer came from.
+// `gvd --server URL compute | info | nearest | neighbors | path | explode | tight | contacts`:
+// the same commands as the local ones, answered by gvd-server. Query answers are printed exactly as
+// the local commands print them (the server builds them with the same functions), so scripts do not
+// care where the answer came from.
 #include "remote_commands.h"
 
 #include <algorithm>
@@ -624,6 +624,20 @@ int remote_tight(const std::string& url, int argc, char** argv) {
   return kExitOk;
 }
 
+int remote_contacts(const std::string& url, int argc, char** argv) {
+  const Args args = parse_remote(argc, argv, {"--max-gap"});
+  const auto bound = args.numbers("--max-gap");
+  if (!bound || bound->size() != 1 || !((*bound)[0] >= 0)) {
+    throw UsageError{"contacts needs --max-gap G (a distance >= 0)"};
+  }
+  Remote remote(url, args);
+  const std::string id = remote.query_job(args);
+  const HttpAnswer a = remote.call(
+      "GET", Remote::job_path(id) + "/contacts?max_gap=" + url_encode(*args.value("--max-gap")));
+  std::printf("%s\n", a.body.c_str());
+  return kExitOk;
+}
+
 }  // namespace
 
 int exit_code_for_problem(const std::string& type, int status) {
@@ -646,6 +660,7 @@ int run_remote(const std::string& url, int argc, char** argv) {
   if (command == "path") return remote_path(url, argc, argv);
   if (command == "explode") return remote_explode(url, argc, argv);
   if (command == "tight") return remote_tight(url, argc, argv);
+  if (command == "contacts") return remote_contacts(url, argc, argv);
   throw UsageError{"unknown command \"" + command + "\""};
 }
 

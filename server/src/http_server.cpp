@@ -795,6 +795,8 @@ void HttpServer::Impl::setup() {
         [this](const auto& req, auto& res) { queries.explode(req, res); });
   route("GET", "/v1/jobs/{id}/tight",
         [this](const auto& req, auto& res) { queries.tight(req, res); });
+  route("GET", "/v1/jobs/{id}/contacts",
+        [this](const auto& req, auto& res) { queries.contacts(req, res); });
   route("GET", "/v1/jobs/{id}/field.npy",
         [this](const auto& req, auto& res) { queries.grid(req, res, false); });
   route("GET", "/v1/jobs/{id}/labels.npy",

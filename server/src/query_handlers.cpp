@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
+#include "gvd/graph/contact_report.h"
 #include "gvd/graph/gvd_index.h"
 #include "gvd/grid/sample_result_grid.h"
 #include "gvd/io/write_grid.h"
@@ -198,6 +199,14 @@ void QueryHandlers::tight(const httplib::Request& req, httplib::Response& res) {
   if (below < 0) bad("\"below\" must be >= 0");
   const std::vector<TightSpot> spots = index.tight(below);
   send_json(res, tight_to_json(index, below, spots));
+}
+
+void QueryHandlers::contacts(const httplib::Request& req, httplib::Response& res) {
+  const auto result = jobs_.result(req.matches[1].str());
+  const GvdIndex& index = result->index();
+  const double max_gap = parse_double("max_gap", param(req, "max_gap", true));
+  if (!(max_gap >= 0)) bad("\"max_gap\" must be >= 0");
+  send_json(res, contacts_to_json(index, max_gap, find_contacts(index, max_gap)));
 }
 
 void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bool labels) {

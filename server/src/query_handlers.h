@@ -26,6 +26,7 @@ class QueryHandlers {
   void paths(const httplib::Request& req, httplib::Response& res);
   void explode(const httplib::Request& req, httplib::Response& res);
   void tight(const httplib::Request& req, httplib::Response& res);
+  void contacts(const httplib::Request& req, httplib::Response& res);
   /// GET .../field.npy (`labels` false: distances) or .../labels.npy: the job's result sampled
   /// on a uniform grid (sample_result_grid), as a numpy .npy file.
   void grid(const httplib::Request& req, httplib::Response& res, bool labels);

@@ -16,7 +16,7 @@ struct Route {
 
 inline constexpr std::string_view kJobId = "([^/]+)";
 
-inline constexpr std::array<Route, 26> kRoutes = {{
+inline constexpr std::array<Route, 27> kRoutes = {{
     {"GET", R"(/)", "/"},
     {"GET", R"(/viewer/(.+))", "/viewer/{path}"},
     {"GET", R"(/vendor/(.+))", "/vendor/{path}"},
@@ -41,6 +41,7 @@ inline constexpr std::array<Route, 26> kRoutes = {{
     {"POST", R"(/v1/jobs/([^/]+)/paths)", "/v1/jobs/{id}/paths"},
     {"GET", R"(/v1/jobs/([^/]+)/explode)", "/v1/jobs/{id}/explode"},
     {"GET", R"(/v1/jobs/([^/]+)/tight)", "/v1/jobs/{id}/tight"},
+    {"GET", R"(/v1/jobs/([^/]+)/contacts)", "/v1/jobs/{id}/contacts"},
     {"GET", R"(/v1/jobs/([^/]+)/field\.npy)", "/v1/jobs/{id}/field.npy"},
     {"GET", R"(/v1/jobs/([^/]+)/labels\.npy)", "/v1/jobs/{id}/labels.npy"},
     {"GET", R"(/problems/([a-z-]+))", "/problems/{name}"},

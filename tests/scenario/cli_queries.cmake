@@ -70,5 +70,22 @@ if(npairs LESS 4)
   message(FATAL_ERROR "tight --below 1 should report the close pairs: ${LAST_OUT}")
 endif()
 
+# Contacts: the balls sit 1e-3 / 5e-4 from the plate; a bound of 1e-2 catches each pair, with
+# its exact gap below the bound and at least one site of the interface.
+run_expect(0 ${GVD} contacts ${result} --max-gap 1e-2)
+string(JSON ncontacts LENGTH "${LAST_OUT}" contacts)
+if(ncontacts LESS 4)
+  message(FATAL_ERROR "contacts --max-gap 1e-2 should report the balls on the plate: ${LAST_OUT}")
+endif()
+math(EXPR last "${ncontacts} - 1")
+foreach(i RANGE ${last})
+  string(JSON gap GET "${LAST_OUT}" contacts ${i} gap)
+  string(JSON nsites LENGTH "${LAST_OUT}" contacts ${i} sites)
+  if(gap GREATER_EQUAL 1e-2 OR nsites LESS 1)
+    message(FATAL_ERROR "contact ${i}: gap ${gap} and ${nsites} sites: ${LAST_OUT}")
+  endif()
+endforeach()
+run_expect(2 ${GVD} contacts ${result} --max-gap -1)
+
 # A scene instead of a result: computed first.
 run_expect(0 ${GVD} neighbors ${DATA}/scenes/gears2d.json --object gear_a -q)

@@ -885,6 +885,31 @@ TEST(ServiceQueries, NearestSingleAndBatch) {
       200);
 }
 
+TEST(ServiceQueries, ContactsAreTheCloseDualGraphPairsWithTheirGaps) {
+  QueryFixture f;
+  auto r = f.c->Get(f.url("/contacts?max_gap=0.1").c_str());
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json doc = Json::parse(r->body);
+  EXPECT_EQ(doc["max_gap"], 0.1);
+  // The gears mesh 0.02 apart: a contact, with the dual graph's exact gap.
+  bool gears = false;
+  for (const Json& c : doc["contacts"]) {
+    EXPECT_LT(c["gap"].get<double>(), 0.1);
+    if (c["label_a"] != "gear_a" || c["label_b"] != "gear_b") continue;
+    gears = true;
+    for (const Json& e : f.graph["edges"]) {
+      if (e["label_a"] == "gear_a" && e["label_b"] == "gear_b") {
+        EXPECT_DOUBLE_EQ(c["gap"].get<double>(), e["gap"].get<double>());
+      }
+    }
+    EXPECT_GE(c["sites"].size(), 1u);
+  }
+  EXPECT_TRUE(gears) << r->body;
+  EXPECT_EQ(f.c->Get(f.url("/contacts?max_gap=-1").c_str())->status, 400);
+  EXPECT_EQ(f.c->Get(f.url("/contacts").c_str())->status, 400);
+}
+
 TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
   QueryFixture f;
   auto r = f.c->Post(f.url("/paths").c_str(), R"({"from":[-1.3,-2.3],"to":[3.3,2.3]})",

@@ -183,6 +183,31 @@ struct Explosion {
   std::vector<double> displacement;  ///< dimension() numbers per object
 };
 
+/// A connected region of the GVD interface between a contact's objects where twice the
+/// clearance (the distance across the interface) is below the bound.
+struct ContactSite {
+  double area = 0;                   ///< area (2D: length), clearance interpolated per piece
+  std::array<double, 3> centroid{};  ///< z = 0 in 2D
+  /// The least gap measured across the site (exact closest points on both objects of its
+  /// lowest-clearance GVD vertices): >= the pair's gap, < the bound.
+  double min_gap = 0;
+  std::array<double, 3> on_a{}, on_b{};  ///< the closest points of that measurement
+};
+
+/// A pair of objects closer than the bound of Result::contacts.
+struct Contact {
+  Object a = kNone;  ///< a < b
+  Object b = kNone;
+  double gap = 0;  ///< exact least distance between the objects' simplices; 0: they meet
+  std::array<double, 3> on_a{}, on_b{};  ///< a closest pair of points, one on each
+  bool interference = false;             ///< they touch or intersect (gap 0)
+  /// With interference: the deepest vertex of either object inside the other (closed)
+  /// object, to its surface: a lower bound of the penetration depth; < 0: not computable.
+  double depth_lower_bound = -1;
+  double interface_area = 0;  ///< of their GVD interface (2D: length); 0 when cells do not meet
+  std::vector<ContactSite> sites;  ///< largest first
+};
+
 /// A finished GVD and the queries on it. Cheap to copy (copies share the immutable result).
 /// The query index is built at the first query (O(result size)), once.
 class Result {
@@ -215,6 +240,11 @@ class Result {
   Cell cell(std::string_view label) const;
   /// Displacements of an exploded view; `scale` <= 0 picks 1/4 of the mean object size.
   Explosion explode(std::string_view anchor, double scale = 0) const;
+  /// Every pair of objects whose gap is below `max_gap` (>= 0, user units) and every pair
+  /// that touches or intersects, sorted by (gap, a, b), with the sites of their interface
+  /// below the bound (`gvd contacts`). The gaps are measured exactly from the simplices, not
+  /// read off the GVD. gvd::Error{kInvalidArgument} for a negative or non-finite bound.
+  std::vector<Contact> contacts(double max_gap) const;
 
   /// Writes the whole result (reloadable by load()), atomically; gvd::Error{kIo} on failure.
   void save(const std::string& path) const;

@@ -463,6 +463,14 @@ bool GvdIndex::is_closed(ObjectId object) const {
   return object < impl_->closed.size() && impl_->closed[object] != 0;
 }
 
+int8_t GvdIndex::inside(Vec3 point, ObjectId object) const {
+  if (!is_closed(object)) return -1;
+  if (impl_->dimension == 2) point.z = 0;
+  return impl_->inside_closed(impl_->to_unit(point), object) ? 1 : 0;
+}
+
+const SimplexBvh& GvdIndex::bvh() const { return impl_->bvh; }
+
 NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
   const Impl& m = *impl_;
   m.check_inside(point, "point");

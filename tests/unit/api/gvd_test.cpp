@@ -98,6 +98,29 @@ TEST(GvdApi, TwoSquaresIn2D) {
   const Explosion e = r.explode("left");
   EXPECT_EQ(e.ring, (std::vector<int>{0, 1}));
   EXPECT_GT(e.displacement[2], 0);  // "right" moves away from "left", along +x
+
+  // The squares are closed: inside "left" the distance is negative, 0.5 from its sides.
+  const std::vector<double> within = {0.5, 0.5};
+  const NearestBatch in = r.nearest(within);
+  EXPECT_EQ(in.inside[0], 1);
+  EXPECT_EQ(n.inside[0], 0);
+  EXPECT_EQ(in.signed_distance[0], -in.distance[0]);
+  EXPECT_GE(in.distance[0], 0.5 - 1e-12);
+
+  // Contacts: the one pair, at the exact gap, with one site along the facing sides (length
+  // 1 + 2 r, r = sqrt((G/2)^2 - (g/2)^2), the mid-line being straight by symmetry).
+  const double bound = 0.05;
+  const std::vector<Contact> contacts = r.contacts(bound);
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_EQ(contacts[0].a, 0);
+  EXPECT_EQ(contacts[0].b, 1);
+  EXPECT_NEAR(contacts[0].gap, gap, 1e-12);
+  EXPECT_FALSE(contacts[0].interference);
+  ASSERT_EQ(contacts[0].sites.size(), 1u);
+  const double reach = std::sqrt(bound * bound - gap * gap) / 2;
+  EXPECT_NEAR(contacts[0].sites[0].area, 1 + 2 * reach, 0.01);
+  EXPECT_NEAR(contacts[0].sites[0].centroid[0], mid, 1e-6);
+  EXPECT_TRUE(r.contacts(gap / 2).empty());
 }
 
 TEST(GvdApi, AnswersAreTheCoresOnTheSameScene) {

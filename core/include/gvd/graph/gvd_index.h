@@ -14,6 +14,8 @@
 
 namespace gvd {
 
+class SimplexBvh;
+
 /// Nearest object at a point (paper §4, last paragraph): the closest of the closest points
 /// stored on the vertices of the leaf that contains the point. `distance` is the distance to
 /// that point on the object, so it is never below the true distance (and within the 3/2
@@ -129,6 +131,12 @@ class GvdIndex {
   /// Whether the object is closed (is_closed_object), so that nearest answers say whether a
   /// point is inside it.
   bool is_closed(ObjectId object) const;
+  /// Whether a point (user units) is inside the object: 1 inside, 0 outside, -1 when the
+  /// object is not closed (NearestAnswer::inside's test, for any object).
+  int8_t inside(Vec3 point, ObjectId object) const;
+  /// The exact search structure over the scene's simplices (unit coordinates; with the object
+  /// of every simplex), for queries built on this index (find_contacts).
+  const SimplexBvh& bvh() const;
 
   /// Objects within `ring` rings of `object` (1 <= ring; rings beyond the graph's reach just
   /// return everything connected), sorted by (ring, object). Breadth-first on the dual graph.

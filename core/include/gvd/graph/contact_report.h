@@ -1,0 +1,63 @@
+#pragma once
+
+// Contacts: every pair of objects closer than a bound, with the exact gap between them, the
+// GVD's interface between them and the connected sites of that interface where they come
+// closer than the bound (the "touching neurons" and clearance-check questions).
+
+#include <string>
+#include <vector>
+
+#include "gvd/geometry/vec.h"
+#include "gvd/graph/gvd_index.h"
+
+namespace gvd {
+
+/// A connected region of the interface between two objects where twice the clearance (the
+/// distance across the interface from one object to the other) is below the bound.
+struct ContactSite {
+  /// Area (2D: length) of the region, user units: the GVD pieces between the pair cut where
+  /// 2 x clearance < bound (exact clearances, pieces that straddle the bound split five times,
+  /// then interpolated linearly).
+  double area = 0;
+  Vec3 centroid;  ///< of that region
+  /// The least gap measured across the site: the exact distance between the closest points
+  /// on the two objects of the site's lowest-clearance GVD vertices. Never below the pair's
+  /// `gap`, and below the bound.
+  double min_gap = 0;
+  Vec3 on_a, on_b;  ///< the closest points of that measurement, on a and on b
+};
+
+/// A pair of objects closer than the bound.
+struct Contact {
+  ObjectId a = kNoObject;  ///< a < b
+  ObjectId b = kNoObject;
+  /// The exact least distance between the two objects, from their simplices (not read off the
+  /// GVD); 0 when they touch or intersect.
+  double gap = 0;
+  Vec3 on_a, on_b;  ///< a closest pair of points, one on each (where they meet: a crossing)
+  /// They touch or intersect (gap 0).
+  bool interference = false;
+  /// With interference: the deepest vertex of either object inside the other, measured to
+  /// the other's surface (exact there). A lower bound of the penetration depth (the deepest
+  /// point of the overlap need not be a vertex); < 0 when not computable (neither object is
+  /// closed) or no vertex lies inside.
+  double depth_lower_bound = -1;
+  /// The GVD interface between them (area in 3D, length in 2D; 0 when their cells do not
+  /// meet, e.g. a third object lies between them).
+  double interface_area = 0;
+  std::vector<ContactSite> sites;  ///< largest first
+};
+
+/// Every pair whose gap is below `max_gap` (user units, >= 0), and every pair that touches
+/// or intersects, sorted by (gap, a, b). Candidates by bounding boxes within `max_gap`, then
+/// exact BVH distances (SimplexBvh::object_distance). gvd::Error{kInvalidArgument} for a
+/// negative or non-finite bound.
+std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap);
+
+/// {"max_gap":G,"contacts":[{"a","label_a","b","label_b","gap","on_a","on_b","interference",
+/// "depth_lower_bound" (null when < 0),"interface_area","sites":[{"area","centroid","min_gap",
+/// "on_a","on_b"}]}]} (docs/FORMATS.md).
+std::string contacts_to_json(const GvdIndex& index, double max_gap,
+                             const std::vector<Contact>& contacts);
+
+}  // namespace gvd
