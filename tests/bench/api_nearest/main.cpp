@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     const int repeats = std::max(1, std::stoi(argv[3]));
     const int threads = std::stoi(argv[4]);
 
-    gvd::api::NearestBatch batch = result.nearest(std::span<const double>(points.data(), 1000),
+    gvd::api::NearestBatch batch = result.nearest(std::span<const double>(points.data(), 3000),
                                                   false, threads);  // builds the index
     double best = 1e300;
     for (int r = 0; r < repeats; ++r) {
