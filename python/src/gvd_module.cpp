@@ -205,9 +205,7 @@ Objects are numbered in the order of Scene.add (0, 1, ...); -1 means no object. 
 gvd.Error, one subclass per code (gvd.InvalidScene, gvd.NotFound, ...).)doc";
 
 constexpr const char* kComputeDoc =
-    R"doc(compute(scene, *, progress=None, cancel=None, **options) -> gvd.Result
-
-The GVD of a scene: the pipeline of `gvd compute`, with the same options and defaults.
+    R"doc(The GVD of a scene: the pipeline of `gvd compute`, with the same options and defaults.
 
 scene     a gvd.Scene, or a scene file path (str / os.PathLike: scene JSON, OBJ, GLB/glTF) or a
           list of mesh file paths (PLY/STL/OFF/OBJ, one object each, labelled by file stem)
