@@ -45,7 +45,7 @@ test: build
 
 test-asan: deps
 	cmake -S . -B $(BUILD_ASAN) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Debug -DGVD_SANITIZE=ON \
-	  -DGVD_BUILD_BENCH=OFF
+	  -DGVD_BUILD_BENCH=OFF -DGVD_BUILD_PYTHON=OFF
 	cmake --build $(BUILD_ASAN) -j $(JOBS)
 	cd $(BUILD_ASAN) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp \
@@ -55,6 +55,8 @@ test-asan: deps
 bench: build
 	$(BUILD)/tests/gvd_bench --benchmark_repetitions=3
 	@if [ -x $(BUILD)/tests/gvd_bench_openvdb ]; then $(BUILD)/tests/gvd_bench_openvdb; fi
+	@if [ -d $(BUILD)/python/gvd ]; then PYTHONPATH=$(BUILD)/python /usr/bin/python3 \
+	  tests/bench/python_nearest_bench.py --cpp $(BUILD)/tests/gvd_bench_api_nearest; fi
 	@$(MAKE) --no-print-directory bench-server
 
 # gvd-server under wrk on loopback (bounded runs, 127.0.0.1 only).

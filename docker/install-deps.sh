@@ -5,7 +5,8 @@
 #
 # GVD_DEPS selects what (default `all`):
 #   all      build, test and benchmark everything (the README path, CI)
-#   build    compile gvd, gvd-server and the web viewer, without the test tools (image build stage)
+#   build    compile gvd, gvd-server, the web viewer and the Python module (pybind11, numpy for
+#            /usr/bin/python3), without the test tools (image build stage)
 #   runtime  only the shared libraries gvd and gvd-server load, curl for the health check and
 #            PoCL for OpenCL on the CPU (image runtime stage; no npm)
 set -euo pipefail
@@ -15,6 +16,7 @@ build_packages=(
   build-essential cmake ninja-build pkg-config git
   libcpp-httplib-dev libssl-dev nlohmann-json3-dev libtinygltf-dev
   opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd
+  pybind11-dev python3-dev python3-numpy
 )
 test_packages=(
   libgtest-dev libgmock-dev libbenchmark-dev libboost-dev libopenvdb-dev

@@ -1,0 +1,481 @@
+// The Python module gvd._gvd (re-exported by the package gvd): the facade gvd/gvd.h on numpy
+// arrays. Scene.add reads (n, D) float64 arrays in place; every array returned owns the
+// facade's vector (py_arrays.h); compute and the queries run without the GIL; gvd::Error
+// becomes gvd.Error's subclass of its code (py_errors.h). docs/PYTHON.md is the user's guide.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "gvd/gvd.h"
+#include "py_arrays.h"
+#include "py_compute.h"
+#include "py_errors.h"
+
+namespace gvd::python {
+
+namespace {
+
+using namespace pybind11::literals;
+
+/// The named-tuple types of the answers (created in the module at import; kept alive by it).
+struct Types {
+  py::handle nearest, path, explosion;
+};
+Types types;
+
+/// gvd.Cell: the boundary of an object's cell. Iterates as (vertices, faces), so that
+/// `V, F = r.cell("a")` works, and has .vertices/.faces like a trimesh mesh, so a cell can be
+/// passed back to Scene.add or to trimesh.Trimesh(*cell).
+struct PyCell {
+  py::array vertices, faces, other, clearance;
+};
+
+std::string path_string(const py::handle& path) {
+  return py::str(py::module_::import("os").attr("fspath")(path)).cast<std::string>();
+}
+
+PyScene load_scene(const py::handle& paths) {
+  std::vector<std::string> files;
+  if (py::isinstance<py::str>(paths) || py::hasattr(paths, "__fspath__")) {
+    files.push_back(path_string(paths));
+  } else {
+    for (const py::handle& p : paths) files.push_back(path_string(p));
+  }
+  py::gil_scoped_release unlocked;
+  return PyScene(api::Scene::load(files));
+}
+
+/// An object given by label (str) or index (int).
+api::Object object_arg(const api::Result& r, const py::handle& object) {
+  if (py::isinstance<py::str>(object)) {
+    const std::string label = object.cast<std::string>();
+    return r.object(label);
+  }
+  if (PyIndex_Check(object.ptr())) return object.cast<api::Object>();
+  throw Error(ErrorCode::kInvalidArgument, "an object is a label (str) or an index (int)");
+}
+
+int scene_add(PyScene& s, const std::string& label, const py::object& vertices,
+              const py::object& faces) {
+  const api::Object index = s.scene.size();
+  try {
+    if (s.computing > 0) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "the scene is being computed: add objects before or after compute()");
+    }
+    py::object v = vertices, f = faces;
+    if (f.is_none()) {  // add(label, mesh): anything with .vertices and .faces (trimesh, ...)
+      if (!py::hasattr(vertices, "vertices")) {
+        throw Error(ErrorCode::kInvalidArgument,
+                    "add(label, vertices, faces), or add(label, mesh) with a mesh that has "
+                    ".vertices and .faces");
+      }
+      v = vertices.attr("vertices");
+      for (const char* name : {"faces", "triangles", "segments", "simplices"}) {
+        if (py::hasattr(vertices, name)) {
+          f = vertices.attr(name);
+          break;
+        }
+      }
+      if (f.is_none()) {
+        throw Error(ErrorCode::kInvalidArgument,
+                    "the mesh has .vertices but no .faces (or .triangles, .segments)");
+      }
+    }
+    const int dim = s.scene.dimension();
+    const PointsIn points = points_in(v, dim, "the vertices");
+    const SimplicesIn simplices = simplices_in(f, dim);
+    return s.scene.add(label, points.span(), simplices.span);
+  } catch (const Error& e) {
+    throw error_for(e, {label, index});
+  }
+}
+
+py::object nearest(const api::Result& r, const py::handle& points, bool fast, int threads) {
+  const int dim = r.dimension();
+  const PointsIn in = points_in(points, dim, "the points");
+  api::NearestBatch batch;
+  {
+    py::gil_scoped_release unlocked;
+    batch = r.nearest(in.span(), fast, threads);
+  }
+  if (in.single) {
+    return types.nearest(batch.object[0], batch.distance[0],
+                         to_numpy(std::move(batch.closest), {dim}));
+  }
+  const auto n = static_cast<py::ssize_t>(in.count);
+  return types.nearest(to_numpy(std::move(batch.object), {n}),
+                       to_numpy(std::move(batch.distance), {n}),
+                       to_numpy(std::move(batch.closest), {n, dim}));
+}
+
+py::object path(const api::Result& r, const py::handle& from, const py::handle& to,
+                double min_clearance, bool by_clearance) {
+  const int dim = r.dimension();
+  const PointsIn a = points_in(from, dim, "the start point");
+  const PointsIn b = points_in(to, dim, "the end point");
+  if (!a.single || !b.single) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "path() takes two points of " + std::to_string(dim) + " numbers each");
+  }
+  api::PathOptions options;
+  options.min_clearance = min_clearance;
+  options.by_clearance = by_clearance;
+  api::Path p;
+  {
+    py::gil_scoped_release unlocked;
+    p = r.path(a.span(), b.span(), options);
+  }
+  const auto k = static_cast<py::ssize_t>(p.points.size() / static_cast<size_t>(dim));
+  return types.path(p.found, to_numpy(std::move(p.points), {k, dim}), p.length, p.min_clearance,
+                    p.reason);
+}
+
+PyCell cell(const api::Result& r, const py::handle& object) {
+  const api::Object o = object_arg(r, object);
+  api::Cell c;
+  {
+    py::gil_scoped_release unlocked;
+    c = r.cell(o);
+  }
+  const int dim = r.dimension();
+  const auto nv = static_cast<py::ssize_t>(c.other.size());
+  const auto ns = static_cast<py::ssize_t>(c.simplices.size() / static_cast<size_t>(dim));
+  return PyCell{to_numpy(std::move(c.vertices), {nv, dim}),
+                to_numpy(std::move(c.simplices), {ns, dim}), to_numpy(std::move(c.other), {nv}),
+                to_numpy(std::move(c.clearance), {nv})};
+}
+
+py::object explode(const api::Result& r, const py::handle& anchor, double scale) {
+  const api::Object o = object_arg(r, anchor);
+  const std::string label = r.label(o);
+  api::Explosion e;
+  {
+    py::gil_scoped_release unlocked;
+    e = r.explode(label, scale);
+  }
+  const auto n = static_cast<py::ssize_t>(e.ring.size());
+  return types.explosion(e.scale, to_numpy(std::move(e.ring), {n}),
+                         to_numpy(std::move(e.displacement), {n, r.dimension()}));
+}
+
+/// A writer of the result to a path (str or os.PathLike), without the GIL.
+template <void (api::Result::*write)(const std::string&) const>
+void write_to(const api::Result& r, const py::handle& path) {
+  const std::string p = path_string(path);
+  py::gil_scoped_release unlocked;
+  (r.*write)(p);
+}
+
+py::object make_namedtuple(py::module_& m, const char* name, std::vector<const char*> fields,
+                           const char* doc) {
+  py::list names;
+  for (const char* f : fields) names.append(f);
+  py::object type =
+      py::module_::import("collections").attr("namedtuple")(name, names, "module"_a = "gvd");
+  type.attr("__doc__") = doc;
+  m.attr(name) = type;
+  return type;
+}
+
+constexpr const char* kModuleDoc =
+    R"doc(Generalized Voronoi diagrams of labelled 3D triangle meshes and 2D segment sets.
+
+The engine of `gvd compute` in-process, on numpy arrays (docs/PYTHON.md)::
+
+    import numpy as np, gvd
+    scene = gvd.Scene(dimension=3)
+    scene.add("a", vertices_a, triangles_a)   # (n, 3) float64, (m, 3) integers
+    scene.add("b", mesh_b)                    # anything with .vertices and .faces
+    r = gvd.compute(scene, threads=0, progress=True)
+    r.graph                                   # dual-graph edges (numpy structured array)
+    r.neighbors("a", ring=2)
+    near = r.nearest(points)                  # near.object, near.distance, near.closest
+    r.path(p, q, min_clearance=0.01)
+    V, F = r.cell("a")
+    r.save("r.gvd"); gvd.load("r.gvd"); r.write_glb("gvd.glb")
+
+Objects are numbered in the order of Scene.add (0, 1, ...); -1 means no object. Errors are
+gvd.Error, one subclass per code (gvd.InvalidScene, gvd.NotFound, ...).)doc";
+
+constexpr const char* kComputeDoc =
+    R"doc(The GVD of a scene: the pipeline of `gvd compute`, with the same options and defaults.
+
+scene     a gvd.Scene, or a scene file path (str / os.PathLike: scene JSON, OBJ, GLB/glTF) or a
+          list of mesh file paths (PLY/STL/OFF/OBJ, one object each, labelled by file stem)
+progress  None; True for a text bar on sys.stderr; or a callable(stage: str, fraction: float)
+          called on the calling thread with the stages "scene", "octree", "distance",
+          "ambiguity", "surface", "graph", ("compact",) "done". An exception it raises stops
+          the computation and propagates.
+cancel    a gvd.CancelToken: token.cancel() (from another thread or the callback) stops the
+          computation, which raises gvd.Cancelled.
+
+The options (the flags of `gvd compute`; units are the scene's):
+  max_depth         deepest octree level; 0 = default (2D 26, 3D 21)
+  domain            the domain box as [lo..., hi...] (2*D numbers), made a cube; None = the
+                    scene's bounding box + 5 % of its side on every side
+  frame             'auto' | 'world': the octree's axes (3D)
+  threads           worker threads, 0 = all cores
+  backend           'auto' | 'opencl' | 'cpu' (auto: OpenCL when a device with fp64 exists)
+  octree_build      'levels' | 'data-parallel'
+  distance          'exact' | 'wavefront'
+  refine            'certified' | 'paper'
+  resolution        'compact' | 'full'
+  curved_tolerance  in [0, 1)
+  contact_depth     0 = default (2D 14, 3D 8)
+  max_leaves, max_objects, max_simplices   limits (gvd.LimitExceeded when hit)
+  ambiguity_levels, ambiguity_rounds, unseen_rounds   < 0 = default
+
+The computation runs on its own threads without the GIL: other Python threads keep running,
+and Ctrl-C stops it within milliseconds (the call then raises KeyboardInterrupt).
+Raises gvd.InvalidScene (naming label, object, element and index), gvd.InvalidArgument,
+gvd.LimitExceeded, gvd.Cancelled, gvd.NotFound / gvd.IoError (files).)doc";
+
+}  // namespace
+
+void define_module(py::module_& m) {
+  m.doc() = kModuleDoc;
+  m.attr("__version__") = std::string(api::version());
+  register_errors(m);
+
+  types.nearest =
+      make_namedtuple(m, "Nearest", {"object", "distance", "closest"},
+                      "Nearest objects of points (Result.nearest), one entry per point:\n"
+                      "  object    int32 (n,): the object's index, -1 for a point outside the "
+                      "domain\n"
+                      "  distance  float64 (n,): distance to `closest` (never below the true "
+                      "one, within 3/2 of it); NaN when none\n"
+                      "  closest   float64 (n, D): the point on the object (NaN when none)\n"
+                      "Fields may be added in later versions (inside, signed distance): read "
+                      "them by name.")
+          .inc_ref();
+  types.path =
+      make_namedtuple(m, "Path", {"found", "points", "length", "min_clearance", "reason"},
+                      "A path on the GVD (Result.path): found (bool), points (k, D) float64 from "
+                      "start to end, length, min_clearance (exact least distance to the objects), "
+                      "reason (why there is none when not found).")
+          .inc_ref();
+  types.explosion =
+      make_namedtuple(m, "Explosion", {"scale", "ring", "displacement"},
+                      "An exploded view (Result.explode): scale (displacement per ring), ring "
+                      "int32 (n,) per object (0 = anchor, -1 = unreachable), displacement "
+                      "float64 (n, D) per object.")
+          .inc_ref();
+
+  py::class_<CancelToken>(m, "CancelToken",
+                          "A flag that stops a running gvd.compute(..., cancel=token): call "
+                          "cancel() from another thread or a progress callback.")
+      .def(py::init<>())
+      .def("cancel", &CancelToken::cancel, "Asks the computation to stop (gvd.Cancelled).")
+      .def("reset", &CancelToken::reset, "Clears the flag, to reuse the token.")
+      .def_property_readonly("cancelled", &CancelToken::cancelled);
+
+  py::class_<PyScene>(m, "Scene",
+                      "Labelled objects: 3D triangle meshes or 2D segment sets (polygon soups; "
+                      "open, non-manifold and several-component meshes are accepted).")
+      .def(py::init<int>(), "dimension"_a = 3, "An empty scene of dimension 2 or 3.")
+      .def_static("load", &load_scene, "paths"_a,
+                  "Reads scene files as `gvd compute` does: one scene JSON, OBJ (o/g groups = "
+                  "objects) or GLB/glTF (nodes = objects), or a list of PLY/STL/OFF/OBJ files, "
+                  "one object each, labelled by file stem.")
+      .def("add", &scene_add, "label"_a, "vertices"_a, "faces"_a = py::none(),
+           R"doc(add(label, vertices, faces) or add(label, mesh) -> int
+
+Adds an object and returns its index (0, 1, ... in the order of add).
+vertices  (n, D) numbers in the scene's units; a C-contiguous float64 array is read in place,
+          anything else (float32, Fortran order, lists) is converted
+faces     (m, D) vertex indices (0-based) per triangle (3D) or segment (2D); uint32 or int32
+          C-contiguous arrays are read in place, other integer types converted
+mesh      any object with .vertices and .faces (or .triangles / .segments): a trimesh.Trimesh,
+          a gvd.Cell, Open3D's legacy mesh after np.asarray, ...
+The facade copies both into the scene. Raises gvd.InvalidArgument (shape, dtype),
+gvd.InvalidScene (empty or duplicate label, a negative index; indices and coordinates are
+checked by compute(), which names the label, object, element and index).)doc")
+      .def_property_readonly("dimension", [](const PyScene& s) { return s.scene.dimension(); })
+      .def("__len__", [](const PyScene& s) { return s.scene.size(); })
+      .def_property_readonly(
+          "labels",
+          [](const PyScene& s) {
+            py::list out;
+            for (int i = 0; i < s.scene.size(); ++i) out.append(s.scene.label(i));
+            return py::tuple(out);
+          },
+          "The objects' labels, in the order of add.")
+      .def("__repr__", [](const PyScene& s) {
+        return "<gvd.Scene " + std::to_string(s.scene.dimension()) + "D, " +
+               std::to_string(s.scene.size()) + " objects>";
+      });
+
+  py::class_<PyCell>(m, "Cell",
+                     "The boundary of one object's Voronoi cell (Result.cell). Unpacks as "
+                     "V, F = cell.\n"
+                     "  vertices   float64 (n, D)\n"
+                     "  faces      uint32 (m, D): triangles (3D; normals point into the cell) "
+                     "or segments (2D; the cell on their left)\n"
+                     "  other      int32 (n,): per vertex, the object across (-1 = domain box)\n"
+                     "  clearance  float64 (n,): per vertex, distance to the nearest object")
+      .def_readonly("vertices", &PyCell::vertices)
+      .def_readonly("faces", &PyCell::faces)
+      .def_readonly("other", &PyCell::other)
+      .def_readonly("clearance", &PyCell::clearance)
+      .def("__len__", [](const PyCell&) { return 2; })
+      .def("__iter__",
+           [](const PyCell& c) { return py::iter(py::make_tuple(c.vertices, c.faces)); })
+      .def("__getitem__",
+           [](const PyCell& c, int i) -> py::array {
+             if (i == 0 || i == -2) return c.vertices;
+             if (i == 1 || i == -1) return c.faces;
+             throw py::index_error("a cell unpacks as (vertices, faces)");
+           })
+      .def("__repr__", [](const PyCell& c) {
+        return "<gvd.Cell " + std::to_string(c.vertices.shape(0)) + " vertices, " +
+               std::to_string(c.faces.shape(0)) + " faces>";
+      });
+
+  py::class_<api::Result>(m, "Result",
+                          "A finished GVD and the queries on it (gvd.compute, gvd.load). "
+                          "Immutable; its queries are thread-safe and run without the GIL.")
+      .def_property_readonly("dimension", &api::Result::dimension)
+      .def("__len__", &api::Result::size, "Number of objects.")
+      .def_property_readonly(
+          "labels",
+          [](const api::Result& r) {
+            py::list out;
+            for (int i = 0; i < r.size(); ++i) out.append(r.label(i));
+            return py::tuple(out);
+          },
+          "The objects' labels, by index: r.labels[i].")
+      .def(
+          "object", [](const api::Result& r, const std::string& label) { return r.object(label); },
+          "label"_a, "The index of the object with this label (gvd.NotFound otherwise).")
+      .def_property_readonly(
+          "graph",
+          [](const api::Result& r) { return struct_array(r.graph(), edge_dtype(r.dimension())); },
+          "The dual graph's edges (`gvd compute --graph`), sorted by (a, b), as a numpy "
+          "structured array with fields a, b (int32 object indices, a < b), area (interface "
+          "area, length in 2D), min_clearance, tightest_point (D,), gap (exact least distance "
+          "between a and b; < 0: not measured), touching (bool). Labels: r.labels[e['a']]. "
+          "As dicts: [dict(zip(g.dtype.names, row)) for row in g.tolist()].")
+      .def(
+          "neighbors",
+          [](const api::Result& r, const py::handle& object, int ring) {
+            const api::Object o = object_arg(r, object);
+            std::vector<api::Neighbor> n;
+            {
+              py::gil_scoped_release unlocked;
+              n = r.neighbors(o, ring);
+            }
+            return struct_array(std::move(n), neighbor_dtype());
+          },
+          "object"_a, "ring"_a = 1,
+          "Objects within `ring` >= 1 rings of `object` (label or index) in the dual graph, "
+          "sorted by (ring, object) (`gvd neighbors`): a structured array with fields object, "
+          "ring, via (the ring - 1 neighbour it is reached from), area, min_clearance, gap, "
+          "touching (of the edge via-object).")
+      .def("nearest", &nearest, "points"_a, "fast"_a = false, "threads"_a = 0,
+           R"doc(nearest(points, fast=False, threads=0) -> gvd.Nearest
+
+Nearest object of every point (`gvd nearest`), vectorised: `points` is an (n, D) array (read in
+place when C-contiguous float64) or one point (D,) (then the fields are scalars and a (D,)
+array). Returns gvd.Nearest(object, distance, closest): object int32 (n,) (-1 for a point
+outside the domain or not finite, with NaN distance and closest), distance float64 (n,),
+closest float64 (n, D), the point on the object. Exact where the octree leaf cannot prove the
+answer within 3/2 of the true distance; fast=True uses the paper's rule away from objects.
+Runs on `threads` threads (0 = all cores) without the GIL. Read the fields by name: later
+versions add fields (inside / signed distance).)doc")
+      .def("path", &path, "a"_a, "b"_a, py::kw_only(), "min_clearance"_a = 0.0,
+           "by_clearance"_a = false,
+           "A path on the GVD from point a to point b (`gvd path`) that crosses no object: "
+           "gvd.Path(found, points (k, D), length, min_clearance, reason). Passages narrower "
+           "than min_clearance are not used; by_clearance=True prefers wide passages. Not found "
+           "(with a reason) when a point is inside an object or no passage is wide enough; "
+           "gvd.OutsideDomain when a point is outside the domain.")
+      .def("cell", &cell, "object"_a,
+           "The boundary of the object's (label or index) Voronoi cell as a gvd.Cell: "
+           "V, F = r.cell('a'), plus .other and .clearance per vertex.")
+      .def("explode", &explode, "anchor"_a, "scale"_a = 0.0,
+           "Displacements of an exploded view around `anchor` (`gvd explode`): gvd.Explosion("
+           "scale, ring, displacement); scale <= 0 picks 1/4 of the mean object size.")
+      .def("save", &write_to<&api::Result::save>, "path"_a,
+           "Writes the whole result, reloadable by gvd.load (`gvd compute --save`).")
+      .def("write_glb", &write_to<&api::Result::write_glb>, "path"_a,
+           "The GVD as binary glTF (`gvd compute -o`: one node per object).")
+      .def("write_json", &write_to<&api::Result::write_json>, "path"_a,
+           "The GVD with float64 coordinates as JSON (`gvd compute --json`).")
+      .def("write_graph_json", &write_to<&api::Result::write_graph_json>, "path"_a,
+           "The dual graph as JSON (`gvd compute --graph`).")
+      .def("info_json", &api::Result::info_json,
+           "What `gvd info --json` prints: sizes, depth, leaves, timings, backend, warnings.")
+      .def_property_readonly(
+          "info",
+          [](const api::Result& r) {
+            return py::module_::import("json").attr("loads")(r.info_json());
+          },
+          "info_json() as a dict.")
+      .def("__repr__", [](const api::Result& r) {
+        return "<gvd.Result " + std::to_string(r.dimension()) + "D, " + std::to_string(r.size()) +
+               " objects, " + std::to_string(r.graph().size()) + " dual-graph edges>";
+      });
+
+  const api::ComputeOptions d;
+  m.def(
+      "compute",
+      [](const py::object& scene, const py::object& progress, CancelToken* cancel, int max_depth,
+         std::optional<std::vector<double>> domain, std::string frame, int threads,
+         std::string backend, std::string octree_build, std::string distance, std::string refine,
+         std::string resolution, double curved_tolerance, int contact_depth, uint64_t max_leaves,
+         uint64_t max_objects, uint64_t max_simplices, int ambiguity_levels, int ambiguity_rounds,
+         int unseen_rounds) {
+        api::ComputeOptions o;
+        o.max_depth = max_depth;
+        if (domain) o.domain = std::move(*domain);
+        o.frame = std::move(frame);
+        o.threads = threads;
+        o.backend = std::move(backend);
+        o.octree_build = std::move(octree_build);
+        o.distance = std::move(distance);
+        o.refine = std::move(refine);
+        o.resolution = std::move(resolution);
+        o.curved_tolerance = curved_tolerance;
+        o.contact_depth = contact_depth;
+        o.max_leaves = max_leaves;
+        o.max_objects = max_objects;
+        o.max_simplices = max_simplices;
+        o.ambiguity_levels = ambiguity_levels;
+        o.ambiguity_rounds = ambiguity_rounds;
+        o.unseen_rounds = unseen_rounds;
+        if (py::isinstance<PyScene>(scene)) {
+          return compute_in_python(scene.cast<PyScene&>(), std::move(o), progress, cancel);
+        }
+        PyScene loaded = load_scene(scene);
+        return compute_in_python(loaded, std::move(o), progress, cancel);
+      },
+      "scene"_a, py::kw_only(), "progress"_a = py::none(),
+      "cancel"_a = static_cast<CancelToken*>(nullptr), "max_depth"_a = d.max_depth,
+      "domain"_a = py::none(), "frame"_a = d.frame, "threads"_a = d.threads,
+      "backend"_a = d.backend, "octree_build"_a = d.octree_build, "distance"_a = d.distance,
+      "refine"_a = d.refine, "resolution"_a = d.resolution,
+      "curved_tolerance"_a = d.curved_tolerance, "contact_depth"_a = d.contact_depth,
+      "max_leaves"_a = d.max_leaves, "max_objects"_a = d.max_objects,
+      "max_simplices"_a = d.max_simplices, "ambiguity_levels"_a = d.ambiguity_levels,
+      "ambiguity_rounds"_a = d.ambiguity_rounds, "unseen_rounds"_a = d.unseen_rounds, kComputeDoc);
+
+  m.def(
+      "load",
+      [](const py::handle& path) {
+        const std::string p = path_string(path);
+        py::gil_scoped_release unlocked;
+        return api::load(p);
+      },
+      "path"_a, "Loads a result written by Result.save or `gvd compute --save`.");
+}
+
+}  // namespace gvd::python
+
+PYBIND11_MODULE(_gvd, m) { gvd::python::define_module(m); }
