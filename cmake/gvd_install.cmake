@@ -1,7 +1,7 @@
 # What `cmake --install build --prefix P` puts under P (docs/CPP.md):
 #   lib/libgvd_api.a, libgvd_core.a, libgvd_kernels.a   the facade, the engine, OpenCL backend
 #   include/gvd/...                                     gvd/gvd.h (stable) and the internal headers
-#   lib/cmake/gvd/gvdConfig*.cmake, gvdTargets*.cmake   find_package(gvd 0.1) -> gvd::core
+#   lib/cmake/gvd/gvdConfig*.cmake, gvdTargets*.cmake   find_package(gvd 0.2) -> gvd::core
 #   lib/pkgconfig/gvd.pc                                pkg-config --cflags --libs gvd
 #   bin/gvd, bin/gvd-server, share/gvd/web              (clients/, server/, clients/web/)
 # Exported targets: gvd::core (the facade gvd_api, linking everything below), gvd::engine

@@ -57,11 +57,12 @@ class Scene:
     def __len__(self) -> int: ...
 
 class Nearest(NamedTuple):
-    """Fields may be added in later versions (inside, signed distance): read them by name."""
+    """Fields may be added in later versions: read them by name."""
 
     object: Any  # np.ndarray int32 (n,), or int for one point
-    distance: Any  # np.ndarray float64 (n,), or float
+    distance: Any  # np.ndarray float64 (n,), or float; negative inside a closed object
     closest: np.ndarray  # float64 (n, D), or (D,)
+    inside: Any  # np.ndarray int8 (n,): 1 in, 0 out, -1 open object; or True/False/None
 
 class Path(NamedTuple):
     found: bool
@@ -97,6 +98,7 @@ class Result:
     def neighbors(self, object: _ObjectRef, ring: int = 1) -> np.ndarray:
         """Structured: object, ring, via (int32), area, min_clearance, gap, touching."""
     def nearest(self, points: _Points, fast: bool = False, threads: int = 0) -> Nearest: ...
+    def contacts(self, max_gap: float) -> list[dict[str, Any]]: ...
     def path(
         self, a: _Points, b: _Points, *, min_clearance: float = 0.0, by_clearance: bool = False
     ) -> Path: ...

@@ -106,13 +106,15 @@ py::object nearest(const api::Result& r, const py::handle& points, bool fast, in
     batch = r.nearest(in.span(), fast, threads);
   }
   if (in.single) {
-    return types.nearest(batch.object[0], batch.distance[0],
-                         to_numpy(std::move(batch.closest), {dim}));
+    const int8_t inside = batch.inside[0];
+    return types.nearest(batch.object[0], batch.signed_distance[0],
+                         to_numpy(std::move(batch.closest), {dim}),
+                         inside < 0 ? py::object(py::none()) : py::object(py::bool_(inside == 1)));
   }
   const auto n = static_cast<py::ssize_t>(in.count);
-  return types.nearest(to_numpy(std::move(batch.object), {n}),
-                       to_numpy(std::move(batch.distance), {n}),
-                       to_numpy(std::move(batch.closest), {n, dim}));
+  return types.nearest(
+      to_numpy(std::move(batch.object), {n}), to_numpy(std::move(batch.signed_distance), {n}),
+      to_numpy(std::move(batch.closest), {n, dim}), to_numpy(std::move(batch.inside), {n}));
 }
 
 py::object path(const api::Result& r, const py::handle& from, const py::handle& to,
@@ -163,6 +165,49 @@ py::object explode(const api::Result& r, const py::handle& anchor, double scale)
   const auto n = static_cast<py::ssize_t>(e.ring.size());
   return types.explosion(e.scale, to_numpy(std::move(e.ring), {n}),
                          to_numpy(std::move(e.displacement), {n, r.dimension()}));
+}
+
+/// Contacts as a list of dicts (the keys of `gvd contacts`' JSON; points as (D,) arrays).
+py::list contacts(const api::Result& r, double max_gap) {
+  std::vector<api::Contact> found;
+  {
+    py::gil_scoped_release unlocked;
+    found = r.contacts(max_gap);
+  }
+  const int dim = r.dimension();
+  auto point = [dim](const std::array<double, 3>& p) {
+    py::array_t<double> a(dim);
+    for (int k = 0; k < dim; ++k) a.mutable_at(k) = p[static_cast<size_t>(k)];
+    return a;
+  };
+  py::list out;
+  for (const api::Contact& c : found) {
+    py::list sites;
+    for (const api::ContactSite& s : c.sites) {
+      py::dict site;
+      site["area"] = s.area;
+      site["centroid"] = point(s.centroid);
+      site["min_gap"] = s.min_gap;
+      site["on_a"] = point(s.on_a);
+      site["on_b"] = point(s.on_b);
+      sites.append(site);
+    }
+    py::dict d;
+    d["a"] = c.a;
+    d["label_a"] = r.label(c.a);
+    d["b"] = c.b;
+    d["label_b"] = r.label(c.b);
+    d["gap"] = c.gap;
+    d["on_a"] = point(c.on_a);
+    d["on_b"] = point(c.on_b);
+    d["interference"] = c.interference;
+    d["depth_lower_bound"] = c.depth_lower_bound < 0 ? py::object(py::none())
+                                                     : py::object(py::float_(c.depth_lower_bound));
+    d["interface_area"] = c.interface_area;
+    d["sites"] = sites;
+    out.append(d);
+  }
+  return out;
 }
 
 /// A writer of the result to a path (str or os.PathLike), without the GIL.
@@ -245,15 +290,18 @@ void define_module(py::module_& m) {
   register_errors(m);
 
   types.nearest =
-      make_namedtuple(m, "Nearest", {"object", "distance", "closest"},
+      make_namedtuple(m, "Nearest", {"object", "distance", "closest", "inside"},
                       "Nearest objects of points (Result.nearest), one entry per point:\n"
                       "  object    int32 (n,): the object's index, -1 for a point outside the "
                       "domain\n"
                       "  distance  float64 (n,): distance to `closest` (never below the true "
-                      "one, within 3/2 of it); NaN when none\n"
+                      "one, within 3/2 of it), negative inside a closed object (the CLI's "
+                      "signed_distance; abs() is its distance); NaN when none\n"
                       "  closest   float64 (n, D): the point on the object (NaN when none)\n"
-                      "Fields may be added in later versions (inside, signed distance): read "
-                      "them by name.")
+                      "  inside    int8 (n,): 1 inside the (closed) object, 0 outside, -1 when "
+                      "the object is open (it has no inside) or there is none; for one point "
+                      "True, False or None\n"
+                      "Fields may be added in later versions: read them by name.")
           .inc_ref();
   types.path =
       make_namedtuple(m, "Path", {"found", "points", "length", "min_clearance", "reason"},
@@ -383,12 +431,14 @@ checked by compute(), which names the label, object, element and index).)doc")
 
 Nearest object of every point (`gvd nearest`), vectorised: `points` is an (n, D) array (read in
 place when C-contiguous float64) or one point (D,) (then the fields are scalars and a (D,)
-array). Returns gvd.Nearest(object, distance, closest): object int32 (n,) (-1 for a point
-outside the domain or not finite, with NaN distance and closest), distance float64 (n,),
-closest float64 (n, D), the point on the object. Exact where the octree leaf cannot prove the
+array). Returns gvd.Nearest(object, distance, closest, inside): object int32 (n,) (-1 for a
+point outside the domain or not finite, with NaN distance and closest), distance float64 (n,),
+negative inside a closed object (signed; abs() is the CLI's distance), closest float64 (n, D),
+the point on the object, inside int8 (n,): 1 inside, 0 outside, -1 for an open object (no
+inside; exact ray parity for closed ones). Exact where the octree leaf cannot prove the
 answer within 3/2 of the true distance; fast=True uses the paper's rule away from objects.
 Runs on `threads` threads (0 = all cores) without the GIL. Read the fields by name: later
-versions add fields (inside / signed distance).)doc")
+versions may add fields.)doc")
       .def("path", &path, "a"_a, "b"_a, py::kw_only(), "min_clearance"_a = 0.0,
            "by_clearance"_a = false,
            "A path on the GVD from point a to point b (`gvd path`) that crosses no object: "
@@ -402,6 +452,13 @@ versions add fields (inside / signed distance).)doc")
       .def("explode", &explode, "anchor"_a, "scale"_a = 0.0,
            "Displacements of an exploded view around `anchor` (`gvd explode`): gvd.Explosion("
            "scale, ring, displacement); scale <= 0 picks 1/4 of the mean object size.")
+      .def("contacts", &contacts, "max_gap"_a,
+           "Every pair of objects whose gap is below max_gap, and every pair that touches or "
+           "intersects, sorted by gap (`gvd contacts`): a list of dicts with a, label_a, b, "
+           "label_b, gap (exact, from the meshes), on_a, on_b (closest points), interference, "
+           "depth_lower_bound (None unless computable), interface_area (of the GVD between "
+           "them) and sites (connected regions of that interface below the bound: area, "
+           "centroid, min_gap, on_a, on_b).")
       .def("save", &write_to<&api::Result::save>, "path"_a,
            "Writes the whole result, reloadable by gvd.load (`gvd compute --save`).")
       .def("write_glb", &write_to<&api::Result::write_glb>, "path"_a,

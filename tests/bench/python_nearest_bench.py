@@ -65,7 +65,7 @@ def main():
                 near = loaded.nearest(points, threads=threads)
                 best_py = min(best_py, time.perf_counter() - t)
         same = (int(near.object.astype(np.int64).sum()) == cpp["object_sum"] and
-                abs(float(np.nansum(near.distance)) - cpp["distance_sum"]) <=
+                abs(float(np.nansum(np.abs(near.distance))) - cpp["distance_sum"]) <=
                 1e-9 * abs(cpp["distance_sum"]))
         if not same:
             print("python_nearest_bench: the module and the facade answered differently",

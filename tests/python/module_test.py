@@ -120,12 +120,37 @@ class CliParity(unittest.TestCase):
                     self.assertEqual(c["point"], points[i].tolist())
                     self.assertEqual(int(near.object[i]), c["object"])
                     self.assertEqual(r.labels[near.object[i]], c["label"])
-                    self.assertEqual(float(near.distance[i]), c["distance"])
+                    self.assertEqual(float(near.distance[i]), c["signed_distance"])
+                    self.assertEqual(abs(float(near.distance[i])), c["distance"])
                     self.assertEqual(int(loaded.object[i]), c["object"])
-                    self.assertEqual(float(loaded.distance[i]), c["distance"])
+                    self.assertEqual(float(loaded.distance[i]), c["signed_distance"])
+                    inside = {True: 1, False: 0, None: -1}[c["inside"]]
+                    self.assertEqual(int(near.inside[i]), inside)
+                    self.assertEqual(int(loaded.inside[i]), inside)
                 # The closest point is on the object at the reported distance.
                 d = np.linalg.norm(near.closest - points, axis=1)
-                np.testing.assert_allclose(d, near.distance, rtol=1e-12, atol=1e-12)
+                np.testing.assert_allclose(d, np.abs(near.distance), rtol=1e-12, atol=1e-12)
+
+    def test_contacts_equal_cli(self):
+        for name, (path, saved, _, r) in self.cases.items():
+            with self.subTest(scene=name):
+                doc = json.loads(cli("contacts", saved, "--max-gap", "0.05"))
+                mine = r.contacts(0.05)
+                self.assertEqual(len(mine), len(doc["contacts"]))
+                self.assertGreater(len(mine), 0)
+                for m, c in zip(mine, doc["contacts"]):
+                    for key in ("a", "b", "label_a", "label_b", "gap", "interference",
+                                "depth_lower_bound", "interface_area"):
+                        self.assertEqual(m[key], c[key], key)
+                    self.assertEqual(m["on_a"].tolist(), c["on_a"])
+                    self.assertEqual(len(m["sites"]), len(c["sites"]))
+                    for ms, cs in zip(m["sites"], c["sites"]):
+                        self.assertEqual(ms["area"], cs["area"])
+                        self.assertEqual(ms["min_gap"], cs["min_gap"])
+                        self.assertEqual(ms["centroid"].tolist(), cs["centroid"])
+                    self.assertLess(m["gap"], 0.05)
+        with self.assertRaises(gvd.InvalidArgument):
+            next(iter(self.cases.values()))[3].contacts(-1.0)
 
     def test_neighbors_equal_cli(self):
         for name, (_, saved, _, r) in self.cases.items():
@@ -226,14 +251,22 @@ class Analytic(unittest.TestCase):
         self.assertTrue(math.isnan(near.distance[3]))
         self.assertTrue(np.isnan(near.closest[3]).all())
         self.assertAlmostEqual(near.closest[2][2], 1.0, delta=1e-9)
+        # The boxes are closed: outside them inside is 0; the domain's outside has no answer.
+        self.assertEqual(near.inside.tolist(), [0, 0, 0, -1])
         # Unpacks as in the issue; one point gives scalars.
-        obj, dist, closest = near
+        obj, dist, closest, inside = near
         self.assertIs(obj, near.object)
         one = self.r.nearest([1.03, 0.5, 0.5])
         self.assertEqual(one.object, 0)
         self.assertIsInstance(one.distance, float)
         self.assertEqual(one.closest.shape, (3,))
-        self.assertEqual(near._fields[:3], ("object", "distance", "closest"))
+        self.assertIs(one.inside, False)
+        self.assertEqual(near._fields, ("object", "distance", "closest", "inside"))
+        # Inside a box: signed, negative, 0.4 from its top face (within 3/2).
+        deep = self.r.nearest([0.5, 0.5, 0.6])
+        self.assertIs(deep.inside, True)
+        self.assertLessEqual(deep.distance, -0.4 + 1e-12)
+        self.assertGreaterEqual(deep.distance, -0.6)
 
     def test_path(self):
         p = self.r.path([0.5, 0.5, 1.3], [1.6, 0.5, 1.3], min_clearance=0.01)
@@ -304,6 +337,7 @@ class Analytic(unittest.TestCase):
         self.assertEqual(g[0]["tightest_point"].shape, (2,))
         near = r.nearest([[0.5, 0.4], [0.5, 0.6]])
         self.assertEqual(near.object.tolist(), [0, 1])
+        self.assertEqual(near.inside.tolist(), [-1, -1])  # open segments: no inside
         np.testing.assert_allclose(near.distance, [0.4, 0.4], rtol=0.5)
         c = r.cell("low")
         self.assertEqual(c.faces.shape[1], 2)

@@ -4,7 +4,7 @@
 // in-process (the calls the Python module exposes too). See docs/CPP.md.
 //
 // Stable: this header and gvd/common/error.h (gvd::Error, gvd::ErrorCode), the CMake target
-// gvd::core and the pkg-config package gvd. Within a 0.MINOR series (0.1.x) they change only
+// gvd::core and the pkg-config package gvd. Within a 0.MINOR series (0.2.x) they change only
 // compatibly; a new minor version may change them (the package's version file accepts only
 // the same major.minor).
 // Internal: every other installed header (gvd/pipeline, gvd/graph, gvd/scene, gvd/io,
@@ -37,7 +37,7 @@ struct GvdResult;
 
 namespace gvd::api {
 
-/// The library's version ("0.1.0"), the same as the CMake package's.
+/// The library's version ("0.2.0"), the same as the CMake package's.
 std::string_view version();
 
 /// An object's index in its scene (the order of Scene::add).
