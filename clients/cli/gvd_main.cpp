@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -33,6 +34,9 @@ constexpr const char* kUsage = R"(gvd — generalized Voronoi diagrams of closel
 Usage:
   gvd compute SCENE... [options]   compute the GVD of a scene
   gvd info RESULT.gvd [--json]     depth, leaves, bytes per leaf, stage timings, warnings
+  gvd export RESULT.gvd [-o FILE.glb] [--graph FILE.json] [--json FILE.json]
+                                   the outputs of compute from a saved result, without
+                                   recomputing
   gvd nearest INPUT (--points FILE.json | --point x,y[,z]...) [--fast]
                                    nearest object, distance (signed, with inside, for
                                    closed objects), one JSON line per point
@@ -402,18 +406,9 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
 
 namespace {
 
-int cmd_compute(int argc, char** argv) {
-  std::vector<std::string> value_flags = {"-o", "--output", "--graph", "--json", "--save"};
-  value_flags.insert(value_flags.end(), compute_value_flags().begin(), compute_value_flags().end());
-  const Args args = parse_args(argc, argv, 2, value_flags, {"-q", "--quiet"});
-  if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
-  const bool quiet = args.has("-q") || args.has("--quiet");
-  ComputeSetup setup = compute_setup(args, args.positional);
-  Scene scene = std::move(setup.scene);
-  const PipelineOptions& options = setup.options;
-
-  const GvdResult result = compute_gvd(std::move(scene), options);
-
+/// Writes the outputs asked for by -o/--output, --graph, --json (and --save where allowed);
+/// returns what it wrote, for the summary.
+std::vector<std::string> write_requested_outputs(const GvdResult& result, const Args& args) {
   std::vector<std::string> written;
   const auto glb_path = args.value("-o") ? args.value("-o") : args.value("--output");
   if (glb_path) {
@@ -433,11 +428,57 @@ int cmd_compute(int argc, char** argv) {
     save_result(result, *p);
     written.push_back(*p + " (result, for gvd info and later queries)");
   }
+  return written;
+}
+
+int cmd_compute(int argc, char** argv) {
+  std::vector<std::string> value_flags = {"-o", "--output", "--graph", "--json", "--save"};
+  value_flags.insert(value_flags.end(), compute_value_flags().begin(), compute_value_flags().end());
+  const Args args = parse_args(argc, argv, 2, value_flags, {"-q", "--quiet"});
+  if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
+  for (const std::string& file : args.positional) {
+    if (is_result_file(file)) {
+      throw UsageError{"\"" + file +
+                       "\" is a saved result, not a scene: to write its outputs without "
+                       "recomputing, use gvd export " +
+                       file + " -o gvd.glb [--graph g.json] [--json gvd.json]"};
+    }
+  }
+  const bool quiet = args.has("-q") || args.has("--quiet");
+  ComputeSetup setup = compute_setup(args, args.positional);
+  Scene scene = std::move(setup.scene);
+  const PipelineOptions& options = setup.options;
+
+  const GvdResult result = compute_gvd(std::move(scene), options);
+
+  const std::vector<std::string> written = write_requested_outputs(result, args);
   if (!quiet) {
     print_summary(result, stderr);
     for (const std::string& w : written) std::fprintf(stderr, "  wrote %s\n", w.c_str());
     if (written.empty())
       std::fprintf(stderr, "  (no output requested: use -o, --graph, --json or --save)\n");
+  }
+  return kExitOk;
+}
+
+int cmd_export(int argc, char** argv) {
+  const Args args =
+      parse_args(argc, argv, 2, {"-o", "--output", "--graph", "--json"}, {"-q", "--quiet"});
+  if (args.positional.size() != 1) throw UsageError{"export needs exactly one result file"};
+  const std::string& file = args.positional[0];
+  if (!args.value("-o") && !args.value("--output") && !args.value("--graph") &&
+      !args.value("--json")) {
+    throw UsageError{"export needs an output: -o FILE.glb, --graph FILE.json or --json FILE.json"};
+  }
+  if (std::filesystem::exists(file) && !is_result_file(file)) {  // load_result names a missing file
+    throw Error(
+        ErrorCode::kUnsupportedFormat,
+        "\"" + file + "\" is not a saved result (a .gvd file written by gvd compute --save)");
+  }
+  const GvdResult result = load_result(file);
+  const std::vector<std::string> written = write_requested_outputs(result, args);
+  if (!(args.has("-q") || args.has("--quiet"))) {
+    for (const std::string& w : written) std::fprintf(stderr, "gvd: wrote %s\n", w.c_str());
   }
   return kExitOk;
 }
@@ -509,6 +550,7 @@ int run(int argc, char** argv) {
   if (server) return run_remote(*server, argc, argv);
   if (command == "compute") return cmd_compute(argc, argv);
   if (command == "info") return cmd_info(argc, argv);
+  if (command == "export") return cmd_export(argc, argv);
   if (command == "nearest") return cmd_nearest(argc, argv);
   if (command == "neighbors" || command == "neighbours") return cmd_neighbors(argc, argv);
   if (command == "path") return cmd_path(argc, argv);

@@ -40,7 +40,38 @@ foreach(scene gears2d balls_on_plate)
   if(NODE)
     run_ok(${NODE} ${DATA}/../js/validate_glb.mjs ${prefix}.glb)
   endif()
+  # Every output again from the saved result, without recomputing: the same bytes.
+  run_ok(${GVD} export ${prefix}.gvd -o ${prefix}_export.glb --graph ${prefix}_export_graph.json
+         --json ${prefix}_export_gvd.json)
+  foreach(pair "${prefix}.glb;${prefix}_export.glb" "${prefix}_graph.json;${prefix}_export_graph.json"
+          "${prefix}_gvd.json;${prefix}_export_gvd.json")
+    list(GET pair 0 computed)
+    list(GET pair 1 exported)
+    file(SHA256 ${computed} want)
+    file(SHA256 ${exported} got)
+    if(NOT want STREQUAL got)
+      message(FATAL_ERROR "gvd export wrote ${exported} unlike compute's ${computed}")
+    endif()
+  endforeach()
+  # compute on a saved result says what it is and what to run, naming the file.
+  execute_process(COMMAND ${GVD} compute ${prefix}.gvd -o ${prefix}_again.glb
+                  RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err)
+  if(NOT rc EQUAL 2 OR NOT err MATCHES "cli_${scene}.gvd\" is a saved result" OR
+     NOT err MATCHES "gvd export")
+    message(FATAL_ERROR "compute on a result should point to export (${rc}): ${err}")
+  endif()
 endforeach()
+# export of a file that is not a result names it (exit 3); without an output, a usage error.
+execute_process(COMMAND ${GVD} export ${DATA}/scenes/gears2d.json -o ${OUT}/x.glb
+                RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err)
+if(NOT rc EQUAL 3 OR NOT err MATCHES "gears2d.json\" is not a saved result")
+  message(FATAL_ERROR "export of a scene should say it is not a result (${rc}): ${err}")
+endif()
+execute_process(COMMAND ${GVD} export ${OUT}/cli_gears2d.gvd RESULT_VARIABLE rc OUTPUT_QUIET
+                ERROR_QUIET)
+if(NOT rc EQUAL 2)
+  message(FATAL_ERROR "export without an output should exit with 2, got ${rc}")
+endif()
 
 # Bad input: a clear message and exit code 3, not a crash.
 execute_process(COMMAND ${GVD} compute ${DATA}/malformed/json_duplicate_label.json
