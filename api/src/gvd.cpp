@@ -87,7 +87,8 @@ Object object_of(ObjectId id) { return id == kNoObject ? kNone : static_cast<Obj
 
 ObjectId checked_object(const GvdResult& r, Object object) {
   if (object < 0 || static_cast<size_t>(object) >= r.scene.objects.size()) {
-    throw Error(ErrorCode::kNotFound, "no object with index " + std::to_string(object));
+    throw Error(ErrorCode::kNotFound, "no object with index " + std::to_string(object),
+                {.object = static_cast<int64_t>(object)});
   }
   return static_cast<ObjectId>(object);
 }
@@ -167,7 +168,8 @@ int Scene::dimension() const { return impl_->scene.dimension; }
 int Scene::size() const { return static_cast<int>(impl_->scene.objects.size()); }
 const std::string& Scene::label(Object object) const {
   if (object < 0 || object >= size()) {
-    throw Error(ErrorCode::kNotFound, "no object with index " + std::to_string(object));
+    throw Error(ErrorCode::kNotFound, "no object with index " + std::to_string(object),
+                {.object = static_cast<int64_t>(object)});
   }
   return impl_->scene.objects[static_cast<size_t>(object)].label;
 }

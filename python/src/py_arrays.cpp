@@ -29,15 +29,19 @@ std::vector<uint32_t> narrow_indices(const py::array_t<T, py::array::c_style>& a
     const T v = p[i];
     if constexpr (std::is_signed_v<T>) {
       if (v < 0) {
-        throw Error(ErrorCode::kInvalidScene, std::string(simplex_name(dimension)) + " " +
-                                                  std::to_string(i / dimension) + " vertex index " +
-                                                  std::to_string(v) + " is negative");
+        throw Error(
+            ErrorCode::kInvalidScene,
+            std::string(simplex_name(dimension)) + " " + std::to_string(i / dimension) +
+                " vertex index " + std::to_string(v) + " is negative",
+            {.element = simplex_name(dimension), .index = static_cast<int64_t>(i / dimension)});
       }
     }
     if (static_cast<uint64_t>(v) > std::numeric_limits<uint32_t>::max()) {
-      throw Error(ErrorCode::kInvalidScene, std::string(simplex_name(dimension)) + " " +
-                                                std::to_string(i / dimension) + " vertex index " +
-                                                std::to_string(v) + " is above 2^32 - 1");
+      throw Error(
+          ErrorCode::kInvalidScene,
+          std::string(simplex_name(dimension)) + " " + std::to_string(i / dimension) +
+              " vertex index " + std::to_string(v) + " is above 2^32 - 1",
+          {.element = simplex_name(dimension), .index = static_cast<int64_t>(i / dimension)});
     }
     out[i] = static_cast<uint32_t>(v);
   }
@@ -114,9 +118,11 @@ SimplicesIn simplices_in(py::handle object, int dimension) {
     const auto* p = static_cast<const int32_t*>(a.data());
     for (size_t i = 0; i < size; ++i) {
       if (p[i] < 0) {
-        throw Error(ErrorCode::kInvalidScene, std::string(simplex_name(dimension)) + " " +
-                                                  std::to_string(i / dimension) + " vertex index " +
-                                                  std::to_string(p[i]) + " is negative");
+        throw Error(
+            ErrorCode::kInvalidScene,
+            std::string(simplex_name(dimension)) + " " + std::to_string(i / dimension) +
+                " vertex index " + std::to_string(p[i]) + " is negative",
+            {.element = simplex_name(dimension), .index = static_cast<int64_t>(i / dimension)});
       }
     }
     in.span = {static_cast<const uint32_t*>(a.data()), size};

@@ -3,7 +3,6 @@
 #include <array>
 #include <cstddef>
 #include <exception>
-#include <regex>
 #include <utility>
 
 namespace gvd::python {
@@ -46,40 +45,21 @@ std::array<ErrorClass, kCodes> error_table() {
 /// The classes, created once by register_errors (owned by the module from then on).
 std::array<PyObject*, kCodes> classes{};
 
-/// Where the core's detail says the error is: "object 2 (\"b\")", "triangle 7", ...
-void parse_detail(const std::string& detail, py::object& label, py::object& object,
-                  py::object& element, py::object& index) {
-  static const std::regex object_with_label(R"re(object (\d+) \("([^"]*)"\))re");
-  static const std::regex duplicate(R"re(duplicate label "([^"]*)": objects \d+ and (\d+))re");
-  static const std::regex unknown_label(R"re(no object labelled '([^']*)')re");
-  static const std::regex object_index(R"re((?:^|[^a-z])object (?:with index )?(\d+))re");
-  static const std::regex element_index(R"re((vertex|triangle|segment|point) (\d+))re");
-  std::smatch m;
-  if (std::regex_search(detail, m, object_with_label)) {
-    object = py::int_(std::stoll(m[1].str()));
-    label = py::str(m[2].str());
-  } else if (std::regex_search(detail, m, duplicate)) {
-    label = py::str(m[1].str());
-    object = py::int_(std::stoll(m[2].str()));
-  } else if (std::regex_search(detail, m, unknown_label)) {
-    label = py::str(m[1].str());
-  } else if (std::regex_search(detail, m, object_index)) {
-    object = py::int_(std::stoll(m[1].str()));
-  }
-  if (std::regex_search(detail, m, element_index)) {
-    element = py::str(m[1].str());
-    index = py::int_(std::stoll(m[2].str()));
-  }
-}
-
 void set_error(const Error& error, const ErrorContext& context) {
   PyObject* cls = classes[static_cast<size_t>(error.code())];
   if (cls == nullptr) {  // not registered (cannot happen once the module is imported)
     PyErr_SetString(PyExc_RuntimeError, error.what());
     return;
   }
-  py::object label = py::none(), object = py::none(), element = py::none(), index = py::none();
-  parse_detail(error.detail(), label, object, element, index);
+  // Where: the core's structured location (gvd::ErrorLocation), never the detail's text.
+  const ErrorLocation& where = error.where();
+  py::object label =
+      where.label.empty() ? py::object(py::none()) : py::object(py::str(where.label));
+  py::object object =
+      where.object < 0 ? py::object(py::none()) : py::object(py::int_(where.object));
+  py::object element =
+      where.element.empty() ? py::object(py::none()) : py::object(py::str(where.element));
+  py::object index = where.index < 0 ? py::object(py::none()) : py::object(py::int_(where.index));
   if (context.label) label = py::str(*context.label);
   if (context.object) object = py::int_(*context.object);
   py::object instance = py::reinterpret_borrow<py::object>(cls)(error.what());

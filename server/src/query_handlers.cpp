@@ -127,7 +127,8 @@ void QueryHandlers::nearest_batch(const httplib::Request& req, httplib::Response
     } catch (const Error& e) {
       // Outside the domain: this point's entry says so; the others are answered.
       if (e.code() != ErrorCode::kOutsideDomain) {
-        throw Error(e.code(), "point " + std::to_string(i) + ": " + e.detail());
+        throw Error(e.code(), "point " + std::to_string(i) + ": " + e.detail(),
+                    {.element = "point", .index = static_cast<int64_t>(i)});
       }
       out += nearest_error_to_json(index, points[i], e);
     }

@@ -28,10 +28,11 @@ std::string_view error_code_name(ErrorCode code) {
   return "internal";
 }
 
-Error::Error(ErrorCode code, std::string detail)
+Error::Error(ErrorCode code, std::string detail, ErrorLocation where)
     : std::runtime_error(std::string(error_code_name(code)) + ": " + detail),
       code_(code),
-      detail_(std::move(detail)) {}
+      detail_(std::move(detail)),
+      where_(std::move(where)) {}
 
 void fail_check(const char* condition, const char* message, const char* file, int line) {
   throw InternalError(std::string(message) + " (" + condition + " failed at " + file + ":" +

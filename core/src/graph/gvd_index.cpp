@@ -454,7 +454,8 @@ int GvdIndex::dimension() const { return impl_->dimension; }
 ObjectId GvdIndex::object(std::string_view label) const {
   const std::optional<ObjectId> found = impl_->result->scene.find(std::string(label));
   if (!found) {
-    throw Error(ErrorCode::kNotFound, "no object labelled '" + std::string(label) + "'");
+    throw Error(ErrorCode::kNotFound, "no object labelled '" + std::string(label) + "'",
+                {.label = std::string(label)});
   }
   return *found;
 }
@@ -584,7 +585,8 @@ std::vector<RingNeighbor> GvdIndex::neighbors(ObjectId object, int ring) const {
   const Impl& m = *impl_;
   const uint32_t n = m.result->graph.node_count;
   if (object >= n) {
-    throw Error(ErrorCode::kNotFound, "no object with index " + std::to_string(object));
+    throw Error(ErrorCode::kNotFound, "no object with index " + std::to_string(object),
+                {.object = static_cast<int64_t>(object)});
   }
   if (ring < 1) {
     throw Error(ErrorCode::kInvalidArgument,
@@ -761,7 +763,8 @@ ExplodedView GvdIndex::explode(ObjectId anchor, const ExplodeOptions& options) c
   const DualGraph& graph = m.result->graph;
   const uint32_t n = graph.node_count;
   if (anchor >= n) {
-    throw Error(ErrorCode::kNotFound, "no object with index " + std::to_string(anchor));
+    throw Error(ErrorCode::kNotFound, "no object with index " + std::to_string(anchor),
+                {.object = static_cast<int64_t>(anchor)});
   }
   if (!std::isfinite(options.scale)) {
     throw Error(ErrorCode::kInvalidArgument, "scale must be a finite number");

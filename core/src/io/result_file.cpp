@@ -785,7 +785,7 @@ GvdResult load_result(const std::string& path) {
   } catch (const InternalError&) {
     throw;
   } catch (const Error& e) {
-    throw Error(e.code(), path + ": " + e.detail());
+    throw Error(e.code(), path + ": " + e.detail(), e.where());
   }
 }
 

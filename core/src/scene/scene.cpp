@@ -14,8 +14,15 @@ namespace gvd {
 
 namespace {
 
-[[noreturn]] void invalid(std::string detail) {
-  throw Error(ErrorCode::kInvalidScene, std::move(detail));
+[[noreturn]] void invalid(std::string detail, ErrorLocation where = {}) {
+  throw Error(ErrorCode::kInvalidScene, std::move(detail), std::move(where));
+}
+
+/// The location of object `index` (and of one of its elements).
+ErrorLocation at(size_t index, const std::string& label, const char* element = "",
+                 size_t element_index = static_cast<size_t>(-1)) {
+  return {static_cast<int64_t>(index), label, element,
+          element_index == static_cast<size_t>(-1) ? -1 : static_cast<int64_t>(element_index), ""};
 }
 
 std::string where(size_t index, const std::string& label) {
@@ -173,11 +180,12 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
   std::unordered_map<std::string, size_t> first_index;
   for (size_t i = 0; i < scene.objects.size(); ++i) {
     const std::string& label = scene.objects[i].label;
-    if (label.empty()) invalid("object " + std::to_string(i) + " has an empty label");
+    if (label.empty()) invalid("object " + std::to_string(i) + " has an empty label", at(i, ""));
     auto [it, inserted] = first_index.emplace(label, i);
     if (!inserted) {
       invalid("duplicate label \"" + label + "\": objects " + std::to_string(it->second) + " and " +
-              std::to_string(i));
+                  std::to_string(i),
+              at(i, label));
     }
   }
 
@@ -187,24 +195,27 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
   for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
     SceneObject& object = scene.objects[oi];
     if (object.vertices.size() > 0xFFFFFFFFull)
-      invalid(where(oi, object.label) + ": too many vertices");
+      invalid(where(oi, object.label) + ": too many vertices", at(oi, object.label));
     for (size_t vi = 0; vi < object.vertices.size(); ++vi) {
       Vec3& p = object.vertices[vi];
       if (dim == 2) p.z = 0.0;
       for (int c = 0; c < dim; ++c) {
         if (!std::isfinite(p[c])) {
           invalid(where(oi, object.label) + ": vertex " + std::to_string(vi) + " coordinate " +
-                  std::to_string(c) + " is not finite");
+                      std::to_string(c) + " is not finite",
+                  at(oi, object.label, "vertex", vi));
         }
         if (std::fabs(p[c]) > limits.max_abs_coordinate) {
           invalid(where(oi, object.label) + ": vertex " + std::to_string(vi) + " coordinate " +
-                  std::to_string(c) + " = " + std::to_string(p[c]) + " exceeds the limit of +-" +
-                  std::to_string(limits.max_abs_coordinate));
+                      std::to_string(c) + " = " + std::to_string(p[c]) +
+                      " exceeds the limit of +-" + std::to_string(limits.max_abs_coordinate),
+                  at(oi, object.label, "vertex", vi));
         }
       }
     }
     if (object.simplices.empty()) {
-      invalid(where(oi, object.label) + " has no " + (dim == 2 ? "segments" : "triangles"));
+      invalid(where(oi, object.label) + " has no " + (dim == 2 ? "segments" : "triangles"),
+              at(oi, object.label));
     }
     for (size_t si = 0; si < object.simplices.size(); ++si) {
       Simplex& s = object.simplices[si];
@@ -212,9 +223,10 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
       for (int k = 0; k < arity; ++k) {
         if (s.v[k] >= object.vertices.size()) {
           invalid(where(oi, object.label) + ": " + (dim == 2 ? "segment " : "triangle ") +
-                  std::to_string(si) + " vertex index " + std::to_string(s.v[k]) +
-                  " is out of range (the object has " + std::to_string(object.vertices.size()) +
-                  " vertices)");
+                      std::to_string(si) + " vertex index " + std::to_string(s.v[k]) +
+                      " is out of range (the object has " + std::to_string(object.vertices.size()) +
+                      " vertices)",
+                  at(oi, object.label, dim == 2 ? "segment" : "triangle", si));
         }
       }
     }
@@ -224,7 +236,8 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
     const uint64_t removed = before - object.simplices.size();
     if (object.simplices.empty()) {
       invalid(where(oi, object.label) + ": all " + std::to_string(before) +
-              (dim == 2 ? " segments" : " triangles") + " are degenerate");
+                  (dim == 2 ? " segments" : " triangles") + " are degenerate",
+              at(oi, object.label));
     }
     if (removed > 0) {
       scene.warnings.push_back({"degenerate_simplices", object.label, removed,

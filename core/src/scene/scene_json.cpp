@@ -14,8 +14,16 @@ namespace {
 
 using Json = nlohmann::json;
 
-[[noreturn]] void invalid(std::string detail) {
-  throw Error(ErrorCode::kInvalidScene, std::move(detail));
+[[noreturn]] void invalid(std::string detail, ErrorLocation where = {}) {
+  throw Error(ErrorCode::kInvalidScene, std::move(detail), std::move(where));
+}
+
+/// The location of objects[index] (and of one of its elements), with its JSON pointer.
+ErrorLocation at(size_t index, const std::string& label, std::string pointer = "",
+                 const char* element = "", size_t element_index = static_cast<size_t>(-1)) {
+  return {static_cast<int64_t>(index), label, element,
+          element_index == static_cast<size_t>(-1) ? -1 : static_cast<int64_t>(element_index),
+          "/objects/" + std::to_string(index) + pointer};
 }
 
 std::string object_where(size_t index, const std::string& label) {
@@ -26,23 +34,23 @@ std::string object_where(size_t index, const std::string& label) {
 const char* type_name(const Json& j) { return j.type_name(); }
 
 /// An index of a simplex: a non-negative integral JSON number.
-uint32_t read_index(const Json& j, const std::string& where) {
+uint32_t read_index(const Json& j, const std::string& where, const ErrorLocation& loc) {
   if (j.is_number_unsigned()) {
     const uint64_t v = j.get<uint64_t>();
-    if (v > 0xFFFFFFFFull) invalid(where + " = " + std::to_string(v) + " is out of range");
+    if (v > 0xFFFFFFFFull) invalid(where + " = " + std::to_string(v) + " is out of range", loc);
     return static_cast<uint32_t>(v);
   }
   if (j.is_number_integer()) {
-    invalid(where + " = " + std::to_string(j.get<int64_t>()) + " is negative");
+    invalid(where + " = " + std::to_string(j.get<int64_t>()) + " is negative", loc);
   }
   if (j.is_number_float()) {
     const double v = j.get<double>();
-    if (v < 0) invalid(where + " = " + j.dump() + " is negative");
-    if (v != std::floor(v)) invalid(where + " = " + j.dump() + " is not an integer");
-    if (v > 4294967295.0) invalid(where + " = " + j.dump() + " is out of range");
+    if (v < 0) invalid(where + " = " + j.dump() + " is negative", loc);
+    if (v != std::floor(v)) invalid(where + " = " + j.dump() + " is not an integer", loc);
+    if (v > 4294967295.0) invalid(where + " = " + j.dump() + " is out of range", loc);
     return static_cast<uint32_t>(v);
   }
-  invalid(where + " must be a vertex index (a non-negative integer), got " + type_name(j));
+  invalid(where + " must be a vertex index (a non-negative integer), got " + type_name(j), loc);
 }
 
 }  // namespace
@@ -84,55 +92,74 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
   for (size_t oi = 0; oi < objects.size(); ++oi) {
     const Json& o = objects[oi];
     if (!o.is_object()) {
-      invalid(object_where(oi, "") + " must be a JSON object, got " + type_name(o));
+      invalid(object_where(oi, "") + " must be a JSON object, got " + type_name(o), at(oi, ""));
     }
     SceneObject object;
     const auto label_it = o.find("label");
-    if (label_it == o.end()) invalid(object_where(oi, "") + " has no \"label\"");
+    if (label_it == o.end()) invalid(object_where(oi, "") + " has no \"label\"", at(oi, ""));
     if (!label_it->is_string()) {
-      invalid(object_where(oi, "") + ": \"label\" must be a string, got " + label_it->dump());
+      invalid(object_where(oi, "") + ": \"label\" must be a string, got " + label_it->dump(),
+              at(oi, "", "/label"));
     }
     object.label = label_it->get<std::string>();
-    if (object.label.empty()) invalid(object_where(oi, "") + " has an empty label");
+    if (object.label.empty()) {
+      invalid(object_where(oi, "") + " has an empty label", at(oi, "", "/label"));
+    }
     const std::string where = object_where(oi, object.label);
 
     if (o.contains(wrong_key)) {
       invalid(where + " has \"" + wrong_key + "\" but the scene is " + std::to_string(dim) +
-              "D (expected \"" + simplex_key + "\")");
+                  "D (expected \"" + simplex_key + "\")",
+              at(oi, object.label, std::string("/") + wrong_key));
     }
     const auto verts_it = o.find("vertices");
-    if (verts_it == o.end()) invalid(where + " has no \"vertices\"");
-    if (!verts_it->is_array()) invalid(where + ": \"vertices\" must be an array");
+    if (verts_it == o.end()) invalid(where + " has no \"vertices\"", at(oi, object.label));
+    if (!verts_it->is_array()) {
+      invalid(where + ": \"vertices\" must be an array", at(oi, object.label, "/vertices"));
+    }
     object.vertices.reserve(verts_it->size());
     for (size_t vi = 0; vi < verts_it->size(); ++vi) {
       const Json& v = (*verts_it)[vi];
       const std::string vwhere = where + ": vertices[" + std::to_string(vi) + "]";
+      const ErrorLocation vloc =
+          at(oi, object.label, "/vertices/" + std::to_string(vi), "vertex", vi);
       if (!v.is_array() || v.size() != static_cast<size_t>(dim)) {
         invalid(vwhere + " must be an array of " + std::to_string(dim) + " numbers, got " +
-                (v.is_array() ? std::to_string(v.size()) + " values" : type_name(v)));
+                    (v.is_array() ? std::to_string(v.size()) + " values" : type_name(v)),
+                vloc);
       }
       Vec3 p;
       for (int c = 0; c < dim; ++c) {
         const Json& x = v[static_cast<size_t>(c)];
         if (!x.is_number()) {
-          invalid(vwhere + "[" + std::to_string(c) + "] is not a number (" + x.dump() + ")");
+          invalid(vwhere + "[" + std::to_string(c) + "] is not a number (" + x.dump() + ")", vloc);
         }
         p[c] = x.get<double>();
         if (!std::isfinite(p[c])) {
-          invalid(vwhere + "[" + std::to_string(c) + "] is not finite");
+          invalid(vwhere + "[" + std::to_string(c) + "] is not finite", vloc);
         }
         if (std::fabs(p[c]) > limits.max_abs_coordinate) {
           invalid(vwhere + "[" + std::to_string(c) + "] = " + x.dump() +
-                  " exceeds the limit of +-" + Json(limits.max_abs_coordinate).dump());
+                      " exceeds the limit of +-" + Json(limits.max_abs_coordinate).dump(),
+                  vloc);
         }
       }
       object.vertices.push_back(p);
     }
 
     const auto simp_it = o.find(simplex_key);
-    if (simp_it == o.end()) invalid(where + " has no \"" + simplex_key + "\"");
-    if (!simp_it->is_array()) invalid(where + ": \"" + simplex_key + "\" must be an array");
-    if (simp_it->empty()) invalid(where + " has no " + simplex_key + " (the array is empty)");
+    const std::string simplices_pointer = std::string("/") + simplex_key;
+    if (simp_it == o.end()) {
+      invalid(where + " has no \"" + simplex_key + "\"", at(oi, object.label));
+    }
+    if (!simp_it->is_array()) {
+      invalid(where + ": \"" + simplex_key + "\" must be an array",
+              at(oi, object.label, simplices_pointer));
+    }
+    if (simp_it->empty()) {
+      invalid(where + " has no " + simplex_key + " (the array is empty)",
+              at(oi, object.label, simplices_pointer));
+    }
     total_simplices += simp_it->size();
     if (total_simplices > limits.max_simplices) {
       throw Error(ErrorCode::kLimitExceeded, "the scene has more than the limit of " +
@@ -143,16 +170,22 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
     for (size_t si = 0; si < simp_it->size(); ++si) {
       const Json& s = (*simp_it)[si];
       const std::string swhere = where + ": " + simplex_key + "[" + std::to_string(si) + "]";
+      const std::string spointer = simplices_pointer + "/" + std::to_string(si);
+      const char* element = dim == 2 ? "segment" : "triangle";
       if (!s.is_array() || s.size() != arity) {
-        invalid(swhere + " must be an array of " + std::to_string(arity) + " vertex indices");
+        invalid(swhere + " must be an array of " + std::to_string(arity) + " vertex indices",
+                at(oi, object.label, spointer, element, si));
       }
       Simplex simplex;
       for (size_t k = 0; k < arity; ++k) {
-        simplex.v[k] = read_index(s[k], swhere + "[" + std::to_string(k) + "]");
+        const ErrorLocation kloc =
+            at(oi, object.label, spointer + "/" + std::to_string(k), element, si);
+        simplex.v[k] = read_index(s[k], swhere + "[" + std::to_string(k) + "]", kloc);
         if (simplex.v[k] >= object.vertices.size()) {
           invalid(swhere + "[" + std::to_string(k) + "] = " + std::to_string(simplex.v[k]) +
-                  " is out of range (the object has " + std::to_string(object.vertices.size()) +
-                  " vertices)");
+                      " is out of range (the object has " + std::to_string(object.vertices.size()) +
+                      " vertices)",
+                  kloc);
         }
       }
       object.simplices.push_back(simplex);

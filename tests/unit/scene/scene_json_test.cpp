@@ -1,6 +1,7 @@
 // parse_scene_json rejections and the scene_to_json round trip.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 #include "gvd/common/error.h"
@@ -213,6 +214,53 @@ TEST(SceneJson, RoundTrips2D) {
   const Scene t = parse_scene_json(once);
   EXPECT_EQ(scene_to_json(t), once);
   EXPECT_EQ(t.objects[0].vertices[1], (Vec3{1.5, 0.25, 0}));
+}
+
+/// The structured location of the error `f` throws.
+template <class F>
+ErrorLocation location_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.where();
+  }
+  ADD_FAILURE() << "no error";
+  return {};
+}
+
+TEST(SceneJson, ErrorsSayWhereInStructuredFields) {
+  // A vertex index out of range: object, label, the triangle, and the JSON pointer.
+  ErrorLocation w = location_of([&] {
+    parse_scene_json(
+        scene_with(tet(R"("a")") + "," + tet(R"("b")", replace(kTet, "[1,2,3]", "[1,9,3]"))));
+  });
+  EXPECT_EQ(w.object, 1);
+  EXPECT_EQ(w.label, "b");
+  EXPECT_EQ(w.element, "triangle");
+  EXPECT_EQ(w.index, 2);
+  EXPECT_EQ(w.pointer, "/objects/1/triangles/2/1");
+  // A coordinate that is not a number: the vertex.
+  w = location_of([&] {
+    parse_scene_json(scene_with(tet(R"("a")", replace(kTet, "[0,1,0]", R"([0,"x",0])"))));
+  });
+  EXPECT_EQ(w.object, 0);
+  EXPECT_EQ(w.element, "vertex");
+  EXPECT_EQ(w.index, 2);
+  EXPECT_EQ(w.pointer, "/objects/0/vertices/2");
+  // A duplicate label: the second object.
+  w = location_of([&] { parse_scene_json(scene_with(tet(R"("a")") + "," + tet(R"("a")"))); });
+  EXPECT_EQ(w.object, 1);
+  EXPECT_EQ(w.label, "a");
+  // A scene built in code (validate_scene): a non-finite coordinate of object 1's vertex 3.
+  Scene scene = parse_scene_json(scene_with(tet(R"("a")") + "," + tet(R"("b")")));
+  scene.objects[1].vertices[3].y = std::nan("");
+  w = location_of([&] { validate_scene(scene); });
+  EXPECT_EQ(w.object, 1);
+  EXPECT_EQ(w.label, "b");
+  EXPECT_EQ(w.element, "vertex");
+  EXPECT_EQ(w.index, 3);
+  // No location where there is none to give.
+  EXPECT_TRUE(location_of([&] { parse_scene_json(R"({"dimension": 3})"); }).empty());
 }
 
 }  // namespace

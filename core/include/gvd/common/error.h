@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -23,16 +24,33 @@ enum class ErrorCode {
 /// Short machine name of a code ("invalid_scene", ...), stable across versions.
 std::string_view error_code_name(ErrorCode code);
 
+/// Where in the input an error lies, for callers that point at it (problem documents, the
+/// Python exceptions' attributes) without reading the detail text. Unset fields keep their
+/// defaults; the detail says the same in words.
+struct ErrorLocation {
+  int64_t object = -1;  ///< the object's index in the scene (input order); -1: none
+  std::string label;    ///< the object's label ("" when none or not known yet)
+  /// The kind of element: "vertex", "triangle", "segment", "point" (a query point in a
+  /// batch), "coordinate"; "" when none.
+  std::string element;
+  int64_t index = -1;   ///< that element's index (within the object, or the batch); -1: none
+  std::string pointer;  ///< a JSON pointer (RFC 6901) into the scene document; "" when none
+  bool empty() const { return object < 0 && label.empty() && element.empty() && pointer.empty(); }
+};
+
 /// The caller's fault or a limit. `what()` is "<code name>: <detail>".
 class Error : public std::runtime_error {
  public:
-  Error(ErrorCode code, std::string detail);
+  Error(ErrorCode code, std::string detail, ErrorLocation where = {});
   ErrorCode code() const { return code_; }
   const std::string& detail() const { return detail_; }
+  /// Where in the input (structured; the detail says it in words).
+  const ErrorLocation& where() const { return where_; }
 
  private:
   ErrorCode code_;
   std::string detail_;
+  ErrorLocation where_;
 };
 
 /// Our bug: a violated internal invariant.
