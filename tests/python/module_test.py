@@ -474,7 +474,11 @@ class Progress(unittest.TestCase):
         self.assertEqual(seen[-1][1], 1.0)
         for s in ("octree", "distance", "surface", "graph"):
             self.assertIn(s, stages)
-        self.assertEqual(len(stages), len(set(stages)), "each stage once, in order")
+        runs = [s for i, s in enumerate(stages) if i == 0 or stages[i - 1] != s]
+        self.assertEqual(len(runs), len(set(runs)), "each stage one run, in order")
+        for s in set(stages):
+            fractions = [f for t, f in seen if t == s]
+            self.assertEqual(fractions, sorted(fractions), "fractions grow within " + s)
         self.assertEqual(threads, {caller}, "called on the calling thread")
 
     def test_text_bar(self):

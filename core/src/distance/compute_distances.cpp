@@ -182,6 +182,7 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
         field.point[v] = v;
       }
     });
+    if (options.progress) options.progress(static_cast<double>(first + m) / todo.size());
   }
   check_cancel(options);
   field.exact_count = nv;
@@ -450,7 +451,17 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
       bound[j] = query_bound[todo[j]];
     }
     std::vector<ClosestHit> hits(todo.size());
-    solve_closest(bvh, options, pos, bound, hits, threads);
+    // In batches when someone watches the progress (a twentieth each, at least 8k queries).
+    const size_t step = options.progress ? std::max<size_t>(8192, (todo.size() + 19) / 20)
+                                         : std::max<size_t>(todo.size(), 1);
+    for (size_t off = 0; off < todo.size(); off += step) {
+      const size_t len = std::min(step, todo.size() - off);
+      solve_closest(bvh, options, std::span<const Vec3>(pos).subspan(off, len),
+                    std::span<const double>(bound).subspan(off, len),
+                    std::span<ClosestHit>(hits).subspan(off, len), threads);
+      if (options.progress) options.progress(static_cast<double>(off + len) / todo.size());
+      check_cancel(options);
+    }
     for (size_t j = 0; j < todo.size(); ++j) {
       const uint32_t i = todo[j];
       const uint32_t v = nonempty[i];

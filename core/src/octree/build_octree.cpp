@@ -251,6 +251,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
   const uint64_t children_per_split = (1u << dim) - 1;
   for (int level = 0; level <= max_depth && current.size() > 0; ++level) {
     check_cancel(options);
+    if (options.progress) options.progress(static_cast<double>(level) / std::max(1, max_depth));
     const size_t n = current.size();
     std::vector<ObjectId> tags(n);
     std::vector<ObjectSet> sets(n);

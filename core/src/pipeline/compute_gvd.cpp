@@ -93,6 +93,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   oo.max_leaves = options.max_leaves;
   oo.threads = options.threads;
   oo.cancel = options.cancel;
+  oo.progress = [&](double f) { progress("octree", f); };
   if (options.octree_build == "data-parallel") {
     const std::unique_ptr<OctreeBuildSteps> steps =
         options.compute ? options.compute->octree_build_steps(r.geometry) : nullptr;
@@ -102,6 +103,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   }
   r.stats.stages.push_back(
       {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
+  oo.progress = nullptr;  // the refinement below reports its own progress
 
   progress("distance", 0);
   sw = Stopwatch();
@@ -115,7 +117,9 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   dopt.solver = solver.get();
   dopt.method =
       options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
+  dopt.progress = [&](double f) { progress("distance", f); };
   r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
+  dopt.progress = nullptr;  // the refinement below reports its own progress
   r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
 
   // Ambiguity resolution (§5) and the separation guarantee: split, recompute, repeat.
@@ -158,6 +162,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   SurfaceOptions so;
   so.threads = options.threads;
   so.cancel = options.cancel;
+  so.progress = [&](double f) { progress("surface", 0.9 * f); };  // the weld: the last tenth
   {
     LeafPieces pieces = surface_leaves(r.octree, r.field, r.geometry, bvh, so);
     // Only the leaves needed the per-leaf vertex lists (~50 B per leaf): they go before the

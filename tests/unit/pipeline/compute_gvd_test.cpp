@@ -7,6 +7,7 @@
 
 #include "bench/boost_voronoi.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/load_scene.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"
@@ -787,6 +788,31 @@ TEST(ComputeGvd, SingleObjectCellIsTheDomainBox) {
                              c.positions[c.indices[s + 2]] - c.positions[c.indices[s]]));
   }
   EXPECT_NEAR(area, 6 * 2.2 * 2.2, 1e-9);
+}
+
+// Progress moves within the long stages, not only at their ends: the balls on the plate
+// (about 150k octree vertices, 10k+ surfaced leaves) report fractions strictly between 0 and 1
+// in the octree, distance and surface stages, never decreasing within a stage.
+TEST(ComputeGvd, ProgressMovesWithinStages) {
+  const std::string path = std::string(GVD_TEST_DATA_DIR) + "/scenes/balls_on_plate.json";
+  PipelineOptions o;
+  o.threads = 2;
+  std::vector<std::pair<std::string, double>> calls;
+  o.progress = [&](const std::string& stage, double f) { calls.emplace_back(stage, f); };
+  compute_gvd(load_scene(std::span<const std::string>(&path, 1)), o);
+  for (const char* stage : {"octree", "distance", "surface"}) {
+    double last = -1;
+    int inside = 0;
+    for (const auto& [s, f] : calls) {
+      if (s != stage) continue;
+      EXPECT_GE(f, last) << stage;
+      last = f;
+      inside += f > 0 && f < 1;
+    }
+    EXPECT_GT(inside, 0) << stage << " reports only its start and end";
+  }
+  ASSERT_FALSE(calls.empty());
+  EXPECT_EQ(calls.back(), (std::pair<std::string, double>{"done", 1.0}));
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "gvd/geometry/simplex_bvh.h"
@@ -77,6 +78,9 @@ struct DistanceOptions {
   /// Computes the exact closest points in batches (the OpenCL kernel or the CPU twin of
   /// closest_points.h); null = SimplexBvh::nearest on `threads` threads. Same results.
   ClosestPointSolver* solver = nullptr;
+  /// Optional: the fraction of the exact closest-point queries done, called from the calling
+  /// thread between batches of them (for the progress display).
+  std::function<void(double)> progress;
 };
 
 /// The exact closest point of one vertex among all simplices (the per-item function of the

@@ -108,6 +108,9 @@ struct OctreeOptions {
   /// when no GVD enters it (kOneObject) or its bisector is certified (kPair; the leaf and its
   /// descendants are marked in Octree::certified). Null: the paper's rule alone.
   const SplitOracle* split_oracle = nullptr;
+  /// Optional: called from the calling thread after each level of the level-by-level build
+  /// with level / max_depth (the build often ends well before max_depth; then it jumps to 1).
+  std::function<void(double)> progress;
 };
 
 /// Resolved contact depth (applies the defaults, clamps to the max depth).

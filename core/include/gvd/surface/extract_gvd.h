@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <vector>
@@ -18,6 +19,9 @@ namespace gvd {
 struct SurfaceOptions {
   int threads = 0;
   const std::atomic<bool>* cancel = nullptr;
+  /// Optional: the fraction of the leaves surfaced, called from the calling thread between
+  /// batches of them (for the progress display).
+  std::function<void(double)> progress;
 };
 
 /// Paper §6: bisector points (eq. 1, clamped to the edge) on every octree edge whose ends
