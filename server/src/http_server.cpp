@@ -22,6 +22,7 @@
 #include "openapi_json.h"
 #include "problem.h"
 #include "query_handlers.h"
+#include "redis_job_queue.h"
 #include "routes.h"
 #include "static_files.h"
 
@@ -110,18 +111,26 @@ curl -o gvd.glb http://HOST/v1/jobs/ID/gvd.glb</pre>
 </body></html>
 )";
 
+/// The in-process queue (the default), or the Redis Streams queue for --queue redis://...
+std::unique_ptr<JobQueue> make_job_queue(const ServerOptions& o, Metrics& metrics) {
+  if (o.queue_url.empty()) return std::make_unique<JobManager>(o, metrics);
+  return std::make_unique<RedisJobQueue>(o, metrics);
+}
+
 }  // namespace
 
 struct HttpServer::Impl {
   explicit Impl(const ServerOptions& o)
       : options(o),
-        jobs(o, metrics),
+        jobs_owner(make_job_queue(o, metrics)),
+        jobs(*jobs_owner),
         queries(jobs, o.max_grid_cells, o.job_threads),
         web(o.web_root) {}
 
   ServerOptions options;
   Metrics metrics;
-  JobManager jobs;
+  std::unique_ptr<JobQueue> jobs_owner;
+  JobQueue& jobs;
   QueryHandlers queries;
   StaticFiles web;
   httplib::Server http;
@@ -453,17 +462,17 @@ struct HttpServer::Impl {
   void remove(const httplib::Request& req, httplib::Response& res) {
     const std::string id = req.matches[1].str();
     switch (jobs.remove(id)) {
-      case JobManager::DeleteOutcome::kUnknown:
+      case JobQueue::DeleteOutcome::kUnknown:
         throw ProblemError(ProblemKind::kNotFound, "no job " + id);
-      case JobManager::DeleteOutcome::kCancelled:
+      case JobQueue::DeleteOutcome::kCancelled:
         res.status = 200;
         res.set_content(jobs.status_json(id).value_or("{}"), "application/json");
         return;
-      case JobManager::DeleteOutcome::kCancelling:
+      case JobQueue::DeleteOutcome::kCancelling:
         res.status = 202;
         res.set_content(jobs.status_json(id).value_or("{}"), "application/json");
         return;
-      case JobManager::DeleteOutcome::kForgotten:
+      case JobQueue::DeleteOutcome::kForgotten:
         res.status = 204;
         return;
     }
@@ -625,16 +634,23 @@ struct HttpServer::Impl {
   }
 
   void readyz(const httplib::Request&, httplib::Response& res) {
-    const Json body = {{"status", draining ? "draining" : "ready"},
-                       {"backend", backend},
-                       {"backend_requested", options.backend},
-                       {"algorithm_version", kAlgorithmVersion},
-                       {"workers", options.workers},
-                       {"queue_depth", jobs.queue_depth()},
-                       {"queue_capacity", options.queue},
-                       {"running", jobs.running()}};
-    res.status = draining ? 503 : 200;
-    if (draining) res.set_header("Retry-After", std::to_string(options.retry_after));
+    std::string why;
+    const bool queue_up = jobs.available(&why);
+    Json body = {{"status", draining   ? "draining"
+                            : queue_up ? "ready"
+                                       : "queue-unavailable"},
+                 {"backend", backend},
+                 {"backend_requested", options.backend},
+                 {"algorithm_version", kAlgorithmVersion},
+                 {"workers", options.workers},
+                 {"queue_depth", jobs.queue_depth()},
+                 {"queue_capacity", options.queue},
+                 {"running", jobs.running()}};
+    const Json extra = Json::parse(jobs.readiness_json());
+    for (const auto& [k, v] : extra.items()) body[k] = v;
+    const bool ready = !draining && queue_up;
+    res.status = ready ? 200 : 503;
+    if (!ready) res.set_header("Retry-After", std::to_string(options.retry_after));
     res.set_header("Cache-Control", "no-store");
     res.set_content(body.dump(), "application/json");
   }

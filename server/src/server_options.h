@@ -50,6 +50,17 @@ struct ServerOptions {
   /// The web viewer's files (index.html, viewer/, vendor/); empty = found next to the binary
   /// (static_files.h), and resolved to a directory (or left empty: no viewer) at start-up.
   std::string web_root;
+
+  // Scale-out (docs/DEPLOY.md): replicas sharing a Redis Streams queue and one store.
+  std::string queue_url;      ///< empty = the in-process queue; redis://HOST:PORT/DB
+  std::string role = "both";  ///< api (no workers) | worker | both
+  std::string replica_id;     ///< consumer name in the group; empty = hostname-pid
+  double reclaim_idle = 30;   ///< seconds a running job may go without a heartbeat
+  int max_deliveries = 3;     ///< deliveries of one job before it fails
+  /// Parsed from queue_url by parse_server_options.
+  std::string redis_host;
+  int redis_port = 6379;
+  int redis_db = 0;
 };
 
 /// Bad command line or environment (the message says which option and why).
