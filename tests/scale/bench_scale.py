@@ -33,7 +33,7 @@ def run_batch(urls) -> float:
     ids = []
     for k in range(JOBS):
         job, _ = submit(urls[k % len(urls)], scene,
-                        {"contact_depth": 7, "max_depth": 10 + k})
+                        {"contact_depth": 5 + k % 3, "max_depth": 10 + k // 3})
         ids.append(job["id"])
     for job_id in ids:
         wait_for("done", lambda: job_status(urls[0], job_id)["status"] == "done", 300, 0.005)
