@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -147,7 +148,7 @@ struct HttpServer::Impl {
                     const std::string& detail, const std::string& extra = {}) {
     const ProblemInfo& info = problem_info(kind);
     res.status = info.status;
-    if (info.retryable && info.status == 503) {
+    if (info.retryable && info.status == 503 && !res.has_header("Retry-After")) {
       res.set_header("Retry-After", std::to_string(options.retry_after));
     }
     res.set_content(problem_json(kind, detail, req.path, t_request.id, extra),
@@ -334,6 +335,7 @@ struct HttpServer::Impl {
 
   void submit(const httplib::Request& req, httplib::Response& res) {
     if (draining) throw ProblemError(ProblemKind::kDraining, "the server is shutting down");
+    if (options.rate_limit > 0) admit(req, res);
     JobParams params;
     std::string label = "object";
     for (const auto& [key, value] : req.params) {
@@ -375,6 +377,24 @@ struct HttpServer::Impl {
     res.set_header("X-Gvd-Cache", outcome.created ? "miss" : "hit");
     res.status = outcome.status == JobStatus::kDone ? 200 : 202;
     res.set_content(outcome.status_json, "application/json");
+  }
+
+  /// The per-client token bucket (--rate-limit): refused with 503 + Retry-After (the
+  /// retryable "busy" answer every client already honours) when the client has no token.
+  void admit(const httplib::Request& req, httplib::Response& res) {
+    std::string client;
+    if (!options.client_id_header.empty())
+      client = req.get_header_value(options.client_id_header.c_str());
+    if (client.empty() || client.size() > 128) client = "addr:" + req.remote_addr;
+    const double wait = jobs.take_token(client, options.rate_limit, options.rate_burst);
+    if (wait <= 0) return;
+    metrics.count("gvd_jobs_rate_limited_total");
+    res.set_header("Retry-After", std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
+    throw ProblemError(ProblemKind::kQueueFull, "client \"" + client + "\" is over its limit of " +
+                                                    Json(options.rate_limit).dump() +
+                                                    " submissions per second (burst " +
+                                                    Json(options.rate_burst).dump() +
+                                                    "); retry in " + Json(wait).dump() + " s");
   }
 
   /// Compute parameters given inside a scene JSON: {"params": {"max_depth": 12, ...}}.

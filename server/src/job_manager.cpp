@@ -397,6 +397,21 @@ std::string JobManager::list_json() const {
   return Json{{"jobs", list}}.dump();
 }
 
+double JobManager::take_token(const std::string& client, double rate, double burst) {
+  std::lock_guard lock(buckets_mutex_);
+  const auto now = Clock::now();
+  if (buckets_.size() > 100000) buckets_.clear();  // many clients: start them all afresh
+  auto [it, fresh] = buckets_.try_emplace(client, Bucket{burst, now});
+  Bucket& b = it->second;
+  if (!fresh) {
+    b.tokens = std::min(burst, b.tokens + std::chrono::duration<double>(now - b.at).count() * rate);
+    b.at = now;
+  }
+  if (b.tokens < 1) return (1 - b.tokens) / rate;
+  b.tokens -= 1;
+  return 0;
+}
+
 void JobManager::log_event(const char* level, const char* event, const std::string& id,
                            double seconds) const {
   if (options_.quiet) return;

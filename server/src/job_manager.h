@@ -71,7 +71,9 @@ class JobManager final : public JobQueue {
   size_t queue_depth() const override;
   size_t running() const override;
   size_t cached_results() const override { return cache_.size(); }
-  std::string list_json() const override;  ///< {"jobs":[{"id","status"}]}, newest first
+  std::string list_json() const override;
+  double take_token(const std::string& client, double rate,
+                    double burst) override;  ///< {"jobs":[{"id","status"}]}, newest first
 
  private:
   enum class StopReason { kNone, kUser, kTimeout, kMemory, kShutdown };
@@ -115,6 +117,12 @@ class JobManager final : public JobQueue {
   bool stopping_ = false;
   std::vector<std::thread> workers_;
   std::thread watchdog_;
+  struct Bucket {
+    double tokens = 0;
+    std::chrono::steady_clock::time_point at;
+  };
+  std::mutex buckets_mutex_;
+  std::map<std::string, Bucket> buckets_;
 };
 
 }  // namespace gvd::server

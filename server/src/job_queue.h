@@ -90,6 +90,11 @@ class JobQueue {
   virtual size_t cached_results() const = 0;
   virtual std::string list_json() const = 0;  ///< {"jobs":[{"id","status"}]}, newest first
 
+  /// Per-client fairness (a token bucket per `client`: `rate` submissions per second, bursts
+  /// of `burst`): takes one token and returns 0, or returns the seconds until the next token
+  /// (the submission is refused). Cluster-wide for the Redis queue.
+  virtual double take_token(const std::string& client, double rate, double burst) = 0;
+
   /// False while a service the queue depends on (Redis) is unreachable; `why` says what.
   virtual bool available(std::string* why) const {
     (void)why;

@@ -42,6 +42,7 @@ const char* const kCounters[][2] = {
     {"gvd_queue_reclaimed_total",
      "Redis queue: jobs this replica took over from a stopped worker (XAUTOCLAIM)."},
     {"gvd_queue_redis_reconnects_total", "Redis queue: connections to Redis lost."},
+    {"gvd_jobs_rate_limited_total", "Submissions refused by the per-client token bucket."},
 };
 
 }  // namespace

@@ -107,6 +107,25 @@ end
 return out
 )lua";
 
+// KEYS: the client's bucket. ARGV: rate (tokens/s), burst. Returns "0" (a token taken) or the
+// seconds until the next token. Redis' clock, so every replica counts alike.
+constexpr const char* kTokenScript = R"lua(
+local t = redis.call('TIME')
+local now = tonumber(t[1]) + tonumber(t[2]) / 1e6
+local rate, burst = tonumber(ARGV[1]), tonumber(ARGV[2])
+local b = redis.call('HMGET', KEYS[1], 'tokens', 'at')
+local tokens = tonumber(b[1]) or burst
+local at = tonumber(b[2]) or now
+tokens = math.min(burst, tokens + math.max(0, now - at) * rate)
+if tokens < 1 then
+  redis.call('HSET', KEYS[1], 'tokens', tokens, 'at', now)
+  return tostring((1 - tokens) / rate)
+end
+redis.call('HSET', KEYS[1], 'tokens', tokens - 1, 'at', now)
+redis.call('PEXPIRE', KEYS[1], math.ceil(burst / rate * 1000) + 1000)
+return '0'
+)lua";
+
 std::string read_text(const std::string& path) {
   const std::vector<uint8_t> bytes = read_file_bytes(path);
   return std::string(bytes.begin(), bytes.end());
@@ -235,7 +254,8 @@ void RedisJobQueue::start() {
 
 // ---- lookups --------------------------------------------------------------------------------
 
-std::optional<RedisJobQueue::Found> RedisJobQueue::lookup_store(const std::string& id) const {
+std::optional<RedisJobQueue::Found> RedisJobQueue::lookup_store(const std::string& id,
+                                                                bool requests) const {
   std::error_code ec;
   try {
     if (fs::exists(cache_.path_of(id), ec)) {
@@ -244,6 +264,21 @@ std::optional<RedisJobQueue::Found> RedisJobQueue::lookup_store(const std::strin
     }
     const std::string failed = dir("failed") + "/" + id + ".json";
     if (fs::exists(failed, ec)) return Found{JobStatus::kFailed, read_text(failed)};
+    // Submitted, unfinished, and unknown to Redis (it restarted empty; the job is queued again
+    // within a second, or is still running somewhere): queued, as far as anyone can tell.
+    const std::string request = dir("requests") + "/" + id + ".json";
+    if (requests && fs::exists(request, ec)) {
+      const Json meta = Json::parse(read_text(request));
+      JobRecord job;
+      job.id = id;
+      job.params_json = meta.at("params").dump();
+      job.dimension = meta.value("dimension", 3);
+      job.objects = meta.value("objects", uint64_t{0});
+      job.simplices = meta.value("simplices", uint64_t{0});
+      job.submitted_at = meta.value("submitted_at", 0.0);
+      job.recovered = true;
+      return Found{JobStatus::kQueued, job_document(job, JobStatus::kQueued, std::nullopt)};
+    }
   } catch (const std::exception&) {
     // A file removed while being read: as if it were not there.
   }
@@ -251,14 +286,15 @@ std::optional<RedisJobQueue::Found> RedisJobQueue::lookup_store(const std::strin
 }
 
 std::optional<RedisJobQueue::Found> RedisJobQueue::lookup(RedisConnection& redis,
-                                                          const std::string& id) const {
+                                                          const std::string& id,
+                                                          bool requests) const {
   RedisReply r = redis.command({"HMGET", key(id), "status", "doc"});
   if (r.size() == 2 && !reply_is_nil(r.at(0)) && !reply_is_nil(r.at(1))) {
     if (const auto s = job_status_from_name(reply_str(r.at(0)))) {
       return Found{*s, reply_str(r.at(1))};
     }
   }
-  return lookup_store(id);
+  return lookup_store(id, requests);
 }
 
 std::optional<std::string> RedisJobQueue::status_json(const std::string& id) const {
@@ -323,6 +359,19 @@ std::string RedisJobQueue::list_json() const {
   return Json{{"jobs", list}}.dump();
 }
 
+double RedisJobQueue::take_token(const std::string& client, double rate, double burst) {
+  const RedisReply r = api([&](RedisConnection& redis) {
+    return redis.command(
+        {"EVAL", kTokenScript, "1", "gvd:bucket:" + client, number_text(rate), number_text(burst)});
+  });
+  if (r.is_error()) throw Error(ErrorCode::kInternal, "redis token bucket: " + r.str());
+  try {
+    return std::stod(r.str());
+  } catch (const std::exception&) {
+    return 0;
+  }
+}
+
 // ---- submit and delete ----------------------------------------------------------------------
 
 SubmitOutcome RedisJobQueue::submit(const JobRequest& request) {
@@ -331,7 +380,9 @@ SubmitOutcome RedisJobQueue::submit(const JobRequest& request) {
                        "this replica only runs jobs (--role worker): submit to an api replica");
   }
   // Known already (in Redis, or finished in the store): one job per content.
-  const auto existing = api([&](RedisConnection& redis) { return lookup(redis, request.id); });
+  // (An unfinished request in the store that Redis does not know is queued again below.)
+  const auto existing =
+      api([&](RedisConnection& redis) { return lookup(redis, request.id, false); });
   if (existing && existing->status != JobStatus::kFailed &&
       existing->status != JobStatus::kCancelled) {
     metrics_.count("gvd_job_cache_hits_total");
@@ -496,10 +547,6 @@ void RedisJobQueue::requeue_store(RedisConnection& redis, std::chrono::seconds m
     }
     const std::string id = entry.path().stem().string();
     if (fs::exists(cache_.path_of(id), ec)) continue;  // finished; the request is a leftover
-    {
-      std::lock_guard lock(mutex_);
-      if (running_.count(id) != 0) continue;  // running here: its finish tells Redis
-    }
     if (min_age.count() > 0) {
       const auto written = fs::last_write_time(entry.path(), ec);
       if (ec || now - written < min_age) continue;  // being submitted right now

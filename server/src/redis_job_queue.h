@@ -63,6 +63,7 @@ class RedisJobQueue final : public JobQueue {
   size_t running() const override;
   size_t cached_results() const override { return cache_.size(); }
   std::string list_json() const override;
+  double take_token(const std::string& client, double rate, double burst) override;
   bool available(std::string* why) const override;
   std::string readiness_json() const override;
 
@@ -82,13 +83,15 @@ class RedisJobQueue final : public JobQueue {
   /// becomes ProblemError{kQueueFull} (503 + Retry-After; the detail says Redis is unreachable).
   template <class Fn>
   auto api(Fn&& fn) const;
-  /// The status and document of a job from Redis, or from the store when Redis has none.
+  /// The status and document of a job from Redis, or from the store when Redis has none
+  /// (finished files; with `requests`, an unfinished request shows as queued).
   struct Found {
     JobStatus status;
     std::string doc;
   };
-  std::optional<Found> lookup(RedisConnection& redis, const std::string& id) const;
-  std::optional<Found> lookup_store(const std::string& id) const;
+  std::optional<Found> lookup(RedisConnection& redis, const std::string& id,
+                              bool requests = true) const;
+  std::optional<Found> lookup_store(const std::string& id, bool requests = true) const;
 
   void worker_loop(int index);
   void maintenance_loop();
@@ -103,7 +106,7 @@ class RedisJobQueue final : public JobQueue {
   /// Creates the consumer group; true when it did not exist (an empty Redis).
   bool ensure_group(RedisConnection& redis);
   /// Queues the unfinished requests of the store again when Redis does not know them (after
-  /// it lost its data); only request files older than `min_age`, none running here.
+  /// it lost its data); only request files older than `min_age`.
   void requeue_store(RedisConnection& redis, std::chrono::seconds min_age);
   /// Sleeps up to `d`, less when stopping.
   void pause(std::chrono::milliseconds d) const;

@@ -122,6 +122,14 @@ const std::vector<Spec>& specs() {
       number("--reclaim-idle",
              "seconds without a heartbeat before another replica takes a running job over",
              &ServerOptions::reclaim_idle, 0.2, 86400.0),
+      number("--rate-limit",
+             "job submissions per second per client, cluster-wide with Redis (0 = no limit)",
+             &ServerOptions::rate_limit, 0.0, 1e6),
+      number("--rate-burst", "submissions a client may make at once above --rate-limit",
+             &ServerOptions::rate_burst, 1.0, 1e6),
+      text("--client-id-header",
+           "header naming the client for --rate-limit (empty or absent: the remote address)",
+           &ServerOptions::client_id_header),
       number("--max-deliveries", "times a job is started before it fails (crashed workers)",
              &ServerOptions::max_deliveries, 1, 1000),
   };
@@ -223,14 +231,16 @@ std::string server_usage() {
   const ServerOptions defaults;
   for (const Spec& spec : specs()) {
     const std::string flag = spec.flag;
-    const char* metavar = flag == "--host"         ? " ADDR"
-                          : flag == "--store"      ? " DIR"
-                          : flag == "--backend"    ? " NAME"
-                          : flag == "--web-root"   ? " DIR"
-                          : flag == "--queue"      ? " N|URL"
-                          : flag == "--role"       ? " ROLE"
-                          : flag == "--replica-id" ? " NAME"
-                                                   : " N";
+    const char* metavar = flag == "--host"                                   ? " ADDR"
+                          : flag == "--store"                                ? " DIR"
+                          : flag == "--backend"                              ? " NAME"
+                          : flag == "--web-root"                             ? " DIR"
+                          : flag == "--queue"                                ? " N|URL"
+                          : flag == "--role"                                 ? " ROLE"
+                          : flag == "--replica-id"                           ? " NAME"
+                          : flag == "--client-id-header"                     ? " NAME"
+                          : flag == "--rate-limit" || flag == "--rate-burst" ? " R"
+                                                                             : " N";
     std::string head = "  " + flag + metavar;
     head.resize(std::max<size_t>(head.size() + 1, 27), ' ');
     s << head << spec.meaning << " (" << env_name(spec.flag) << ", default " << spec.show(defaults)

@@ -30,7 +30,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(HERE), "clients"))
 from server_process import OUTPUT, SERVER, ServerProcess, fresh_dir, slow_scene  # noqa: E402
 
 RECLAIM_IDLE = 2.0  # seconds (--reclaim-idle of the replicas)
-SLOW = {"contact_depth": 11}  # about 1-3 s on this 2-core machine with one thread
+SLOW = {"contact_depth": 11}
+RATE, BURST = 20, 30  # --rate-limit, --rate-burst of the replicas  # about 1-3 s on this 2-core machine with one thread
 
 
 def free_port() -> int:
@@ -123,7 +124,8 @@ class Replica:
             self.proc = subprocess.Popen(
                 [SERVER, "--port", "0", "--host", "127.0.0.1", "--store", self.store,
                  "--queue", f"redis://127.0.0.1:{self.redis_port}/0", "--replica-id", self.name,
-                 "--reclaim-idle", str(RECLAIM_IDLE), "--workers", "1", "--job-threads", "1"],
+                 "--reclaim-idle", str(RECLAIM_IDLE), "--workers", "1", "--job-threads", "1",
+                 "--rate-limit", str(RATE), "--rate-burst", str(BURST)],
                 stdout=subprocess.PIPE, stderr=log, text=True)
         line = self.proc.stdout.readline()
         if "listening on" not in line:
@@ -391,7 +393,30 @@ class RedisScaleOut(unittest.TestCase):
         for r in self.replicas:
             self.assertEqual(http("GET", f"{r.url}/v1/jobs/{job['id']}")[0], 404)
 
-    def test_7_metrics_and_readiness(self):
+    def test_7_one_client_cannot_starve_others_across_replicas(self):
+        scene, params = small_scene(3), {"max_depth": 9}  # done already: cheap cache hits
+        body = json.dumps(scene).encode()
+        query = "&".join(f"{k}={v}" for k, v in params.items())
+
+        def post(r, client):
+            return http("POST", f"{r.url}/v1/jobs?{query}", body,
+                        {"Content-Type": "application/json", "X-Client-Id": client})
+        t0 = time.monotonic()
+        answers = [post(self.replicas[k % 3], "greedy") for k in range(2 * BURST)]
+        elapsed = time.monotonic() - t0
+        admitted = sum(1 for status, _, _ in answers if status in (200, 202))
+        refused = [a for a in answers if a[0] == 503]
+        self.assertEqual(admitted + len(refused), 2 * BURST)
+        # One bucket for the cluster, not one per replica (that would admit all 60).
+        self.assertGreaterEqual(admitted, BURST)
+        self.assertLessEqual(admitted, BURST + RATE * elapsed + 1)
+        status, headers, problem = refused[0]
+        self.assertIn("Retry-After", headers)
+        self.assertIn("greedy", json.loads(problem)["detail"])
+        # Another client is served at once.
+        self.assertEqual(post(self.replicas[0], "patient")[0], 200)
+
+    def test_8_metrics_and_readiness(self):
         for r in self.replicas:
             status, _, body = http("GET", f"{r.url}/readyz")
             self.assertEqual(status, 200)
@@ -403,6 +428,25 @@ class RedisScaleOut(unittest.TestCase):
             wait_for(f"{r.name} pending 0",
                      lambda r=r: metric(r.url, "gvd_queue_pending_entries") == 0, 5)
             self.assertGreaterEqual(metric(r.url, "gvd_queue_redis_reconnects_total"), 1)
+
+
+class InProcessTokenBucket(unittest.TestCase):
+    """--rate-limit without Redis: one bucket per client in the process."""
+
+    def test_a_client_over_its_rate_is_refused_others_are_not(self):
+        with ServerProcess("--rate-limit", "1", "--rate-burst", "3", name="bucket") as server:
+            body = json.dumps(small_scene(7)).encode()
+
+            def post(client):
+                return http("POST", f"{server.url}/v1/jobs?max_depth=6", body,
+                            {"Content-Type": "application/json", "X-Client-Id": client})
+            statuses = [post("a")[0] for _ in range(5)]
+            self.assertTrue(all(s in (200, 202) for s in statuses[:3]), statuses)
+            self.assertEqual(statuses[3:], [503, 503])
+            status, headers, _ = post("a")
+            self.assertEqual(status, 503)
+            self.assertEqual(headers.get("Retry-After"), "1")
+            self.assertIn(post("b")[0], (200, 202))
 
 
 if __name__ == "__main__":
