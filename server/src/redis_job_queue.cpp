@@ -86,6 +86,19 @@ local c = redis.call('HGET', KEYS[2], 'cancel')
 return {owned, c == '1' and 1 or 0}
 )lua";
 
+// KEYS: job hash, stream, channel. ARGV: id, queued document, entry. A job stopped by a
+// shutdown goes back to the queue at once (a new entry for the next free worker, the old one
+// acknowledged), unless it ended otherwise meanwhile.
+constexpr const char* kReleaseScript = R"lua(
+pcall(redis.call, 'XACK', KEYS[2], 'gvd-workers', ARGV[3])
+redis.call('XDEL', KEYS[2], ARGV[3])
+if redis.call('HGET', KEYS[1], 'status') ~= 'running' then return 0 end
+redis.call('HSET', KEYS[1], 'status', 'queued', 'doc', ARGV[2])
+redis.call('XADD', KEYS[2], '*', 'id', ARGV[1])
+redis.call('PUBLISH', KEYS[3], ARGV[1])
+return 1
+)lua";
+
 // KEYS: job hash, channel. ARGV: id, cancelled document. Cancels a job that is still queued.
 constexpr const char* kCancelQueuedScript = R"lua(
 local s = redis.call('HGET', KEYS[1], 'status')
@@ -626,6 +639,26 @@ void RedisJobQueue::maintenance_loop() {
         for (const auto& [id, job] : running_) jobs.push_back(job);
       }
       const auto limit = std::chrono::duration<double>(options_.job_seconds);
+      if (!jobs.empty() && options_.max_memory_mb > 0 &&
+          resident_memory_bytes() > options_.max_memory_mb * (1ull << 20)) {
+        // Over the memory limit: cached results go first, then the job that started last
+        // (as in one process).
+        if (cache_.size() > 0) {
+          cache_.clear();
+          log_event("warn", "memory_limit_cache_cleared", "");
+        } else {
+          std::lock_guard lock(mutex_);
+          Running* newest = nullptr;
+          for (const auto& job : jobs) {
+            if (!job->cancel && (newest == nullptr || job->run_start > newest->run_start))
+              newest = job.get();
+          }
+          if (newest != nullptr) {
+            newest->reason = StopReason::kMemory;
+            newest->cancel = true;
+          }
+        }
+      }
       for (const auto& job : jobs) {
         if (now - job->last_heartbeat >= heartbeat_every) {
           job->last_heartbeat = now;
@@ -926,10 +959,27 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
   }
   if (kind == ProblemKind::kCancelled) {
     switch (reason) {
-      case StopReason::kShutdown:
-        // Left pending in the group: another replica takes it over after --reclaim-idle.
+      case StopReason::kShutdown: {
+        // Back to the queue for another replica now; if Redis is away the entry stays
+        // pending and is taken over after --reclaim-idle.
+        JobRecord queued = *job;
+        queued.stages.clear();
+        queued.started_at = 0;
+        queued.recovered = true;
+        try {
+          redis.command({"EVAL", kReleaseScript, "3", key(job->id), kStream, kChannel, job->id,
+                         job_document(queued, JobStatus::kQueued, std::nullopt), job->entry});
+        } catch (const RedisUnavailable&) {
+          // As said.
+        }
         log_event("info", "job_released", job->id);
         return;
+      }
+      case StopReason::kMemory:
+        kind = ProblemKind::kLimitExceeded;
+        detail = "the server's memory limit of " + std::to_string(options_.max_memory_mb) +
+                 " MB was reached while this job ran";
+        break;
       case StopReason::kTimeout:
         kind = ProblemKind::kLimitExceeded;
         detail = "the job ran longer than this server's limit of " +

@@ -68,7 +68,7 @@ class RedisJobQueue final : public JobQueue {
   std::string readiness_json() const override;
 
  private:
-  enum class StopReason { kNone, kUser, kTimeout, kShutdown };
+  enum class StopReason { kNone, kUser, kTimeout, kMemory, kShutdown };
   struct Running : JobRecord {
     std::string entry;     ///< stream entry id
     std::string consumer;  ///< the worker's consumer name

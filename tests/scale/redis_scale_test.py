@@ -125,7 +125,7 @@ class Replica:
                 [SERVER, "--port", "0", "--host", "127.0.0.1", "--store", self.store,
                  "--queue", f"redis://127.0.0.1:{self.redis_port}/0", "--replica-id", self.name,
                  "--reclaim-idle", str(RECLAIM_IDLE), "--workers", "1", "--job-threads", "1",
-                 "--rate-limit", str(RATE), "--rate-burst", str(BURST)],
+                 "--rate-limit", str(RATE), "--rate-burst", str(BURST), "--grace-seconds", "0.3"],
                 stdout=subprocess.PIPE, stderr=log, text=True)
         line = self.proc.stdout.readline()
         if "listening on" not in line:
@@ -340,6 +340,28 @@ class RedisScaleOut(unittest.TestCase):
         victim.start()  # back to three replicas
         wait_for("restarted replica ready",
                  lambda: http("GET", f"{victim.url}/readyz")[0] == 200, 10)
+
+    def test_4b_sigterm_hands_a_running_job_back_at_once(self):
+        scene = slow_scene()
+        params = {"contact_depth": 12, "max_depth": 15}
+        job, _ = submit(self.replicas[0].url, scene, params)
+        wait_for("the job to start", lambda: self.worker_of(job["id"]), 20)
+        leaving = next(r for r in self.replicas if r.name == self.worker_of(job["id"]))
+        wait_for("progress", lambda: job_status(leaving.url, job["id"])["progress"]["stages"], 20)
+        survivors = [r for r in self.replicas if r is not leaving]
+        reclaimed_before = sum(metric(r.url, "gvd_queue_reclaimed_total") for r in survivors)
+        leaving.proc.send_signal(signal.SIGTERM)
+        self.assertEqual(leaving.proc.wait(timeout=20), 0)
+        leaving.proc.stdout.close()
+        # Started again elsewhere well before --reclaim-idle: queued again, not reclaimed.
+        wait_for("another worker", lambda: self.worker_of(job["id"]) not in (None, leaving.name),
+                 RECLAIM_IDLE * 0.75)
+        self.wait_done(survivors[0].url, job["id"], 60)
+        reclaimed_after = sum(metric(r.url, "gvd_queue_reclaimed_total") for r in survivors)
+        self.assertEqual(reclaimed_after, reclaimed_before)
+        leaving.start()
+        wait_for("restarted replica ready",
+                 lambda: http("GET", f"{leaving.url}/readyz")[0] == 200, 10)
 
     def test_5_redis_restarted_mid_run(self):
         scene = slow_scene()
