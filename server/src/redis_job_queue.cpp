@@ -182,7 +182,6 @@ RedisJobQueue::RedisJobQueue(const ServerOptions& options, Metrics& metrics)
                metrics.count(hit ? "gvd_result_cache_hits_total" : "gvd_result_cache_misses_total");
              }),
       replica_(options.replica_id.empty() ? default_replica_id() : options.replica_id),
-      api_redis_(options.redis_host, options.redis_port, options.redis_db, 2.0),
       sub_redis_(options.redis_host, options.redis_port, options.redis_db, 0) {
   for (const char* sub : {"requests", "results", "failed"}) {
     std::error_code ec;
@@ -207,9 +206,28 @@ RedisJobQueue::~RedisJobQueue() { stop(); }
 
 template <class Fn>
 auto RedisJobQueue::api(Fn&& fn) const {
-  std::lock_guard lock(api_mutex_);
+  std::unique_ptr<RedisConnection> redis;
+  {
+    std::lock_guard lock(api_mutex_);
+    if (!api_pool_.empty()) {
+      redis = std::move(api_pool_.back());
+      api_pool_.pop_back();
+    }
+  }
+  if (!redis) {
+    redis = std::make_unique<RedisConnection>(options_.redis_host, options_.redis_port,
+                                              options_.redis_db, 2.0);
+  }
+  struct GiveBack {
+    const RedisJobQueue& self;
+    std::unique_ptr<RedisConnection>& redis;
+    ~GiveBack() {
+      std::lock_guard lock(self.api_mutex_);
+      if (self.api_pool_.size() < kPoolKept) self.api_pool_.push_back(std::move(redis));
+    }
+  } give_back{*this, redis};
   try {
-    return fn(api_redis_);
+    return fn(*redis);
   } catch (const RedisUnavailable& e) {
     set_down(e.what());
     throw ProblemError(ProblemKind::kQueueFull,
@@ -334,6 +352,15 @@ std::optional<JobStatus> RedisJobQueue::status(const std::string& id) const {
 }
 
 std::shared_ptr<LoadedResult> RedisJobQueue::result(const std::string& id) {
+  bool recent = false;
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = done_seen_.find(id);
+    recent = it != done_seen_.end() && Clock::now() - it->second < std::chrono::seconds(1);
+  }
+  if (recent) {
+    if (auto loaded = cache_.get(id)) return loaded;
+  }
   const auto s = status(id);
   if (!s) throw ProblemError(ProblemKind::kNotFound, "no job " + id);
   switch (*s) {
@@ -351,6 +378,9 @@ std::shared_ptr<LoadedResult> RedisJobQueue::result(const std::string& id) {
   }
   auto loaded = cache_.get(id);
   if (!loaded) throw ProblemError(ProblemKind::kNotFound, "the result of job " + id + " is gone");
+  std::lock_guard lock(mutex_);
+  if (done_seen_.size() > 10000) done_seen_.clear();
+  done_seen_[id] = Clock::now();
   return loaded;
 }
 
@@ -480,6 +510,10 @@ JobQueue::DeleteOutcome RedisJobQueue::remove(const std::string& id) {
         remove_quietly(dir("results") + "/" + id + ".json");
         remove_quietly(dir("failed") + "/" + id + ".json");
         cache_.erase(id);
+        {
+          std::lock_guard lock(mutex_);
+          done_seen_.erase(id);
+        }
         return DeleteOutcome::kForgotten;
     }
   }

@@ -79,7 +79,7 @@ class RedisJobQueue final : public JobQueue {
     std::chrono::steady_clock::time_point last_heartbeat;
   };
 
-  /// Runs `fn(connection)` on the shared connection of the HTTP threads; a lost Redis
+  /// Runs `fn(connection)` on a connection of the HTTP threads' pool; a lost Redis
   /// becomes ProblemError{kQueueFull} (503 + Retry-After; the detail says Redis is unreachable).
   template <class Fn>
   auto api(Fn&& fn) const;
@@ -123,7 +123,9 @@ class RedisJobQueue final : public JobQueue {
   std::string replica_;
 
   mutable std::mutex api_mutex_;
-  mutable RedisConnection api_redis_;
+  /// Idle connections of the HTTP threads (one per concurrent request, up to kPoolKept kept).
+  mutable std::vector<std::unique_ptr<RedisConnection>> api_pool_;
+  static constexpr size_t kPoolKept = 16;
   RedisConnection sub_redis_;
 
   mutable std::mutex mutex_;
@@ -133,6 +135,10 @@ class RedisJobQueue final : public JobQueue {
   bool draining_ = false;
   bool stopping_ = false;
   mutable std::string down_reason_;  ///< empty while Redis answers
+
+  /// Jobs seen done lately: the query routes skip the Redis round trip for a second (a job
+  /// forgotten by DELETE on another replica may be served here for that long).
+  mutable std::map<std::string, std::chrono::steady_clock::time_point> done_seen_;
 
   std::atomic<size_t> queue_depth_{0};
   std::atomic<size_t> pending_cluster_{0};
