@@ -56,7 +56,7 @@ struct ServerOptions {
   std::string role = "both";  ///< api (no workers) | worker | both
   std::string replica_id;     ///< consumer name in the group; empty = hostname-pid
   double reclaim_idle = 30;   ///< seconds a running job may go without a heartbeat
-  int max_deliveries = 3;     ///< deliveries of one job before it fails
+  int max_deliveries = 5;     ///< deliveries of one job before it fails
   /// Fairness: submissions per second per client (0 = no limit), bursts of rate_burst; a
   /// client is the value of the client_id_header header, or its remote address without it.
   double rate_limit = 0;

@@ -1,5 +1,6 @@
 """A batch of 50 jobs through three replicas while workers and Redis are killed at random
-times (kill -9, then started again; Redis comes back empty): every job ends done, each output
+times (kill -9, then started again; Redis comes back empty; GVD_CHAOS_DEPTH and
+GVD_CHAOS_SECONDS make the jobs longer and the chaos last longer): every job ends done, each output
 byte-identical to a single-node run. The client retries what a real client retries (503 with
 Retry-After, refused connections) on another replica. Seeded (GVD_CHAOS_SEED) for replays."""
 
@@ -18,14 +19,15 @@ from redis_scale_test import (Redis, Replica, ServerProcess, fresh_dir, http,  #
                               slow_scene, small_scene, wait_for)
 
 JOBS = 50
-CHAOS_SECONDS = 12
+CHAOS_SECONDS = float(os.environ.get("GVD_CHAOS_SECONDS", "12"))
+DEPTH = int(os.environ.get("GVD_CHAOS_DEPTH", "5"))  # 3D jobs: contact_depth DEPTH..DEPTH+4
 
 
 def job_spec(k: int):
     """Half small 2D jobs, half 3D jobs of 0.05-0.5 s."""
     if k % 2 == 0:
         return small_scene(k + 1), {"max_depth": 8}
-    return slow_scene(), {"contact_depth": 5 + (k // 2) % 5, "max_depth": 10 + k // 10}
+    return slow_scene(), {"contact_depth": DEPTH + (k // 2) % 5, "max_depth": 10 + k // 10}
 
 
 class Chaos(unittest.TestCase):
