@@ -854,7 +854,7 @@ void RedisJobQueue::process(RedisConnection& redis, const std::string& entry, co
     }
     const std::string detail =
         "the job was started " + std::to_string(deliveries - 1) +
-        " times and each time its worker stopped (crashed, killed or cut off from Redis) before "
+        " time(s) and each time its worker stopped (crashed, killed or cut off from Redis) before "
         "it finished; given up after --max-deliveries " +
         std::to_string(options_.max_deliveries);
     const std::string doc =

@@ -112,8 +112,11 @@ class Redis:
 
 
 class Replica:
-    def __init__(self, name: str, store: str, redis_port: int, log_dir: str):
+    def __init__(self, name: str, store: str, redis_port: int, log_dir: str, db: int = 0,
+                 extra=()):
         self.name = name
+        self.db = db
+        self.extra = list(extra)
         self.store = store
         self.redis_port = redis_port
         self.log = os.path.join(log_dir, name + ".log")
@@ -123,9 +126,10 @@ class Replica:
         with open(self.log, "ab") as log:
             self.proc = subprocess.Popen(
                 [SERVER, "--port", "0", "--host", "127.0.0.1", "--store", self.store,
-                 "--queue", f"redis://127.0.0.1:{self.redis_port}/0", "--replica-id", self.name,
+                 "--queue", f"redis://127.0.0.1:{self.redis_port}/{self.db}", "--replica-id", self.name,
                  "--reclaim-idle", str(RECLAIM_IDLE), "--workers", "1", "--job-threads", "1",
-                 "--rate-limit", str(RATE), "--rate-burst", str(BURST), "--grace-seconds", "0.3"],
+                 "--rate-limit", str(RATE), "--rate-burst", str(BURST), "--grace-seconds", "0.3",
+                 *self.extra],
                 stdout=subprocess.PIPE, stderr=log, text=True)
         line = self.proc.stdout.readline()
         if "listening on" not in line:
@@ -437,6 +441,32 @@ class RedisScaleOut(unittest.TestCase):
         self.assertIn("greedy", json.loads(problem)["detail"])
         # Another client is served at once.
         self.assertEqual(post(self.replicas[0], "patient")[0], 200)
+
+    def test_9_a_job_whose_workers_keep_dying_fails_after_max_deliveries(self):
+        # A cluster of its own: Redis database 1, its own store, --max-deliveries 1.
+        store = os.path.join(self.dir, "store-db1")
+        pair = [Replica(f"m{i}", store, self.redis.port, self.dir, db=1,
+                        extra=["--max-deliveries", "1"]) for i in range(2)]
+        try:
+            for r in pair:
+                wait_for(f"{r.name} ready", lambda r=r: http("GET", f"{r.url}/readyz")[0] == 200, 10)
+            job, _ = submit(pair[0].url, slow_scene(), {"contact_depth": 12, "max_depth": 13})
+            worker = lambda: self.redis.command("EVAL", "redis.call('SELECT', 1) return "
+                                                "redis.call('HGET', KEYS[1], 'worker')", "1",
+                                                f"gvd:job:{job['id']}")
+            wait_for("the job to start", worker, 20)
+            victim = next(r for r in pair if worker().startswith(r.name + "-"))
+            survivor = next(r for r in pair if r is not victim)
+            victim.kill()
+            failed = wait_for(
+                "the job to fail",
+                lambda: (lambda s: s if s["status"] == "failed" else None)(
+                    job_status(survivor.url, job["id"])), RECLAIM_IDLE * 1.25 + 5)
+            self.assertIn("--max-deliveries 1", failed["error"]["detail"])
+            self.assertIn("stopped", failed["error"]["detail"])
+        finally:
+            for r in pair:
+                r.kill()
 
     def test_8_metrics_and_readiness(self):
         for r in self.replicas:
