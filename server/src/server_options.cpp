@@ -249,7 +249,9 @@ std::string server_usage() {
   s << "  -q, --quiet              no request log on stderr (GVD_QUIET=1)\n"
        "  -h, --help               this text\n\n"
        "API: GET /openapi.json, docs/API.md. Stop with SIGTERM (drains: /readyz answers 503,\n"
-       "running jobs get --grace-seconds to finish, unfinished jobs resume at the next start).\n";
+       "running jobs get --grace-seconds to finish, unfinished jobs resume at the next start).\n"
+       "Scale-out: replicas with --queue redis://HOST:PORT/DB and one --store on a shared\n"
+       "volume (docs/DEPLOY.md).\n";
   return s.str();
 }
 

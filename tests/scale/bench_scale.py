@@ -3,8 +3,9 @@ the queue's own overhead per job against the in-process queue, in one run, on lo
 
 Throughput: JOBS distinct small 3D jobs (about 0.1 s each with one thread) submitted at once,
 wall time until all are done. Overhead: TINY distinct tiny 2D jobs (a few ms) one after the
-other (submit, then poll every 1 ms until done), the mean time per job through a single
-Redis replica minus the same through the in-process queue. Usage:
+other (submit, then poll every 1 ms until done), alternating between a single-node server and
+a single Redis replica running side by side; the median time per job through Redis minus the
+median through the in-process queue. Usage:
   python3 tests/scale/bench_scale.py [BUILD_DIR]"""
 
 from __future__ import annotations
@@ -40,13 +41,17 @@ def run_batch(urls) -> float:
     return time.monotonic() - t0
 
 
-def per_job(url: str, tag: int) -> float:
-    """Mean seconds from submission to done, one tiny job at a time."""
+def one_job(url: str, k: int) -> float:
+    """Seconds from submission to done of one new tiny job."""
     t0 = time.monotonic()
-    for k in range(TINY):
-        job, _ = submit(url, small_scene(k + 1000 * tag), {"max_depth": 5})
-        wait_for("done", lambda: job_status(url, job["id"])["status"] == "done", 60, 0.001)
-    return (time.monotonic() - t0) / TINY
+    job, _ = submit(url, small_scene(k), {"max_depth": 5})
+    wait_for("done", lambda: job_status(url, job["id"])["status"] == "done", 60, 0.001)
+    return time.monotonic() - t0
+
+
+def median(values):
+    v = sorted(values)
+    return v[len(v) // 2]
 
 
 def main() -> int:
@@ -56,9 +61,9 @@ def main() -> int:
     single = ServerProcess("--job-threads", "1", name="bench-scale-single")
     try:
         inproc_batch = run_batch([single.url])
-        inproc_tiny = per_job(single.url, 1)
-    finally:
+    except BaseException:
         single.stop()
+        raise
     print(f"in-process queue, 1 worker:   {JOBS / inproc_batch:6.1f} jobs/s")
     redis = Redis(work)
     replicas = []
@@ -74,11 +79,16 @@ def main() -> int:
             rows.append((n, JOBS / seconds))
             print(f"redis queue, {n} worker replica{'s' if n > 1 else ' '}: {JOBS / seconds:6.1f} jobs/s")
             if n == 1:
-                redis_tiny = per_job(replicas[0].url, 2)
+                inproc, via_redis = [], []
+                for k in range(TINY):  # alternating, side by side
+                    inproc.append(one_job(single.url, 1000 + k))
+                    via_redis.append(one_job(replicas[0].url, 2000 + k))
+                inproc_tiny, redis_tiny = median(inproc), median(via_redis)
+                single.stop()
             for r in replicas:
                 r.kill()
             replicas = []
-        print(f"tiny job, submit -> done: in-process {inproc_tiny * 1000:.2f} ms, "
+        print(f"tiny job, submit -> done (median of {TINY}): in-process {inproc_tiny * 1000:.2f} ms, "
               f"redis {redis_tiny * 1000:.2f} ms: queue overhead "
               f"{(redis_tiny - inproc_tiny) * 1000:+.2f} ms per job")
         print("(jobs/s cannot grow past the core count: here the replicas share "
@@ -87,6 +97,7 @@ def main() -> int:
         for r in replicas:
             r.kill()
         redis.kill()
+        single.stop()
     return 0
 
 
