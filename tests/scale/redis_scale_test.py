@@ -27,7 +27,8 @@ import urllib.request
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "clients"))
-from server_process import OUTPUT, SERVER, ServerProcess, fresh_dir, slow_scene  # noqa: E402
+from server_process import (CLI, DATA, OUTPUT, SERVER, ServerProcess, fresh_dir,  # noqa: E402
+                            slow_scene)
 
 RECLAIM_IDLE = 2.0  # seconds (--reclaim-idle of the replicas)
 SLOW = {"contact_depth": 11}
@@ -467,6 +468,19 @@ class RedisScaleOut(unittest.TestCase):
         finally:
             for r in pair:
                 r.kill()
+
+    def test_10_the_cli_works_against_any_replica(self):
+        scene = os.path.join(DATA, "scenes", "gears2d.json")
+        out = os.path.join(self.dir, "cli")
+        os.makedirs(out, exist_ok=True)
+        for r in (self.replicas[2], self.single):
+            glb = os.path.join(out, ("replica" if r is not self.single else "single") + ".glb")
+            p = subprocess.run([CLI, "--server", r.url, "compute", scene, "-o", glb],
+                               capture_output=True, text=True, timeout=60)
+            self.assertEqual(p.returncode, 0, p.stderr[-2000:])
+        with open(os.path.join(out, "replica.glb"), "rb") as a, \
+                open(os.path.join(out, "single.glb"), "rb") as b:
+            self.assertEqual(a.read(), b.read())
 
     def test_8_metrics_and_readiness(self):
         for r in self.replicas:
