@@ -11,7 +11,7 @@ PORT       ?= 8080
 STORE      ?= gvd-store
 
 .PHONY: all deps configure build run example test test-asan bench bench-server format tidy clean \
-        docker-build docker-lint
+        docker-build docker-lint bench-scale
 
 all: build
 
@@ -71,6 +71,11 @@ tidy: build
 
 clean:
 	rm -rf $(BUILD) $(BUILD_ASAN)
+
+# The Redis Streams queue (docs/DEPLOY.md): jobs/s with 1, 2, 3 worker replicas and the queue's
+# overhead per job against the in-process queue, one run on loopback (a private redis-server).
+bench-scale: build
+	python3 tests/scale/bench_scale.py $(BUILD)
 
 # The container image (docker/Dockerfile), built offline with podman as root and smoke-tested
 # with buildah (docker/build-image.sh; minutes, so not part of `make test`).

@@ -7,8 +7,9 @@
 #   all      build, test and benchmark everything (the README path, CI)
 #   build    compile gvd, gvd-server, the web viewer and the Python module (pybind11, numpy for
 #            /usr/bin/python3), without the test tools (image build stage)
-#   runtime  only the shared libraries gvd and gvd-server load, curl for the health check and
-#            PoCL for OpenCL on the CPU (image runtime stage; no npm)
+#   runtime  only the shared libraries gvd and gvd-server load, curl for the health check,
+#            PoCL for OpenCL on the CPU and redis-server for docker/compose.scale.yaml (image
+#            runtime stage; no npm)
 set -euo pipefail
 mode=${GVD_DEPS:-all}
 
@@ -17,14 +18,17 @@ build_packages=(
   libcpp-httplib-dev libssl-dev nlohmann-json3-dev libtinygltf-dev
   opencl-headers opencl-clhpp-headers ocl-icd-opencl-dev ocl-icd-libopencl1 pocl-opencl-icd
   pybind11-dev python3-dev python3-numpy
+  libhiredis-dev
 )
 test_packages=(
   libgtest-dev libgmock-dev libbenchmark-dev libboost-dev libopenvdb-dev
   ccache clinfo wrk curl python3 python3-numpy clang-format clang-tidy chromium
+  redis-server
 )
 runtime_packages=(
   libcpp-httplib0.11 libtinygltf2d libssl3 libbrotli1 ocl-icd-libopencl1 pocl-opencl-icd
-  ca-certificates curl
+  ca-certificates curl libhiredis0.14
+  redis-server
 )
 case "$mode" in
   all) packages=("${build_packages[@]}" "${test_packages[@]}") ;;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -22,6 +23,7 @@
 #include "openapi_json.h"
 #include "problem.h"
 #include "query_handlers.h"
+#include "redis_job_queue.h"
 #include "routes.h"
 #include "static_files.h"
 
@@ -110,18 +112,26 @@ curl -o gvd.glb http://HOST/v1/jobs/ID/gvd.glb</pre>
 </body></html>
 )";
 
+/// The in-process queue (the default), or the Redis Streams queue for --queue redis://...
+std::unique_ptr<JobQueue> make_job_queue(const ServerOptions& o, Metrics& metrics) {
+  if (o.queue_url.empty()) return std::make_unique<JobManager>(o, metrics);
+  return std::make_unique<RedisJobQueue>(o, metrics);
+}
+
 }  // namespace
 
 struct HttpServer::Impl {
   explicit Impl(const ServerOptions& o)
       : options(o),
-        jobs(o, metrics),
+        jobs_owner(make_job_queue(o, metrics)),
+        jobs(*jobs_owner),
         queries(jobs, o.max_grid_cells, o.job_threads),
         web(o.web_root) {}
 
   ServerOptions options;
   Metrics metrics;
-  JobManager jobs;
+  std::unique_ptr<JobQueue> jobs_owner;
+  JobQueue& jobs;
   QueryHandlers queries;
   StaticFiles web;
   httplib::Server http;
@@ -138,7 +148,7 @@ struct HttpServer::Impl {
                     const std::string& detail, const std::string& extra = {}) {
     const ProblemInfo& info = problem_info(kind);
     res.status = info.status;
-    if (info.retryable && info.status == 503) {
+    if (info.retryable && info.status == 503 && !res.has_header("Retry-After")) {
       res.set_header("Retry-After", std::to_string(options.retry_after));
     }
     res.set_content(problem_json(kind, detail, req.path, t_request.id, extra),
@@ -325,6 +335,7 @@ struct HttpServer::Impl {
 
   void submit(const httplib::Request& req, httplib::Response& res) {
     if (draining) throw ProblemError(ProblemKind::kDraining, "the server is shutting down");
+    if (options.rate_limit > 0) admit(req, res);
     JobParams params;
     std::string label = "object";
     for (const auto& [key, value] : req.params) {
@@ -366,6 +377,24 @@ struct HttpServer::Impl {
     res.set_header("X-Gvd-Cache", outcome.created ? "miss" : "hit");
     res.status = outcome.status == JobStatus::kDone ? 200 : 202;
     res.set_content(outcome.status_json, "application/json");
+  }
+
+  /// The per-client token bucket (--rate-limit): refused with 503 + Retry-After (the
+  /// retryable "busy" answer every client already honours) when the client has no token.
+  void admit(const httplib::Request& req, httplib::Response& res) {
+    std::string client;
+    if (!options.client_id_header.empty())
+      client = req.get_header_value(options.client_id_header.c_str());
+    if (client.empty() || client.size() > 128) client = "addr:" + req.remote_addr;
+    const double wait = jobs.take_token(client, options.rate_limit, options.rate_burst);
+    if (wait <= 0) return;
+    metrics.count("gvd_jobs_rate_limited_total");
+    res.set_header("Retry-After", std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
+    throw ProblemError(ProblemKind::kQueueFull, "client \"" + client + "\" is over its limit of " +
+                                                    Json(options.rate_limit).dump() +
+                                                    " submissions per second (burst " +
+                                                    Json(options.rate_burst).dump() +
+                                                    "); retry in " + Json(wait).dump() + " s");
   }
 
   /// Compute parameters given inside a scene JSON: {"params": {"max_depth": 12, ...}}.
@@ -453,17 +482,17 @@ struct HttpServer::Impl {
   void remove(const httplib::Request& req, httplib::Response& res) {
     const std::string id = req.matches[1].str();
     switch (jobs.remove(id)) {
-      case JobManager::DeleteOutcome::kUnknown:
+      case JobQueue::DeleteOutcome::kUnknown:
         throw ProblemError(ProblemKind::kNotFound, "no job " + id);
-      case JobManager::DeleteOutcome::kCancelled:
+      case JobQueue::DeleteOutcome::kCancelled:
         res.status = 200;
         res.set_content(jobs.status_json(id).value_or("{}"), "application/json");
         return;
-      case JobManager::DeleteOutcome::kCancelling:
+      case JobQueue::DeleteOutcome::kCancelling:
         res.status = 202;
         res.set_content(jobs.status_json(id).value_or("{}"), "application/json");
         return;
-      case JobManager::DeleteOutcome::kForgotten:
+      case JobQueue::DeleteOutcome::kForgotten:
         res.status = 204;
         return;
     }
@@ -625,16 +654,23 @@ struct HttpServer::Impl {
   }
 
   void readyz(const httplib::Request&, httplib::Response& res) {
-    const Json body = {{"status", draining ? "draining" : "ready"},
-                       {"backend", backend},
-                       {"backend_requested", options.backend},
-                       {"algorithm_version", kAlgorithmVersion},
-                       {"workers", options.workers},
-                       {"queue_depth", jobs.queue_depth()},
-                       {"queue_capacity", options.queue},
-                       {"running", jobs.running()}};
-    res.status = draining ? 503 : 200;
-    if (draining) res.set_header("Retry-After", std::to_string(options.retry_after));
+    std::string why;
+    const bool queue_up = jobs.available(&why);
+    Json body = {{"status", draining   ? "draining"
+                            : queue_up ? "ready"
+                                       : "queue-unavailable"},
+                 {"backend", backend},
+                 {"backend_requested", options.backend},
+                 {"algorithm_version", kAlgorithmVersion},
+                 {"workers", options.workers},
+                 {"queue_depth", jobs.queue_depth()},
+                 {"queue_capacity", options.queue},
+                 {"running", jobs.running()}};
+    const Json extra = Json::parse(jobs.readiness_json());
+    for (const auto& [k, v] : extra.items()) body[k] = v;
+    const bool ready = !draining && queue_up;
+    res.status = ready ? 200 : 503;
+    if (!ready) res.set_header("Retry-After", std::to_string(options.retry_after));
     res.set_header("Cache-Control", "no-store");
     res.set_content(body.dump(), "application/json");
   }

@@ -14,6 +14,7 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
+#include "job_document.h"
 #include "job_params.h"
 #include "problem.h"
 
@@ -23,37 +24,6 @@ using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-// Share of the whole computation each progress stage roughly takes (for the overall fraction
-// of a running job; an estimate, documented as such).
-const std::pair<const char*, double> kStageWeights[] = {
-    {"scene", 0.02},   {"octree", 0.20}, {"distance", 0.30}, {"ambiguity", 0.25},
-    {"surface", 0.16}, {"graph", 0.05},  {"compact", 0.02},
-};
-
-double stage_weight(const std::string& name) {
-  for (const auto& [n, w] : kStageWeights) {
-    if (name == n) return w;
-  }
-  return 0;
-}
-
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
-Json iso_time(double unix_seconds) {
-  if (unix_seconds <= 0) return nullptr;
-  const auto whole = static_cast<std::time_t>(unix_seconds);
-  std::tm tm{};
-  gmtime_r(&whole, &tm);
-  char buf[40];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
-  char out[48];
-  std::snprintf(out, sizeof out, "%s.%03dZ", buf,
-                static_cast<int>((unix_seconds - static_cast<double>(whole)) * 1000));
-  return out;
-}
 
 double from_iso(const Json& j) {
   if (!j.is_string()) return 0;
@@ -80,22 +50,6 @@ void remove_quietly(const std::string& path) {
 }
 
 }  // namespace
-
-std::string_view job_status_name(JobStatus status) {
-  switch (status) {
-    case JobStatus::kQueued:
-      return "queued";
-    case JobStatus::kRunning:
-      return "running";
-    case JobStatus::kDone:
-      return "done";
-    case JobStatus::kFailed:
-      return "failed";
-    case JobStatus::kCancelled:
-      return "cancelled";
-  }
-  return "unknown";
-}
 
 std::string job_id(std::string_view scene_json, std::string_view params_json) {
   EVP_MD_CTX* ctx = EVP_MD_CTX_new();
@@ -335,61 +289,12 @@ std::optional<JobStatus> JobManager::status(const std::string& id) const {
 }
 
 std::string JobManager::status_json_locked(const Job& job, JobStatus shown) const {
-  const std::string self = "/v1/jobs/" + job.id;
-  Json s = {
-      {"id", job.id},
-      {"status", job_status_name(shown)},
-      {"submitted_at", iso_time(job.submitted_at)},
-      {"started_at", iso_time(job.started_at)},
-      {"finished_at", iso_time(job.finished_at)},
-      {"scene",
-       {{"dimension", job.dimension}, {"objects", job.objects}, {"simplices", job.simplices}}},
-      {"params", Json::parse(job.params_json.empty() ? "{}" : job.params_json)}};
+  std::optional<size_t> position;
   if (shown == JobStatus::kQueued) {
     const auto pos = std::find(queue_.begin(), queue_.end(), job.id);
-    s["queue_position"] = pos == queue_.end() ? 0 : (pos - queue_.begin()) + 1;
+    position = pos == queue_.end() ? 0 : static_cast<size_t>(pos - queue_.begin()) + 1;
   }
-  if (job.recovered) s["recovered"] = true;
-  Json progress = {{"fraction", 0.0}, {"stage", nullptr}, {"stages", Json::array()}};
-  if (shown == JobStatus::kRunning || shown == JobStatus::kCancelled ||
-      shown == JobStatus::kFailed) {
-    double overall = 0;
-    for (const StageTime& st : job.stages) {
-      progress["stages"].push_back(
-          {{"name", st.name}, {"fraction", st.fraction}, {"seconds", st.seconds}});
-      overall += stage_weight(st.name) * st.fraction;
-    }
-    if (shown == JobStatus::kRunning && !job.stages.empty()) {
-      progress["stages"].back()["seconds"] =
-          std::chrono::duration<double>(Clock::now() - job.stage_start).count();
-      progress["stage"] = job.stages.back().name;
-    }
-    progress["fraction"] = std::min(0.99, overall);
-  }
-  if (shown == JobStatus::kDone) {
-    progress["fraction"] = 1.0;
-    progress["stage"] = "done";
-    s["result"] = Json::parse(job.result_info.empty() ? "{}" : job.result_info);
-    for (const Json& st : s["result"].value("stages", Json::array())) {
-      progress["stages"].push_back({{"name", st.value("name", "")},
-                                    {"fraction", 1.0},
-                                    {"seconds", st.value("seconds", 0.0)}});
-    }
-    s["links"] = {{"self", self},
-                  {"glb", self + "/gvd.glb"},
-                  {"gltf", self + "/gvd.gltf"},
-                  {"json", self + "/gvd.json"},
-                  {"graph", self + "/graph"},
-                  {"result", self + "/result.gvd"},
-                  {"events", self + "/events"}};
-  } else {
-    s["links"] = {{"self", self}, {"events", self + "/events"}};
-  }
-  s["progress"] = progress;
-  if (!job.error.empty() && (shown == JobStatus::kFailed || shown == JobStatus::kCancelled)) {
-    s["error"] = Json::parse(job.error);
-  }
-  return s.dump(-1, ' ', false, Json::error_handler_t::replace);
+  return job_document(job, shown, position);
 }
 
 JobManager::DeleteOutcome JobManager::remove(const std::string& id) {
@@ -492,6 +397,21 @@ std::string JobManager::list_json() const {
   return Json{{"jobs", list}}.dump();
 }
 
+double JobManager::take_token(const std::string& client, double rate, double burst) {
+  std::lock_guard lock(buckets_mutex_);
+  const auto now = Clock::now();
+  if (buckets_.size() > 100000) buckets_.clear();  // many clients: start them all afresh
+  auto [it, fresh] = buckets_.try_emplace(client, Bucket{burst, now});
+  Bucket& b = it->second;
+  if (!fresh) {
+    b.tokens = std::min(burst, b.tokens + std::chrono::duration<double>(now - b.at).count() * rate);
+    b.at = now;
+  }
+  if (b.tokens < 1) return (1 - b.tokens) / rate;
+  b.tokens -= 1;
+  return 0;
+}
+
 void JobManager::log_event(const char* level, const char* event, const std::string& id,
                            double seconds) const {
   if (options_.quiet) return;
@@ -573,20 +493,7 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
     options.cancel = &job->cancel;
     options.progress = [this, job](const std::string& stage, double fraction) {
       std::lock_guard lock(mutex_);
-      const auto now = Clock::now();
-      if (job->stages.empty() || job->stages.back().name != stage) {
-        if (!job->stages.empty()) {
-          job->stages.back().fraction = 1;
-          job->stages.back().seconds =
-              std::chrono::duration<double>(now - job->stage_start).count();
-        }
-        if (stage == "done") return;
-        job->stages.push_back({stage, fraction, 0});
-        job->stage_start = now;
-      } else {
-        if (fraction - job->stages.back().fraction < 0.01) return;  // fewer wake-ups
-        job->stages.back().fraction = fraction;
-      }
+      if (!record_progress(*job, stage, fraction)) return;
       ++version_;
       changed_cv_.notify_all();
     };

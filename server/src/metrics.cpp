@@ -39,6 +39,10 @@ const char* const kCounters[][2] = {
     {"gvd_result_cache_hits_total", "Result lookups served from the in-memory LRU."},
     {"gvd_result_cache_misses_total", "Result lookups that loaded the result from disk."},
     {"gvd_jobs_recovered_total", "Unfinished jobs re-queued at start-up."},
+    {"gvd_queue_reclaimed_total",
+     "Redis queue: jobs this replica took over from a stopped worker (XAUTOCLAIM)."},
+    {"gvd_queue_redis_reconnects_total", "Redis queue: connections to Redis lost."},
+    {"gvd_jobs_rate_limited_total", "Submissions refused by the per-client token bucket."},
 };
 
 }  // namespace

@@ -12,7 +12,7 @@
 #include "gvd/grid/sample_result_grid.h"
 #include "gvd/io/write_grid.h"
 #include "gvd/io/write_outputs.h"
-#include "job_manager.h"
+#include "job_queue.h"
 #include "problem.h"
 
 namespace gvd::server {

@@ -9,7 +9,7 @@ struct Response;
 
 namespace gvd::server {
 
-class JobManager;
+class JobQueue;
 
 /// The query endpoints on a finished job (neighbours, nearest, paths, exploded view,
 /// clearance report, sampled grids): parse the request, ask the job's GvdIndex (or
@@ -18,7 +18,7 @@ class JobManager;
 class QueryHandlers {
  public:
   /// `max_grid_cells`: the cell limit of grid(); `grid_threads`: its threads (0 = all cores).
-  QueryHandlers(JobManager& jobs, uint64_t max_grid_cells, int grid_threads)
+  QueryHandlers(JobQueue& jobs, uint64_t max_grid_cells, int grid_threads)
       : jobs_(jobs), max_grid_cells_(max_grid_cells), grid_threads_(grid_threads) {}
   void neighbors(const httplib::Request& req, httplib::Response& res);
   void nearest(const httplib::Request& req, httplib::Response& res);
@@ -32,7 +32,7 @@ class QueryHandlers {
   void grid(const httplib::Request& req, httplib::Response& res, bool labels);
 
  private:
-  JobManager& jobs_;
+  JobQueue& jobs_;
   uint64_t max_grid_cells_;
   int grid_threads_;
 };

@@ -63,7 +63,20 @@ const std::vector<Spec>& specs() {
              256),
       number("--http-threads", "HTTP connections served at once", &ServerOptions::http_threads, 2,
              1024),
-      number("--queue", "queued jobs before 503 + Retry-After", &ServerOptions::queue, 0, 100000),
+      // Two meanings, told apart by the value (both may be given: --queue redis://... --queue 200).
+      {"--queue",
+       "queued jobs before 503 + Retry-After (a number; with Redis, for the whole cluster), "
+       "or the shared queue of a scale-out cluster: redis://HOST[:PORT][/DB]",
+       [](ServerOptions& o, const std::string& v) {
+         if (v.starts_with("redis://") || v.find("://") != std::string::npos) {
+           o.queue_url = v;
+         } else {
+           o.queue = parse_number<int>("--queue", v, 0, 100000);
+         }
+       },
+       [](const ServerOptions& o) {
+         return o.queue_url.empty() ? std::to_string(o.queue) : o.queue_url;
+       }},
       number("--max-body", "request body limit, bytes", &ServerOptions::max_body, uint64_t{1},
              kU64),
       number("--max-headers", "request header count limit", &ServerOptions::max_headers, 1, 10000),
@@ -102,6 +115,23 @@ const std::vector<Spec>& specs() {
            &ServerOptions::web_root),
       number("--grace-seconds", "on SIGTERM, how long running jobs may finish",
              &ServerOptions::grace_seconds, 0.0, 3600.0),
+      text("--role", "with --queue redis://...: api (no workers) | worker (no new jobs) | both",
+           &ServerOptions::role),
+      text("--replica-id", "this replica's name in the queue (empty: hostname-pid)",
+           &ServerOptions::replica_id),
+      number("--reclaim-idle",
+             "seconds without a heartbeat before another replica takes a running job over",
+             &ServerOptions::reclaim_idle, 0.2, 86400.0),
+      number("--rate-limit",
+             "job submissions per second per client, cluster-wide with Redis (0 = no limit)",
+             &ServerOptions::rate_limit, 0.0, 1e6),
+      number("--rate-burst", "submissions a client may make at once above --rate-limit",
+             &ServerOptions::rate_burst, 1.0, 1e6),
+      text("--client-id-header",
+           "header naming the client for --rate-limit (empty or absent: the remote address)",
+           &ServerOptions::client_id_header),
+      number("--max-deliveries", "times a job is started before it fails (crashed workers)",
+             &ServerOptions::max_deliveries, 1, 1000),
   };
   return table;
 }
@@ -112,11 +142,36 @@ std::string env_name(const std::string& flag) {
   return name;
 }
 
-void check(const ServerOptions& o) {
+void check(ServerOptions& o) {
   if (o.backend != "cpu" && o.backend != "opencl" && o.backend != "auto") {
     throw UsageError("--backend must be cpu, opencl or auto, got \"" + o.backend + "\"");
   }
   if (o.store.empty()) throw UsageError("--store must not be empty");
+  if (o.role != "api" && o.role != "worker" && o.role != "both") {
+    throw UsageError("--role must be api, worker or both, got \"" + o.role + "\"");
+  }
+  if (o.queue_url.empty()) {
+    if (o.role != "both") throw UsageError("--role " + o.role + " needs --queue redis://...");
+    return;
+  }
+  // redis://HOST[:PORT][/DB]
+  const std::string scheme = "redis://";
+  if (!o.queue_url.starts_with(scheme)) {
+    throw UsageError("--queue must be a number or look like redis://HOST:PORT/DB, got \"" +
+                     o.queue_url + "\"");
+  }
+  std::string rest = o.queue_url.substr(scheme.size());
+  if (const size_t slash = rest.find('/'); slash != std::string::npos) {
+    const std::string db = rest.substr(slash + 1);
+    if (!db.empty()) o.redis_db = parse_number<int>("--queue (database)", db, 0, 1000000);
+    rest.resize(slash);
+  }
+  if (const size_t colon = rest.rfind(':'); colon != std::string::npos) {
+    o.redis_port = parse_number<int>("--queue (port)", rest.substr(colon + 1), 1, 65535);
+    rest.resize(colon);
+  }
+  if (rest.empty()) throw UsageError("--queue has no host: \"" + o.queue_url + "\"");
+  o.redis_host = rest;
 }
 
 }  // namespace
@@ -176,11 +231,16 @@ std::string server_usage() {
   const ServerOptions defaults;
   for (const Spec& spec : specs()) {
     const std::string flag = spec.flag;
-    const char* metavar = flag == "--host"       ? " ADDR"
-                          : flag == "--store"    ? " DIR"
-                          : flag == "--backend"  ? " NAME"
-                          : flag == "--web-root" ? " DIR"
-                                                 : " N";
+    const char* metavar = flag == "--host"                                   ? " ADDR"
+                          : flag == "--store"                                ? " DIR"
+                          : flag == "--backend"                              ? " NAME"
+                          : flag == "--web-root"                             ? " DIR"
+                          : flag == "--queue"                                ? " N|URL"
+                          : flag == "--role"                                 ? " ROLE"
+                          : flag == "--replica-id"                           ? " NAME"
+                          : flag == "--client-id-header"                     ? " NAME"
+                          : flag == "--rate-limit" || flag == "--rate-burst" ? " R"
+                                                                             : " N";
     std::string head = "  " + flag + metavar;
     head.resize(std::max<size_t>(head.size() + 1, 27), ' ');
     s << head << spec.meaning << " (" << env_name(spec.flag) << ", default " << spec.show(defaults)
@@ -189,7 +249,9 @@ std::string server_usage() {
   s << "  -q, --quiet              no request log on stderr (GVD_QUIET=1)\n"
        "  -h, --help               this text\n\n"
        "API: GET /openapi.json, docs/API.md. Stop with SIGTERM (drains: /readyz answers 503,\n"
-       "running jobs get --grace-seconds to finish, unfinished jobs resume at the next start).\n";
+       "running jobs get --grace-seconds to finish, unfinished jobs resume at the next start).\n"
+       "Scale-out: replicas with --queue redis://HOST:PORT/DB and one --store on a shared\n"
+       "volume (docs/DEPLOY.md).\n";
   return s.str();
 }
 

@@ -50,6 +50,22 @@ struct ServerOptions {
   /// The web viewer's files (index.html, viewer/, vendor/); empty = found next to the binary
   /// (static_files.h), and resolved to a directory (or left empty: no viewer) at start-up.
   std::string web_root;
+
+  // Scale-out (docs/DEPLOY.md): replicas sharing a Redis Streams queue and one store.
+  std::string queue_url;      ///< empty = the in-process queue; redis://HOST:PORT/DB
+  std::string role = "both";  ///< api (no workers) | worker | both
+  std::string replica_id;     ///< consumer name in the group; empty = hostname-pid
+  double reclaim_idle = 30;   ///< seconds a running job may go without a heartbeat
+  int max_deliveries = 5;     ///< deliveries of one job before it fails
+  /// Fairness: submissions per second per client (0 = no limit), bursts of rate_burst; a
+  /// client is the value of the client_id_header header, or its remote address without it.
+  double rate_limit = 0;
+  double rate_burst = 20;
+  std::string client_id_header = "X-Client-Id";
+  /// Parsed from queue_url by parse_server_options.
+  std::string redis_host;
+  int redis_port = 6379;
+  int redis_db = 0;
 };
 
 /// Bad command line or environment (the message says which option and why).

@@ -116,6 +116,33 @@ TEST(ServerOptions, BadValuesAreUsageErrors) {
   EXPECT_THROW(parse_server_options({"--job-seconds", "nan"}, {}, help), UsageError);
 }
 
+TEST(ServerOptions, QueueIsABoundOrARedisUrl) {
+  bool help = false;
+  const ServerOptions local = parse_server_options({"--queue", "200"}, {}, help);
+  EXPECT_TRUE(local.queue_url.empty());
+  EXPECT_EQ(local.queue, 200);
+  EXPECT_EQ(local.role, "both");
+  const ServerOptions o = parse_server_options(
+      {"--queue", "redis://10.1.2.3:6390/4", "--queue", "300", "--role", "api"}, {}, help);
+  EXPECT_EQ(o.queue_url, "redis://10.1.2.3:6390/4");
+  EXPECT_EQ(o.redis_host, "10.1.2.3");
+  EXPECT_EQ(o.redis_port, 6390);
+  EXPECT_EQ(o.redis_db, 4);
+  EXPECT_EQ(o.queue, 300);
+  const ServerOptions d = parse_server_options({}, {{"GVD_QUEUE", "redis://cache"}}, help);
+  EXPECT_EQ(d.redis_host, "cache");
+  EXPECT_EQ(d.redis_port, 6379);
+  EXPECT_EQ(d.redis_db, 0);
+  EXPECT_THROW(parse_server_options({"--queue", "http://x"}, {}, help), UsageError);
+  EXPECT_THROW(parse_server_options({"--queue", "redis://:6379"}, {}, help), UsageError);
+  EXPECT_THROW(parse_server_options({"--queue", "redis://h:0"}, {}, help), UsageError);
+  EXPECT_THROW(parse_server_options({"--role", "worker"}, {}, help), UsageError);  // no Redis
+  EXPECT_THROW(parse_server_options({"--queue", "redis://h", "--role", "boss"}, {}, help),
+               UsageError);
+  EXPECT_NE(server_usage().find("--reclaim-idle"), std::string::npos);
+  EXPECT_NE(server_usage().find("GVD_RATE_LIMIT"), std::string::npos);
+}
+
 TEST(JobParams, NormalizedTextAndValidation) {
   JobParams a;
   a.set("max_depth", "12");

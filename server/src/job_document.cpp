@@ -1,0 +1,141 @@
+#include "job_document.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <ctime>
+
+namespace gvd::server {
+using Json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// Share of the whole computation each progress stage roughly takes (for the overall fraction
+// of a running job; an estimate, documented as such).
+const std::pair<const char*, double> kStageWeights[] = {
+    {"scene", 0.02},   {"octree", 0.20}, {"distance", 0.30}, {"ambiguity", 0.25},
+    {"surface", 0.16}, {"graph", 0.05},  {"compact", 0.02},
+};
+
+double stage_weight(const std::string& name) {
+  for (const auto& [n, w] : kStageWeights) {
+    if (name == n) return w;
+  }
+  return 0;
+}
+}  // namespace
+
+std::string_view job_status_name(JobStatus status) {
+  switch (status) {
+    case JobStatus::kQueued:
+      return "queued";
+    case JobStatus::kRunning:
+      return "running";
+    case JobStatus::kDone:
+      return "done";
+    case JobStatus::kFailed:
+      return "failed";
+    case JobStatus::kCancelled:
+      return "cancelled";
+  }
+  return "unknown";
+}
+std::optional<JobStatus> job_status_from_name(std::string_view name) {
+  for (const JobStatus s : {JobStatus::kQueued, JobStatus::kRunning, JobStatus::kDone,
+                            JobStatus::kFailed, JobStatus::kCancelled}) {
+    if (job_status_name(s) == name) return s;
+  }
+  return std::nullopt;
+}
+
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+Json iso_time(double unix_seconds) {
+  if (unix_seconds <= 0) return nullptr;
+  const auto whole = static_cast<std::time_t>(unix_seconds);
+  std::tm tm{};
+  gmtime_r(&whole, &tm);
+  char buf[40];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
+  char out[48];
+  std::snprintf(out, sizeof out, "%s.%03dZ", buf,
+                static_cast<int>((unix_seconds - static_cast<double>(whole)) * 1000));
+  return out;
+}
+
+bool record_progress(JobRecord& job, const std::string& stage, double fraction) {
+  const auto now = Clock::now();
+  if (job.stages.empty() || job.stages.back().name != stage) {
+    if (!job.stages.empty()) {
+      job.stages.back().fraction = 1;
+      job.stages.back().seconds = std::chrono::duration<double>(now - job.stage_start).count();
+    }
+    if (stage == "done") return false;
+    job.stages.push_back({stage, fraction, 0});
+    job.stage_start = now;
+    return true;
+  }
+  if (fraction - job.stages.back().fraction < 0.01) return false;  // fewer wake-ups
+  job.stages.back().fraction = fraction;
+  return true;
+}
+
+std::string job_document(const JobRecord& job, JobStatus shown,
+                         std::optional<size_t> queue_position) {
+  const std::string self = "/v1/jobs/" + job.id;
+  Json s = {
+      {"id", job.id},
+      {"status", job_status_name(shown)},
+      {"submitted_at", iso_time(job.submitted_at)},
+      {"started_at", iso_time(job.started_at)},
+      {"finished_at", iso_time(job.finished_at)},
+      {"scene",
+       {{"dimension", job.dimension}, {"objects", job.objects}, {"simplices", job.simplices}}},
+      {"params", Json::parse(job.params_json.empty() ? "{}" : job.params_json)}};
+  if (shown == JobStatus::kQueued && queue_position) s["queue_position"] = *queue_position;
+  if (job.recovered) s["recovered"] = true;
+  Json progress = {{"fraction", 0.0}, {"stage", nullptr}, {"stages", Json::array()}};
+  if (shown == JobStatus::kRunning || shown == JobStatus::kCancelled ||
+      shown == JobStatus::kFailed) {
+    double overall = 0;
+    for (const JobRecord::StageTime& st : job.stages) {
+      progress["stages"].push_back(
+          {{"name", st.name}, {"fraction", st.fraction}, {"seconds", st.seconds}});
+      overall += stage_weight(st.name) * st.fraction;
+    }
+    if (shown == JobStatus::kRunning && !job.stages.empty()) {
+      progress["stages"].back()["seconds"] =
+          std::chrono::duration<double>(Clock::now() - job.stage_start).count();
+      progress["stage"] = job.stages.back().name;
+    }
+    progress["fraction"] = std::min(0.99, overall);
+  }
+  if (shown == JobStatus::kDone) {
+    progress["fraction"] = 1.0;
+    progress["stage"] = "done";
+    s["result"] = Json::parse(job.result_info.empty() ? "{}" : job.result_info);
+    for (const Json& st : s["result"].value("stages", Json::array())) {
+      progress["stages"].push_back({{"name", st.value("name", "")},
+                                    {"fraction", 1.0},
+                                    {"seconds", st.value("seconds", 0.0)}});
+    }
+    s["links"] = {{"self", self},
+                  {"glb", self + "/gvd.glb"},
+                  {"gltf", self + "/gvd.gltf"},
+                  {"json", self + "/gvd.json"},
+                  {"graph", self + "/graph"},
+                  {"result", self + "/result.gvd"},
+                  {"events", self + "/events"}};
+  } else {
+    s["links"] = {{"self", self}, {"events", self + "/events"}};
+  }
+  s["progress"] = progress;
+  if (!job.error.empty() && (shown == JobStatus::kFailed || shown == JobStatus::kCancelled)) {
+    s["error"] = Json::parse(job.error);
+  }
+  return s.dump(-1, ' ', false, Json::error_handler_t::replace);
+}
+
+}  // namespace gvd::server
