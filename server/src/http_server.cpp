@@ -145,13 +145,14 @@ struct HttpServer::Impl {
   // ---- helpers ------------------------------------------------------------------------------
 
   void send_problem(const httplib::Request& req, httplib::Response& res, ProblemKind kind,
-                    const std::string& detail, const std::string& extra = {}) {
+                    const std::string& detail, const std::string& extra = {},
+                    const ErrorLocation& where = {}) {
     const ProblemInfo& info = problem_info(kind);
     res.status = info.status;
     if (info.retryable && info.status == 503 && !res.has_header("Retry-After")) {
       res.set_header("Retry-After", std::to_string(options.retry_after));
     }
-    res.set_content(problem_json(kind, detail, req.path, t_request.id, extra),
+    res.set_content(problem_json(kind, detail, req.path, t_request.id, extra, where),
                     "application/problem+json");
   }
 
@@ -292,7 +293,7 @@ struct HttpServer::Impl {
         send_problem(req, res, ProblemKind::kInternal,
                      "internal error (request " + t_request.id + ")");
       } catch (const Error& e) {
-        send_problem(req, res, problem_kind(e.code()), e.detail());
+        send_problem(req, res, problem_kind(e.code()), e.detail(), {}, e.where());
       } catch (const Json::exception& e) {
         send_problem(req, res, ProblemKind::kInvalidArgument,
                      std::string("malformed JSON: ") + e.what());

@@ -1,10 +1,8 @@
 #include "problem.h"
 
 #include <array>
-#include <charconv>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <regex>
 
 namespace gvd::server {
 namespace {
@@ -39,34 +37,20 @@ constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
 static_assert(static_cast<int>(ErrorCode::kInternal) == static_cast<int>(ProblemKind::kInternal),
               "ProblemKind starts with the core error codes in their order");
 
-std::optional<uint64_t> to_u64(const std::string& digits) {
-  uint64_t v = 0;
-  const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v);
-  if (ec != std::errc() || ptr != digits.data() + digits.size()) return std::nullopt;
-  return v;
-}
-
-// Where in the input: the core's details say `object 3 ("gear_a")` or `objects[3] ("gear_a")`,
-// and `triangles[2][1]`, `vertices[4]`, `triangle 7`, `vertex 12`.
-void add_location(nlohmann::json& doc, std::string_view detail) {
-  static const std::regex object_re(R"re(objects?(?:\[(\d+)\]| (\d+)) \("((?:[^"\\]|\\.)*)"\))re");
-  static const std::regex element_re(
-      R"re((triangles|segments|vertices)\[(\d+)\]|\b(triangle|segment|vertex) (\d+))re");
-  const std::string text(detail);
-  std::smatch m;
-  if (std::regex_search(text, m, object_re)) {
-    if (const auto index = to_u64(m[1].matched ? m[1].str() : m[2].str())) {
-      doc["object"] = {{"index", *index}, {"label", m[3].str()}};
-    }
+// Where in the input, from the core's structured location.
+void add_location(nlohmann::json& doc, const ErrorLocation& where) {
+  if (where.object >= 0 || !where.label.empty()) {
+    nlohmann::json object = nlohmann::json::object();
+    if (where.object >= 0) object["index"] = where.object;
+    if (!where.label.empty()) object["label"] = where.label;
+    doc["object"] = std::move(object);
   }
-  if (std::regex_search(text, m, element_re)) {
-    std::string kind = m[1].matched ? m[1].str() : m[3].str();
-    const std::string index = m[1].matched ? m[2].str() : m[4].str();
-    if (kind == "triangles") kind = "triangle";
-    if (kind == "segments") kind = "segment";
-    if (kind == "vertices") kind = "vertex";
-    if (const auto i = to_u64(index)) doc["element"] = {{"kind", kind}, {"index", *i}};
+  if (!where.element.empty()) {
+    nlohmann::json element = {{"kind", where.element}};
+    if (where.index >= 0) element["index"] = where.index;
+    doc["element"] = std::move(element);
   }
+  if (!where.pointer.empty()) doc["pointer"] = where.pointer;
 }
 
 }  // namespace
@@ -78,7 +62,8 @@ ProblemKind problem_kind(ErrorCode code) {
 }
 
 std::string problem_json(ProblemKind kind, std::string_view detail, std::string_view instance,
-                         std::string_view request_id, std::string_view extra_json) {
+                         std::string_view request_id, std::string_view extra_json,
+                         const ErrorLocation& where) {
   const ProblemInfo& info = problem_info(kind);
   nlohmann::json doc = {{"type", info.type},
                         {"title", info.title},
@@ -89,9 +74,7 @@ std::string problem_json(ProblemKind kind, std::string_view detail, std::string_
   if (kind <= ProblemKind::kInternal) {
     doc["code"] = error_code_name(static_cast<ErrorCode>(static_cast<int>(kind)));
   }
-  if (kind == ProblemKind::kInvalidScene || kind == ProblemKind::kLimitExceeded) {
-    add_location(doc, detail);
-  }
+  add_location(doc, where);
   if (!extra_json.empty()) {
     const nlohmann::json extra = nlohmann::json::parse(extra_json, nullptr, false);
     if (extra.is_object()) {

@@ -52,11 +52,13 @@ ProblemKind problem_kind(ErrorCode code);
 inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kNoPath) + 1;
 
 /// An RFC 9457 problem document (application/problem+json):
-/// {"type","title","status","detail","instance","request_id"} plus, when the detail names
-/// them, "object": {"index","label"} and "element": {"kind","index"} (where in the input the
-/// problem is), and any extra members given as a JSON object text in `extra_json`.
+/// {"type","title","status","detail","instance","request_id"} plus, from the core error's
+/// location (gvd::ErrorLocation, never the detail's text), "object": {"index","label"},
+/// "element": {"kind","index"} and "pointer" (a JSON pointer into the scene) where it gives
+/// them, and any extra members given as a JSON object text in `extra_json`.
 std::string problem_json(ProblemKind kind, std::string_view detail, std::string_view instance,
-                         std::string_view request_id, std::string_view extra_json = {});
+                         std::string_view request_id, std::string_view extra_json = {},
+                         const ErrorLocation& where = {});
 
 /// A thrown problem (transport errors raised inside handlers).
 class ProblemError : public std::runtime_error {

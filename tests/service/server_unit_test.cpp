@@ -58,30 +58,28 @@ TEST(ProblemTable, TypesAreUniqueAndStable) {
 }
 
 TEST(ProblemJson, IsRfc9457AndSaysWhere) {
-  const Json doc = Json::parse(
-      problem_json(ProblemKind::kInvalidScene,
-                   "objects[3] (\"gear \\\"b\\\"\"): triangles[7][1] = 99 is out of range",
-                   "/v1/jobs", "req-1"));
+  const Json doc = Json::parse(problem_json(
+      ProblemKind::kInvalidScene,
+      "objects[3] (\"gear \\\"b\\\"\"): triangles[7][1] = 99 is out of range", "/v1/jobs", "req-1",
+      {}, {3, "gear \"b\"", "triangle", 7, "/objects/3/triangles/7/1"}));
   EXPECT_EQ(doc["type"], "/problems/invalid-scene");
   EXPECT_EQ(doc["title"], "Invalid scene");
   EXPECT_EQ(doc["status"], 422);
   EXPECT_EQ(doc["instance"], "/v1/jobs");
   EXPECT_EQ(doc["request_id"], "req-1");
   EXPECT_EQ(doc["object"]["index"], 3);
+  EXPECT_EQ(doc["object"]["label"], "gear \"b\"");
   EXPECT_EQ(doc["element"]["kind"], "triangle");
   EXPECT_EQ(doc["element"]["index"], 7);
-  const Json v = Json::parse(problem_json(
+  EXPECT_EQ(doc["pointer"], "/objects/3/triangles/7/1");
+  // The location comes from the error's fields, never from its text.
+  const Json text_only = Json::parse(problem_json(
       ProblemKind::kInvalidScene, "object 2 (\"wall\"): vertex 5 coordinate 1e30", "/", ""));
-  EXPECT_EQ(v["object"]["label"], "wall");
-  EXPECT_EQ(v["element"]["kind"], "vertex");
-  EXPECT_EQ(v["element"]["index"], 5);
-  // Indices too large for 64 bits are left out rather than thrown on.
-  const Json huge = Json::parse(problem_json(ProblemKind::kInvalidScene,
-                                             "object 99999999999999999999999 (\"x\"): vertex "
-                                             "99999999999999999999999 is bad",
-                                             "/", ""));
-  EXPECT_FALSE(huge.contains("object"));
-  EXPECT_FALSE(huge.contains("element"));
+  EXPECT_FALSE(text_only.contains("object"));
+  EXPECT_FALSE(text_only.contains("element"));
+  const Json label_only = Json::parse(
+      problem_json(ProblemKind::kNotFound, "no object labelled 'x'", "/", "", {}, {.label = "x"}));
+  EXPECT_EQ(label_only["object"], Json({{"label", "x"}}));
   // Invalid UTF-8 in a detail does not throw.
   EXPECT_NO_THROW(problem_json(ProblemKind::kInvalidArgument, "bad \xff byte", "/", ""));
   const Json extra =

@@ -162,9 +162,10 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
     }
     total_simplices += simp_it->size();
     if (total_simplices > limits.max_simplices) {
-      throw Error(ErrorCode::kLimitExceeded, "the scene has more than the limit of " +
-                                                 std::to_string(limits.max_simplices) +
-                                                 " simplices (reached at " + where + ")");
+      throw Error(ErrorCode::kLimitExceeded,
+                  "the scene has more than the limit of " + std::to_string(limits.max_simplices) +
+                      " simplices (reached at " + where + ")",
+                  at(oi, object.label));
     }
     object.simplices.reserve(simp_it->size());
     for (size_t si = 0; si < simp_it->size(); ++si) {

@@ -31,7 +31,7 @@ struct ErrorLocation {
   int64_t object = -1;  ///< the object's index in the scene (input order); -1: none
   std::string label;    ///< the object's label ("" when none or not known yet)
   /// The kind of element: "vertex", "triangle", "segment", "point" (a query point in a
-  /// batch), "coordinate"; "" when none.
+  /// batch); "" when none.
   std::string element;
   int64_t index = -1;   ///< that element's index (within the object, or the batch); -1: none
   std::string pointer;  ///< a JSON pointer (RFC 6901) into the scene document; "" when none
