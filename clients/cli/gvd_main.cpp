@@ -22,6 +22,7 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
 #include "http_client.h"
 #include "remote_commands.h"
@@ -75,6 +76,13 @@ compute options:
   --max-depth N              deepest octree level (default 26 in 2D, 21 in 3D = the limit)
   --domain x0,y0[,z0],x1,y1[,z1]
                              domain box (made a cube); default: bounding box + 5 % padding
+  --volume LABELS.npy        a labelled voxel volume instead of scene files: an integer .npy
+                             (shape (ny, nx) or (nz, ny, nx), x fastest, as gvd grid writes);
+                             each label becomes an object "label_<id>", its boundary the
+                             voxel faces it shares with other labels or the background
+  --spacing X,Y[,Z]          --volume: the voxel size on each axis (default 1; anisotropic
+                             voxels are honoured throughout)
+  --background N|none        --volume: the label that is no object (default 0)
   --frame auto|world         the octree's axes: auto (default) turns them to the scene's
                              faces in 3D when more of their area lies square to another
                              frame than to x, y, z (a tilted part: its straight rims then
@@ -332,7 +340,10 @@ const std::vector<std::string>& compute_value_flags() {
                                                  "--refine",
                                                  "--resolution",
                                                  "--curved-tolerance",
-                                                 "--frame"};
+                                                 "--frame",
+                                                 "--volume",
+                                                 "--spacing",
+                                                 "--background"};
   return flags;
 }
 
@@ -342,7 +353,33 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
   limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
   limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
   ComputeSetup setup;
-  setup.scene = load_scene(files, limits);
+  if (const auto volume = args.value("--volume")) {
+    if (!files.empty()) throw UsageError{"--volume takes the place of the scene files"};
+    const LabelVolume labels = read_label_volume_npy(read_file_bytes(*volume), *volume);
+    LabelVolumeOptions vo;
+    if (const auto s = args.numbers("--spacing")) {
+      if (s->size() != static_cast<size_t>(labels.dimension)) {
+        throw UsageError{"--spacing needs " + std::to_string(labels.dimension) +
+                         " numbers (x,y[,z]) for this volume"};
+      }
+      for (size_t a = 0; a < s->size(); ++a) vo.spacing[a] = (*s)[a];
+    }
+    if (const auto b = args.value("--background")) {
+      if (*b == "none") {
+        vo.background.reset();
+      } else {
+        const auto n = args.numbers("--background");
+        if (!n || n->size() != 1 || (*n)[0] < 0 || (*n)[0] != std::floor((*n)[0]))
+          throw UsageError{"--background is a label (an integer >= 0) or none"};
+        vo.background = static_cast<uint64_t>((*n)[0]);
+      }
+    }
+    setup.scene = scene_from_label_volume(labels, vo, limits);
+  } else {
+    if (args.has("--spacing") || args.has("--background"))
+      throw UsageError{"--spacing and --background go with --volume LABELS.npy"};
+    setup.scene = load_scene(files, limits);
+  }
   const Scene& scene = setup.scene;
 
   PipelineOptions& options = setup.options;
@@ -435,7 +472,8 @@ int cmd_compute(int argc, char** argv) {
   std::vector<std::string> value_flags = {"-o", "--output", "--graph", "--json", "--save"};
   value_flags.insert(value_flags.end(), compute_value_flags().begin(), compute_value_flags().end());
   const Args args = parse_args(argc, argv, 2, value_flags, {"-q", "--quiet"});
-  if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
+  if (args.positional.empty() && !args.has("--volume"))
+    throw UsageError{"compute needs at least one scene file (or --volume LABELS.npy)"};
   for (const std::string& file : args.positional) {
     if (is_result_file(file)) {
       throw UsageError{"\"" + file +

@@ -37,7 +37,8 @@ Args parse_query(int argc, char** argv, std::vector<std::string> value_flags,
 
 /// The index of the command's input: a saved result, or the GVD of a scene computed now.
 GvdIndex load_index(const Args& args) {
-  if (args.positional.empty()) throw UsageError{"give a result file (.gvd) or a scene"};
+  if (args.positional.empty() && !args.has("--volume"))
+    throw UsageError{"give a result file (.gvd), a scene or --volume LABELS.npy"};
   std::shared_ptr<const GvdResult> result;
   if (args.positional.size() == 1 && is_result_file(args.positional[0])) {
     result = std::make_shared<const GvdResult>(load_result(args.positional[0]));

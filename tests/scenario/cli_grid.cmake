@@ -43,7 +43,24 @@ assert d.shape[1] == 200, d.shape
 assert set(np.unique(l)) == {0, 1, 2}, np.unique(l)
 assert (d < 0).any() and (d > 0).any()
 ")
+  # The grid's labels as a labelled volume in (every pixel an object's, so no background):
+  # the dual graph's pairs are the labels whose pixels share an edge (numpy, independently).
+  run_rc(0 ${GVD} compute --volume ${prefix}_gears_labels.npy --background none
+         --spacing 0.02,0.02 --graph ${prefix}_volume_graph.json -q)
+  run_rc(0 /usr/bin/python3 -c "
+import json, numpy as np
+l = np.load('${prefix}_gears_labels.npy')
+want = set()
+for a, b in ((l[:, 1:], l[:, :-1]), (l[1:, :], l[:-1, :])):
+    m = a != b
+    want |= {('label_%d' % min(x, y), 'label_%d' % max(x, y)) for x, y in zip(a[m], b[m])}
+g = json.load(open('${prefix}_volume_graph.json'))
+got = {(e['label_a'], e['label_b']) for e in g['edges']}
+assert got == want, (got, want)
+")
 endif()
+run_rc(2 ${GVD} compute --volume ${prefix}_gears_labels.npy --spacing 1,1,1 -q)
+run_rc(3 ${GVD} compute --volume ${DATA}/scenes/gears2d.json -q)
 
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 0 -o ${prefix}_x.npy)
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json -o ${prefix}_x.npy)

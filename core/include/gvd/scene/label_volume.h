@@ -1,0 +1,50 @@
+#pragma once
+
+// Labelled voxel volumes in (a segmentation: one id per voxel, 0 = background unless told):
+// each label becomes an object whose boundary is the surface between its voxels and the
+// others', and the adaptive pipeline runs on those objects as on meshes.
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "gvd/scene/scene.h"
+
+namespace gvd {
+
+/// A 2D or 3D array of labels, x fastest: label(i, j, k) = labels[(k * ny + j) * nx + i].
+struct LabelVolume {
+  int dimension = 3;
+  std::array<uint64_t, 3> size{1, 1, 1};  ///< nx, ny, nz (nz = 1 in 2D)
+  std::vector<uint64_t> labels;
+};
+
+/// Reads a numpy .npy file of integer labels: descr '<i1'/'<i2'/'<i4'/'<i8', '|u1', '<u2',
+/// '<u4', '<u8' (and '|i1'), 2 or 3 dimensions in C order (shape (ny, nx) or (nz, ny, nx),
+/// x fastest, as gvd grid writes them) or Fortran order. Negative values are an error
+/// (kInvalidScene naming the voxel); a malformed file is kUnsupportedFormat naming the file.
+LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::string& name);
+
+struct LabelVolumeOptions {
+  /// Voxel size along x, y (, z) in user units: anisotropic voxels are honoured throughout.
+  std::array<double, 3> spacing{1, 1, 1};
+  /// The position of the volume's corner (the lower corner of voxel (0, 0, 0)).
+  std::array<double, 3> origin{0, 0, 0};
+  /// The label that is no object (background); none: every label is an object.
+  std::optional<uint64_t> background = 0;
+};
+
+/// One object per label (in increasing order, labelled "label_<id>"): its boundary faces
+/// (3D: two triangles per voxel face; 2D: one segment per pixel edge) between a voxel of the
+/// label and a voxel of another label, the background or the outside of the volume, oriented
+/// outward, on the shared voxel corners (closed; where voxels of a label touch along an edge
+/// only, non-manifold, with the scene's warning). The scene is validated.
+/// gvd::Error{kInvalidScene} when there is no object; {kInvalidArgument} for a spacing that
+/// is not positive and finite.
+Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOptions& options,
+                              const SceneLimits& limits = {});
+
+}  // namespace gvd
