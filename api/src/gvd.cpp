@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <tuple>
 #include <unordered_set>
 #include <utility>
 
@@ -17,6 +18,7 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
 
 namespace gvd::api {
@@ -134,6 +136,43 @@ Scene Scene::load(std::span<const std::string> paths) {
 }
 
 Scene Scene::load(const std::string& path) { return load(std::span<const std::string>(&path, 1)); }
+
+Scene Scene::from_labels(std::span<const uint64_t> labels, std::span<const uint64_t> shape,
+                         std::span<const double> spacing, std::span<const double> origin,
+                         int64_t background) {
+  if (shape.size() != 2 && shape.size() != 3) {
+    throw Error(ErrorCode::kInvalidArgument, "a label volume has 2 or 3 dimensions");
+  }
+  LabelVolume volume;
+  volume.dimension = static_cast<int>(shape.size());
+  uint64_t count = 1;
+  for (size_t a = 0; a < shape.size(); ++a) {
+    volume.size[a] = shape[a];
+    count *= shape[a];
+  }
+  if (count != labels.size() || count == 0) {
+    throw Error(ErrorCode::kInvalidArgument, "the labels hold " + std::to_string(labels.size()) +
+                                                 " values, not the shape's " +
+                                                 std::to_string(count));
+  }
+  LabelVolumeOptions options;
+  for (auto [values, into, what] : {std::tuple{spacing, &options.spacing, "spacing"},
+                                    std::tuple{origin, &options.origin, "origin"}}) {
+    if (values.empty()) continue;
+    if (values.size() != shape.size()) {
+      throw Error(ErrorCode::kInvalidArgument, std::string("the ") + what + " needs " +
+                                                   std::to_string(shape.size()) + " numbers");
+    }
+    for (size_t a = 0; a < values.size(); ++a) (*into)[a] = values[a];
+  }
+  if (background < 0) {
+    options.background.reset();
+  } else {
+    options.background = static_cast<uint64_t>(background);
+  }
+  volume.labels.assign(labels.begin(), labels.end());
+  return Access::make_scene(scene_from_label_volume(volume, options));
+}
 
 Object Scene::add(std::string label, std::span<const double> vertices,
                   std::span<const uint32_t> simplices) {

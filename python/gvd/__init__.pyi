@@ -55,6 +55,10 @@ class Scene:
     @property
     def labels(self) -> tuple[str, ...]: ...
     def __len__(self) -> int: ...
+    @staticmethod
+    def from_labels(labels: np.ndarray, spacing: Optional[Sequence[float]] = None,
+                    origin: Optional[Sequence[float]] = None,
+                    background: Optional[int] = 0) -> Scene: ...
 
 class Nearest(NamedTuple):
     """Fields may be added in later versions: read them by name."""

@@ -51,6 +51,39 @@ PyScene load_scene(const py::handle& paths) {
   return PyScene(api::Scene::load(files));
 }
 
+/// A labelled volume (numpy (ny, nx) or (nz, ny, nx) integers, x fastest) as a scene.
+PyScene scene_from_labels(const py::array& labels, const py::object& spacing,
+                          const py::object& origin, const py::object& background) {
+  if (labels.ndim() != 2 && labels.ndim() != 3) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "labels must be a 2D or 3D integer array, shape (ny, nx) or (nz, ny, nx)");
+  }
+  const char kind = labels.dtype().kind();
+  if (kind != 'i' && kind != 'u') {
+    throw Error(ErrorCode::kInvalidArgument, "labels must be integers, not dtype " +
+                                                 py::str(labels.dtype()).cast<std::string>());
+  }
+  if (kind == 'i' && labels.attr("__lt__")(0).attr("any")().cast<bool>()) {
+    throw Error(ErrorCode::kInvalidScene, "labels must not be negative");
+  }
+  const auto values =
+      py::array_t<uint64_t, py::array::c_style | py::array::forcecast>::ensure(labels);
+  std::vector<uint64_t> shape;  // x fastest: numpy's shape reversed
+  for (py::ssize_t a = labels.ndim() - 1; a >= 0; --a)
+    shape.push_back(static_cast<uint64_t>(labels.shape(a)));
+  auto numbers = [](const py::object& o) {
+    std::vector<double> out;
+    if (!o.is_none())
+      for (const py::handle& v : o) out.push_back(v.cast<double>());
+    return out;
+  };
+  const std::vector<double> sp = numbers(spacing), org = numbers(origin);
+  const int64_t bg = background.is_none() ? -1 : background.cast<int64_t>();
+  const std::span<const uint64_t> data(values.data(), static_cast<size_t>(values.size()));
+  py::gil_scoped_release unlocked;
+  return PyScene(api::Scene::from_labels(data, shape, sp, org, bg));
+}
+
 /// An object given by label (str) or index (int).
 api::Object object_arg(const api::Result& r, const py::handle& object) {
   if (py::isinstance<py::str>(object)) {
@@ -332,6 +365,18 @@ void define_module(py::module_& m) {
                   "Reads scene files as `gvd compute` does: one scene JSON, OBJ (o/g groups = "
                   "objects) or GLB/glTF (nodes = objects), or a list of PLY/STL/OFF/OBJ files, "
                   "one object each, labelled by file stem.")
+      .def_static("from_labels", &scene_from_labels, "labels"_a, "spacing"_a = py::none(),
+                  "origin"_a = py::none(), "background"_a = 0,
+                  R"doc(from_labels(labels, spacing=None, origin=None, background=0) -> Scene
+
+A labelled voxel volume (a segmentation) as a scene, as `gvd compute --volume` reads it:
+labels  an integer array of shape (ny, nx) or (nz, ny, nx), x fastest (numpy's C order; the
+        layout `gvd grid --labels` writes), no negative values
+spacing the voxel size along x, y(, z) (default 1 each; anisotropic voxels are honoured)
+origin  the lower corner of voxel (0, 0, 0), x, y(, z) (default 0)
+background the label that is no object (default 0; None: every label is an object)
+Every other label becomes an object "label_<id>" (in increasing id), bounded by the voxel
+faces it shares with other labels, the background or the outside of the volume.)doc")
       .def("add", &scene_add, "label"_a, "vertices"_a, "faces"_a = py::none(),
            R"doc(add(label, vertices, faces) or add(label, mesh) -> int
 

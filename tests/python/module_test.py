@@ -216,6 +216,37 @@ class CliParity(unittest.TestCase):
             self.assertEqual(f.read(4), b"glTF")
 
 
+class Volumes(unittest.TestCase):
+    """Labelled volumes: Scene.from_labels equals `gvd compute --volume` on the same array."""
+
+    def test_from_labels_equals_cli(self):
+        labels = np.zeros((6, 4, 5), dtype=np.int32)  # (nz, ny, nx)
+        labels[0:2] = 7
+        labels[4:6, :, 0:3] = 9
+        labels[4:6, :, 3:5] = 3
+        path = os.path.join(OUT, "volume.npy")
+        np.save(path, labels)
+        graph_path = os.path.join(OUT, "volume_graph.json")
+        cli("compute", "--volume", path, "--spacing", "1,2,10", "--graph", graph_path, "-q")
+        with open(graph_path) as f:
+            want = [(e["label_a"], e["label_b"], e["gap"]) for e in json.load(f)["edges"]]
+        s = gvd.Scene.from_labels(labels, spacing=(1, 2, 10))
+        self.assertEqual(s.labels, ("label_3", "label_7", "label_9"))
+        r = gvd.compute(s)
+        got = [(r.labels[e["a"]], r.labels[e["b"]], float(e["gap"])) for e in r.graph]
+        self.assertEqual(got, want)
+        # label_7 (z in [0, 20)) and the others (z from 40) are two 10-deep voxels apart.
+        gaps = {(a, b): g for a, b, g in got}
+        self.assertAlmostEqual(gaps[("label_7", "label_9")], 20.0, delta=1e-9)
+        self.assertEqual(gaps[("label_3", "label_9")], 0.0)  # they touch
+        with self.assertRaises(gvd.InvalidScene):
+            gvd.Scene.from_labels(-labels)
+        with self.assertRaises(gvd.InvalidArgument):
+            gvd.Scene.from_labels(labels.astype(np.float32))
+        every = gvd.Scene.from_labels(labels, background=None)
+        self.assertEqual(len(every), 4)
+
+
 class Analytic(unittest.TestCase):
     """Two unit cubes 0.1 apart: the GVD is the plane x = 1.05, every answer known."""
 

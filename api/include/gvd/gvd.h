@@ -64,6 +64,17 @@ class Scene {
   static Scene load(std::span<const std::string> paths);
   static Scene load(const std::string& path);
 
+  /// A labelled voxel volume (a segmentation) as a scene, as `gvd compute --volume` reads it:
+  /// `labels` holds shape[0] x ... values, x fastest (shape = {nx, ny} or {nx, ny, nz});
+  /// every label but `background` (< 0: none) becomes an object "label_<id>" (increasing id)
+  /// bounded by the voxel faces it shares with other labels, the background or the outside,
+  /// voxel (i, j, k) spanning origin + [i, i + 1] x spacing (dimension() numbers each).
+  /// gvd::Error{kInvalidArgument} for sizes that do not match, {kInvalidScene} when no
+  /// label is left.
+  static Scene from_labels(std::span<const uint64_t> labels, std::span<const uint64_t> shape,
+                           std::span<const double> spacing = {},
+                           std::span<const double> origin = {}, int64_t background = 0);
+
   /// Adds an object and returns its index. `vertices`: dimension() numbers per vertex, user
   /// units; `simplices`: dimension() 0-based indices into this object's vertices per simplex
   /// (3D: triangles, 2D: segments). Copies both. Throws gvd::Error{kInvalidArgument} when an
