@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <set>
 #include <string_view>
 #include <unordered_map>
 
@@ -194,6 +195,7 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
     std::unordered_map<uint64_t, uint32_t> local;  // corner id -> vertex index
   };
   std::map<uint64_t, Builder> objects;
+  std::set<std::pair<uint64_t, uint64_t>> touching;  // labels with a voxel face in common
   const uint64_t cx = nx + 1, cy = ny + 1;
   auto corner = [&](Builder& b, uint64_t i, uint64_t j, uint64_t k) {
     const uint64_t id = (k * cy + j) * cx + i;
@@ -221,6 +223,8 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
             n[a] += side;
             const std::optional<uint64_t> other = label_at(n[0], n[1], n[2]);
             if (other && *other == label) continue;
+            if (other && !(options.background && *other == *options.background) && side > 0)
+              touching.emplace(std::min(label, *other), std::max(label, *other));
             // The face between the voxel and its neighbour on `side` of axis a, oriented
             // outward: corners base, base + u, base + u + w, base + w with e_u x e_w = e_a.
             uint64_t base[3] = {at[0], at[1], at[2]};
@@ -267,6 +271,19 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
                 "the label volume has no label other than the background: nothing to compute");
   }
   validate_scene(scene, limits);
+  if (!touching.empty()) {
+    // True to what the pipeline does with them (docs/FORMATS.md): the objects are the labels'
+    // boundary surfaces, and where two labels touch those coincide.
+    scene.warnings.push_back(
+        {"labels_touch", "", touching.size(),
+         std::to_string(touching.size()) +
+             " pairs of labels touch (share voxel faces): their boundary surfaces coincide "
+             "there, so inside a label its points are as near to the neighbour's copy of a "
+             "shared face as to its own, and the GVD of these surfaces is degenerate: for "
+             "touching labels, dual-graph pairs and interfaces do not follow voxel adjacency "
+             "(pairs that do not touch may appear, pairs that touch may be missing); gaps and "
+             "the GVD between labels apart are exact"});
+  }
   return scene;
 }
 

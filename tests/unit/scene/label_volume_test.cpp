@@ -5,10 +5,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <map>
 #include <random>
+#include <set>
+#include <tuple>
 
 #include "gvd/common/error.h"
 #include "gvd/io/write_grid.h"
@@ -26,7 +29,14 @@ std::vector<uint8_t> npy(const std::string& descr, const std::string& shape, boo
   while ((10 + header.size() + 1) % 64 != 0) header += ' ';
   header += '\n';
   std::vector<uint8_t> out(10 + header.size() + bytes);
-  const uint8_t lead[10] = {0x93, 'N', 'U', 'M', 'P', 'Y', 1, 0,
+  const uint8_t lead[10] = {0x93,
+                            'N',
+                            'U',
+                            'M',
+                            'P',
+                            'Y',
+                            1,
+                            0,
                             static_cast<uint8_t>(header.size() & 0xFF),
                             static_cast<uint8_t>(header.size() >> 8)};
   std::memcpy(out.data(), lead, 10);
@@ -123,6 +133,22 @@ TEST(LabelVolume, BoundariesEncloseTheirVoxels3d) {
       EXPECT_LE(p.z, 7 + 3 * 3 + 1e-12);
     }
   }
+  // Touching labels are said so, with the number of face-adjacent pairs (brute force).
+  std::set<std::pair<uint64_t, uint64_t>> adjacent;
+  auto at = [&](uint64_t i, uint64_t j, uint64_t k) { return v.labels[(k * 4 + j) * 5 + i]; };
+  for (uint64_t k = 0; k < 3; ++k)
+    for (uint64_t j = 0; j < 4; ++j)
+      for (uint64_t i = 0; i < 5; ++i)
+        for (const auto& [di, dj, dk] :
+             {std::tuple{1, 0, 0}, std::tuple{0, 1, 0}, std::tuple{0, 0, 1}}) {
+          if (i + di >= 5 || j + dj >= 4 || k + dk >= 3) continue;
+          const uint64_t a = at(i, j, k), b = at(i + di, j + dj, k + dk);
+          if (a != b && a != 0 && b != 0) adjacent.emplace(std::min(a, b), std::max(a, b));
+        }
+  const auto w = std::find_if(s.warnings.begin(), s.warnings.end(),
+                              [](const SceneWarning& x) { return x.kind == "labels_touch"; });
+  ASSERT_NE(w, s.warnings.end());
+  EXPECT_EQ(w->count, adjacent.size());
   // With no background, label 0 is an object too.
   o.background.reset();
   EXPECT_EQ(scene_from_label_volume(v, o).objects.size(), count.size());
@@ -157,7 +183,9 @@ TEST(LabelVolume, AnisotropicGapIsMeasuredExactly) {
   o.spacing = {1, 1, 10};
   PipelineOptions po;
   po.threads = 2;
-  const GvdResult r = compute_gvd(scene_from_label_volume(v, o), po);
+  const Scene slabs = scene_from_label_volume(v, o);
+  for (const SceneWarning& w : slabs.warnings) EXPECT_NE(w.kind, "labels_touch") << w.detail;
+  const GvdResult r = compute_gvd(slabs, po);
   ASSERT_EQ(r.scene.objects.size(), 2u);
   EXPECT_EQ(r.scene.objects[0].label, "label_7");
   ASSERT_EQ(r.graph.edges.size(), 1u);
