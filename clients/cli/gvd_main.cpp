@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -309,10 +310,25 @@ void print_summary(const GvdResult& r, std::FILE* out) {
     std::fprintf(out, "\n");
   }
   print_grid_advice(r, out);
+  // At most kShown warnings of one kind in full (a segmentation has one per label); the rest
+  // are counted. `gvd info --json` lists every one.
+  constexpr int kShown = 5;
+  std::map<std::string, std::pair<int, uint64_t>> kinds;  // kind -> warnings, their counts
   for (const SceneWarning& w : r.scene.warnings) {
+    auto& [warnings, total] = kinds[w.kind];
+    ++warnings;
+    total += w.count;
+    if (warnings > kShown) continue;
     std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", w.kind.c_str(),
                  w.object.empty() ? "" : " ", w.object.c_str(),
                  static_cast<unsigned long long>(w.count), w.detail.c_str());
+  }
+  for (const auto& [kind, seen] : kinds) {
+    if (seen.first <= kShown) continue;
+    std::fprintf(
+        out,
+        "  warning [%s]: %d more objects (%llu in all of this kind; gvd info --json lists them)\n",
+        kind.c_str(), seen.first - kShown, static_cast<unsigned long long>(seen.second));
   }
 }
 
