@@ -33,7 +33,7 @@ struct ProblemExit {
   std::string_view type;
   int exit_code;
 };
-constexpr std::array<ProblemExit, 22> kProblemExits = {{
+constexpr std::array<ProblemExit, 24> kProblemExits = {{
     {"/problems/invalid-scene", kExitBadInput},
     {"/problems/invalid-argument", kExitBadInput},
     {"/problems/unsupported-format", kExitBadInput},
@@ -56,6 +56,8 @@ constexpr std::array<ProblemExit, 22> kProblemExits = {{
     {"/problems/job-not-finished", kExitBusy},  // try again later
     {"/problems/job-failed", kExitLimit},       // (the job's own error is used when known)
     {"/problems/no-path", kExitNoPath},
+    {"/problems/rate-limited", kExitBusy},
+    {"/problems/queue-unavailable", kExitBusy},
 }};
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a
@@ -167,12 +169,12 @@ class Remote {
                      : parts != nullptr   ? http_.post_multipart(path, *parts)
                                           : http_.post(path, body, content_type);
       if (std::find(ok.begin(), ok.end(), a.status) != ok.end()) return a;
-      if (a.status == 503 && attempt < retries_) {
+      if ((a.status == 503 || a.status == 429) && attempt < retries_) {
         wait_busy(a, attempt);
         continue;
       }
       const Json p = problem_of(a);
-      if (a.status == 503) {
+      if (a.status == 503 || a.status == 429) {
         throw_problem(p, a.status, "server busy after " + std::to_string(retries_) + " retries: ");
       }
       throw_problem(p, a.status);
@@ -644,7 +646,7 @@ int exit_code_for_problem(const std::string& type, int status) {
   for (const ProblemExit& row : kProblemExits) {
     if (row.type == type) return row.exit_code;
   }
-  if (status == 503) return kExitBusy;
+  if (status == 503 || status == 429) return kExitBusy;
   if (status == 404) return kExitIo;
   if (status == 413) return kExitLimit;
   if (status >= 400 && status < 500) return kExitBadInput;

@@ -31,6 +31,7 @@ __all__ = [
     "JobCancelled", "InternalServerError", "RouteNotFound", "MethodNotAllowed",
     "LengthRequired", "BodyTooLarge", "HeadersTooLarge", "UnsupportedMediaType",
     "UnsupportedEncoding", "ServerBusy", "QueueFull", "Draining", "TooManyStreams",
+    "RateLimited", "QueueUnavailable",
     "JobNotFinished", "JobFailed", "NoPath", "WaitTimeout", "PROBLEM_TYPES",
 ]
 
@@ -152,6 +153,14 @@ class TooManyStreams(ServerBusy):
     """503: too many event streams open (``Job.wait`` falls back to polling)."""
 
 
+class RateLimited(ServerBusy):
+    """429: this client is over its submission rate; ``retry_after`` says when a token is back."""
+
+
+class QueueUnavailable(ServerBusy):
+    """503: the server cannot reach its shared job queue (Redis); it reconnects by itself."""
+
+
 class JobNotFinished(GvdError):
     """409: outputs or queries of a job still queued or running."""
 
@@ -193,6 +202,8 @@ PROBLEM_TYPES = {
     "/problems/job-not-finished": JobNotFinished,
     "/problems/job-failed": JobFailed,
     "/problems/no-path": NoPath,
+    "/problems/rate-limited": RateLimited,
+    "/problems/queue-unavailable": QueueUnavailable,
 }
 
 
@@ -202,7 +213,7 @@ def error_from_problem(problem: dict, status: Optional[int] = None,
     cls = PROBLEM_TYPES.get(problem.get("type", ""))
     status = status if status is not None else problem.get("status")
     if cls is None:
-        cls = {404: NotFound, 503: ServerBusy}.get(status, GvdError)
+        cls = {404: NotFound, 429: ServerBusy, 503: ServerBusy}.get(status, GvdError)
     if issubclass(cls, ServerBusy):
         return cls(problem, status, retry_after)
     return cls(problem, status)
@@ -335,7 +346,7 @@ class Client:
                 return resp
             problem = self._problem(resp)
             retry_after = _retry_after(resp.headers.get("retry-after"))
-            if resp.status == 503 and attempt < self.retries:
+            if resp.status in (429, 503) and attempt < self.retries:
                 time.sleep(self._delay(attempt, retry_after))
                 attempt += 1
                 continue

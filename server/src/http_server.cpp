@@ -149,7 +149,8 @@ struct HttpServer::Impl {
                     const ErrorLocation& where = {}) {
     const ProblemInfo& info = problem_info(kind);
     res.status = info.status;
-    if (info.retryable && info.status == 503 && !res.has_header("Retry-After")) {
+    if (info.retryable && (info.status == 503 || info.status == 429) &&
+        !res.has_header("Retry-After")) {
       res.set_header("Retry-After", std::to_string(options.retry_after));
     }
     res.set_content(problem_json(kind, detail, req.path, t_request.id, extra, where),
@@ -391,11 +392,11 @@ struct HttpServer::Impl {
     if (wait <= 0) return;
     metrics.count("gvd_jobs_rate_limited_total");
     res.set_header("Retry-After", std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
-    throw ProblemError(ProblemKind::kQueueFull, "client \"" + client + "\" is over its limit of " +
-                                                    Json(options.rate_limit).dump() +
-                                                    " submissions per second (burst " +
-                                                    Json(options.rate_burst).dump() +
-                                                    "); retry in " + Json(wait).dump() + " s");
+    throw ProblemError(ProblemKind::kRateLimited,
+                       "client \"" + client + "\" is over its limit of " +
+                           Json(options.rate_limit).dump() + " submissions per second (burst " +
+                           Json(options.rate_burst).dump() + "); retry in " + Json(wait).dump() +
+                           " s");
   }
 
   /// Compute parameters given inside a scene JSON: {"params": {"max_depth": 12, ...}}.

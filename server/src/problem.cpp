@@ -32,6 +32,8 @@ constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
     {409, "/problems/job-not-finished", "Job not finished", true},
     {409, "/problems/job-failed", "Job failed", false},
     {422, "/problems/no-path", "No path", false},
+    {429, "/problems/rate-limited", "Too many submissions", true},
+    {503, "/problems/queue-unavailable", "Job queue unavailable", true},
 }};
 
 static_assert(static_cast<int>(ErrorCode::kInternal) == static_cast<int>(ProblemKind::kInternal),

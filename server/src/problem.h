@@ -34,6 +34,8 @@ enum class ProblemKind {
   kJobNotFinished,
   kJobFailed,
   kNoPath,
+  kRateLimited,       ///< one client over its submission rate (--rate-limit)
+  kQueueUnavailable,  ///< the shared job queue (Redis) cannot be reached
 };
 
 /// One row of the table: HTTP status, stable problem type URI, title, whether retrying the
@@ -49,7 +51,7 @@ const ProblemInfo& problem_info(ProblemKind kind);
 ProblemKind problem_kind(ErrorCode code);
 
 /// Every row, for the documentation and the tests.
-inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kNoPath) + 1;
+inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kQueueUnavailable) + 1;
 
 /// An RFC 9457 problem document (application/problem+json):
 /// {"type","title","status","detail","instance","request_id"} plus, from the core error's

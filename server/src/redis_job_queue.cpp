@@ -230,7 +230,7 @@ auto RedisJobQueue::api(Fn&& fn) const {
     return fn(*redis);
   } catch (const RedisUnavailable& e) {
     set_down(e.what());
-    throw ProblemError(ProblemKind::kQueueFull,
+    throw ProblemError(ProblemKind::kQueueUnavailable,
                        std::string("the job queue is unreachable: ") + e.what());
   }
 }

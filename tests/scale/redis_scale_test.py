@@ -385,7 +385,7 @@ class RedisScaleOut(unittest.TestCase):
             self.assertEqual(status, 503, body[:200])
             self.assertIn("Retry-After", headers)
             problem = json.loads(body)
-            self.assertEqual(problem["type"], "/problems/queue-full")
+            self.assertEqual(problem["type"], "/problems/queue-unavailable")
             self.assertIn("unreachable", problem["detail"])
         self.redis.start()  # empty: no persistence
         for r in self.replicas:
@@ -432,7 +432,7 @@ class RedisScaleOut(unittest.TestCase):
         answers = [post(self.replicas[k % 3], "greedy") for k in range(2 * BURST)]
         elapsed = time.monotonic() - t0
         admitted = sum(1 for status, _, _ in answers if status in (200, 202))
-        refused = [a for a in answers if a[0] == 503]
+        refused = [a for a in answers if a[0] == 429]
         self.assertEqual(admitted + len(refused), 2 * BURST)
         # One bucket for the cluster, not one per replica (that would admit all 60).
         self.assertGreaterEqual(admitted, BURST)
@@ -440,6 +440,7 @@ class RedisScaleOut(unittest.TestCase):
         status, headers, problem = refused[0]
         self.assertIn("Retry-After", headers)
         self.assertIn("greedy", json.loads(problem)["detail"])
+        self.assertEqual(json.loads(problem)["type"], "/problems/rate-limited")
         # Another client is served at once.
         self.assertEqual(post(self.replicas[0], "patient")[0], 200)
 
@@ -508,9 +509,9 @@ class InProcessTokenBucket(unittest.TestCase):
                             {"Content-Type": "application/json", "X-Client-Id": client})
             statuses = [post("a")[0] for _ in range(5)]
             self.assertTrue(all(s in (200, 202) for s in statuses[:3]), statuses)
-            self.assertEqual(statuses[3:], [503, 503])
+            self.assertEqual(statuses[3:], [429, 429])
             status, headers, _ = post("a")
-            self.assertEqual(status, 503)
+            self.assertEqual(status, 429)
             self.assertEqual(headers.get("Retry-After"), "1")
             self.assertIn(post("b")[0], (200, 202))
 
