@@ -21,8 +21,10 @@ namespace {
 using nlohmann::json;
 
 /// Pairs of objects whose bounding boxes (unit coordinates) are within `reach` of each other:
-/// a sweep over the boxes sorted by their lower x.
-std::vector<std::pair<ObjectId, ObjectId>> candidate_pairs(const UnitGeometry& g, double reach) {
+/// a sweep over the boxes sorted by their lower x. More than `limit` of them is
+/// gvd::Error{kLimitExceeded}, said before any exact distance is computed.
+std::vector<std::pair<ObjectId, ObjectId>> candidate_pairs(const UnitGeometry& g, double reach,
+                                                           size_t limit, double max_gap) {
   std::vector<Box> boxes(g.object_count);
   for (size_t s = 0; s < g.simplices.size(); ++s) {
     const int arity = g.dimension == 2 ? 2 : 3;
@@ -43,8 +45,14 @@ std::vector<std::pair<ObjectId, ObjectId>> candidate_pairs(const UnitGeometry& g
         const double d = std::max({0.0, bj.lo[a] - bi.hi[a], bi.lo[a] - bj.hi[a]});
         gap2 += d * d;
       }
-      if (gap2 <= reach * reach)
-        out.emplace_back(std::min(order[i], order[j]), std::max(order[i], order[j]));
+      if (gap2 > reach * reach) continue;
+      if (out.size() == limit) {
+        throw Error(ErrorCode::kLimitExceeded,
+                    "more than " + std::to_string(limit) +
+                        " object pairs have bounding boxes within max_gap = " +
+                        std::to_string(max_gap) + ": lower the bound");
+      }
+      out.emplace_back(std::min(order[i], order[j]), std::max(order[i], order[j]));
     }
   }
   std::sort(out.begin(), out.end());
@@ -317,7 +325,7 @@ json point_json(Vec3 p, int dimension) {
 
 }  // namespace
 
-std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap) {
+std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap, size_t max_candidates) {
   if (!(max_gap >= 0) || !std::isfinite(max_gap)) {
     throw Error(ErrorCode::kInvalidArgument,
                 "max_gap must be a finite distance >= 0 (got " + std::to_string(max_gap) + ")");
@@ -325,7 +333,8 @@ std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap) {
   const GvdResult& r = index.result();
   const double side = r.domain.side;
   const double reach = max_gap / side;
-  const std::vector<std::pair<ObjectId, ObjectId>> candidates = candidate_pairs(r.geometry, reach);
+  const std::vector<std::pair<ObjectId, ObjectId>> candidates =
+      candidate_pairs(r.geometry, reach, max_candidates, max_gap);
   std::vector<SimplexBvh::ObjectPair> measured(candidates.size());
   const int threads = resolve_threads(0);
   parallel_for(

@@ -225,6 +225,14 @@ TEST(Contacts, JsonAndBadBounds) {
   EXPECT_TRUE(doc["contacts"][0]["depth_lower_bound"].is_null());
   EXPECT_EQ(doc["contacts"][0]["on_a"].size(), 2u);
   EXPECT_THROW(find_contacts(index, -1), Error);
+  // More candidate pairs than allowed: a limit error before any distance is measured.
+  try {
+    find_contacts(index, 10.0, 0);
+    FAIL() << "expected the candidate limit";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kLimitExceeded);
+    EXPECT_NE(e.detail().find("lower the bound"), std::string::npos) << e.detail();
+  }
   EXPECT_THROW(find_contacts(index, NAN), Error);
 }
 

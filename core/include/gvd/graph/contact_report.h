@@ -4,6 +4,7 @@
 // GVD's interface between them and the connected sites of that interface where they come
 // closer than the bound (the "touching neurons" and clearance-check questions).
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -48,11 +49,16 @@ struct Contact {
   std::vector<ContactSite> sites;  ///< largest first
 };
 
+/// At most this many object pairs with bounding boxes within the bound are measured.
+inline constexpr size_t kMaxContactCandidates = 10'000'000;
+
 /// Every pair whose gap is below `max_gap` (user units, >= 0), and every pair that touches
 /// or intersects, sorted by (gap, a, b). Candidates by bounding boxes within `max_gap`, then
 /// exact BVH distances (SimplexBvh::object_distance). gvd::Error{kInvalidArgument} for a
-/// negative or non-finite bound.
-std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap);
+/// negative or non-finite bound, {kLimitExceeded} when more than kMaxContactCandidates pairs
+/// have bounding boxes within it (before any exact distance is computed).
+std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap,
+                                   size_t max_candidates = kMaxContactCandidates);
 
 /// {"max_gap":G,"contacts":[{"a","label_a","b","label_b","gap","on_a","on_b","interference",
 /// "depth_lower_bound" (null when < 0),"interface_area","sites":[{"area","centroid","min_gap",
