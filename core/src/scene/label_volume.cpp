@@ -272,17 +272,16 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
   }
   validate_scene(scene, limits);
   if (!touching.empty()) {
-    // True to what the pipeline does with them (docs/FORMATS.md): the objects are the labels'
-    // boundary surfaces, and where two labels touch those coincide.
+    // True to what the pipeline does with them (docs/FORMATS.md): where two labels touch
+    // their boundary surfaces coincide, and exact ties between the two copies of a face go to
+    // the label a point is inside (gvd_better_hit_sided).
     scene.warnings.push_back(
         {"labels_touch", "", touching.size(),
          std::to_string(touching.size()) +
-             " pairs of labels touch (share voxel faces): their boundary surfaces coincide "
-             "there, so inside a label its points are as near to the neighbour's copy of a "
-             "shared face as to its own, and the GVD of these surfaces is degenerate: for "
-             "touching labels, dual-graph pairs and interfaces do not follow voxel adjacency "
-             "(pairs that do not touch may appear, pairs that touch may be missing); gaps and "
-             "the GVD between labels apart are exact"});
+             " pairs of labels share voxel faces: they are touching pairs (gap 0) whose "
+             "interface is their shared boundary, resolved down to the contact depth; labels "
+             "that meet only along a voxel edge or corner may also come out as neighbours, "
+             "with a small interface"});
   }
   return scene;
 }

@@ -193,6 +193,61 @@ TEST(LabelVolume, AnisotropicGapIsMeasuredExactly) {
   EXPECT_NEAR(r.graph.edges[0].min_clearance, 10, 1e-9);
 }
 
+// A fully packed segmentation (the discrete Voronoi regions of 12 seeds in 10^3 voxels, no
+// background): every pair of labels that share a voxel face is a dual-graph pair (exact
+// ties between their coincident faces go to the label a point is inside), and every other
+// pair reported at least touches along a voxel edge or corner.
+TEST(LabelVolume, PackedLabelsGiveTheirFaceAdjacency) {
+  const uint64_t n = 10;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0, static_cast<double>(n));
+  std::vector<Vec3> seeds(12);
+  for (Vec3& c : seeds) c = {u(rng), u(rng), u(rng)};
+  LabelVolume v;
+  v.size = {n, n, n};
+  for (uint64_t k = 0; k < n; ++k)
+    for (uint64_t j = 0; j < n; ++j)
+      for (uint64_t i = 0; i < n; ++i) {
+        const Vec3 p{i + 0.5, j + 0.5, k + 0.5};
+        uint64_t best = 0;
+        for (uint64_t s = 1; s < seeds.size(); ++s)
+          if (dist2(p, seeds[s]) < dist2(p, seeds[best])) best = s;
+        v.labels.push_back(best + 1);
+      }
+  auto at = [&](int64_t i, int64_t j, int64_t k) {
+    return v.labels[(static_cast<uint64_t>(k) * n + static_cast<uint64_t>(j)) * n +
+                    static_cast<uint64_t>(i)];
+  };
+  std::set<std::pair<uint64_t, uint64_t>> face, near;  // near: sharing a face, edge or corner
+  const auto in = [&](int64_t x) { return x >= 0 && x < static_cast<int64_t>(n); };
+  for (int64_t k = 0; k < static_cast<int64_t>(n); ++k)
+    for (int64_t j = 0; j < static_cast<int64_t>(n); ++j)
+      for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
+        for (int dk = -1; dk <= 1; ++dk)
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              if (!in(i + di) || !in(j + dj) || !in(k + dk)) continue;
+              const uint64_t a = at(i, j, k), b = at(i + di, j + dj, k + dk);
+              if (a == b) continue;
+              const std::pair<uint64_t, uint64_t> pair{std::min(a, b), std::max(a, b)};
+              near.insert(pair);
+              if (std::abs(di) + std::abs(dj) + std::abs(dk) == 1) face.insert(pair);
+            }
+  LabelVolumeOptions o;
+  o.background.reset();
+  PipelineOptions po;
+  po.threads = 2;
+  const GvdResult r = compute_gvd(scene_from_label_volume(v, o), po);
+  std::set<std::pair<uint64_t, uint64_t>> got;
+  for (const DualEdge& e : r.graph.edges) {
+    const uint64_t a = std::stoull(r.scene.objects[e.a].label.substr(6));
+    const uint64_t b = std::stoull(r.scene.objects[e.b].label.substr(6));
+    got.insert({std::min(a, b), std::max(a, b)});
+  }
+  for (const auto& p : face) EXPECT_TRUE(got.count(p)) << "missing " << p.first << "-" << p.second;
+  for (const auto& p : got) EXPECT_TRUE(near.count(p)) << "apart " << p.first << "-" << p.second;
+}
+
 TEST(LabelVolume, AllBackgroundIsAnError) {
   LabelVolume v;
   v.size = {2, 2, 2};

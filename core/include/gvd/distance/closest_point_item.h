@@ -179,18 +179,40 @@ GVD_ITEM_FN GvdPoint gvd_closest_on_simplex(int dimension, GVD_GLOBAL const GvdP
 }
 
 /* Near ties: squared distances within a relative GVD_TIE of each other count as equal, and
- * the lower simplex index (the lower object: simplices are numbered object by object) wins.
+ * the lower simplex index (the lower object: simplices are numbered object by object) wins
+ * (unless the two share their closest point: gvd_better_hit_sided).
  * Points on a bisector then get the same label whatever rounding did to the two distances,
  * as if the bisector were moved by ~1e-12 of the distance toward the higher object: where a
  * GVD runs exactly along an octree plane (mirror-symmetric objects), its vertices are labelled
  * alike instead of in a rounding-noise pattern that folds the surface. */
 #define GVD_TIE 4e-12
 
-/* Whether a simplex s at squared distance d2 beats the best hit so far (see GVD_TIE). */
-GVD_ITEM_FN int gvd_better_hit(double d2, gvd_uint s, double best_dist2, gvd_uint best_simplex) {
+/* Whether p lies strictly behind simplex (a, b, c): on the side its normal (b - a) x (c - a)
+ * points away from (3D); in 2D left of the directed segment a -> b (whose normal is
+ * (dy, -dx)). For outward-oriented closed boundaries that is their inside. */
+GVD_ITEM_FN int gvd_behind(int dimension, GvdPoint a, GvdPoint b, GvdPoint c, GvdPoint p) {
+  const double ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z;
+  const double px = p.x - a.x, py = p.y - a.y, pz = p.z - a.z;
+  if (dimension == 2) return ux * py - uy * px > 0;
+  const double vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
+  const double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+  return px * nx + py * ny + pz * nz < 0;
+}
+
+/* Whether a simplex s at squared distance d2, closest point q, beats the best hit so far
+ * (see GVD_TIE). Among near ties at the same closest point (coincident faces: flush parts,
+ * the shared faces of a segmentation's labels), one that has the point behind it (`behind`,
+ * gvd_behind) beats one that has not, so a point inside one of two objects that share a face
+ * goes to that one. Otherwise (ties between distinct points, as on a bisector) the lower
+ * index wins. */
+GVD_ITEM_FN int gvd_better_hit_sided(double d2, gvd_uint s, int behind, GvdPoint q,
+                                     double best_dist2, gvd_uint best_simplex, int best_behind,
+                                     GvdPoint best_q) {
   if (best_simplex == GVD_NO_SIMPLEX) return d2 <= best_dist2;
   if (d2 < best_dist2 * (1.0 - GVD_TIE)) return 1;
-  return d2 <= best_dist2 * (1.0 + GVD_TIE) && s < best_simplex;
+  if (!(d2 <= best_dist2 * (1.0 + GVD_TIE))) return 0;
+  if (behind != best_behind && gvd_dist2(q, best_q) <= GVD_TIE * best_dist2) return behind;
+  return s < best_simplex;
 }
 
 /* How far the search must still look: boxes farther than this cannot hold a better hit. */
@@ -199,7 +221,8 @@ GVD_ITEM_FN double gvd_search_limit(double best_dist2, gvd_uint best_simplex) {
 }
 
 /* The exact closest point to p among all simplices whose squared distance is <= max_dist2
- * (near ties go to the lower simplex index, GVD_TIE); simplex = GVD_NO_SIMPLEX when there is
+ * (near ties go to the lower simplex index, GVD_TIE, except between coincident faces:
+ * gvd_better_hit_sided); simplex = GVD_NO_SIMPLEX when there is
  * none. Nearer
  * child first; a subtree is skipped when its box is farther than the best hit so far.
  * O(log M) typical, O(M) worst case; no allocation (a fixed stack). */
@@ -216,6 +239,7 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
   best.dist2 = max_dist2;
   best.simplex = GVD_NO_SIMPLEX;
   best.pad = 0;
+  int best_behind = 0;
   if (node_count == 0 || gvd_box_distance2(p, nodes) > best.dist2) return best;
   gvd_uint stack_node[GVD_BVH_STACK];
   double stack_dist2[GVD_BVH_STACK];
@@ -239,12 +263,17 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
         }
         const GvdPoint q = gvd_closest_on_simplex(dimension, points, simplices, s, p);
         const double d2 = gvd_dist2(p, q);
-        if (gvd_better_hit(d2, s, best.dist2, best.simplex)) {
+        const int behind =
+            gvd_behind(dimension, points[simplices[3 * s]], points[simplices[3 * s + 1]],
+                       points[simplices[3 * s + (dimension == 2 ? 1 : 2)]], p);
+        if (gvd_better_hit_sided(d2, s, behind, q, best.dist2, best.simplex, best_behind,
+                                 gvd_pt(best.x, best.y, best.z))) {
           best.x = q.x;
           best.y = q.y;
           best.z = q.z;
           best.dist2 = d2;
           best.simplex = s;
+          best_behind = behind;
         }
       }
       continue;

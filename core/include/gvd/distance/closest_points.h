@@ -29,9 +29,10 @@ ClosestPointData make_closest_point_data(const UnitGeometry& geometry, const Sim
 
 /// The CPU twin of the closest-point kernel (paper §4, initialisation of non-empty vertices):
 /// for every i, `hits[i]` = the exact closest point among all simplices to `queries[i]` whose
-/// squared distance is at most `bound2[i]` (unit domain; ties to the lower simplex index; not
-/// found when none is that near). Runs gvd_nearest_item over `threads` threads (0 = all
-/// cores). Bit-identical to SimplexBvh::nearest and to the OpenCL kernel. O(n log M).
+/// squared distance is at most `bound2[i]` (unit domain; ties to the lower simplex index, or to the
+/// one the point is behind when both share their closest point; not found when none is that near).
+/// Runs gvd_nearest_item over `threads` threads (0 = all cores). Bit-identical to
+/// SimplexBvh::nearest and to the OpenCL kernel. O(n log M).
 void closest_points_cpu(const ClosestPointData& data, std::span<const Vec3> queries,
                         std::span<const double> bound2, std::span<ClosestHit> hits,
                         int threads = 0);

@@ -186,6 +186,7 @@ ClosestHit SimplexBvh::nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, u
                                        SkipNode&& skip_node, double max_dist2) const {
   ClosestHit best;
   best.dist2 = max_dist2;
+  int best_behind = 0;  // whether p is behind best's simplex (item::gvd_better_hit_sided)
   if (nodes.empty() || skip_node(root) || box_distance2(p, nodes[root].box()) > best.dist2)
     return best;
   // Each stack entry carries its box distance, computed once when the parent was visited.
@@ -218,7 +219,15 @@ ClosestHit SimplexBvh::nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, u
         const Vec3 q =
             arity_ == 2 ? closest_point_on_segment(p, a, b) : closest_point_on_triangle(p, a, b, c);
         const double d2 = dist2(p, q);
-        if (item::gvd_better_hit(d2, s, best.dist2, best.simplex)) best = {q, d2, s};
+        const int behind =
+            item::gvd_behind(dimension_, item::gvd_pt(a.x, a.y, a.z), item::gvd_pt(b.x, b.y, b.z),
+                             item::gvd_pt(c.x, c.y, c.z), item::gvd_pt(p.x, p.y, p.z));
+        if (item::gvd_better_hit_sided(d2, s, behind, item::gvd_pt(q.x, q.y, q.z), best.dist2,
+                                       best.simplex, best_behind,
+                                       item::gvd_pt(best.point.x, best.point.y, best.point.z))) {
+          best = {q, d2, s};
+          best_behind = behind;
+        }
       }
       continue;
     }
