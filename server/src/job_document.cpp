@@ -4,6 +4,9 @@
 #include <cstdio>
 #include <ctime>
 
+#include "gvd/io/write_outputs.h"
+#include "gvd/scene/load_scene.h"
+
 namespace gvd::server {
 using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
@@ -136,6 +139,23 @@ std::string job_document(const JobRecord& job, JobStatus shown,
     s["error"] = Json::parse(job.error);
   }
   return s.dump(-1, ' ', false, Json::error_handler_t::replace);
+}
+
+Scene read_stored_scene(const std::string& base, const SceneLimits& limits) {
+  auto text = [](const std::string& path) {
+    const std::vector<uint8_t> bytes = read_file_bytes(path);
+    return std::string(bytes.begin(), bytes.end());
+  };
+  const nlohmann::json meta = nlohmann::json::parse(text(base + ".json"));
+  Scene scene = parse_scene_json(text(base + ".scene.json"), limits);
+  std::vector<SceneWarning> warnings;
+  for (const nlohmann::json& w : meta.value("warnings", nlohmann::json::array())) {
+    if (w.value("kind", "") != "degenerate_simplices") continue;
+    warnings.push_back({w.value("kind", ""), w.value("object", ""), w.value("count", uint64_t{0}),
+                        w.value("detail", "")});
+  }
+  scene.warnings.insert(scene.warnings.begin(), warnings.begin(), warnings.end());
+  return scene;
 }
 
 }  // namespace gvd::server

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "gvd/scene/scene.h"
 #include "job_queue.h"
 
 namespace gvd::server {
@@ -49,5 +50,10 @@ double unix_now();
 
 /// "2026-01-02T03:04:05.678Z" (UTC), or null for 0.
 nlohmann::json iso_time(double unix_seconds);
+
+/// The scene of a stored request (`<base>.scene.json`, parsed within `limits`) with the
+/// warnings of its original upload that normalizing removed (`<base>.json`: degenerate
+/// simplices): what both queues' workers compute.
+Scene read_stored_scene(const std::string& base, const SceneLimits& limits);
 
 }  // namespace gvd::server

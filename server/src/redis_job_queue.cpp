@@ -931,18 +931,10 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
   ProblemKind kind = ProblemKind::kInternal;
   std::string detail;
   try {
-    const Json meta = Json::parse(read_text(base + ".json"));
     SceneLimits limits;
     limits.max_objects = options_.max_objects;
     limits.max_simplices = options_.max_simplices;
-    Scene scene = parse_scene_json(read_text(base + ".scene.json"), limits);
-    std::vector<SceneWarning> warnings;
-    for (const Json& w : meta.value("warnings", Json::array())) {
-      if (w.value("kind", "") != "degenerate_simplices") continue;
-      warnings.push_back({w.value("kind", ""), w.value("object", ""), w.value("count", uint64_t{0}),
-                          w.value("detail", "")});
-    }
-    scene.warnings.insert(scene.warnings.begin(), warnings.begin(), warnings.end());
+    Scene scene = read_stored_scene(base, limits);
     PipelineOptions options = JobParams::from_json(job->params_json).pipeline_options(options_);
     options.cancel = &job->cancel;
     options.progress = [this, job](const std::string& stage, double fraction) {
