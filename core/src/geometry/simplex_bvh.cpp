@@ -279,7 +279,10 @@ double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
   return best;
 }
 
-ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2) const {
+ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2,
+                                          uint32_t skip_object) const {
+  GVD_CHECK(skip_object == kMixed || !object_in_order_.empty() || nodes_.empty(),
+            "closest_to_simplex with a skipped object needs the objects of the simplices");
   ClosestHit best;
   best.dist2 = max_dist2;
   if (nodes_.empty()) return best;
@@ -304,8 +307,10 @@ ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2) const
     const Entry entry = stack[--top];
     if (entry.dist2 >= best.dist2) continue;
     const Node& n = nodes_[entry.node];
+    if (skip_object != kMixed && n.object() == skip_object) continue;
     if (n.count() > 0) {
       for (uint32_t k = n.first; k < n.first + n.count(); ++k) {
+        if (skip_object != kMixed && object_in_order_[k] == skip_object) continue;
         Vec3 on, c[3];
         load_corners(k, c);
         const double d2 = simplex_simplex_closest(dimension_, q, c, on);

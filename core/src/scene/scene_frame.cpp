@@ -1,7 +1,10 @@
 // The octree's frame for a 3D scene (scene.h, scene_frame). Certified cells along a straight
 // rim need the rim parallel to an octree axis (pair_certificate.h), so a part drawn at an
 // angle would otherwise refine its rims to the gap; turning the octree to the scene's faces
-// makes the cost of a tilted assembly that of the same assembly drawn along x, y, z.
+// makes the cost of a tilted assembly that of the same assembly drawn along x, y, z. Only
+// rims across a thin gap cost anything, so faces that another object comes near decide: a
+// round shaft in its bore turns the octree to its own facets, whatever the housing's outside
+// is drawn along.
 
 #include <algorithm>
 #include <array>
@@ -9,9 +12,12 @@
 #include <cstdint>
 #include <tuple>
 #include <unordered_map>
+#include <thread>
 #include <utility>
 #include <vector>
 
+#include "gvd/common/parallel.h"
+#include "gvd/geometry/simplex_bvh.h"
 #include "gvd/scene/scene.h"
 
 namespace gvd {
@@ -26,7 +32,6 @@ constexpr double kMinShare = 0.1;
 constexpr double kMinGain = 0.05;
 /// First axes tried (the heaviest bins of the quantised normals).
 constexpr size_t kCandidates = 4;
-
 struct Facet {
   Vec3 n;  ///< unit normal, sign made canonical
   double area;
@@ -54,30 +59,122 @@ double aligned_area(const std::vector<Facet>& facets, const std::array<Vec3, 3>&
   return area;
 }
 
+
+/// A triangle faces another object across a thin gap when a triangle of that object is
+/// parallel to it (within kFacingParallel), and its centroid lies within kFacing of the
+/// scene's largest extent (the octree's 6th level) of that triangle's plane and projects into
+/// it: flat faces across a gap, whose rims are what a frame can make cheap. Its area then
+/// counts kFacingWeight times, so that the frame is chosen for those faces and the rest of
+/// the scene only decides among frames that serve them equally. Curved meshes at a near
+/// contact (two spheres' facets meeting at a point) do not face each other: no frame helps
+/// them.
+constexpr double kFacing = 1.0 / 64;
+constexpr double kFacingParallel = 1e-4;
+constexpr double kFacingWeight = 1000;
+
+/// Whether each triangle, in scene order, faces another object (above); `normals` are the
+/// triangles' unit normals (zero for degenerate ones, which face nothing).
+std::vector<char> facing_triangles(const Scene& scene, const std::vector<Vec3>& normals,
+                                   double reach) {
+  std::vector<Vec3> points;
+  std::vector<Simplex> simplices;
+  std::vector<uint32_t> object_of;
+  points.reserve(scene.vertex_count());
+  simplices.reserve(scene.simplex_count());
+  object_of.reserve(scene.simplex_count());
+  for (size_t o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& object = scene.objects[o];
+    const auto base = static_cast<uint32_t>(points.size());
+    points.insert(points.end(), object.vertices.begin(), object.vertices.end());
+    for (const Simplex& s : object.simplices) {
+      Simplex t = s;
+      for (int j = 0; j < 3; ++j) t.v[j] += base;
+      simplices.push_back(t);
+      object_of.push_back(static_cast<uint32_t>(o));
+    }
+  }
+  std::vector<char> facing(simplices.size(), 0);
+  if (scene.objects.size() < 2) return facing;
+  const SimplexBvh bvh(3, points, simplices, object_of);
+  const int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  parallel_for(simplices.size(), threads, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) {
+      const Vec3 n = normals[i];
+      if (!(norm2(n) > 0)) continue;
+      const Simplex& t = simplices[i];
+      const Vec3 a = points[t.v[0]], b = points[t.v[1]], c = points[t.v[2]];
+      const Vec3 centroid = (a + b + c) / 3.0;
+      Box box;
+      for (const Vec3& v : {a, b, c}) box.extend(v);
+      box.lo = box.lo - Vec3{reach, reach, reach};
+      box.hi = box.hi + Vec3{reach, reach, reach};
+      bvh.visit_overlapping(
+          box,
+          [&](uint32_t s) {
+            if (object_of[s] == object_of[i]) return true;
+            const Vec3 m = normals[s];
+            if (!(norm2(m) > 0) || norm(cross(n, m)) > kFacingParallel) return true;
+            const Vec3 u0 = points[simplices[s].v[0]], u1 = points[simplices[s].v[1]],
+                       u2 = points[simplices[s].v[2]];
+            const double h = dot(centroid - u0, m);
+            if (std::abs(h) > reach) return true;
+            // The centroid's foot on the plane inside the triangle (edge functions along m).
+            const Vec3 foot = centroid - m * h;
+            const double tol = -1e-12 * norm2(u1 - u0);
+            if (dot(cross(u1 - u0, foot - u0), m) < tol || dot(cross(u2 - u1, foot - u1), m) < tol ||
+                dot(cross(u0 - u2, foot - u2), m) < tol)
+              return true;
+            facing[i] = 1;
+            return false;
+          },
+          object_of[i]);
+    }
+  });
+  return facing;
+}
+
 }  // namespace
 
 std::array<Vec3, 3> scene_frame(const Scene& scene) {
   const std::array<Vec3, 3> world = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
   if (scene.dimension != 3) return world;
-  std::vector<Facet> facets;
-  facets.reserve(scene.simplex_count());
-  double total = 0;
+  Box bounds;
+  for (const SceneObject& o : scene.objects)
+    for (const Vec3& v : o.vertices) bounds.extend(v);
+  const Vec3 side = bounds.hi - bounds.lo;
+  const double extent = std::max({side.x, side.y, side.z});
+  if (!(extent > 0) || !std::isfinite(extent)) return world;
+  // Unit normals (zero for degenerate triangles), with their areas.
+  std::vector<Vec3> normals;
+  std::vector<double> areas;
+  normals.reserve(scene.simplex_count());
+  areas.reserve(scene.simplex_count());
   for (const SceneObject& o : scene.objects) {
     for (const Simplex& s : o.simplices) {
       const Vec3 c =
           cross(o.vertices[s.v[1]] - o.vertices[s.v[0]], o.vertices[s.v[2]] - o.vertices[s.v[0]]);
       const double len = norm(c);
-      if (!(len > 0) || !std::isfinite(len)) continue;
-      Vec3 n = c / len;
-      // Canonical sign: the largest component positive (a tie flips some; the exact recount
-      // below counts both signs).
-      int big = 0;
-      for (int i = 1; i < 3; ++i)
-        if (std::abs(n[i]) > std::abs(n[big])) big = i;
-      if (n[big] < 0) n = n * -1.0;
-      facets.push_back({n, 0.5 * len});
-      total += 0.5 * len;
+      const bool ok = len > 0 && std::isfinite(len);
+      normals.push_back(ok ? c / len : Vec3{});
+      areas.push_back(ok ? 0.5 * len : 0.0);
     }
+  }
+  const std::vector<char> facing = facing_triangles(scene, normals, kFacing * extent);
+  std::vector<Facet> facets;
+  facets.reserve(scene.simplex_count());
+  double total = 0;
+  for (size_t i = 0; i < normals.size(); ++i) {
+    if (!(areas[i] > 0)) continue;
+    Vec3 n = normals[i];
+    // Canonical sign: the largest component positive (a tie flips some; the exact recount
+    // below counts both signs).
+    int big = 0;
+    for (int k = 1; k < 3; ++k)
+      if (std::abs(n[k]) > std::abs(n[big])) big = k;
+    if (n[big] < 0) n = n * -1.0;
+    const double weight = areas[i] * (facing[i] != 0 ? kFacingWeight : 1.0);
+    facets.push_back({n, weight});
+    total += weight;
   }
   if (!(total > 0)) return world;
 

@@ -103,6 +103,30 @@ TEST(SimplexBvh, ClosestToSimplexMatchesSampling) {
   EXPECT_GE(checked, 30);
 }
 
+// closest_to_simplex skipping the query's own object against brute force over every other
+// object's triangles: for triangles of each sphere, the distance to the rest of the scene.
+TEST(SimplexBvh, ClosestToSimplexSkippingAnObjectMatchesBruteForce) {
+  const Fixture f;
+  for (uint32_t s = 0; s < f.g.simplices.size(); s += 97) {
+    const uint32_t own = f.g.object_of[s];
+    Vec3 q[3];
+    for (int j = 0; j < 3; ++j) q[j] = f.g.points[f.g.simplices[s].v[j]];
+    double truth = 1e300;
+    for (uint32_t t = 0; t < f.g.simplices.size(); ++t) {
+      if (f.g.object_of[t] == own) continue;
+      Vec3 c[3];
+      for (int j = 0; j < 3; ++j) c[j] = f.g.points[f.g.simplices[t].v[j]];
+      truth = std::min(truth, triangle_triangle_dist2(q, c));
+    }
+    const ClosestHit hit = f.bvh.closest_to_simplex(q, 1e300, own);
+    ASSERT_TRUE(hit.found()) << "triangle " << s;
+    EXPECT_NE(f.g.object_of[hit.simplex], own);
+    EXPECT_NEAR(hit.dist2, truth, 1e-12 + 1e-9 * truth) << "triangle " << s;
+    // Without the skip, the triangle is its own nearest simplex.
+    EXPECT_EQ(f.bvh.closest_to_simplex(q).dist2, 0.0);
+  }
+}
+
 // object_distance against the brute-force mesh distance of tests/support (its own code):
 // three spheres 0.05 and ~0.2 apart, and two of them pushed into each other.
 TEST(SimplexBvh, ObjectDistanceMatchesBruteForce) {

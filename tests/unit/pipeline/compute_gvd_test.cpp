@@ -326,9 +326,49 @@ TEST(ComputeGvd, ThinGapAnswersAreInvariantUnderRotationTranslationAndRelabellin
   EXPECT_LE(b.stats.leaves, 2 * w.stats.leaves) << w.stats.leaves << " leaves at 1e-2";
 }
 
-// A hexagonal shaft in a hexagonal bore, g between every pair of facing faces: inside the bore
-// and away from the corners (where the shaft's edge is nearer than its faces) the GVD is the
-// mid surface, the hexagonal prism whose apothem is the bore's less g / 2, exactly.
+// Checks the GVD of a shaft in its bore (make_shaft_in_bore, face gap g) inside the bore and
+// away from the corners (where the shaft's edge is nearer than its faces): the mid surface,
+// the prism whose apothem is the bore's less g / 2, exactly. Returns the vertices checked.
+size_t expect_shaft_mid_surface(const GvdResult& r, const test::ShaftInBoreOptions& so,
+                                double g) {
+  const double pi = std::acos(-1.0);
+  const double mid = so.radius * std::cos(pi / so.sides) - g / 2;
+  size_t checked = 0;
+  for (size_t v = 0; v < r.gvd.cells[0].positions.size(); ++v) {
+    if (r.gvd.cells[0].other[v] != 1) continue;
+    const Vec3 p = r.gvd.cells[0].positions[v];
+    if (p.z < 0.05 || p.z > 0.55) continue;  // away from the bore's ends
+    // Face normals at pi / n + 2 pi k / n (the polygon has a vertex on +x): the largest
+    // projection is the apothem coordinate, the second says how near a corner p is.
+    double first = -1e300, second = -1e300;
+    for (int k = 0; k < so.sides; ++k) {
+      const double a = pi / so.sides + 2 * pi * k / so.sides;
+      const double h = std::cos(a) * p.x + std::sin(a) * p.y;
+      if (h > first) {
+        second = first;
+        first = h;
+      } else {
+        second = std::max(second, h);
+      }
+    }
+    if (second > mid - 3 * g) continue;  // near a corner
+    EXPECT_NEAR(first, mid, 1e-6 * (r.gvd.cells[0].clearance[v] + 2 * local_cell(r, p)) + 1e-14)
+        << "vertex " << v << " at " << p.x << ", " << p.y << ", " << p.z;
+    ++checked;
+  }
+  return checked;
+}
+
+/// The face gap of make_shaft_in_bore in scene units: its `gap` is a fraction of the side of
+/// the domain along x, y, z (the default frame may be turned and have another side).
+double shaft_gap(const Scene& scene, const test::ShaftInBoreOptions& so) {
+  DomainOptions world;
+  world.frame = DomainFrame::kWorld;
+  return so.gap * make_domain(scene, world).side;
+}
+
+// A hexagonal shaft in a hexagonal bore, g between every pair of facing faces: the GVD is the
+// mid surface inside the bore (expect_shaft_mid_surface).
 TEST(ComputeGvd, ShaftInBoreGivesTheMidSurface3D) {
   // The bore's edges at 60 and 120 degrees in its end planes are slanted cells; the corners on
   // the x axis (normals straddling it) refine to the gap.
@@ -337,9 +377,7 @@ TEST(ComputeGvd, ShaftInBoreGivesTheMidSurface3D) {
     so.gap = gap;
     so.cell = 0.1;
     const Scene scene = test::make_shaft_in_bore(so);
-    const double g = so.gap * make_domain(scene).side;
-    const double pi = std::acos(-1.0);
-    const double mid = so.radius * std::cos(pi / so.sides) - g / 2;
+    const double g = shaft_gap(scene, so);
     // Full resolution: every surfaced vertex is checked (compaction removes those inside flat
     // parts, which the extruded cells along the bore leave few of).
     const GvdResult r = run(scene, 0, "exact", "certified", "full");
@@ -347,31 +385,36 @@ TEST(ComputeGvd, ShaftInBoreGivesTheMidSurface3D) {
     EXPECT_GT(r.stats.certified_leaves, 0u);
     ASSERT_EQ(r.graph.edges.size(), 1u);
     EXPECT_NEAR(r.graph.edges[0].gap, g, 1e-9 * g);
-    size_t checked = 0;
-    for (size_t v = 0; v < r.gvd.cells[0].positions.size(); ++v) {
-      if (r.gvd.cells[0].other[v] != 1) continue;
-      const Vec3 p = r.gvd.cells[0].positions[v];
-      if (p.z < 0.05 || p.z > 0.55) continue;  // away from the bore's ends
-      // Face normals at pi / n + 2 pi k / n (the polygon has a vertex on +x): the largest
-      // projection is the apothem coordinate, the second says how near a corner p is.
-      double first = -1e300, second = -1e300;
-      for (int k = 0; k < so.sides; ++k) {
-        const double a = pi / so.sides + 2 * pi * k / so.sides;
-        const double h = std::cos(a) * p.x + std::sin(a) * p.y;
-        if (h > first) {
-          second = first;
-          first = h;
-        } else {
-          second = std::max(second, h);
-        }
-      }
-      if (second > mid - 3 * g) continue;  // near a corner
-      EXPECT_NEAR(first, mid, 1e-6 * (r.gvd.cells[0].clearance[v] + 2 * local_cell(r, p)) + 1e-14)
-          << "vertex " << v << " at " << p.x << ", " << p.y << ", " << p.z;
-      ++checked;
-    }
-    EXPECT_GT(checked, 100u);
+    EXPECT_GT(expect_shaft_mid_surface(r, so, g), 100u);
   }
+}
+
+// A round (16-sided) shaft in its bore: with the octree along x, y, z, four of its corners
+// have face normals that straddle an axis and refine to the gap (length / g leaves); the
+// default frame is turned by half a side about z, so that every corner lies between two
+// octree planes its faces are square to or slanted against within a quadrant. Valid, the
+// exact gap, the mid surface exactly, and 100 times thinner for at most 3 times the leaves.
+TEST(ComputeGvd, RoundShaftTurnsTheOctreeAndCostsTheSameAtAnyGap3D) {
+  uint64_t leaves[2] = {0, 0};
+  const double gaps[2] = {1e-3, 1e-5};
+  for (int k = 0; k < 2; ++k) {
+    test::ShaftInBoreOptions so;
+    so.sides = 16;
+    so.gap = gaps[k];
+    so.cell = 0.1;
+    const Scene scene = test::make_shaft_in_bore(so);
+    const double g = shaft_gap(scene, so);
+    const GvdResult r = run(scene, 0, "exact", "certified", "full");
+    ASSERT_FALSE(r.domain.aligned());
+    expect_valid(r);
+    leaves[k] = r.stats.leaves;
+    ASSERT_EQ(r.graph.edges.size(), 1u);
+    EXPECT_FALSE(r.graph.edges[0].touching);
+    EXPECT_NEAR(r.graph.edges[0].gap, g, 1e-9 * g);
+    EXPECT_GT(expect_shaft_mid_surface(r, so, g), 100u) << "gap " << gaps[k];
+  }
+  EXPECT_LE(leaves[1], 3 * leaves[0]) << leaves[0] << " leaves at 1e-3, " << leaves[1]
+                                      << " at 1e-5";
 }
 
 // A leaf that holds two objects without a certificate exists only at the depth limit or the

@@ -8,6 +8,7 @@
 
 #include "gvd/common/error.h"
 #include "support/scenes.h"
+#include "support/thin_gap_scenes.h"
 
 namespace gvd {
 namespace {
@@ -362,6 +363,40 @@ TEST(Domain, TiltedBoxGetsItsOwnFrame) {
   const Box bounds = d.box();
   EXPECT_TRUE(d.contains(bounds.center()));
   EXPECT_FALSE(d.contains(bounds.lo * 0.999 + bounds.center() * 0.001));
+}
+
+// A round shaft in its bore at a thin gap: the housing's outside is drawn along x, y, z and
+// holds most of the area, but only the faces across the gap cost cells, so they decide. The
+// octree turns about z by half a side (pi / sides, the shaft has a vertex on +x), which puts
+// four of the shaft's faces on octree planes; at a wide gap (0.05 of the side, beyond the
+// facing reach) the user's axes stay.
+TEST(Domain, FacesAcrossAThinGapDecideTheFrame) {
+  const double pi = std::acos(-1.0);
+  for (int sides : {8, 16}) {
+    test::ShaftInBoreOptions so;
+    so.sides = sides;
+    so.gap = 1e-4;
+    so.cell = 0.1;
+    const Scene scene = test::make_shaft_in_bore(so);
+    const Domain d = make_domain(scene);
+    ASSERT_FALSE(d.aligned()) << sides << " sides";
+    EXPECT_NEAR(std::abs(d.axis[2].z), 1, 1e-12);
+    EXPECT_NEAR(std::abs(std::atan2(d.axis[0].y, d.axis[0].x)), pi / sides, 1e-9);
+    // The shaft's faces whose normal is along a frame axis are flat in unit coordinates.
+    const UnitGeometry g = make_unit_geometry(scene, d);
+    const auto shaft = scene.find("shaft");
+    ASSERT_TRUE(shaft.has_value());
+    size_t flat = 0;
+    for (uint32_t t = 0; t < g.simplices.size(); ++t) {
+      if (g.object_of[t] != *shaft) continue;
+      const Vec3 a = g.points[g.simplices[t].v[0]], b = g.points[g.simplices[t].v[1]],
+                 c = g.points[g.simplices[t].v[2]];
+      for (int i = 0; i < 2; ++i) flat += a[i] == b[i] && b[i] == c[i];
+    }
+    EXPECT_GT(flat, 0u) << sides << " sides";
+    so.gap = 0.05;
+    EXPECT_TRUE(make_domain(test::make_shaft_in_bore(so)).aligned()) << sides << " sides";
+  }
 }
 
 // The user's axes stay where no other frame holds more of the faces' area (a tetrahedron's

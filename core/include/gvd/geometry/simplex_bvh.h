@@ -57,8 +57,11 @@ class SimplexBvh {
   /// The least squared distance between a simplex q of the BVH's dimension (2D: segment
   /// q[0..1], 3D: triangle q[0..2]) and any of its simplices (0 when q crosses one), with
   /// the point of q where it is reached (`point`); not found when nothing is nearer than
-  /// `max_dist2`. Exact up to rounding (simplex_simplex_closest).
-  ClosestHit closest_to_simplex(const Vec3* q, double max_dist2 = 1e300) const;
+  /// `max_dist2`. Exact up to rounding (simplex_simplex_closest). With `skip_object` (needs
+  /// `object_of` at construction), that object's simplices are not candidates: the distance
+  /// from one of its own simplices to the rest of the scene.
+  ClosestHit closest_to_simplex(const Vec3* q, double max_dist2 = 1e300,
+                                uint32_t skip_object = kMixed) const;
   /// The least squared distance between objects a and b (needs `object_of` at construction;
   /// 0 when they touch or intersect) and a closest pair of points, one on each (`on_a`,
   /// `on_b`; where they intersect, points of the crossing simplices). Both objects' trees are
@@ -88,7 +91,7 @@ class SimplexBvh {
   /// Like for_each_overlapping, but `visit(simplex)` returns false to stop the walk; returns
   /// false when it was stopped (a bounded gather: callers give up past a size).
   template <class Visit>
-  bool visit_overlapping(const Box& box, Visit&& visit) const;
+  bool visit_overlapping(const Box& box, Visit&& visit, uint32_t skip_object = kMixed) const;
   /// Calls `visit(simplex)` for every simplex of `object` whose bounding box overlaps `box`
   /// (needs `object_of` at construction); walks that object's own tree only.
   template <class Visit>
@@ -271,13 +274,14 @@ void SimplexBvh::for_each_overlapping(const Box& box, Visit&& visit, uint32_t sk
 }
 
 template <class Visit>
-bool SimplexBvh::visit_overlapping(const Box& box, Visit&& visit) const {
+bool SimplexBvh::visit_overlapping(const Box& box, Visit&& visit, uint32_t skip_object) const {
   if (nodes_.empty()) return true;
   uint32_t stack[128];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Node& n = nodes_[stack[--top]];
+    if (skip_object != kMixed && n.object() == skip_object) continue;
     bool overlap = true;
     for (int i = 0; i < 3; ++i)
       if (n.bounds.lo[i] > box.hi[i] || n.bounds.hi[i] < box.lo[i]) overlap = false;

@@ -122,10 +122,13 @@ struct DomainOptions {
 /// The frame of a 3D scene's faces: three orthonormal right-handed axes such that the area
 /// of triangles perpendicular (within 1e-7 rad) to one of them is as large as the greedy
 /// choice finds: for each of the directions with the most such area, the one perpendicular
-/// to it with the most; ordered and signed to stay nearest the user's x, y, z. The user's axes
-/// unless that frame holds at least 10 % of the total area on its planes and 5 % more than
-/// they do (curved meshes, scenes already drawn along x, y, z keep them). O(T) for T
-/// triangles.
+/// to it with the most; ordered and signed to stay nearest the user's x, y, z. A triangle
+/// that another object comes within 1/64 of the scene's largest extent of (touching counts)
+/// weighs 1000 times its area: only rims across a thin gap cost octree cells, so a round
+/// shaft in a bore turns the octree to the shaft's facets even when the housing's outside is
+/// drawn along x, y, z. The user's axes unless that frame holds at least 10 % of the weighted
+/// area on its planes and 5 % more than they do (curved meshes, scenes already drawn along
+/// x, y, z keep them). O(T log T) for T triangles (one BVH query per triangle).
 std::array<Vec3, 3> scene_frame(const Scene& scene);
 
 /// The default domain: bounding box of all vertices in the frame (options.frame) made a cube
