@@ -23,6 +23,9 @@ struct ComputeSetup {
   PipelineOptions options;
 };
 ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& files);
+/// The scene of `compute`: the files, or --volume (with --spacing, --background), within the
+/// --max-objects / --max-simplices limits.
+Scene load_compute_scene(const Args& args, const std::vector<std::string>& files);
 
 /// The progress display on stderr (a bar on a terminal, one line per stage otherwise;
 /// nothing when `enabled` is false): call with the stage name and the fraction done, 0..1.
@@ -41,5 +44,10 @@ int cmd_contacts(int argc, char** argv);
 
 // The uniform grid (grid_command.cpp): distance and labels per cell to .npy / NRRD.
 int cmd_grid(int argc, char** argv);
+/// `gvd compute --mode grid`: the discrete GVD on a uniform grid and its dual graph.
+int compute_grid_mode(const Args& args);
+/// The flags only --mode grid takes (beyond those it shares with the adaptive mode).
+const std::vector<std::string>& grid_mode_value_flags();
+const std::vector<std::string>& grid_mode_boolean_flags();
 
 }  // namespace gvd::cli

@@ -10,10 +10,13 @@
 #include "commands.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/stopwatch.h"
 #include "gvd/grid/compute_grid.h"
+#include "gvd/grid/grid_graph.h"
 #include "gvd/grid/sample_result_grid.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_grid.h"
+#include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
 #include "gvd/scene/load_scene.h"
 
@@ -36,6 +39,31 @@ std::optional<Box> domain_arg(const Args& args, int dimension) {
   }
   if (d == 2) b.lo.z = b.hi.z = 0;
   return b;
+}
+
+/// The grid options of the command line (`command` names it in errors).
+GridOptions grid_options(const Args& args, const std::string& command) {
+  if (!args.value("--resolution")) throw UsageError{command + " needs --resolution N"};
+  GridOptions options;
+  options.resolution = args.int_value("--resolution", 0);
+  if (options.resolution < 1) throw UsageError{"--resolution must be a positive cell count"};
+  options.metric = parse_grid_metric(args.value("--metric").value_or("l2"));
+  options.threads = args.int_value("--threads", 0);
+  if (options.threads < 0) throw UsageError{"--threads must be positive"};
+  options.max_cells = args.u64_value("--max-cells", options.max_cells);
+  options.range_cells = args.int_value("--range-cells", 0);
+  if (options.range_cells < 0) throw UsageError{"--range-cells must be positive"};
+  options.signed_distance = !args.has("--unsigned");
+  return options;
+}
+
+/// A bad output name fails before any work.
+void check_grid_outputs(const std::optional<std::string>& output,
+                        const std::optional<std::string>& labels) {
+  for (const auto& p : {output, labels}) {
+    if (p && !(p->ends_with(".npy") || p->ends_with(".nrrd") || p->ends_with(".nhdr")))
+      throw UsageError{"grid outputs must end in .npy, .nrrd or .nhdr (got " + *p + ")"};
+  }
 }
 
 void log_spec(const GridSpec& spec, GridMetric metric) {
@@ -122,23 +150,8 @@ int cmd_grid(int argc, char** argv) {
   const auto output = args.value("-o") ? args.value("-o") : args.value("--output");
   const auto labels = args.value("--labels");
   if (!output && !labels) throw UsageError{"grid needs -o FIELD.npy and/or --labels LABELS.npy"};
-  if (!args.value("--resolution")) throw UsageError{"grid needs --resolution N"};
-
-  GridOptions options;
-  options.resolution = args.int_value("--resolution", 0);
-  if (options.resolution < 1) throw UsageError{"--resolution must be a positive cell count"};
-  options.metric = parse_grid_metric(args.value("--metric").value_or("l2"));
-  options.threads = args.int_value("--threads", 0);
-  if (options.threads < 0) throw UsageError{"--threads must be positive"};
-  options.max_cells = args.u64_value("--max-cells", options.max_cells);
-  options.range_cells = args.int_value("--range-cells", 0);
-  if (options.range_cells < 0) throw UsageError{"--range-cells must be positive"};
-  options.signed_distance = !args.has("--unsigned");
-  // A bad output name fails before any work.
-  for (const auto& p : {output, labels}) {
-    if (p && !(p->ends_with(".npy") || p->ends_with(".nrrd") || p->ends_with(".nhdr")))
-      throw UsageError{"grid outputs must end in .npy, .nrrd or .nhdr (got " + *p + ")"};
-  }
+  GridOptions options = grid_options(args, "grid");
+  check_grid_outputs(output, labels);
 
   if (args.positional.size() == 1 && is_result_file(args.positional[0]))
     return grid_from_result(args, options, quiet, output, labels);
@@ -175,6 +188,81 @@ int cmd_grid(int argc, char** argv) {
                  static_cast<unsigned long long>(s.brute_force_pairs), 100 * s.culled_fraction(),
                  static_cast<unsigned long long>(s.ranges), grid.range_cells, s.closed_objects,
                  options.signed_distance ? "" : ", --unsigned: not signed");
+    for (const std::string& w : written) std::fprintf(stderr, "  wrote %s\n", w.c_str());
+  }
+  return kExitOk;
+}
+
+const std::vector<std::string>& grid_mode_value_flags() {
+  static const std::vector<std::string> flags = {"--labels", "--metric", "--max-cells",
+                                                 "--range-cells"};
+  return flags;
+}
+
+const std::vector<std::string>& grid_mode_boolean_flags() {
+  static const std::vector<std::string> flags = {"--float64", "--unsigned"};
+  return flags;
+}
+
+int compute_grid_mode(const Args& args) {
+  for (const char* flag :
+       {"--max-depth", "--contact-depth", "--unseen-rounds", "--max-leaves", "--ambiguity-levels",
+        "--ambiguity-rounds", "--octree-build", "--distance", "--refine", "--curved-tolerance",
+        "--frame", "--json", "--save"}) {
+    if (args.has(flag)) {
+      throw UsageError{std::string(flag) +
+                       " applies to the adaptive octree; --mode grid computes on a uniform grid "
+                       "(see \"grid options\")"};
+    }
+  }
+  const bool quiet = args.has("-q") || args.has("--quiet");
+  const auto output = args.value("-o") ? args.value("-o") : args.value("--output");
+  const auto labels = args.value("--labels");
+  const auto graph_path = args.value("--graph");
+  if (output && (output->ends_with(".glb") || output->ends_with(".gltf"))) {
+    throw UsageError{
+        "--mode grid writes the dual graph (--graph FILE.json), the distance per cell "
+        "(-o FIELD.npy|.nrrd) and the labels (--labels LABELS.npy); the GVD as a "
+        "surface (" +
+        *output + ") comes from the adaptive mode"};
+  }
+  if (!output && !labels && !graph_path) {
+    throw UsageError{
+        "--mode grid needs an output: --graph FILE.json, -o FIELD.npy and/or --labels LABELS.npy"};
+  }
+  GridOptions options = grid_options(args, "--mode grid");
+  check_grid_outputs(output, labels);
+  const Scene scene = load_compute_scene(args, args.positional);
+  options.box = domain_arg(args, scene.dimension);
+  const GridSpec spec = make_grid_spec(scene, options);  // the limits, before any work
+  const kernels::BackendChoice choice =
+      kernels::choose_backend(args.value("--backend").value_or("auto"));
+  options.compute = choice.compute;
+  if (!quiet) {
+    std::fprintf(stderr, "gvd: %zu objects, %llu simplices, %dD; %s; %d threads\n",
+                 scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
+                 scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
+    log_spec(spec, options.metric);
+  }
+  const DistanceGrid grid = compute_grid(scene, options);
+  Stopwatch sw;
+  const DualGraph graph = grid_dual_graph(grid, scene, options.threads);
+  const double graph_seconds = sw.seconds();
+  std::vector<std::string> written = write_outputs(grid, output, labels, args.has("--float64"));
+  if (graph_path) {
+    write_file_atomic(*graph_path, graph_to_json(graph, scene));
+    written.push_back(*graph_path + " (dual graph)");
+  }
+  if (!quiet) {
+    const GridStats& s = grid.stats;
+    size_t touching = 0;
+    for (const DualEdge& e : graph.edges) touching += e.touching;
+    std::fprintf(stderr,
+                 "gvd: grid done in %.3f s on %s (%.3f %% of the brute-force site-cell pairs); "
+                 "dual graph in %.3f s: %zu neighbour pairs (%zu touching), areas from the cell "
+                 "faces, gaps and clearances exact\n",
+                 s.seconds, s.backend.c_str(), 100 * s.culled_fraction(), graph_seconds,
+                 graph.edges.size(), touching);
     for (const std::string& w : written) std::fprintf(stderr, "  wrote %s\n", w.c_str());
   }
   return kExitOk;

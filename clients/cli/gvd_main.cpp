@@ -35,6 +35,10 @@ constexpr const char* kUsage = R"(gvd — generalized Voronoi diagrams of closel
 
 Usage:
   gvd compute SCENE... [options]   compute the GVD of a scene
+  gvd compute SCENE... --mode grid --resolution N [--graph FILE.json] [grid options]
+                                   the discrete GVD on a uniform grid (CuRV) and its dual
+                                   graph: interface area from the cell faces, gap and
+                                   clearance exact (see "grid options")
   gvd info RESULT.gvd [--json]     depth, leaves, bytes per leaf, stage timings, warnings
   gvd export RESULT.gvd [-o FILE.glb] [--graph FILE.json] [--json FILE.json]
                                    the outputs of compute from a saved result, without
@@ -128,9 +132,13 @@ compute options:
                              (default: 48 in 2D, 4 in 3D)
   -q, --quiet                no progress or summary on stderr
 
-grid options:
+grid options (gvd grid, and gvd compute --mode grid):
   --resolution N             cells along the longest side of the domain (cells are cubes;
                              the other sides get as many as cover them)
+  --graph FILE.json          compute --mode grid: the dual graph of the labels (objects whose
+                             cells share a face; area = the shared faces; gap, touching and
+                             clearance measured exactly on the objects, as in the adaptive
+                             mode; Euclidean whatever --metric)
   -o, --output FILE          distance per cell (negative inside closed objects: closed
                              polygons in 2D, watertight meshes in 3D), float32 by default;
                              FILE.npy (numpy), FILE.nrrd (NRRD, data attached) or FILE.nhdr
@@ -363,12 +371,10 @@ const std::vector<std::string>& compute_value_flags() {
   return flags;
 }
 
-ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& files) {
-  const bool quiet = args.has("-q") || args.has("--quiet");
+Scene load_compute_scene(const Args& args, const std::vector<std::string>& files) {
   SceneLimits limits;
   limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
   limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
-  ComputeSetup setup;
   if (const auto volume = args.value("--volume")) {
     if (!files.empty()) throw UsageError{"--volume takes the place of the scene files"};
     const LabelVolume labels = read_label_volume_npy(read_file_bytes(*volume), *volume);
@@ -390,12 +396,17 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
         vo.background = static_cast<uint64_t>((*n)[0]);
       }
     }
-    setup.scene = scene_from_label_volume(labels, vo, limits);
-  } else {
-    if (args.has("--spacing") || args.has("--background"))
-      throw UsageError{"--spacing and --background go with --volume LABELS.npy"};
-    setup.scene = load_scene(files, limits);
+    return scene_from_label_volume(labels, vo, limits);
   }
+  if (args.has("--spacing") || args.has("--background"))
+    throw UsageError{"--spacing and --background go with --volume LABELS.npy"};
+  return load_scene(files, limits);
+}
+
+ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& files) {
+  const bool quiet = args.has("-q") || args.has("--quiet");
+  ComputeSetup setup;
+  setup.scene = load_compute_scene(args, files);
   const Scene& scene = setup.scene;
 
   PipelineOptions& options = setup.options;
@@ -485,9 +496,14 @@ std::vector<std::string> write_requested_outputs(const GvdResult& result, const 
 }
 
 int cmd_compute(int argc, char** argv) {
-  std::vector<std::string> value_flags = {"-o", "--output", "--graph", "--json", "--save"};
+  std::vector<std::string> value_flags = {"-o",     "--output", "--graph",
+                                          "--json", "--save",   "--mode"};
   value_flags.insert(value_flags.end(), compute_value_flags().begin(), compute_value_flags().end());
-  const Args args = parse_args(argc, argv, 2, value_flags, {"-q", "--quiet"});
+  value_flags.insert(value_flags.end(), grid_mode_value_flags().begin(),
+                     grid_mode_value_flags().end());
+  std::vector<std::string> boolean = {"-q", "--quiet"};
+  boolean.insert(boolean.end(), grid_mode_boolean_flags().begin(), grid_mode_boolean_flags().end());
+  const Args args = parse_args(argc, argv, 2, value_flags, boolean);
   if (args.positional.empty() && !args.has("--volume"))
     throw UsageError{"compute needs at least one scene file (or --volume LABELS.npy)"};
   for (const std::string& file : args.positional) {
@@ -497,6 +513,15 @@ int cmd_compute(int argc, char** argv) {
                        "recomputing, use gvd export " +
                        file + " -o gvd.glb [--graph g.json] [--json gvd.json]"};
     }
+  }
+  const std::string mode = args.value("--mode").value_or("adaptive");
+  if (mode != "adaptive" && mode != "grid") throw UsageError{"--mode must be adaptive or grid"};
+  if (mode == "grid") return compute_grid_mode(args);
+  for (const std::string& flag : grid_mode_value_flags()) {
+    if (args.has(flag)) throw UsageError{flag + " goes with --mode grid"};
+  }
+  for (const std::string& flag : grid_mode_boolean_flags()) {
+    if (args.has(flag)) throw UsageError{flag + " goes with --mode grid"};
   }
   const bool quiet = args.has("-q") || args.has("--quiet");
   ComputeSetup setup = compute_setup(args, args.positional);

@@ -404,7 +404,8 @@ void print_thin_gap_summary() {
 }
 
 /// Writes every scene as scene JSON (DESIGN.md) into `dir`, so that `gvd compute` can run the
-/// same input: --gvd_write_scenes=DIR. Returns the process exit code.
+/// same input: --gvd_write_scenes=DIR (the thin-gap scenes as <scene>_<gap>.json; the _xyz
+/// rows are `--frame world` on the same file). Returns the process exit code.
 int write_scenes(const std::string& dir, bool slow) {
   std::vector<const SceneCase*> list;
   for (const SceneCase& c : cases()) list.push_back(&c);
@@ -419,6 +420,20 @@ int write_scenes(const std::string& dir, bool slow) {
       return 1;
     }
     std::printf("%s\n", path.c_str());
+  }
+  // The thin-gap sweeps' scenes (one file per scene and gap; the refinement is an option).
+  std::set<std::pair<std::string, double>> written;
+  for (const ThinGapCase& c : thin_gap_cases(slow)) {
+    if (c.scene.ends_with("_xyz") || !written.insert({c.scene, c.gap}).second) continue;
+    char name[128];
+    std::snprintf(name, sizeof name, "%s/%s_%.0e.json", dir.c_str(), c.scene.c_str(), c.gap);
+    std::ofstream out(name);
+    out << gvd::scene_to_json(make_thin_gap_scene(c.scene, c.gap));
+    if (!out) {
+      std::fprintf(stderr, "gvd_bench: cannot write %s\n", name);
+      return 1;
+    }
+    std::printf("%s\n", name);
   }
   return 0;
 }

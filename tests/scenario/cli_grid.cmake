@@ -1,6 +1,7 @@
-# End-to-end check of `gvd grid`: the bundled examples to .npy and NRRD, the log naming the
-# backend and the culling, numpy reading the arrays back (when /usr/bin/python3 has numpy),
-# and the exit codes of bad input (usage 2, bad input 3, limit 4).
+# End-to-end check of `gvd grid` and `gvd compute --mode grid`: the bundled examples to .npy
+# and NRRD, the log naming the backend and the culling, numpy reading the arrays back (when
+# /usr/bin/python3 has numpy), the grid's dual graph against the labels it wrote, and the exit
+# codes of bad input (usage 2, bad input 3, limit 4).
 # Invoked by CTest with -DGVD=<gvd binary> -DDATA=<tests/data> -DOUT=<output dir>.
 
 function(run_rc expected)
@@ -59,6 +60,40 @@ got = {(e['label_a'], e['label_b']) for e in g['edges']}
 assert got == want, (got, want)
 ")
 endif()
+# compute --mode grid: the dual graph of the labels it writes (pairs = labels whose pixels
+# share an edge, numpy, independently; areas = shared edges times the pixel size), the gaps
+# and clearances measured (positive, clearance <= half the gap + a pixel).
+run_rc(0 ${GVD} compute ${DATA}/scenes/gears2d.json --mode grid --resolution 200
+       --graph ${prefix}_mode_graph.json --labels ${prefix}_mode_labels.npy)
+if(NOT LAST_ERR MATCHES "neighbour pairs" OR NOT LAST_ERR MATCHES "backend (cpu|opencl)|on (cpu|opencl)")
+  message(FATAL_ERROR "compute --mode grid does not report its graph and backend:\n${LAST_ERR}")
+endif()
+if(no_numpy EQUAL 0)
+  run_rc(0 /usr/bin/python3 -c "
+import json, numpy as np
+l = np.load('${prefix}_mode_labels.npy')
+want = {}
+for a, b in ((l[:, 1:], l[:, :-1]), (l[1:, :], l[:-1, :])):
+    m = (a != b) & (a >= 0) & (b >= 0)
+    for x, y in zip(a[m], b[m]):
+        k = (int(min(x, y)), int(max(x, y)))
+        want[k] = want.get(k, 0) + 1
+g = json.load(open('${prefix}_mode_graph.json'))
+got = {(e['a'], e['b']): e for e in g['edges']}
+assert set(got) == set(want), (set(got), set(want))
+h = min(a / want[k] for k, a in ((k, got[k]['area']) for k in got))
+for k, e in got.items():
+    assert abs(e['area'] - want[k] * h) < 1e-9 * e['area'], (k, e['area'], want[k] * h)
+    assert e['gap'] > 0 and not e['touching'] and 0 < e['min_clearance'] <= e['gap'] / 2 + 1e-12, e
+")
+endif()
+run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --mode grid --graph ${prefix}_x.json)
+run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --mode grid --resolution 50 -o ${prefix}_x.glb)
+run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --mode grid --resolution 50
+       --graph ${prefix}_x.json --refine paper)
+run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --metric l1 --graph ${prefix}_x.json)
+run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --mode voxels --graph ${prefix}_x.json)
+
 run_rc(2 ${GVD} compute --volume ${prefix}_gears_labels.npy --spacing 1,1,1 -q)
 run_rc(3 ${GVD} compute --volume ${DATA}/scenes/gears2d.json -q)
 

@@ -10,9 +10,9 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <thread>
 #include <tuple>
 #include <unordered_map>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -58,7 +58,6 @@ double aligned_area(const std::vector<Facet>& facets, const std::array<Vec3, 3>&
       area += f.area;
   return area;
 }
-
 
 /// A triangle faces another object across a thin gap when a triangle of that object is
 /// parallel to it (within kFacingParallel), and its centroid lies within kFacing of the
@@ -121,8 +120,8 @@ std::vector<char> facing_triangles(const Scene& scene, const std::vector<Vec3>& 
             // The centroid's foot on the plane inside the triangle (edge functions along m).
             const Vec3 foot = centroid - m * h;
             const double tol = -1e-12 * norm2(u1 - u0);
-            if (dot(cross(u1 - u0, foot - u0), m) < tol || dot(cross(u2 - u1, foot - u1), m) < tol ||
-                dot(cross(u0 - u2, foot - u2), m) < tol)
+            if (dot(cross(u1 - u0, foot - u0), m) < tol ||
+                dot(cross(u2 - u1, foot - u1), m) < tol || dot(cross(u0 - u2, foot - u2), m) < tol)
               return true;
             facing[i] = 1;
             return false;
