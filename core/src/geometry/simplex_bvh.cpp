@@ -283,9 +283,26 @@ ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2,
                                           uint32_t skip_object) const {
   GVD_CHECK(skip_object == kMixed || !object_in_order_.empty() || nodes_.empty(),
             "closest_to_simplex with a skipped object needs the objects of the simplices");
+  return closest_to_simplex_in_tree(q, nodes_, 0, nullptr, skip_object, max_dist2);
+}
+
+ClosestHit SimplexBvh::closest_to_simplex_in_object(const Vec3* q, uint32_t object,
+                                                    double max_dist2) const {
+  GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
+            "closest_to_simplex_in_object needs the objects of the simplices at construction");
+  ClosestHit none;
+  none.dist2 = max_dist2;
+  if (object >= object_root_.size() || object_root_[object] == kNoRoot) return none;
+  return closest_to_simplex_in_tree(q, object_nodes_, object_root_[object], object_items_.data(),
+                                    kMixed, max_dist2);
+}
+
+ClosestHit SimplexBvh::closest_to_simplex_in_tree(const Vec3* q, const std::vector<Node>& nodes,
+                                                  uint32_t root, const uint32_t* items,
+                                                  uint32_t skip_object, double max_dist2) const {
   ClosestHit best;
   best.dist2 = max_dist2;
-  if (nodes_.empty()) return best;
+  if (nodes.empty()) return best;
   Box qb;
   for (int i = 0; i < arity_; ++i) qb.extend(q[i]);
   auto bound = [&](const Box& b) {
@@ -302,14 +319,15 @@ ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2,
   };
   Entry stack[128];
   int top = 0;
-  stack[top++] = {0, bound(nodes_[0].box())};
+  stack[top++] = {root, bound(nodes[root].box())};
   while (top > 0 && best.dist2 > 0) {
     const Entry entry = stack[--top];
     if (entry.dist2 >= best.dist2) continue;
-    const Node& n = nodes_[entry.node];
+    const Node& n = nodes[entry.node];
     if (skip_object != kMixed && n.object() == skip_object) continue;
     if (n.count() > 0) {
-      for (uint32_t k = n.first; k < n.first + n.count(); ++k) {
+      for (uint32_t i = n.first; i < n.first + n.count(); ++i) {
+        const uint32_t k = items != nullptr ? items[i] : i;
         if (skip_object != kMixed && object_in_order_[k] == skip_object) continue;
         Vec3 on, c[3];
         load_corners(k, c);
@@ -323,7 +341,7 @@ ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2,
       continue;
     }
     const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = bound(nodes_[l].box()), dr = bound(nodes_[r].box());
+    const double dl = bound(nodes[l].box()), dr = bound(nodes[r].box());
     if (dl <= dr) {
       if (dr < best.dist2) stack[top++] = {r, dr};
       if (dl < best.dist2) stack[top++] = {l, dl};

@@ -12,6 +12,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "explode_motion.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
@@ -818,6 +819,23 @@ ExplodedView GvdIndex::explode(ObjectId anchor, const ExplodeOptions& options) c
       view.objects[d].displacement = direction * (view.scale * ring);
     }
     std::swap(frontier, next);
+  }
+  // Collision-free: ring by ring, each object keeps as much of its displacement as lets it
+  // pass every other object at half their gap (or half the scale) while all move at once.
+  std::vector<uint32_t> order;
+  for (uint32_t o = 0; o < n; ++o)
+    if (view.objects[o].ring >= 0) order.push_back(o);
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
+    return view.objects[x].ring < view.objects[y].ring;
+  });
+  std::vector<Vec3> displacement(n);
+  for (uint32_t o = 0; o < n; ++o) displacement[o] = view.objects[o].displacement;
+  const std::vector<double> factor = collision_free_factors(
+      m.result->geometry, m.bvh, m.result->domain, displacement, order, view.scale);
+  for (uint32_t o = 0; o < n; ++o) {
+    ExplodedObject& e = view.objects[o];
+    e.factor = norm(e.displacement) > 0 ? factor[o] : 1.0;
+    e.displacement = e.displacement * e.factor;
   }
   return view;
 }

@@ -133,7 +133,8 @@ std::string exploded_to_json(const GvdIndex& index, const ExplodedView& view) {
                        {"label", label(index, o.object)},
                        {"ring", o.ring},
                        {"direction", point_json(o.direction, dim)},
-                       {"displacement", point_json(o.displacement, dim)}});
+                       {"displacement", point_json(o.displacement, dim)},
+                       {"factor", o.factor}});
   }
   return json{{"anchor", view.anchor},
               {"label", label(index, view.anchor)},

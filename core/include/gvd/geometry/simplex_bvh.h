@@ -62,6 +62,10 @@ class SimplexBvh {
   /// from one of its own simplices to the rest of the scene.
   ClosestHit closest_to_simplex(const Vec3* q, double max_dist2 = 1e300,
                                 uint32_t skip_object = kMixed) const;
+  /// Like closest_to_simplex, among the simplices of one object only (needs `object_of` at
+  /// construction; walks that object's own tree).
+  ClosestHit closest_to_simplex_in_object(const Vec3* q, uint32_t object,
+                                          double max_dist2 = 1e300) const;
   /// The least squared distance between objects a and b (needs `object_of` at construction;
   /// 0 when they touch or intersect) and a closest pair of points, one on each (`on_a`,
   /// `on_b`; where they intersect, points of the crossing simplices). Both objects' trees are
@@ -163,6 +167,12 @@ class SimplexBvh {
   ClosestHit nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, uint32_t root,
                              const uint32_t* items, AcceptItem&& accept_item, SkipNode&& skip_node,
                              double max_dist2) const;
+
+  /// closest_to_simplex's search in one tree (`nodes` from `root`; leaf ranges index `items`,
+  /// positions in `order_`, or are those positions themselves when `items` is null).
+  ClosestHit closest_to_simplex_in_tree(const Vec3* q, const std::vector<Node>& nodes,
+                                        uint32_t root, const uint32_t* items, uint32_t skip_object,
+                                        double max_dist2) const;
 
   /// Squared distance from p to the bounding box of the simplex with corners a, b, c (a
   /// segment passes c = b).
