@@ -42,8 +42,9 @@ local ok, p = pcall(redis.call, 'XPENDING', KEYS[2], 'gvd-workers')
 if ok then depth = depth - p[1] end
 if depth >= tonumber(ARGV[3]) then return {2, depth} end
 redis.call('DEL', KEYS[1])
-redis.call('HSET', KEYS[1], 'status', 'queued', 'doc', ARGV[2], 'submitted_at', ARGV[4])
-redis.call('XADD', KEYS[2], '*', 'id', ARGV[1])
+local e = redis.call('XADD', KEYS[2], '*', 'id', ARGV[1])
+redis.call('HSET', KEYS[1], 'status', 'queued', 'doc', ARGV[2], 'submitted_at', ARGV[4],
+           'entry', e)
 redis.call('ZADD', KEYS[3], ARGV[4], ARGV[1])
 redis.call('PUBLISH', KEYS[4], ARGV[1])
 return {1}
@@ -93,10 +94,32 @@ constexpr const char* kReleaseScript = R"lua(
 pcall(redis.call, 'XACK', KEYS[2], 'gvd-workers', ARGV[3])
 redis.call('XDEL', KEYS[2], ARGV[3])
 if redis.call('HGET', KEYS[1], 'status') ~= 'running' then return 0 end
-redis.call('HSET', KEYS[1], 'status', 'queued', 'doc', ARGV[2])
-redis.call('XADD', KEYS[2], '*', 'id', ARGV[1])
+local e = redis.call('XADD', KEYS[2], '*', 'id', ARGV[1])
+redis.call('HSET', KEYS[1], 'status', 'queued', 'doc', ARGV[2], 'entry', e)
 redis.call('PUBLISH', KEYS[3], ARGV[1])
 return 1
+)lua";
+
+// KEYS: job hash, stream. The place of a queued job's entry among the entries no worker has
+// been given yet (1 = next; a job a worker was given but has not started yet is next too),
+// or 0 when the job is not queued or its entry is unknown (queued before entries were kept).
+constexpr const char* kPositionScript = R"lua(
+if redis.call('HGET', KEYS[1], 'status') ~= 'queued' then return 0 end
+local e = redis.call('HGET', KEYS[1], 'entry')
+if not e then return 0 end
+local last = '0-0'
+local ok, groups = pcall(redis.call, 'XINFO', 'GROUPS', KEYS[2])
+if ok then
+  for _, g in ipairs(groups) do
+    local name, delivered
+    for i = 1, #g, 2 do
+      if g[i] == 'name' then name = g[i + 1] end
+      if g[i] == 'last-delivered-id' then delivered = g[i + 1] end
+    end
+    if name == 'gvd-workers' and delivered then last = delivered end
+  end
+end
+return math.max(1, #redis.call('XRANGE', KEYS[2], '(' .. last, e))
 )lua";
 
 // KEYS: job hash, channel. ARGV: id, cancelled document. Cancels a job that is still queued.
@@ -330,9 +353,17 @@ std::optional<RedisJobQueue::Found> RedisJobQueue::lookup(RedisConnection& redis
 
 std::optional<std::string> RedisJobQueue::status_json(const std::string& id) const {
   try {
-    const auto found = api([&](RedisConnection& redis) { return lookup(redis, id); });
-    if (!found) return std::nullopt;
-    return found->doc;
+    return api([&](RedisConnection& redis) -> std::optional<std::string> {
+      const auto found = lookup(redis, id);
+      if (!found) return std::nullopt;
+      if (found->status != JobStatus::kQueued) return found->doc;
+      // Where it waits in the cluster's queue, counted in Redis when asked.
+      const RedisReply r = redis.command({"EVAL", kPositionScript, "2", key(id), kStream});
+      if (r.is_error() || r.integer() <= 0) return found->doc;
+      Json doc = Json::parse(found->doc);
+      doc["queue_position"] = r.integer();
+      return doc.dump(-1, ' ', false, Json::error_handler_t::replace);
+    });
   } catch (const ProblemError&) {
     // Redis away: finished jobs are still known from the store.
     if (const auto found = lookup_store(id)) return found->doc;

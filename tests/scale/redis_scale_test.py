@@ -289,6 +289,32 @@ class RedisScaleOut(unittest.TestCase):
         self.assertEqual(after - before, 1)
         self.wait_done(self.replicas[0].url, ids.pop(), 30)
 
+    def test_2b_queued_jobs_know_their_place_in_the_cluster_queue(self):
+        # Every worker busy with a long job; three more wait, and any replica says where.
+        scene = slow_scene()
+        long_jobs = []
+        for k in range(3):
+            job, _ = submit(self.replicas[k].url, scene, {"contact_depth": 12, "max_depth": 17 - k})
+            long_jobs.append(job["id"])
+        for job_id in long_jobs:
+            wait_for("the long jobs to start", lambda j=job_id: self.worker_of(j), 20)
+        waiting = []
+        for k in range(3):
+            job, _ = submit(self.replicas[(k + 1) % 3].url, small_scene(20 + k), {"max_depth": 9})
+            waiting.append(job["id"])
+        try:
+            for position, job_id in enumerate(waiting, 1):
+                for r in self.replicas:
+                    s = job_status(r.url, job_id)
+                    self.assertEqual(s["status"], "queued", json.dumps(s)[:300])
+                    self.assertEqual(s.get("queue_position"), position, (r.name, json.dumps(s)[:300]))
+        finally:
+            for job_id in long_jobs:
+                http("DELETE", f"{self.replicas[0].url}/v1/jobs/{job_id}")
+        for job_id in waiting:
+            done = self.wait_done(self.replicas[0].url, job_id, 60)
+            self.assertNotIn("queue_position", done)
+
     def test_3_progress_events_through_a_replica_that_does_not_run_the_job(self):
         scene = slow_scene()
         params = dict(SLOW, max_depth=14)
