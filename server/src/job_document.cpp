@@ -55,6 +55,20 @@ double unix_now() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
+double unix_from_iso(const Json& text) {
+  if (!text.is_string()) return 0;
+  std::tm tm{};
+  int ms = 0;
+  const std::string s = text.get<std::string>();
+  if (std::sscanf(s.c_str(), "%d-%d-%dT%d:%d:%d.%dZ", &tm.tm_year, &tm.tm_mon, &tm.tm_mday,
+                  &tm.tm_hour, &tm.tm_min, &tm.tm_sec, &ms) < 6) {
+    return 0;
+  }
+  tm.tm_year -= 1900;
+  tm.tm_mon -= 1;
+  return static_cast<double>(timegm(&tm)) + ms / 1000.0;
+}
+
 Json iso_time(double unix_seconds) {
   if (unix_seconds <= 0) return nullptr;
   const auto whole = static_cast<std::time_t>(unix_seconds);

@@ -50,6 +50,8 @@ double unix_now();
 
 /// "2026-01-02T03:04:05.678Z" (UTC), or null for 0.
 nlohmann::json iso_time(double unix_seconds);
+/// The seconds since the Unix epoch of an iso_time text; 0 for null or anything else.
+double unix_from_iso(const nlohmann::json& text);
 
 /// The scene of a stored request (`<base>.scene.json`, parsed within `limits`) with the
 /// warnings of its original upload that normalizing removed (`<base>.json`: degenerate

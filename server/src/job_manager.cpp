@@ -25,20 +25,6 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-double from_iso(const Json& j) {
-  if (!j.is_string()) return 0;
-  std::tm tm{};
-  int ms = 0;
-  const std::string s = j.get<std::string>();
-  if (std::sscanf(s.c_str(), "%d-%d-%dT%d:%d:%d.%dZ", &tm.tm_year, &tm.tm_mon, &tm.tm_mday,
-                  &tm.tm_hour, &tm.tm_min, &tm.tm_sec, &ms) < 6) {
-    return 0;
-  }
-  tm.tm_year -= 1900;
-  tm.tm_mon -= 1;
-  return static_cast<double>(timegm(&tm)) + ms / 1000.0;
-}
-
 std::string read_text(const std::string& path) {
   const std::vector<uint8_t> bytes = read_file_bytes(path);
   return std::string(bytes.begin(), bytes.end());
@@ -114,9 +100,9 @@ void JobManager::recover() {
     job->dimension = s.value("scene", Json::object()).value("dimension", 3);
     job->objects = s.value("scene", Json::object()).value("objects", uint64_t{0});
     job->simplices = s.value("scene", Json::object()).value("simplices", uint64_t{0});
-    job->submitted_at = from_iso(s.value("submitted_at", Json()));
-    job->started_at = from_iso(s.value("started_at", Json()));
-    job->finished_at = from_iso(s.value("finished_at", Json()));
+    job->submitted_at = unix_from_iso(s.value("submitted_at", Json()));
+    job->started_at = unix_from_iso(s.value("started_at", Json()));
+    job->finished_at = unix_from_iso(s.value("finished_at", Json()));
     if (s.contains("result")) job->result_info = s["result"].dump();
     if (s.contains("error")) job->error = s["error"].dump();
     return job;

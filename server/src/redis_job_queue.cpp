@@ -27,6 +27,8 @@ constexpr const char* kStream = "gvd:queue";
 constexpr const char* kGroup = "gvd-workers";
 constexpr const char* kIndex = "gvd:jobs";
 constexpr const char* kChannel = "gvd:events";
+/// GET /v1/jobs lists this many of the newest jobs (kListScript).
+constexpr size_t kListed = 1000;
 
 // KEYS: job hash, stream, index, channel. ARGV: id, queued document, capacity, submitted_at,
 // 1 = only when Redis has no such job (recovery; else a failed or cancelled job runs again).
@@ -141,6 +143,16 @@ for i = 1, #ids, 2 do
   out[#out + 1] = redis.call('HGET', 'gvd:job:' .. ids[i], 'status') or ''
 end
 return out
+)lua";
+
+// KEYS: job hash, index. ARGV: id, status, doc, submitted_at. A finished job of the store
+// listed again after Redis lost it (never over what Redis knows of the job).
+constexpr const char* kIndexScript = R"lua(
+if redis.call('EXISTS', KEYS[1]) == 0 then
+  redis.call('HSET', KEYS[1], 'status', ARGV[2], 'doc', ARGV[3], 'submitted_at', ARGV[4])
+end
+redis.call('ZADD', KEYS[2], 'NX', ARGV[4], ARGV[1])
+return 1
 )lua";
 
 // KEYS: the client's bucket. ARGV: rate (tokens/s), burst. Returns "0" (a token taken) or the
@@ -613,6 +625,39 @@ bool RedisJobQueue::ensure_group(RedisConnection& redis) {
   return true;
 }
 
+void RedisJobQueue::reindex_store(RedisConnection& redis) {
+  // The newest finished jobs of the store (their status documents), newest first.
+  std::vector<std::pair<fs::file_time_type, fs::path>> docs;
+  std::error_code ec;
+  for (const char* sub : {"results", "failed"}) {
+    for (const auto& entry : fs::directory_iterator(dir(sub), ec)) {
+      const std::string name = entry.path().filename().string();
+      if (!name.ends_with(".json") || name.find(".tmp.") != std::string::npos) continue;
+      docs.emplace_back(fs::last_write_time(entry.path(), ec), entry.path());
+    }
+  }
+  const size_t keep = std::min<size_t>(docs.size(), kListed);
+  std::partial_sort(docs.begin(), docs.begin() + static_cast<std::ptrdiff_t>(keep), docs.end(),
+                    [](const auto& x, const auto& y) { return x.first > y.first; });
+  size_t listed = 0;
+  for (size_t i = 0; i < keep; ++i) {
+    try {
+      const std::string doc = read_text(docs[i].second.string());
+      const Json s = Json::parse(doc);
+      const std::string id = docs[i].second.stem().string();
+      const std::string status = s.at("status").get<std::string>();
+      redis.command({"EVAL", kIndexScript, "2", key(id), kIndex, id, status, doc,
+                     number_text(unix_from_iso(s.value("submitted_at", Json())))});
+      ++listed;
+    } catch (const RedisUnavailable&) {
+      throw;
+    } catch (const std::exception&) {
+      // Removed or being replaced meanwhile: its next reader answers for it.
+    }
+  }
+  if (listed > 0) log_event("info", "jobs_reindexed", std::to_string(listed));
+}
+
 void RedisJobQueue::requeue_store(RedisConnection& redis, std::chrono::seconds min_age) {
   const auto now = fs::file_time_type::clock::now();
   std::vector<std::pair<double, std::string>> pending;
@@ -688,6 +733,7 @@ void RedisJobQueue::maintenance_loop() {
         last_group = now;
         if (ensure_group(redis)) {
           log_event("info", "queue_group_created", "");
+          reindex_store(redis);
           requeue_store(redis, std::chrono::seconds(0));
         }
       }

@@ -105,6 +105,9 @@ class RedisJobQueue final : public JobQueue {
               JobStatus status, const std::string& doc);
   /// Creates the consumer group; true when it did not exist (an empty Redis).
   bool ensure_group(RedisConnection& redis);
+  /// Lists the newest finished jobs of the store (kListed of them, by their status files'
+  /// times) in Redis' index again after it lost its data, so that GET /v1/jobs shows them.
+  void reindex_store(RedisConnection& redis);
   /// Queues the unfinished requests of the store again when Redis does not know them (after
   /// it lost its data); only request files older than `min_age`.
   void requeue_store(RedisConnection& redis, std::chrono::seconds min_age);

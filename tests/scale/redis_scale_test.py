@@ -396,6 +396,12 @@ class RedisScaleOut(unittest.TestCase):
 
     def test_5_redis_restarted_mid_run(self):
         scene = slow_scene()
+        # The jobs listed before (all finished by now): listed again after the restart.
+        status, _, body = http("GET", f"{self.replicas[0].url}/v1/jobs")
+        self.assertEqual(status, 200)
+        listed_before = {j["id"]: j["status"] for j in json.loads(body)["jobs"]
+                         if j["status"] in ("done", "failed")}
+        self.assertGreater(len(listed_before), 3)
         first, _ = submit(self.replicas[0].url, scene, dict(SLOW, max_depth=16))
         queued = [submit(self.replicas[k % 3].url, small_scene(10 + k), {"max_depth": 9})[0]
                   for k in range(4)]
@@ -420,6 +426,11 @@ class RedisScaleOut(unittest.TestCase):
             self.assertTrue(r.alive())
         for job in [first] + queued:
             self.wait_done(self.replicas[1].url, job["id"], 60)
+        for r in self.replicas:
+            status, _, body = http("GET", f"{r.url}/v1/jobs")
+            listed = {j["id"]: j["status"] for j in json.loads(body)["jobs"]}
+            for job_id, was in listed_before.items():
+                self.assertEqual(listed.get(job_id), was, (r.name, job_id))
         # A new job after the restart.
         new, _ = submit(self.replicas[2].url, small_scene(42), {"max_depth": 9})
         self.wait_done(self.replicas[0].url, new["id"], 30)
