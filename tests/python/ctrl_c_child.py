@@ -1,7 +1,9 @@
-"""Child of module_test.Cancel.test_ctrl_c: a long compute that the parent interrupts.
+"""Child of module_test.Cancel's Ctrl-C tests: a long call that the parent interrupts.
 
-Prints "started" once the computation reports progress, then "KeyboardInterrupt <seconds>"
-when Ctrl-C (SIGINT) ends it, or "finished" if it ran to the end (the test then fails).
+`ctrl_c_child.py` computes a big lattice; `ctrl_c_child.py nearest` asks a finished result for
+the nearest objects of 3 million points on one thread. Prints "started" once the long call is
+under way, then "KeyboardInterrupt <seconds>" when Ctrl-C (SIGINT) ends it, or "finished" if
+it ran to the end (the test then fails).
 """
 import os
 import sys
@@ -11,9 +13,6 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import gvd  # noqa: E402
 import meshes  # noqa: E402
 
-scene = gvd.Scene(3)
-for label, v, f in meshes.sphere_lattice(4, 1e-4, 3):
-    scene.add(label, v, f)
 started = []
 
 
@@ -23,9 +22,29 @@ def progress(stage, fraction):
         print("started", flush=True)
 
 
+if len(sys.argv) > 1 and sys.argv[1] == "nearest":
+    import numpy as np
+
+    scene = gvd.Scene(3)
+    for label, v, f in meshes.sphere_lattice(2, 0.1, 2):
+        scene.add(label, v, f)
+    result = gvd.compute(scene, threads=1)
+    points = np.random.default_rng(1).uniform(0, 2, size=(3_000_000, 3))
+
+    def call():
+        print("started", flush=True)
+        result.nearest(points, threads=1)
+else:
+    scene = gvd.Scene(3)
+    for label, v, f in meshes.sphere_lattice(4, 1e-4, 3):
+        scene.add(label, v, f)
+
+    def call():
+        gvd.compute(scene, progress=progress, threads=1)
+
 t0 = time.monotonic()
 try:
-    gvd.compute(scene, progress=progress, threads=1)
+    call()
     print(f"finished in {time.monotonic() - t0:.1f} s", flush=True)
 except KeyboardInterrupt:
     print(f"KeyboardInterrupt after {time.monotonic() - t0:.1f} s", flush=True)

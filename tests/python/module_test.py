@@ -614,8 +614,15 @@ class Cancel(unittest.TestCase):
     def test_ctrl_c(self):
         # A child computes a big lattice; SIGINT once it has started must end it promptly
         # with KeyboardInterrupt (and not after the computation).
+        self.interrupt_child()
+
+    def test_ctrl_c_stops_a_long_batch_nearest(self):
+        # 3 million points on one thread take ~20 s; SIGINT ends the batch between slices.
+        self.interrupt_child("nearest")
+
+    def interrupt_child(self, *args):
         child = os.path.join(os.path.dirname(os.path.abspath(__file__)), "ctrl_c_child.py")
-        p = subprocess.Popen([sys.executable, child], stdout=subprocess.PIPE,
+        p = subprocess.Popen([sys.executable, child, *args], stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True, env=os.environ)
         try:
             line = p.stdout.readline()
