@@ -20,6 +20,7 @@
 
 #include "cli_options.h"
 #include "commands.h"
+#include "gvd/common/json_depth.h"
 #include "gvd/io/write_outputs.h"
 #include "http_client.h"
 
@@ -501,7 +502,9 @@ int remote_nearest(const std::string& url, int argc, char** argv) {
   const int dimension = dimension_of(remote, id);
   Json points = Json::array();
   if (const auto file = args.value("--points")) {
-    const Json doc = Json::parse(read_text(*file), nullptr, false);
+    const std::string text = read_text(*file);
+    check_json_depth(text, *file, ErrorCode::kInvalidArgument);
+    const Json doc = Json::parse(text, nullptr, false);
     const Json list = doc.is_object() && doc.contains("points") ? doc["points"] : doc;
     if (!list.is_array()) {  // let the server say what is wrong, as the local command would
       remote.call("POST", Remote::job_path(id) + "/nearest" + (fast.empty() ? "" : "?" + fast),

@@ -14,6 +14,7 @@
 #include <regex>
 
 #include "gvd/common/error.h"
+#include "gvd/common/json_depth.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
@@ -401,6 +402,7 @@ struct HttpServer::Impl {
 
   /// Compute parameters given inside a scene JSON: {"params": {"max_depth": 12, ...}}.
   static void params_from_json(const std::string& body, JobParams& params) {
+    check_json_depth(body, "the scene", ErrorCode::kInvalidScene);
     const Json doc = Json::parse(body, nullptr, false);
     if (!doc.is_object() || !doc.contains("params")) return;
     const Json& p = doc["params"];

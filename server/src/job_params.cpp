@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "gvd/common/error.h"
+#include "gvd/common/json_depth.h"
 
 namespace gvd::server {
 namespace {
@@ -136,6 +137,7 @@ std::string JobParams::to_json() const {
 }
 
 JobParams JobParams::from_json(const std::string& text) {
+  check_json_depth(text, "the parameters", ErrorCode::kInvalidArgument);
   const nlohmann::json j = nlohmann::json::parse(text);
   JobParams p;
   p.max_depth = j.value("max_depth", 0);

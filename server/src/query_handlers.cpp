@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
+#include "gvd/common/json_depth.h"
 #include "gvd/graph/contact_report.h"
 #include "gvd/graph/gvd_index.h"
 #include "gvd/grid/sample_result_grid.h"
@@ -140,6 +141,7 @@ void QueryHandlers::nearest_batch(const httplib::Request& req, httplib::Response
 void QueryHandlers::paths(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
   const GvdIndex& index = result->index();
+  check_json_depth(req.body, "the body", ErrorCode::kInvalidArgument);
   const Json doc = Json::parse(req.body);
   if (!doc.is_object()) bad("the body must be a JSON object {\"from\":[..],\"to\":[..]}");
   PathQuery q;

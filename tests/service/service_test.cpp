@@ -942,6 +942,19 @@ TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
                 ->status,
             400);
   EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"(not json)", "application/json")->status, 400);
+  // A point nested 70,000 levels deep (which overflowed the stack in error messages): 400
+  // naming the nesting, and the server keeps answering.
+  const std::string deep = "{\"from\":" + std::string(70000, '[') + std::string(70000, ']') +
+                           ",\"to\":[0,0]}";
+  r = f.c->Post(f.url("/paths").c_str(), deep, "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400) << r->body.substr(0, 300);
+  EXPECT_NE(r->body.find("nested deeper than"), std::string::npos) << r->body.substr(0, 300);
+  r = f.c->Post(f.url("/nearest").c_str(), "{\"points\":" + std::string(70000, '[') +
+                std::string(70000, ']') + "}", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400) << r->body.substr(0, 300);
+  EXPECT_EQ(f.c->Get(f.url("").c_str())->status, 200);
 }
 
 TEST(ServiceQueries, ExplodeJsonAndGlbAndClearanceReport) {

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
+#include "gvd/common/json_depth.h"
 #include "gvd/graph/gvd_index.h"
 
 namespace gvd {
@@ -24,6 +25,7 @@ json number(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
 }  // namespace
 
 std::vector<Vec3> parse_points_json(std::string_view text, int dimension) {
+  check_json_depth(text, "points", ErrorCode::kInvalidArgument);
   const json doc = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) {
     throw Error(ErrorCode::kInvalidArgument, "points: not valid JSON");

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "gvd/common/error.h"
+#include "gvd/common/json_depth.h"
 #include "gvd/scene/load_scene.h"
 
 namespace gvd {
@@ -72,6 +73,7 @@ std::string_view check_glb_container(std::span<const uint8_t> bytes, const std::
 /// We never read files on behalf of a document (the service gets untrusted input): every
 /// buffer must be embedded (GLB BIN chunk or data: URI).
 void check_no_external_buffers(std::string_view json_text, const std::string& pre) {
+  check_json_depth(json_text, pre + "the glTF JSON", ErrorCode::kInvalidScene);
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(json_text);

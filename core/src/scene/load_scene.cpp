@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "gvd/common/error.h"
+#include "gvd/common/json_depth.h"
 
 namespace gvd {
 
@@ -58,6 +59,7 @@ bool has_obj_lines(std::string_view text) {
 }
 
 nlohmann::json parse_json_or_throw(std::string_view text) {
+  check_json_depth(text, "the scene", ErrorCode::kInvalidScene);
   try {
     return nlohmann::json::parse(text.begin(), text.end());
   } catch (const nlohmann::json::parse_error& e) {

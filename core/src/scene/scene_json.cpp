@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "gvd/common/error.h"
+#include "gvd/common/json_depth.h"
 #include "gvd/scene/load_scene.h"
 
 namespace gvd {
@@ -32,6 +33,18 @@ std::string object_where(size_t index, const std::string& label) {
 }
 
 const char* type_name(const Json& j) { return j.type_name(); }
+
+/// A value for an error message: short ones as they are, arrays and objects by their type
+/// and size, long strings cut (never the whole of an unbounded value).
+std::string brief(const Json& j) {
+  if (j.is_array() || j.is_object()) {
+    return std::string(j.is_array() ? "an array" : "an object") + " of " +
+           std::to_string(j.size()) + (j.size() == 1 ? " element" : " elements");
+  }
+  std::string text = j.dump(-1, ' ', false, Json::error_handler_t::replace);
+  if (text.size() > 40) text = text.substr(0, 37) + "...";
+  return text;
+}
 
 /// An index of a simplex: a non-negative integral JSON number.
 uint32_t read_index(const Json& j, const std::string& where, const ErrorLocation& loc) {
@@ -65,7 +78,7 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
   const auto dim_it = doc.find("dimension");
   if (dim_it == doc.end()) invalid("missing \"dimension\" (2 or 3)");
   if (!dim_it->is_number() || !(dim_it->get<double>() == 2.0 || dim_it->get<double>() == 3.0)) {
-    invalid("\"dimension\" must be the number 2 or 3, got " + dim_it->dump());
+    invalid("\"dimension\" must be the number 2 or 3, got " + brief(*dim_it));
   }
   Scene scene;
   scene.dimension = dim_it->get<double>() == 2.0 ? 2 : 3;
@@ -98,7 +111,7 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
     const auto label_it = o.find("label");
     if (label_it == o.end()) invalid(object_where(oi, "") + " has no \"label\"", at(oi, ""));
     if (!label_it->is_string()) {
-      invalid(object_where(oi, "") + ": \"label\" must be a string, got " + label_it->dump(),
+      invalid(object_where(oi, "") + ": \"label\" must be a string, got " + brief(*label_it),
               at(oi, "", "/label"));
     }
     object.label = label_it->get<std::string>();
@@ -132,7 +145,7 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
       for (int c = 0; c < dim; ++c) {
         const Json& x = v[static_cast<size_t>(c)];
         if (!x.is_number()) {
-          invalid(vwhere + "[" + std::to_string(c) + "] is not a number (" + x.dump() + ")", vloc);
+          invalid(vwhere + "[" + std::to_string(c) + "] is not a number (" + brief(x) + ")", vloc);
         }
         p[c] = x.get<double>();
         if (!std::isfinite(p[c])) {
@@ -198,6 +211,7 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
 }
 
 Scene parse_scene_json(std::string_view text, const SceneLimits& limits) {
+  check_json_depth(text, "the scene", ErrorCode::kInvalidScene);
   Json doc;
   try {
     doc = Json::parse(text.begin(), text.end());
