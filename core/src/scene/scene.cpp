@@ -39,10 +39,15 @@ bool is_degenerate(const SceneObject& object, const Simplex& s, int dimension) {
     return s.v[0] == s.v[1] || p[s.v[0]] == p[s.v[1]];
   }
   if (s.v[0] == s.v[1] || s.v[1] == s.v[2] || s.v[0] == s.v[2]) return true;
-  const Vec3 a = p[s.v[0]], b = p[s.v[1]], c = p[s.v[2]];
-  const double longest = std::max({dist2(a, b), dist2(b, c), dist2(c, a)});
-  if (longest == 0.0) return true;
-  return norm(cross(b - a, c - a)) <= kDegenerateTolerance * longest;
+  // Relative to the triangle's own size, so that a scene drawn at 1e-100 (whose squared
+  // lengths and cross products underflow) is judged as the same scene at 1.
+  const Vec3 u = p[s.v[1]] - p[s.v[0]], w = p[s.v[2]] - p[s.v[0]];
+  double size = 0;
+  for (int i = 0; i < 3; ++i) size = std::max({size, std::abs(u[i]), std::abs(w[i])});
+  if (!(size > 0)) return true;
+  const Vec3 a = u / size, b = w / size;
+  const double longest = std::max({norm2(a), norm2(b), dist2(a, b)});
+  return norm(cross(a, b)) <= kDegenerateTolerance * longest;
 }
 
 struct UnionFind {

@@ -329,8 +329,7 @@ TEST(ComputeGvd, ThinGapAnswersAreInvariantUnderRotationTranslationAndRelabellin
 // Checks the GVD of a shaft in its bore (make_shaft_in_bore, face gap g) inside the bore and
 // away from the corners (where the shaft's edge is nearer than its faces): the mid surface,
 // the prism whose apothem is the bore's less g / 2, exactly. Returns the vertices checked.
-size_t expect_shaft_mid_surface(const GvdResult& r, const test::ShaftInBoreOptions& so,
-                                double g) {
+size_t expect_shaft_mid_surface(const GvdResult& r, const test::ShaftInBoreOptions& so, double g) {
   const double pi = std::acos(-1.0);
   const double mid = so.radius * std::cos(pi / so.sides) - g / 2;
   size_t checked = 0;
@@ -413,8 +412,8 @@ TEST(ComputeGvd, RoundShaftTurnsTheOctreeAndCostsTheSameAtAnyGap3D) {
     EXPECT_NEAR(r.graph.edges[0].gap, g, 1e-9 * g);
     EXPECT_GT(expect_shaft_mid_surface(r, so, g), 100u) << "gap " << gaps[k];
   }
-  EXPECT_LE(leaves[1], 3 * leaves[0]) << leaves[0] << " leaves at 1e-3, " << leaves[1]
-                                      << " at 1e-5";
+  EXPECT_LE(leaves[1], 3 * leaves[0])
+      << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
 }
 
 // A leaf that holds two objects without a certificate exists only at the depth limit or the
@@ -755,6 +754,34 @@ TEST(ComputeGvd, MirrorImagesWhoseBisectorIsAnOctreePlaneStayOriented) {
   expect_valid(r);
   EXPECT_EQ(graph_pairs(r.graph),
             (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {0, 2}, {1, 2}}));
+}
+
+// Results do not depend on the unit: three objects drawn at 1, 1e-100 and 1e-300 (whose
+// squared lengths underflow) give the same neighbour pairs, gaps and clearances scaled, and
+// no triangle is taken for degenerate.
+TEST(ComputeGvd, TinyScenesGiveTheScaledAnswers) {
+  auto scene_at = [](double k) {
+    Scene s = test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                   test::make_box("b", {1.2, -1, -1}, {2.2, 1, 1}),
+                                   test::make_sphere("c", {0, 2.5, 0}, 1, 8, 16)});
+    for (SceneObject& o : s.objects)
+      for (Vec3& v : o.vertices) v = v * k;
+    return s;
+  };
+  const GvdResult unit = run(scene_at(1));
+  for (double k : {1e-100, 1e-300}) {
+    const GvdResult tiny = run(scene_at(k));
+    EXPECT_TRUE(tiny.scene.warnings.empty()) << k << ": " << tiny.scene.warnings[0].detail;
+    ASSERT_EQ(graph_pairs(tiny.graph), graph_pairs(unit.graph)) << k;
+    for (size_t e = 0; e < unit.graph.edges.size(); ++e) {
+      EXPECT_NEAR(tiny.graph.edges[e].gap / k, unit.graph.edges[e].gap,
+                  1e-9 * unit.graph.edges[e].gap)
+          << k;
+      EXPECT_NEAR(tiny.graph.edges[e].min_clearance / k, unit.graph.edges[e].min_clearance,
+                  1e-6 * unit.graph.edges[e].min_clearance)
+          << k;
+    }
+  }
 }
 
 TEST(ComputeGvd, IntersectingBoxesStayClosed) {

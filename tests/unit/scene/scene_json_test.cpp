@@ -69,6 +69,23 @@ TEST(SceneJson, RejectsDimensionAsString) {
   expect_invalid(scene_with(tet(R"("a")"), R"("3")"), "dimension");
 }
 
+// A value in an error is named by type and size, never echoed whole (a label of a million
+// elements would otherwise come back in the message), and long strings are cut.
+TEST(SceneJson, ErrorsNameLargeValuesByTypeAndSize) {
+  std::string big = "[";
+  for (int i = 0; i < 100000; ++i) big += (i ? ",1" : "1");
+  big += "]";
+  try {
+    parse_scene_json(scene_with(tet(big)));
+    ADD_FAILURE() << "an array label was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(e.detail().find("got an array of 100000 elements"), std::string::npos) << e.detail();
+    EXPECT_LT(e.detail().size(), 200u);
+  }
+  expect_invalid(scene_with(tet(R"("a")"), "\"" + std::string(5000, 'x') + "\""),
+                 "got \"" + std::string(36, 'x') + "...");
+}
+
 TEST(SceneJson, RejectsDimensionFour) {
   expect_invalid(scene_with(tet(R"("a")"), "4"), "dimension");
 }
