@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <set>
 
+#include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
 
@@ -18,7 +19,7 @@ ContactPairs::ContactPairs(const std::vector<std::pair<ObjectId, ObjectId>>& pai
 }
 
 ContactPairs find_contact_pairs(const UnitGeometry& g, const SimplexBvh& bvh, double tolerance,
-                                int threads) {
+                                int threads, const std::atomic<bool>* cancel) {
   threads = resolve_threads(threads);
   const size_t m = g.simplices.size();
   const int arity = g.dimension == 2 ? 2 : 3;
@@ -29,6 +30,10 @@ ContactPairs find_contact_pairs(const UnitGeometry& g, const SimplexBvh& bvh, do
       [&](size_t b, size_t e, int t) {
         auto& local = found[static_cast<size_t>(t)];
         for (size_t s = b; s < e; ++s) {
+          // Coincident objects make each simplex's walk long (n copies overlap it): the flag
+          // is read per simplex.
+          if (cancel != nullptr && cancel->load(std::memory_order_relaxed))
+            throw Error(ErrorCode::kCancelled, "cancelled while finding the touching pairs");
           const Simplex& x = g.simplices[s];
           Box box;
           for (int k = 0; k < arity; ++k) box.extend(g.points[x.v[k]]);

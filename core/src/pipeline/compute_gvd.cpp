@@ -81,7 +81,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   const int max_depth = resolve_max_depth(dim, options.max_depth);
   const double contact_tolerance = 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth);
   const ContactPairs contacts =
-      find_contact_pairs(r.geometry, bvh, contact_tolerance, options.threads);
+      find_contact_pairs(r.geometry, bvh, contact_tolerance, options.threads, options.cancel);
   // The thin-gaps refinement: certified pair cells stay leaves (refine/pair_certificate.h).
   std::optional<PairCertifier> certifier;
   if (options.refine == "certified") certifier.emplace(r.geometry, bvh, &contacts, true);

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -36,7 +37,9 @@ class ContactPairs {
 /// Finds the object pairs whose simplices come within `tolerance` (unit domain) of each other,
 /// intersecting included. BVH candidates (boxes within the tolerance), then exact
 /// segment/triangle distances; each pair is confirmed once. O(M log M + candidate pairs).
+/// With `cancel`, a set flag stops it within one simplex's walk (gvd::Error{kCancelled}).
 ContactPairs find_contact_pairs(const UnitGeometry& geometry, const SimplexBvh& bvh,
-                                double tolerance, int threads = 0);
+                                double tolerance, int threads = 0,
+                                const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace gvd

@@ -123,10 +123,11 @@ struct DomainOptions {
 /// of triangles perpendicular (within 1e-7 rad) to one of them is as large as the greedy
 /// choice finds: for each of the directions with the most such area, the one perpendicular
 /// to it with the most; ordered and signed to stay nearest the user's x, y, z. A triangle
-/// that another object comes within 1/64 of the scene's largest extent of (touching counts)
-/// weighs 1000 times its area: only rims across a thin gap cost octree cells, so a round
-/// shaft in a bore turns the octree to the shaft's facets even when the housing's outside is
-/// drawn along x, y, z. The user's axes unless that frame holds at least 10 % of the weighted
+/// that faces another object's flat face (a parallel triangle of it whose plane lies within
+/// 1/64 of the scene's largest extent of the centroid, which projects into it; at most 64 of
+/// the other objects' triangles are looked at) weighs 1000 times its area: only rims across
+/// a thin gap cost octree cells, so a round shaft in a bore turns the octree to the shaft's
+/// facets even when the housing's outside is drawn along x, y, z. The user's axes unless that frame holds at least 10 % of the weighted
 /// area on its planes and 5 % more than they do (curved meshes, scenes already drawn along
 /// x, y, z keep them). O(T log T) for T triangles (one BVH query per triangle).
 std::array<Vec3, 3> scene_frame(const Scene& scene);
