@@ -87,6 +87,22 @@ std::vector<std::string> write_outputs(const DistanceGrid& grid,
   return written;
 }
 
+/// The box (--domain), the limits (cell count, domain: checked before the backend starts or
+/// any memory is taken) and the backend of a grid over `scene`, logged unless `quiet`.
+void prepare_grid(const Args& args, const Scene& scene, GridOptions& options, bool quiet) {
+  options.box = domain_arg(args, scene.dimension);
+  const GridSpec spec = make_grid_spec(scene, options);
+  const kernels::BackendChoice choice =
+      kernels::choose_backend(args.value("--backend").value_or("auto"));
+  options.compute = choice.compute;
+  if (!quiet) {
+    std::fprintf(stderr, "gvd: %zu objects, %llu simplices, %dD; %s; %d threads\n",
+                 scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
+                 scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
+    log_spec(spec, options.metric);
+  }
+}
+
 /// `gvd grid RESULT.gvd`: the grid sampled from a saved adaptive result.
 int grid_from_result(const Args& args, const GridOptions& scene_options, bool quiet,
                      const std::optional<std::string>& output,
@@ -160,20 +176,9 @@ int cmd_grid(int argc, char** argv) {
   limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
   limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
   const Scene scene = load_scene(args.positional, limits);
-  options.box = domain_arg(args, scene.dimension);
-  // The limits (cell count, domain) before the backend starts or any memory is taken.
-  const GridSpec spec = make_grid_spec(scene, options);
-  const kernels::BackendChoice choice =
-      kernels::choose_backend(args.value("--backend").value_or("auto"));
-  options.compute = choice.compute;
-  if (!quiet) {
-    std::fprintf(stderr, "gvd: %zu objects, %llu simplices, %dD; %s; %d threads\n",
-                 scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
-                 scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
-    log_spec(spec, options.metric);
-    if (scene.objects.size() == 1)
-      std::fprintf(stderr, "gvd: one object: every cell's label is 0 (a distance field)\n");
-  }
+  prepare_grid(args, scene, options, quiet);
+  if (!quiet && scene.objects.size() == 1)
+    std::fprintf(stderr, "gvd: one object: every cell's label is 0 (a distance field)\n");
   const DistanceGrid grid = compute_grid(scene, options);
 
   const std::vector<std::string> written =
@@ -233,17 +238,7 @@ int compute_grid_mode(const Args& args) {
   GridOptions options = grid_options(args, "--mode grid");
   check_grid_outputs(output, labels);
   const Scene scene = load_compute_scene(args, args.positional);
-  options.box = domain_arg(args, scene.dimension);
-  const GridSpec spec = make_grid_spec(scene, options);  // the limits, before any work
-  const kernels::BackendChoice choice =
-      kernels::choose_backend(args.value("--backend").value_or("auto"));
-  options.compute = choice.compute;
-  if (!quiet) {
-    std::fprintf(stderr, "gvd: %zu objects, %llu simplices, %dD; %s; %d threads\n",
-                 scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
-                 scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
-    log_spec(spec, options.metric);
-  }
+  prepare_grid(args, scene, options, quiet);
   const DistanceGrid grid = compute_grid(scene, options);
   Stopwatch sw;
   const DualGraph graph = grid_dual_graph(grid, scene, options.threads);
