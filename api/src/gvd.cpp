@@ -415,6 +415,7 @@ Explosion Result::explode(std::string_view anchor, double scale) const {
   for (const ExplodedObject& o : v.objects) {
     out.ring.push_back(o.ring);
     append(out.displacement, o.displacement, dim);
+    out.factor.push_back(o.factor);
   }
   return out;
 }

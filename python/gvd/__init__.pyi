@@ -79,6 +79,7 @@ class Explosion(NamedTuple):
     scale: float
     ring: np.ndarray  # int32 (n,)
     displacement: np.ndarray  # float64 (n, D)
+    factor: np.ndarray  # float64 (n,): share of the paper's displacement kept (collision-free)
 
 class Cell:
     vertices: np.ndarray  # float64 (n, D)

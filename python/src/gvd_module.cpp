@@ -228,7 +228,8 @@ py::object explode(const api::Result& r, const py::handle& anchor, double scale)
   }
   const auto n = static_cast<py::ssize_t>(e.ring.size());
   return types.explosion(e.scale, to_numpy(std::move(e.ring), {n}),
-                         to_numpy(std::move(e.displacement), {n, r.dimension()}));
+                         to_numpy(std::move(e.displacement), {n, r.dimension()}),
+                         to_numpy(std::move(e.factor), {n}));
 }
 
 /// Contacts as a list of dicts (the keys of `gvd contacts`' JSON; points as (D,) arrays).
@@ -374,10 +375,11 @@ void define_module(py::module_& m) {
                       "reason (why there is none when not found).")
           .inc_ref();
   types.explosion =
-      make_namedtuple(m, "Explosion", {"scale", "ring", "displacement"},
+      make_namedtuple(m, "Explosion", {"scale", "ring", "displacement", "factor"},
                       "An exploded view (Result.explode): scale (displacement per ring), ring "
                       "int32 (n,) per object (0 = anchor, -1 = unreachable), displacement "
-                      "float64 (n, D) per object.")
+                      "float64 (n, D) per object, factor float64 (n,): the share of the paper's "
+                      "displacement kept so that no two objects collide while they move.")
           .inc_ref();
 
   py::class_<CancelToken>(m, "CancelToken",

@@ -342,6 +342,7 @@ class Analytic(unittest.TestCase):
         np.testing.assert_allclose(e.displacement[0], 0)
         self.assertGreater(e.displacement[1][0], 0)  # "right" moves away, along +x
         self.assertGreater(e.scale, 0)
+        self.assertEqual(e.factor.tolist(), [1.0, 1.0])  # moving apart: nothing held back
 
     def test_save_load(self):
         path = os.path.join(OUT, "two_boxes.gvd")

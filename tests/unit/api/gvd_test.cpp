@@ -97,7 +97,8 @@ TEST(GvdApi, TwoSquaresIn2D) {
 
   const Explosion e = r.explode("left");
   EXPECT_EQ(e.ring, (std::vector<int>{0, 1}));
-  EXPECT_GT(e.displacement[2], 0);  // "right" moves away from "left", along +x
+  EXPECT_GT(e.displacement[2], 0);                       // "right" moves away from "left", along +x
+  EXPECT_EQ(e.factor, (std::vector<double>{1.0, 1.0}));  // nothing in its way
 
   // The squares are closed: inside "left" the distance is negative, 0.5 from its sides.
   const std::vector<double> within = {0.5, 0.5};
