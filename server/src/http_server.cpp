@@ -126,7 +126,7 @@ struct HttpServer::Impl {
       : options(o),
         jobs_owner(make_job_queue(o, metrics)),
         jobs(*jobs_owner),
-        queries(jobs, o.max_grid_cells, o.job_threads),
+        queries(jobs, o.max_grid_cells, o.max_batch_points, o.job_threads),
         web(o.web_root) {}
 
   ServerOptions options;

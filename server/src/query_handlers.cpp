@@ -119,6 +119,12 @@ void QueryHandlers::nearest_batch(const httplib::Request& req, httplib::Response
   const auto result = jobs_.result(req.matches[1].str());
   const GvdIndex& index = result->index();
   const std::vector<Vec3> points = parse_points_json(req.body, index.dimension());
+  if (points.size() > max_batch_points_) {
+    throw Error(ErrorCode::kLimitExceeded,
+                std::to_string(points.size()) + " points exceed the batch limit of " +
+                    std::to_string(max_batch_points_) +
+                    " (--max-batch-points): send them in several requests");
+  }
   const bool fast = fast_mode(req);
   std::string out = "{\"answers\":[";
   for (size_t i = 0; i < points.size(); ++i) {

@@ -18,8 +18,12 @@ class JobQueue;
 class QueryHandlers {
  public:
   /// `max_grid_cells`: the cell limit of grid(); `grid_threads`: its threads (0 = all cores).
-  QueryHandlers(JobQueue& jobs, uint64_t max_grid_cells, int grid_threads)
-      : jobs_(jobs), max_grid_cells_(max_grid_cells), grid_threads_(grid_threads) {}
+  QueryHandlers(JobQueue& jobs, uint64_t max_grid_cells, uint64_t max_batch_points,
+                int grid_threads)
+      : jobs_(jobs),
+        max_grid_cells_(max_grid_cells),
+        max_batch_points_(max_batch_points),
+        grid_threads_(grid_threads) {}
   void neighbors(const httplib::Request& req, httplib::Response& res);
   void nearest(const httplib::Request& req, httplib::Response& res);
   void nearest_batch(const httplib::Request& req, httplib::Response& res);
@@ -34,6 +38,7 @@ class QueryHandlers {
  private:
   JobQueue& jobs_;
   uint64_t max_grid_cells_;
+  uint64_t max_batch_points_;  ///< points of one batch nearest query
   int grid_threads_;
 };
 

@@ -92,6 +92,8 @@ const std::vector<Spec>& specs() {
       number("--max-grid-cells",
              "cells of a grid sampled from a finished job (field.npy, labels.npy)",
              &ServerOptions::max_grid_cells, uint64_t{1}, uint64_t{0xFFFFFFFF}),
+      number("--max-batch-points", "points of one batch nearest query (POST .../nearest)",
+             &ServerOptions::max_batch_points, uint64_t{1}, kU64),
       number("--job-seconds", "wall time per job, seconds", &ServerOptions::job_seconds, 0.01, 1e7),
       number("--max-memory-mb", "resident memory of the process, MB (0 = unlimited)",
              &ServerOptions::max_memory_mb, uint64_t{0}, kU64),

@@ -31,6 +31,9 @@ struct ServerOptions {
   /// Cells of a grid sampled from a result (GET .../field.npy, labels.npy), checked before
   /// any work: 2^24 = 256^3 (~200 MB while it is built, 64 MB of float32 answer).
   uint64_t max_grid_cells = uint64_t{1} << 24;
+  /// Points of one batch nearest query (POST .../nearest), checked before any is answered:
+  /// 100,000 take ~1 s of one HTTP thread and ~8 MB of answer.
+  uint64_t max_batch_points = 100'000;
   double job_seconds = 300;       ///< wall time per job
   uint64_t max_memory_mb = 4096;  ///< resident memory of the process; 0 = unlimited
   int cache_entries = 16;         ///< finished results kept in memory

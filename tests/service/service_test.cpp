@@ -779,7 +779,8 @@ namespace {
 
 /// A finished gears2d job (gear_a, gear_b inside a rectangular frame) for the query tests.
 struct QueryFixture {
-  QueryFixture() : server(fresh_dir("queries")), c(client(server.port())) {
+  explicit QueryFixture(const std::vector<std::string>& args = {})
+      : server(fresh_dir("queries"), args), c(client(server.port())) {
     const Submitted s = submit(*c, data("scenes/gears2d.json"));
     id = s.id;
     const Json done = wait_for(*c, id, {"done", "failed"});
@@ -885,6 +886,25 @@ TEST(ServiceQueries, NearestSingleAndBatch) {
       200);
 }
 
+// Reliability D6: a batch larger than --max-batch-points is refused before any point is
+// answered (422 limit-exceeded naming the limit); one at the limit is answered.
+TEST(ServiceQueries, BatchNearestHasASizeLimit) {
+  QueryFixture f({"--max-batch-points", "3"});
+  auto r =
+      f.c->Post(f.url("/nearest").c_str(), R"({"points":[[0,0],[1,1],[2,2]]})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  r = f.c->Post(f.url("/nearest").c_str(), R"({"points":[[0,0],[1,1],[2,2],[3,3]]})",
+                "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422) << r->body;
+  const Json problem = Json::parse(r->body);
+  EXPECT_EQ(problem["type"], "/problems/limit-exceeded");
+  EXPECT_NE(problem.value("detail", "").find("4 points exceed the batch limit of 3"),
+            std::string::npos)
+      << r->body;
+}
+
 TEST(ServiceQueries, ContactsAreTheCloseDualGraphPairsWithTheirGaps) {
   QueryFixture f;
   auto r = f.c->Get(f.url("/contacts?max_gap=0.1").c_str());
@@ -944,14 +964,15 @@ TEST(ServiceQueries, PathsAnd422WhenNoneExists) {
   EXPECT_EQ(f.c->Post(f.url("/paths").c_str(), R"(not json)", "application/json")->status, 400);
   // A point nested 70,000 levels deep (which overflowed the stack in error messages): 400
   // naming the nesting, and the server keeps answering.
-  const std::string deep = "{\"from\":" + std::string(70000, '[') + std::string(70000, ']') +
-                           ",\"to\":[0,0]}";
+  const std::string deep =
+      "{\"from\":" + std::string(70000, '[') + std::string(70000, ']') + ",\"to\":[0,0]}";
   r = f.c->Post(f.url("/paths").c_str(), deep, "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 400) << r->body.substr(0, 300);
   EXPECT_NE(r->body.find("nested deeper than"), std::string::npos) << r->body.substr(0, 300);
-  r = f.c->Post(f.url("/nearest").c_str(), "{\"points\":" + std::string(70000, '[') +
-                std::string(70000, ']') + "}", "application/json");
+  r = f.c->Post(f.url("/nearest").c_str(),
+                "{\"points\":" + std::string(70000, '[') + std::string(70000, ']') + "}",
+                "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 400) << r->body.substr(0, 300);
   EXPECT_EQ(f.c->Get(f.url("").c_str())->status, 200);
