@@ -24,6 +24,9 @@ class MeshDistance {
       simplices_[geometry.object_of[s]].push_back(s);
   }
 
+  /// The simplices of one object.
+  const std::vector<uint32_t>& simplices_of(uint32_t object) const { return simplices_[object]; }
+
   /// Exact distance between object a moved by `shift` and object b, unit coordinates: the
   /// smaller object's simplices against the other's own tree.
   double distance(uint32_t a, uint32_t b, Vec3 shift) const {
@@ -110,11 +113,9 @@ std::vector<double> collision_free_factors(const UnitGeometry& geometry, const S
     move[o] = domain.to_unit(displacement[o]) - zero;
   const double unit_margin = margin / domain.side;
   const MeshDistance distance(geometry, bvh);
-  std::vector<std::vector<uint32_t>> by_object(n);
-  for (uint32_t s = 0; s < geometry.simplices.size(); ++s)
-    by_object[geometry.object_of[s]].push_back(s);
+  auto empty = [&](uint32_t o) { return distance.simplices_of(o).empty(); };
   std::vector<Box> box(n);
-  for (uint32_t o = 0; o < n; ++o) box[o] = object_box(geometry, by_object[o]);
+  for (uint32_t o = 0; o < n; ++o) box[o] = object_box(geometry, distance.simplices_of(o));
 
   // Candidate pairs: boxes swept by the whole displacements, grown by half the margin (the
   // most any pair must keep), that meet. Sorted on x, then tested in full.
@@ -127,10 +128,10 @@ std::vector<double> collision_free_factors(const UnitGeometry& geometry, const S
   std::vector<std::vector<uint32_t>> near(n);
   for (size_t i = 0; i < n; ++i) {
     const uint32_t a = by_x[i];
-    if (by_object[a].empty()) continue;
+    if (empty(a)) continue;
     for (size_t j = i + 1; j < n && reach[by_x[j]].lo.x <= reach[a].hi.x; ++j) {
       const uint32_t b = by_x[j];
-      if (by_object[b].empty() || !overlap(reach[a], reach[b])) continue;
+      if (empty(b) || !overlap(reach[a], reach[b])) continue;
       near[a].push_back(b);
       near[b].push_back(a);
     }
@@ -140,7 +141,7 @@ std::vector<double> collision_free_factors(const UnitGeometry& geometry, const S
   for (uint32_t a : order) {
     if (a >= n || done[a]) continue;
     done[a] = 1;
-    if (!(norm(move[a]) > 0) || by_object[a].empty()) continue;  // stays: factor 0 is exact
+    if (!(norm(move[a]) > 0) || empty(a)) continue;  // stays: factor 0 is exact
     for (double f : kExplodeFactors) {
       if (f == 0) break;
       bool safe = true;

@@ -127,9 +127,10 @@ struct DomainOptions {
 /// 1/64 of the scene's largest extent of the centroid, which projects into it; at most 64 of
 /// the other objects' triangles are looked at) weighs 1000 times its area: only rims across
 /// a thin gap cost octree cells, so a round shaft in a bore turns the octree to the shaft's
-/// facets even when the housing's outside is drawn along x, y, z. The user's axes unless that frame holds at least 10 % of the weighted
-/// area on its planes and 5 % more than they do (curved meshes, scenes already drawn along
-/// x, y, z keep them). O(T log T) for T triangles (one BVH query per triangle).
+/// facets even when the housing's outside is drawn along x, y, z. The user's axes unless that frame
+/// holds at least 10 % of the weighted area on its planes and 5 % more than they do (curved meshes,
+/// scenes already drawn along x, y, z keep them). O(T log T) for T triangles (one BVH query per
+/// triangle).
 std::array<Vec3, 3> scene_frame(const Scene& scene);
 
 /// The default domain: bounding box of all vertices in the frame (options.frame) made a cube
