@@ -12,12 +12,12 @@
 #include <utility>
 
 #include "gvd/common/parallel.h"
-#include "gvd/graph/contact_report.h"
-#include "gvd/graph/gvd_index.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/query/contact_report.h"
+#include "gvd/query/gvd_index.h"
 #include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
 

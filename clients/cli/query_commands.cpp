@@ -9,10 +9,10 @@
 
 #include "commands.h"
 #include "gvd/common/error.h"
-#include "gvd/graph/contact_report.h"
-#include "gvd/graph/gvd_index.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/query/contact_report.h"
+#include "gvd/query/gvd_index.h"
 
 namespace gvd::cli {
 

@@ -8,11 +8,11 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/json_depth.h"
-#include "gvd/graph/contact_report.h"
-#include "gvd/graph/gvd_index.h"
 #include "gvd/grid/sample_result_grid.h"
 #include "gvd/io/write_grid.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/query/contact_report.h"
+#include "gvd/query/gvd_index.h"
 #include "job_queue.h"
 #include "problem.h"
 

@@ -9,8 +9,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "gvd/graph/gvd_index.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/query/gvd_index.h"
 
 namespace gvd::server {
 

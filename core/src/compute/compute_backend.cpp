@@ -1,7 +1,6 @@
 #include "gvd/compute/compute_backend.h"
 
 #include "gvd/distance/closest_points.h"
-#include "gvd/grid/grid_evaluator.h"
 #include "gvd/octree/build_octree_dp.h"
 
 namespace gvd {
@@ -25,11 +24,6 @@ class CpuClosestPointSolver final : public ClosestPointSolver {
 }  // namespace
 
 std::unique_ptr<OctreeBuildSteps> ComputeBackend::octree_build_steps(const UnitGeometry&) {
-  return nullptr;
-}
-
-std::unique_ptr<GridEvaluator> ComputeBackend::grid_evaluator(const GridGeometry&, const GridSpec&,
-                                                              GridMetric) {
   return nullptr;
 }
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "gvd/distance/closest_point_item.h"
+#include "gvd/geometry/closest_point_item.h"
 
 namespace gvd {
 

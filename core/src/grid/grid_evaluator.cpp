@@ -6,6 +6,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/compute/compute_backend.h"
 
 namespace gvd {
 
@@ -170,6 +171,13 @@ class CpuGridEvaluator final : public GridEvaluator {
 std::unique_ptr<GridEvaluator> make_cpu_grid_evaluator(const GridGeometry& geometry,
                                                        const item::GvdGridSpec& spec, int threads) {
   return std::make_unique<CpuGridEvaluator>(geometry, spec, threads);
+}
+
+// The default of ComputeBackend (no kernel: compute_grid runs the CPU twin). Defined here, with
+// the type it returns, so that the backend interface does not depend on the grid module.
+std::unique_ptr<GridEvaluator> ComputeBackend::grid_evaluator(const GridGeometry&, const GridSpec&,
+                                                              GridMetric) {
+  return nullptr;
 }
 
 }  // namespace gvd

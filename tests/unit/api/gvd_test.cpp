@@ -8,8 +8,8 @@
 #include <cmath>
 #include <vector>
 
-#include "gvd/graph/gvd_index.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/query/gvd_index.h"
 #include "gvd/scene/scene.h"
 
 namespace gvd::api {

@@ -4,7 +4,7 @@
 #include <span>
 #include <vector>
 
-#include "gvd/distance/closest_point_item.h"
+#include "gvd/geometry/closest_point_item.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/scene/scene.h"
 

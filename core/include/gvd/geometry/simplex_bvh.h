@@ -5,7 +5,7 @@
 #include <span>
 #include <vector>
 
-#include "gvd/distance/closest_point_item.h"
+#include "gvd/geometry/closest_point_item.h"
 #include "gvd/geometry/primitives.h"
 #include "gvd/geometry/simplex.h"
 #include "gvd/geometry/vec.h"

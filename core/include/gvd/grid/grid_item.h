@@ -22,7 +22,7 @@
 #else
 #include <cmath>
 
-#include "gvd/distance/closest_point_item.h"
+#include "gvd/geometry/closest_point_item.h"
 /* Several work items may raise one flag: relaxed atomics on the host (no data race). */
 #define GVD_GRID_SET_FLAG(p) __atomic_store_n((p), 1, __ATOMIC_RELAXED)
 #define GVD_GRID_FLAG(p) __atomic_load_n((p), __ATOMIC_RELAXED)

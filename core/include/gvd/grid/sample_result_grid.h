@@ -10,7 +10,7 @@
 #include <optional>
 
 #include "gvd/grid/compute_grid.h"
-#include "gvd/pipeline/pipeline.h"
+#include "gvd/result/gvd_result.h"
 
 namespace gvd {
 

@@ -6,7 +6,7 @@
 #include <string_view>
 #include <vector>
 
-#include "gvd/pipeline/pipeline.h"
+#include "gvd/result/gvd_result.h"
 
 namespace gvd {
 

@@ -10,7 +10,7 @@
 #define GVD_OCTREE_OCTREE_BUILD_ITEM_H
 
 #ifndef __OPENCL_VERSION__ /* the kernel source embeds closest_point_item.h before this file */
-#include "gvd/distance/closest_point_item.h"
+#include "gvd/geometry/closest_point_item.h"
 #endif
 
 #ifdef __OPENCL_VERSION__

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "gvd/geometry/vec.h"
-#include "gvd/graph/gvd_index.h"
+#include "gvd/query/gvd_index.h"
 
 namespace gvd {
 

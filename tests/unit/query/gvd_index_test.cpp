@@ -1,6 +1,6 @@
 // GvdIndex against brute force and analytic answers: nearest object, k-rings, roadmap paths,
 // exploded views and the clearance report.
-#include "gvd/graph/gvd_index.h"
+#include "gvd/query/gvd_index.h"
 
 #include <gtest/gtest.h>
 

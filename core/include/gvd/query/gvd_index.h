@@ -10,7 +10,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/geometry/vec.h"
-#include "gvd/pipeline/pipeline.h"
+#include "gvd/result/gvd_result.h"
 
 namespace gvd {
 

@@ -1,6 +1,6 @@
 // find_contacts: pairs closer than a bound (bounding-box sweep, then exact BVH distances), the
 // interference depth of pairs that meet, and the sites of their GVD interface below the bound.
-#include "gvd/graph/contact_report.h"
+#include "gvd/query/contact_report.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
 // GvdIndex: point queries on the distance field (paper §4), k-rings on the dual graph (§7.3),
 // roadmap paths on the GVD (§7.2), exploded views (§7.4) and the clearance report.
-#include "gvd/graph/gvd_index.h"
+#include "gvd/query/gvd_index.h"
 
 #include <algorithm>
 #include <cmath>

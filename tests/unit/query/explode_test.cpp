@@ -9,8 +9,8 @@
 #include <cmath>
 #include <string>
 
-#include "gvd/graph/gvd_index.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/query/gvd_index.h"
 #include "gvd/scene/load_scene.h"
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"

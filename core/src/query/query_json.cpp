@@ -4,7 +4,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/json_depth.h"
-#include "gvd/graph/gvd_index.h"
+#include "gvd/query/gvd_index.h"
 
 namespace gvd {
 namespace {

@@ -1,7 +1,7 @@
 // find_contacts against brute force (every simplex pair of every object pair) and analytic
 // answers: which pairs are below the bound, their exact gaps and closest points, the sites of
 // their interface, interference depth.
-#include "gvd/graph/contact_report.h"
+#include "gvd/query/contact_report.h"
 
 #include <gtest/gtest.h>
 

@@ -12,8 +12,8 @@
  * Structs shared with the device hold no double3/size_t/bool (STYLE.md "Kernels"); the host
  * static_asserts their sizes (closest_points.cpp). Include-guarded, not #pragma once, because
  * OpenCL compilers need not know the pragma. */
-#ifndef GVD_DISTANCE_CLOSEST_POINT_ITEM_H
-#define GVD_DISTANCE_CLOSEST_POINT_ITEM_H
+#ifndef GVD_GEOMETRY_CLOSEST_POINT_ITEM_H
+#define GVD_GEOMETRY_CLOSEST_POINT_ITEM_H
 
 #ifdef __OPENCL_VERSION__
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -314,4 +314,4 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
 }  // namespace gvd::item
 #endif
 
-#endif /* GVD_DISTANCE_CLOSEST_POINT_ITEM_H */
+#endif /* GVD_GEOMETRY_CLOSEST_POINT_ITEM_H */

@@ -1,0 +1,2 @@
+#pragma once
+#include "gvd/low/low.h"

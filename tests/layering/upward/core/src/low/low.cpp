@@ -1,0 +1,3 @@
+#include "gvd/low/low.h"
+#include "gvd/high/high.h"
+#include <vector>
