@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "gvd/common/error.h"
+#include "gvd/pipeline/pipeline.h"
 #include "gvd/common/json_depth.h"
 
 namespace gvd::server {

@@ -18,6 +18,7 @@
 
 #include "bench/table1_scenes.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/pipeline/pipeline.h"
 #include "gvd/query/gvd_index.h"
 #include "support/oracles.h"
 

@@ -13,6 +13,7 @@
 #include <random>
 
 #include "gvd/common/error.h"
+#include "gvd/pipeline/pipeline.h"
 #include "gvd/io/result_file.h"
 #include "support/grid_oracle.h"
 #include "support/scenes.h"

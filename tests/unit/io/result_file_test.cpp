@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "gvd/common/error.h"
+#include "gvd/pipeline/pipeline.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/octree/lattice.h"
 #include "support/scenes.h"

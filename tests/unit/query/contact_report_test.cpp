@@ -12,6 +12,7 @@
 #include <set>
 
 #include "gvd/common/error.h"
+#include "gvd/pipeline/pipeline.h"
 #include "gvd/geometry/primitives.h"
 #include "support/oracles.h"
 #include "support/scenes.h"

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "gvd/common/error.h"
+#include "gvd/pipeline/pipeline.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
 #include "support/gltf_validate.h"
