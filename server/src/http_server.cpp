@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -296,6 +297,11 @@ struct HttpServer::Impl {
                      "internal error (request " + t_request.id + ")");
       } catch (const Error& e) {
         send_problem(req, res, problem_kind(e.code()), e.detail(), {}, e.where());
+        // A server-side failure (a store that does not read back, a full disk): the access
+        // line says 5xx, this one says what broke, for the operator.
+        if (res.status >= 500 && !options.quiet)
+          std::fprintf(stderr, "{\"level\":\"error\",\"request_id\":\"%s\",\"error\":%s}\n",
+                       t_request.id.c_str(), json_text(Json(e.detail())).c_str());
       } catch (const Json::exception& e) {
         send_problem(req, res, ProblemKind::kInvalidArgument,
                      std::string("malformed JSON: ") + e.what());
@@ -502,10 +508,11 @@ struct HttpServer::Impl {
     }
   }
 
-  /// ETag = the job id (a job's outputs never change). True when the client's copy is current.
+  /// ETag = the job id (a job's GLB, glTF, JSON and graph are the same bytes whenever it is
+  /// computed), or `own_tag` when given. True when the client's copy is current.
   static bool not_modified(const httplib::Request& req, httplib::Response& res,
-                           const std::string& id) {
-    const std::string etag = "\"" + id + "\"";
+                           const std::string& id, const std::string& own_tag = "") {
+    const std::string etag = "\"" + (own_tag.empty() ? id : own_tag) + "\"";
     res.set_header("ETag", etag);
     res.set_header("Cache-Control", "public, max-age=86400");
     const std::string inm = req.get_header_value("If-None-Match");
@@ -569,11 +576,32 @@ struct HttpServer::Impl {
     }
   }
 
+  /// The saved result holds the run's stage times, so a job computed again (after DELETE, or
+  /// on another replica) has other bytes: its strong ETag is the id and the file's own
+  /// checksum (its last 8 bytes, save_result's FNV-1a trailer), not the id alone.
+  static std::string result_file_tag(const std::string& id, const std::string& path) {
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
+    if (!in || in.tellg() < 8) return "";
+    in.seekg(-8, std::ios::end);
+    unsigned char trailer[8] = {};
+    in.read(reinterpret_cast<char*>(trailer), 8);
+    if (!in) return "";
+    std::string tag = id + "-";
+    for (int i = 7; i >= 0; --i) {
+      static constexpr char kHex[] = "0123456789abcdef";
+      tag += kHex[trailer[i] >> 4];
+      tag += kHex[trailer[i] & 15];
+    }
+    return tag;
+  }
+
   void result_file(const httplib::Request& req, httplib::Response& res) {
     const std::string id = req.matches[1].str();
-    if (jobs.status(id) == JobStatus::kDone && not_modified(req, res, id)) return;
-    (void)jobs.result(id);  // the status checks
-    const std::vector<uint8_t> bytes = read_file_bytes(jobs.result_path(id));
+    const std::string path = jobs.result_path(id);
+    (void)jobs.result(id);  // the status checks, and the file reads back
+    const std::string tag = result_file_tag(id, path);
+    if (!tag.empty() && not_modified(req, res, id, tag)) return;
+    const std::vector<uint8_t> bytes = read_file_bytes(path);
     res.set_header("Content-Disposition", "attachment; filename=\"" + id + ".gvd\"");
     res.set_content(reinterpret_cast<const char*>(bytes.data()), bytes.size(),
                     "application/octet-stream");

@@ -129,12 +129,23 @@ void JobManager::recover() {
         jobs_[id] = job;
         write_file_atomic(status_path, status_json_locked(*job));
       } catch (const std::exception& e) {
-        std::fprintf(stderr, "{\"level\":\"warn\",\"msg\":\"unreadable result %s: %s\"}\n",
-                     p.string().c_str(), e.what());
+        log_event("error", "store_result_unreadable", id, 0,
+                  "results/" + id + ".gvd has no status document and does not read back (" +
+                      std::string(e.what()) + "): the job is not listed");
       }
     }
     remove_quietly(dir("requests") + "/" + id + ".json");
     remove_quietly(dir("requests") + "/" + id + ".scene.json");
+  }
+  for (const fs::path& p : list(dir("results"))) {
+    const std::string name = p.filename().string();
+    if (p.extension() != ".json" || name.find(".tmp") != std::string::npos) continue;
+    const std::string id = p.stem().string();
+    if (jobs_.count(id) == 0 && !fs::exists(dir("results") + "/" + id + ".gvd")) {
+      log_event("warn", "store_entry_dropped", id, 0,
+                "results/" + name + " is a status document without its result (results/" + id +
+                    ".gvd): the job is not listed");
+    }
   }
   for (const fs::path& p : list(dir("failed"))) {
     if (p.extension() != ".json") continue;
@@ -142,7 +153,10 @@ void JobManager::recover() {
       const std::string id = p.stem().string();
       if (jobs_.count(id) == 0)
         jobs_[id] = restore(Json::parse(read_text(p.string())), JobStatus::kFailed);
-    } catch (const std::exception&) {
+    } catch (const std::exception& e) {
+      log_event("warn", "store_entry_dropped", p.stem().string(), 0,
+                "failed/" + p.filename().string() + " does not read back (" +
+                    std::string(e.what()) + "): removed, the failed job is forgotten");
       remove_quietly(p);
     }
   }
@@ -155,7 +169,7 @@ void JobManager::recover() {
     try {
       const Json r = Json::parse(read_text(p.string()));
       if (!fs::exists(dir("requests") + "/" + id + ".scene.json"))
-        throw std::runtime_error("no scene");
+        throw std::runtime_error("its scene, requests/" + id + ".scene.json, is missing");
       auto job = std::make_shared<Job>();
       job->id = id;
       job->status = JobStatus::kQueued;
@@ -167,7 +181,10 @@ void JobManager::recover() {
       job->recovered = true;
       jobs_.erase(id);  // a failed job submitted again
       pending.push_back(job);
-    } catch (const std::exception&) {
+    } catch (const std::exception& e) {
+      log_event("warn", "store_entry_dropped", id, 0,
+                "the pending request requests/" + name + " cannot be queued again (" +
+                    std::string(e.what()) + "): removed, submit the job again");
       remove_quietly(p);
     }
   }
@@ -175,7 +192,11 @@ void JobManager::recover() {
     const std::string name = p.filename().string();
     if (name.ends_with(".scene.json")) {
       const std::string id = name.substr(0, name.size() - std::string(".scene.json").size());
-      if (!fs::exists(dir("requests") + "/" + id + ".json")) remove_quietly(p);  // orphan
+      if (!fs::exists(dir("requests") + "/" + id + ".json")) {  // its request was dropped
+        log_event("info", "store_entry_dropped", id, 0,
+                  "requests/" + name + " belongs to no pending request: removed");
+        remove_quietly(p);
+      }
     }
   }
   std::sort(pending.begin(), pending.end(),
@@ -399,11 +420,12 @@ double JobManager::take_token(const std::string& client, double rate, double bur
 }
 
 void JobManager::log_event(const char* level, const char* event, const std::string& id,
-                           double seconds) const {
+                           double seconds, const std::string& detail) const {
   if (options_.quiet) return;
   Json line = {{"ts", unix_now()}, {"level", level}, {"event", event}};
   if (!id.empty()) line["job"] = id;
   if (seconds > 0) line["seconds"] = seconds;
+  if (!detail.empty()) line["detail"] = detail;
   std::fprintf(stderr, "%s\n", line.dump().c_str());
 }
 

@@ -98,7 +98,9 @@ class JobManager final : public JobQueue {
   void finish_locked(Job& job, JobStatus status);
   void remove_request_files(const std::string& id) const;
   /// One JSON line on stderr about a job (unless --quiet).
-  void log_event(const char* level, const char* event, const std::string& id, double seconds) const;
+  /// One JSON log line on stderr (none with --quiet); `detail` says why, where there is a why.
+  void log_event(const char* level, const char* event, const std::string& id, double seconds,
+                 const std::string& detail = "") const;
   std::string dir(const char* sub) const { return options_.store + "/" + sub; }
 
   const ServerOptions options_;

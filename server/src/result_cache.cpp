@@ -61,8 +61,18 @@ std::shared_ptr<LoadedResult> ResultCache::get(const std::string& id) {
   if (!std::filesystem::exists(path, ec)) return nullptr;
   // Loaded outside the lock: a large result must not stall lookups of other results. Two
   // threads may load the same result at once; the second insert keeps the first entry.
-  auto loaded = std::make_shared<LoadedResult>(
-      std::make_shared<const GvdResult>(load_result_bytes(read_file_bytes(path))));
+  std::shared_ptr<LoadedResult> loaded;
+  try {
+    loaded = std::make_shared<LoadedResult>(
+        std::make_shared<const GvdResult>(load_result_bytes(read_file_bytes(path))));
+  } catch (const Error& e) {
+    // The job is done and its file is there but does not read back (truncated, flipped,
+    // emptied): the store's fault, not the client's, so a storage error (500), not the
+    // loader's invalid-argument. The detail names the job, never the store's path.
+    if (e.code() != ErrorCode::kInvalidArgument) throw;
+    throw Error(ErrorCode::kIo, "the stored result of job " + id + " is corrupt (" + e.detail() +
+                                    "); DELETE the job and submit it again to recompute it");
+  }
   std::lock_guard lock(mutex_);
   if (const auto it = index_.find(id); it != index_.end()) return it->second->second;
   insert_locked(id, loaded);

@@ -1,5 +1,6 @@
 #include "server_process.h"
 
+#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -12,15 +13,21 @@
 
 namespace gvd::test {
 
-ServerProcess::ServerProcess(const std::string& store, const std::vector<std::string>& args) {
+ServerProcess::ServerProcess(const std::string& store, const std::vector<std::string>& args,
+                             const std::string& log_file) {
   int fds[2];
   if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
-  std::vector<std::string> argv = {GVD_SERVER_BINARY, "--port", "0", "--store", store, "--quiet"};
+  std::vector<std::string> argv = {GVD_SERVER_BINARY, "--port", "0", "--store", store};
+  if (log_file.empty()) argv.push_back("--quiet");
   argv.insert(argv.end(), args.begin(), args.end());
   pid_ = fork();
   if (pid_ < 0) throw std::runtime_error("fork failed");
   if (pid_ == 0) {
     dup2(fds[1], STDOUT_FILENO);
+    if (!log_file.empty()) {
+      const int log = open(log_file.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+      if (log >= 0) dup2(log, STDERR_FILENO);
+    }
     close(fds[0]);
     close(fds[1]);
     std::vector<char*> cargs;

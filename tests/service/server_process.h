@@ -11,8 +11,10 @@ namespace gvd::test {
 /// prints on stdout), for the service tests.
 class ServerProcess {
  public:
-  /// Starts GVD_SERVER_BINARY with `--port 0 --store store --quiet` plus `args`.
-  ServerProcess(const std::string& store, const std::vector<std::string>& args = {});
+  /// Starts GVD_SERVER_BINARY with `--port 0 --store store --quiet` plus `args`; with a
+  /// `log_file`, without `--quiet` and with the server's stderr (its log lines) written there.
+  ServerProcess(const std::string& store, const std::vector<std::string>& args = {},
+                const std::string& log_file = "");
   ~ServerProcess();  ///< SIGKILL if still running
   ServerProcess(const ServerProcess&) = delete;
   ServerProcess& operator=(const ServerProcess&) = delete;

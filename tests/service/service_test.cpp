@@ -583,6 +583,148 @@ TEST(Service, RestartRebuildsAMissingStatusDocumentAndDropsTemporaryFiles) {
   EXPECT_FALSE(fs::exists(store + "/requests/" + std::string(32, 'a') + ".scene.json"));
 }
 
+// The log lines of a server run with a log file, as JSON objects (other lines skipped).
+std::vector<Json> log_lines(const std::string& file) {
+  std::vector<Json> lines;
+  std::istringstream in(read_text(file));
+  for (std::string line; std::getline(in, line);) {
+    const Json j = Json::parse(line, nullptr, false);
+    if (j.is_object()) lines.push_back(j);
+  }
+  return lines;
+}
+
+bool logged(const std::vector<Json>& lines, const std::string& level, const std::string& event,
+            const std::string& detail_part) {
+  for (const Json& j : lines)
+    if (j.value("level", "") == level && j.value("event", "") == event &&
+        j.value("detail", "").find(detail_part) != std::string::npos)
+      return true;
+  return false;
+}
+
+// Reliability D7: a finished job whose stored result was truncated is a storage error (500
+// io-error, logged at level error), not the client's 400; the server goes on serving.
+TEST(Service, CorruptStoredResultIsAStorageErrorAndLogged) {
+  const std::string store = fresh_dir("corrupt-result");
+  std::string id, good;
+  {
+    ServerProcess server(store);
+    auto c = client(server.port());
+    id = submit(*c, data("scenes/gears2d.json")).id;
+    good = submit(*c, data("scenes/gears2d.json"), "?max_depth=12").id;
+    ASSERT_EQ(wait_for(*c, id, {"done"}).value("status", ""), "done");
+    ASSERT_EQ(wait_for(*c, good, {"done"}).value("status", ""), "done");
+  }
+  const std::string gvd = store + "/results/" + id + ".gvd";
+  fs::resize_file(gvd, fs::file_size(gvd) / 2);
+  const std::string log = store + "/server.log";
+  ServerProcess server(store, {}, log);
+  auto c = client(server.port());
+  EXPECT_EQ(status_of(*c, id).value("status", ""), "done");
+  for (const std::string out : {"/graph", "/gvd.glb", "/result.gvd"}) {
+    auto r = c->Get(("/v1/jobs/" + id + out).c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 500) << out;
+    const Json p = Json::parse(r->body);
+    EXPECT_EQ(p.value("type", ""), "/problems/io-error") << out;
+    const std::string detail = p.value("detail", "");
+    EXPECT_NE(detail.find("job " + id), std::string::npos) << detail;
+    EXPECT_NE(detail.find("checksum"), std::string::npos) << detail;
+    EXPECT_EQ(detail.find(store), std::string::npos) << "the store's path leaks: " << detail;
+  }
+  auto r =
+      c->Post(("/v1/jobs/" + id + "/nearest").c_str(), R"({"points":[[0,0]]})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 500);
+  EXPECT_EQ(c->Get(("/v1/jobs/" + good + "/graph").c_str())->status, 200);
+  EXPECT_EQ(c->Get("/healthz")->status, 200);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait(), 0);
+  const std::vector<Json> lines = log_lines(log);
+  bool error_line = false;
+  for (const Json& j : lines)
+    error_line |= j.value("level", "") == "error" &&
+                  j.value("error", "").find("stored result of job " + id) != std::string::npos;
+  EXPECT_TRUE(error_line) << read_text(log);
+}
+
+// Reliability D12: what the restart drops from the store, it says in the log, with the reason.
+TEST(Service, RestartLogsEveryStoreEntryItDrops) {
+  const std::string store = fresh_dir("restart-drops");
+  std::string id;
+  {
+    ServerProcess server(store);
+    auto c = client(server.port());
+    id = submit(*c, data("scenes/gears2d.json")).id;
+    ASSERT_EQ(wait_for(*c, id, {"done"}).value("status", ""), "done");
+  }
+  const std::string lost(32, 'b'), unreadable(32, 'c'), bare(32, 'd'), failed(32, 'e');
+  // A status document whose result is gone; a pending request without its scene; a pending
+  // request that is not JSON; a failed job's document that is not JSON.
+  fs::copy_file(store + "/results/" + id + ".json", store + "/results/" + lost + ".json");
+  std::ofstream(store + "/requests/" + bare + ".json") << R"({"params":{}})";
+  std::ofstream(store + "/requests/" + unreadable + ".json") << "{not json";
+  std::ofstream(store + "/requests/" + unreadable + ".scene.json") << "{}";
+  fs::create_directories(store + "/failed");
+  std::ofstream(store + "/failed/" + failed + ".json") << "[";
+  const std::string log = store + "/server.log";
+  ServerProcess server(store, {}, log);
+  auto c = client(server.port());
+  EXPECT_EQ(status_of(*c, id).value("status", ""), "done");
+  EXPECT_EQ(c->Get(("/v1/jobs/" + lost).c_str())->status, 404);
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait(), 0);
+  const std::vector<Json> lines = log_lines(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "results/" + lost + ".json"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", bare + ".scene.json, is missing"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "requests/" + unreadable + ".json"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "info", "store_entry_dropped", unreadable + ".scene.json"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "failed/" + failed + ".json"))
+      << read_text(log);
+  EXPECT_FALSE(fs::exists(store + "/requests/" + unreadable + ".scene.json"));
+}
+
+// Reliability D9: the saved result holds the run's stage times, so a job computed again is
+// other bytes; its strong ETag must change with them (the GLB and graph stay the same bytes
+// and keep the id).
+TEST(Service, ResultFileETagFollowsItsBytes) {
+  ServerProcess server(fresh_dir("result-etag"));
+  auto c = client(server.port());
+  const std::string id = submit(*c, data("scenes/gears2d.json")).id;
+  ASSERT_EQ(wait_for(*c, id, {"done"}).value("status", ""), "done");
+  auto first = c->Get(("/v1/jobs/" + id + "/result.gvd").c_str());
+  ASSERT_TRUE(first);
+  ASSERT_EQ(first->status, 200);
+  const std::string tag = first->get_header_value("ETag");
+  EXPECT_EQ(tag.rfind("\"" + id + "-", 0), 0u) << tag;
+  auto same = c->Get(("/v1/jobs/" + id + "/result.gvd").c_str(), {{"If-None-Match", tag}});
+  ASSERT_TRUE(same);
+  EXPECT_EQ(same->status, 304);
+  EXPECT_EQ(
+      c->Get(("/v1/jobs/" + id + "/result.gvd").c_str(), {{"If-None-Match", "\"" + id + "\""}})
+          ->status,
+      200)
+      << "the bare id must not validate the file";
+  const std::string glb = c->Get(("/v1/jobs/" + id + "/gvd.glb").c_str())->body;
+  ASSERT_EQ(c->Delete(("/v1/jobs/" + id).c_str())->status, 204);
+  ASSERT_EQ(submit(*c, data("scenes/gears2d.json")).id, id);
+  ASSERT_EQ(wait_for(*c, id, {"done"}).value("status", ""), "done");
+  auto again = c->Get(("/v1/jobs/" + id + "/result.gvd").c_str());
+  ASSERT_TRUE(again);
+  ASSERT_EQ(again->status, 200);
+  const bool same_bytes = again->body == first->body;
+  EXPECT_EQ(again->get_header_value("ETag") == tag, same_bytes);
+  auto revalidated = c->Get(("/v1/jobs/" + id + "/result.gvd").c_str(), {{"If-None-Match", tag}});
+  ASSERT_TRUE(revalidated);
+  EXPECT_EQ(revalidated->status, same_bytes ? 304 : 200) << "other bytes under the old tag";
+  EXPECT_EQ(c->Get(("/v1/jobs/" + id + "/gvd.glb").c_str())->body, glb);
+}
+
 TEST(Service, SigtermDrainsThenExits) {
   const std::string store = fresh_dir("drain");
   ServerProcess server(store, {"--grace-seconds", "0.5", "--workers", "1"});
