@@ -96,8 +96,8 @@ ObjectId checked_object(const GvdResult& r, Object object) {
 }
 
 /// One backend per request ("auto", "opencl", "cpu") for the whole process: OpenCL is
-/// initialised once, before concurrent use (ENVIRONMENT.md: PoCL crashes when several threads
-/// make the first OpenCL calls at once), and its programs are built once.
+/// initialised once, before concurrent use (PoCL crashes when several threads make the
+/// first OpenCL calls at once), and its programs are built once.
 kernels::BackendChoice backend_for(const std::string& requested) {
   static std::mutex mutex;
   static std::map<std::string, kernels::BackendChoice>* const chosen =

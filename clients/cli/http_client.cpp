@@ -71,7 +71,7 @@ std::pair<std::string, std::string> split_url(const std::string& url) {
 struct HttpClient::Impl {
   Impl(const std::string& url, double timeout) : client(url), timeout_seconds(timeout) {
     client.set_keep_alive(true);
-    client.set_tcp_nodelay(true);  // ENVIRONMENT.md: ~27 ms per keep-alive request otherwise
+    client.set_tcp_nodelay(true);  // Nagle + delayed ACK: ~27 ms per keep-alive request otherwise
     client.set_follow_location(false);
     set_timeouts(client, timeout);
   }

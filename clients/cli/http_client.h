@@ -1,7 +1,7 @@
 #pragma once
 
 // A small HTTP client for `gvd --server`: the only file that sees cpp-httplib is
-// http_client.cpp (ENVIRONMENT.md: heavy headers behind a thin interface).
+// http_client.cpp (cpp-httplib is a heavy header: compiled once, behind a thin interface).
 
 #include <functional>
 #include <memory>

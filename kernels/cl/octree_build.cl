@@ -1,6 +1,6 @@
 /* The data-parallel octree build (parallel-quadtree-construction draft §3.2-3.5): shims
  * around the per-item functions of octree_build_item.h (embedded in front of this file).
- * CPU twins: make_cpu_octree_build_steps in core (build_octree_dp.cpp). */
+ * CPU twins: make_cpu_octree_build_steps in core (build_octree_data_parallel.cpp). */
 
 __kernel void gvd_vertex_keys(const int dimension, __global const GvdPoint* points,
                               const uint count, const int shift, __global ulong* keys) {

@@ -1,12 +1,12 @@
-// OpenCL implementation of the data-parallel octree build steps (build_octree_dp.h): every
-// step is one kernel of kernels/cl/octree_build.cl; the two-pass steps launch it twice
+// OpenCL implementation of the data-parallel octree build steps (build_octree_data_parallel.h):
+// every step is one kernel of kernels/cl/octree_build.cl; the two-pass steps launch it twice
 // (count, then fill) around an exclusive prefix sum on the host.
 
 #include <numeric>
 
 #include "backend_impl.h"
 #include "gvd/common/error.h"
-#include "gvd/octree/build_octree_dp.h"
+#include "gvd/octree/build_octree_data_parallel.h"
 
 namespace gvd::kernels {
 namespace {

@@ -64,7 +64,7 @@ int main(int argc, char** argv) {
 
   try {
     // The compute backend, chosen once at start-up on this thread, before any job runs (PoCL
-    // must not see its first OpenCL calls from several threads; ENVIRONMENT.md).
+    // must not see its first OpenCL calls from several threads: it crashes).
     const gvd::kernels::BackendChoice choice = gvd::kernels::choose_backend(options.backend);
     options.compute = choice.compute;
     options.backend_note = choice.note;

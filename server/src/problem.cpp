@@ -7,7 +7,8 @@
 namespace gvd::server {
 namespace {
 
-// THE table (STYLE.md: one table maps ErrorCode -> status, type, title, retryable). Keep the
+// THE table (one table maps ErrorCode -> status, type, title, retryable, so
+// that no handler picks its own). Keep the
 // order of ProblemKind; docs/API.md lists the same rows.
 constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
     {422, "/problems/invalid-scene", "Invalid scene", false},

@@ -31,7 +31,7 @@
 #include "gvd/distance/closest_points.h"
 #include "gvd/distance/distance_field.h"
 #include "gvd/kernels/opencl_backend.h"
-#include "gvd/octree/build_octree_dp.h"
+#include "gvd/octree/build_octree_data_parallel.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 

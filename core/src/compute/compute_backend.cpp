@@ -1,7 +1,7 @@
 #include "gvd/compute/compute_backend.h"
 
 #include "gvd/distance/closest_points.h"
-#include "gvd/octree/build_octree_dp.h"
+#include "gvd/octree/build_octree_data_parallel.h"
 
 namespace gvd {
 

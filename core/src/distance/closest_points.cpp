@@ -5,7 +5,8 @@
 
 namespace gvd {
 
-// The layouts the device sees (STYLE.md "Kernels": sizes asserted on the host).
+// The layouts the device sees (sizes asserted on the host: a mismatch would
+// read garbage on the device, not fail).
 static_assert(sizeof(item::GvdPoint) == 24 && sizeof(Vec3) == 24);
 static_assert(sizeof(item::GvdBvhNode) == 56);
 static_assert(sizeof(item::GvdHit) == 40);

@@ -1,5 +1,5 @@
-// The GVD as binary glTF (DESIGN.md, "GVD GLB"). All tinygltf use of the core lives here so that
-// its heavy header is compiled once (ENVIRONMENT.md).
+// The GVD as binary glTF (docs/FORMATS.md, "GVD GLB"). All tinygltf use of the core lives here so
+// that its heavy header is compiled once (it costs seconds per translation unit).
 #include <tiny_gltf.h>
 
 #include <algorithm>

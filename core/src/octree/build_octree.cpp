@@ -6,7 +6,7 @@
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
 #include "gvd/geometry/primitives.h"
-#include "gvd/octree/build_octree_dp.h"
+#include "gvd/octree/build_octree_data_parallel.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 

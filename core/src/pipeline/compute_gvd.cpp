@@ -10,7 +10,7 @@
 #include "gvd/common/peak_memory.h"
 #include "gvd/common/stopwatch.h"
 #include "gvd/distance/closest_points.h"
-#include "gvd/octree/build_octree_dp.h"
+#include "gvd/octree/build_octree_data_parallel.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/refine/pair_certificate.h"

@@ -1,4 +1,4 @@
-// JSON bodies of the GvdIndex answers (DESIGN.md contracts), shared by the CLI and the server.
+// JSON bodies of the GvdIndex answers (docs/API.md), shared by the CLI and the server.
 #include <cmath>
 #include <nlohmann/json.hpp>
 

@@ -1,4 +1,5 @@
-// glTF 2.0 / GLB input through tinygltf (the only file that uses it, STYLE.md): one object per
+// glTF 2.0 / GLB input through tinygltf (the only file that includes it: its header is
+// heavy): one object per
 // node with a mesh, world transforms applied, TRIANGLES (strips and fans converted).
 #include <tiny_gltf.h>
 

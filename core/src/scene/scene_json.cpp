@@ -1,4 +1,4 @@
-// The native scene JSON of DESIGN.md ("File contracts"): parse, check the structure, validate;
+// The native scene JSON (docs/FORMATS.md): parse, check the structure, validate;
 // and write it back.
 #include <cmath>
 #include <nlohmann/json.hpp>

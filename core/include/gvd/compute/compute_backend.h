@@ -5,7 +5,7 @@
 
 namespace gvd {
 
-// Declared in gvd/distance/closest_points.h and gvd/octree/build_octree_dp.h; forward
+// Declared in gvd/distance/closest_points.h and gvd/octree/build_octree_data_parallel.h; forward
 // declarations keep the device-shared headers out of everything that includes pipeline.h.
 class ClosestPointSolver;
 class GridEvaluator;
@@ -28,7 +28,7 @@ class ComputeBackend {
   /// outlive the solver. Throws gvd::Error when the device fails.
   virtual std::unique_ptr<ClosestPointSolver> closest_points(const UnitGeometry& geometry,
                                                              const SimplexBvh& bvh) = 0;
-  /// The steps of the data-parallel octree build (build_octree_dp.h) bound to one scene;
+  /// The steps of the data-parallel octree build (build_octree_data_parallel.h) bound to one scene;
   /// null when the backend has none (the CPU twins then run).
   virtual std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry);
   /// The per-range evaluation of the uniform-grid GVD (gvd/grid/grid_evaluator.h) bound to

@@ -84,7 +84,8 @@ struct DistanceOptions {
 };
 
 /// The exact closest point of one vertex among all simplices (the per-item function of the
-/// initialisation; the OpenCL kernel of issue 4 mirrors it). `upper2` bounds the search.
+/// initialisation; the OpenCL kernel runs the same item, closest_point_item.h). `upper2` bounds the
+/// search.
 ClosestHit closest_for_vertex(const SimplexBvh& bvh, Vec3 position, double upper2 = 1e300);
 
 /// Paper §4, COMPUTE_DISTANCES. With DistanceMethod::kExact (the default) every vertex gets

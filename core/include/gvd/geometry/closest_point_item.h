@@ -9,9 +9,9 @@
  * the kernel agree bit for bit; the kernel turns off FP contraction (fused multiply-add would
  * round differently) and is never built with relaxed math.
  *
- * Structs shared with the device hold no double3/size_t/bool (STYLE.md "Kernels"); the host
- * static_asserts their sizes (closest_points.cpp). Include-guarded, not #pragma once, because
- * OpenCL compilers need not know the pragma. */
+ * Structs shared with the device hold no double3/size_t/bool (their size or alignment differs
+ * between host and device); the host static_asserts their sizes (closest_points.cpp).
+ * Include-guarded, not #pragma once, because OpenCL compilers need not know the pragma. */
 #ifndef GVD_GEOMETRY_CLOSEST_POINT_ITEM_H
 #define GVD_GEOMETRY_CLOSEST_POINT_ITEM_H
 

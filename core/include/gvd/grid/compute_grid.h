@@ -1,10 +1,11 @@
 #pragma once
 
-// The uniform-grid discrete GVD of Sud, Govindaraju and Manocha 2006 ("CuRV",
-// ../shared/papers/sud2006-curv-range-culling-discrete-gvd.md): for every cell of a uniform
-// grid, the nearest object and the distance to it (signed for closed objects), computed with
-// the paper's range culling so that each range evaluates only the sites whose Voronoi region
-// may reach it. docs/ALGORITHM.md ("Uniform grid (CuRV)") says what is guaranteed.
+// The uniform-grid discrete GVD of Sud, Govindaraju and Manocha 2006 ("CuRV", "Interactive
+// Computation of Discrete Generalized Voronoi Diagrams using Range Culling"; docs/ALGORITHM.md):
+// for every cell of a uniform grid, the nearest object and the distance to it (signed for closed
+// objects), computed with the paper's range culling so that each range evaluates only the sites
+// whose Voronoi region may reach it. docs/ALGORITHM.md ("Uniform grid (CuRV)") says what is
+// guaranteed.
 
 #include <array>
 #include <cstdint>

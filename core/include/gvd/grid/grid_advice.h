@@ -1,6 +1,6 @@
 #pragma once
 
-// When a uniform grid would do (issue 13, item 5): from the gaps the pipeline measured between
+// When a uniform grid would do: from the gaps the pipeline measured between
 // neighbouring objects, the grid resolution that would separate the closest pair, and whether
 // `gvd grid` would take it within its default cell limit.
 

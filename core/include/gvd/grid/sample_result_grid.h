@@ -1,6 +1,6 @@
 #pragma once
 
-// A uniform grid sampled from a finished adaptive result (issue 13, item 3): for every cell
+// A uniform grid sampled from a finished adaptive result: for every cell
 // centre the nearest object and the (signed where closed) distance, exactly, without running
 // the CuRV sweeps on the scene again. The octree already knows roughly where every object is:
 // the closest points stored on the vertices of the leaf holding a cell centre bound its

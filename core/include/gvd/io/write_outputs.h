@@ -11,7 +11,7 @@
 
 namespace gvd {
 
-/// The GVD as binary glTF (contract in DESIGN.md): one node per object with a non-empty cell
+/// The GVD as binary glTF (contract in docs/FORMATS.md): one node per object with a non-empty cell
 /// (name = label, extras = {"label", "object"}); 3D TRIANGLES oriented into the cell, 2D
 /// LINES at z = 0; float32 POSITION, `_FEATURE_ID_0` (EXT_mesh_features, FLOAT, object on the
 /// other side, nullFeatureId = object count for the domain box), `_CLEARANCE` (float) and
@@ -29,7 +29,7 @@ std::vector<uint8_t> exploded_to_glb(const Scene& scene, std::span<const Vec3> d
 /// "positions":[[x,y(,z)]..], "other":[..], "clearance":[..], "simplices":[[i,j(,k)]..]}]}.
 std::string gvd_to_json(const Gvd& gvd, const Scene& scene);
 
-/// The dual graph JSON of DESIGN.md: {"nodes":[{"object","label"}],"edges":[{"a","b","area",
+/// The dual graph JSON of docs/FORMATS.md: {"nodes":[{"object","label"}],"edges":[{"a","b","area",
 /// "min_clearance"}]}.
 std::string graph_to_json(const DualGraph& graph, const Scene& scene);
 

@@ -187,7 +187,7 @@ class LeafLocator {
 /// Builds the octree with the paper's SHOULD_SUBDIVIDE (§3): a cell is split when it
 /// intersects more than one object, or when a face-neighbour intersects a different object,
 /// until `max_depth`; then balanced so that leaves sharing a face, edge or corner differ by
-/// at most one level (DESIGN.md: watertight surfacing across level changes). Cell–simplex
+/// at most one level (so that surfacing stays watertight across level changes). Cell–simplex
 /// tests are conservative. Level-synchronous and parallel over cells;
 /// O(sum over levels of non-empty cells x simplices per cell).
 Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options = {});

@@ -1,7 +1,7 @@
 /* Per-item functions of the data-parallel octree build (parallel-quadtree-construction
  * draft §3.2-3.5, after Karras 2012): Morton codes of object vertices, the binary radix tree
  * over them, the smallest containing cell (SCC) of a simplex, and the conservative
- * simplex/cell overlap test. ONE source for the CPU twins (octree_build_dp.cpp) and the
+ * simplex/cell overlap test. ONE source for the CPU twins (build_octree_data_parallel.cpp) and the
  * OpenCL kernels (kernels/cl/octree_build.cl): written in the common subset of OpenCL C 1.2
  * and C++20. The overlap tests transcribe triangle_overlaps_box / segment_overlaps_box_2d of
  * primitives.cpp in the same operation order, so the data-parallel build sees exactly the

@@ -62,7 +62,7 @@ struct PipelineOptions {
   const std::atomic<bool>* cancel = nullptr;
 };
 
-/// The whole pipeline (DESIGN.md data flow):
+/// The whole pipeline (docs/ARCHITECTURE.md draws it):
 /// Scene -> make_domain/make_unit_geometry -> build_octree -> Octree -> compute_distances ->
 /// DistanceField -> (find_cells_to_refine -> refine_octree -> compute_distances)* ->
 /// extract_gvd -> Gvd -> build_dual_graph -> DualGraph. Adds warnings for objects that touch

@@ -176,7 +176,7 @@ class GvdIndex {
 /// gvd::Error{kInvalidArgument} saying which point is wrong and why.
 std::vector<Vec3> parse_points_json(std::string_view text, int dimension);
 
-/// JSON of the answers (DESIGN.md contracts); labels are added next to object indices.
+/// JSON of the answers (docs/API.md and docs/FORMATS.md); labels are added next to object indices.
 /// Nearest: {"point":[...],"object":i,"label":"...","distance":d,"signed_distance":s,
 /// "inside":true|false|null,"closest":[...]} (inside null: the object is not closed; then
 /// signed_distance = distance).

@@ -1,6 +1,6 @@
 #pragma once
 
-// The OpenCL compute backend (issue 4) and the choice between it and the CPU twins. The only
+// The OpenCL compute backend and the choice between it and the CPU twins. The only
 // public header of gvd_kernels; OpenCL types stay inside the library.
 
 #include <memory>
@@ -38,7 +38,7 @@ struct KernelBuildReport {
 
 /// The OpenCL implementation of ComputeBackend. Thread-safe: launches are serialised on one
 /// in-order queue. Create it once, at start-up, before any concurrent use (PoCL crashes when
-/// several threads make the first OpenCL calls at once; ENVIRONMENT.md).
+/// several threads make the first OpenCL calls at once).
 class OpenClBackend : public ComputeBackend {
  public:
   ~OpenClBackend() override;

@@ -3,7 +3,7 @@
 // level-synchronous CPU build: the same leaves, objects and leaf -> simplex lists on small
 // scenes, and the separation properties on its own.
 
-#include "gvd/octree/build_octree_dp.h"
+#include "gvd/octree/build_octree_data_parallel.h"
 
 #include <gtest/gtest.h>
 

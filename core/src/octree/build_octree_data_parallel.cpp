@@ -1,4 +1,4 @@
-#include "gvd/octree/build_octree_dp.h"
+#include "gvd/octree/build_octree_data_parallel.h"
 
 #include <algorithm>
 #include <numeric>

@@ -1,0 +1,109 @@
+// What surfacing hands to welding (surface/cell_surfacer.cpp -> surface/weld_vertices.cpp):
+// the pieces of each leaf, deduplicated per leaf into (point, pair of objects) records.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include "gvd/surface/extract_gvd.h"
+
+namespace gvd::surface_detail {
+
+// One oriented simplex of one object's cell boundary (2D uses p[0], p[1]).
+struct Piece {
+  Vec3 p[3];
+  ObjectId object;
+  ObjectId other;
+  uint32_t witness;  // a closest point (DistanceField::closest) near the piece: bounds the
+                     // clearance search
+};
+
+// A hash of a point's exact coordinates (-0 and +0 alike): equal points, equal hashes.
+inline uint64_t position_hash(Vec3 p) {
+  uint64_t h = 0x9e3779b97f4a7c15ull;
+  for (double d : {p.x, p.y, p.z}) {
+    if (d == 0) d = 0.0;  // -0 and +0 are the same point
+    uint64_t bits;
+    std::memcpy(&bits, &d, sizeof bits);
+    h ^= bits + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+    h *= 0xff51afd7ed558ccdull;
+    h ^= h >> 33;
+  }
+  return h;
+}
+
+// The surface of a range of leaves: distinct (point, pair of objects) records of each leaf and
+// simplices over them (indices into `corners`, local to the chunk). A point between objects a
+// and b is one record for both sides; `sides` says which of them has a vertex there (bit 0:
+// the lower object, bit 1: the higher one), so the records are half as many as the corners.
+struct SurfaceChunk {
+  struct Corner {
+    Vec3 p;
+    ObjectId lo, hi;  // the pair, lo < hi (hi = kNoObject on the domain box)
+    uint32_t sides;
+    uint32_t witness;  // the nearest of its pieces' witnesses (DistanceField::closest index)
+  };
+  struct Simplex {
+    uint32_t v[3];
+    ObjectId object;
+  };
+  std::vector<Corner> corners;
+  std::vector<Simplex> simplices;
+
+  // Appends one leaf's pieces, merging equal (point, pair) within the leaf (a small
+  // open-addressing table over the leaf's records; the scan covers only a collision chain).
+  void add(const std::vector<Piece>& pieces, int arity, const std::vector<Vec3>& closest) {
+    const size_t first = corners.size();
+    size_t bits = 6;
+    while ((size_t{1} << bits) < 4 * pieces.size() * arity) ++bits;
+    const size_t mask = (size_t{1} << bits) - 1;
+    table.assign(mask + 1, kEmpty);
+    for (const Piece& piece : pieces) {
+      Simplex t{{0, 0, 0}, piece.object};
+      const ObjectId lo = std::min(piece.object, piece.other);
+      const ObjectId hi = std::max(piece.object, piece.other);
+      const uint32_t side = piece.object == lo ? 1u : 2u;
+      for (int k = 0; k < arity; ++k) {
+        const Vec3& p = piece.p[k];
+        size_t slot = (position_hash(p) ^ (uint64_t{lo} * 0x9e3779b97f4a7c15ull) ^ hi) & mask;
+        uint32_t at = kEmpty;
+        for (; table[slot] != kEmpty; slot = (slot + 1) & mask) {
+          const Corner& c = corners[first + table[slot]];
+          if (c.p == p && c.lo == lo && c.hi == hi) {
+            at = static_cast<uint32_t>(first + table[slot]);
+            break;
+          }
+        }
+        if (at == kEmpty) {
+          at = static_cast<uint32_t>(corners.size());
+          table[slot] = static_cast<uint32_t>(at - first);
+          corners.push_back({p, lo, hi, side, piece.witness});
+        } else {
+          corners[at].sides |= side;
+          if (piece.witness != kNoVertex &&
+              (corners[at].witness == kNoVertex ||
+               dist2(p, closest[piece.witness]) < dist2(p, closest[corners[at].witness])))
+            corners[at].witness = piece.witness;
+        }
+        t.v[k] = at;
+      }
+      simplices.push_back(t);
+    }
+  }
+
+ private:
+  static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
+  std::vector<uint32_t> table;  // scratch of add(): slot -> record - first
+};
+
+}  // namespace gvd::surface_detail
+
+namespace gvd {
+
+struct LeafPieces::Impl {
+  std::vector<surface_detail::SurfaceChunk> chunks;
+};
+
+}  // namespace gvd

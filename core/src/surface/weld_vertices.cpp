@@ -1,0 +1,283 @@
+// Welding: one vertex per (position, pair of objects), the exact clearance once per position,
+// and the cells' vertex and simplex arrays (extract_gvd.h, weld_gvd).
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+#include <type_traits>
+
+#include "gvd/common/default_init.h"
+#include "gvd/common/error.h"
+#include "gvd/common/parallel.h"
+#include "gvd/common/radix_sort.h"
+#include "gvd/surface/extract_gvd.h"
+#include "leaf_pieces.h"
+
+namespace gvd {
+namespace {
+
+using surface_detail::position_hash;
+using surface_detail::SurfaceChunk;
+
+// Turns counts per [part][object] into each part's first index per object (the sum of the
+// parts before it) and returns the totals per object.
+std::vector<uint32_t> part_starts(std::vector<uint32_t>& base, size_t parts, size_t objects) {
+  std::vector<uint32_t> total(objects, 0);
+  for (size_t p = 0; p < parts; ++p) {
+    for (size_t o = 0; o < objects; ++o) {
+      const uint32_t in_part = base[p * objects + o];
+      base[p * objects + o] = total[o];
+      total[o] += in_part;
+    }
+  }
+  return total;
+}
+
+}  // namespace
+
+Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeometry& geometry,
+             const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
+  GVD_CHECK(pieces.impl_ != nullptr, "weld_gvd: the pieces were already welded");
+  const int dim = geometry.dimension;
+  const int threads = resolve_threads(options.threads);
+  const int arity = dim == 2 ? 2 : 3;
+  std::vector<SurfaceChunk> chunks = std::move(pieces.impl_->chunks);
+  pieces.impl_.reset();
+  // All records by one index (chunk by chunk): a pointer to each, not a copy. A chunk's
+  // triangles index its own records, so they are offset by the chunk's start.
+  std::vector<size_t> chunk_start(chunks.size() + 1, 0);
+  for (size_t c = 0; c < chunks.size(); ++c)
+    chunk_start[c + 1] = chunk_start[c] + chunks[c].corners.size();
+  const size_t nc = chunk_start.back();
+  UninitVector<SurfaceChunk::Corner*> record(nc);  // filled below, in parallel
+  parallel_for(
+      chunks.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t c = b; c < e; ++c)
+          for (size_t i = 0; i < chunks[c].corners.size(); ++i)
+            record[chunk_start[c] + i] = &chunks[c].corners[i];
+      },
+      1);
+  // Vertices: one per (object, other object, exact position). Identical points are made
+  // contiguous by sorting the records by (hash of the position, pair): a counting sort into
+  // buckets by the hash's top bits, then each bucket sorted on its own (both parallel).
+  // Equal hashes of different points (a 64-bit collision, not expected) would interleave
+  // their records: such a bucket is sorted again by the positions themselves.
+  struct Keyed {
+    uint64_t hash;
+    ObjectId lo, hi;
+    uint32_t record;
+    bool operator<(const Keyed& y) const {
+      return std::tie(hash, lo, hi) < std::tie(y.hash, y.lo, y.hi);
+    }
+  };
+  std::vector<Keyed> keyed;
+  {
+    std::vector<Keyed> unsorted(nc);
+    parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) {
+        const SurfaceChunk::Corner& c = *record[i];
+        unsorted[i] = {position_hash(c.p), c.lo, c.hi, static_cast<uint32_t>(i)};
+      }
+    });
+    constexpr int kBucketBits = 12;
+    const std::vector<size_t> bucket_begin = bucket_scatter(
+        unsorted, keyed, size_t{1} << kBucketBits,
+        [](const Keyed& x) { return static_cast<size_t>(x.hash >> (64 - kBucketBits)); }, threads);
+    parallel_for(
+        size_t{1} << kBucketBits, threads,
+        [&](size_t bb, size_t be, int) {
+          for (size_t bucket = bb; bucket < be; ++bucket) {
+            const auto first = keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket]);
+            const auto last = keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket + 1]);
+            std::sort(first, last);
+            bool collision = false;
+            for (auto it = first; it != last && it + 1 != last && !collision; ++it)
+              collision = it->hash == (it + 1)->hash &&
+                          record[it->record]->p != record[(it + 1)->record]->p;
+            if (!collision) continue;
+            std::sort(first, last, [&](const Keyed& x, const Keyed& y) {
+              const Vec3& px = record[x.record]->p;
+              const Vec3& py = record[y.record]->p;
+              return std::tie(x.hash, px.x, px.y, px.z, x.lo, x.hi) <
+                     std::tie(y.hash, py.x, py.y, py.z, y.lo, y.hi);
+            });
+          }
+        },
+        64);
+  }
+
+  // The records in sorted order (through `record`: no copy, the chunks hold them); runs of
+  // one position; within a run, groups of one pair, whose records' sides together say which
+  // of the pair's objects get a vertex.
+  auto sorted = [&](size_t i) -> SurfaceChunk::Corner& { return *record[keyed[i].record]; };
+  std::vector<uint8_t> new_group(nc), new_point(nc);
+  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      const SurfaceChunk::Corner* before = i == 0 ? nullptr : &sorted(i - 1);
+      const SurfaceChunk::Corner& c = sorted(i);
+      new_point[i] = before == nullptr || c.p != before->p;
+      new_group[i] = new_point[i] || c.lo != before->lo || c.hi != before->hi;
+    }
+  });
+  // The sides of each group, on its first record.
+  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) {
+      if (!new_group[i]) continue;
+      for (size_t j = i + 1; j < nc && !new_group[j]; ++j) sorted(i).sides |= sorted(j).sides;
+    }
+  });
+  std::vector<size_t> run_start;
+  for (size_t i = 0; i < nc; ++i)
+    if (new_point[i]) run_start.push_back(i);
+  run_start.push_back(nc);
+  const size_t runs = run_start.size() - 1;
+
+  // Exact clearance once per distinct point; the records' witnesses bound the search.
+  // In the order the leaves made them (Z order, so nearby queries follow each other and
+  // share the BVH's cache lines) rather than in hash order.
+  std::vector<std::pair<uint64_t, uint32_t>> run_order(runs);
+  parallel_for(runs, threads, [&](size_t b, size_t e, int) {
+    for (size_t r = b; r < e; ++r) {
+      uint32_t first = keyed[run_start[r]].record;
+      for (size_t i = run_start[r] + 1; i < run_start[r + 1]; ++i)
+        first = std::min(first, keyed[i].record);
+      run_order[r] = {first, static_cast<uint32_t>(r)};
+    }
+  });
+  radix_sort(
+      run_order, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
+  std::vector<double> run_clearance(runs);
+  parallel_for(
+      runs, threads,
+      [&](size_t b, size_t e, int) {
+        Vec3 previous;  // the last answer: a point on an object next to this one
+        bool have_previous = false;
+        for (size_t o = b; o < e; ++o) {
+          const size_t r = run_order[o].second;
+          const Vec3 p = sorted(run_start[r]).p;
+          double bound2 = 1e300;
+          for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
+            if (record[keyed[i].record]->witness != kNoVertex)
+              bound2 = std::min(bound2, dist2(p, closest[record[keyed[i].record]->witness]));
+          if (have_previous) bound2 = std::min(bound2, dist2(p, previous) * (1 + 1e-9));
+          const ClosestHit hit = bvh.nearest(p, bound2);
+          run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
+          have_previous = hit.found();
+          if (have_previous) previous = hit.point;
+        }
+      },
+      1024);
+
+  Gvd gvd;
+  gvd.dimension = dim;
+  gvd.cells.resize(geometry.object_count);
+  for (uint32_t o = 0; o < geometry.object_count; ++o) gvd.cells[o].object = o;
+  // Per-object arrays filled in parallel: the runs (then the chunks' simplices) are cut into
+  // parts; a part's first vertex (simplex) of each object goes where the counts of the parts
+  // before it end, so the order is the serial one.
+  const size_t objects = geometry.object_count;
+  const size_t parts =
+      std::min<size_t>(std::max<size_t>(runs, 1), 8 * static_cast<size_t>(threads));
+  std::vector<size_t> part_run(parts + 1);
+  for (size_t p = 0; p <= parts; ++p) part_run[p] = runs * p / parts;
+  std::vector<uint32_t> vertex_base(parts * objects, 0);  // [part][object]
+  parallel_for(
+      parts, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p) {
+          for (size_t i = run_start[part_run[p]]; i < run_start[part_run[p + 1]]; ++i) {
+            if (!new_group[i]) continue;
+            const SurfaceChunk::Corner& c = sorted(i);
+            if (c.sides & 1) ++vertex_base[p * objects + c.lo];
+            if (c.sides & 2) ++vertex_base[p * objects + c.hi];
+          }
+        }
+      },
+      1);
+  const std::vector<uint32_t> vertices = part_starts(vertex_base, parts, objects);
+  for (GvdCell& cell : gvd.cells) {
+    cell.positions.resize(vertices[cell.object]);
+    cell.other.resize(vertices[cell.object]);
+    cell.clearance.resize(vertices[cell.object]);
+  }
+  // Per record, the vertex of each side (2 r: the lower object's, 2 r + 1: the higher's).
+  std::vector<uint32_t> index_of(2 * nc);
+  parallel_for(
+      parts, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p) {
+          uint32_t* next = &vertex_base[p * objects];  // the part's next vertex per object
+          uint32_t at[2] = {0, 0};
+          for (size_t r = part_run[p]; r < part_run[p + 1]; ++r) {
+            const Vec3 user = domain.from_unit(sorted(run_start[r]).p);
+            for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
+              if (new_group[i]) {
+                const SurfaceChunk::Corner& c = sorted(i);
+                const ObjectId pair[2] = {c.lo, c.hi};
+                for (int side = 0; side < 2; ++side) {
+                  if (!(c.sides >> side & 1)) continue;
+                  const ObjectId o = pair[side];
+                  GvdCell& cell = gvd.cells[o];
+                  at[side] = next[o]++;
+                  cell.positions[at[side]] = user;
+                  cell.other[at[side]] = pair[1 - side];
+                  cell.clearance[at[side]] = run_clearance[r];
+                }
+              }
+              index_of[2 * size_t{keyed[i].record}] = at[0];
+              index_of[2 * size_t{keyed[i].record} + 1] = at[1];
+            }
+          }
+        }
+      },
+      1);
+  // The sorting state is done with; of the records only each one's lower object is still
+  // needed (which side of index_of a simplex takes): drop the rest before the simplices are
+  // written, which is where the peak of this stage would otherwise be.
+  std::vector<ObjectId> record_lo(nc);
+  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) record_lo[i] = record[i]->lo;
+  });
+  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
+  release(record);
+  release(keyed);
+  release(new_group);
+  release(new_point);
+  for (SurfaceChunk& chunk : chunks) release(chunk.corners);
+  // Simplices: parts of whole chunks.
+  const size_t simplex_parts = std::min(chunks.size(), 8 * static_cast<size_t>(threads));
+  std::vector<size_t> part_chunk(simplex_parts + 1);
+  for (size_t p = 0; p <= simplex_parts; ++p) part_chunk[p] = chunks.size() * p / simplex_parts;
+  std::vector<uint32_t> simplex_base(simplex_parts * objects, 0);
+  parallel_for(
+      simplex_parts, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p)
+          for (size_t c = part_chunk[p]; c < part_chunk[p + 1]; ++c)
+            for (const SurfaceChunk::Simplex& t : chunks[c].simplices)
+              ++simplex_base[p * objects + t.object];
+      },
+      1);
+  const std::vector<uint32_t> simplices = part_starts(simplex_base, simplex_parts, objects);
+  for (GvdCell& cell : gvd.cells) cell.indices.resize(size_t{simplices[cell.object]} * arity);
+  parallel_for(
+      simplex_parts, threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t p = b; p < e; ++p) {
+          uint32_t* next = &simplex_base[p * objects];
+          for (size_t c = part_chunk[p]; c < part_chunk[p + 1]; ++c) {
+            for (const SurfaceChunk::Simplex& t : chunks[c].simplices) {
+              uint32_t* out = &gvd.cells[t.object].indices[size_t{next[t.object]++} * arity];
+              for (int k = 0; k < arity; ++k) {
+                const size_t rec = chunk_start[c] + t.v[k];
+                out[k] = index_of[2 * rec + (t.object == record_lo[rec] ? 0 : 1)];
+              }
+            }
+          }
+        }
+      },
+      1);
+  return gvd;
+}
+
+}  // namespace gvd
