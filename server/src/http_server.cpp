@@ -426,16 +426,11 @@ struct HttpServer::Impl {
   }
 
   /// multipart/form-data: one mesh per part (PLY/STL/OFF/OBJ...), part name = label; a part
-  /// named "params" holds the parameters as JSON.
+  /// named "params" holds the parameters as JSON. The meshes are the core's to assemble
+  /// (parse_scene_parts, as the CLI's several files): the server only hands over the bytes.
   Scene scene_from_parts(const httplib::Request& req, const SceneLimits& limits,
                          JobParams& params) const {
-    Scene scene;
-    bool first = true;
-    if (req.files.size() > limits.max_objects) {
-      throw Error(ErrorCode::kLimitExceeded, std::to_string(req.files.size()) +
-                                                 " parts, more than the limit of " +
-                                                 std::to_string(limits.max_objects) + " objects");
-    }
+    std::vector<ScenePart> parts;
     for (const auto& [name, part] : req.files) {
       if (name == "params") {
         if (!Json::accept(part.content)) {
@@ -444,41 +439,14 @@ struct HttpServer::Impl {
         params_from_json("{\"params\":" + part.content + "}", params);
         continue;
       }
-      if (name.empty())
-        throw Error(ErrorCode::kInvalidScene,
-                    "a multipart part has no name (the name is the label)");
-      const auto* data = reinterpret_cast<const uint8_t*>(part.content.data());
-      Scene piece =
-          parse_scene_bytes({data, part.content.size()}, SceneFormat::kAuto, name, limits);
-      if (first) {
-        scene.dimension = piece.dimension;
-        first = false;
-      } else if (piece.dimension != scene.dimension) {
-        throw Error(ErrorCode::kInvalidScene,
-                    "part \"" + name + "\" is " + std::to_string(piece.dimension) +
-                        "D, the others " + std::to_string(scene.dimension) + "D");
-      }
-      // Several objects in one part (OBJ groups): one object named after the part.
-      SceneObject merged;
-      merged.label = name;
-      for (const SceneObject& o : piece.objects) {
-        const auto offset = static_cast<uint32_t>(merged.vertices.size());
-        merged.vertices.insert(merged.vertices.end(), o.vertices.begin(), o.vertices.end());
-        for (Simplex s : o.simplices) {
-          for (uint32_t& v : s.v) v += offset;
-          merged.simplices.push_back(s);
-        }
-      }
-      scene.objects.push_back(std::move(merged));
-      for (SceneWarning& w : piece.warnings) {
-        if (w.kind != "degenerate_simplices") continue;
-        w.object = name;
-        scene.warnings.push_back(std::move(w));
-      }
+      parts.push_back({name,
+                       {reinterpret_cast<const uint8_t*>(part.content.data()), part.content.size()},
+                       SceneFormat::kAuto,
+                       name.empty() ? std::string("a multipart part") : "part \"" + name + "\""});
     }
-    if (first) throw Error(ErrorCode::kInvalidScene, "the multipart body has no mesh parts");
-    validate_scene(scene, limits);
-    return scene;
+    if (parts.empty())
+      throw Error(ErrorCode::kInvalidScene, "the multipart body has no mesh parts");
+    return parse_scene_parts(parts, limits);
   }
 
   void status(const httplib::Request& req, httplib::Response& res) {

@@ -189,39 +189,57 @@ Scene load_scene(std::span<const std::string> paths, const SceneLimits& limits) 
     const std::vector<uint8_t> bytes = read_file(paths[0]);
     return parse_bytes(bytes, format_of_path(path), path.stem().string(), limits, false);
   }
-  if (paths.size() > limits.max_objects) {
+  std::vector<std::vector<uint8_t>> contents;
+  std::vector<ScenePart> parts;
+  if (paths.size() > limits.max_objects) {  // before reading any
     throw Error(ErrorCode::kLimitExceeded, std::to_string(paths.size()) +
                                                " files, more than the limit of " +
                                                std::to_string(limits.max_objects) + " objects");
   }
+  contents.reserve(paths.size());
+  for (const std::string& p : paths) {
+    const std::filesystem::path path(p);
+    contents.push_back(read_file(p));
+    parts.push_back({path.stem().string(), contents.back(), format_of_path(path), "\"" + p + "\""});
+  }
+  return parse_scene_parts(parts, limits);
+}
+
+Scene parse_scene_parts(std::span<const ScenePart> parts, const SceneLimits& limits) {
+  if (parts.empty()) throw Error(ErrorCode::kInvalidScene, "no meshes: a scene needs objects");
+  if (parts.size() > limits.max_objects) {
+    throw Error(ErrorCode::kLimitExceeded, std::to_string(parts.size()) +
+                                               " meshes, more than the limit of " +
+                                               std::to_string(limits.max_objects) + " objects");
+  }
   Scene scene;
-  std::unordered_map<std::string, size_t> path_of_stem;
-  for (size_t i = 0; i < paths.size(); ++i) {
-    const std::filesystem::path path(paths[i]);
-    const std::string stem = path.stem().string();
-    auto [it, inserted] = path_of_stem.emplace(stem, i);
+  std::unordered_map<std::string, size_t> part_of_label;
+  for (size_t i = 0; i < parts.size(); ++i) {
+    const ScenePart& part = parts[i];
+    if (part.label.empty())
+      throw Error(ErrorCode::kInvalidScene, part.source + " has no label (its name is the label)");
+    auto [it, inserted] = part_of_label.emplace(part.label, i);
     if (!inserted) {
-      throw Error(ErrorCode::kInvalidScene, "files \"" + paths[it->second] + "\" and \"" +
-                                                paths[i] + "\" have the same name \"" + stem +
+      throw Error(ErrorCode::kInvalidScene, parts[it->second].source + " and " + part.source +
+                                                " have the same label \"" + part.label +
                                                 "\" (labels must be unique)");
     }
-    const std::vector<uint8_t> bytes = read_file(paths[i]);
-    Scene part = parse_bytes(bytes, format_of_path(path), stem, limits, true);
+    Scene piece = parse_bytes(part.bytes, part.format, part.label, limits, true);
     if (i == 0) {
-      scene.dimension = part.dimension;
-    } else if (part.dimension != scene.dimension) {
-      throw Error(ErrorCode::kInvalidScene,
-                  "\"" + paths[i] + "\" is " + std::to_string(part.dimension) + "D but \"" +
-                      paths[0] + "\" is " + std::to_string(scene.dimension) + "D");
+      scene.dimension = piece.dimension;
+    } else if (piece.dimension != scene.dimension) {
+      throw Error(ErrorCode::kInvalidScene, part.source + " is " + std::to_string(piece.dimension) +
+                                                "D but " + parts[0].source + " is " +
+                                                std::to_string(scene.dimension) + "D");
     }
-    scene.objects.push_back(merge_objects(part, stem));
-    // Keep what the per-file validation removed (degenerate simplices, ...), now under the
-    // file's label; topology warnings are recomputed on the merged object below.
-    for (SceneWarning& w : part.warnings) {
-      if (w.kind == "degenerate_simplices" && !w.object.empty() && w.object != stem) {
-        w.detail = "file \"" + paths[i] + "\", " + w.detail;
+    scene.objects.push_back(merge_objects(piece, part.label));
+    // Keep what the per-part validation removed (degenerate simplices, ...), now under the
+    // part's label; validate_scene below recomputes the topology warnings on the merged object.
+    for (SceneWarning& w : piece.warnings) {
+      if (w.kind == "degenerate_simplices" && !w.object.empty() && w.object != part.label) {
+        w.detail = part.source + ", " + w.detail;
       }
-      w.object = stem;
+      w.object = part.label;
       scene.warnings.push_back(std::move(w));
     }
   }

@@ -293,6 +293,82 @@ TEST(LoadScene, MixingDimensionsIsAnError) {
   expect_error([&] { load_scene(paths); }, ErrorCode::kInvalidScene, "2D");
 }
 
+// The one merge of several meshes (the CLI's files, the server's multipart parts).
+TEST(ParseSceneParts, OneObjectPerPartNamedByItsSource) {
+  const std::vector<uint8_t> obj = read_bytes(kData + "/formats/groups.obj");
+  const std::vector<uint8_t> off = read_bytes(kData + "/formats/cube.off");
+  const std::vector<ScenePart> parts = {{"left", obj, SceneFormat::kAuto, "part \"left\""},
+                                        {"right", off, SceneFormat::kAuto, "part \"right\""}};
+  const Scene s = parse_scene_parts(parts);
+  ASSERT_EQ(s.objects.size(), 2u);
+  EXPECT_EQ(s.objects[0].label, "left");
+  EXPECT_EQ(s.objects[0].simplices.size(), 16u);  // both OBJ groups, one object
+  expect_closed_cube(s.objects[1]);
+  EXPECT_EQ(s.objects[1].label, "right");
+  // The same bytes as files give the same objects.
+  const std::vector<std::string> paths = {kData + "/formats/groups.obj",
+                                          kData + "/formats/cube.off"};
+  const Scene files = load_scene(paths);
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(files.objects[i].vertices, s.objects[i].vertices);
+    EXPECT_EQ(files.objects[i].simplices.size(), s.objects[i].simplices.size());
+  }
+}
+
+TEST(ParseSceneParts, ErrorsNameTheParts) {
+  const std::vector<uint8_t> off = read_bytes(kData + "/formats/cube.off");
+  const std::vector<uint8_t> flat = read_bytes(kData + "/formats/two_objects_2d.json");
+  const std::vector<uint8_t> junk = bytes_of("not a mesh");
+  expect_error(
+      [&] {
+        const std::vector<ScenePart> p = {{"a", off, SceneFormat::kAuto, "part \"a\""},
+                                          {"a", off, SceneFormat::kAuto, "part \"b\""}};
+        parse_scene_parts(p);
+      },
+      ErrorCode::kInvalidScene, "part \"a\" and part \"b\" have the same label \"a\"");
+  expect_error(
+      [&] {
+        const std::vector<ScenePart> p = {{"a", off, SceneFormat::kAuto, "part \"a\""},
+                                          {"b", flat, SceneFormat::kAuto, "part \"b\""}};
+        parse_scene_parts(p);
+      },
+      ErrorCode::kInvalidScene, "part \"b\" is 2D but part \"a\" is 3D");
+  expect_error(
+      [&] {
+        const std::vector<ScenePart> p = {{"", off, SceneFormat::kAuto, "a multipart part"}};
+        parse_scene_parts(p);
+      },
+      ErrorCode::kInvalidScene, "a multipart part has no label");
+  expect_error([&] { parse_scene_parts({}); }, ErrorCode::kInvalidScene, "no meshes");
+  // The object limit is checked before any part is parsed: junk parts over the limit are a
+  // limit error, not a format error.
+  SceneLimits limits;
+  limits.max_objects = 2;
+  expect_error(
+      [&] {
+        const std::vector<ScenePart> p = {{"a", junk, SceneFormat::kAuto, "part \"a\""},
+                                          {"b", junk, SceneFormat::kAuto, "part \"b\""},
+                                          {"c", junk, SceneFormat::kAuto, "part \"c\""}};
+        parse_scene_parts(p, limits);
+      },
+      ErrorCode::kLimitExceeded, "3 meshes, more than the limit of 2 objects");
+}
+
+TEST(ParseSceneParts, DegenerateSimplicesAreReportedUnderThePartNamingItsSource) {
+  // A tetrahedron plus one zero-area triangle (a repeated vertex).
+  const std::vector<uint8_t> off = bytes_of(
+      "OFF\n4 5 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n3 0 0 1\n");
+  const std::vector<uint8_t> cube = read_bytes(kData + "/formats/cube.off");
+  const std::vector<ScenePart> parts = {{"tet", off, SceneFormat::kAuto, "part \"tet\""},
+                                        {"cube", cube, SceneFormat::kAuto, "part \"cube\""}};
+  const Scene s = parse_scene_parts(parts);
+  const SceneWarning* w = find_warning(s, "degenerate_simplices");
+  ASSERT_NE(w, nullptr);
+  EXPECT_EQ(w->object, "tet");
+  EXPECT_EQ(w->count, 1u);
+  EXPECT_EQ(s.objects[0].simplices.size(), 4u);
+}
+
 TEST(LoadSceneRobustness, EveryPrefixOfEveryFixtureParsesOrFailsCleanly) {
   for (const auto& entry : std::filesystem::directory_iterator(kData + "/formats")) {
     if (entry.path().extension() == ".py") continue;

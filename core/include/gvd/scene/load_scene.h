@@ -4,6 +4,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "gvd/scene/scene.h"
 
@@ -12,7 +13,7 @@ namespace gvd {
 /// Input formats the scene loader understands.
 enum class SceneFormat { kAuto, kJson, kObj, kGltf, kGlb, kPly, kStl, kOff };
 
-/// Parses the native scene JSON of DESIGN.md ({"dimension":..,"objects":[..]}) and validates
+/// Parses the native scene JSON (docs/FORMATS.md) ({"dimension":..,"objects":[..]}) and validates
 /// it. Errors name the JSON path, object label and index.
 Scene parse_scene_json(std::string_view text, const SceneLimits& limits = {});
 
@@ -23,8 +24,24 @@ Scene parse_scene_json(std::string_view text, const SceneLimits& limits = {});
 Scene parse_scene_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std::string& name,
                         const SceneLimits& limits = {});
 
+/// One input of a scene made of several: a mesh file, or a part of a multipart upload.
+struct ScenePart {
+  std::string label;  ///< the object's label (a file's stem, a part's name)
+  std::span<const uint8_t> bytes;
+  SceneFormat format = SceneFormat::kAuto;
+  std::string source;  ///< how messages name it: "\"meshes/a.ply\"", "part \"a\""
+};
+
+/// A scene of one object per part: the objects a part holds (OBJ groups, glTF nodes) are
+/// merged into one named after the part. Every part has the scene's dimension and a label of
+/// its own; the part count is checked against the object limit before any is parsed. Each
+/// part's warnings are kept under its label (degenerate simplices, which validation removed,
+/// name the part's source); the topology warnings are those of the merged objects. Validated.
+/// The one merge of the CLI's several files and the server's multipart uploads.
+Scene parse_scene_parts(std::span<const ScenePart> parts, const SceneLimits& limits = {});
+
 /// Loads a scene from files: one scene file (JSON, OBJ, GLB/glTF), or several mesh files
-/// (PLY/STL/OFF/OBJ), one object each, labelled by file stem. Validated.
+/// (PLY/STL/OFF/OBJ), one object each, labelled by file stem (parse_scene_parts). Validated.
 Scene load_scene(std::span<const std::string> paths, const SceneLimits& limits = {});
 
 /// Serialises a scene to the native JSON (for round trips and the job store).
