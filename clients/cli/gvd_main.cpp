@@ -323,11 +323,11 @@ void print_summary(const GvdResult& r, std::FILE* out) {
   constexpr int kShown = 5;
   std::map<std::string, std::pair<int, uint64_t>> kinds;  // kind -> warnings, their counts
   for (const SceneWarning& w : r.scene.warnings) {
-    auto& [warnings, total] = kinds[w.kind];
+    auto& [warnings, total] = kinds[warning_kind_name(w.kind)];
     ++warnings;
     total += w.count;
     if (warnings > kShown) continue;
-    std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", w.kind.c_str(),
+    std::fprintf(out, "  warning [%s]%s%s (%llu): %s\n", warning_kind_name(w.kind),
                  w.object.empty() ? "" : " ", w.object.c_str(),
                  static_cast<unsigned long long>(w.count), w.detail.c_str());
   }

@@ -375,12 +375,7 @@ struct HttpServer::Impl {
     job.dimension = scene.dimension;
     job.objects = scene.objects.size();
     job.simplices = scene.simplex_count();
-    Json warnings = Json::array();
-    for (const SceneWarning& w : scene.warnings) {
-      warnings.push_back(
-          {{"kind", w.kind}, {"object", w.object}, {"count", w.count}, {"detail", w.detail}});
-    }
-    job.warnings_json = json_text(warnings);
+    job.warnings_json = warnings_to_json(scene.warnings);
     const SubmitOutcome outcome = jobs.submit(job);
     res.set_header("Location", "/v1/jobs/" + job.id);
     res.set_header("X-Gvd-Cache", outcome.created ? "miss" : "hit");

@@ -162,12 +162,11 @@ Scene read_stored_scene(const std::string& base, const SceneLimits& limits) {
   };
   const nlohmann::json meta = nlohmann::json::parse(text(base + ".json"));
   Scene scene = parse_scene_json(text(base + ".scene.json"), limits);
-  std::vector<SceneWarning> warnings;
-  for (const nlohmann::json& w : meta.value("warnings", nlohmann::json::array())) {
-    if (w.value("kind", "") != "degenerate_simplices") continue;
-    warnings.push_back({w.value("kind", ""), w.value("object", ""), w.value("count", uint64_t{0}),
-                        w.value("detail", "")});
-  }
+  // Only what normalizing removed: the topology warnings are recomputed from the scene.
+  std::vector<SceneWarning> warnings =
+      warnings_from_json(meta.value("warnings", nlohmann::json::array()).dump());
+  std::erase_if(warnings,
+                [](const SceneWarning& w) { return w.kind != WarningKind::kDegenerateSimplices; });
   scene.warnings.insert(scene.warnings.begin(), warnings.begin(), warnings.end());
   return scene;
 }

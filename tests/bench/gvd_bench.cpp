@@ -552,8 +552,9 @@ void print_summary() {
 
   for (const SceneRun& r : all) {
     for (const gvd::SceneWarning& w : r.warnings) {
-      std::printf("warning [%s] %s (%llu): %.200s\n", r.name.c_str(), w.kind.c_str(),
-                  static_cast<unsigned long long>(w.count), w.detail.c_str());
+      std::printf("warning [%s] %s (%llu): %.200s\n", r.name.c_str(),
+                  gvd::warning_kind_name(w.kind), static_cast<unsigned long long>(w.count),
+                  w.detail.c_str());
     }
     if (r.error.empty() && (r.stats.ambiguous_at_limit > 0 || r.stats.touching_leaves > 0)) {
       std::printf("note [%s]: refine_rounds %d, ambiguous_at_limit %llu, touching_leaves %llu\n",

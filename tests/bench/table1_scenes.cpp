@@ -195,7 +195,8 @@ Scene checked_scene(int dimension, std::vector<SceneObject> objects) {
   Scene scene = gvd::test::make_scene(dimension, std::move(objects));
   if (!scene.warnings.empty()) {
     const SceneWarning& w = scene.warnings.front();
-    throw std::runtime_error("generated scene has warning " + w.kind + " on '" + w.object +
+    throw std::runtime_error("generated scene has warning " +
+                             std::string(gvd::warning_kind_name(w.kind)) + " on '" + w.object +
                              "': " + w.detail);
   }
   return scene;

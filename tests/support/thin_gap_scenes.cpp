@@ -474,7 +474,8 @@ Scene checked_scene(const std::string& where, int dimension, std::vector<SceneOb
   Scene scene = make_scene(dimension, std::move(objects));
   if (!scene.warnings.empty()) {
     const SceneWarning& w = scene.warnings.front();
-    fail(where, "scene warning " + w.kind + " on " + quoted(w.object) + ": " + w.detail);
+    fail(where, "scene warning " + std::string(warning_kind_name(w.kind)) + " on " +
+                    quoted(w.object) + ": " + w.detail);
   }
   return scene;
 }

@@ -151,15 +151,6 @@ class Writer {
   size_t section_start_ = kNoSection;
 };
 
-std::string warnings_to_json(const std::vector<SceneWarning>& warnings) {
-  Json array = Json::array();
-  for (const SceneWarning& w : warnings) {
-    array.push_back(
-        {{"kind", w.kind}, {"object", w.object}, {"count", w.count}, {"detail", w.detail}});
-  }
-  return array.dump(-1, ' ', false, Json::error_handler_t::replace);
-}
-
 Json stats_to_value(const ResultStats& s) {
   Json stages = Json::array();
   for (const StageStats& st : s.stages) {
@@ -344,14 +335,6 @@ int read_dimension(Reader& in) {
   return static_cast<int>(dim);
 }
 
-Json parse_json(Reader& in, const std::string& text, const char* what) {
-  try {
-    return Json::parse(text);
-  } catch (const Json::exception& e) {
-    in.fail(std::string(what) + " is not valid JSON: " + e.what());
-  }
-}
-
 Scene read_scene(Reader in) {
   const std::string text = in.string("scene JSON");
   const std::string warnings_text = in.string("warnings JSON");
@@ -371,15 +354,10 @@ Scene read_scene(Reader in) {
   // Validation recomputes topology warnings; the stored list (which also holds the
   // pipeline's warnings) is the one of record.
   scene.warnings.clear();
-  const Json warnings = parse_json(in, warnings_text, "the warnings");
-  if (!warnings.is_array()) in.fail("the warnings must be a JSON array");
   try {
-    for (const Json& w : warnings) {
-      scene.warnings.push_back({w.at("kind").get<std::string>(), w.at("object").get<std::string>(),
-                                w.at("count").get<uint64_t>(), w.at("detail").get<std::string>()});
-    }
-  } catch (const Json::exception& e) {
-    in.fail(std::string("a warning is malformed: ") + e.what());
+    scene.warnings = warnings_from_json(warnings_text);
+  } catch (const Error& e) {
+    in.fail("the stored warnings: " + e.detail());
   }
   return scene;
 }
@@ -846,12 +824,7 @@ std::string result_info_json(const GvdResult& r) {
     for (const Vec3& a : r.domain.axis) axes.push_back(Json::array({a.x, a.y, a.z}));
     doc["domain"]["axes"] = std::move(axes);
   }
-  Json warnings = Json::array();
-  for (const SceneWarning& w : r.scene.warnings) {
-    warnings.push_back(
-        {{"kind", w.kind}, {"object", w.object}, {"count", w.count}, {"detail", w.detail}});
-  }
-  doc["warnings"] = std::move(warnings);
+  doc["warnings"] = Json::parse(warnings_to_json(r.scene.warnings));
   // When a uniform grid would do (grid_advice.h): null when no gap was measured.
   const GridAdvice advice = grid_advice(r.scene, r.graph);
   if (advice.measured) {

@@ -214,16 +214,16 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
       }
       detail += " " + scene.objects[a].label + "/" + scene.objects[b].label;
     }
-    scene.warnings.push_back({"objects_touch", "", contacts.pairs().size(), detail});
+    scene.warnings.push_back({WarningKind::kObjectsTouch, "", contacts.pairs().size(), detail});
   }
   if (r.stats.unseen_left > 0) {
     scene.warnings.push_back(
-        {"thin_regions_left", "", r.stats.unseen_left,
+        {WarningKind::kThinRegionsLeft, "", r.stats.unseen_left,
          "cells where a GVD point is nearer to an object the cell does not see (a region "
          "thinner than the cell) after the allowed refinement rounds (--unseen-rounds)"});
   }
   if (r.stats.ambiguous_at_limit > 0) {
-    scene.warnings.push_back({"ambiguous_cells_left", "", r.stats.ambiguous_at_limit,
+    scene.warnings.push_back({WarningKind::kAmbiguousCellsLeft, "", r.stats.ambiguous_at_limit,
                               "cells whose GVD topology is ambiguous (§5) after the allowed "
                               "refinement (--ambiguity-levels/--ambiguity-rounds); surfaced by "
                               "the centroid rule (§6), still closed and oriented"});

@@ -276,7 +276,7 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
     // their boundary surfaces coincide, and exact ties between the two copies of a face go to
     // the label a point is inside (gvd_better_hit_sided).
     scene.warnings.push_back(
-        {"labels_touch", "", touching.size(),
+        {WarningKind::kLabelsTouch, "", touching.size(),
          std::to_string(touching.size()) +
              " pairs of labels share voxel faces: they are touching pairs (gap 0) whose "
              "interface is their shared boundary, resolved down to the contact depth; labels "

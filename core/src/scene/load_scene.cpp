@@ -236,7 +236,8 @@ Scene parse_scene_parts(std::span<const ScenePart> parts, const SceneLimits& lim
     // Keep what the per-part validation removed (degenerate simplices, ...), now under the
     // part's label; validate_scene below recomputes the topology warnings on the merged object.
     for (SceneWarning& w : piece.warnings) {
-      if (w.kind == "degenerate_simplices" && !w.object.empty() && w.object != part.label) {
+      if (w.kind == WarningKind::kDegenerateSimplices && !w.object.empty() &&
+          w.object != part.label) {
         w.detail = part.source + ", " + w.detail;
       }
       w.object = part.label;

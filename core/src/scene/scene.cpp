@@ -14,6 +14,17 @@ namespace gvd {
 
 namespace {
 
+constexpr std::pair<WarningKind, const char*> kWarningNames[] = {
+    {WarningKind::kDegenerateSimplices, "degenerate_simplices"},
+    {WarningKind::kOpenMesh, "open_mesh"},
+    {WarningKind::kNonManifold, "non_manifold"},
+    {WarningKind::kMultipleComponents, "multiple_components"},
+    {WarningKind::kLabelsTouch, "labels_touch"},
+    {WarningKind::kObjectsTouch, "objects_touch"},
+    {WarningKind::kThinRegionsLeft, "thin_regions_left"},
+    {WarningKind::kAmbiguousCellsLeft, "ambiguous_cells_left"},
+};
+
 [[noreturn]] void invalid(std::string detail, ErrorLocation where = {}) {
   throw Error(ErrorCode::kInvalidScene, std::move(detail), std::move(where));
 }
@@ -113,12 +124,12 @@ void add_topology_warnings(const SceneObject& object, int dimension,
   const auto [open, non_manifold] = mesh_topology(object, dimension);
   const char* unit = dimension == 2 ? "vertices" : "edges";
   if (open > 0) {
-    out.push_back({"open_mesh", object.label, open,
+    out.push_back({WarningKind::kOpenMesh, object.label, open,
                    "object \"" + object.label + "\": " + std::to_string(open) + " boundary " +
                        unit + (dimension == 2 ? " (degree 1)" : " (used by one triangle)")});
   }
   if (non_manifold > 0) {
-    out.push_back({"non_manifold", object.label, non_manifold,
+    out.push_back({WarningKind::kNonManifold, object.label, non_manifold,
                    "object \"" + object.label + "\": " + std::to_string(non_manifold) +
                        " non-manifold " + unit +
                        (dimension == 2 ? " (degree > 2)" : " (used by more than two triangles)")});
@@ -133,14 +144,31 @@ void add_topology_warnings(const SceneObject& object, int dimension,
   uint64_t components = 0;
   for (uint32_t v = 0; v < object.vertices.size(); ++v) components += used[v] && uf.find(v) == v;
   if (components > 1) {
-    out.push_back({"multiple_components", object.label, components,
+    out.push_back({WarningKind::kMultipleComponents, object.label, components,
                    "object \"" + object.label + "\" has " + std::to_string(components) +
                        " connected components"});
   }
 }
 
+}  // namespace
+
+const char* warning_kind_name(WarningKind kind) {
+  for (const auto& [k, name] : kWarningNames)
+    if (k == kind) return name;
+  return "unknown";
+}
+
+std::optional<WarningKind> warning_kind_from_name(std::string_view name) {
+  for (const auto& [k, n] : kWarningNames)
+    if (name == n) return k;
+  return std::nullopt;
+}
+
+namespace {
+
 bool is_topology_warning(const SceneWarning& w) {
-  return w.kind == "open_mesh" || w.kind == "non_manifold" || w.kind == "multiple_components";
+  return w.kind == WarningKind::kOpenMesh || w.kind == WarningKind::kNonManifold ||
+         w.kind == WarningKind::kMultipleComponents;
 }
 
 }  // namespace
@@ -245,7 +273,7 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
               at(oi, object.label));
     }
     if (removed > 0) {
-      scene.warnings.push_back({"degenerate_simplices", object.label, removed,
+      scene.warnings.push_back({WarningKind::kDegenerateSimplices, object.label, removed,
                                 "object \"" + object.label + "\": removed " +
                                     std::to_string(removed) + " degenerate " +
                                     (dim == 2 ? "segments" : "triangles")});

@@ -245,4 +245,42 @@ std::string scene_to_json(const Scene& scene) {
   return doc.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
+std::string warnings_to_json(const std::vector<SceneWarning>& warnings) {
+  nlohmann::json array = nlohmann::json::array();
+  for (const SceneWarning& w : warnings) {
+    array.push_back({{"kind", warning_kind_name(w.kind)},
+                     {"object", w.object},
+                     {"count", w.count},
+                     {"detail", w.detail}});
+  }
+  return array.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::vector<SceneWarning> warnings_from_json(std::string_view text) {
+  check_json_depth(text, "the warnings", ErrorCode::kInvalidArgument);
+  const nlohmann::json array = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
+  if (!array.is_array())
+    throw Error(ErrorCode::kInvalidArgument, "the warnings are not a JSON array");
+  std::vector<SceneWarning> out;
+  for (size_t i = 0; i < array.size(); ++i) {
+    const nlohmann::json& w = array[i];
+    const auto fail = [&](const std::string& why) {
+      throw Error(ErrorCode::kInvalidArgument, "warning " + std::to_string(i) + ": " + why);
+    };
+    if (!w.is_object() || !w.contains("kind") || !w["kind"].is_string()) fail("no kind");
+    const std::optional<WarningKind> kind = warning_kind_from_name(w["kind"].get<std::string>());
+    if (!kind) fail("unknown kind \"" + w["kind"].get<std::string>().substr(0, 40) + "\"");
+    const nlohmann::json& object = w.contains("object") ? w["object"] : nlohmann::json("");
+    const nlohmann::json& count = w.contains("count") ? w["count"] : nlohmann::json(0);
+    const nlohmann::json& detail = w.contains("detail") ? w["detail"] : nlohmann::json("");
+    const bool count_ok =
+        count.is_number_unsigned() || (count.is_number_integer() && count.get<int64_t>() >= 0);
+    if (!object.is_string() || !count_ok || !detail.is_string())
+      fail("object, count or detail of the wrong type");
+    out.push_back(
+        {*kind, object.get<std::string>(), count.get<uint64_t>(), detail.get<std::string>()});
+  }
+  return out;
+}
+
 }  // namespace gvd

@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "gvd/common/error.h"
-#include "gvd/pipeline/pipeline.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/octree/lattice.h"
+#include "gvd/pipeline/pipeline.h"
 #include "support/scenes.h"
 
 namespace gvd {
@@ -274,7 +274,7 @@ TEST(ResultFile, RoundTrip3D) {
   const GvdResult& r = result_3d();
   ASSERT_GT(r.graph.edges.size(), 0u);
   bool touch = false;
-  for (const SceneWarning& w : r.scene.warnings) touch |= w.kind == "objects_touch";
+  for (const SceneWarning& w : r.scene.warnings) touch |= w.kind == WarningKind::kObjectsTouch;
   EXPECT_TRUE(touch) << "the fixture should carry the pipeline's warning";
 
   const std::string path = output_path("round_trip_3d.gvdres");
@@ -596,7 +596,8 @@ TEST(ResultFile, InfoJsonMatchesTheStats) {
     }
     ASSERT_EQ(j.at("warnings").size(), r->scene.warnings.size());
     for (size_t i = 0; i < r->scene.warnings.size(); ++i) {
-      EXPECT_EQ(j["warnings"][i].at("kind").get<std::string>(), r->scene.warnings[i].kind);
+      EXPECT_EQ(j["warnings"][i].at("kind").get<std::string>(),
+                warning_kind_name(r->scene.warnings[i].kind));
       EXPECT_EQ(j["warnings"][i].at("object").get<std::string>(), r->scene.warnings[i].object);
       EXPECT_EQ(j["warnings"][i].at("count").get<uint64_t>(), r->scene.warnings[i].count);
       EXPECT_EQ(j["warnings"][i].at("detail").get<std::string>(), r->scene.warnings[i].detail);

@@ -617,7 +617,7 @@ TEST(ComputeGvd, NearContactReportsTheTrueGapAndTouchingOnlyWhenUnresolvable) {
     ASSERT_EQ(r.graph.edges.size(), 1u);
     const DualEdge& e = r.graph.edges[0];
     bool warned = false;
-    for (const SceneWarning& w : r.scene.warnings) warned |= w.kind == "objects_touch";
+    for (const SceneWarning& w : r.scene.warnings) warned |= w.kind == WarningKind::kObjectsTouch;
     if (gap > 0) {
       EXPECT_NEAR(e.gap, truth, 1e-9 * truth);
       EXPECT_FALSE(e.touching);
@@ -790,7 +790,7 @@ TEST(ComputeGvd, IntersectingBoxesStayClosed) {
                6);
   for (const GvdCell& cell : r.gvd.cells) EXPECT_EQ(test::count_open_edges(cell, 3), 0u);
   bool warned = false;
-  for (const auto& w : r.scene.warnings) warned |= w.kind == "objects_touch";
+  for (const auto& w : r.scene.warnings) warned |= w.kind == WarningKind::kObjectsTouch;
   EXPECT_TRUE(warned);
 }
 
@@ -810,7 +810,7 @@ TEST(ComputeGvd, TouchingObjectsAtTheDefaultDepthStayCheapAndClosed) {
     for (const GvdCell& cell : r.gvd.cells) EXPECT_EQ(test::count_open_edges(cell, 3), 0u);
     std::string touching;
     for (const auto& w : r.scene.warnings)
-      if (w.kind == "objects_touch") touching = w.detail;
+      if (w.kind == WarningKind::kObjectsTouch) touching = w.detail;
     EXPECT_NE(touching.find("a/b"), std::string::npos) << touching;
     EXPECT_EQ(touching.find("/c"), std::string::npos) << touching;
     // c is separate: its cell boundary crosses no object.
@@ -840,7 +840,7 @@ TEST(ComputeGvd, NonManifoldAndOpenObjects3D) {
       run(test::make_scene(3, {bowtie, sheet, test::make_sphere("ball", {1.8, 0.2, 0.5}, 0.25)}));
   expect_valid(r);
   std::set<std::string> kinds;
-  for (const auto& w : r.scene.warnings) kinds.insert(w.kind);
+  for (const auto& w : r.scene.warnings) kinds.insert(warning_kind_name(w.kind));
   EXPECT_TRUE(kinds.count("open_mesh"));
   EXPECT_EQ(graph_pairs(r.graph),
             (std::set<std::pair<ObjectId, ObjectId>>{{0, 1}, {0, 2}, {1, 2}}));

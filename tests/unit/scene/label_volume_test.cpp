@@ -145,8 +145,9 @@ TEST(LabelVolume, BoundariesEncloseTheirVoxels3d) {
           const uint64_t a = at(i, j, k), b = at(i + di, j + dj, k + dk);
           if (a != b && a != 0 && b != 0) adjacent.emplace(std::min(a, b), std::max(a, b));
         }
-  const auto w = std::find_if(s.warnings.begin(), s.warnings.end(),
-                              [](const SceneWarning& x) { return x.kind == "labels_touch"; });
+  const auto w = std::find_if(s.warnings.begin(), s.warnings.end(), [](const SceneWarning& x) {
+    return x.kind == WarningKind::kLabelsTouch;
+  });
   ASSERT_NE(w, s.warnings.end());
   EXPECT_EQ(w->count, adjacent.size());
   // With no background, label 0 is an object too.
@@ -184,7 +185,8 @@ TEST(LabelVolume, AnisotropicGapIsMeasuredExactly) {
   PipelineOptions po;
   po.threads = 2;
   const Scene slabs = scene_from_label_volume(v, o);
-  for (const SceneWarning& w : slabs.warnings) EXPECT_NE(w.kind, "labels_touch") << w.detail;
+  for (const SceneWarning& w : slabs.warnings)
+    EXPECT_NE(w.kind, WarningKind::kLabelsTouch) << w.detail;
   const GvdResult r = compute_gvd(slabs, po);
   ASSERT_EQ(r.scene.objects.size(), 2u);
   EXPECT_EQ(r.scene.objects[0].label, "label_7");

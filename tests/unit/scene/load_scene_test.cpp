@@ -44,7 +44,7 @@ void expect_error(F&& f, ErrorCode code, const std::string& part) {
 
 const SceneWarning* find_warning(const Scene& s, const std::string& kind) {
   for (const SceneWarning& w : s.warnings) {
-    if (w.kind == kind) return &w;
+    if (warning_kind_name(w.kind) == kind) return &w;
   }
   return nullptr;
 }

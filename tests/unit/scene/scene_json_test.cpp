@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
 #include <string>
 
 #include "gvd/common/error.h"
@@ -278,6 +281,56 @@ TEST(SceneJson, ErrorsSayWhereInStructuredFields) {
   EXPECT_EQ(w.index, 3);
   // No location where there is none to give.
   EXPECT_TRUE(location_of([&] { parse_scene_json(R"({"dimension": 3})"); }).empty());
+}
+
+// Warning kinds: one name each, both ways, every name documented in docs/FORMATS.md, and the
+// one JSON writer and reader give back what they were given.
+TEST(SceneWarnings, EveryKindHasOneNameBothWaysAndIsDocumented) {
+  std::ifstream formats(std::string(GVD_TEST_DATA_DIR) + "/../../docs/FORMATS.md");
+  ASSERT_TRUE(formats);
+  std::stringstream doc;
+  doc << formats.rdbuf();
+  std::set<std::string> names;
+  for (int k = 0; k <= static_cast<int>(WarningKind::kAmbiguousCellsLeft); ++k) {
+    const auto kind = static_cast<WarningKind>(k);
+    const std::string name = warning_kind_name(kind);
+    EXPECT_NE(name, "unknown") << k;
+    EXPECT_TRUE(names.insert(name).second) << name << " names two kinds";
+    EXPECT_EQ(warning_kind_from_name(name), kind) << name;
+    EXPECT_NE(doc.str().find("`" + name + "`"), std::string::npos)
+        << name << " is not listed in docs/FORMATS.md";
+  }
+  EXPECT_EQ(warning_kind_from_name("open-mesh"), std::nullopt);
+  EXPECT_EQ(warning_kind_from_name(""), std::nullopt);
+}
+
+TEST(SceneWarnings, JsonRoundTripAndBadEntriesNameTheirIndex) {
+  const std::vector<SceneWarning> warnings = {
+      {WarningKind::kOpenMesh, "lid", 12, "object \"lid\": 12 open edges"},
+      {WarningKind::kObjectsTouch, "", 3, "three \"pairs\"\nand a newline"},
+      {WarningKind::kLabelsTouch, "", 0, ""}};
+  const std::vector<SceneWarning> back = warnings_from_json(warnings_to_json(warnings));
+  ASSERT_EQ(back.size(), warnings.size());
+  for (size_t i = 0; i < back.size(); ++i) {
+    EXPECT_EQ(back[i].kind, warnings[i].kind);
+    EXPECT_EQ(back[i].object, warnings[i].object);
+    EXPECT_EQ(back[i].count, warnings[i].count);
+    EXPECT_EQ(back[i].detail, warnings[i].detail);
+  }
+  EXPECT_EQ(warnings_to_json({}), "[]");
+  const auto fails = [](const std::string& text, const std::string& part) {
+    try {
+      warnings_from_json(text);
+      ADD_FAILURE() << text << ": no error";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument);
+      EXPECT_NE(e.detail().find(part), std::string::npos) << e.detail();
+    }
+  };
+  fails(R"({"kind":"open_mesh"})", "not a JSON array");
+  fails(R"([{"kind":"open_mesh"},{"kind":"bent"}])", "warning 1: unknown kind \"bent\"");
+  fails(R"([{"object":"a"}])", "warning 0: no kind");
+  fails(R"([{"kind":"open_mesh","count":-1}])", "warning 0: object, count or detail");
 }
 
 }  // namespace

@@ -50,7 +50,7 @@ Scene scene3(std::vector<SceneObject> objects) {
 
 const SceneWarning* find_warning(const Scene& s, const std::string& kind) {
   for (const SceneWarning& w : s.warnings) {
-    if (w.kind == kind) return &w;
+    if (warning_kind_name(w.kind) == kind) return &w;
   }
   return nullptr;
 }

@@ -47,4 +47,12 @@ Scene load_scene(std::span<const std::string> paths, const SceneLimits& limits =
 /// Serialises a scene to the native JSON (for round trips and the job store).
 std::string scene_to_json(const Scene& scene);
 
+/// The one JSON form of warnings, in every document that lists them (the saved result, `gvd
+/// info --json`, the job's status, the job store): [{"kind","object","count","detail"}], kind
+/// by its stable name (warning_kind_name).
+std::string warnings_to_json(const std::vector<SceneWarning>& warnings);
+/// Reads warnings_to_json's form back. gvd::Error{kInvalidArgument} naming the entry when it is
+/// not that form or its kind is no WarningKind's name.
+std::vector<SceneWarning> warnings_from_json(std::string_view text);
+
 }  // namespace gvd

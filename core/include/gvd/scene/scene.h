@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "gvd/geometry/simplex.h"
@@ -25,9 +26,28 @@ struct SceneObject {
   std::vector<Simplex> simplices;
 };
 
+/// What a warning is about. Each has a stable name (warning_kind_name), the "kind" of the
+/// JSON documents (docs/FORMATS.md); warnings_to_json / warnings_from_json (load_scene.h)
+/// are the one writer and reader.
+enum class WarningKind {
+  kDegenerateSimplices,  ///< simplices of zero length or area, removed
+  kOpenMesh,             ///< edges with one triangle (3D) / vertices with one segment (2D)
+  kNonManifold,          ///< edges shared by more than two triangles
+  kMultipleComponents,   ///< an object made of several connected pieces
+  kLabelsTouch,          ///< labels of a volume that share voxel faces
+  kObjectsTouch,         ///< pairs closer than the finest cells separate (the pipeline)
+  kThinRegionsLeft,      ///< cells still hiding a thin region (the pipeline)
+  kAmbiguousCellsLeft,   ///< cells still ambiguous at the refinement limit (the pipeline)
+};
+
+/// The stable name of a kind ("degenerate_simplices", "open_mesh", ...).
+const char* warning_kind_name(WarningKind kind);
+/// The kind of a stable name; nullopt for a name no kind has.
+std::optional<WarningKind> warning_kind_from_name(std::string_view name);
+
 /// A condition that was accepted but that the user should know about.
 struct SceneWarning {
-  std::string kind;    ///< stable name: "degenerate_simplices", "open_mesh", ...
+  WarningKind kind = WarningKind::kDegenerateSimplices;
   std::string object;  ///< label, empty when it concerns the whole scene
   uint64_t count = 0;  ///< how many instances (simplices, edges, components, pairs)
   std::string detail;  ///< human readable, says where
