@@ -9,6 +9,7 @@
 #include "gvd/octree/build_octree_data_parallel.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
+#include "gvd/octree/subdivision_rule.h"
 
 namespace gvd {
 namespace {
@@ -73,39 +74,6 @@ ObjectId tag_of(const UnitGeometry& g, const uint32_t* begin, const uint32_t* en
     if (g.object_of[*p] != first) return kManyObjects;
   }
   return first;
-}
-
-// Several objects that all touch each other pairwise (an internal tag of the build).
-constexpr ObjectId kTouchingObjects = 0xFFFFFFFDu;
-
-// The objects of a cell with several: up to four, enough to decide contacts exactly in the
-// common cases (more are treated as not all touching).
-struct ObjectSet {
-  ObjectId o[4];
-  int n = 0;
-};
-
-// Tag of a cell from its simplices: kNoObject, the object, kTouchingObjects or kManyObjects.
-ObjectId tag_with_contacts(const UnitGeometry& g, const uint32_t* begin, const uint32_t* end,
-                           const ContactPairs* contacts, ObjectSet& s) {
-  s.n = 0;
-  if (begin == end) return kNoObject;
-  bool overflow = false;
-  for (const uint32_t* p = begin; p != end; ++p) {
-    const ObjectId o = g.object_of[*p];
-    if (std::find(s.o, s.o + s.n, o) != s.o + s.n) continue;
-    if (s.n == 4) {
-      overflow = true;
-      break;
-    }
-    s.o[s.n++] = o;
-  }
-  if (s.n == 1) return s.o[0];
-  if (contacts == nullptr || overflow) return kManyObjects;
-  for (int i = 0; i < s.n; ++i)
-    for (int j = i + 1; j < s.n; ++j)
-      if (!contacts->touching(s.o[i], s.o[j])) return kManyObjects;
-  return kTouchingObjects;
 }
 
 // A set of cells of one level with their simplex lists (CSR) and whether each lies inside a
@@ -254,38 +222,27 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     if (options.progress) options.progress(static_cast<double>(level) / std::max(1, max_depth));
     const size_t n = current.size();
     std::vector<ObjectId> tags(n);
-    std::vector<ObjectSet> sets(n);
+    std::vector<CellObjects> sets(n);
     parallel_for(n, threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
-        tags[i] = tag_with_contacts(g, current.pool.data() + current.begin[i],
-                                    current.pool.data() + current.begin[i + 1], options.contacts,
-                                    sets[i]);
+        sets[i] = cell_objects(g, current.pool.data() + current.begin[i],
+                               current.pool.data() + current.begin[i + 1]);
+        tags[i] = cell_tag(sets[i], options.contacts);
       }
     });
     FlatMap64 index_of_code = FlatMap64::of_distinct_keys(current.codes, threads);
     if (level == max_depth) break;
     const bool at_contact = level >= contact_depth;
-    // Does object a need separating from the objects of cell j? Not when they all touch a and
-    // the contact depth is reached.
-    auto must_separate = [&](ObjectId a, size_t j) {
-      const ObjectId t = tags[j];
-      if (t == a) return false;
-      if (!at_contact || options.contacts == nullptr || t == kManyObjects) return true;
-      if (t == kTouchingObjects) {
-        for (int k = 0; k < sets[j].n; ++k)
-          if (sets[j].o[k] != a && !options.contacts->touching(a, sets[j].o[k])) return true;
-        return false;
-      }
-      return !options.contacts->touching(a, t);
-    };
     std::vector<uint8_t> split(n, 0);
     parallel_for(n, threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
-        bool s = tags[i] == kManyObjects || (tags[i] == kTouchingObjects && !at_contact);
-        if (!s && tags[i] != kTouchingObjects) {
+        bool s = splits_by_itself(tags[i], at_contact);
+        if (!s && asks_neighbours(tags[i])) {
           for_each_face_neighbour(dim, current.codes[i], level, [&](uint64_t nc) {
             const uint32_t j = index_of_code.find(nc);
-            if (j != FlatMap64::kMissing && must_separate(tags[i], j)) s = true;
+            if (j != FlatMap64::kMissing &&
+                must_separate(tags[i], tags[j], sets[j], at_contact, options.contacts))
+              s = true;
           });
         }
         split[i] = s ? 1 : 0;

@@ -9,6 +9,7 @@
 #include "gvd/common/radix_sort.h"
 #include "gvd/common/stopwatch.h"
 #include "gvd/octree/contacts.h"
+#include "gvd/octree/subdivision_rule.h"
 
 namespace gvd {
 
@@ -137,44 +138,6 @@ class CpuOctreeBuildSteps final : public OctreeBuildSteps {
   std::vector<item::GvdPoint> points_;
   std::vector<uint32_t> simplices_;
 };
-
-// Objects of a cell, as build_octree's tag_with_contacts sees them: up to four distinct
-// objects, or overflow.
-struct Objects {
-  ObjectId o[4] = {0, 0, 0, 0};
-  int n = 0;
-  bool overflow = false;
-  void add(ObjectId x) {
-    if (overflow || std::find(o, o + n, x) != o + n) return;
-    if (n == 4) {
-      overflow = true;
-      return;
-    }
-    o[n++] = x;
-  }
-  void add(const Objects& s) {
-    if (s.overflow) overflow = true;
-    for (int i = 0; i < s.n; ++i) add(s.o[i]);
-  }
-};
-
-constexpr ObjectId kTouching = 0xFFFFFFFDu;  // several objects all touching each other
-
-ObjectId tag_of(const Objects& s, const ContactPairs* contacts) {
-  if (s.n == 0 && !s.overflow) return kNoObject;
-  if (s.n == 1 && !s.overflow) return s.o[0];
-  if (contacts == nullptr || s.overflow) return kManyObjects;
-  for (int i = 0; i < s.n; ++i)
-    for (int j = i + 1; j < s.n; ++j)
-      if (!contacts->touching(s.o[i], s.o[j])) return kManyObjects;
-  return kTouching;
-}
-
-Objects objects_of(const UnitGeometry& g, const uint32_t* b, const uint32_t* e) {
-  Objects s;
-  for (const uint32_t* p = b; p != e; ++p) s.add(g.object_of[*p]);
-  return s;
-}
 
 uint64_t child_code(int dim, uint64_t code, int level, uint32_t child) {
   return code | (static_cast<uint64_t>(child) << (dim * (lattice_bits(dim) - level - 1)));
@@ -319,11 +282,10 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   st.seconds_facets = part.lap();
 
   // (3) Conflict cells: refine level by level (Algorithm 3, data-parallel over the frontier).
-  auto is_conflict = [&](const Objects& s, int level, uint64_t code,
+  auto is_conflict = [&](const CellObjects& s, int level, uint64_t code,
                          std::span<const uint32_t> inside) {
     if (level >= max_depth) return false;
-    const ObjectId t = tag_of(s, options.contacts);
-    if (!(t == kManyObjects || (t == kTouching && level < contact_depth))) return false;
+    if (!splits_by_itself(cell_tag(s, options.contacts), level >= contact_depth)) return false;
     // A certified pair cell is resolved as it is (the rule below keeps it too).
     return options.split_oracle == nullptr ||
            options.split_oracle->classify(
@@ -342,8 +304,8 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     check_cancel(options);
     frontier.clear();
     for (size_t i = 0; i < cur_code.size(); ++i) {
-      const Objects s = objects_of(g, lists.items.data() + lists.begin[i],
-                                   lists.items.data() + lists.begin[i + 1]);
+      const CellObjects s = cell_objects(g, lists.items.data() + lists.begin[i],
+                                         lists.items.data() + lists.begin[i + 1]);
       if (is_conflict(s, cur_level[i], cur_code[i],
                       std::span<const uint32_t>(lists.items.data() + lists.begin[i],
                                                 lists.begin[i + 1] - lists.begin[i]))) {
@@ -383,28 +345,28 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   // Objects of every cell of the resolved octree: leaves from their lists, internal cells as
   // the union of their children (bottom-up).
   std::vector<FlatMap64> cell_index(max_depth + 1);
-  std::vector<std::vector<Objects>> cell_objects(max_depth + 1);
+  std::vector<std::vector<CellObjects>> objects_at(max_depth + 1);
   std::vector<FlatMap64> leaf_index(max_depth + 1);  // resolved leaf -> row of res_lists
   for (size_t i = 0; i < res_code.size(); ++i)
     leaf_index[res_level[i]].insert(res_code[i], static_cast<uint32_t>(i));
   for (int l = max_depth; l >= 0; --l) {
     if (l < max_depth) {
       internal[l].for_each([&](uint64_t code, uint32_t) {
-        Objects s;
+        CellObjects s;
         for (uint32_t c = 0; c < nchildren; ++c) {
           const uint64_t cc = child_code(dim, code, l, c);
           const uint32_t j = cell_index[l + 1].find(cc);
           if (j != FlatMap64::kMissing) {
-            s.add(cell_objects[l + 1][j]);
+            s.add(objects_at[l + 1][j]);
             continue;
           }
           const uint32_t r = leaf_index[l + 1].find(cc);
           if (r != FlatMap64::kMissing)
-            s.add(objects_of(g, res_lists.items.data() + res_lists.begin[r],
-                             res_lists.items.data() + res_lists.begin[r + 1]));
+            s.add(cell_objects(g, res_lists.items.data() + res_lists.begin[r],
+                               res_lists.items.data() + res_lists.begin[r + 1]));
         }
-        cell_index[l].insert(code, static_cast<uint32_t>(cell_objects[l].size()));
-        cell_objects[l].push_back(s);
+        cell_index[l].insert(code, static_cast<uint32_t>(objects_at[l].size()));
+        objects_at[l].push_back(s);
       });
     }
   }
@@ -435,7 +397,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   for (int level = 0; level < max_depth && !current.empty(); ++level) {
     check_cancel(options);
     const size_t n = current.size();
-    std::vector<Objects> sets(n);
+    std::vector<CellObjects> sets(n);
     std::vector<ObjectId> tags(n);
     FlatMap64 index_of_code(n);
     parallel_for(n, threads, [&](size_t b, size_t e, int) {
@@ -443,7 +405,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
         Cell& c = current[i];
         const uint32_t j = cell_index[level].find(c.code);
         if (j != FlatMap64::kMissing) {
-          sets[i] = cell_objects[level][j];
+          sets[i] = objects_at[level][j];
         } else {
           if (!c.has_list) {
             const uint32_t r = resolved_leaf_of(c.code, level);
@@ -452,31 +414,20 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
                           res_lists.items.begin() + res_lists.begin[r + 1]);
             c.has_list = true;
           }
-          sets[i] = objects_of(g, c.list.data(), c.list.data() + c.list.size());
+          sets[i] = cell_objects(g, c.list.data(), c.list.data() + c.list.size());
         }
-        tags[i] = tag_of(sets[i], options.contacts);
+        tags[i] = cell_tag(sets[i], options.contacts);
       }
     });
     for (size_t i = 0; i < n; ++i) index_of_code.set(current[i].code, static_cast<uint32_t>(i));
     const bool at_contact = level >= contact_depth;
-    auto must_separate = [&](ObjectId a, size_t j) {
-      const ObjectId t = tags[j];
-      if (t == a) return false;
-      if (!at_contact || options.contacts == nullptr || t == kManyObjects) return true;
-      if (t == kTouching) {
-        for (int k = 0; k < sets[j].n; ++k)
-          if (sets[j].o[k] != a && !options.contacts->touching(a, sets[j].o[k])) return true;
-        return false;
-      }
-      return !options.contacts->touching(a, t);
-    };
     std::vector<Cell> next;
     const int64_t size = static_cast<int64_t>(lattice::cell_size(dim, level));
     const int64_t limit = static_cast<int64_t>(lattice::side_units(dim));
     for (size_t i = 0; i < n; ++i) {
       if (tags[i] == kNoObject) continue;  // only non-empty cells are visited
-      bool s = tags[i] == kManyObjects || (tags[i] == kTouching && !at_contact);
-      if (!s && tags[i] != kTouching) {
+      bool s = splits_by_itself(tags[i], at_contact);
+      if (!s && asks_neighbours(tags[i])) {
         const lattice::Coord c = lattice::morton_decode(dim, current[i].code);
         for (int axis = 0; axis < dim && !s; ++axis)
           for (int sign = -1; sign <= 1 && !s; sign += 2) {
@@ -485,7 +436,8 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
             lattice::Coord q = c;
             q.c[axis] = static_cast<uint32_t>(v);
             const uint32_t j = index_of_code.find(lattice::morton(dim, q));
-            if (j != FlatMap64::kMissing && tags[j] != kNoObject && must_separate(tags[i], j))
+            if (j != FlatMap64::kMissing &&
+                must_separate(tags[i], tags[j], sets[j], at_contact, options.contacts))
               s = true;
           }
       }
