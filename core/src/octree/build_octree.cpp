@@ -61,12 +61,6 @@ bool simplex_touches(const UnitGeometry& g, uint32_t s, const Box& box, double s
   return simplex_overlaps_box(g.dimension, g.points, g.simplices[s], box, slack);
 }
 
-double slack_for(int dim, int level) {
-  const double size = std::ldexp(1.0, -level);
-  (void)dim;
-  return size * 1e-9 + 1e-15;
-}
-
 ObjectId tag_of(const UnitGeometry& g, const uint32_t* begin, const uint32_t* end) {
   if (begin == end) return kNoObject;
   const ObjectId first = g.object_of[*begin];
@@ -133,7 +127,7 @@ void split_cell(const UnitGeometry& g, uint64_t code, int level, const uint32_t*
                 const uint32_t* le, std::vector<uint32_t>& scratch, Out&& out) {
   const int dim = g.dimension;
   const uint32_t nchildren = 1u << dim;
-  const double slack = slack_for(dim, level + 1);
+  const double slack = overlap_slack(level + 1);
   for (uint32_t c = 0; c < nchildren; ++c) {
     const uint64_t cc = child_code(dim, code, level, c);
     const Box box = lattice::cell_box(dim, lattice::morton_decode(dim, cc), level + 1);

@@ -6,6 +6,7 @@
 #include "../surface/cell_faces.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
+#include "gvd/octree/subdivision_rule.h"
 #include "gvd/refine/find_cells_to_refine.h"
 
 namespace gvd {
@@ -384,7 +385,7 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
               if (whole && v != CellVerdict::kSplit) continue;
             }
             per_leaf[i].push_back(cell);
-            const double slack = std::ldexp(1.0, -(cell.level + 1)) * 1e-9 + 1e-15;
+            const double slack = overlap_slack(cell.level + 1);
             // The object nearest to each of the 3^D points of the cell's half-size grid (the
             // children's corners, most shared by several children), found once.
             ObjectId near_at[27];

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <set>
 #include <vector>
 
@@ -72,6 +73,11 @@ TEST(SubdivisionRule, TagsAndSplitsAsThePaperSays) {
     }
     EXPECT_EQ(asks_neighbours(tag), distinct.size() == 1);
   }
+}
+
+TEST(SubdivisionRule, OverlapSlackIsOneBillionthOfTheCellPlusAFloor) {
+  for (int level = 0; level <= 48; ++level)
+    EXPECT_EQ(overlap_slack(level), std::ldexp(1.0, -level) * 1e-9 + 1e-15) << level;
 }
 
 }  // namespace

@@ -252,7 +252,7 @@ GVD_ITEM_FN void gvd_cell_box(int dim, gvd_u64 code, int level, GvdPoint* lo, Gv
   *hi = gvd_add(*lo, gvd_pt(size, size, dim == 3 ? size : 0.0));
 }
 
-/* Overlap slack of cells at `level` (build_octree.cpp slack_for). */
+/* Overlap slack of cells at `level`: the one definition (subdivision_rule.h overlap_slack). */
 GVD_ITEM_FN double gvd_slack(int level) {
   return (double)1.0 / (double)((gvd_u64)1 << level) * 1e-9 + 1e-15;
 }

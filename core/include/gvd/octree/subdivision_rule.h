@@ -11,6 +11,7 @@
 #include <cstdint>
 
 #include "gvd/octree/contacts.h"
+#include "gvd/octree/octree_build_item.h"
 #include "gvd/scene/scene.h"
 
 namespace gvd {
@@ -18,6 +19,11 @@ namespace gvd {
 /// The tag of a cell whose several objects all touch each other pairwise (besides kNoObject,
 /// one object's id, and kManyObjects). Internal to the builds: leaves never carry it.
 inline constexpr ObjectId kTouchingObjects = 0xFFFFFFFDu;
+
+/// How far a cell at `level` is inflated when tested against simplices (2^-level * 1e-9 +
+/// 1e-15, in unit-domain lengths): overlap tests are conservative, so a simplex that grazes a
+/// face is in both cells. One definition, the kernels' (item::gvd_slack).
+inline double overlap_slack(int level) { return item::gvd_slack(level); }
 
 /// The objects of a cell: up to four distinct ones, enough to decide contacts exactly in the
 /// common cases; more set `overflow` (treated as not all touching).
