@@ -20,6 +20,8 @@ class Error(Exception):
     object: Optional[int]
     element: Optional[str]  # 'vertex', 'triangle', 'segment', 'point'
     index: Optional[int]
+    line: Optional[int]  # 1-based line of a text mesh file
+    offset: Optional[int]  # 0-based byte offset into malformed JSON
 
 class InvalidScene(Error, ValueError): ...
 class InvalidArgument(Error, ValueError): ...

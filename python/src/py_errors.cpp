@@ -69,6 +69,10 @@ void set_error(const Error& error, const ErrorContext& context) {
   instance.attr("object") = object;
   instance.attr("element") = element;
   instance.attr("index") = index;
+  instance.attr("line") =
+      where.line < 0 ? py::object(py::none()) : py::object(py::int_(where.line));
+  instance.attr("offset") =
+      where.offset < 0 ? py::object(py::none()) : py::object(py::int_(where.offset));
   PyErr_SetObject(cls, instance.ptr());
 }
 
@@ -82,6 +86,8 @@ void register_errors(py::module_& module) {
   attributes["object"] = py::none();
   attributes["element"] = py::none();
   attributes["index"] = py::none();
+  attributes["line"] = py::none();
+  attributes["offset"] = py::none();
   PyObject* base = PyErr_NewExceptionWithDoc(
       "gvd.Error",
       "A gvd::Error of the core. str(e) is \"<code>: <detail>\". Attributes:\n"
@@ -93,6 +99,8 @@ void register_errors(py::module_& module) {
       "  object   the object's index in the scene (order of Scene.add), or None\n"
       "  element  'vertex', 'triangle', 'segment' or 'point' when the error names one\n"
       "  index    that element's index within the object (or the batch), or None\n"
+      "  line     the line (1-based) of a text mesh file (OBJ, PLY header, STL, OFF), or None\n"
+      "  offset   the byte offset (0-based) into JSON text where it is malformed, or None\n"
       "Each code has its own subclass (gvd.InvalidScene, gvd.NotFound, ...).",
       PyExc_Exception, attributes.ptr());
   if (base == nullptr) throw py::error_already_set();

@@ -54,6 +54,8 @@ void add_location(nlohmann::json& doc, const ErrorLocation& where) {
     doc["element"] = std::move(element);
   }
   if (!where.pointer.empty()) doc["pointer"] = where.pointer;
+  if (where.line >= 0) doc["line"] = where.line;
+  if (where.offset >= 0) doc["offset"] = where.offset;
 }
 
 }  // namespace

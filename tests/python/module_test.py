@@ -15,6 +15,7 @@ import pydoc
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import tracemalloc
@@ -435,6 +436,23 @@ class Errors(unittest.TestCase):
             gvd.compute(s)
         e = cm.exception
         self.assertEqual((e.label, e.object, e.element, e.index), ("b", 1, "vertex", 5))
+
+    def test_file_errors_carry_line_and_offset(self):
+        with tempfile.TemporaryDirectory() as d:
+            obj = os.path.join(d, "bad.obj")
+            with open(obj, "w") as f:
+                f.write("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 3\nf 1 2 4\n")
+            with self.assertRaises(gvd.InvalidScene) as cm:
+                gvd.Scene.load(obj)
+            self.assertEqual((cm.exception.line, cm.exception.offset), (6, None))
+            bad = os.path.join(d, "bad.json")
+            text = '{"dimension": 3, "objects": [} '
+            with open(bad, "w") as f:
+                f.write(text)
+            with self.assertRaises(gvd.InvalidScene) as cm:
+                gvd.Scene.load(bad)
+            self.assertEqual(text[cm.exception.offset], "}")
+            self.assertIsNone(cm.exception.line)
 
     def test_shapes_and_types(self):
         s = gvd.Scene(3)

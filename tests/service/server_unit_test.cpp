@@ -80,6 +80,14 @@ TEST(ProblemJson, IsRfc9457AndSaysWhere) {
   const Json label_only = Json::parse(
       problem_json(ProblemKind::kNotFound, "no object labelled 'x'", "/", "", {}, {.label = "x"}));
   EXPECT_EQ(label_only["object"], Json({{"label", "x"}}));
+  EXPECT_FALSE(label_only.contains("line"));
+  EXPECT_FALSE(label_only.contains("offset"));
+  const Json lined = Json::parse(
+      problem_json(ProblemKind::kInvalidScene, "OBJ \"a\" line 6: ...", "/", "", {}, {.line = 6}));
+  EXPECT_EQ(lined["line"], 6);
+  const Json offset = Json::parse(problem_json(
+      ProblemKind::kInvalidScene, "JSON parse error at byte 0", "/", "", {}, {.offset = 0}));
+  EXPECT_EQ(offset["offset"], 0);
   // Invalid UTF-8 in a detail does not throw.
   EXPECT_NO_THROW(problem_json(ProblemKind::kInvalidArgument, "bad \xff byte", "/", ""));
   const Json extra =

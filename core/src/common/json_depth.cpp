@@ -24,9 +24,12 @@ void check_json_depth(std::string_view text, std::string_view what, ErrorCode co
       in_string = true;
     } else if (c == '[' || c == '{') {
       if (++depth > max_depth) {
-        throw Error(code, std::string(what) + ": JSON nested deeper than " +
-                              std::to_string(max_depth) + " levels (at byte " + std::to_string(i) +
-                              ")");
+        ErrorLocation where;
+        where.offset = static_cast<int64_t>(i);
+        throw Error(code,
+                    std::string(what) + ": JSON nested deeper than " + std::to_string(max_depth) +
+                        " levels (at byte " + std::to_string(i) + ")",
+                    where);
       }
     } else if ((c == ']' || c == '}') && depth > 0) {
       --depth;

@@ -63,8 +63,11 @@ nlohmann::json parse_json_or_throw(std::string_view text) {
   try {
     return nlohmann::json::parse(text.begin(), text.end());
   } catch (const nlohmann::json::parse_error& e) {
+    ErrorLocation where;  // e.byte counts from 1: the character that failed
+    where.offset = e.byte > 0 ? static_cast<int64_t>(e.byte) - 1 : 0;
     throw Error(ErrorCode::kInvalidScene,
-                "JSON parse error at byte " + std::to_string(e.byte) + ": " + e.what());
+                "JSON parse error at byte " + std::to_string(where.offset) + ": " + e.what(),
+                where);
   } catch (const nlohmann::json::exception& e) {  // e.g. a number literal that overflows
     throw Error(ErrorCode::kInvalidScene, std::string("JSON parse error: ") + e.what());
   }

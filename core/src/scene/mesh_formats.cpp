@@ -31,6 +31,14 @@ namespace {
   throw Error(ErrorCode::kInvalidScene, std::move(detail));
 }
 
+// An error on line `line` (1-based) of a text format: the detail says it, ErrorLocation::line
+// holds it.
+[[noreturn]] void invalid_at(size_t line, std::string detail) {
+  ErrorLocation where;
+  where.line = static_cast<int64_t>(line);
+  throw Error(ErrorCode::kInvalidScene, std::move(detail), where);
+}
+
 void check_simplex_limit(uint64_t count, const SceneLimits& limits, const std::string& name) {
   if (count > limits.max_simplices) {
     throw Error(ErrorCode::kLimitExceeded, "\"" + name + "\" has more than the limit of " +
@@ -292,31 +300,33 @@ Scene parse_obj(std::string_view text, const std::string& name, bool single_obje
     const std::vector<std::string_view> t = split(line);
     const std::string at = "OBJ \"" + name + "\" line " + std::to_string(line_no);
     if (t[0] == "v") {
-      if (t.size() < 4) invalid(at + ": a vertex needs 3 coordinates");
+      if (t.size() < 4) invalid_at(line_no, at + ": a vertex needs 3 coordinates");
       Vec3 p;
       for (int c = 0; c < 3; ++c) {
         if (!parse_double(t[c + 1], p[c])) {
-          invalid(at + ": coordinate \"" + std::string(t[c + 1]) + "\" is not a number");
+          invalid_at(line_no,
+                     at + ": coordinate \"" + std::string(t[c + 1]) + "\" is not a number");
         }
       }
       vertices.push_back(p);
     } else if (t[0] == "f") {
-      if (t.size() < 4) invalid(at + ": a face needs at least 3 vertices");
+      if (t.size() < 4) invalid_at(line_no, at + ": a face needs at least 3 vertices");
       polygon.clear();
       for (size_t k = 1; k < t.size(); ++k) {
         const std::string_view ref = t[k].substr(0, t[k].find('/'));
         int64_t i = 0;
         if (!parse_int(ref, i)) {
-          invalid(at + ": bad vertex reference \"" + std::string(t[k]) + "\"");
+          invalid_at(line_no, at + ": bad vertex reference \"" + std::string(t[k]) + "\"");
         }
-        if (i == 0) invalid(at + ": vertex index 0 (OBJ indices start at 1)");
+        if (i == 0) invalid_at(line_no, at + ": vertex index 0 (OBJ indices start at 1)");
         int64_t index = i > 0 ? i - 1 : static_cast<int64_t>(vertices.size()) + i;
         if (index < 0) {
-          invalid(at + ": relative vertex index " + std::to_string(i) + " is out of range (" +
-                  std::to_string(vertices.size()) + " vertices so far)");
+          invalid_at(line_no, at + ": relative vertex index " + std::to_string(i) +
+                                  " is out of range (" + std::to_string(vertices.size()) +
+                                  " vertices so far)");
         }
         if (index > 0xFFFFFFFEll)
-          invalid(at + ": vertex index " + std::to_string(i) + " is out of range");
+          invalid_at(line_no, at + ": vertex index " + std::to_string(i) + " is out of range");
         if (index >= static_cast<int64_t>(vertices.size())) forward_refs.push_back({line_no, i});
         polygon.push_back(static_cast<uint32_t>(index));
       }
@@ -335,9 +345,9 @@ Scene parse_obj(std::string_view text, const std::string& name, bool single_obje
 
   for (const Pending& p : forward_refs) {
     if (p.index > static_cast<int64_t>(vertices.size())) {
-      invalid("OBJ \"" + name + "\" line " + std::to_string(p.line) + ": vertex index " +
-              std::to_string(p.index) + " is out of range (the file has " +
-              std::to_string(vertices.size()) + " vertices)");
+      invalid_at(p.line, "OBJ \"" + name + "\" line " + std::to_string(p.line) + ": vertex index " +
+                             std::to_string(p.index) + " is out of range (the file has " +
+                             std::to_string(vertices.size()) + " vertices)");
     }
   }
   if (triangles == 0) invalid("OBJ \"" + name + "\" has no faces");
@@ -393,14 +403,14 @@ Scene parse_ply(std::span<const uint8_t> bytes, const std::string& name,
     const std::vector<std::string_view> t = split(line);
     if (t.empty()) continue;
     if (header_line == 1) {
-      if (t[0] != "ply") invalid(at + ": expected \"ply\"");
+      if (t[0] != "ply") invalid_at(header_line, at + ": expected \"ply\"");
       continue;
     }
     if (t[0] == "comment" || t[0] == "obj_info") continue;
     if (t[0] == "end_header") {
       ended = true;
     } else if (t[0] == "format") {
-      if (t.size() < 2) invalid(at + ": format needs a type");
+      if (t.size() < 2) invalid_at(header_line, at + ": format needs a type");
       if (t[1] == "ascii") {
         format = PlyFormat::kAscii;
       } else if (t[1] == "binary_little_endian") {
@@ -408,38 +418,38 @@ Scene parse_ply(std::span<const uint8_t> bytes, const std::string& name,
       } else if (t[1] == "binary_big_endian") {
         format = PlyFormat::kBig;
       } else {
-        invalid(at + ": unknown format \"" + std::string(t[1]) + "\"");
+        invalid_at(header_line, at + ": unknown format \"" + std::string(t[1]) + "\"");
       }
       has_format = true;
     } else if (t[0] == "element") {
       int64_t count = 0;
       if (t.size() != 3 || !parse_int(t[2], count) || count < 0) {
-        invalid(at + ": expected \"element NAME COUNT\"");
+        invalid_at(header_line, at + ": expected \"element NAME COUNT\"");
       }
       elements.push_back(PlyElement{std::string(t[1]), static_cast<uint64_t>(count), {}});
     } else if (t[0] == "property") {
-      if (elements.empty()) invalid(at + ": property before any element");
+      if (elements.empty()) invalid_at(header_line, at + ": property before any element");
       PlyProperty p;
       if (t.size() == 5 && t[1] == "list") {
         p.is_list = true;
         if (!ply_type(t[2], p.count_type) || !ply_type(t[3], p.type)) {
-          invalid(at + ": unknown list property type");
+          invalid_at(header_line, at + ": unknown list property type");
         }
         if (p.count_type == PlyType::kFloat32 || p.count_type == PlyType::kFloat64) {
-          invalid(at + ": a list count must have an integer type");
+          invalid_at(header_line, at + ": a list count must have an integer type");
         }
         p.name = std::string(t[4]);
       } else if (t.size() == 3) {
         if (!ply_type(t[1], p.type)) {
-          invalid(at + ": unknown property type \"" + std::string(t[1]) + "\"");
+          invalid_at(header_line, at + ": unknown property type \"" + std::string(t[1]) + "\"");
         }
         p.name = std::string(t[2]);
       } else {
-        invalid(at + ": malformed property line");
+        invalid_at(header_line, at + ": malformed property line");
       }
       elements.back().properties.push_back(std::move(p));
     } else {
-      invalid(at + ": unknown header keyword \"" + std::string(t[0]) + "\"");
+      invalid_at(header_line, at + ": unknown header keyword \"" + std::string(t[0]) + "\"");
     }
   }
   if (!ended) invalid(pre + "the header has no end_header line");
@@ -576,25 +586,25 @@ Scene parse_stl(std::span<const uint8_t> bytes, const std::string& name,
     if (t.empty()) return;
     const std::string at = pre + "line " + std::to_string(line_no);
     if (t[0] == "outer") {
-      if (in_loop) invalid(at + ": nested loop");
+      if (in_loop) invalid_at(line_no, at + ": nested loop");
       in_loop = true;
       loop.clear();
     } else if (t[0] == "vertex") {
-      if (!in_loop) invalid(at + ": vertex outside of a loop");
+      if (!in_loop) invalid_at(line_no, at + ": vertex outside of a loop");
       Vec3 p;
-      if (t.size() != 4) invalid(at + ": a vertex needs 3 coordinates");
+      if (t.size() != 4) invalid_at(line_no, at + ": a vertex needs 3 coordinates");
       for (int c = 0; c < 3; ++c) {
         if (!parse_double(t[static_cast<size_t>(c) + 1], p[c])) {
-          invalid(at + ": coordinate \"" + std::string(t[static_cast<size_t>(c) + 1]) +
-                  "\" is not a number");
+          invalid_at(line_no, at + ": coordinate \"" + std::string(t[static_cast<size_t>(c) + 1]) +
+                                  "\" is not a number");
         }
       }
       loop.push_back(welder.add(p));
     } else if (t[0] == "endloop") {
-      if (!in_loop) invalid(at + ": endloop without a loop");
+      if (!in_loop) invalid_at(line_no, at + ": endloop without a loop");
       if (loop.size() != 3) {
-        invalid(at + ": facet " + std::to_string(facet) + " has " + std::to_string(loop.size()) +
-                " vertices (3 expected)");
+        invalid_at(line_no, at + ": facet " + std::to_string(facet) + " has " +
+                                std::to_string(loop.size()) + " vertices (3 expected)");
       }
       simplices.push_back(Simplex{{loop[0], loop[1], loop[2]}});
       check_simplex_limit(simplices.size(), limits, name);
@@ -647,11 +657,12 @@ Scene parse_off(std::string_view text, const std::string& name, const SceneLimit
     const auto& [line_no, t] = lines[li++];
     const std::string at =
         pre + "line " + std::to_string(line_no) + " (vertex " + std::to_string(i) + ")";
-    if (t.size() < 3) invalid(at + ": a vertex needs 3 coordinates");
+    if (t.size() < 3) invalid_at(line_no, at + ": a vertex needs 3 coordinates");
     Vec3 p;
     for (int c = 0; c < 3; ++c) {
       if (!parse_double(t[static_cast<size_t>(c)], p[c])) {
-        invalid(at + ": \"" + std::string(t[static_cast<size_t>(c)]) + "\" is not a number");
+        invalid_at(line_no,
+                   at + ": \"" + std::string(t[static_cast<size_t>(c)]) + "\" is not a number");
       }
     }
     vertices.push_back(p);
@@ -663,14 +674,17 @@ Scene parse_off(std::string_view text, const std::string& name, const SceneLimit
     const std::string at =
         pre + "line " + std::to_string(line_no) + " (face " + std::to_string(f) + ")";
     int64_t n = 0;
-    if (!parse_int(t[0], n) || n < 3) invalid(at + ": a face needs at least 3 vertices");
-    if (t.size() < static_cast<size_t>(n) + 1) invalid(at + ": fewer indices than announced");
+    if (!parse_int(t[0], n) || n < 3)
+      invalid_at(line_no, at + ": a face needs at least 3 vertices");
+    if (t.size() < static_cast<size_t>(n) + 1)
+      invalid_at(line_no, at + ": fewer indices than announced");
     polygon.clear();
     for (int64_t k = 0; k < n; ++k) {
       int64_t index = 0;
       if (!parse_int(t[static_cast<size_t>(k) + 1], index) || index < 0 || index >= nv) {
-        invalid(at + ": bad vertex index \"" + std::string(t[static_cast<size_t>(k) + 1]) + "\" (" +
-                std::to_string(nv) + " vertices)");
+        invalid_at(line_no, at + ": bad vertex index \"" +
+                                std::string(t[static_cast<size_t>(k) + 1]) + "\" (" +
+                                std::to_string(nv) + " vertices)");
       }
       polygon.push_back(static_cast<uint32_t>(index));
     }

@@ -216,7 +216,9 @@ Scene parse_scene_json(std::string_view text, const SceneLimits& limits) {
   try {
     doc = Json::parse(text.begin(), text.end());
   } catch (const Json::parse_error& e) {
-    invalid("JSON parse error at byte " + std::to_string(e.byte) + ": " + e.what());
+    ErrorLocation where;  // e.byte counts from 1: the character that failed
+    where.offset = e.byte > 0 ? static_cast<int64_t>(e.byte) - 1 : 0;
+    invalid("JSON parse error at byte " + std::to_string(where.offset) + ": " + e.what(), where);
   } catch (const Json::exception& e) {  // e.g. a number literal that overflows a double
     invalid(std::string("JSON parse error: ") + e.what());
   }

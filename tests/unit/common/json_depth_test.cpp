@@ -22,6 +22,7 @@ TEST(JsonDepth, AcceptsUpToTheCapAndNamesTheByteBeyondIt) {
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument);
     EXPECT_EQ(e.detail(), "the scene: JSON nested deeper than 3 levels (at byte 13)");
+    EXPECT_EQ(e.where().offset, 13);  // the fourth opening bracket
   }
   // 100,000 levels (what crashed the server's error messages) are refused, not parsed.
   EXPECT_THROW(check_json_depth(nested(100000), "x", ErrorCode::kInvalidScene), Error);

@@ -106,6 +106,27 @@ TEST(ObjLoad, BadIndexNamesTheLine) {
       ErrorCode::kInvalidScene, "line 2");
 }
 
+// The line is a field of the error too (problem documents and Python copy it), for each text
+// format, and not set where there is no line.
+TEST(MeshLoad, TextFormatErrorsCarryTheirLine) {
+  const auto line_of = [](const std::string& text, SceneFormat format) -> int64_t {
+    try {
+      parse_scene_bytes(bytes_of(text), format, "bad");
+    } catch (const Error& e) {
+      return e.where().line;
+    }
+    return -2;  // no error
+  };
+  EXPECT_EQ(line_of("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 3\nf 1 2 4\n", SceneFormat::kObj), 6);
+  EXPECT_EQ(line_of("v 0 0 0\nv 1 x 0\n", SceneFormat::kObj), 2);
+  EXPECT_EQ(line_of("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nbogus\n",
+                    SceneFormat::kPly),
+            5);
+  EXPECT_EQ(line_of("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 q\n3 0 1 2\n", SceneFormat::kOff), 5);
+  EXPECT_EQ(line_of("solid s\nfacet normal 0 0 1\nouter loop\nouter loop\n", SceneFormat::kStl), 4);
+  EXPECT_EQ(line_of("v 0 0 0\n", SceneFormat::kObj), -1);  // "no faces": no line to name
+}
+
 // ---------------------------------------------------------------------------------- PLY
 
 TEST(PlyLoad, AsciiWithExtraPropertiesAndElements) {

@@ -283,6 +283,19 @@ TEST(SceneJson, ErrorsSayWhereInStructuredFields) {
   EXPECT_TRUE(location_of([&] { parse_scene_json(R"({"dimension": 3})"); }).empty());
 }
 
+// A malformed JSON scene's error holds the byte offset of the character that failed.
+TEST(SceneJson, ParseErrorsCarryTheByteOffset) {
+  const std::string text = R"({"dimension": 3, "objects": [} )";
+  try {
+    parse_scene_json(text);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    ASSERT_GE(e.where().offset, 0) << e.detail();
+    EXPECT_EQ(text[static_cast<size_t>(e.where().offset)], '}') << e.detail();
+    EXPECT_NE(e.detail().find("at byte " + std::to_string(e.where().offset)), std::string::npos);
+  }
+}
+
 // Warning kinds: one name each, both ways, every name documented in docs/FORMATS.md, and the
 // one JSON writer and reader give back what they were given.
 TEST(SceneWarnings, EveryKindHasOneNameBothWaysAndIsDocumented) {

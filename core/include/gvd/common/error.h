@@ -35,7 +35,14 @@ struct ErrorLocation {
   std::string element;
   int64_t index = -1;   ///< that element's index (within the object, or the batch); -1: none
   std::string pointer;  ///< a JSON pointer (RFC 6901) into the scene document; "" when none
-  bool empty() const { return object < 0 && label.empty() && element.empty() && pointer.empty(); }
+  int64_t line = -1;  ///< the line (1-based) of a text input (OBJ, PLY header, STL, OFF); -1: none
+  /// A byte offset (0-based) into the JSON text that was parsed (a scene file, a request body,
+  /// a glTF's JSON) where it is malformed or nested too deep; -1: none
+  int64_t offset = -1;
+  bool empty() const {
+    return object < 0 && label.empty() && element.empty() && pointer.empty() && line < 0 &&
+           offset < 0;
+  }
 };
 
 /// The caller's fault or a limit. `what()` is "<code name>: <detail>".
