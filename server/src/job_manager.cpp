@@ -426,7 +426,8 @@ void JobManager::log_event(const char* level, const char* event, const std::stri
   if (!id.empty()) line["job"] = id;
   if (seconds > 0) line["seconds"] = seconds;
   if (!detail.empty()) line["detail"] = detail;
-  std::fprintf(stderr, "%s\n", line.dump().c_str());
+  // Replace, not throw, on invalid UTF-8: a detail can quote bytes of a broken store file.
+  std::fprintf(stderr, "%s\n", line.dump(-1, ' ', false, Json::error_handler_t::replace).c_str());
 }
 
 void JobManager::remove_request_files(const std::string& id) const {

@@ -667,7 +667,8 @@ TEST(Service, RestartLogsEveryStoreEntryItDrops) {
   std::ofstream(store + "/requests/" + unreadable + ".json") << "{not json";
   std::ofstream(store + "/requests/" + unreadable + ".scene.json") << "{}";
   fs::create_directories(store + "/failed");
-  std::ofstream(store + "/failed/" + failed + ".json") << "[";
+  // Not JSON, and quoting it in the log line must not break the line: invalid UTF-8.
+  std::ofstream(store + "/failed/" + failed + ".json") << "[\"\xff";
   const std::string log = store + "/server.log";
   ServerProcess server(store, {}, log);
   auto c = client(server.port());
