@@ -1,3 +1,5 @@
 #include "gvd/low/low.h"
-#include "gvd/high/high.h"
+
 #include <vector>
+
+#include "gvd/high/high.h"
