@@ -9,9 +9,9 @@
 
 #include "commands.h"
 #include "gvd/common/error.h"
-#include "gvd/pipeline/pipeline.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/pipeline/pipeline.h"
 #include "gvd/query/contact_report.h"
 #include "gvd/query/gvd_index.h"
 

@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "gvd/common/error.h"
-#include "gvd/pipeline/pipeline.h"
 #include "gvd/common/json_depth.h"
+#include "gvd/pipeline/pipeline.h"
 
 namespace gvd::server {
 namespace {

@@ -13,8 +13,8 @@
 #include <random>
 
 #include "gvd/common/error.h"
-#include "gvd/pipeline/pipeline.h"
 #include "gvd/io/result_file.h"
+#include "gvd/pipeline/pipeline.h"
 #include "support/grid_oracle.h"
 #include "support/scenes.h"
 

@@ -12,8 +12,8 @@
 #include <set>
 
 #include "gvd/common/error.h"
-#include "gvd/pipeline/pipeline.h"
 #include "gvd/geometry/primitives.h"
+#include "gvd/pipeline/pipeline.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
 

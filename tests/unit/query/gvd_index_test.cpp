@@ -10,9 +10,9 @@
 #include <thread>
 
 #include "gvd/common/error.h"
-#include "gvd/pipeline/pipeline.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/pipeline/pipeline.h"
 #include "support/gltf_validate.h"
 #include "support/grid_oracle.h"
 #include "support/oracles.h"
