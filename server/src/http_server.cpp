@@ -19,6 +19,7 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
+#include "header_gate.h"
 #include "job_manager.h"
 #include "job_params.h"
 #include "metrics.h"
@@ -128,7 +129,8 @@ struct HttpServer::Impl {
         jobs_owner(make_job_queue(o, metrics)),
         jobs(*jobs_owner),
         queries(jobs, o.max_grid_cells, o.max_batch_points, o.job_threads),
-        web(o.web_root) {}
+        web(o.web_root),
+        http(o.http_threads) {}
 
   ServerOptions options;
   Metrics metrics;
@@ -136,7 +138,7 @@ struct HttpServer::Impl {
   JobQueue& jobs;
   QueryHandlers queries;
   StaticFiles web;
-  httplib::Server http;
+  GatedServer http;  ///< after web: members are initialised in this order
   std::atomic<bool> draining{false};
   std::atomic<bool> closing{false};
   std::atomic<int> streams{0};
@@ -692,8 +694,14 @@ struct HttpServer::Impl {
 };
 
 void HttpServer::Impl::setup() {
-  const int threads = options.http_threads;
-  http.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
+  GateLimits gate;
+  gate.header_seconds = options.header_timeout;
+  gate.idle_seconds = options.keep_alive_timeout;
+  gate.max_header_bytes =
+      static_cast<size_t>(std::min<uint64_t>(options.max_header_bytes, 1u << 20)) + 8192;
+  gate.max_waiting_per_client = options.max_waiting_per_client;
+  gate.max_waiting = options.max_waiting;
+  http.set_gate_limits(gate);
   http.set_tcp_nodelay(true);
   // cpp-httplib 0.11.4 listens with a backlog of 5: a burst of new connections overflows it
   // and the kernel drops SYNs (clients retry after 1 s). Keep its SO_REUSEADDR, remember the
@@ -845,6 +853,15 @@ void HttpServer::Impl::setup() {
                 [this] { return static_cast<double>(jobs.cached_results()); });
   metrics.gauge("gvd_event_streams", "Open server-sent event streams.",
                 [this] { return static_cast<double>(streams.load()); });
+  metrics.gauge("gvd_http_waiting_connections",
+                "Connections waiting for their request headers (not holding a thread).",
+                [this] { return static_cast<double>(http.gate_counts().waiting); });
+  metrics.gauge("gvd_http_header_timeouts",
+                "Connections closed since start because their headers did not arrive in time.",
+                [this] { return static_cast<double>(http.gate_counts().timed_out); });
+  metrics.gauge("gvd_http_connections_evicted",
+                "Waiting connections closed since start to make room (per-client or total cap).",
+                [this] { return static_cast<double>(http.gate_counts().evicted); });
   metrics.gauge("gvd_draining", "1 while shutting down.", [this] { return draining ? 1.0 : 0.0; });
   metrics.gauge("process_resident_memory_bytes", "Resident memory of the server.",
                 [] { return static_cast<double>(resident_memory_bytes()); });

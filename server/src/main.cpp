@@ -1,6 +1,7 @@
 // gvd-server: the gvd REST service. Options by flag or GVD_* environment variable (--help).
 
 #include <signal.h>
+#include <sys/resource.h>
 
 #include <cstdio>
 #include <cstring>
@@ -29,6 +30,13 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   signal(SIGPIPE, SIG_IGN);
+  // Connections waiting for their headers cost a descriptor each (up to --max-waiting):
+  // take the whole hard limit, not the usual soft 1024.
+  rlimit files{};
+  if (getrlimit(RLIMIT_NOFILE, &files) == 0 && files.rlim_cur < files.rlim_max) {
+    files.rlim_cur = files.rlim_max;
+    setrlimit(RLIMIT_NOFILE, &files);
+  }
 
   ServerOptions options;
   try {

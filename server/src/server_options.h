@@ -19,7 +19,7 @@ struct ServerOptions {
   std::string store = "gvd-store";
   int workers = 1;                    ///< jobs computed at once
   int job_threads = 0;                ///< threads per job (0 = all cores)
-  int http_threads = 128;             ///< HTTP connections served at once (keep-alive holds one)
+  int http_threads = 128;             ///< requests served at once (header_gate.h)
   int queue = 64;                     ///< queued jobs before 503
   uint64_t max_body = 64ull << 20;    ///< request body limit, bytes
   int max_headers = 64;               ///< request header count limit
@@ -46,10 +46,16 @@ struct ServerOptions {
   int write_timeout = 10;      ///< seconds
   int keep_alive_max = 1000;   ///< requests per connection
   int keep_alive_timeout = 5;  ///< seconds idle
-  int max_streams = 4;         ///< concurrent SSE streams
-  int retry_after = 5;         ///< seconds, on 503
-  double grace_seconds = 10;   ///< SIGTERM: wait this long for running jobs
-  bool quiet = false;          ///< no request log
+  /// Connections wait for their request headers outside the HTTP threads (header_gate.h):
+  /// seconds from a request's first byte to the end of its headers, and how many may wait
+  /// per remote address and in all (the oldest waiting one is closed to make room).
+  double header_timeout = 10;
+  int max_waiting_per_client = 64;
+  int max_waiting = 4096;
+  int max_streams = 4;        ///< concurrent SSE streams
+  int retry_after = 5;        ///< seconds, on 503
+  double grace_seconds = 10;  ///< SIGTERM: wait this long for running jobs
+  bool quiet = false;         ///< no request log
   /// The web viewer's files (index.html, viewer/, vendor/); empty = found next to the binary
   /// (static_files.h), and resolved to a directory (or left empty: no viewer) at start-up.
   std::string web_root;

@@ -1,18 +1,25 @@
-// Unit tests of the server's pieces that need no socket (CTest label `unit`, also under ASan).
+// Unit tests of the server's pieces (CTest label `unit`, also under ASan): no server process;
+// the header gate's test listens on a loopback port of its own.
 
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <string>
+#include <thread>
 
 #include "gvd/common/error.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
+#include "header_gate.h"
 #include "job_manager.h"
 #include "job_params.h"
 #include "metrics.h"
@@ -292,4 +299,113 @@ TEST(ResultCache, LeastRecentlyUsedIsEvicted) {
 }
 
 }  // namespace
+namespace {
+
+int connect_loopback(int port) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    close(fd);
+    return -1;
+  }
+  timeval tv{3, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  return fd;
+}
+
+/// Everything the server sends until it closes the connection (or 3 s pass).
+std::string read_all(int fd) {
+  std::string out;
+  char buf[1024];
+  for (ssize_t n; (n = recv(fd, buf, sizeof buf, 0)) > 0;) out.append(buf, static_cast<size_t>(n));
+  return out;
+}
+
+size_t count_of(const std::string& text, const std::string& what) {
+  size_t n = 0;
+  for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+}  // namespace
+
+// The gate in process (the service test attacks a real gvd-server): two threads, so that two
+// stalled connections would hold both if they waited in threads; they wait at the gate, a
+// third client is answered, pipelined and kept-alive requests keep their order, the stalled
+// ones get 408 at the deadline, and stop() closes what still waits.
+TEST(HeaderGate, StalledHeadersWaitOutsideTheThreads) {
+  GatedServer http(2);
+  GateLimits limits;
+  limits.header_seconds = 1;
+  limits.idle_seconds = 5;
+  limits.max_waiting_per_client = 3;
+  http.set_gate_limits(limits);
+  http.Get("/n", [](const httplib::Request& req, httplib::Response& res) {
+    res.set_content("n" + req.get_header_value("X-N"), "text/plain");
+  });
+  const int port = http.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { http.listen_after_bind(); });
+
+  const std::string stall = "GET /n HTTP/1.1\r\nHost: x\r\nX-N: ";
+  const int a = connect_loopback(port), b = connect_loopback(port);
+  ASSERT_GE(a, 0);
+  ASSERT_GE(b, 0);
+  (void)!send(a, stall.data(), stall.size(), MSG_NOSIGNAL);
+  // b: one whole request, then the next one stalls on the kept-alive connection.
+  const std::string b_bytes = "GET /n HTTP/1.1\r\nHost: x\r\nX-N: 1\r\n\r\n" + stall;
+  (void)!send(b, b_bytes.data(), b_bytes.size(), MSG_NOSIGNAL);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+
+  const int c = connect_loopback(port);
+  ASSERT_GE(c, 0);
+  const std::string three =
+      "GET /n HTTP/1.1\r\nHost: x\r\nX-N: 2\r\n\r\nGET /n HTTP/1.1\r\nHost: x\r\nX-N: 3\r\n\r\n"
+      "GET /n HTTP/1.1\r\nHost: x\r\nX-N: 4\r\nConnection: close\r\n\r\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  (void)!send(c, three.data(), three.size(), MSG_NOSIGNAL);
+  const std::string c_got = read_all(c);
+  const double c_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LT(c_seconds, 0.5);  // not after the stalled ones' deadline
+  const size_t n2 = c_got.find("\r\n\r\nn2"), n3 = c_got.find("\r\n\r\nn3"),
+               n4 = c_got.find("\r\n\r\nn4");
+  EXPECT_NE(n2, std::string::npos) << c_got;
+  EXPECT_LT(n2, n3);
+  EXPECT_LT(n3, n4);
+  EXPECT_NE(n4, std::string::npos) << c_got;
+  close(c);
+
+  const std::string a_got = read_all(a), b_got = read_all(b);
+  EXPECT_TRUE(a_got.starts_with("HTTP/1.1 408 ")) << a_got;
+  EXPECT_EQ(count_of(b_got, "HTTP/1.1 200 "), 1u) << b_got;
+  EXPECT_EQ(count_of(b_got, "HTTP/1.1 408 "), 1u) << b_got;
+  close(a);
+  close(b);
+  EXPECT_EQ(http.gate_counts().timed_out, 2u);
+
+  // Four stalled connections from one address with room for three: the oldest is closed.
+  std::vector<int> fds;
+  for (int i = 0; i < 4; ++i) {
+    fds.push_back(connect_loopback(port));
+    (void)!send(fds.back(), stall.data(), stall.size(), MSG_NOSIGNAL);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(read_all(fds[0]), "");  // closed at once, no answer
+  EXPECT_EQ(http.gate_counts().evicted, 1u);
+  EXPECT_EQ(http.gate_counts().waiting, 3u);
+
+  http.stop();
+  serving.join();
+  for (size_t i = 1; i < fds.size(); ++i) {
+    EXPECT_EQ(read_all(fds[i]), "");  // closed by stop, before their deadline
+    close(fds[i]);
+  }
+  close(fds[0]);
+  EXPECT_EQ(http.gate_counts().waiting, 0u);
+}
+
 }  // namespace gvd::server

@@ -9,14 +9,18 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <string_view>
 #include <thread>
 
 #include "routes.h"
@@ -841,6 +845,184 @@ TEST(Service, ConcurrentClients) {
   for (const std::string& id : ids) EXPECT_EQ(id, ids[0]);
   auto m = c->Get("/metrics");
   EXPECT_NE(m->body.find("gvd_jobs_submitted_total 2"), std::string::npos);
+}
+
+/// A loopback connection to the server (-1 if it cannot connect).
+int connect_to(int port) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+/// Whatever arrives on `fd` within `ms` (until the server closes it: `closed`).
+std::string read_for(int fd, int ms, bool& closed) {
+  timeval tv{0, 50'000};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  std::string out;
+  closed = false;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
+  char buf[4096];
+  while (std::chrono::steady_clock::now() < end) {
+    const ssize_t n = recv(fd, buf, sizeof buf, 0);
+    if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+      closed = true;
+      break;
+    }
+    if (n > 0) out.append(buf, static_cast<size_t>(n));
+  }
+  return out;
+}
+
+// The review's slowloris (D2): before the header gate, 129 connections sending a header byte a
+// second held all 128 HTTP threads and no other request was answered for as long as they
+// kept going. Here 200 attackers (a quarter of them after a fast first request on the same
+// connection, so the kept-alive wait is attacked too) keep going for 20 s, reconnecting
+// whenever the server closes them, while a prober asks /healthz every 50 ms.
+TEST(Service, SlowHeadersDoNotStarveOtherClients) {
+  ServerProcess server(fresh_dir("slowloris"), {"--header-timeout", "3"});
+  const int port = server.port();
+  constexpr int kAttackers = 200;
+  const auto attack_end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  std::atomic<bool> attacking{true};
+  std::atomic<int> reconnects{0};
+  std::thread attacker([&] {
+    std::vector<int> fds(kAttackers, -1);
+    const auto open_one = [&](int i) {
+      const int fd = connect_to(port);
+      if (fd < 0) return;
+      std::string start = "GET /healthz HTTP/1.1\r\nHost: x\r\nX-Slow: ";
+      if (i % 4 == 0) start = "GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n" + start;
+      (void)!send(fd, start.data(), start.size(), MSG_NOSIGNAL);
+      fds[static_cast<size_t>(i)] = fd;
+    };
+    for (int i = 0; i < kAttackers; ++i) open_one(i);
+    while (std::chrono::steady_clock::now() < attack_end) {
+      for (int i = 0; i < kAttackers; ++i) {
+        int& fd = fds[static_cast<size_t>(i)];
+        char buf[4096];
+        ssize_t n = 0;
+        bool gone = false;
+        while ((n = recv(fd, buf, sizeof buf, MSG_DONTWAIT)) != 0) {
+          if (n < 0) {
+            gone = errno != EAGAIN && errno != EWOULDBLOCK;
+            break;
+          }
+        }
+        if (n == 0 || gone || send(fd, "a", 1, MSG_NOSIGNAL) != 1) {
+          close(fd);
+          ++reconnects;
+          open_one(i);
+        }
+      }
+      std::this_thread::sleep_for(std::chrono::seconds(1));
+    }
+    attacking = false;
+    for (const int fd : fds) close(fd);
+  });
+
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // every attacker is connected
+  std::vector<double> ms;
+  int failed = 0;
+  while (attacking) {
+    const auto t0 = std::chrono::steady_clock::now();
+    httplib::Client probe("127.0.0.1", port);
+    probe.set_connection_timeout(2);
+    probe.set_read_timeout(2);
+    const auto r = probe.Get("/healthz");
+    const double took =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (!r || r->status != 200) ++failed;
+    ms.push_back(took);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  attacker.join();
+  ASSERT_GT(ms.size(), 200u);
+  std::sort(ms.begin(), ms.end());
+  const double p99 = ms[ms.size() * 99 / 100];
+  std::printf(
+      "probes %zu, failed %d, median %.2f ms, p99 %.2f ms, max %.2f ms; attackers "
+      "reconnected %d times\n",
+      ms.size(), failed, ms[ms.size() / 2], p99, ms.back(), reconnects.load());
+  EXPECT_EQ(failed, 0);
+  EXPECT_LT(p99, 100.0);
+  EXPECT_LT(ms.back(), 1000.0);
+  // The attackers were closed: all from one address, all but 64 of them at once to make room
+  // (the oldest first), and those that stayed when their 3 s were up (with a 408).
+  EXPECT_GT(reconnects.load(), kAttackers);
+  auto m = client(port)->Get("/metrics");
+  ASSERT_TRUE(m);
+  const std::string key = "\ngvd_http_connections_evicted ";
+  const size_t at = m->body.find(key);
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_GE(std::stod(m->body.substr(at + key.size())), kAttackers - 64);
+}
+
+TEST(Service, HeaderDeadlineIdleCloseAndPipelinedRequests) {
+  ServerProcess server(fresh_dir("header-gate"),
+                       {"--header-timeout", "1", "--keep-alive-timeout", "1"});
+  const int port = server.port();
+  bool closed = false;
+  // Headers that stop half-way: 408 after the header deadline, then closed.
+  int fd = connect_to(port);
+  ASSERT_GE(fd, 0);
+  (void)!send(fd, "GET /healthz HTTP/1.1\r\nHost: x\r\n", 32, MSG_NOSIGNAL);
+  auto t0 = std::chrono::steady_clock::now();
+  std::string got = read_for(fd, 4000, closed);
+  double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(got.starts_with("HTTP/1.1 408 ")) << got;
+  EXPECT_TRUE(closed);
+  EXPECT_GT(took, 0.9);
+  EXPECT_LT(took, 2.5);
+  close(fd);
+
+  // A connection that sends nothing is closed after the keep-alive time-out, silently.
+  fd = connect_to(port);
+  ASSERT_GE(fd, 0);
+  t0 = std::chrono::steady_clock::now();
+  got = read_for(fd, 4000, closed);
+  took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(got, "");
+  EXPECT_TRUE(closed);
+  EXPECT_LT(took, 2.5);
+  close(fd);
+
+  // Three pipelined requests in one write (the second and third are read with the first):
+  // three answers, in order, on the one connection.
+  fd = connect_to(port);
+  ASSERT_GE(fd, 0);
+  const std::string three =
+      "GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n"
+      "GET /v1/jobs/0000 HTTP/1.1\r\nHost: x\r\n\r\n"
+      "GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  (void)!send(fd, three.data(), three.size(), MSG_NOSIGNAL);
+  got = read_for(fd, 3000, closed);
+  EXPECT_TRUE(closed);
+  const size_t first = got.find("HTTP/1.1 200 ");
+  const size_t second = got.find("HTTP/1.1 404 ", first + 1);
+  const size_t third = got.find("HTTP/1.1 200 ", second + 1);
+  EXPECT_EQ(first, 0u) << got;
+  EXPECT_NE(second, std::string::npos) << got;
+  EXPECT_NE(third, std::string::npos) << got;
+  close(fd);
+
+  // Headers sent a byte at a time but within the deadline are served.
+  fd = connect_to(port);
+  ASSERT_GE(fd, 0);
+  for (const char ch :
+       std::string("GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")) {
+    (void)!send(fd, &ch, 1, MSG_NOSIGNAL);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  got = read_for(fd, 2000, closed);
+  EXPECT_TRUE(got.starts_with("HTTP/1.1 200 ")) << got;
+  close(fd);
 }
 
 TEST(Service, HealthReadinessMetrics) {

@@ -1,0 +1,445 @@
+#include "header_gate.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+namespace gvd::server {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+Clock::duration seconds(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+
+int timeout_ms(time_t sec, time_t usec) {
+  return static_cast<int>(std::min<int64_t>(int64_t{sec} * 1000 + usec / 1000, INT32_MAX));
+}
+
+/// poll() for `events`, restarting after signals; false on timeout, error or hang-up.
+bool wait_for(int fd, short events, int ms) {
+  pollfd p{fd, events, 0};
+  const auto end = Clock::now() + std::chrono::milliseconds(ms);
+  for (;;) {
+    const int n = ::poll(&p, 1, ms);
+    if (n > 0) return (p.revents & events) != 0 && (p.revents & (POLLERR | POLLNVAL)) == 0;
+    if (n == 0 || errno != EINTR) return false;
+    ms = static_cast<int>(std::max<int64_t>(
+        0, std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now()).count()));
+  }
+}
+
+void address_of(const sockaddr_storage& a, std::string& ip, int& port) {
+  char text[INET6_ADDRSTRLEN] = {};
+  if (a.ss_family == AF_INET) {
+    const auto& v4 = reinterpret_cast<const sockaddr_in&>(a);
+    ::inet_ntop(AF_INET, &v4.sin_addr, text, sizeof text);
+    port = ntohs(v4.sin_port);
+  } else if (a.ss_family == AF_INET6) {
+    const auto& v6 = reinterpret_cast<const sockaddr_in6&>(a);
+    ::inet_ntop(AF_INET6, &v6.sin6_addr, text, sizeof text);
+    port = ntohs(v6.sin6_port);
+  } else {
+    port = 0;
+  }
+  ip = text;
+}
+
+/// The socket as httplib's Stream, read through a small buffer (httplib reads headers a byte
+/// at a time). The buffer belongs to the connection, so bytes of a pipelined next request
+/// read with this one are not lost between requests.
+class ConnectionStream final : public httplib::Stream {
+ public:
+  ConnectionStream(int fd, int read_ms, int write_ms)
+      : fd_(fd), read_ms_(read_ms), write_ms_(write_ms) {}
+
+  bool is_readable() const override { return off_ < len_ || wait_for(fd_, POLLIN, read_ms_); }
+  bool is_writable() const override { return wait_for(fd_, POLLOUT, write_ms_); }
+
+  ssize_t read(char* ptr, size_t size) override {
+    if (off_ < len_) return take(ptr, size);
+    if (!wait_for(fd_, POLLIN, read_ms_)) return -1;
+    if (size >= sizeof buf_) return receive(ptr, size);
+    const ssize_t n = receive(buf_, sizeof buf_);
+    if (n <= 0) return n;
+    off_ = 0;
+    len_ = static_cast<size_t>(n);
+    return take(ptr, size);
+  }
+
+  ssize_t write(const char* ptr, size_t size) override {
+    if (!wait_for(fd_, POLLOUT, write_ms_)) return -1;
+    for (;;) {
+      const ssize_t n = ::send(fd_, ptr, size, MSG_NOSIGNAL);
+      if (n >= 0 || errno != EINTR) return n;
+    }
+  }
+
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    sockaddr_storage a{};
+    socklen_t len = sizeof a;
+    if (::getpeername(fd_, reinterpret_cast<sockaddr*>(&a), &len) == 0) {
+      address_of(a, ip, port);
+    }
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    sockaddr_storage a{};
+    socklen_t len = sizeof a;
+    if (::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len) == 0) {
+      address_of(a, ip, port);
+    }
+  }
+  socket_t socket() const override { return fd_; }
+
+  /// Bytes read from the socket and not yet taken (a pipelined next request).
+  std::string_view buffered() const { return {buf_ + off_, len_ - off_}; }
+
+ private:
+  ssize_t take(char* ptr, size_t size) {
+    const size_t n = std::min(size, len_ - off_);
+    std::memcpy(ptr, buf_ + off_, n);
+    off_ += n;
+    return static_cast<ssize_t>(n);
+  }
+  ssize_t receive(char* ptr, size_t size) {
+    for (;;) {
+      const ssize_t n = ::recv(fd_, ptr, size, 0);
+      if (n >= 0 || errno != EINTR) return n;
+    }
+  }
+
+  int fd_;
+  int read_ms_;
+  int write_ms_;
+  char buf_[4096];
+  size_t off_ = 0;
+  size_t len_ = 0;
+};
+
+/// The end of a request's headers (a blank line; bare LF line ends count, as for httplib).
+bool has_headers(std::string_view bytes) {
+  return bytes.find("\r\n\r\n") != bytes.npos || bytes.find("\n\n") != bytes.npos;
+}
+
+void close_socket(int fd) {
+  ::shutdown(fd, SHUT_RDWR);
+  ::close(fd);
+}
+
+}  // namespace
+
+struct GatedServer::Connection {
+  int fd = -1;
+  std::string client;  ///< remote address, for the per-client cap
+  size_t requests_left = 0;
+  std::unique_ptr<ConnectionStream> stream;
+  Clock::time_point since;     ///< when it began to wait
+  Clock::time_point deadline;  ///< when it is closed if still waiting
+  bool partial = false;        ///< some bytes of the request have arrived
+  ~Connection() {
+    if (fd >= 0) close_socket(fd);
+  }
+};
+
+/// The epoll thread that holds connections until their headers are complete, and the task
+/// queue that cpp-httplib's accept loop feeds (its threads run the requests).
+class GatedServer::Gate {
+ public:
+  explicit Gate(GatedServer& server) : server_(server) {}
+  ~Gate() { stop(); }
+
+  GateLimits limits;
+
+  /// Starts the epoll thread with `pool` running the requests.
+  void start(httplib::ThreadPool* pool) {
+    std::lock_guard lock(mutex_);
+    pool_ = pool;
+    epoll_ = ::epoll_create1(EPOLL_CLOEXEC);
+    wake_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    epoll_event ev{};
+    ev.events = EPOLLIN;
+    ev.data.fd = wake_;
+    ::epoll_ctl(epoll_, EPOLL_CTL_ADD, wake_, &ev);
+    stopping_ = false;
+    running_ = true;
+    thread_ = std::thread([this] { run(); });
+  }
+
+  /// Closes every waiting connection and joins the thread; later `wait` calls close theirs.
+  void stop() {
+    {
+      std::lock_guard lock(mutex_);
+      if (!running_) return;
+      stopping_ = true;
+    }
+    const uint64_t one = 1;
+    [[maybe_unused]] const ssize_t w = ::write(wake_, &one, sizeof one);
+    thread_.join();
+    std::lock_guard lock(mutex_);
+    waiting_.clear();
+    ::close(epoll_);
+    ::close(wake_);
+    running_ = false;
+    pool_ = nullptr;
+  }
+
+  /// Holds `c` until its next request's headers are complete (or closes it). Headers that
+  /// are there already go straight to a thread.
+  void wait(std::unique_ptr<Connection> c) {
+    std::lock_guard lock(mutex_);
+    if (!running_ || stopping_) return;  // c closes
+    const auto now = Clock::now();
+    c->since = now;
+    c->partial = !c->stream->buffered().empty();
+    c->deadline = now + seconds(c->partial ? limits.header_seconds : limits.idle_seconds);
+    const Peek p = peek(*c);
+    if (p == Peek::kClosed) return;
+    if (p == Peek::kReady) {
+      serve_later(std::move(c));
+      return;
+    }
+    make_room(c->client);
+    epoll_event ev{};
+    ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
+    ev.data.fd = c->fd;
+    if (::epoll_ctl(epoll_, EPOLL_CTL_ADD, c->fd, &ev) != 0) return;
+    const int fd = c->fd;
+    waiting_[fd] = std::move(c);
+  }
+
+  GateCounts counts() const {
+    std::lock_guard lock(mutex_);
+    return {waiting_.size(), timed_out_, evicted_};
+  }
+
+ private:
+  using Waiting = std::map<int, std::unique_ptr<Connection>>;
+
+  /// Before a connection of `client` waits: close the oldest waiting one of that client when
+  /// it has its share, and the oldest of all when the gate is full. One whose headers have
+  /// just arrived (its event not yet handled) is served instead, and makes room as well.
+  void make_room(const std::string& client) {
+    for (;;) {
+      int of_client = 0;
+      auto oldest_of_client = waiting_.end();
+      auto oldest = waiting_.end();
+      for (auto it = waiting_.begin(); it != waiting_.end(); ++it) {
+        if (oldest == waiting_.end() || it->second->since < oldest->second->since) oldest = it;
+        if (it->second->client != client) continue;
+        ++of_client;
+        if (oldest_of_client == waiting_.end() ||
+            it->second->since < oldest_of_client->second->since) {
+          oldest_of_client = it;
+        }
+      }
+      auto victim = waiting_.end();
+      if (of_client >= limits.max_waiting_per_client) {
+        victim = oldest_of_client;
+      } else if (static_cast<int>(waiting_.size()) >= limits.max_waiting) {
+        victim = oldest;
+      }
+      if (victim == waiting_.end()) return;
+      const Peek p = peek(*victim->second);
+      if (p == Peek::kReady) {
+        ::epoll_ctl(epoll_, EPOLL_CTL_DEL, victim->first, nullptr);
+        serve_later(std::move(victim->second));
+        waiting_.erase(victim);
+        continue;  // room made without closing anyone; look again only if still full
+      }
+      if (p == Peek::kWaiting) ++evicted_;
+      drop(victim);
+      return;
+    }
+  }
+
+  /// Gives `c` to a thread of the pool.
+  void serve_later(std::unique_ptr<Connection> c) {
+    pool_->enqueue([this, raw = c.release()] { server_.serve(std::unique_ptr<Connection>(raw)); });
+  }
+
+  void drop(Waiting::iterator it) {
+    ::epoll_ctl(epoll_, EPOLL_CTL_DEL, it->first, nullptr);
+    waiting_.erase(it);  // closes the socket
+  }
+
+  enum class Peek { kWaiting, kReady, kClosed };
+
+  /// Looks at what has arrived without taking it: ready when the headers are complete (or
+  /// as large as the gate lets them grow: httplib then refuses them with a reason).
+  Peek peek(Connection& c) {
+    buffer_.resize(limits.max_header_bytes);
+    const ssize_t n = ::recv(c.fd, buffer_.data(), buffer_.size(), MSG_PEEK | MSG_DONTWAIT);
+    if (n == 0) return Peek::kClosed;
+    if (n < 0)
+      return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? Peek::kWaiting
+                                                                       : Peek::kClosed;
+    const std::string_view got(buffer_.data(), static_cast<size_t>(n));
+    if (static_cast<size_t>(n) >= buffer_.size() || got.find("\r\n\r\n") != got.npos ||
+        got.find("\n\n") != got.npos) {
+      return Peek::kReady;
+    }
+    if (!c.partial) {
+      c.partial = true;
+      c.deadline = Clock::now() + seconds(limits.header_seconds);
+    }
+    return Peek::kWaiting;
+  }
+
+  void run() {
+    std::vector<epoll_event> events(256);
+    for (;;) {
+      int ms = 1000;
+      {
+        std::lock_guard lock(mutex_);
+        if (stopping_) return;
+        const auto now = Clock::now();
+        for (const auto& [fd, c] : waiting_) {
+          const auto left =
+              std::chrono::duration_cast<std::chrono::milliseconds>(c->deadline - now).count();
+          ms = static_cast<int>(std::clamp<int64_t>(left + 1, 0, ms));
+        }
+      }
+      const int n = ::epoll_wait(epoll_, events.data(), static_cast<int>(events.size()), ms);
+      {
+        std::lock_guard lock(mutex_);
+        if (stopping_) return;
+        for (int i = 0; i < n; ++i) {
+          const int fd = events[static_cast<size_t>(i)].data.fd;
+          if (fd == wake_) {
+            uint64_t v = 0;
+            [[maybe_unused]] const ssize_t r = ::read(wake_, &v, sizeof v);
+            continue;
+          }
+          const auto it = waiting_.find(fd);
+          if (it == waiting_.end()) continue;
+          const Peek p = peek(*it->second);
+          const bool hung_up =
+              (events[static_cast<size_t>(i)].events & (EPOLLRDHUP | EPOLLHUP | EPOLLERR)) != 0;
+          if (p == Peek::kReady) {
+            ::epoll_ctl(epoll_, EPOLL_CTL_DEL, fd, nullptr);
+            serve_later(std::move(it->second));
+            waiting_.erase(it);
+          } else if (p == Peek::kClosed || hung_up) {
+            drop(it);
+          } else {
+            epoll_event ev{};
+            ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
+            ev.data.fd = fd;
+            ::epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev);
+          }
+        }
+        const auto now = Clock::now();
+        for (auto it = waiting_.begin(); it != waiting_.end();) {
+          if (it->second->deadline > now) {
+            ++it;
+            continue;
+          }
+          if (it->second->partial) {
+            static constexpr std::string_view k408 =
+                "HTTP/1.1 408 Request Timeout\r\nConnection: close\r\nContent-Length: 0\r\n\r\n";
+            [[maybe_unused]] const ssize_t w =
+                ::send(it->first, k408.data(), k408.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+            ++timed_out_;
+          }
+          auto next = std::next(it);
+          drop(it);
+          it = next;
+        }
+      }
+    }
+  }
+
+  GatedServer& server_;
+  mutable std::mutex mutex_;
+  Waiting waiting_;
+  httplib::ThreadPool* pool_ = nullptr;
+  int epoll_ = -1;
+  int wake_ = -1;
+  bool running_ = false;
+  bool stopping_ = false;
+  std::thread thread_;
+  std::vector<char> buffer_;
+  uint64_t timed_out_ = 0;
+  uint64_t evicted_ = 0;
+};
+
+namespace {
+
+/// cpp-httplib's thread pool, with the gate started and stopped beside it: the gate stops
+/// first (it enqueues), then the pool drains what was queued.
+class GateQueue final : public httplib::TaskQueue {
+ public:
+  GateQueue(GatedServer::Gate& gate, int threads)
+      : gate_(gate), pool_(static_cast<size_t>(threads)) {
+    gate_.start(&pool_);
+  }
+  ~GateQueue() override { gate_.stop(); }
+  void enqueue(std::function<void()> fn) override { pool_.enqueue(std::move(fn)); }
+  void shutdown() override {
+    gate_.stop();
+    pool_.shutdown();
+  }
+
+ private:
+  GatedServer::Gate& gate_;
+  httplib::ThreadPool pool_;
+};
+
+}  // namespace
+
+GatedServer::GatedServer(int threads) : gate_(std::make_unique<Gate>(*this)) {
+  new_task_queue = [this, threads] { return new GateQueue(*gate_, threads); };
+}
+
+GatedServer::~GatedServer() = default;
+
+void GatedServer::set_gate_limits(const GateLimits& limits) { gate_->limits = limits; }
+
+GateCounts GatedServer::gate_counts() const { return gate_->counts(); }
+
+bool GatedServer::process_and_close_socket(socket_t sock) {
+  auto c = std::make_unique<Connection>();
+  c->fd = sock;
+  c->requests_left = keep_alive_max_count_;
+  c->stream =
+      std::make_unique<ConnectionStream>(sock, timeout_ms(read_timeout_sec_, read_timeout_usec_),
+                                         timeout_ms(write_timeout_sec_, write_timeout_usec_));
+  int port = 0;
+  c->stream->get_remote_ip_and_port(c->client, port);
+  gate_->wait(std::move(c));
+  return true;
+}
+
+void GatedServer::serve(std::unique_ptr<Connection> c) {
+  while (c->requests_left > 0 && svr_sock_ != INVALID_SOCKET) {
+    const bool close_connection = c->requests_left == 1;
+    bool closed = false;
+    const bool ok = process_request(*c->stream, close_connection, closed, nullptr);
+    --c->requests_left;
+    if (!ok || closed || close_connection) return;
+    // A pipelined request already read into the buffer whole is served here; otherwise the
+    // next request waits at the gate, not in this thread.
+    if (!has_headers(c->stream->buffered())) {
+      gate_->wait(std::move(c));
+      return;
+    }
+  }
+}
+
+}  // namespace gvd::server

@@ -1,0 +1,58 @@
+#pragma once
+
+#include <httplib.h>
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+
+namespace gvd::server {
+
+/// How long and how many connections may wait for their request headers.
+struct GateLimits {
+  double header_seconds = 10;  ///< from a request's first byte to the end of its headers
+  double idle_seconds = 5;     ///< for the first byte (a new or a kept-alive connection)
+  /// Bytes that may wait before the headers are handed over unfinished (the request guard
+  /// then answers 431 or 400): the header limit plus a request line.
+  size_t max_header_bytes = 16384 + 8192;
+  int max_waiting_per_client = 64;  ///< per remote address; the oldest waiting one is closed
+  int max_waiting = 4096;           ///< in all; the oldest waiting one is closed
+};
+
+/// What the gate has done since the server started (the /metrics counters).
+struct GateCounts {
+  uint64_t waiting = 0;    ///< connections waiting for headers now
+  uint64_t timed_out = 0;  ///< closed because their headers did not arrive in time
+  uint64_t evicted = 0;    ///< closed to make room (per-client or total cap)
+};
+
+/// An httplib::Server whose threads never wait for request headers. cpp-httplib gives each
+/// connection a thread from accept to close, and its read timeout is per recv(): a client
+/// sending a header byte a second holds a thread for as long as it likes, and as many such
+/// clients as threads stop the server (slowloris). Here a connection goes to one epoll thread
+/// (the gate) whenever it waits for a request — after accept and between kept-alive requests
+/// — which peeks at the socket until the headers are complete and only then gives it to a
+/// thread. The bytes stay in the kernel until httplib reads them, so nothing is parsed twice.
+/// A connection whose headers take longer than the limits is closed (408 if it sent part of
+/// them), and each remote address may keep only so many connections waiting.
+class GatedServer : public httplib::Server {
+ public:
+  explicit GatedServer(int threads);
+  ~GatedServer() override;
+  GatedServer(const GatedServer&) = delete;
+  GatedServer& operator=(const GatedServer&) = delete;
+
+  void set_gate_limits(const GateLimits& limits);  ///< before listening
+  GateCounts gate_counts() const;
+
+  struct Connection;
+  class Gate;
+
+ private:
+  bool process_and_close_socket(socket_t sock) override;
+  void serve(std::unique_ptr<Connection> c);
+
+  std::unique_ptr<Gate> gate_;
+};
+
+}  // namespace gvd::server
