@@ -34,7 +34,7 @@ struct ProblemExit {
   std::string_view type;
   int exit_code;
 };
-constexpr std::array<ProblemExit, 24> kProblemExits = {{
+constexpr std::array<ProblemExit, 26> kProblemExits = {{
     {"/problems/invalid-scene", kExitBadInput},
     {"/problems/invalid-argument", kExitBadInput},
     {"/problems/unsupported-format", kExitBadInput},
@@ -59,6 +59,8 @@ constexpr std::array<ProblemExit, 24> kProblemExits = {{
     {"/problems/no-path", kExitNoPath},
     {"/problems/rate-limited", kExitBusy},
     {"/problems/queue-unavailable", kExitBusy},
+    {"/problems/uri-too-long", kExitInternal},    // our bug: long lists go in POST bodies
+    {"/problems/request-timeout", kExitNetwork},  // a link too slow for --header-timeout
 }};
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a

@@ -31,7 +31,7 @@ __all__ = [
     "JobCancelled", "InternalServerError", "RouteNotFound", "MethodNotAllowed",
     "LengthRequired", "BodyTooLarge", "HeadersTooLarge", "UnsupportedMediaType",
     "UnsupportedEncoding", "ServerBusy", "QueueFull", "Draining", "TooManyStreams",
-    "RateLimited", "QueueUnavailable",
+    "RateLimited", "QueueUnavailable", "UriTooLong", "RequestTimeout",
     "JobNotFinished", "JobFailed", "NoPath", "WaitTimeout", "PROBLEM_TYPES",
 ]
 
@@ -121,7 +121,15 @@ class BodyTooLarge(GvdError):
 
 
 class HeadersTooLarge(GvdError):
-    """431."""
+    """431: over --max-headers / --max-header-bytes, or a header line over 8 KiB."""
+
+
+class UriTooLong(GvdError):
+    """414: a request line over 8 KiB (send long point lists in a POST body)."""
+
+
+class RequestTimeout(GvdError):
+    """408: the request headers took longer than the server's --header-timeout."""
 
 
 class UnsupportedMediaType(GvdError):
@@ -204,6 +212,8 @@ PROBLEM_TYPES = {
     "/problems/no-path": NoPath,
     "/problems/rate-limited": RateLimited,
     "/problems/queue-unavailable": QueueUnavailable,
+    "/problems/uri-too-long": UriTooLong,
+    "/problems/request-timeout": RequestTimeout,
 }
 
 

@@ -24,6 +24,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+/// How long a thread that has just answered a kept-alive connection waits for its next
+/// request before giving the connection to the gate.
+constexpr int kLingerMs = 2;
+
 Clock::duration seconds(double s) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
 }
@@ -157,6 +161,45 @@ struct GatedServer::Connection {
   }
 };
 
+namespace {
+
+enum class Peek { kNothing, kPartial, kReady, kTooLarge, kClosed };
+
+/// cpp-httplib 0.11.4 reads no header line longer than this (CPPHTTPLIB_HEADER_MAX_LENGTH):
+/// it would answer 400 without a reason, so the gate answers 431 first.
+constexpr size_t kHeaderLineMax = 8192;
+
+/// Whether the next request's headers have arrived, looking without taking: what the
+/// connection's stream has read ahead (part of a pipelined request) and then the socket.
+Peek peek_headers(const GatedServer::Connection& c, size_t max_bytes, std::vector<char>& buffer) {
+  const std::string_view ahead = c.stream->buffered();
+  buffer.assign(ahead.begin(), ahead.end());
+  const size_t room = max_bytes > ahead.size() ? max_bytes - ahead.size() : 1;
+  buffer.resize(ahead.size() + room);
+  const ssize_t n = ::recv(c.fd, buffer.data() + ahead.size(), room, MSG_PEEK | MSG_DONTWAIT);
+  if (n == 0) return Peek::kClosed;
+  if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) return Peek::kClosed;
+  const std::string_view got(buffer.data(),
+                             ahead.size() + static_cast<size_t>(std::max<ssize_t>(n, 0)));
+  if (got.empty()) return Peek::kNothing;
+  const size_t end = std::min(got.find("\r\n\r\n"), got.find("\n\n"));
+  const std::string_view head = got.substr(0, end);
+  // Header lines (after the request line, whose length httplib answers with 414 itself).
+  const size_t first_end = head.find('\n');
+  if (first_end != head.npos) {
+    for (size_t at = first_end + 1; at < head.size();) {
+      const size_t eol = std::min(head.find('\n', at), head.size());
+      if (eol - at > kHeaderLineMax) return Peek::kTooLarge;
+      at = eol + 1;
+    }
+  }
+  if (end != got.npos) return Peek::kReady;
+  if (got.size() < max_bytes) return Peek::kPartial;
+  return first_end == head.npos ? Peek::kReady : Peek::kTooLarge;
+}
+
+}  // namespace
+
 /// The epoll thread that holds connections until their headers are complete, and the task
 /// queue that cpp-httplib's accept loop feeds (its threads run the requests).
 class GatedServer::Gate {
@@ -210,6 +253,10 @@ class GatedServer::Gate {
     c->deadline = now + seconds(c->partial ? limits.header_seconds : limits.idle_seconds);
     const Peek p = peek(*c);
     if (p == Peek::kClosed) return;
+    if (p == Peek::kTooLarge) {
+      refuse(*c, 431);
+      return;
+    }
     if (p == Peek::kReady) {
       serve_later(std::move(c));
       return;
@@ -262,10 +309,23 @@ class GatedServer::Gate {
         waiting_.erase(victim);
         continue;  // room made without closing anyone; look again only if still full
       }
-      if (p == Peek::kWaiting) ++evicted_;
+      if (p != Peek::kClosed) ++evicted_;
       drop(victim);
       return;
     }
+  }
+
+  /// Answers `status` on `c` without waiting (the caller closes the socket).
+  void refuse(const Connection& c, int status) {
+    std::string bytes;
+    if (limits.answer) bytes = limits.answer(status);
+    if (bytes.empty()) {
+      bytes = "HTTP/1.1 " + std::to_string(status) +
+              (status == 408 ? " Request Timeout" : " Request Header Fields Too Large") +
+              "\r\nConnection: close\r\nContent-Length: 0\r\n\r\n";
+    }
+    [[maybe_unused]] const ssize_t w =
+        ::send(c.fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   }
 
   /// Gives `c` to a thread of the pool.
@@ -278,27 +338,15 @@ class GatedServer::Gate {
     waiting_.erase(it);  // closes the socket
   }
 
-  enum class Peek { kWaiting, kReady, kClosed };
-
   /// Looks at what has arrived without taking it: ready when the headers are complete (or
   /// as large as the gate lets them grow: httplib then refuses them with a reason).
   Peek peek(Connection& c) {
-    buffer_.resize(limits.max_header_bytes);
-    const ssize_t n = ::recv(c.fd, buffer_.data(), buffer_.size(), MSG_PEEK | MSG_DONTWAIT);
-    if (n == 0) return Peek::kClosed;
-    if (n < 0)
-      return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? Peek::kWaiting
-                                                                       : Peek::kClosed;
-    const std::string_view got(buffer_.data(), static_cast<size_t>(n));
-    if (static_cast<size_t>(n) >= buffer_.size() || got.find("\r\n\r\n") != got.npos ||
-        got.find("\n\n") != got.npos) {
-      return Peek::kReady;
-    }
-    if (!c.partial) {
+    const Peek p = peek_headers(c, limits.max_header_bytes, buffer_);
+    if (p == Peek::kPartial && !c.partial) {
       c.partial = true;
       c.deadline = Clock::now() + seconds(limits.header_seconds);
     }
-    return Peek::kWaiting;
+    return p;
   }
 
   void run() {
@@ -335,6 +383,9 @@ class GatedServer::Gate {
             ::epoll_ctl(epoll_, EPOLL_CTL_DEL, fd, nullptr);
             serve_later(std::move(it->second));
             waiting_.erase(it);
+          } else if (p == Peek::kTooLarge) {
+            refuse(*it->second, 431);
+            drop(it);
           } else if (p == Peek::kClosed || hung_up) {
             drop(it);
           } else {
@@ -351,10 +402,7 @@ class GatedServer::Gate {
             continue;
           }
           if (it->second->partial) {
-            static constexpr std::string_view k408 =
-                "HTTP/1.1 408 Request Timeout\r\nConnection: close\r\nContent-Length: 0\r\n\r\n";
-            [[maybe_unused]] const ssize_t w =
-                ::send(it->first, k408.data(), k408.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+            refuse(*it->second, 408);
             ++timed_out_;
           }
           auto next = std::next(it);
@@ -433,12 +481,18 @@ void GatedServer::serve(std::unique_ptr<Connection> c) {
     const bool ok = process_request(*c->stream, close_connection, closed, nullptr);
     --c->requests_left;
     if (!ok || closed || close_connection) return;
-    // A pipelined request already read into the buffer whole is served here; otherwise the
-    // next request waits at the gate, not in this thread.
-    if (!has_headers(c->stream->buffered())) {
-      gate_->wait(std::move(c));
-      return;
+    // The next request is served here when it is already read into the buffer (pipelined) or
+    // arrives whole within a moment (a busy keep-alive client sends it as soon as it has the
+    // answer; handing it over through the gate would cost a wake-up of two threads). Anything
+    // slower waits at the gate, not in this thread: a thread waits at most kLinger per request.
+    if (has_headers(c->stream->buffered())) continue;
+    thread_local std::vector<char> buffer;
+    if (wait_for(c->fd, POLLIN, kLingerMs) &&
+        peek_headers(*c, gate_->limits.max_header_bytes, buffer) == Peek::kReady) {
+      continue;
     }
+    gate_->wait(std::move(c));
+    return;
   }
 }
 

@@ -4,7 +4,9 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <string>
 
 namespace gvd::server {
 
@@ -17,6 +19,10 @@ struct GateLimits {
   size_t max_header_bytes = 16384 + 8192;
   int max_waiting_per_client = 64;  ///< per remote address; the oldest waiting one is closed
   int max_waiting = 4096;           ///< in all; the oldest waiting one is closed
+  /// The whole answer (status line, headers, body) the gate sends before closing a
+  /// connection itself: 408 (headers too slow) or 431 (a header line over cpp-httplib's
+  /// 8 KiB, or headers over max_header_bytes). Empty: a bare status line.
+  std::function<std::string(int status)> answer;
 };
 
 /// What the gate has done since the server started (the /metrics counters).

@@ -701,6 +701,29 @@ void HttpServer::Impl::setup() {
       static_cast<size_t>(std::min<uint64_t>(options.max_header_bytes, 1u << 20)) + 8192;
   gate.max_waiting_per_client = options.max_waiting_per_client;
   gate.max_waiting = options.max_waiting;
+  const double header_timeout = options.header_timeout;
+  const uint64_t max_header_bytes = options.max_header_bytes;
+  gate.answer = [header_timeout, max_header_bytes](int status) {
+    const bool slow = status == 408;
+    char detail[160];
+    if (slow) {
+      std::snprintf(detail, sizeof detail,
+                    "the request headers did not arrive within %g s of their first byte "
+                    "(--header-timeout)",
+                    header_timeout);
+    } else {
+      std::snprintf(detail, sizeof detail,
+                    "a header line is longer than 8192 bytes, or the headers are larger than "
+                    "%llu bytes (--max-header-bytes)",
+                    static_cast<unsigned long long>(max_header_bytes));
+    }
+    const std::string body = problem_json(
+        slow ? ProblemKind::kRequestTimeout : ProblemKind::kHeadersTooLarge, detail, "", "");
+    return "HTTP/1.1 " +
+           std::string(slow ? "408 Request Timeout" : "431 Request Header Fields Too Large") +
+           "\r\nContent-Type: application/problem+json\r\nContent-Length: " +
+           std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body;
+  };
   http.set_gate_limits(gate);
   http.set_tcp_nodelay(true);
   // cpp-httplib 0.11.4 listens with a backlog of 5: a burst of new connections overflows it
@@ -758,6 +781,17 @@ void HttpServer::Impl::setup() {
       }
     } else if (status == 413) {
       send_problem(req, res, ProblemKind::kBodyTooLarge, "the request body is too large");
+    } else if (status == 414) {
+      send_problem(req, res, ProblemKind::kUriTooLong,
+                   "the request line is longer than 8192 bytes; send long point lists in the "
+                   "body of a POST");
+    } else if (status == 400 &&
+               req.get_header_value("Content-Type").starts_with("multipart/form-data")) {
+      // cpp-httplib's multipart reader says no more than that it failed.
+      send_problem(req, res, ProblemKind::kInvalidArgument,
+                   "malformed multipart body: its parts must be separated by the boundary "
+                   "named in Content-Type and end with --boundary--; a part header is at most "
+                   "8192 bytes and a body at most 1024 parts (cpp-httplib's limits)");
     } else if (status == 400) {
       send_problem(req, res, ProblemKind::kInvalidArgument, "malformed HTTP request");
     } else {

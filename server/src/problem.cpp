@@ -35,6 +35,8 @@ constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
     {422, "/problems/no-path", "No path", false},
     {429, "/problems/rate-limited", "Too many submissions", true},
     {503, "/problems/queue-unavailable", "Job queue unavailable", true},
+    {414, "/problems/uri-too-long", "Request line too long", false},
+    {408, "/problems/request-timeout", "Request headers too slow", true},
 }};
 
 static_assert(static_cast<int>(ErrorCode::kInternal) == static_cast<int>(ProblemKind::kInternal),

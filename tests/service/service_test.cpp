@@ -352,6 +352,34 @@ TEST(Service, BadRequestsAreRefusedBeforeTheBody) {
   const std::string big = "GET /healthz HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(3000, 'a') +
                           "\r\nX-Big2: " + std::string(3000, 'b') + "\r\n\r\n";
   EXPECT_EQ(raw_status(raw_exchange(port, big)), 431);
+  // Lines cpp-httplib cannot read (D8): each answer names its limit in a problem document.
+  const auto problem_of = [](const std::string& response) {
+    const size_t body = response.find("\r\n\r\n");
+    return body == std::string::npos ? Json()
+                                     : Json::parse(response.substr(body + 4), nullptr, false);
+  };
+  resp = raw_exchange(port, "GET /healthz HTTP/1.1\r\nHost: x\r\nX-Long: " +
+                                std::string(100'000, 'a') + "\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 431) << resp.substr(0, 200);
+  EXPECT_EQ(problem_of(resp).value("type", ""), "/problems/headers-too-large");
+  EXPECT_NE(problem_of(resp).value("detail", "").find("8192"), std::string::npos);
+  resp = raw_exchange(
+      port, "GET /healthz HTTP/1.1\r\nHost: x\r\nX-Long: " + std::string(9000, 'a') + "\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 431) << resp.substr(0, 200);
+  resp =
+      raw_exchange(port, "GET /v1/jobs/" + std::string(9000, 'a') + " HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 414) << resp.substr(0, 200);
+  EXPECT_EQ(problem_of(resp).value("type", ""), "/problems/uri-too-long");
+  // A multipart body whose boundary is not the one its Content-Type names.
+  const std::string parts =
+      "--other\r\nContent-Disposition: form-data; name=\"a\"; "
+      "filename=\"a.obj\"\r\n\r\nv 0 0 0\r\n--other--\r\n";
+  resp = raw_exchange(port,
+                      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: multipart/form-data; "
+                      "boundary=xyz\r\nContent-Length: " +
+                          std::to_string(parts.size()) + "\r\n\r\n" + parts);
+  EXPECT_EQ(raw_status(resp), 400) << resp;
+  EXPECT_NE(problem_of(resp).value("detail", "").find("multipart"), std::string::npos) << resp;
   // Wrong content type for a scene; a form body.
   auto r = c->Post("/v1/jobs", "a=b", "application/x-www-form-urlencoded");
   ASSERT_TRUE(r);
@@ -969,7 +997,8 @@ TEST(Service, HeaderDeadlineIdleCloseAndPipelinedRequests) {
                        {"--header-timeout", "1", "--keep-alive-timeout", "1"});
   const int port = server.port();
   bool closed = false;
-  // Headers that stop half-way: 408 after the header deadline, then closed.
+  // Headers that stop half-way: 408 after the header deadline (a problem document), then
+  // closed.
   int fd = connect_to(port);
   ASSERT_GE(fd, 0);
   (void)!send(fd, "GET /healthz HTTP/1.1\r\nHost: x\r\n", 32, MSG_NOSIGNAL);
@@ -977,6 +1006,7 @@ TEST(Service, HeaderDeadlineIdleCloseAndPipelinedRequests) {
   std::string got = read_for(fd, 4000, closed);
   double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_TRUE(got.starts_with("HTTP/1.1 408 ")) << got;
+  EXPECT_NE(got.find("/problems/request-timeout"), std::string::npos) << got;
   EXPECT_TRUE(closed);
   EXPECT_GT(took, 0.9);
   EXPECT_LT(took, 2.5);
