@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -147,6 +148,20 @@ struct HttpServer::Impl {
   std::string backend;  ///< the backend the warm-up computation actually used
 
   // ---- helpers ------------------------------------------------------------------------------
+
+  /// `detail` with the store's directory written as "<store>": clients learn which file of
+  /// the store failed, not where the server keeps it (the error log line has the full path).
+  std::string without_store_path(std::string detail) const {
+    std::error_code ec;
+    const std::string absolute = std::filesystem::absolute(options.store, ec).lexically_normal();
+    for (const std::string& dir : {absolute, options.store}) {
+      if (dir.empty() || dir == "." || dir == "/") continue;
+      for (size_t at = detail.find(dir); at != std::string::npos; at = detail.find(dir, at + 7)) {
+        detail.replace(at, dir.size(), "<store>");
+      }
+    }
+    return detail;
+  }
 
   void send_problem(const httplib::Request& req, httplib::Response& res, ProblemKind kind,
                     const std::string& detail, const std::string& extra = {},
@@ -298,7 +313,8 @@ struct HttpServer::Impl {
         send_problem(req, res, ProblemKind::kInternal,
                      "internal error (request " + t_request.id + ")");
       } catch (const Error& e) {
-        send_problem(req, res, problem_kind(e.code()), e.detail(), {}, e.where());
+        send_problem(req, res, problem_kind(e.code()), without_store_path(e.detail()), {},
+                     e.where());
         // A server-side failure (a store that does not read back, a full disk): the access
         // line says 5xx, this one says what broke, for the operator.
         if (res.status >= 500 && !options.quiet)

@@ -543,7 +543,7 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
       case StopReason::kTimeout:
         kind = ProblemKind::kLimitExceeded;
         detail = "the job ran longer than this server's limit of " +
-                 std::to_string(options_.job_seconds) + " s";
+                 seconds_text(options_.job_seconds) + " s (--job-seconds)";
         break;
       case StopReason::kMemory:
         kind = ProblemKind::kLimitExceeded;

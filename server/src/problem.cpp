@@ -1,6 +1,7 @@
 #include "problem.h"
 
 #include <array>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <optional>
 
@@ -89,6 +90,12 @@ std::string problem_json(ProblemKind kind, std::string_view detail, std::string_
     }
   }
   return doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::string seconds_text(double seconds) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", seconds);
+  return text;
 }
 
 }  // namespace gvd::server

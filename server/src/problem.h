@@ -60,6 +60,9 @@ inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kRequestT
 /// location (gvd::ErrorLocation, never the detail's text), "object": {"index","label"},
 /// "element": {"kind","index"} and "pointer" (a JSON pointer into the scene) where it gives
 /// them, and any extra members given as a JSON object text in `extra_json`.
+/// Seconds as a person writes them in a message: "5", "0.25", "1e+07" (not "5.000000").
+std::string seconds_text(double seconds);
+
 std::string problem_json(ProblemKind kind, std::string_view detail, std::string_view instance,
                          std::string_view request_id, std::string_view extra_json = {},
                          const ErrorLocation& where = {});

@@ -1086,7 +1086,7 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
       case StopReason::kTimeout:
         kind = ProblemKind::kLimitExceeded;
         detail = "the job ran longer than this server's limit of " +
-                 std::to_string(options_.job_seconds) + " s";
+                 seconds_text(options_.job_seconds) + " s (--job-seconds)";
         break;
       case StopReason::kUser:
       case StopReason::kNone:

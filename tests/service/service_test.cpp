@@ -725,6 +725,28 @@ TEST(Service, RestartLogsEveryStoreEntryItDrops) {
 // Reliability D9: the saved result holds the run's stage times, so a job computed again is
 // other bytes; its strong ETag must change with them (the GLB and graph stay the same bytes
 // and keep the id).
+// D11: a store that cannot be written is a 500 io-error naming the file in the store, not
+// the directory where the server keeps it; the error log line has the full path.
+TEST(Service, StorageErrorsDoNotShowTheStorePath) {
+  const std::string store = fs::absolute(fresh_dir("store-path")).string();
+  const std::string log = store + ".log";
+  ServerProcess server(store, {}, log);
+  fs::remove_all(store + "/requests");
+  std::ofstream(store + "/requests") << "not a directory";
+  auto c = client(server.port());
+  auto r = c->Post("/v1/jobs", data("scenes/gears2d.json"), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 500);
+  const Json p = Json::parse(r->body);
+  EXPECT_EQ(p.value("type", ""), "/problems/io-error");
+  const std::string detail = p.value("detail", "");
+  EXPECT_NE(detail.find("<store>/requests/"), std::string::npos) << detail;
+  EXPECT_EQ(detail.find(store), std::string::npos) << detail;
+  server.signal(SIGTERM);
+  server.wait();
+  EXPECT_NE(read_text(log).find(store + "/requests/"), std::string::npos);
+}
+
 TEST(Service, ResultFileETagFollowsItsBytes) {
   ServerProcess server(fresh_dir("result-etag"));
   auto c = client(server.port());

@@ -14,6 +14,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/json_depth.h"
+#include "gvd/common/json_input.h"
 #include "gvd/scene/load_scene.h"
 
 namespace gvd {
@@ -74,14 +75,11 @@ std::string_view check_glb_container(std::span<const uint8_t> bytes, const std::
 /// We never read files on behalf of a document (the service gets untrusted input): every
 /// buffer must be embedded (GLB BIN chunk or data: URI).
 void check_no_external_buffers(std::string_view json_text, const std::string& pre) {
-  check_json_depth(json_text, pre + "the glTF JSON", ErrorCode::kInvalidScene);
   nlohmann::json doc;
   try {
-    doc = nlohmann::json::parse(json_text);
-  } catch (const nlohmann::json::parse_error& e) {
-    invalid(pre + "JSON parse error at byte " + std::to_string(e.byte) + ": " + e.what());
-  } catch (const nlohmann::json::exception& e) {
-    invalid(pre + "JSON parse error: " + e.what());
+    doc = parse_json_input(json_text, "the glTF JSON", ErrorCode::kInvalidScene);
+  } catch (const Error& e) {  // the offset is within the glTF JSON, not the file: detail only
+    invalid(pre + e.what());
   }
   if (!doc.is_object()) invalid(pre + "the glTF JSON is not an object");
   const auto buffers = doc.find("buffers");

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "gvd/common/error.h"
-#include "gvd/common/json_depth.h"
+#include "gvd/common/json_input.h"
 
 namespace gvd {
 
@@ -58,21 +58,6 @@ bool has_obj_lines(std::string_view text) {
   return false;
 }
 
-nlohmann::json parse_json_or_throw(std::string_view text) {
-  check_json_depth(text, "the scene", ErrorCode::kInvalidScene);
-  try {
-    return nlohmann::json::parse(text.begin(), text.end());
-  } catch (const nlohmann::json::parse_error& e) {
-    ErrorLocation where;  // e.byte counts from 1: the character that failed
-    where.offset = e.byte > 0 ? static_cast<int64_t>(e.byte) - 1 : 0;
-    throw Error(ErrorCode::kInvalidScene,
-                "JSON parse error at byte " + std::to_string(where.offset) + ": " + e.what(),
-                where);
-  } catch (const nlohmann::json::exception& e) {  // e.g. a number literal that overflows
-    throw Error(ErrorCode::kInvalidScene, std::string("JSON parse error: ") + e.what());
-  }
-}
-
 /// One object holding all the objects of `scene` (vertex indices offset), labelled `label`.
 SceneObject merge_objects(Scene& scene, const std::string& label) {
   SceneObject merged;
@@ -98,8 +83,10 @@ Scene parse_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std:
     const std::string_view lead = skip_leading(text);
     if (bytes.size() >= 4 && text.starts_with("glTF")) {
       format = SceneFormat::kGlb;
-    } else if (lead.starts_with("{")) {
-      const nlohmann::json doc = parse_json_or_throw(text);
+    } else if (lead.starts_with("{") || lead.starts_with("[") || lead.starts_with("null") ||
+               lead.starts_with("true") || lead.starts_with("false")) {
+      // JSON that is no object is no scene either: said as such (not "unrecognised format").
+      const nlohmann::json doc = parse_json_input(text, "the scene", ErrorCode::kInvalidScene);
       if (doc.is_object() && doc.contains("asset")) {
         format = SceneFormat::kGltf;
       } else {
@@ -124,7 +111,8 @@ Scene parse_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std:
   Scene scene;
   switch (format) {
     case SceneFormat::kJson:
-      return scene_from_json_value(parse_json_or_throw(text), limits);
+      return scene_from_json_value(parse_json_input(text, "the scene", ErrorCode::kInvalidScene),
+                                   limits);
     case SceneFormat::kObj:
       scene = parse_obj(text, name, single_object, limits);
       break;

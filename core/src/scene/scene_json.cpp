@@ -7,6 +7,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/json_depth.h"
+#include "gvd/common/json_input.h"
 #include "gvd/scene/load_scene.h"
 
 namespace gvd {
@@ -211,18 +212,8 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
 }
 
 Scene parse_scene_json(std::string_view text, const SceneLimits& limits) {
-  check_json_depth(text, "the scene", ErrorCode::kInvalidScene);
-  Json doc;
-  try {
-    doc = Json::parse(text.begin(), text.end());
-  } catch (const Json::parse_error& e) {
-    ErrorLocation where;  // e.byte counts from 1: the character that failed
-    where.offset = e.byte > 0 ? static_cast<int64_t>(e.byte) - 1 : 0;
-    invalid("JSON parse error at byte " + std::to_string(where.offset) + ": " + e.what(), where);
-  } catch (const Json::exception& e) {  // e.g. a number literal that overflows a double
-    invalid(std::string("JSON parse error: ") + e.what());
-  }
-  return scene_from_json_value(doc, limits);
+  return scene_from_json_value(parse_json_input(text, "the scene", ErrorCode::kInvalidScene),
+                               limits);
 }
 
 std::string scene_to_json(const Scene& scene) {

@@ -2,8 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <set>
+#include <span>
 #include <sstream>
 #include <string>
 
@@ -293,6 +295,49 @@ TEST(SceneJson, ParseErrorsCarryTheByteOffset) {
     ASSERT_GE(e.where().offset, 0) << e.detail();
     EXPECT_EQ(text[static_cast<size_t>(e.where().offset)], '}') << e.detail();
     EXPECT_NE(e.detail().find("at byte " + std::to_string(e.where().offset)), std::string::npos);
+  }
+}
+
+// What nlohmann's parser reports, in our words (issue 16 D11): no library exception names, a
+// number too large for a double located by its byte offset, and JSON that is no object
+// refused as a scene (invalid_scene, as in the CLI) rather than as an unknown format.
+TEST(SceneJson, ParseErrorsAreSaidWithoutLibraryNamesAndNumbersAreLocated) {
+  const std::string overflow =
+      R"({"dimension": 3, "objects": [{"label": "a", "vertices": [[0, 0, 1e400]]}]})";
+  for (const bool through_loader : {false, true}) {
+    try {
+      if (through_loader) {
+        parse_scene_bytes(
+            std::span(reinterpret_cast<const uint8_t*>(overflow.data()), overflow.size()),
+            SceneFormat::kAuto, "scene.json");
+      } else {
+        parse_scene_json(overflow);
+      }
+      FAIL() << "no error";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kInvalidScene);
+      EXPECT_EQ(e.detail().find("json.exception"), std::string::npos) << e.detail();
+      ASSERT_GE(e.where().offset, 0) << e.detail();
+      EXPECT_EQ(overflow.substr(static_cast<size_t>(e.where().offset), 5), "1e400") << e.detail();
+      EXPECT_NE(e.detail().find("1e400"), std::string::npos) << e.detail();
+    }
+  }
+  try {
+    parse_scene_json(R"({"dimension": 3,)");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.detail().find("json.exception"), std::string::npos) << e.detail();
+    EXPECT_NE(e.detail().find("unexpected end of input"), std::string::npos) << e.detail();
+  }
+  for (const std::string text : {"[]", " null", "[{\"dimension\": 3}]", "true"}) {
+    try {
+      parse_scene_bytes(std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size()),
+                        SceneFormat::kAuto, "body");
+      FAIL() << text;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kInvalidScene) << text << ": " << e.detail();
+      EXPECT_NE(e.detail().find("must be a JSON object"), std::string::npos) << e.detail();
+    }
   }
 }
 
