@@ -156,6 +156,7 @@ struct GatedServer::Connection {
   Clock::time_point since;     ///< when it began to wait
   Clock::time_point deadline;  ///< when it is closed if still waiting
   bool partial = false;        ///< some bytes of the request have arrived
+  uint32_t turn = 0;           ///< which wait at the gate (epoll events carry it with the fd)
   ~Connection() {
     if (fd >= 0) close_socket(fd);
   }
@@ -217,7 +218,7 @@ class GatedServer::Gate {
     wake_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
     epoll_event ev{};
     ev.events = EPOLLIN;
-    ev.data.fd = wake_;
+    ev.data.u64 = kWakeKey;
     ::epoll_ctl(epoll_, EPOLL_CTL_ADD, wake_, &ev);
     stopping_ = false;
     running_ = true;
@@ -262,9 +263,8 @@ class GatedServer::Gate {
       return;
     }
     make_room(c->client);
-    epoll_event ev{};
-    ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
-    ev.data.fd = c->fd;
+    c->turn = ++turns_;
+    epoll_event ev = event_for(*c);
     if (::epoll_ctl(epoll_, EPOLL_CTL_ADD, c->fd, &ev) != 0) return;
     const int fd = c->fd;
     waiting_[fd] = std::move(c);
@@ -277,6 +277,16 @@ class GatedServer::Gate {
 
  private:
   using Waiting = std::map<int, std::unique_ptr<Connection>>;
+
+  static constexpr uint64_t kWakeKey = ~uint64_t{0};
+
+  /// One readiness report for `c` (one-shot: re-armed while it waits).
+  static epoll_event event_for(const Connection& c) {
+    epoll_event ev{};
+    ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
+    ev.data.u64 = uint64_t{c.turn} << 32 | static_cast<uint32_t>(c.fd);
+    return ev;
+  }
 
   /// Before a connection of `client` waits: close the oldest waiting one of that client when
   /// it has its share, and the oldest of all when the gate is full. One whose headers have
@@ -368,14 +378,17 @@ class GatedServer::Gate {
         std::lock_guard lock(mutex_);
         if (stopping_) return;
         for (int i = 0; i < n; ++i) {
-          const int fd = events[static_cast<size_t>(i)].data.fd;
-          if (fd == wake_) {
+          const uint64_t key = events[static_cast<size_t>(i)].data.u64;
+          if (key == kWakeKey) {
             uint64_t v = 0;
             [[maybe_unused]] const ssize_t r = ::read(wake_, &v, sizeof v);
             continue;
           }
+          // An event of a connection closed (by another thread) after epoll_wait returned
+          // may name a descriptor already given to a new one: the turn tells them apart.
+          const int fd = static_cast<int>(key & 0xFFFFFFFFu);
           const auto it = waiting_.find(fd);
-          if (it == waiting_.end()) continue;
+          if (it == waiting_.end() || it->second->turn != key >> 32) continue;
           const Peek p = peek(*it->second);
           const bool hung_up =
               (events[static_cast<size_t>(i)].events & (EPOLLRDHUP | EPOLLHUP | EPOLLERR)) != 0;
@@ -389,9 +402,7 @@ class GatedServer::Gate {
           } else if (p == Peek::kClosed || hung_up) {
             drop(it);
           } else {
-            epoll_event ev{};
-            ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
-            ev.data.fd = fd;
+            epoll_event ev = event_for(*it->second);
             ::epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev);
           }
         }
@@ -423,6 +434,7 @@ class GatedServer::Gate {
   bool stopping_ = false;
   std::thread thread_;
   std::vector<char> buffer_;
+  uint32_t turns_ = 0;  ///< counts waits; kWakeKey is no connection's key (its fd half is -1)
   uint64_t timed_out_ = 0;
   uint64_t evicted_ = 0;
 };
