@@ -491,6 +491,7 @@ void GatedServer::serve(std::unique_ptr<Connection> c) {
     const bool close_connection = c->requests_left == 1;
     bool closed = false;
     const bool ok = process_request(*c->stream, close_connection, closed, nullptr);
+    if (after_request_) after_request_();
     --c->requests_left;
     if (!ok || closed || close_connection) return;
     // The next request is served here when it is already read into the buffer (pipelined) or

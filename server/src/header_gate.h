@@ -49,6 +49,9 @@ class GatedServer : public httplib::Server {
   GatedServer& operator=(const GatedServer&) = delete;
 
   void set_gate_limits(const GateLimits& limits);  ///< before listening
+  /// Called in the request's thread once each request is over and its Request and Response
+  /// are gone (the server returns memory to the system there after large bodies).
+  void set_after_request(std::function<void()> fn) { after_request_ = std::move(fn); }
   GateCounts gate_counts() const;
 
   struct Connection;
@@ -59,6 +62,7 @@ class GatedServer : public httplib::Server {
   void serve(std::unique_ptr<Connection> c);
 
   std::unique_ptr<Gate> gate_;
+  std::function<void()> after_request_;
 };
 
 }  // namespace gvd::server

@@ -486,6 +486,42 @@ TEST(Service, DeleteCancelsQueuedAndRunningJobsAndForgetsFinishedOnes) {
   EXPECT_EQ(c->Delete(("/v1/jobs/" + again.id).c_str())->status, 404);
 }
 
+/// Resident memory of process `pid`, MB (from /proc; 0 if unknown).
+double resident_mb(pid_t pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.starts_with("VmRSS:")) return std::stod(line.substr(6)) / 1024.0;
+  }
+  return 0;
+}
+
+// D4 (in part): a rejected 66 MB scene (11M vertices) left ~1.4 GB resident, and with
+// --max-memory-mb 512 every later job then failed the memory watchdog. The server now returns
+// the heap after large bodies; a job submitted after it runs.
+TEST(Service, MemoryOfALargeRejectedBodyIsGivenBack) {
+  ServerProcess server(fresh_dir("big-body"), {"--max-memory-mb", "512"});
+  auto c = client(server.port());
+  std::string big = "{\"dimension\":2,\"objects\":[{\"label\":\"a\",\"vertices\":[";
+  big.reserve(66'000'100);
+  for (int i = 0; i < 11'000'000; ++i) big += i == 0 ? "[0,0]" : ",[0,0]";
+  big += "],\"segments\":[[0,1]]}]}";
+  auto r = c->Post("/v1/jobs", big, "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422) << r->body.substr(0, 300);
+  big.clear();
+  big.shrink_to_fit();
+  // The heap is trimmed once the request is over, just after its answer is sent.
+  double after = resident_mb(server.pid());
+  for (int i = 0; i < 50 && after >= 300.0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    after = resident_mb(server.pid());
+  }
+  std::printf("server resident after the rejected body: %.0f MB\n", after);
+  EXPECT_LT(after, 300.0);
+  const Submitted s = submit(*c, data("scenes/balls_on_plate.json"));
+  EXPECT_EQ(wait_for(*c, s.id, {"done", "failed"}).value("status", ""), "done");
+}
+
 TEST(Service, JobLimitsAreCheckedWhileItRuns) {
   ServerProcess server(fresh_dir("limits"), {"--job-seconds", "0.3"});
   auto c = client(server.port());
