@@ -2,7 +2,6 @@
 
 #include <httplib.h>
 
-#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -14,8 +13,9 @@ namespace gvd::server {
 struct GateLimits {
   double header_seconds = 10;  ///< from a request's first byte to the end of its headers
   double idle_seconds = 5;     ///< for the first byte (a new or a kept-alive connection)
-  /// Bytes that may wait before the headers are handed over unfinished (the request guard
-  /// then answers 431 or 400): the header limit plus a request line.
+  /// Bytes that may wait without the end of the headers: past them the gate answers 431
+  /// itself (or, if the request line alone is that long, lets httplib answer 414). The
+  /// header limit plus a request line.
   size_t max_header_bytes = 16384 + 8192;
   int max_waiting_per_client = 64;  ///< per remote address; the oldest waiting one is closed
   int max_waiting = 4096;           ///< in all; the oldest waiting one is closed
