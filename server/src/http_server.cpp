@@ -191,6 +191,7 @@ struct HttpServer::Impl {
     send_problem(req, res, r.kind, r.detail);
     auto body = std::make_shared<std::string>(std::move(res.body));
     res.body.clear();
+    res.headers.erase("Content-Type");  // set_content_provider sets it again
     res.set_header("Connection", "close");
     res.set_content_provider(body->size(), "application/problem+json",
                              [body](size_t offset, size_t length, httplib::DataSink& sink) {

@@ -328,6 +328,8 @@ TEST(Service, BadRequestsAreRefusedBeforeTheBody) {
   EXPECT_EQ(raw_status(resp), 413) << resp;
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
   EXPECT_NE(resp.find("application/problem+json"), std::string::npos);
+  const size_t content_type = resp.find("Content-Type: ");
+  EXPECT_EQ(resp.find("Content-Type: ", content_type + 1), std::string::npos) << "twice: " << resp;
   // Expect: 100-continue gets the refusal instead of the go-ahead.
   resp = raw_exchange(port,
                       "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
