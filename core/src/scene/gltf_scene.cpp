@@ -13,7 +13,6 @@
 #include <vector>
 
 #include "gvd/common/error.h"
-#include "gvd/common/json_depth.h"
 #include "gvd/common/json_input.h"
 #include "gvd/scene/load_scene.h"
 
