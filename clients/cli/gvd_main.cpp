@@ -91,8 +91,10 @@ compute options:
   --frame auto|world         the octree's axes: auto (default) turns them to the scene's
                              faces in 3D when more of their area lies square to another
                              frame than to x, y, z (a tilted part: its straight rims then
-                             cost what they cost untilted); world keeps x, y, z. Results are
-                             in your coordinates either way
+                             cost what they cost untilted) and shifts the domain within
+                             its padding to put a shaft's corners on octree planes; world
+                             keeps x, y, z and the plain bounding cube. Results are in
+                             your coordinates either way
   --threads N                worker threads (default: all cores)
   --backend opencl|cpu|auto  where the data-parallel steps run (default auto: OpenCL when a
                              device with fp64 exists, else the CPU twins, saying why; an
@@ -110,7 +112,8 @@ compute options:
                              cell is not split where exact distances prove that the GVD
                              in it is the plane between two flat patches or mirror images,
                              or a curve swept along a straight rim parallel or square
-                             to an axis,
+                             to an axis (a shaft's corner too, once --frame auto put it
+                             on an octree plane),
                              so thin gaps cost what their geometry needs) or the paper's
                              rule alone (§3: cells shrink to the gap over the whole contact)
   --resolution compact|full  GVD output: flat parts merged into large pieces (default;

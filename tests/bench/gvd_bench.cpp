@@ -215,7 +215,9 @@ void BM_BoostVoronoi(benchmark::State& state) {
 struct ThinGapCase {
   std::string scene;  ///< blade_in_slot, stacked_plates, inset_plates, shaft_in_bore, bars_2d,
                       ///< pairs_2d, tilted_blade (blade_in_slot turned), round_shaft (32
-                      ///< sides); *_xyz: the same with the octree kept on x, y, z
+                      ///< sides), pentagon_shaft (5 sides, a far block making the domain
+                      ///< lopsided), two_pentagon_shafts (two of them, one 0.1234 higher);
+                      ///< *_xyz: the same with the octree kept on x, y, z
   double gap = 0;
   std::string refine;  ///< "certified" or "paper"
 };
@@ -253,6 +255,27 @@ Scene make_thin_gap_scene(const std::string& name, double gap) {
     o.sides = 32;
     o.gap = gap;
     return gvd::test::make_shaft_in_bore(o);
+  }
+  if (name == "pentagon_shaft" || name == "two_pentagon_shafts") {
+    // Corners whose faces' normals straddle an axis (at 0, 72 and 288 degrees), in a domain
+    // that no symmetry centres: make_domain shifts the cube to put the bisector's roof apexes
+    // on lattice planes. Two shafts at different heights: only one set of apexes can be, and
+    // the refinement falls back to no cones (compute_gvd).
+    gvd::test::ShaftInBoreOptions o;
+    o.sides = 5;
+    o.gap = gap;
+    Scene s = gvd::test::make_shaft_in_bore(o);
+    if (name == "pentagon_shaft") {
+      s.objects.push_back(gvd::test::make_box("far", {0.3, 0.55, 0.3}, {0.35, 0.6291, 0.35}));
+    } else {
+      const Scene one = s;
+      for (gvd::SceneObject obj : one.objects) {
+        for (gvd::Vec3& v : obj.vertices) v = v + gvd::Vec3{1.3, 0.1234, 0};
+        obj.label += "_2";
+        s.objects.push_back(std::move(obj));
+      }
+    }
+    return s;
   }
   if (name == "bars_2d") return with_gap(&gvd::test::make_parallel_bars_2d, gap);
   gvd::test::PolygonPairsOptions o;  // pairs_2d: gaps log-spaced from `gap` to 1e-3
@@ -320,9 +343,9 @@ void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
   thin_gap_runs().push_back(std::move(run));
 }
 
-/// The sweeps of `make bench`; --gvd_slow adds the shaft at 1e-5 (which fails: its corners on
-/// the x axis, where the normals straddle it, refine to the gap), the round shaft at 1e-4 on
-/// x, y, z (the same corners: 5.7M leaves) and the paper's rule at 1e-3.
+/// The sweeps of `make bench`; --gvd_slow adds the round shaft at 1e-4 on x, y, z (four
+/// corners whose normals straddle an axis off the lattice planes: 5.7M leaves), the two
+/// pentagonal shafts at 1e-4 (the same without cones) and the paper's rule at 1e-3.
 std::vector<ThinGapCase> thin_gap_cases(bool slow) {
   std::vector<ThinGapCase> all;
   auto add = [&](const char* scene, std::vector<double> certified, std::vector<double> paper) {
@@ -334,14 +357,17 @@ std::vector<ThinGapCase> thin_gap_cases(bool slow) {
   add("blade_in_slot", {1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 1e-5}, {1e-2, 3e-3});
   add("stacked_plates", {1e-2, 3e-3, 1e-3, 1e-4, 1e-5}, {1e-2});
   add("inset_plates", {1e-2, 1e-3, 1e-4, 1e-5}, {1e-2});
-  add("shaft_in_bore", {1e-2, 1e-3, 1e-4}, {1e-2});
+  add("shaft_in_bore", {1e-2, 1e-3, 1e-4, 1e-5}, {1e-2});
+  add("pentagon_shaft", {1e-3, 1e-4, 1e-5}, {1e-2});
+  add("two_pentagon_shafts", {1e-3}, {});
   add("tilted_blade", {1e-3, 1e-4, 1e-5}, {});
   add("tilted_blade_xyz", {1e-3}, {});
   add("round_shaft", {1e-3, 1e-4, 1e-5}, {});
   add("round_shaft_xyz", {1e-3}, {});
   if (slow) {
     add("blade_in_slot", {}, {1e-3});
-    add("shaft_in_bore", {1e-5}, {1e-3});
+    add("shaft_in_bore", {}, {1e-3});
+    add("two_pentagon_shafts", {1e-4}, {});
     add("round_shaft_xyz", {1e-4}, {});
   }
   return all;

@@ -82,66 +82,90 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   const double contact_tolerance = 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth);
   const ContactPairs contacts =
       find_contact_pairs(r.geometry, bvh, contact_tolerance, options.threads, options.cancel);
-  // The thin-gaps refinement: certified pair cells stay leaves (refine/pair_certificate.h).
-  std::optional<PairCertifier> certifier;
-  if (options.refine == "certified") certifier.emplace(r.geometry, bvh, &contacts, true);
-  OctreeOptions oo;
-  oo.split_oracle = certifier ? &*certifier : nullptr;
-  oo.contacts = &contacts;
-  oo.contact_depth = options.contact_depth;
-  oo.max_depth = options.max_depth;
-  oo.max_leaves = options.max_leaves;
-  oo.threads = options.threads;
-  oo.cancel = options.cancel;
-  oo.progress = [&](double f) { progress("octree", f); };
-  if (options.octree_build == "data-parallel") {
-    const std::unique_ptr<OctreeBuildSteps> steps =
-        options.compute ? options.compute->octree_build_steps(r.geometry) : nullptr;
-    r.octree = build_octree_data_parallel(r.geometry, oo, steps.get());
-  } else {
-    r.octree = build_octree(r.geometry, oo);
-  }
-  r.stats.stages.push_back(
-      {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
-  oo.progress = nullptr;  // the refinement below reports its own progress
-
-  progress("distance", 0);
-  sw = Stopwatch();
   // Exact closest points: the backend's kernel, else the CPU twin (same per-item function).
-  std::unique_ptr<ClosestPointSolver> solver =
-      options.compute ? options.compute->closest_points(r.geometry, bvh)
-                      : make_cpu_closest_point_solver(r.geometry, bvh, options.threads);
-  DistanceOptions dopt;
-  dopt.threads = options.threads;
-  dopt.cancel = options.cancel;
-  dopt.solver = solver.get();
-  dopt.method =
-      options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
-  dopt.progress = [&](double f) { progress("distance", f); };
-  r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
-  dopt.progress = nullptr;  // the refinement below reports its own progress
-  r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
+  std::unique_ptr<ClosestPointSolver> solver;
+  // The thin-gaps refinement: certified pair cells stay leaves (refine/pair_certificate.h).
+  // Cones across an axis are tried first; where the refinement does not settle with them (see
+  // RefineLoopOptions::cone_certifier) the octree is built again without.
+  std::optional<PairCertifier> certifier;
+  const size_t first_stage = r.stats.stages.size();
+  RefineLoopResult refined;
+  for (const bool cones : {true, false}) {
+    r.stats.stages.resize(first_stage);
+    if (!cones) sw = Stopwatch();  // the first attempt's octree stage counts the contacts too
+    certifier.reset();
+    if (options.refine == "certified")
+      certifier.emplace(r.geometry, bvh, &contacts, true, cones);
+    else if (!cones)
+      break;
+    OctreeOptions oo;
+    oo.split_oracle = certifier ? &*certifier : nullptr;
+    oo.contacts = &contacts;
+    oo.contact_depth = options.contact_depth;
+    oo.max_depth = options.max_depth;
+    oo.max_leaves = options.max_leaves;
+    oo.threads = options.threads;
+    oo.cancel = options.cancel;
+    oo.progress = [&](double f) { progress("octree", f); };
+    if (options.octree_build == "data-parallel") {
+      const std::unique_ptr<OctreeBuildSteps> steps =
+          options.compute ? options.compute->octree_build_steps(r.geometry) : nullptr;
+      r.octree = build_octree_data_parallel(r.geometry, oo, steps.get());
+    } else {
+      r.octree = build_octree(r.geometry, oo);
+    }
+    r.stats.stages.push_back(
+        {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
+    oo.progress = nullptr;  // the refinement below reports its own progress
 
-  // Ambiguity resolution (§5) and the separation guarantee: split, recompute, repeat.
-  progress("ambiguity", 0);
-  sw = Stopwatch();
-  RefineLoopOptions lo;
-  lo.max_rounds = options.max_refine_rounds;
-  lo.ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
-                        : dim == 2                    ? options.max_refine_rounds
-                                                      : 3;
-  lo.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
-                        : dim == 2                    ? lattice_bits(2)
-                                                      : 2;
-  lo.unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
-                     : dim == 2                 ? options.max_refine_rounds
-                                                : 4;
-  lo.contacts = &contacts;
-  lo.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
-  lo.octree = oo;
-  lo.distance = dopt;
-  lo.progress = [&](double f) { progress("ambiguity", f); };
-  const RefineLoopResult refined = refine_until_resolved(r.octree, r.field, r.geometry, bvh, lo);
+    progress("distance", 0);
+    sw = Stopwatch();
+    if (!solver) {
+      solver = options.compute ? options.compute->closest_points(r.geometry, bvh)
+                               : make_cpu_closest_point_solver(r.geometry, bvh, options.threads);
+    }
+    DistanceOptions dopt;
+    dopt.threads = options.threads;
+    dopt.cancel = options.cancel;
+    dopt.solver = solver.get();
+    dopt.method =
+        options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
+    dopt.progress = [&](double f) { progress("distance", f); };
+    r.field = DistanceField();
+    r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
+    dopt.progress = nullptr;  // the refinement below reports its own progress
+    r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
+
+    // Ambiguity resolution (§5) and the separation guarantee: split, recompute, repeat.
+    progress("ambiguity", 0);
+    sw = Stopwatch();
+    RefineLoopOptions lo;
+    lo.max_rounds = options.max_refine_rounds;
+    lo.ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
+                          : dim == 2                    ? options.max_refine_rounds
+                                                        : 3;
+    lo.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
+                          : dim == 2                    ? lattice_bits(2)
+                                                        : 2;
+    lo.unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
+                       : dim == 2                 ? options.max_refine_rounds
+                                                  : 4;
+    lo.cone_certifier = certifier ? &*certifier : nullptr;
+    lo.contacts = &contacts;
+    lo.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
+    lo.octree = oo;
+    lo.distance = dopt;
+    lo.progress = [&](double f) { progress("ambiguity", f); };
+    try {
+      refined = refine_until_resolved(r.octree, r.field, r.geometry, bvh, lo);
+    } catch (const Error& e) {
+      // Unsettled cones can also grow the octree past the leaf limit before cone_rounds.
+      if (e.code() != ErrorCode::kLimitExceeded || !cones || !certifier) throw;
+      refined.cones_unsettled = true;
+    }
+    if (!refined.cones_unsettled) break;
+    progress("octree", 0);
+  }
   r.stats.unseen_left = refined.unseen_left;
   r.stats.refine_rounds = refined.rounds;
   r.stats.ambiguous_at_limit = refined.ambiguous_at_limit;

@@ -235,10 +235,10 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
               changed |= field.changed[*v] != 0;
               mixed |= field.label[*v] != field.label[*vb];
             }
-            if (!changed || (obj == kNoObject && !mixed)) continue;
+            if (obj != kManyObjects && (!changed || (obj == kNoObject && !mixed))) continue;
           }
           const LeafGrid grid = field.grid(octree, leaf);
-          if (options.changed_only) {
+          if (options.changed_only && obj != kManyObjects) {
             bool changed = false;
             for (uint32_t v : grid) changed |= v != kNoVertex && field.changed[v];
             if (!changed) continue;

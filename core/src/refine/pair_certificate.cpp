@@ -621,12 +621,21 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     rise = rise + b[k] * (up ? 1.0 : -1.0);
   }
   if (mixed >= 0) {
-    Vec3 mean;
-    for (Vec3 n : normals) mean = mean + n;
-    mean[axis] = 0;
-    const double len = norm(mean);
-    if (!(len > 0)) return out;
-    mean = mean / len;
+    // The middle of the normals' angular span in the cross-section (not their sum, which
+    // leans to the face with more triangles in reach): every normal within kMaxCone of it.
+    // Angles from the first normal: all lie within a quarter turn of it when the span does.
+    const double first = std::atan2(dot(normals[0], b[1]), dot(normals[0], b[0]));
+    double lo = 0, hi = 0;
+    for (Vec3 n : normals) {
+      double a = std::atan2(dot(n, b[1]), dot(n, b[0])) - first;
+      constexpr double kPi = 3.14159265358979323846;
+      if (a > kPi) a -= 2 * kPi;
+      if (a < -kPi) a += 2 * kPi;
+      lo = std::min(lo, a);
+      hi = std::max(hi, a);
+    }
+    const double middle = first + 0.5 * (lo + hi);
+    const Vec3 mean = b[0] * std::cos(middle) + b[1] * std::sin(middle);
     // A quadrant turned against the axes has its extremes at exactly kMaxCone: allow rounding.
     const double cos_cone = std::cos(kMaxCone) - 1e-12;
     for (Vec3 n : normals)

@@ -39,6 +39,11 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
         rounds >= options.max_rounds) {
       break;
     }
+    if (rounds >= options.cone_rounds && options.cone_certifier != nullptr &&
+        options.cone_certifier->cones()) {
+      out.cones_unsettled = true;  // the caller starts again without cones
+      break;
+    }
     ++rounds;
     if (options.progress) options.progress(std::min(0.99, rounds / 8.0));
     SeparationPlan plan =

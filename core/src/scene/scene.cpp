@@ -369,9 +369,10 @@ Domain make_domain(const Scene& scene, const DomainOptions& options) {
     domain.side = extent;
     domain.origin = c - Vec3{extent, extent, extent} * 0.5;
   } else {
+    SceneFrame frame;
     if (dim == 3 && options.frame == DomainFrame::kAuto) {
-      const std::array<Vec3, 3> frame = scene_frame(scene);
-      std::copy(frame.begin(), frame.end(), domain.axis);
+      frame = analyse_scene_frame(scene);
+      std::copy(frame.axes.begin(), frame.axes.end(), domain.axis);
     }
     // The bounds in the frame's coordinates.
     const bool aligned = domain.aligned();
@@ -392,7 +393,19 @@ Domain make_domain(const Scene& scene, const DomainOptions& options) {
       if (!(extent > 0.0)) extent = 1.0;
       const double side = extent * (1.0 + 2.0 * options.padding);
       domain.side = side;
-      const Vec3 lo = bounds.center() - Vec3{side, side, side} * 0.5;
+      Vec3 lo = bounds.center() - Vec3{side, side, side} * 0.5;
+      // A roof's apex over straddled rims onto the nearest plane of level kRimAlignLevel,
+      // when the padding leaves room (its coordinate then maps to a multiple of
+      // 2^-kRimAlignLevel, to within rounding).
+      const double step = std::ldexp(1.0, -kRimAlignLevel);
+      for (int i = 0; i < dim; ++i) {
+        if (!frame.rim[i]) continue;
+        const double at = *frame.rim[i];
+        const double unit = (at - lo[i]) / side;
+        const double target = std::clamp(std::round(unit / step), 1.0, 1.0 / step - 1) * step;
+        const double shifted = at - target * side;
+        if (shifted <= bounds.lo[i] && shifted + side >= bounds.hi[i]) lo[i] = shifted;
+      }
       domain.origin =
           aligned ? lo : domain.axis[0] * lo.x + domain.axis[1] * lo.y + domain.axis[2] * lo.z;
     }

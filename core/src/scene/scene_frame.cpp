@@ -10,6 +10,8 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <optional>
 #include <thread>
 #include <tuple>
 #include <unordered_map>
@@ -76,30 +78,42 @@ constexpr double kFacingWeight = 1000;
 /// among the first ones counts as not facing, which only weakens the hint.
 constexpr int kFacingCandidates = 64;
 
-/// Whether each triangle, in scene order, faces another object (above); `normals` are the
-/// triangles' unit normals (zero for degenerate ones, which face nothing).
-std::vector<char> facing_triangles(const Scene& scene, const std::vector<Vec3>& normals,
-                                   double reach) {
+/// The scene's triangles in one flat array (scene order) with their BVH, in user coordinates.
+struct FlatScene {
   std::vector<Vec3> points;
   std::vector<Simplex> simplices;
   std::vector<uint32_t> object_of;
-  points.reserve(scene.vertex_count());
-  simplices.reserve(scene.simplex_count());
-  object_of.reserve(scene.simplex_count());
-  for (size_t o = 0; o < scene.objects.size(); ++o) {
-    const SceneObject& object = scene.objects[o];
-    const auto base = static_cast<uint32_t>(points.size());
-    points.insert(points.end(), object.vertices.begin(), object.vertices.end());
-    for (const Simplex& s : object.simplices) {
-      Simplex t = s;
-      for (int j = 0; j < 3; ++j) t.v[j] += base;
-      simplices.push_back(t);
-      object_of.push_back(static_cast<uint32_t>(o));
+  SimplexBvh bvh;
+
+  explicit FlatScene(const Scene& scene) {
+    points.reserve(scene.vertex_count());
+    simplices.reserve(scene.simplex_count());
+    object_of.reserve(scene.simplex_count());
+    for (size_t o = 0; o < scene.objects.size(); ++o) {
+      const SceneObject& object = scene.objects[o];
+      const auto base = static_cast<uint32_t>(points.size());
+      points.insert(points.end(), object.vertices.begin(), object.vertices.end());
+      for (const Simplex& s : object.simplices) {
+        Simplex t = s;
+        for (int j = 0; j < 3; ++j) t.v[j] += base;
+        simplices.push_back(t);
+        object_of.push_back(static_cast<uint32_t>(o));
+      }
     }
+    bvh = SimplexBvh(3, points, simplices, object_of);
   }
+};
+
+/// Whether each triangle, in scene order, faces another object (above); `normals` are the
+/// triangles' unit normals (zero for degenerate ones, which face nothing).
+std::vector<char> facing_triangles(const Scene& scene, const FlatScene& flat,
+                                   const std::vector<Vec3>& normals, double reach) {
+  const std::vector<Vec3>& points = flat.points;
+  const std::vector<Simplex>& simplices = flat.simplices;
+  const std::vector<uint32_t>& object_of = flat.object_of;
+  const SimplexBvh& bvh = flat.bvh;
   std::vector<char> facing(simplices.size(), 0);
   if (scene.objects.size() < 2) return facing;
-  const SimplexBvh bvh(3, points, simplices, object_of);
   const int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   parallel_for(simplices.size(), threads, [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
@@ -139,35 +153,13 @@ std::vector<char> facing_triangles(const Scene& scene, const std::vector<Vec3>& 
   return facing;
 }
 
-}  // namespace
-
-std::array<Vec3, 3> scene_frame(const Scene& scene) {
+/// The frame of faces (scene_frame) from the triangles' unit normals, areas and facing flags.
+std::array<Vec3, 3> frame_of_faces(const std::vector<Vec3>& normals,
+                                   const std::vector<double>& areas,
+                                   const std::vector<char>& facing) {
   const std::array<Vec3, 3> world = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
-  if (scene.dimension != 3) return world;
-  Box bounds;
-  for (const SceneObject& o : scene.objects)
-    for (const Vec3& v : o.vertices) bounds.extend(v);
-  const Vec3 side = bounds.hi - bounds.lo;
-  const double extent = std::max({side.x, side.y, side.z});
-  if (!(extent > 0) || !std::isfinite(extent)) return world;
-  // Unit normals (zero for degenerate triangles), with their areas.
-  std::vector<Vec3> normals;
-  std::vector<double> areas;
-  normals.reserve(scene.simplex_count());
-  areas.reserve(scene.simplex_count());
-  for (const SceneObject& o : scene.objects) {
-    for (const Simplex& s : o.simplices) {
-      const Vec3 c =
-          cross(o.vertices[s.v[1]] - o.vertices[s.v[0]], o.vertices[s.v[2]] - o.vertices[s.v[0]]);
-      const double len = norm(c);
-      const bool ok = len > 0 && std::isfinite(len);
-      normals.push_back(ok ? c / len : Vec3{});
-      areas.push_back(ok ? 0.5 * len : 0.0);
-    }
-  }
-  const std::vector<char> facing = facing_triangles(scene, normals, kFacing * extent);
   std::vector<Facet> facets;
-  facets.reserve(scene.simplex_count());
+  facets.reserve(normals.size());
   double total = 0;
   for (size_t i = 0; i < normals.size(); ++i) {
     if (!(areas[i] > 0)) continue;
@@ -297,5 +289,227 @@ std::array<Vec3, 3> scene_frame(const Scene& scene) {
   out[2] = cross(out[0], out[1]);  // right-handed to the last bit
   return out;
 }
+
+/// A rim of straddled_rims: one edge of it.
+struct StraddledEdge {
+  double coordinate;  ///< along the straddled axis (the edge's own)
+  double length;
+  Vec3 middle;
+  uint32_t object;
+  int along;  ///< the axis the edge runs along
+};
+
+/// Where the bisector's roof over a straddled rim has its apex: the coordinate along
+/// axes[k] of the point of the curve C = {d_own = d_other} in the cross-section through the
+/// edge's middle where C is extreme along the third axis w (lines along axes[k] meet C twice
+/// on one side of it and at most once on each side). C is found on lines along w through the
+/// edge's middle and points beside it (d_own - d_other changes sign once across the gap:
+/// negative in the own object, positive in the other), its extreme by golden section (C is a
+/// roof there: one extreme). Exact distances to the meshes. std::nullopt when there is no
+/// such roof within a few gaps of the edge (then the edge's own coordinate is used).
+std::optional<double> roof_apex(const FlatScene& flat, const std::array<Vec3, 3>& axes,
+                                const StraddledEdge& edge, int k) {
+  const SimplexBvh& bvh = flat.bvh;
+  const Vec3 p = edge.middle;
+  const ClosestHit other_hit = bvh.nearest_excluding(p, &edge.object, 1);
+  if (!other_hit.found()) return std::nullopt;
+  const uint32_t other = flat.object_of[other_hit.simplex];
+  const double gap = std::sqrt(other_hit.dist2);
+  if (!(gap > 0)) return std::nullopt;
+  const Vec3 m = axes[k], w = axes[3 - k - edge.along];
+  auto f = [&](Vec3 x) {
+    return std::sqrt(bvh.nearest_in_object(x, edge.object).dist2) -
+           std::sqrt(bvh.nearest_in_object(x, other).dist2);
+  };
+  // The side of w on which the other object lies: the root lies within `reach` there.
+  const double reach = 8 * gap, span = 2 * gap;
+  double side = 0;
+  for (const double sign : {1.0, -1.0}) {
+    if (f(p + w * (sign * reach)) > 0 && f(p - w * (sign * reach)) < 0) side = sign;
+  }
+  if (side == 0) return std::nullopt;
+  // The root of f on the line p + m t + w side s, s in [-reach, reach], by bisection.
+  auto root = [&](double t) -> std::optional<double> {
+    double lo = -reach, hi = reach;
+    const Vec3 base = p + m * t;
+    if (!(f(base + w * (side * lo)) < 0) || !(f(base + w * (side * hi)) > 0)) return std::nullopt;
+    for (int i = 0; i < 200 && hi - lo > 1e-16 * reach; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      if (mid <= lo || mid >= hi) break;
+      (f(base + w * (side * mid)) < 0 ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+  };
+  const std::optional<double> left = root(-span), centre = root(0), right = root(span);
+  if (!left || !centre || !right) return std::nullopt;
+  // A roof: the middle beyond both ends, one way or the other.
+  double sense = 0;
+  if (*centre > *left && *centre > *right) sense = 1;
+  if (*centre < *left && *centre < *right) sense = -1;
+  if (sense == 0) return std::nullopt;
+  constexpr double kGolden = 0.6180339887498949;
+  double lo = -span, hi = span;
+  double x1 = hi - kGolden * (hi - lo), x2 = lo + kGolden * (hi - lo);
+  std::optional<double> h1 = root(x1), h2 = root(x2);
+  for (int i = 0; i < 200 && hi - lo > 1e-15 * span; ++i) {
+    if (!h1 || !h2) return std::nullopt;
+    if (sense * *h1 >= sense * *h2) {
+      hi = x2;
+      x2 = x1;
+      h2 = h1;
+      x1 = hi - kGolden * (hi - lo);
+      h1 = root(x1);
+    } else {
+      lo = x1;
+      x1 = x2;
+      h1 = h2;
+      x2 = lo + kGolden * (hi - lo);
+      h2 = root(x2);
+    }
+  }
+  return dot(p, m) + 0.5 * (lo + hi);
+}
+
+/// Rims across a thin gap whose two faces' normals straddle an axis of the cross-section
+/// (pair_certificate.h, the cones): per axis k of `axes`, the apex (roof_apex) of the
+/// bisector over the straight rims along another axis whose faces' normals lie on both sides
+/// of axes[k] (components of both signs along it) — of the rims at one coordinate with the
+/// most length. Only edges whose two triangles both face another object (facing_triangles)
+/// count, and only edges of a consistently oriented, manifold part of a mesh (vertices
+/// matched by position).
+std::array<std::optional<double>, 3> straddled_rims(const Scene& scene, const FlatScene& flat,
+                                                    const std::vector<Vec3>& normals,
+                                                    const std::vector<char>& facing,
+                                                    const std::array<Vec3, 3>& axes,
+                                                    double extent) {
+  constexpr double kAlong = 1e-12;    // an edge along an axis: |sin| below this
+  constexpr double kStraddle = 1e-9;  // a normal's component counts by its sign above this
+  std::array<std::vector<StraddledEdge>, 3> found;
+  size_t first = 0;  // the object's first triangle in scene order
+  for (uint32_t oi = 0; oi < scene.objects.size(); ++oi) {
+    const SceneObject& object = scene.objects[oi];
+    // Vertices matched by position (an unwelded mesh still has rims).
+    std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
+    std::vector<uint32_t> canonical(object.vertices.size());
+    auto hash = [](Vec3 p) {
+      uint64_t h = 1469598103934665603ull;
+      for (int i = 0; i < 3; ++i) {
+        uint64_t bits;
+        const double c = p[i] == 0 ? 0.0 : p[i];  // -0 and +0 alike
+        std::memcpy(&bits, &c, sizeof bits);
+        h = (h ^ bits) * 1099511628211ull;
+      }
+      return h;
+    };
+    for (uint32_t v = 0; v < object.vertices.size(); ++v) {
+      std::vector<uint32_t>& b = buckets[hash(object.vertices[v])];
+      canonical[v] = v;
+      for (uint32_t u : b) {
+        const Vec3 d = object.vertices[u] - object.vertices[v];
+        if (d.x == 0 && d.y == 0 && d.z == 0) {
+          canonical[v] = u;
+          break;
+        }
+      }
+      if (canonical[v] == v) b.push_back(v);
+    }
+    // Directed edges of facing triangles: (from, to) -> triangle, -1 when repeated. An edge
+    // is a rim when its reverse belongs to another facing triangle of the object.
+    std::unordered_map<uint64_t, int64_t> directed;
+    for (size_t t = 0; t < object.simplices.size(); ++t) {
+      if (!facing[first + t]) continue;
+      const Simplex& s = object.simplices[t];
+      for (int e = 0; e < 3; ++e) {
+        const uint64_t key = uint64_t{canonical[s.v[e]]} << 32 | canonical[s.v[(e + 1) % 3]];
+        auto [it, inserted] = directed.emplace(key, static_cast<int64_t>(t));
+        if (!inserted) it->second = -1;
+      }
+    }
+    for (const auto& [key, t] : directed) {
+      const auto from = static_cast<uint32_t>(key >> 32), to = static_cast<uint32_t>(key);
+      if (t < 0 || from > to) continue;  // each undirected edge once
+      const auto back = directed.find(uint64_t{to} << 32 | from);
+      if (back == directed.end() || back->second < 0) continue;
+      const Vec3 p = object.vertices[from], q = object.vertices[to];
+      const double length = dist(p, q);
+      if (!(length > 0)) continue;
+      const Vec3 d = (q - p) / length;
+      const Vec3 n[2] = {normals[first + static_cast<size_t>(t)],
+                         normals[first + static_cast<size_t>(back->second)]};
+      for (int e = 0; e < 3; ++e) {
+        if (norm2(cross(d, axes[e])) > kAlong * kAlong) continue;
+        for (int k = 0; k < 3; ++k) {
+          if (k == e) continue;
+          const double a = dot(n[0], axes[k]), b = dot(n[1], axes[k]);
+          if ((a > kStraddle && b < -kStraddle) || (a < -kStraddle && b > kStraddle))
+            found[k].push_back({dot(p, axes[k]), length, (p + q) * 0.5, oi, e});
+        }
+      }
+    }
+    first += object.simplices.size();
+  }
+  std::array<std::optional<double>, 3> out;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<StraddledEdge>& f = found[k];
+    std::sort(f.begin(), f.end(), [](const StraddledEdge& x, const StraddledEdge& y) {
+      return std::tie(x.coordinate, x.length) < std::tie(y.coordinate, y.length);
+    });
+    // The coordinate with the most rim length; its longest edge stands for it.
+    double best = 0;
+    const StraddledEdge* chosen = nullptr;
+    for (size_t i = 0; i < f.size();) {
+      size_t j = i;
+      double weight = 0;
+      const StraddledEdge* longest = &f[i];
+      while (j < f.size() && f[j].coordinate - f[i].coordinate <= 1e-9 * extent) {
+        if (f[j].length > longest->length) longest = &f[j];
+        weight += f[j++].length;
+      }
+      if (weight > best) {
+        best = weight;
+        chosen = longest;
+      }
+      i = j;
+    }
+    if (chosen == nullptr) continue;
+    out[k] = roof_apex(flat, axes, *chosen, k).value_or(chosen->coordinate);
+  }
+  return out;
+}
+
+}  // namespace
+
+SceneFrame analyse_scene_frame(const Scene& scene, bool turn) {
+  SceneFrame out;
+  if (scene.dimension != 3) return out;
+  Box bounds;
+  for (const SceneObject& o : scene.objects)
+    for (const Vec3& v : o.vertices) bounds.extend(v);
+  const Vec3 side = bounds.hi - bounds.lo;
+  const double extent = std::max({side.x, side.y, side.z});
+  if (!(extent > 0) || !std::isfinite(extent)) return out;
+  // Unit normals (zero for degenerate triangles), with their areas.
+  std::vector<Vec3> normals;
+  std::vector<double> areas;
+  normals.reserve(scene.simplex_count());
+  areas.reserve(scene.simplex_count());
+  for (const SceneObject& o : scene.objects) {
+    for (const Simplex& s : o.simplices) {
+      const Vec3 c =
+          cross(o.vertices[s.v[1]] - o.vertices[s.v[0]], o.vertices[s.v[2]] - o.vertices[s.v[0]]);
+      const double len = norm(c);
+      const bool ok = len > 0 && std::isfinite(len);
+      normals.push_back(ok ? c / len : Vec3{});
+      areas.push_back(ok ? 0.5 * len : 0.0);
+    }
+  }
+  const FlatScene flat(scene);
+  const std::vector<char> facing = facing_triangles(scene, flat, normals, kFacing * extent);
+  if (turn) out.axes = frame_of_faces(normals, areas, facing);
+  out.rim = straddled_rims(scene, flat, normals, facing, out.axes, extent);
+  return out;
+}
+
+std::array<Vec3, 3> scene_frame(const Scene& scene) { return analyse_scene_frame(scene).axes; }
 
 }  // namespace gvd

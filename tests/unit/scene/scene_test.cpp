@@ -3,10 +3,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "gvd/common/error.h"
+#include "gvd/geometry/simplex_bvh.h"
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"
 
@@ -363,6 +366,75 @@ TEST(Domain, TiltedBoxGetsItsOwnFrame) {
   const Box bounds = d.box();
   EXPECT_TRUE(d.contains(bounds.center()));
   EXPECT_FALSE(d.contains(bounds.lo * 0.999 + bounds.center() * 0.001));
+}
+
+// Sign changes of d_shaft - d_housing (brute force over the triangles given) at n + 1
+// evenly spaced points of the segment [a, b] (scene units).
+int bisector_crossings(const Scene& scene, const std::vector<uint32_t> near[2], Vec3 a, Vec3 b,
+                       int n) {
+  int changes = 0, last = 0;
+  for (int i = 0; i <= n; ++i) {
+    const Vec3 x = a + (b - a) * (static_cast<double>(i) / n);
+    double d[2];
+    for (int k = 0; k < 2; ++k) {
+      const SceneObject& o = scene.objects[k];
+      d[k] = 1e300;
+      for (uint32_t t : near[k])
+        d[k] = std::min(d[k], dist(x, closest_point_on_simplex(3, o.vertices, o.simplices[t], x)));
+    }
+    const int sign = d[1] < d[0] ? -1 : d[1] > d[0] ? 1 : 0;
+    if (sign != 0 && last != 0 && sign != last) ++changes;
+    if (sign != 0) last = sign;
+  }
+  return changes;
+}
+
+// A pentagonal shaft in its bore (a vertex on +x; a far block makes the domain lopsided): at
+// the corners at 72 and 288 degrees the faces' normals lie on both sides of the y axis, so
+// the bisector there is a roof that a line along x meets twice. make_domain shifts the cube
+// so that the roof's apex lies on a lattice plane x = k / 32: then, brute force, every line
+// along x near the corner meets the bisector at most once on each side of that plane (the
+// octree's cells lie on one side or the other). The apex is not at a vertex's coordinate
+// (the corner's bisecting ray is not along an axis): a plane 0.1 g off fails, as does one
+// through the shaft's or the bore's corner.
+TEST(Domain, StraddledRimsPutTheRoofsApexOnALatticePlane) {
+  const double pi = std::acos(-1.0);
+  test::ShaftInBoreOptions so;
+  so.sides = 5;
+  so.gap = 1e-3;
+  so.cell = 0.1;
+  Scene scene = test::make_shaft_in_bore(so);
+  const double g = so.gap * make_domain(scene, DomainOptions{{}, 0.05, DomainFrame::kWorld}).side;
+  scene.objects.push_back(test::make_box("far", {0.3, 0.55, 0.3}, {0.35, 0.6291, 0.35}));
+  const Domain d = make_domain(scene);
+  ASSERT_TRUE(d.aligned());
+  for (const double angle : {0.4 * pi, 1.6 * pi}) {
+    const Vec3 corner{so.radius * std::cos(angle), so.radius * std::sin(angle), 0.3};
+    // The plane of level 5 nearest the corner: the shift put one within a few gaps of it.
+    const double unit = d.to_unit(corner).x;
+    const double plane = d.origin.x + std::round(unit * 32) / 32 * d.side;
+    ASSERT_LT(std::abs(plane - corner.x), 3 * g) << "no lattice plane near the corner";
+    // The triangles within 0.1 of the corner (the only ones that can be nearest there).
+    std::vector<uint32_t> near[2];
+    for (int k = 0; k < 2; ++k) {
+      const SceneObject& o = scene.objects[k];
+      for (uint32_t t = 0; t < o.simplices.size(); ++t)
+        if (dist(corner, closest_point_on_simplex(3, o.vertices, o.simplices[t], corner)) < 0.1)
+          near[k].push_back(t);
+    }
+    int worst = 0, worst_off = 0;
+    for (int h = -150; h <= 150; ++h) {
+      const Vec3 at{plane, corner.y + h * 0.01 * g, corner.z};
+      const Vec3 reach{6 * g, 0, 0};
+      worst = std::max({worst, bisector_crossings(scene, near, at - reach, at, 600),
+                        bisector_crossings(scene, near, at, at + reach, 600)});
+      const Vec3 off = at + Vec3{0.1 * g, 0, 0};
+      worst_off = std::max({worst_off, bisector_crossings(scene, near, off - reach, off, 600),
+                            bisector_crossings(scene, near, off, off + reach, 600)});
+    }
+    EXPECT_LE(worst, 1) << "corner at " << angle;
+    EXPECT_EQ(worst_off, 2) << "corner at " << angle;
+  }
 }
 
 // A round shaft in its bore at a thin gap: the housing's outside is drawn along x, y, z and

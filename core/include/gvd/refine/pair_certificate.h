@@ -49,12 +49,13 @@ namespace gvd {
 ///   d_a - d_b lies in that quadrant and has a component >= 1 along `rise`, so C is a monotone
 ///   curve that meets every line along `rise` at most once and every side of a cross-section
 ///   square at most once (no saddles, no hidden arcs: the corners' labels show where it runs).
-///   The surfacer traces C on the faces perpendicular to e and sweeps it along e. With `cones`
-///   (off in the pipeline, see the constructor), where the normals lie in a cone of at most
-///   90 degrees that straddles a cross-section axis (a hexagonal shaft's corner on an axis),
-///   C stays a graph but a line along that axis can meet it twice: the lines along it where
-///   octree edges of the cell and its children can run (at quarters of the cell) are checked
-///   exactly (line_crossings), and the cell's grandchildren are asked again (kExtrudedOnly...).
+///   The surfacer traces C on the faces perpendicular to e and sweeps it along e. With `cones`,
+///   where the normals lie in a cone of at most 90 degrees that straddles a cross-section axis
+///   (a hexagonal shaft's corner on an axis), C stays a graph but a line along that axis can
+///   meet it twice: the lines along it where octree edges of the cell and its children can run
+///   (at quarters of the cell) are checked exactly (line_crossings), and the cell's
+///   grandchildren are asked again (kExtrudedOnly...). They pass on either side of the roof's
+///   apex, which make_domain puts on a lattice plane (SceneFrame::rim).
 /// - Slanted extruded pairs (kSlanted...): the same along a direction e square to one axis a
 ///   but along neither other one (a hexagonal bore's edge at 60 degrees in its end plane):
 ///   the quadrant is taken on a and on w, the unit vector square to e in the plane of the
@@ -68,15 +69,17 @@ namespace gvd {
 class PairCertifier final : public SplitOracle {
  public:
   /// `extruded`: also certify extruded pairs (the surfacer must then sweep their bisectors).
-  /// `cones`: also the cones across an axis (kExtrudedOnly...). Off in the pipeline: their
-  /// certificate covers the cell and its children only, and where 2:1 balance splits a child
-  /// the grandchildren near the cone's apex fail it again and were left as leaves holding
-  /// both objects (a pentagonal shaft, or a hexagonal one off the domain's middle plane, had
-  /// GVD pieces crossing the shaft at 1e-4); the certificate itself is audited in the tests.
+  /// `cones`: also the cones across an axis (kExtrudedOnly...). Their certificate covers the
+  /// cell and its children only; where 2:1 balance splits a child next to an apex that lies
+  /// inside cells, the grandchildren fail it again, round after round, so the pipeline tries
+  /// cones first and builds the octree again without them when the refinement does not settle
+  /// (RefineLoopOptions::cone_certifier).
   PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
                 const ContactPairs* contacts = nullptr, bool extruded = false, bool cones = false);
 
   CellVerdict classify(const Box& box, std::span<const uint32_t> inside = {}) const override;
+
+  bool cones() const { return cones_; }
 
   /// A verdict with its witnesses (tests and audits use them).
   struct Certificate {

@@ -13,6 +13,7 @@
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
+#include "gvd/refine/pair_certificate.h"
 #include "gvd/scene/scene.h"
 
 namespace gvd {
@@ -29,6 +30,15 @@ struct RefineLoopOptions {
   /// the distance field is updated.
   OctreeOptions octree;
   DistanceOptions distance;
+  /// With cones on in this certifier (the octree's split_oracle), the loop gives up after
+  /// `cone_rounds` rounds (cones_unsettled). A cone certifies a cell and its children only
+  /// (pair_certificate.h); where 2:1 balance splits its grandchildren next to a roof's apex
+  /// that lies inside cells (two shafts whose apexes cannot both lie on lattice planes),
+  /// they fail and are split, the balance that follows splits more, round after round, and
+  /// leaves holding both objects can be left at the round limit. Without cones the loop
+  /// settles as the paper's rule does: the caller builds the octree again without them.
+  const PairCertifier* cone_certifier = nullptr;
+  int cone_rounds = 24;
   /// Called after each round with an estimate of the fraction done (< 1).
   std::function<void(double)> progress;
 };
@@ -38,6 +48,7 @@ struct RefineLoopResult {
   uint64_t unseen_left = 0;         ///< cells still hiding a region after the allowed rounds
   uint64_t ambiguous_at_limit = 0;  ///< ambiguous cells left (at a limit), surfaced by §6's rule
   uint64_t touching_leaves = 0;     ///< leaves that intersect several objects at the limit
+  bool cones_unsettled = false;     ///< given up after cone_rounds rounds (cone_certifier)
 };
 
 /// Refines `octree` and `field` (its distance field, updated in place) until no leaf must be

@@ -153,11 +153,34 @@ struct DomainOptions {
 /// triangle).
 std::array<Vec3, 3> scene_frame(const Scene& scene);
 
+/// What make_domain lays the octree along (3D; 2D: the identity and no rims).
+struct SceneFrame {
+  std::array<Vec3, 3> axes = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
+  /// Per axis k: where to put a lattice plane square to axes[k] (its coordinate along
+  /// axes[k], user units). Over a straight rim along another axis, across a thin gap, whose
+  /// two faces' normals have components of both signs along axes[k] (a hexagonal shaft's
+  /// corner on the x axis: normals at +-30 degrees from x, k = y), the bisector is a roof
+  /// that a line along axes[k] can meet twice: cells that hold its apex strictly inside are
+  /// not certified and refine to the gap along the whole rim, cells on either side of it are
+  /// (the cones of pair_certificate.h). This is the apex's coordinate (found numerically on
+  /// exact distances; not a vertex's in general), for the rims at one coordinate with the
+  /// most length; none when there are no such rims.
+  std::array<std::optional<double>, 3> rim;
+};
+/// scene_frame (turned only when `turn`) and the straddled rims along its axes: one pass over
+/// the facing triangles.
+SceneFrame analyse_scene_frame(const Scene& scene, bool turn = true);
+
 /// The default domain: bounding box of all vertices in the frame (options.frame) made a cube
-/// (side = largest extent, centred) and padded by `padding` of the side on every side. A user
-/// box (always in the user's axes) must contain every vertex, else
-/// gvd::Error{kInvalidArgument}.
+/// (side = largest extent, centred) and padded by `padding` of the side on every side. With
+/// DomainFrame::kAuto in 3D, the cube is then shifted along each axis, within the padding, so
+/// that the roofs' apexes of analyse_scene_frame lie on a lattice plane from level
+/// kRimAlignLevel down. A user box (always in the user's axes) must contain every vertex,
+/// else gvd::Error{kInvalidArgument}.
 Domain make_domain(const Scene& scene, const DomainOptions& options = {});
+/// The coarsest octree level whose planes make_domain puts the straddled rims on (a shift of
+/// at most 2^-(kRimAlignLevel+1) of the side).
+constexpr int kRimAlignLevel = 5;
 
 /// Bits of the unit lattice in which octree cells live: cells at level l span 2^(bits-l)
 /// lattice units. 3D: 21 (so (2^21+1)^3 lattice points fit 64 bits), 2D: 31.
