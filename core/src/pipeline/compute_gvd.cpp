@@ -1,6 +1,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -26,6 +28,73 @@ std::string format_length(double x) {
   char text[32];
   std::snprintf(text, sizeof text, "%.3g", x);
   return std::string(text) + " units";
+}
+
+using Progress = std::function<void(const std::string&, double)>;
+
+// The options of the first octree's build (paper §3; certified cells left whole).
+OctreeOptions octree_options(const PipelineOptions& options, const ContactPairs& contacts,
+                             const SplitOracle* oracle, const Progress& progress) {
+  OctreeOptions oo;
+  oo.split_oracle = oracle;
+  oo.contacts = &contacts;
+  oo.contact_depth = options.contact_depth;
+  oo.max_depth = options.max_depth;
+  oo.max_leaves = options.max_leaves;
+  oo.threads = options.threads;
+  oo.cancel = options.cancel;
+  oo.progress = [progress](double f) { progress("octree", f); };
+  return oo;
+}
+
+Octree first_octree(const UnitGeometry& geometry, const PipelineOptions& options,
+                    const OctreeOptions& oo) {
+  if (options.octree_build == "data-parallel") {
+    const std::unique_ptr<OctreeBuildSteps> steps =
+        options.compute ? options.compute->octree_build_steps(geometry) : nullptr;
+    return build_octree_data_parallel(geometry, oo, steps.get());
+  }
+  return build_octree(geometry, oo);
+}
+
+// The options of the distance transform (paper §4) with the exact closest-point solver.
+DistanceOptions distance_options(const PipelineOptions& options, ClosestPointSolver* solver,
+                                 const Progress& progress) {
+  DistanceOptions dopt;
+  dopt.threads = options.threads;
+  dopt.cancel = options.cancel;
+  dopt.solver = solver;
+  dopt.method =
+      options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
+  dopt.progress = [progress](double f) { progress("distance", f); };
+  return dopt;
+}
+
+// The options of the refinement loop (§5 ambiguity, the separation guarantee, unseen
+// regions); the octree and distance options without progress (the loop reports its own).
+RefineLoopOptions refine_options(const PipelineOptions& options, int dim, int max_depth,
+                                 const ContactPairs& contacts, const PairCertifier* certifier,
+                                 OctreeOptions oo, DistanceOptions dopt, const Progress& progress) {
+  RefineLoopOptions lo;
+  lo.max_rounds = options.max_refine_rounds;
+  lo.ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
+                        : dim == 2                    ? options.max_refine_rounds
+                                                      : 3;
+  lo.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
+                        : dim == 2                    ? lattice_bits(2)
+                                                      : 2;
+  lo.unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
+                     : dim == 2                 ? options.max_refine_rounds
+                                                : 4;
+  lo.cone_certifier = certifier;
+  lo.contacts = &contacts;
+  lo.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
+  oo.progress = nullptr;
+  dopt.progress = nullptr;
+  lo.octree = std::move(oo);
+  lo.distance = std::move(dopt);
+  lo.progress = [progress](double f) { progress("ambiguity", f); };
+  return lo;
 }
 
 }  // namespace
@@ -55,7 +124,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   }
   const Stopwatch total;
   const uint64_t start_rss = rss_bytes();
-  auto progress = [&](const std::string& stage, double f) {
+  const Progress progress = [&](const std::string& stage, double f) {
     if (options.progress) options.progress(stage, f);
   };
   GvdResult r;
@@ -82,7 +151,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   const double contact_tolerance = 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth);
   const ContactPairs contacts =
       find_contact_pairs(r.geometry, bvh, contact_tolerance, options.threads, options.cancel);
-  // Exact closest points: the backend's kernel, else the CPU twin (same per-item function).
+  // Exact closest points: the backend's kernel, else the CPU twin (same per-item function);
+  // made at the first distance stage.
   std::unique_ptr<ClosestPointSolver> solver;
   // The thin-gaps refinement: certified pair cells stay leaves (refine/pair_certificate.h).
   // Cones across an axis are tried first; where the refinement does not settle with them (see
@@ -94,29 +164,16 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     r.stats.stages.resize(first_stage);
     if (!cones) sw = Stopwatch();  // the first attempt's octree stage counts the contacts too
     certifier.reset();
-    if (options.refine == "certified")
+    if (options.refine == "certified") {
       certifier.emplace(r.geometry, bvh, &contacts, true, cones);
-    else if (!cones)
+    } else if (!cones) {
       break;
-    OctreeOptions oo;
-    oo.split_oracle = certifier ? &*certifier : nullptr;
-    oo.contacts = &contacts;
-    oo.contact_depth = options.contact_depth;
-    oo.max_depth = options.max_depth;
-    oo.max_leaves = options.max_leaves;
-    oo.threads = options.threads;
-    oo.cancel = options.cancel;
-    oo.progress = [&](double f) { progress("octree", f); };
-    if (options.octree_build == "data-parallel") {
-      const std::unique_ptr<OctreeBuildSteps> steps =
-          options.compute ? options.compute->octree_build_steps(r.geometry) : nullptr;
-      r.octree = build_octree_data_parallel(r.geometry, oo, steps.get());
-    } else {
-      r.octree = build_octree(r.geometry, oo);
     }
+    const OctreeOptions oo =
+        octree_options(options, contacts, certifier ? &*certifier : nullptr, progress);
+    r.octree = first_octree(r.geometry, options, oo);
     r.stats.stages.push_back(
         {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
-    oo.progress = nullptr;  // the refinement below reports its own progress
 
     progress("distance", 0);
     sw = Stopwatch();
@@ -124,38 +181,16 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
       solver = options.compute ? options.compute->closest_points(r.geometry, bvh)
                                : make_cpu_closest_point_solver(r.geometry, bvh, options.threads);
     }
-    DistanceOptions dopt;
-    dopt.threads = options.threads;
-    dopt.cancel = options.cancel;
-    dopt.solver = solver.get();
-    dopt.method =
-        options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
-    dopt.progress = [&](double f) { progress("distance", f); };
-    r.field = DistanceField();
+    const DistanceOptions dopt = distance_options(options, solver.get(), progress);
+    r.field = DistanceField();  // the failed attempt's goes first
     r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
-    dopt.progress = nullptr;  // the refinement below reports its own progress
     r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
 
     // Ambiguity resolution (§5) and the separation guarantee: split, recompute, repeat.
     progress("ambiguity", 0);
     sw = Stopwatch();
-    RefineLoopOptions lo;
-    lo.max_rounds = options.max_refine_rounds;
-    lo.ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
-                          : dim == 2                    ? options.max_refine_rounds
-                                                        : 3;
-    lo.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
-                          : dim == 2                    ? lattice_bits(2)
-                                                        : 2;
-    lo.unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
-                       : dim == 2                 ? options.max_refine_rounds
-                                                  : 4;
-    lo.cone_certifier = certifier ? &*certifier : nullptr;
-    lo.contacts = &contacts;
-    lo.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
-    lo.octree = oo;
-    lo.distance = dopt;
-    lo.progress = [&](double f) { progress("ambiguity", f); };
+    const RefineLoopOptions lo = refine_options(
+        options, dim, max_depth, contacts, certifier ? &*certifier : nullptr, oo, dopt, progress);
     try {
       refined = refine_until_resolved(r.octree, r.field, r.geometry, bvh, lo);
     } catch (const Error& e) {
