@@ -2,6 +2,8 @@
 # the npm test tools), configure, build and run. Everything else is plain CMake + CTest.
 BUILD      ?= build
 BUILD_ASAN ?= build-asan
+BUILD_FUZZ ?= build-fuzz
+FUZZ_SECONDS ?= 60
 JOBS       ?= $(shell nproc)
 CMAKE_GEN  := $(shell command -v ninja >/dev/null 2>&1 && echo "-G Ninja")
 EXAMPLE    ?= tests/data/scenes/balls_on_plate.json
@@ -10,7 +12,7 @@ HOST       ?= 127.0.0.1
 PORT       ?= 8080
 STORE      ?= gvd-store
 
-.PHONY: all deps configure build run example test test-asan bench bench-server format tidy clean \
+.PHONY: all deps configure build run example test test-asan fuzz bench bench-server format tidy clean \
         docker-build docker-lint bench-scale
 
 all: build
@@ -50,6 +52,18 @@ test-asan: deps
 	cd $(BUILD_ASAN) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp \
 	  ctest --output-on-failure -j $(JOBS) -L 'unit|parity' --timeout 1200
+
+# libFuzzer on every parser (tests/fuzz): clang-14 and its fuzzer runtime from Debian, a build
+# instrumented for coverage + ASan + UBSan in $(BUILD_FUZZ), then each target FUZZ_SECONDS
+# (default 60) from the seeds; findings land in tests/fuzz/crashes/<target>/, which `make test`
+# replays with the normal build.
+fuzz:
+	@GVD_DEPS=fuzz ./docker/install-deps.sh
+	CC=clang-14 CXX=clang++-14 cmake -S . -B $(BUILD_FUZZ) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  -DGVD_FUZZ=ON -DGVD_BUILD_TESTS=OFF -DGVD_BUILD_BENCH=OFF -DGVD_BUILD_PYTHON=OFF
+	cmake --build $(BUILD_FUZZ) -j $(JOBS) --target fuzz_all
+	ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  tests/fuzz/run_fuzz.sh $(BUILD_FUZZ) $(FUZZ_SECONDS)
 
 # Best of 3 per scene (this shared VM's timings vary by up to +-30 % from run to run).
 bench: build

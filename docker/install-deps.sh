@@ -10,6 +10,7 @@
 #   runtime  only the shared libraries gvd and gvd-server load, curl for the health check,
 #            PoCL for OpenCL on the CPU and redis-server for docker/compose.scale.yaml (image
 #            runtime stage; no npm)
+#   fuzz     what `make fuzz` adds to `build`: clang and its libFuzzer runtime
 set -euo pipefail
 mode=${GVD_DEPS:-all}
 
@@ -25,6 +26,7 @@ test_packages=(
   ccache clinfo wrk curl python3 python3-numpy clang-format clang-tidy chromium
   redis-server
 )
+fuzz_packages=(clang-14 libclang-rt-14-dev)
 runtime_packages=(
   libcpp-httplib0.11 libtinygltf2d libssl3 libbrotli1 ocl-icd-libopencl1 pocl-opencl-icd
   ca-certificates curl libhiredis0.14
@@ -34,7 +36,8 @@ case "$mode" in
   all) packages=("${build_packages[@]}" "${test_packages[@]}") ;;
   build) packages=("${build_packages[@]}") ;;
   runtime) packages=("${runtime_packages[@]}") ;;
-  *) echo "install-deps: GVD_DEPS is all, build or runtime, not '$mode'" >&2; exit 2 ;;
+  fuzz) packages=("${build_packages[@]}" "${fuzz_packages[@]}") ;;
+  *) echo "install-deps: GVD_DEPS is all, build, runtime or fuzz, not '$mode'" >&2; exit 2 ;;
 esac
 
 missing=()

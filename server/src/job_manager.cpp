@@ -92,7 +92,7 @@ void JobManager::recover() {
       if (p.filename().string().find(".tmp.") != std::string::npos) remove_quietly(p);
     }
   }
-  const auto restore = [this](const Json& s, JobStatus status) {
+  const auto restore = [](const Json& s, JobStatus status) {
     auto job = std::make_shared<Job>();
     job->id = s.at("id").get<std::string>();
     job->status = status;

@@ -6,7 +6,7 @@
 #include <sstream>
 
 #include "gvd/common/error.h"
-#include "gvd/common/json_depth.h"
+#include "gvd/common/json_input.h"
 #include "gvd/pipeline/pipeline.h"
 
 namespace gvd::server {
@@ -138,19 +138,28 @@ std::string JobParams::to_json() const {
 }
 
 JobParams JobParams::from_json(const std::string& text) {
-  check_json_depth(text, "the parameters", ErrorCode::kInvalidArgument);
-  const nlohmann::json j = nlohmann::json::parse(text);
+  // Read back from a job document (the store, Redis), which can be damaged: anything but
+  // to_json's form is a gvd::Error saying so, never a library exception.
+  const nlohmann::json j =
+      parse_json_input(text, "the job parameters", ErrorCode::kInvalidArgument);
+  if (!j.is_object())
+    throw Error(ErrorCode::kInvalidArgument, "the job parameters must be a JSON object");
   JobParams p;
-  p.max_depth = j.value("max_depth", 0);
-  p.contact_depth = j.value("contact_depth", 0);
-  p.ambiguity_levels = j.value("ambiguity_levels", -1);
-  p.ambiguity_rounds = j.value("ambiguity_rounds", -1);
-  p.unseen_rounds = j.value("unseen_rounds", -1);
-  p.domain = j.value("domain", std::vector<double>{});
-  p.frame = j.value("frame", std::string("auto"));
-  p.refine = j.value("refine", std::string("certified"));
-  p.resolution = j.value("resolution", std::string("compact"));
-  p.curved_tolerance = j.value("curved_tolerance", 0.0);
+  try {
+    p.max_depth = j.value("max_depth", 0);
+    p.contact_depth = j.value("contact_depth", 0);
+    p.ambiguity_levels = j.value("ambiguity_levels", -1);
+    p.ambiguity_rounds = j.value("ambiguity_rounds", -1);
+    p.unseen_rounds = j.value("unseen_rounds", -1);
+    p.domain = j.value("domain", std::vector<double>{});
+    p.frame = j.value("frame", std::string("auto"));
+    p.refine = j.value("refine", std::string("certified"));
+    p.resolution = j.value("resolution", std::string("compact"));
+    p.curved_tolerance = j.value("curved_tolerance", 0.0);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "the job parameters: " + std::string(plain_json_message(e.what())));
+  }
   return p;
 }
 
