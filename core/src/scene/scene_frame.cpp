@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <optional>
@@ -388,6 +389,12 @@ std::array<std::optional<double>, 3> straddled_rims(const Scene& scene, const Fl
   size_t first = 0;  // the object's first triangle in scene order
   for (uint32_t oi = 0; oi < scene.objects.size(); ++oi) {
     const SceneObject& object = scene.objects[oi];
+    const auto own = facing.begin() + static_cast<std::ptrdiff_t>(first);
+    if (std::none_of(own, own + static_cast<std::ptrdiff_t>(object.simplices.size()),
+                     [](char f) { return f != 0; })) {
+      first += object.simplices.size();  // nothing of it faces another object
+      continue;
+    }
     // Vertices matched by position (an unwelded mesh still has rims).
     std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
     std::vector<uint32_t> canonical(object.vertices.size());
