@@ -125,7 +125,8 @@ compute options:
   --contact-depth N          depth at which refinement between touching or intersecting
                              objects stops (default 14 in 2D, 8 in 3D)
   --max-leaves N             octree leaf limit (default 12000000; peak memory is about
-                             1 KB per leaf)
+                             1 KB per leaf); it also bounds the cells' simplex lists (8
+                             references per leaf), which many objects sharing cells fill
   --max-objects N            object limit (default 100000)
   --max-simplices N          simplex limit (default 20000000)
   --ambiguity-levels N       levels of ambiguity refinement below the §3 octree

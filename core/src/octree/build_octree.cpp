@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <atomic>
 #include <numeric>
 
 #include "gvd/common/error.h"
@@ -211,6 +212,13 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
   }
   uint64_t internal_count = 0;
   const uint64_t children_per_split = (1u << dim) - 1;
+  // The leaf limit bounds cells, not what they hold: where many objects share cells (a
+  // thousand coincident copies of one part) every cell lists every copy's simplices, and those
+  // lists (every level's, kept for materialize) take the memory. So they are bounded too, by
+  // the same option, while the next level's are made.
+  const uint64_t max_references =
+      kReferencesPerLeaf * options.max_leaves + 4 * static_cast<uint64_t>(g.simplices.size());
+  uint64_t held = 0;  // references in the levels so far
   for (int level = 0; level <= max_depth && current.size() > 0; ++level) {
     check_cancel(options);
     if (options.progress) options.progress(static_cast<double>(level) / std::max(1, max_depth));
@@ -289,22 +297,39 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
     }
     const size_t grain = 256;
     ChunkResults<CellSet> out(n, grain);
+    held += current.pool.size();
+    std::atomic<uint64_t> made{0};
+    std::atomic<bool> over{false};
     parallel_for(
         n, threads,
         [&](size_t b, size_t e, int) {
           CellSet local;  // moved in at the end: no false sharing between chunks
           std::vector<uint32_t> scratch;
-          for (size_t i = b; i < e; ++i) {
+          for (size_t i = b; i < e && !over.load(std::memory_order_relaxed); ++i) {
             if (!split[i]) continue;
+            const size_t before = local.pool.size();
             split_cell(g, current.codes[i], level, current.pool.data() + current.begin[i],
                        current.pool.data() + current.begin[i + 1], scratch,
                        [&](uint64_t cc, const std::vector<uint32_t>& list) {
                          if (!list.empty()) local.add(cc, list);
                        });
+            if (held + (made += local.pool.size() - before) > max_references) over = true;
           }
           out.at(b) = std::move(local);
         },
         grain);
+    if (over) {
+      uint64_t most = 0;
+      for (size_t i = 0; i < n; ++i)
+        most = std::max<uint64_t>(most, current.begin[i + 1] - current.begin[i]);
+      throw Error(ErrorCode::kLimitExceeded,
+                  "octree cells up to level " + std::to_string(level + 1) +
+                      " hold more simplex references than the limit of " +
+                      std::to_string(max_references) + " (" + std::to_string(kReferencesPerLeaf) +
+                      " per leaf of --max-leaves and 4 per simplex); a cell at level " +
+                      std::to_string(level) + " holds " + std::to_string(most) +
+                      " simplices: many objects share cells (coincident or overlapping copies?)");
+    }
     CellSet next = concat(out.chunks, threads);
     cache.sets.push_back(std::move(current));
     cache.index.push_back(std::move(index_of_code));

@@ -163,6 +163,46 @@ TEST(BuildOctree, IntersectingObjectsStopAtTheDepthLimit) {
   expect_balanced(b.octree);
 }
 
+// The leaf limit bounds cells, not the simplex lists they hold: 200 coincident tetrahedra put
+// hundreds of simplices in every cell they touch. The lists are bounded by the same option
+// (kReferencesPerLeaf per leaf of max_leaves): the build stops with a limit error that says
+// so while the leaves are still far under their limit. Two tetrahedra build at the same
+// limits.
+TEST(BuildOctree, ManyObjectsSharingCellsHitTheReferenceLimit) {
+  auto tetrahedra = [](int copies) {
+    std::vector<SceneObject> objects;
+    for (int i = 0; i < copies; ++i) {
+      SceneObject o;
+      o.label = "t" + std::to_string(i);
+      o.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+      o.simplices = {{{0, 1, 2}}, {{0, 1, 3}}, {{0, 2, 3}}, {{1, 2, 3}}};
+      objects.push_back(o);
+    }
+    Scene scene = test::make_scene(3, objects);
+    Built b{std::move(scene), {}, {}, {}};
+    b.domain = make_domain(b.scene);
+    b.geometry = make_unit_geometry(b.scene, b.domain);
+    return b;
+  };
+  OctreeOptions o;
+  o.max_depth = 5;
+  o.max_leaves = 20000;
+  Built two = tetrahedra(2);
+  const Octree small = build_octree(two.geometry, o);
+  EXPECT_LT(small.leaf_count(), o.max_leaves);
+  EXPECT_LE(small.simplex_index.size(), kReferencesPerLeaf * o.max_leaves);
+  Built many = tetrahedra(200);
+  try {
+    (void)build_octree(many.geometry, o);
+    FAIL() << "no limit error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kLimitExceeded);
+    EXPECT_NE(std::string(e.what()).find("simplex references"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("many objects share cells"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(BuildOctree, SizeGrowsWithClosePlacesNotTriangles) {
   // Same two spheres, 16x more triangles: the leaf count must not grow with the mesh.
   auto coarse = build(test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),

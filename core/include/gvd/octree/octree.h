@@ -89,6 +89,10 @@ class SplitOracle {
   virtual CellVerdict classify(const Box& box, std::span<const uint32_t> inside = {}) const = 0;
 };
 
+/// Simplex references per leaf of OctreeOptions::max_leaves that the cells' lists may hold.
+/// Scenes hold one to three per cell; a thousand coincident copies of one part, a thousand.
+constexpr uint64_t kReferencesPerLeaf = 8;
+
 /// Options of the octree build (paper §3).
 struct OctreeOptions {
   /// Deepest level a cell may reach; <= 0 picks the default: 26 in 2D (separates gaps of
@@ -96,6 +100,9 @@ struct OctreeOptions {
   int max_depth = 0;
   /// Upper bound on leaves; exceeding it is gvd::Error{kLimitExceeded} (checked per level).
   uint64_t max_leaves = 12'000'000;
+  /// The cells' simplex lists are bounded by it too: at most kReferencesPerLeaf references
+  /// per leaf of max_leaves (plus 4 per simplex of the scene), checked at each level of the
+  /// level-by-level build (many objects sharing cells: gvd::Error{kLimitExceeded}).
   /// Worker threads (0 = all cores).
   int threads = 0;
   /// Set to true by another thread to stop with gvd::Error{kCancelled}.
