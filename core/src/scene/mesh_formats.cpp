@@ -1,6 +1,7 @@
 // Readers of the plain mesh formats: OBJ (groups = objects), PLY (ascii and binary), STL (ascii
 // and binary, welded), OFF. They build an unvalidated Scene; parse_scene_bytes validates it.
 #include <algorithm>
+#include <cmath>
 #include <bit>
 #include <charconv>
 #include <cstdint>
@@ -509,6 +510,10 @@ Scene parse_ply(std::span<const uint8_t> bytes, const std::string& name,
         }
         const double n = reader.read(prop.count_type, where);
         if (n < 0) invalid(pre + where + ": negative list length");
+        // A list length read as a float type can be anything: a count is a whole number that
+        // fits 32 bits (a larger one could not be in the file anyway).
+        if (!(n <= 4294967295.0) || n != std::floor(n))
+          invalid(pre + where + ": list length " + std::to_string(n) + " is not a count");
         const auto count = static_cast<uint64_t>(n);
         const bool wanted = is_face && static_cast<int>(k) == list;
         if (wanted) {
