@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numeric>
@@ -76,25 +75,6 @@ double deepest_vertex_inside(const GvdIndex& index, ObjectId object, ObjectId ot
   }
   return deepest;
 }
-
-/// A vertex position as a key (exact bits: the GVD's pieces share their vertices exactly).
-struct PositionHash {
-  size_t operator()(const Vec3& p) const {
-    uint64_t h = 1469598103934665603ull;
-    for (int a = 0; a < 3; ++a) {
-      uint64_t bits;
-      const double x = p[a] == 0 ? 0.0 : p[a];  // -0 and +0 alike
-      std::memcpy(&bits, &x, sizeof bits);
-      h = (h ^ bits) * 1099511628211ull;
-    }
-    return static_cast<size_t>(h);
-  }
-};
-struct PositionEqual {
-  bool operator()(const Vec3& l, const Vec3& r) const {
-    return l.x == r.x && l.y == r.y && l.z == r.z;
-  }
-};
 
 /// The part of the interface between two objects where the clearance is below t, measured
 /// on the GVD's pieces with exact clearances. The clearance is 1-Lipschitz, so a piece whose
@@ -230,12 +210,11 @@ void find_sites(const GvdIndex& index, const std::vector<uint32_t>& pieces, doub
   auto unite = [&](uint32_t x, uint32_t y) { parent[find(x)] = find(y); };
   // The first piece at each vertex below t, and at each edge (its ends, in order) that has a
   // point below t (2D pieces meet at vertices only).
-  std::unordered_map<Vec3, uint32_t, PositionHash, PositionEqual> at_vertex;
+  std::unordered_map<Vec3, uint32_t, PositionHash>
+      at_vertex;  // the GVD's pieces share vertices exactly
   struct EdgeKey {
     Vec3 lo, hi;
-    bool operator==(const EdgeKey& o) const {
-      return PositionEqual{}(lo, o.lo) && PositionEqual{}(hi, o.hi);
-    }
+    bool operator==(const EdgeKey& o) const { return lo == o.lo && hi == o.hi; }
   };
   struct EdgeHash {
     size_t operator()(const EdgeKey& e) const {

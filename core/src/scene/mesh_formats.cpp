@@ -1,9 +1,9 @@
 // Readers of the plain mesh formats: OBJ (groups = objects), PLY (ascii and binary), STL (ascii
 // and binary, welded), OFF. They build an unvalidated Scene; parse_scene_bytes validates it.
 #include <algorithm>
-#include <cmath>
 #include <bit>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <span>
@@ -238,18 +238,6 @@ uint32_t read_le32(const uint8_t* p) {
   return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
          static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
 }
-
-struct PositionHash {
-  size_t operator()(const Vec3& p) const {
-    uint64_t h = 1469598103934665603ull;
-    for (int i = 0; i < 3; ++i) {
-      h ^= std::bit_cast<uint64_t>(p[i]);
-      h *= 1099511628211ull;
-      h ^= h >> 29;
-    }
-    return static_cast<size_t>(h);
-  }
-};
 
 /// Merges exactly identical positions (STL stores every triangle corner separately).
 class Welder {

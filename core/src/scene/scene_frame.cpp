@@ -11,7 +11,6 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
 #include <optional>
 #include <thread>
 #include <tuple>
@@ -101,7 +100,8 @@ struct FlatScene {
         object_of.push_back(static_cast<uint32_t>(o));
       }
     }
-    bvh = SimplexBvh(3, points, simplices, object_of);
+    // Only objects facing each other need it (one object faces nothing).
+    if (scene.objects.size() >= 2) bvh = SimplexBvh(3, points, simplices, object_of);
   }
 };
 
@@ -395,31 +395,11 @@ std::array<std::optional<double>, 3> straddled_rims(const Scene& scene, const Fl
       first += object.simplices.size();  // nothing of it faces another object
       continue;
     }
-    // Vertices matched by position (an unwelded mesh still has rims).
-    std::unordered_map<uint64_t, std::vector<uint32_t>> buckets;
+    // Vertices matched by position (an unwelded mesh still has rims): the first index there.
+    std::unordered_map<Vec3, uint32_t, PositionHash> first_at;
     std::vector<uint32_t> canonical(object.vertices.size());
-    auto hash = [](Vec3 p) {
-      uint64_t h = 1469598103934665603ull;
-      for (int i = 0; i < 3; ++i) {
-        uint64_t bits;
-        const double c = p[i] == 0 ? 0.0 : p[i];  // -0 and +0 alike
-        std::memcpy(&bits, &c, sizeof bits);
-        h = (h ^ bits) * 1099511628211ull;
-      }
-      return h;
-    };
-    for (uint32_t v = 0; v < object.vertices.size(); ++v) {
-      std::vector<uint32_t>& b = buckets[hash(object.vertices[v])];
-      canonical[v] = v;
-      for (uint32_t u : b) {
-        const Vec3 d = object.vertices[u] - object.vertices[v];
-        if (d.x == 0 && d.y == 0 && d.z == 0) {
-          canonical[v] = u;
-          break;
-        }
-      }
-      if (canonical[v] == v) b.push_back(v);
-    }
+    for (uint32_t v = 0; v < object.vertices.size(); ++v)
+      canonical[v] = first_at.emplace(object.vertices[v], v).first->second;
     // Directed edges of facing triangles: (from, to) -> triangle, -1 when repeated. An edge
     // is a rim when its reverse belongs to another facing triangle of the object.
     std::unordered_map<uint64_t, int64_t> directed;

@@ -1,7 +1,9 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 namespace gvd {
 
@@ -50,6 +52,21 @@ struct Box {
     for (int i = 0; i < dim; ++i)
       if (p[i] < lo[i] || p[i] > hi[i]) return false;
     return true;
+  }
+};
+
+/// A position as a hash key, exact bits (FNV-1a over the coordinates), with -0 and +0 alike so
+/// that it agrees with operator==: for maps that merge or look up identical positions.
+struct PositionHash {
+  size_t operator()(const Vec3& p) const {
+    uint64_t h = 1469598103934665603ull;
+    for (int i = 0; i < 3; ++i) {
+      uint64_t bits;
+      const double c = p[i] == 0 ? 0.0 : p[i];
+      std::memcpy(&bits, &c, sizeof bits);
+      h = (h ^ bits) * 1099511628211ull;
+    }
+    return static_cast<size_t>(h);
   }
 };
 
