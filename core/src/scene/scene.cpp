@@ -23,6 +23,7 @@ constexpr std::pair<WarningKind, const char*> kWarningNames[] = {
     {WarningKind::kObjectsTouch, "objects_touch"},
     {WarningKind::kThinRegionsLeft, "thin_regions_left"},
     {WarningKind::kAmbiguousCellsLeft, "ambiguous_cells_left"},
+    {WarningKind::kConesDropped, "cones_dropped"},
 };
 
 [[noreturn]] void invalid(std::string detail, ErrorLocation where = {}) {
@@ -335,7 +336,77 @@ const char* domain_frame_name(DomainFrame frame) {
   return frame == DomainFrame::kWorld ? "world" : "auto";
 }
 
-Domain make_domain(const Scene& scene, const DomainOptions& options) {
+namespace {
+
+/// How much larger than the padded bounds make_domain may make the cube to put a second
+/// roof's apex on an axis on a lattice plane, and the finest level it may use.
+constexpr double kMaxApexGrowth = 0.1;
+constexpr int kMaxApexLevel = 12;
+/// Coordinates within this of a lattice plane (unit domain) count as on it (the apexes are
+/// found numerically; PairCertifier::kApexPrecision).
+constexpr double kOnPlane = 1e-9;
+
+/// The side and lower corner (frame coordinates) of the cube around `bounds`: side0, centred,
+/// with each axis' longest straddled rims' apex moved onto the nearest plane of level
+/// kRimAlignLevel where the padding leaves room (its coordinate then maps to a multiple of
+/// 2^-kRimAlignLevel, to within rounding). Where an axis has a second apex, a side up to
+/// kMaxApexGrowth larger can put it on a plane of level <= kMaxApexLevel too: the side
+/// d 2^L / n for their distance d. One side serves all axes, so of those sides the one that
+/// puts the most rim length on planes wins (ties: the smaller side), and it is taken only when
+/// it puts more there than side0 does.
+std::pair<double, Vec3> align_to_apexes(const SceneFrame& frame, const Box& bounds, double side0) {
+  const double step = std::ldexp(1.0, -kRimAlignLevel);
+  auto layout = [&](double side, double* on_planes) {
+    Vec3 lo = bounds.center() - Vec3{side, side, side} * 0.5;
+    double length = 0;
+    for (int i = 0; i < 3; ++i) {
+      const std::vector<StraddledRims>& rims = frame.straddled[i];
+      if (rims.empty()) continue;
+      const double at = rims.front().apex;
+      const double unit = (at - lo[i]) / side;
+      const double target = std::clamp(std::round(unit / step), 1.0, 1.0 / step - 1) * step;
+      const double shifted = at - target * side;
+      if (!(shifted <= bounds.lo[i] && shifted + side >= bounds.hi[i])) continue;
+      lo[i] = shifted;
+      for (const StraddledRims& r : rims) {
+        const double u = std::ldexp((r.apex - lo[i]) / side, kMaxApexLevel);
+        if (std::abs(u - std::round(u)) <= std::ldexp(kOnPlane, kMaxApexLevel)) length += r.length;
+      }
+    }
+    if (on_planes != nullptr) *on_planes = length;
+    return lo;
+  };
+  double best_length = 0;
+  layout(side0, &best_length);
+  double best_side = side0;
+  for (int i = 0; i < 3; ++i) {
+    const std::vector<StraddledRims>& rims = frame.straddled[i];
+    for (size_t j = 1; j < rims.size(); ++j) {
+      const double d = std::abs(rims[j].apex - rims.front().apex);
+      if (!(d > kOnPlane * side0)) continue;
+      for (int level = kRimAlignLevel; level <= kMaxApexLevel; ++level) {
+        const double span = std::ldexp(d, level);
+        // side = span / n within [side0, side0 (1 + kMaxApexGrowth)]
+        const double n_hi = std::floor(span / side0);
+        const double n_lo = std::ceil(span / (side0 * (1 + kMaxApexGrowth)));
+        for (double n = n_hi; n >= std::max(1.0, n_lo); --n) {
+          double length = 0;
+          const double side = span / n;
+          layout(side, &length);
+          if (length > best_length || (length == best_length && side < best_side)) {
+            best_length = length;
+            best_side = side;
+          }
+        }
+      }
+    }
+  }
+  return {best_side, layout(best_side, nullptr)};
+}
+
+}  // namespace
+
+Domain make_domain(const Scene& scene, const DomainOptions& options, SceneFrame* analysed) {
   const int dim = scene.dimension;
   Domain domain;
   domain.dimension = dim;
@@ -391,24 +462,13 @@ Domain make_domain(const Scene& scene, const DomainOptions& options) {
       double extent = 0.0;
       for (int i = 0; i < dim; ++i) extent = std::max(extent, bounds.hi[i] - bounds.lo[i]);
       if (!(extent > 0.0)) extent = 1.0;
-      const double side = extent * (1.0 + 2.0 * options.padding);
+      const auto [side, lo] =
+          align_to_apexes(frame, bounds, extent * (1.0 + 2.0 * options.padding));
       domain.side = side;
-      Vec3 lo = bounds.center() - Vec3{side, side, side} * 0.5;
-      // A roof's apex over straddled rims onto the nearest plane of level kRimAlignLevel,
-      // when the padding leaves room (its coordinate then maps to a multiple of
-      // 2^-kRimAlignLevel, to within rounding).
-      const double step = std::ldexp(1.0, -kRimAlignLevel);
-      for (int i = 0; i < dim; ++i) {
-        if (!frame.rim[i]) continue;
-        const double at = *frame.rim[i];
-        const double unit = (at - lo[i]) / side;
-        const double target = std::clamp(std::round(unit / step), 1.0, 1.0 / step - 1) * step;
-        const double shifted = at - target * side;
-        if (shifted <= bounds.lo[i] && shifted + side >= bounds.hi[i]) lo[i] = shifted;
-      }
       domain.origin =
           aligned ? lo : domain.axis[0] * lo.x + domain.axis[1] * lo.y + domain.axis[2] * lo.z;
     }
+    if (analysed != nullptr) *analysed = std::move(frame);
   }
   if (dim == 2) domain.origin.z = 0.0;
   return domain;

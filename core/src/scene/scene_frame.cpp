@@ -296,6 +296,7 @@ struct StraddledEdge {
   double coordinate;  ///< along the straddled axis (the edge's own)
   double length;
   Vec3 middle;
+  Vec3 from, to;
   uint32_t object;
   int along;  ///< the axis the edge runs along
 };
@@ -372,17 +373,17 @@ std::optional<double> roof_apex(const FlatScene& flat, const std::array<Vec3, 3>
 }
 
 /// Rims across a thin gap whose two faces' normals straddle an axis of the cross-section
-/// (pair_certificate.h, the cones): per axis k of `axes`, the apex (roof_apex) of the
-/// bisector over the straight rims along another axis whose faces' normals lie on both sides
-/// of axes[k] (components of both signs along it) — of the rims at one coordinate with the
-/// most length. Only edges whose two triangles both face another object (facing_triangles)
-/// count, and only edges of a consistently oriented, manifold part of a mesh (vertices
-/// matched by position).
-std::array<std::optional<double>, 3> straddled_rims(const Scene& scene, const FlatScene& flat,
-                                                    const std::vector<Vec3>& normals,
-                                                    const std::vector<char>& facing,
-                                                    const std::array<Vec3, 3>& axes,
-                                                    double extent) {
+/// (pair_certificate.h, the cones): per axis k of `axes`, the straight rims along another
+/// axis whose faces' normals lie on both sides of axes[k] (components of both signs along
+/// it), grouped by their coordinate along axes[k], the most length first, each with the apex
+/// of the bisector's roof over its longest edge (roof_apex). Only edges whose two triangles
+/// both face another object (facing_triangles) count, and only edges of a consistently
+/// oriented, manifold part of a mesh (vertices matched by position).
+std::array<std::vector<StraddledRims>, 3> straddled_rims(const Scene& scene, const FlatScene& flat,
+                                                         const std::vector<Vec3>& normals,
+                                                         const std::vector<char>& facing,
+                                                         const std::array<Vec3, 3>& axes,
+                                                         double extent) {
   constexpr double kAlong = 1e-12;    // an edge along an axis: |sin| below this
   constexpr double kStraddle = 1e-9;  // a normal's component counts by its sign above this
   std::array<std::vector<StraddledEdge>, 3> found;
@@ -429,37 +430,49 @@ std::array<std::optional<double>, 3> straddled_rims(const Scene& scene, const Fl
           if (k == e) continue;
           const double a = dot(n[0], axes[k]), b = dot(n[1], axes[k]);
           if ((a > kStraddle && b < -kStraddle) || (a < -kStraddle && b > kStraddle))
-            found[k].push_back({dot(p, axes[k]), length, (p + q) * 0.5, oi, e});
+            found[k].push_back({dot(p, axes[k]), length, (p + q) * 0.5, p, q, oi, e});
         }
       }
     }
     first += object.simplices.size();
   }
-  std::array<std::optional<double>, 3> out;
+  std::array<std::vector<StraddledRims>, 3> out;
   for (int k = 0; k < 3; ++k) {
     std::vector<StraddledEdge>& f = found[k];
     std::sort(f.begin(), f.end(), [](const StraddledEdge& x, const StraddledEdge& y) {
       return std::tie(x.coordinate, x.length) < std::tie(y.coordinate, y.length);
     });
-    // The coordinate with the most rim length; its longest edge stands for it.
-    double best = 0;
-    const StraddledEdge* chosen = nullptr;
+    // Edges at one coordinate (to 1e-9 of the extent) make one group.
+    struct Group {
+      size_t begin, end;
+      double length;
+    };
+    std::vector<Group> groups;
     for (size_t i = 0; i < f.size();) {
       size_t j = i;
-      double weight = 0;
-      const StraddledEdge* longest = &f[i];
-      while (j < f.size() && f[j].coordinate - f[i].coordinate <= 1e-9 * extent) {
-        if (f[j].length > longest->length) longest = &f[j];
-        weight += f[j++].length;
-      }
-      if (weight > best) {
-        best = weight;
-        chosen = longest;
-      }
+      double length = 0;
+      while (j < f.size() && f[j].coordinate - f[i].coordinate <= 1e-9 * extent)
+        length += f[j++].length;
+      groups.push_back({i, j, length});
       i = j;
     }
-    if (chosen == nullptr) continue;
-    out[k] = roof_apex(flat, axes, *chosen, k).value_or(chosen->coordinate);
+    std::stable_sort(groups.begin(), groups.end(),
+                     [](const Group& x, const Group& y) { return x.length > y.length; });
+    if (groups.size() > kMaxStraddledGroups) groups.resize(kMaxStraddledGroups);
+    for (const Group& group : groups) {
+      // The longest edges first; the longest one stands for the group's apex.
+      std::sort(f.begin() + static_cast<std::ptrdiff_t>(group.begin),
+                f.begin() + static_cast<std::ptrdiff_t>(group.end),
+                [](const StraddledEdge& x, const StraddledEdge& y) { return x.length > y.length; });
+      const StraddledEdge& longest = f[group.begin];
+      StraddledRims rims;
+      rims.axis = k;
+      rims.apex = roof_apex(flat, axes, longest, k).value_or(longest.coordinate);
+      rims.length = group.length;
+      for (size_t i = group.begin; i < group.end && rims.edges.size() < kMaxStraddledEdges; ++i)
+        rims.edges.push_back({f[i].from, f[i].to});
+      out[k].push_back(std::move(rims));
+    }
   }
   return out;
 }
@@ -493,7 +506,7 @@ SceneFrame analyse_scene_frame(const Scene& scene, bool turn) {
   const FlatScene flat(scene);
   const std::vector<char> facing = facing_triangles(scene, flat, normals, kFacing * extent);
   if (turn) out.axes = frame_of_faces(normals, areas, facing);
-  out.rim = straddled_rims(scene, flat, normals, facing, out.axes, extent);
+  out.straddled = straddled_rims(scene, flat, normals, facing, out.axes, extent);
   return out;
 }
 

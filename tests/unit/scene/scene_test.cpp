@@ -371,13 +371,13 @@ TEST(Domain, TiltedBoxGetsItsOwnFrame) {
 // Sign changes of d_shaft - d_housing (brute force over the triangles given) at n + 1
 // evenly spaced points of the segment [a, b] (scene units).
 int bisector_crossings(const Scene& scene, const std::vector<uint32_t> near[2], Vec3 a, Vec3 b,
-                       int n) {
+                       int n, size_t first = 0) {
   int changes = 0, last = 0;
   for (int i = 0; i <= n; ++i) {
     const Vec3 x = a + (b - a) * (static_cast<double>(i) / n);
     double d[2];
     for (int k = 0; k < 2; ++k) {
-      const SceneObject& o = scene.objects[k];
+      const SceneObject& o = scene.objects[first + k];
       d[k] = 1e300;
       for (uint32_t t : near[k])
         d[k] = std::min(d[k], dist(x, closest_point_on_simplex(3, o.vertices, o.simplices[t], x)));
@@ -431,6 +431,66 @@ TEST(Domain, StraddledRimsPutTheRoofsApexOnALatticePlane) {
       const Vec3 off = at + Vec3{0.1 * g, 0, 0};
       worst_off = std::max({worst_off, bisector_crossings(scene, near, off - reach, off, 600),
                             bisector_crossings(scene, near, off, off + reach, 600)});
+    }
+    EXPECT_LE(worst, 1) << "corner at " << angle;
+    EXPECT_EQ(worst_off, 2) << "corner at " << angle;
+  }
+}
+
+// Two pentagonal shafts side by side, the second 1.3 along x and 0.1234 along y: the roofs'
+// apexes over their corners at 72 and 288 degrees lie at two x coordinates (and the ones at 0
+// degrees at two y coordinates). make_domain puts the first apex on x on a plane of level 5
+// and makes the cube's side (at most 10 % larger) a multiple of their distance over a power of
+// two, so that the second lies on a plane of level 12 or coarser too. Brute force: on that
+// plane, every line along x near the second shaft's corners meets the bisector at most once
+// on each side of it, and 0.1 g off it twice on one side.
+TEST(Domain, TheCubesSidePutsASecondApexOnALatticePlane) {
+  const double pi = std::acos(-1.0);
+  test::ShaftInBoreOptions so;
+  so.sides = 5;
+  so.gap = 1e-3;
+  so.cell = 0.1;
+  const Scene one = test::make_shaft_in_bore(so);
+  const double g = so.gap * make_domain(one, DomainOptions{{}, 0.05, DomainFrame::kWorld}).side;
+  const Vec3 shift{1.3, 0.1234, 0};
+  Scene scene = one;
+  for (SceneObject o : one.objects) {
+    for (Vec3& v : o.vertices) v = v + shift;
+    o.label += "_2";
+    scene.objects.push_back(std::move(o));
+  }
+  SceneFrame frame;
+  const Domain d = make_domain(scene, {}, &frame);
+  ASSERT_TRUE(d.aligned());
+  const Domain plain = make_domain(scene, DomainOptions{{}, 0.05, DomainFrame::kWorld});
+  EXPECT_GE(d.side, plain.side);
+  EXPECT_LE(d.side, 1.1 * plain.side);
+  for (const double angle : {0.4 * pi, 1.6 * pi}) {
+    const Vec3 corner = shift + Vec3{so.radius * std::cos(angle), so.radius * std::sin(angle), 0.3};
+    // The second shaft's apex on x (within a gap of its corner), on a plane of level <= 12.
+    const StraddledRims* rims = nullptr;
+    for (const StraddledRims& r : frame.straddled[0])
+      if (std::abs(r.apex - corner.x) < g) rims = &r;
+    ASSERT_NE(rims, nullptr) << "no straddled rims found at the second shaft's corner";
+    const double unit = d.to_unit(Vec3{rims->apex, corner.y, corner.z}).x * 4096;
+    EXPECT_NEAR(unit, std::round(unit), 1e-6);
+    const double plane = d.origin.x + std::round(unit) / 4096 * d.side;
+    std::vector<uint32_t> near[2];
+    for (int k = 0; k < 2; ++k) {
+      const SceneObject& o = scene.objects[2 + k];
+      for (uint32_t t = 0; t < o.simplices.size(); ++t)
+        if (dist(corner, closest_point_on_simplex(3, o.vertices, o.simplices[t], corner)) < 0.1)
+          near[k].push_back(t);
+    }
+    int worst = 0, worst_off = 0;
+    for (int h = -150; h <= 150; h += 2) {
+      const Vec3 at{plane, corner.y + h * 0.01 * g, corner.z};
+      const Vec3 reach{6 * g, 0, 0};
+      worst = std::max({worst, bisector_crossings(scene, near, at - reach, at, 600, 2),
+                        bisector_crossings(scene, near, at, at + reach, 600, 2)});
+      const Vec3 off = at + Vec3{0.1 * g, 0, 0};
+      worst_off = std::max({worst_off, bisector_crossings(scene, near, off - reach, off, 600, 2),
+                            bisector_crossings(scene, near, off, off + reach, 600, 2)});
     }
     EXPECT_LE(worst, 1) << "corner at " << angle;
     EXPECT_EQ(worst_off, 2) << "corner at " << angle;

@@ -38,6 +38,7 @@ enum class WarningKind {
   kObjectsTouch,         ///< pairs closer than the finest cells separate (the pipeline)
   kThinRegionsLeft,      ///< cells still hiding a thin region (the pipeline)
   kAmbiguousCellsLeft,   ///< cells still ambiguous at the refinement limit (the pipeline)
+  kConesDropped,         ///< the refinement did not settle with cones; built without (the pipeline)
 };
 
 /// The stable name of a kind ("degenerate_simplices", "open_mesh", ...).
@@ -153,20 +154,31 @@ struct DomainOptions {
 /// triangle).
 std::array<Vec3, 3> scene_frame(const Scene& scene);
 
+/// Straight rims across a thin gap, along one axis of the frame, whose two faces' normals
+/// have components of both signs along another axis k (a hexagonal shaft's corner on the x
+/// axis: normals at +-30 degrees from x, k = y), at one coordinate along axes[k]. The
+/// bisector over them is a roof that a line along axes[k] can meet twice: cells that hold its
+/// apex strictly inside are not certified and refine to the gap along the whole rim, cells on
+/// either side of it are (the cones of pair_certificate.h).
+struct StraddledRims {
+  int axis = 0;  ///< k
+  /// The roof's apex: its coordinate along axes[k] (user units), found numerically on exact
+  /// distances for the longest edge (not a vertex's coordinate in general).
+  double apex = 0;
+  double length = 0;  ///< of all the rims' edges
+  /// The edges (user coordinates), at most kMaxStraddledEdges of them (the longest).
+  std::vector<std::array<Vec3, 2>> edges;
+};
+constexpr size_t kMaxStraddledEdges = 256;
+
 /// What make_domain lays the octree along (3D; 2D: the identity and no rims).
 struct SceneFrame {
   std::array<Vec3, 3> axes = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
-  /// Per axis k: where to put a lattice plane square to axes[k] (its coordinate along
-  /// axes[k], user units). Over a straight rim along another axis, across a thin gap, whose
-  /// two faces' normals have components of both signs along axes[k] (a hexagonal shaft's
-  /// corner on the x axis: normals at +-30 degrees from x, k = y), the bisector is a roof
-  /// that a line along axes[k] can meet twice: cells that hold its apex strictly inside are
-  /// not certified and refine to the gap along the whole rim, cells on either side of it are
-  /// (the cones of pair_certificate.h). This is the apex's coordinate (found numerically on
-  /// exact distances; not a vertex's in general), for the rims at one coordinate with the
-  /// most length; none when there are no such rims.
-  std::array<std::optional<double>, 3> rim;
+  /// Per axis k, the straddled rims at distinct coordinates, the most length first (at most
+  /// kMaxStraddledGroups per axis: a roof's apex costs a few thousand exact distances).
+  std::array<std::vector<StraddledRims>, 3> straddled;
 };
+constexpr size_t kMaxStraddledGroups = 16;
 /// scene_frame (turned only when `turn`) and the straddled rims along its axes: one pass over
 /// the facing triangles.
 SceneFrame analyse_scene_frame(const Scene& scene, bool turn = true);
@@ -174,10 +186,12 @@ SceneFrame analyse_scene_frame(const Scene& scene, bool turn = true);
 /// The default domain: bounding box of all vertices in the frame (options.frame) made a cube
 /// (side = largest extent, centred) and padded by `padding` of the side on every side. With
 /// DomainFrame::kAuto in 3D, the cube is then shifted along each axis, within the padding, so
-/// that the roofs' apexes of analyse_scene_frame lie on a lattice plane from level
-/// kRimAlignLevel down. A user box (always in the user's axes) must contain every vertex,
-/// else gvd::Error{kInvalidArgument}.
-Domain make_domain(const Scene& scene, const DomainOptions& options = {});
+/// that the apex of the longest straddled rims of analyse_scene_frame along it lies on a
+/// lattice plane from level kRimAlignLevel down. A user box (always in the user's axes) must
+/// contain every vertex, else gvd::Error{kInvalidArgument}. `frame`, when given, receives the
+/// analysis (the default: none for a user box, 2D or DomainFrame::kWorld).
+Domain make_domain(const Scene& scene, const DomainOptions& options = {},
+                   SceneFrame* frame = nullptr);
 /// The coarsest octree level whose planes make_domain puts the straddled rims on (a shift of
 /// at most 2^-(kRimAlignLevel+1) of the side).
 constexpr int kRimAlignLevel = 5;
