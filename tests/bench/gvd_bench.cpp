@@ -216,7 +216,8 @@ struct ThinGapCase {
   std::string scene;  ///< blade_in_slot, stacked_plates, inset_plates, shaft_in_bore, bars_2d,
                       ///< pairs_2d, tilted_blade (blade_in_slot turned), round_shaft (32
                       ///< sides), pentagon_shaft (5 sides, a far block making the domain
-                      ///< lopsided), two_pentagon_shafts (two of them, one 0.1234 higher);
+                      ///< lopsided), two_pentagon_shafts (two of them, one 0.1234 higher),
+                      ///< three_shafts (three hexagonal ones at unrelated places);
                       ///< *_xyz: the same with the octree kept on x, y, z
   double gap = 0;
   std::string refine;  ///< "certified" or "paper"
@@ -272,6 +273,23 @@ Scene make_thin_gap_scene(const std::string& name, double gap) {
       for (gvd::SceneObject obj : one.objects) {
         for (gvd::Vec3& v : obj.vertices) v = v + gvd::Vec3{1.3, 0.1234, 0};
         obj.label += "_2";
+        s.objects.push_back(std::move(obj));
+      }
+    }
+    return s;
+  }
+  if (name == "three_shafts") {
+    // Three hexagonal shafts in their bores at unrelated places: the roofs' apexes over their
+    // corners at 0 and 180 degrees lie at three y coordinates. The cube's shift and side put
+    // two of them on lattice planes; the third one's cells refine to the gap along its rims.
+    const Scene one = with_gap(&gvd::test::make_shaft_in_bore, gap);
+    Scene s = one;
+    int copy = 1;
+    for (const gvd::Vec3 shift : {gvd::Vec3{1.3, 0.1234, 0}, gvd::Vec3{0.41, 1.1717, 0.05}}) {
+      ++copy;
+      for (gvd::SceneObject obj : one.objects) {
+        for (gvd::Vec3& v : obj.vertices) v = v + shift;
+        obj.label += "_" + std::to_string(copy);
         s.objects.push_back(std::move(obj));
       }
     }
@@ -345,7 +363,8 @@ void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
 
 /// The sweeps of `make bench`; --gvd_slow adds the round shaft at 1e-4 on x, y, z (four
 /// corners whose normals straddle an axis off the lattice planes: 5.7M leaves), the two
-/// pentagonal shafts at 1e-4 (the same without cones) and the paper's rule at 1e-3.
+/// pentagonal and the three hexagonal shafts at 1e-5 (one set of apexes off the planes) and
+/// the paper's rule at 1e-3.
 std::vector<ThinGapCase> thin_gap_cases(bool slow) {
   std::vector<ThinGapCase> all;
   auto add = [&](const char* scene, std::vector<double> certified, std::vector<double> paper) {
@@ -359,7 +378,8 @@ std::vector<ThinGapCase> thin_gap_cases(bool slow) {
   add("inset_plates", {1e-2, 1e-3, 1e-4, 1e-5}, {1e-2});
   add("shaft_in_bore", {1e-2, 1e-3, 1e-4, 1e-5}, {1e-2});
   add("pentagon_shaft", {1e-3, 1e-4, 1e-5}, {1e-2});
-  add("two_pentagon_shafts", {1e-3}, {});
+  add("two_pentagon_shafts", {1e-3, 1e-4}, {});
+  add("three_shafts", {1e-3, 1e-4}, {});
   add("tilted_blade", {1e-3, 1e-4, 1e-5}, {});
   add("tilted_blade_xyz", {1e-3}, {});
   add("round_shaft", {1e-3, 1e-4, 1e-5}, {});
@@ -367,7 +387,8 @@ std::vector<ThinGapCase> thin_gap_cases(bool slow) {
   if (slow) {
     add("blade_in_slot", {}, {1e-3});
     add("shaft_in_bore", {}, {1e-3});
-    add("two_pentagon_shafts", {1e-4}, {});
+    add("two_pentagon_shafts", {1e-5}, {});
+    add("three_shafts", {1e-5}, {});
     add("round_shaft_xyz", {1e-4}, {});
   }
   return all;
