@@ -92,7 +92,8 @@ compute options:
                              faces in 3D when more of their area lies square to another
                              frame than to x, y, z (a tilted part: its straight rims then
                              cost what they cost untilted) and shifts the domain within
-                             its padding to put a shaft's corners on octree planes; world
+                             its padding (and grows it by up to 10 %) to put shafts'
+                             corners on octree planes; world
                              keeps x, y, z and the plain bounding cube. Results are in
                              your coordinates either way
   --threads N                worker threads (default: all cores)
