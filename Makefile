@@ -12,7 +12,8 @@ HOST       ?= 127.0.0.1
 PORT       ?= 8080
 STORE      ?= gvd-store
 
-.PHONY: all deps configure build run example test test-asan fuzz bench bench-server format tidy clean \
+.PHONY: all deps configure build run example test test-asan fuzz bench bench-server bench-overload \
+        format tidy clean \
         docker-build docker-lint bench-scale
 
 all: build
@@ -76,6 +77,10 @@ bench: build
 # gvd-server under wrk on loopback (bounded runs, 127.0.0.1 only).
 bench-server: build
 	tests/service/bench_server.sh $(BUILD) 10 8
+
+# gvd-server with every HTTP thread held and its request queue full (issue 16; not in `bench`).
+bench-overload: build
+	tests/service/bench_overload.sh $(BUILD) 10 500
 
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h')

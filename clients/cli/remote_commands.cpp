@@ -34,7 +34,7 @@ struct ProblemExit {
   std::string_view type;
   int exit_code;
 };
-constexpr std::array<ProblemExit, 26> kProblemExits = {{
+constexpr std::array<ProblemExit, 27> kProblemExits = {{
     {"/problems/invalid-scene", kExitBadInput},
     {"/problems/invalid-argument", kExitBadInput},
     {"/problems/unsupported-format", kExitBadInput},
@@ -61,6 +61,7 @@ constexpr std::array<ProblemExit, 26> kProblemExits = {{
     {"/problems/queue-unavailable", kExitBusy},
     {"/problems/uri-too-long", kExitInternal},    // our bug: long lists go in POST bodies
     {"/problems/request-timeout", kExitNetwork},  // a link too slow for --header-timeout
+    {"/problems/overloaded", kExitBusy},          // every HTTP thread busy, queue full
 }};
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a

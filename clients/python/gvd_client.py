@@ -31,7 +31,7 @@ __all__ = [
     "JobCancelled", "InternalServerError", "RouteNotFound", "MethodNotAllowed",
     "LengthRequired", "BodyTooLarge", "HeadersTooLarge", "UnsupportedMediaType",
     "UnsupportedEncoding", "ServerBusy", "QueueFull", "Draining", "TooManyStreams",
-    "RateLimited", "QueueUnavailable", "UriTooLong", "RequestTimeout",
+    "RateLimited", "QueueUnavailable", "Overloaded", "UriTooLong", "RequestTimeout",
     "JobNotFinished", "JobFailed", "NoPath", "WaitTimeout", "PROBLEM_TYPES",
 ]
 
@@ -169,6 +169,10 @@ class QueueUnavailable(ServerBusy):
     """503: the server cannot reach its shared job queue (Redis); it reconnects by itself."""
 
 
+class Overloaded(ServerBusy):
+    """503: every HTTP thread is busy and --max-queued-requests requests wait for one."""
+
+
 class JobNotFinished(GvdError):
     """409: outputs or queries of a job still queued or running."""
 
@@ -214,6 +218,7 @@ PROBLEM_TYPES = {
     "/problems/queue-unavailable": QueueUnavailable,
     "/problems/uri-too-long": UriTooLong,
     "/problems/request-timeout": RequestTimeout,
+    "/problems/overloaded": Overloaded,
 }
 
 

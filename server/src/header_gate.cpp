@@ -11,7 +11,9 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
+#include <deque>
 #include <map>
 #include <mutex>
 #include <string>
@@ -199,6 +201,76 @@ Peek peek_headers(const GatedServer::Connection& c, size_t max_bytes, std::vecto
   return first_end == head.npos ? Peek::kReady : Peek::kTooLarge;
 }
 
+/// The threads that run requests: cpp-httplib's ThreadPool with a bound on what waits. A task
+/// is taken only while fewer than `max_queued` tasks would wait for a thread (a task for
+/// which a thread is idle does not wait), so a burst cannot build a queue that takes seconds
+/// to drain. Shut down, the threads finish what was queued, as httplib's do.
+class BoundedPool {
+ public:
+  explicit BoundedPool(size_t threads) : idle_(threads) {
+    for (size_t i = 0; i < threads; ++i) threads_.emplace_back([this] { work(); });
+  }
+  ~BoundedPool() { shutdown(); }
+  BoundedPool(const BoundedPool&) = delete;
+  BoundedPool& operator=(const BoundedPool&) = delete;
+
+  /// Queues `fn` and returns true, or returns false (and leaves `fn` alone) when every
+  /// thread is busy and `max_queued` tasks wait already, or after shutdown.
+  bool try_enqueue(std::function<void()>& fn, size_t max_queued) {
+    {
+      std::lock_guard lock(mutex_);
+      if (shutdown_ || tasks_.size() >= idle_ + max_queued) return false;
+      tasks_.push_back(std::move(fn));
+    }
+    ready_.notify_one();
+    return true;
+  }
+
+  void shutdown() {
+    {
+      std::lock_guard lock(mutex_);
+      if (shutdown_) return;
+      shutdown_ = true;
+    }
+    ready_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
+
+  size_t busy() const {
+    std::lock_guard lock(mutex_);
+    return threads_.size() - idle_;
+  }
+  /// Tasks that wait for a thread (not those an idle thread is about to take).
+  size_t queued() const {
+    std::lock_guard lock(mutex_);
+    return tasks_.size() > idle_ ? tasks_.size() - idle_ : 0;
+  }
+
+ private:
+  void work() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      ready_.wait(lock, [this] { return !tasks_.empty() || shutdown_; });
+      if (tasks_.empty()) return;  // shut down and drained
+      std::function<void()> fn = std::move(tasks_.front());
+      tasks_.pop_front();
+      --idle_;
+      lock.unlock();
+      fn();
+      fn = nullptr;  // what it holds goes before the thread counts as idle again
+      lock.lock();
+      ++idle_;
+    }
+  }
+
+  mutable std::mutex mutex_;
+  std::condition_variable ready_;
+  std::deque<std::function<void()>> tasks_;
+  size_t idle_;  ///< threads not running a task
+  bool shutdown_ = false;
+  std::vector<std::thread> threads_;  ///< last: the threads start once the rest is set up
+};
+
 }  // namespace
 
 /// The epoll thread that holds connections until their headers are complete, and the task
@@ -211,7 +283,7 @@ class GatedServer::Gate {
   GateLimits limits;
 
   /// Starts the epoll thread with `pool` running the requests.
-  void start(httplib::ThreadPool* pool) {
+  void start(BoundedPool* pool) {
     std::lock_guard lock(mutex_);
     pool_ = pool;
     epoll_ = ::epoll_create1(EPOLL_CLOEXEC);
@@ -272,7 +344,13 @@ class GatedServer::Gate {
 
   GateCounts counts() const {
     std::lock_guard lock(mutex_);
-    return {waiting_.size(), timed_out_, evicted_};
+    GateCounts n{waiting_.size(), timed_out_, evicted_};
+    if (pool_ != nullptr) {
+      n.busy = pool_->busy();
+      n.queued = pool_->queued();
+    }
+    n.overloaded = overloaded_;
+    return n;
   }
 
  private:
@@ -338,9 +416,42 @@ class GatedServer::Gate {
         ::send(c.fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   }
 
-  /// Gives `c` to a thread of the pool.
+  /// Gives `c` to a thread of the pool, or answers it at once when the pool is full.
   void serve_later(std::unique_ptr<Connection> c) {
-    pool_->enqueue([this, raw = c.release()] { server_.serve(std::unique_ptr<Connection>(raw)); });
+    Connection* raw = c.release();
+    std::function<void()> task = [this, raw] { server_.serve(std::unique_ptr<Connection>(raw)); };
+    if (pool_->try_enqueue(task, static_cast<size_t>(std::max(limits.max_queued, 0)))) return;
+    c.reset(raw);  // not queued: still ours
+    refuse_overloaded(*c);
+  }
+
+  /// Answers a ready request for which no thread is free and the queue is full, here and now
+  /// (the caller closes the connection). What has arrived of the request is read first: the
+  /// request line says what to answer, and a socket closed with unread bytes is reset, which
+  /// can destroy the answer before the client reads it.
+  void refuse_overloaded(Connection& c) {
+    ++overloaded_;
+    constexpr size_t kReadMax = 64 * 1024;
+    std::string request(c.stream->buffered());
+    char chunk[8192];
+    while (request.size() < kReadMax) {
+      const ssize_t n = ::recv(c.fd, chunk, sizeof chunk, MSG_DONTWAIT);
+      if (n <= 0) break;
+      request.append(chunk, static_cast<size_t>(n));
+    }
+    const std::string_view all(request);
+    const std::string_view line = all.substr(0, all.find_first_of("\r\n"));
+    const size_t method_end = std::min(line.find(' '), line.size());
+    const std::string_view method = line.substr(0, method_end);
+    std::string_view target = line.substr(std::min(method_end + 1, line.size()));
+    target = target.substr(0, std::min({target.find(' '), target.find('?'), target.size()}));
+    std::string bytes;
+    if (limits.overloaded) bytes = limits.overloaded(method, target);
+    if (bytes.empty()) {
+      bytes = "HTTP/1.1 503 Service Unavailable\r\nConnection: close\r\nContent-Length: 0\r\n\r\n";
+    }
+    [[maybe_unused]] const ssize_t w =
+        ::send(c.fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   }
 
   void drop(Waiting::iterator it) {
@@ -427,7 +538,7 @@ class GatedServer::Gate {
   GatedServer& server_;
   mutable std::mutex mutex_;
   Waiting waiting_;
-  httplib::ThreadPool* pool_ = nullptr;
+  BoundedPool* pool_ = nullptr;
   int epoll_ = -1;
   int wake_ = -1;
   bool running_ = false;
@@ -437,12 +548,15 @@ class GatedServer::Gate {
   uint32_t turns_ = 0;  ///< counts waits; kWakeKey is no connection's key (its fd half is -1)
   uint64_t timed_out_ = 0;
   uint64_t evicted_ = 0;
+  uint64_t overloaded_ = 0;
 };
 
 namespace {
 
-/// cpp-httplib's thread pool, with the gate started and stopped beside it: the gate stops
-/// first (it enqueues), then the pool drains what was queued.
+/// What cpp-httplib's accept loop feeds (the only caller of enqueue: each task is
+/// process_and_close_socket of a new connection), with the gate and the request threads
+/// started and stopped beside it: the gate stops first (it enqueues), then the pool drains
+/// what was queued.
 class GateQueue final : public httplib::TaskQueue {
  public:
   GateQueue(GatedServer::Gate& gate, int threads)
@@ -450,7 +564,9 @@ class GateQueue final : public httplib::TaskQueue {
     gate_.start(&pool_);
   }
   ~GateQueue() override { gate_.stop(); }
-  void enqueue(std::function<void()> fn) override { pool_.enqueue(std::move(fn)); }
+  /// Runs the task here, in the accept thread: handing a new connection to the gate only
+  /// peeks at it and never blocks, and through the pool it would wait behind busy threads.
+  void enqueue(std::function<void()> fn) override { fn(); }
   void shutdown() override {
     gate_.stop();
     pool_.shutdown();
@@ -458,7 +574,7 @@ class GateQueue final : public httplib::TaskQueue {
 
  private:
   GatedServer::Gate& gate_;
-  httplib::ThreadPool pool_;
+  BoundedPool pool_;
 };
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 
 namespace gvd::server {
 
@@ -23,13 +24,25 @@ struct GateLimits {
   /// connection itself: 408 (headers too slow) or 431 (a header line over cpp-httplib's
   /// 8 KiB, or headers over max_header_bytes). Empty: a bare status line.
   std::function<std::string(int status)> answer;
+  /// Requests whose headers have arrived and that wait for a thread. When every thread is
+  /// busy and this many wait, a further request is not queued: the gate answers it at once
+  /// with `overloaded` and closes the connection (0: answered so whenever no thread is free).
+  int max_queued = 256;
+  /// The whole answer (status line, headers, body) to a request refused because the threads
+  /// and the queue are full, from its method and path (target without the query). It runs
+  /// in the gate's thread or the accept thread, with the gate locked: it must be quick and
+  /// must not call back into the server. Empty: a bare 503.
+  std::function<std::string(std::string_view method, std::string_view path)> overloaded;
 };
 
 /// What the gate has done since the server started (the /metrics counters).
 struct GateCounts {
-  uint64_t waiting = 0;    ///< connections waiting for headers now
-  uint64_t timed_out = 0;  ///< closed because their headers did not arrive in time
-  uint64_t evicted = 0;    ///< closed to make room (per-client or total cap)
+  uint64_t waiting = 0;     ///< connections waiting for headers now
+  uint64_t timed_out = 0;   ///< closed because their headers did not arrive in time
+  uint64_t evicted = 0;     ///< closed to make room (per-client or total cap)
+  uint64_t busy = 0;        ///< threads running a request now
+  uint64_t queued = 0;      ///< requests with complete headers waiting for a thread now
+  uint64_t overloaded = 0;  ///< answered by the gate because threads and queue were full
 };
 
 /// An httplib::Server whose threads never wait for request headers. cpp-httplib gives each
@@ -41,6 +54,11 @@ struct GateCounts {
 /// thread. The bytes stay in the kernel until httplib reads them, so nothing is parsed twice.
 /// A connection whose headers take longer than the limits is closed (408 if it sent part of
 /// them), and each remote address may keep only so many connections waiting.
+///
+/// Ready requests queue for the threads up to GateLimits::max_queued; past that the gate
+/// answers them itself (503 + Retry-After, built by GateLimits::overloaded) instead of letting
+/// them wait in an unbounded queue. New connections are taken over by the gate in the accept
+/// thread, so they never wait behind busy threads either.
 class GatedServer : public httplib::Server {
  public:
   explicit GatedServer(int threads);

@@ -12,9 +12,11 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <regex>
+#include <string_view>
 
 #include "gvd/common/error.h"
 #include "gvd/common/json_depth.h"
@@ -714,6 +716,82 @@ struct HttpServer::Impl {
     throw ProblemError(ProblemKind::kRouteNotFound, "no problem type " + name);
   }
 
+  /// The answer to a request that finds every HTTP thread busy and --max-queued-requests
+  /// requests waiting: the gate sends it at once, built from the request line alone (no
+  /// thread runs it, so nothing here may block). Health probes are still answered: /healthz
+  /// says the process lives (200: an orchestrator must not restart a server for being busy),
+  /// /readyz says it is overloaded (503: a balancer sends the traffic elsewhere until it is
+  /// not). Anything else is 503 /problems/overloaded + Retry-After.
+  std::string overloaded_answer(std::string_view method, std::string_view path) {
+    const std::string id = new_request_id();
+    const bool get = method == "GET";
+    int status = 503;
+    std::string type = "application/json";
+    std::string body;
+    if (get && path == "/healthz") {
+      status = 200;
+      body = "{\"status\":\"ok\"}";
+    } else if (get && path == "/readyz") {
+      body = json_text(Json{{"status", "overloaded"},
+                            {"http_threads", options.http_threads},
+                            {"max_queued_requests", options.max_queued_requests}});
+    } else {
+      type = "application/problem+json";
+      body = problem_json(
+          ProblemKind::kOverloaded,
+          "all " + std::to_string(options.http_threads) + " HTTP threads are busy and " +
+              std::to_string(options.max_queued_requests) +
+              " requests wait for one (--max-queued-requests); retry after Retry-After",
+          path, id);
+    }
+    // The method as a metrics label: only the ones a route can have (it is not escaped).
+    static constexpr std::string_view kMethods[] = {"GET",     "POST", "DELETE", "PUT",
+                                                    "OPTIONS", "HEAD", "PATCH"};
+    const bool known =
+        std::find(std::begin(kMethods), std::end(kMethods), method) != std::end(kMethods);
+    metrics.request("overloaded", known ? std::string(method) : "other", status, 0.0);
+    if (status == 503) {
+      metrics.count("gvd_http_requests_overloaded_total");
+      log_overload(path);
+    }
+    std::string head =
+        "HTTP/1.1 " + std::string(status == 200 ? "200 OK" : "503 Service Unavailable") +
+        "\r\nContent-Type: " + type + "\r\nContent-Length: " + std::to_string(body.size()) +
+        "\r\nCache-Control: no-store\r\nX-Request-Id: " + id;
+    if (status == 503) head += "\r\nRetry-After: " + std::to_string(options.retry_after);
+    return head + "\r\nConnection: close\r\n\r\n" + body;
+  }
+
+  /// One warn line when the server starts refusing for overload, then at most one a second
+  /// while it goes on (a line per refusal would slow the gate that sends them); each says how
+  /// many were refused since the last. gvd_http_requests_overloaded_total counts every one.
+  void log_overload(std::string_view path) {
+    if (options.quiet) return;
+    std::lock_guard lock(overload_log_mutex);
+    ++overload_unlogged;
+    const auto now = Clock::now();
+    if (overload_logged != Clock::time_point{} && now - overload_logged < std::chrono::seconds(1))
+      return;
+    const Json line = {
+        {"ts", std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+                   .count()},
+        {"level", "warn"},
+        {"event", "overloaded"},
+        {"refused", overload_unlogged},
+        {"http_threads", options.http_threads},
+        {"max_queued_requests", options.max_queued_requests},
+        {"path", path},
+        {"msg",
+         "every HTTP thread is busy and the request queue is full: answering 503 overloaded "
+         "(at most one such line a second; refused = since the last one)"}};
+    std::fprintf(stderr, "%s\n", json_text(line).c_str());
+    overload_logged = now;
+    overload_unlogged = 0;
+  }
+  std::mutex overload_log_mutex;
+  Clock::time_point overload_logged{};
+  uint64_t overload_unlogged = 0;
+
   void setup();
 };
 
@@ -725,6 +803,10 @@ void HttpServer::Impl::setup() {
       static_cast<size_t>(std::min<uint64_t>(options.max_header_bytes, 1u << 20)) + 8192;
   gate.max_waiting_per_client = options.max_waiting_per_client;
   gate.max_waiting = options.max_waiting;
+  gate.max_queued = options.max_queued_requests;
+  gate.overloaded = [this](std::string_view method, std::string_view path) {
+    return overloaded_answer(method, path);
+  };
   const double header_timeout = options.header_timeout;
   const uint64_t max_header_bytes = options.max_header_bytes;
   gate.answer = [header_timeout, max_header_bytes](int status) {
@@ -927,6 +1009,15 @@ void HttpServer::Impl::setup() {
   metrics.gauge("gvd_http_connections_evicted",
                 "Waiting connections closed since start to make room (per-client or total cap).",
                 [this] { return static_cast<double>(http.gate_counts().evicted); });
+  metrics.gauge("gvd_http_threads_busy", "HTTP threads running a request now.",
+                [this] { return static_cast<double>(http.gate_counts().busy); });
+  metrics.gauge("gvd_http_queued_requests",
+                "Requests with complete headers waiting for a busy HTTP thread now.",
+                [this] { return static_cast<double>(http.gate_counts().queued); });
+  metrics.gauge(
+      "gvd_http_max_queued_requests",
+      "Requests that may wait for a thread before 503 overloaded (--max-queued-requests).",
+      [this] { return static_cast<double>(options.max_queued_requests); });
   metrics.gauge("gvd_draining", "1 while shutting down.", [this] { return draining ? 1.0 : 0.0; });
   metrics.gauge("process_resident_memory_bytes", "Resident memory of the server.",
                 [] { return static_cast<double>(resident_memory_bytes()); });

@@ -95,9 +95,10 @@ int main(int argc, char** argv) {
     if (!options.quiet) {
       std::fprintf(stderr,
                    "{\"level\":\"info\",\"event\":\"listening\",\"port\":%d,\"workers\":%d,"
-                   "\"http_threads\":%d,\"queue\":%d,\"backend\":\"%s\"}\n",
-                   port, options.workers, options.http_threads, options.queue,
-                   server.backend().c_str());
+                   "\"http_threads\":%d,\"max_queued_requests\":%d,\"queue\":%d,"
+                   "\"backend\":\"%s\"}\n",
+                   port, options.workers, options.http_threads, options.max_queued_requests,
+                   options.queue, server.backend().c_str());
     }
 
     std::thread waiter([&] {

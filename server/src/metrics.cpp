@@ -43,6 +43,9 @@ const char* const kCounters[][2] = {
      "Redis queue: jobs this replica took over from a stopped worker (XAUTOCLAIM)."},
     {"gvd_queue_redis_reconnects_total", "Redis queue: connections to Redis lost."},
     {"gvd_jobs_rate_limited_total", "Submissions refused by the per-client token bucket."},
+    {"gvd_http_requests_overloaded_total",
+     "Requests answered 503 at once because every HTTP thread was busy and "
+     "--max-queued-requests waited (header_gate.h)."},
 };
 
 }  // namespace

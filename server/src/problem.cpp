@@ -38,6 +38,7 @@ constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
     {503, "/problems/queue-unavailable", "Job queue unavailable", true},
     {414, "/problems/uri-too-long", "Request line too long", false},
     {408, "/problems/request-timeout", "Request headers too slow", true},
+    {503, "/problems/overloaded", "Server overloaded", true},
 }};
 
 static_assert(static_cast<int>(ErrorCode::kInternal) == static_cast<int>(ProblemKind::kInternal),

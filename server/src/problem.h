@@ -38,6 +38,7 @@ enum class ProblemKind {
   kQueueUnavailable,  ///< the shared job queue (Redis) cannot be reached
   kUriTooLong,        ///< a request line over cpp-httplib's 8 KiB
   kRequestTimeout,    ///< headers that did not arrive within --header-timeout
+  kOverloaded,        ///< every HTTP thread busy and --max-queued-requests waiting
 };
 
 /// One row of the table: HTTP status, stable problem type URI, title, whether retrying the
@@ -53,7 +54,7 @@ const ProblemInfo& problem_info(ProblemKind kind);
 ProblemKind problem_kind(ErrorCode code);
 
 /// Every row, for the documentation and the tests.
-inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kRequestTimeout) + 1;
+inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kOverloaded) + 1;
 
 /// An RFC 9457 problem document (application/problem+json):
 /// {"type","title","status","detail","instance","request_id"} plus, from the core error's

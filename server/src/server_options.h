@@ -52,6 +52,9 @@ struct ServerOptions {
   double header_timeout = 10;
   int max_waiting_per_client = 64;
   int max_waiting = 4096;
+  /// Requests whose headers have arrived and that wait for a busy HTTP thread; one more is
+  /// answered at once with 503 /problems/overloaded + Retry-After (header_gate.h).
+  int max_queued_requests = 256;
   int max_streams = 4;        ///< concurrent SSE streams
   int retry_after = 5;        ///< seconds, on 503
   double grace_seconds = 10;  ///< SIGTERM: wait this long for running jobs

@@ -8,8 +8,10 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -406,6 +408,95 @@ TEST(HeaderGate, StalledHeadersWaitOutsideTheThreads) {
   }
   close(fds[0]);
   EXPECT_EQ(http.gate_counts().waiting, 0u);
+}
+
+// Issue 16: ready requests wait for a thread in a bounded queue. Two threads held by requests
+// that block, one request queued: every further one is answered by the gate at once with its
+// overloaded answer (here from the request line) and the connection closed; new connections
+// are still taken in (not queued behind the busy threads); once the threads are free, the
+// queued request is served and so is the next one.
+TEST(HeaderGate, FullQueueIsAnsweredAtOnce) {
+  GatedServer http(2);
+  GateLimits limits;
+  limits.max_queued = 1;
+  limits.overloaded = [](std::string_view method, std::string_view path) {
+    const std::string body = std::string(method) + " " + std::string(path);
+    return "HTTP/1.1 503 Service Unavailable\r\nRetry-After: 1\r\nContent-Length: " +
+           std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body;
+  };
+  http.set_gate_limits(limits);
+  std::mutex mutex;
+  std::condition_variable released_cv;
+  bool released = false;
+  http.Get("/block", [&](const httplib::Request&, httplib::Response& res) {
+    std::unique_lock lock(mutex);
+    released_cv.wait(lock, [&] { return released; });
+    res.set_content("done", "text/plain");
+  });
+  http.Get("/n", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content("n", "text/plain");
+  });
+  const int port = http.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { http.listen_after_bind(); });
+  const auto wait_until = [&](auto done) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (!done() && std::chrono::steady_clock::now() < end) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return done();
+  };
+
+  const std::string block = "GET /block HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  std::vector<int> blocked;
+  for (int i = 0; i < 3; ++i) {
+    blocked.push_back(connect_loopback(port));
+    ASSERT_GE(blocked.back(), 0);
+    (void)!send(blocked.back(), block.data(), block.size(), MSG_NOSIGNAL);
+  }
+  ASSERT_TRUE(wait_until([&] {
+    const GateCounts n = http.gate_counts();
+    return n.busy == 2 && n.queued == 1;
+  }));
+
+  for (int i = 0; i < 4; ++i) {
+    const int fd = connect_loopback(port);
+    ASSERT_GE(fd, 0);
+    const std::string request = "GET /n?i=" + std::to_string(i) + " HTTP/1.1\r\nHost: x\r\n\r\n";
+    const auto t0 = std::chrono::steady_clock::now();
+    (void)!send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+    const std::string got = read_all(fd);  // the gate closes the connection after its answer
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    close(fd);
+    EXPECT_TRUE(got.starts_with("HTTP/1.1 503 ")) << got;
+    EXPECT_TRUE(got.ends_with("\r\n\r\nGET /n")) << got;  // method and path, no query
+    EXPECT_LT(seconds, 1.0);
+  }
+  EXPECT_EQ(http.gate_counts().overloaded, 4u);
+  EXPECT_EQ(http.gate_counts().queued, 1u);
+
+  {
+    std::lock_guard lock(mutex);
+    released = true;
+  }
+  released_cv.notify_all();
+  for (const int fd : blocked) {
+    const std::string got = read_all(fd);
+    EXPECT_TRUE(got.starts_with("HTTP/1.1 200 ")) << got;
+    EXPECT_TRUE(got.ends_with("done")) << got;
+    close(fd);
+  }
+  EXPECT_TRUE(wait_until([&] { return http.gate_counts().busy == 0; }));
+  const int fd = connect_loopback(port);
+  const std::string request = "GET /n HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  (void)!send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+  EXPECT_TRUE(read_all(fd).starts_with("HTTP/1.1 200 "));
+  close(fd);
+  EXPECT_EQ(http.gate_counts().overloaded, 4u);
+
+  http.stop();
+  serving.join();
 }
 
 }  // namespace gvd::server

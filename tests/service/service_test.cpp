@@ -22,6 +22,7 @@
 #include <sstream>
 #include <string_view>
 #include <thread>
+#include <vector>
 
 #include "routes.h"
 #include "server_process.h"
@@ -1111,6 +1112,101 @@ TEST(Service, HeaderDeadlineIdleCloseAndPipelinedRequests) {
   got = read_for(fd, 2000, closed);
   EXPECT_TRUE(got.starts_with("HTTP/1.1 200 ")) << got;
   close(fd);
+}
+
+// Issue 16: with every HTTP thread busy and --max-queued-requests requests waiting for one, a
+// further request is answered at once (503 /problems/overloaded + Retry-After) instead of
+// waiting in an unbounded queue; /healthz stays 200 and /readyz says "overloaded". The threads
+// are held legitimately, without CPU: POST bodies that arrive slowly (bodies are read in the
+// threads). Afterwards the queued requests are served, not dropped, and so is everything else.
+TEST(Service, FullRequestQueueAnswers503AtOnce) {
+  const std::string dir = fresh_dir("overload");
+  const std::string log = dir + "/server.log";
+  ServerProcess server(dir + "/store",
+                       {"--http-threads", "2", "--max-queued-requests", "2", "--retry-after", "3",
+                        "--read-timeout", "30"},
+                       log);
+  const int port = server.port();
+  // Two requests hold the two threads, two more wait for them: headers and the first byte of
+  // a 64-byte body each.
+  const std::string body = R"({"dimension":3,"objects":[]})";
+  const std::string padded = body + std::string(64 - body.size(), ' ');
+  const std::string head =
+      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+      "Content-Length: 64\r\nConnection: close\r\n\r\n";
+  std::vector<int> holders;
+  for (int i = 0; i < 4; ++i) {
+    holders.push_back(connect_to(port));
+    ASSERT_GE(holders.back(), 0);
+    const std::string start = head + padded.substr(0, 1);
+    (void)!send(holders.back(), start.data(), start.size(), MSG_NOSIGNAL);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the gate hands over in µs
+
+  // Excess requests: answered by the gate, each on its own new connection.
+  std::vector<double> ms;
+  for (int i = 0; i < 10; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string got = raw_exchange(
+        port, "GET /v1/jobs/abc?i=" + std::to_string(i) + " HTTP/1.1\r\nHost: x\r\n\r\n");
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    ASSERT_EQ(raw_status(got), 503) << got;
+    EXPECT_NE(got.find("\r\nRetry-After: 3\r\n"), std::string::npos) << got;
+    EXPECT_NE(got.find("\r\nContent-Type: application/problem+json\r\n"), std::string::npos);
+    EXPECT_NE(got.find("\r\nConnection: close\r\n"), std::string::npos);
+    const Json problem = Json::parse(got.substr(got.find("\r\n\r\n") + 4), nullptr, false);
+    EXPECT_EQ(problem.value("type", ""), "/problems/overloaded") << got;
+    EXPECT_EQ(problem.value("status", 0), 503);
+    EXPECT_EQ(problem.value("instance", ""), "/v1/jobs/abc");
+    EXPECT_FALSE(problem.value("request_id", "").empty());
+  }
+  std::sort(ms.begin(), ms.end());
+  EXPECT_LT(ms[ms.size() / 2], 100) << "median ms";  // ~1 ms on a quiet machine
+  EXPECT_LT(ms.back(), 1000) << "slowest ms";
+  // Probes: liveness answered, readiness says why not.
+  std::string got = raw_exchange(port, "GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(raw_status(got), 200) << got;
+  got = raw_exchange(port, "GET /readyz HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(raw_status(got), 503) << got;
+  EXPECT_NE(got.find("\"status\":\"overloaded\""), std::string::npos) << got;
+  EXPECT_NE(got.find("\r\nRetry-After: 3\r\n"), std::string::npos) << got;
+
+  // The bodies arrive: the two running requests and the two queued ones are all answered
+  // (the scene has no objects: 422), none with 503.
+  for (const int fd : holders) {
+    (void)!send(fd, padded.data() + 1, padded.size() - 1, MSG_NOSIGNAL);
+  }
+  for (const int fd : holders) {
+    bool closed = false;
+    const std::string answer = read_for(fd, 10000, closed);
+    EXPECT_EQ(raw_status(answer), 422) << answer;
+    close(fd);
+  }
+  auto c = client(port);
+  for (const char* path : {"/healthz", "/readyz", "/v1/jobs"}) {
+    auto r = c->Get(path);
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->status, 200) << path;
+  }
+  auto r = c->Get("/metrics");
+  ASSERT_TRUE(r);
+  EXPECT_NE(r->body.find("gvd_http_requests_overloaded_total 11\n"), std::string::npos);
+  EXPECT_NE(r->body.find("gvd_http_requests_total{route=\"overloaded\",method=\"GET\","
+                         "status=\"503\"} 11\n"),
+            std::string::npos);
+  EXPECT_NE(r->body.find("gvd_http_max_queued_requests 2\n"), std::string::npos);
+  EXPECT_NE(r->body.find("gvd_http_queued_requests 0\n"), std::string::npos);
+  // Logged once (at most a line a second), not once per refusal.
+  int lines = 0;
+  for (const Json& line : log_lines(log)) {
+    if (line.value("event", "") == "overloaded") {
+      ++lines;
+      EXPECT_EQ(line.value("level", ""), "warn");
+    }
+  }
+  EXPECT_GE(lines, 1);
+  EXPECT_LE(lines, 3);
 }
 
 TEST(Service, HealthReadinessMetrics) {

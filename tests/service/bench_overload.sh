@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Overload test of gvd-server on loopback (issue 16): the server with its defaults (128 HTTP
+# threads) holds the bundled balls_on_plate result, then
+#   1. wrk -c256 on the cached neighbour query, as fast as it goes (256 connections, twice
+#      the threads);
+#   2. the same query paced at ~5,000 requests/s over 256 connections;
+#   3. HOLD connections (default 500) each send the headers of a POST and then one body byte
+#      a second, which holds a thread per connection (request bodies are read in the threads);
+#      meanwhile curl probes /healthz and /readyz and wrk -c8 asks for the neighbour query.
+#      500 > 128 threads + 256 queued (--max-queued-requests): every thread is busy and the
+#      queue full, so the excess must be answered at once (503 + Retry-After), not queued
+#      behind bodies that take minutes.
+# Bounded runs, 127.0.0.1 only. EXTRA_ARGS are added to the server's command line.
+#
+#   tests/service/bench_overload.sh BUILD_DIR [DURATION] [HOLD]
+set -euo pipefail
+build=${1:?usage: bench_overload.sh BUILD_DIR [DURATION] [HOLD]}
+duration=${2:-10}
+hold=${3:-500}
+here=$(cd "$(dirname "$0")/../.." && pwd)
+command -v wrk >/dev/null || { echo "bench_overload: wrk is not installed"; exit 2; }
+
+store=$(mktemp -d)
+out=$(mktemp)
+# shellcheck disable=SC2086
+"$build/server/gvd-server" --port 0 --store "$store" --quiet ${EXTRA_ARGS:-} >"$out" 2>&1 &
+pid=$!
+holder=
+cleanup() {
+  [ -n "$holder" ] && { kill "$holder" 2>/dev/null || true; wait "$holder" 2>/dev/null || true; }
+  kill "$pid" 2>/dev/null || true; wait "$pid" 2>/dev/null || true; rm -rf "$store" "$out"
+}
+trap cleanup EXIT
+for _ in $(seq 50); do grep -q listening "$out" && break; sleep 0.1; done
+port=$(grep -o 'http://[^ ]*' "$out" | sed 's/.*://')
+base="http://127.0.0.1:$port"
+
+scene="$here/tests/data/scenes/balls_on_plate.json"
+id=$(curl -sS -X POST -H 'Content-Type: application/json' --data-binary "@$scene" "$base/v1/jobs" |
+     sed 's/.*"id":"\([0-9a-f]*\)".*/\1/')
+for _ in $(seq 300); do
+  curl -sS "$base/v1/jobs/$id" | grep -q '"status":"done"' && break
+  sleep 0.1
+done
+query="$base/v1/jobs/$id/objects/ball_0/neighbors?ring=1"
+curl -sS -o /dev/null "$query"
+echo "gvd-server overload test: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), job $id"
+
+echo "== 1. GET neighbors?ring=1, wrk -t2 -c256 -d${duration}s (as fast as possible)"
+wrk -t2 -c256 -d"${duration}s" --latency "$query" | sed -n '/Latency Distribution/,/Transfer/p'
+
+echo "== 2. the same at ~5,000 requests/s (256 connections, one request per 51 ms each)"
+PACE_MS=51 wrk -t2 -c256 -d"${duration}s" --latency -s "$here/tests/service/pace.lua" "$query" |
+  sed -n '/Latency Distribution/,/Transfer/p'
+
+echo "== 3. $hold connections holding a thread each (a body byte a second), for ${duration}s"
+python3 - "$port" "$hold" "$((duration + 30))" <<'EOF' &
+import socket, sys, time
+port, n, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
+head = (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+        b"Content-Length: 100000\r\n\r\n{")
+socks = []
+for _ in range(n):
+    s = socket.create_connection(("127.0.0.1", port))
+    s.sendall(head)
+    socks.append(s)
+end = time.time() + seconds
+while time.time() < end:
+    time.sleep(1)
+    for s in socks:
+        try:
+            s.send(b" ")
+        except OSError:
+            pass
+EOF
+holder=$!
+sleep 2
+for probe in /healthz /readyz; do
+  for _ in 1 2 3; do
+    # 000 = no answer within 2 s
+    curl -sS -o /dev/null -m 2 -w "$probe: %{http_code} in %{time_total} s\n" "$base$probe" 2>/dev/null ||
+      true
+  done
+done
+curl -sS -D - -o /dev/null -m 2 "$query" 2>/dev/null | grep -i -E '^(HTTP|retry-after)' ||
+  echo "neighbors: no answer within 2 s"
+wrk -t2 -c8 -d"${duration}s" --timeout 2s --latency "$query" |
+  sed -n '/Latency Distribution/,/Non-2xx/p'
+kill "$holder" 2>/dev/null || true
+wait "$holder" 2>/dev/null || true
+holder=
+sleep 1
+curl -sS -o /dev/null -m 5 -w "after the load: neighbors %{http_code} in %{time_total} s\n" "$query"
+echo "== /metrics afterwards (overload counters):"
+curl -sS -m 5 "$base/metrics" | grep -E '^gvd_http_(requests_overloaded_total|queued|busy|max_queued|connections_evicted)' ||
+  echo "(none)"
