@@ -803,9 +803,13 @@ int PairCertifier::line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int 
   // Crossings of [a, b] (values fa, fb at the ends); -1: undecided. d_0 - d_1 is 2-Lipschitz.
   // Pieces of 2^-30 of the segment count by their ends' signs: a loop of the bisector that
   // small is below what any octree edge resolves (the edge points keep a hair of 1e-6 of the
-  // edge), as where the two crossings meet at the apex of a roof.
+  // edge), as where the two crossings meet at the apex of a roof. A line that runs nearly
+  // along the bisector near the apex changes slope by less than the Lipschitz bound prunes, so
+  // a dozen pieces next to the crossing stay open on each of the 30 levels (~600 evaluations;
+  // the budget was 512, and such cells near a bore's end failed, round after round).
+  constexpr int kMaxEvaluations = 8192;
   auto count = [&](auto&& self, Vec3 a, Vec3 b, double fa, double fb, int depth) -> int {
-    if (fa == 0 || fb == 0 || ++evaluations > 512) return -1;
+    if (fa == 0 || fb == 0 || ++evaluations > kMaxEvaluations) return -1;
     const bool change = (fa < 0) != (fb < 0);
     if (!change && 0.5 * (std::abs(fa) + std::abs(fb)) > dist(a, b)) return 0;
     if (depth >= 30 || monotone(a, b)) return change ? 1 : 0;
