@@ -24,6 +24,7 @@ constexpr std::pair<WarningKind, const char*> kWarningNames[] = {
     {WarningKind::kThinRegionsLeft, "thin_regions_left"},
     {WarningKind::kAmbiguousCellsLeft, "ambiguous_cells_left"},
     {WarningKind::kConesDropped, "cones_dropped"},
+    {WarningKind::kReorientedTriangles, "reoriented_triangles"},
 };
 
 [[noreturn]] void invalid(std::string detail, ErrorLocation where = {}) {
@@ -117,6 +118,92 @@ bool is_closed_object(const SceneObject& object, int dimension) {
 }
 
 namespace {
+
+/// Makes the triangles of each edge-connected part of a 3D object agree in orientation: two
+/// triangles that share an edge used by exactly those two must run it in opposite directions
+/// (CAD and scan exports often flip some faces). In each part the orientation of the larger
+/// area is kept and the other triangles are reversed; a part that cannot be oriented (a Moebius
+/// strip) is left as it is. Returns the number of triangles reversed.
+uint64_t orient_consistently(SceneObject& object) {
+  const size_t n = object.simplices.size();
+  // Directed edges (from, to) -> triangle; each undirected edge's two triangles when manifold.
+  std::unordered_map<uint64_t, std::pair<uint32_t, int>> uses;  // key -> (triangle, count)
+  auto key = [](uint32_t a, uint32_t b) { return uint64_t{std::min(a, b)} << 32 | std::max(a, b); };
+  uses.reserve(3 * n);
+  std::vector<uint32_t> across(3 * n, 0xFFFFFFFFu);
+  for (uint32_t t = 0; t < n; ++t) {
+    for (int e = 0; e < 3; ++e) {
+      const Simplex& s = object.simplices[t];
+      auto [it, inserted] = uses.emplace(key(s.v[e], s.v[(e + 1) % 3]), std::pair{t, 1});
+      if (inserted) continue;
+      if (++it->second.second == 2) {
+        const uint32_t u = it->second.first;
+        across[3 * t + e] = u;
+        const Simplex& w = object.simplices[u];
+        for (int f = 0; f < 3; ++f)
+          if (key(w.v[f], w.v[(f + 1) % 3]) == it->first) across[3 * u + f] = t;
+      }
+    }
+  }
+  // Across edges shared by more than two triangles nothing propagates.
+  for (uint32_t t = 0; t < n; ++t) {
+    for (int e = 0; e < 3; ++e) {
+      const Simplex& s = object.simplices[t];
+      if (uses.at(key(s.v[e], s.v[(e + 1) % 3])).second != 2) across[3 * t + e] = 0xFFFFFFFFu;
+    }
+  }
+  // Whether triangles t and u (sharing an edge) run it the same way.
+  auto same_way = [&](uint32_t t, uint32_t u) {
+    const Simplex& a = object.simplices[t];
+    const Simplex& b = object.simplices[u];
+    for (int e = 0; e < 3; ++e)
+      for (int f = 0; f < 3; ++f)
+        if (a.v[e] == b.v[f] && a.v[(e + 1) % 3] == b.v[(f + 1) % 3]) return true;
+    return false;
+  };
+  auto area = [&](uint32_t t) {
+    const Simplex& s = object.simplices[t];
+    const Vec3 a = object.vertices[s.v[0]];
+    return norm(cross(object.vertices[s.v[1]] - a, object.vertices[s.v[2]] - a));
+  };
+  std::vector<int8_t> flip(n, -1);  // -1: not reached; 0 keep; 1 reverse (relative to seed)
+  std::vector<uint32_t> part, stack;
+  uint64_t reversed = 0;
+  for (uint32_t seed = 0; seed < n; ++seed) {
+    if (flip[seed] >= 0) continue;
+    part.clear();
+    stack.assign(1, seed);
+    flip[seed] = 0;
+    bool orientable = true;
+    double kept = 0, other = 0;
+    while (!stack.empty()) {
+      const uint32_t t = stack.back();
+      stack.pop_back();
+      part.push_back(t);
+      (flip[t] ? other : kept) += area(t);
+      for (int e = 0; e < 3; ++e) {
+        const uint32_t u = across[3 * t + e];
+        if (u == 0xFFFFFFFFu) continue;
+        // Agreeing neighbours run the shared edge in opposite directions.
+        const int8_t want = static_cast<int8_t>(flip[t] ^ (same_way(t, u) ? 1 : 0));
+        if (flip[u] < 0) {
+          flip[u] = want;
+          stack.push_back(u);
+        } else if (flip[u] != want) {
+          orientable = false;
+        }
+      }
+    }
+    if (!orientable) continue;
+    const int8_t reverse = other > kept ? 0 : 1;  // the smaller area's triangles turn
+    for (uint32_t t : part) {
+      if (flip[t] != reverse) continue;
+      std::swap(object.simplices[t].v[1], object.simplices[t].v[2]);
+      ++reversed;
+    }
+  }
+  return reversed;
+}
 
 /// Structural warnings of one object (its simplices are valid and non-degenerate).
 void add_topology_warnings(const SceneObject& object, int dimension,
@@ -278,6 +365,16 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
                                 "object \"" + object.label + "\": removed " +
                                     std::to_string(removed) + " degenerate " +
                                     (dim == 2 ? "segments" : "triangles")});
+    }
+    if (dim == 3) {
+      if (const uint64_t reversed = orient_consistently(object); reversed > 0) {
+        scene.warnings.push_back(
+            {WarningKind::kReorientedTriangles, object.label, reversed,
+             "object \"" + object.label + "\": " + std::to_string(reversed) +
+                 " triangles ran an edge the same way as their neighbour across it; reversed, "
+                 "so that each connected part is oriented one way (as the larger area of it "
+                 "was)"});
+      }
     }
     add_topology_warnings(object, dim, scene.warnings);
   }

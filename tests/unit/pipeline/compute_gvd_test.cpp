@@ -572,6 +572,19 @@ TEST(ComputeGvd, CadMeshedShaftInASleeveCostsTheSameAtAnyGap3D) {
     EXPECT_FALSE(r5.graph.edges[0].touching);
     EXPECT_NEAR(r5.graph.edges[0].gap, g, 1e-9 * g) << what;
     leaves[k] = r5.stats.leaves;
+    if (k != 1) continue;
+    // The sleeve's ends reversed (inward), as some exporters write them: validate_scene turns
+    // them back (reoriented_triangles) and the cost is the same.
+    SceneObject& sleeve = scene.objects[1];
+    for (size_t t = 0; t < sleeve.simplices.size(); ++t)
+      if (t % 8 >= 4) std::swap(sleeve.simplices[t].v[1], sleeve.simplices[t].v[2]);
+    validate_scene(scene);
+    const GvdResult flipped = run(scene);
+    EXPECT_EQ(flipped.stats.leaves, leaves[k]);
+    size_t reoriented = 0;
+    for (const SceneWarning& w : flipped.scene.warnings)
+      if (w.kind == WarningKind::kReorientedTriangles) reoriented += w.count;
+    EXPECT_EQ(reoriented, 4u * sides);
   }
   for (int k = 1; k < 3; ++k)
     EXPECT_LE(leaves[k], 3 * leaves[0])

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -205,6 +206,51 @@ TEST(SceneValidate, IsIdempotent) {
   validate_scene(s);
   const size_t warnings = s.warnings.size();
   validate_scene(s);
+  EXPECT_EQ(s.warnings.size(), warnings);
+}
+
+// Every edge used by exactly two triangles is run in opposite directions by them (the
+// oracle for a consistently oriented mesh).
+size_t edges_run_the_same_way(const SceneObject& o) {
+  std::map<std::pair<uint32_t, uint32_t>, int> directed;
+  for (const Simplex& t : o.simplices)
+    for (int e = 0; e < 3; ++e) ++directed[{t.v[e], t.v[(e + 1) % 3]}];
+  size_t same = 0;
+  for (const auto& [edge, count] : directed) same += count > 1;
+  return same;
+}
+
+// A box with three of its twelve triangles reversed (CAD exports flip faces) and a separate
+// open pair of triangles that disagree: validate_scene reverses the three (the smaller area
+// of the box) and one of the pair, says how many, and then every shared edge runs both ways;
+// the box's normals point out (positive signed volume), as most of its area had them.
+TEST(SceneValidate, ReversesTrianglesThatDisagreeWithTheirNeighbours) {
+  SceneObject box = test::make_box("box", {0, 0, 0}, {1, 2, 3});
+  ASSERT_EQ(edges_run_the_same_way(box), 0u);
+  for (size_t t : {0, 5, 7}) std::swap(box.simplices[t].v[1], box.simplices[t].v[2]);
+  ASSERT_GT(edges_run_the_same_way(box), 0u);
+  SceneObject pair;
+  pair.label = "pair";
+  pair.vertices = {{5, 0, 0}, {6, 0, 0}, {5, 1, 0}, {6, 1, 0.5}};
+  pair.simplices = {{{0, 1, 2}}, {{1, 2, 3}}};  // both run 1 -> 2
+  Scene s = scene3({box, pair});
+  validate_scene(s);
+  for (const SceneObject& o : s.objects) EXPECT_EQ(edges_run_the_same_way(o), 0u) << o.label;
+  double volume = 0;
+  for (const Simplex& t : s.objects[0].simplices) {
+    const std::vector<Vec3>& v = s.objects[0].vertices;
+    volume += dot(v[t.v[0]], cross(v[t.v[1]], v[t.v[2]])) / 6;
+  }
+  EXPECT_NEAR(volume, 6.0, 1e-12);
+  size_t found = 0;
+  for (const SceneWarning& w : s.warnings) {
+    if (w.kind != WarningKind::kReorientedTriangles) continue;
+    ++found;
+    EXPECT_EQ(w.count, w.object == "box" ? 3u : 1u) << w.object;
+  }
+  EXPECT_EQ(found, 2u);
+  const size_t warnings = s.warnings.size();
+  validate_scene(s);  // nothing left to reverse
   EXPECT_EQ(s.warnings.size(), warnings);
 }
 

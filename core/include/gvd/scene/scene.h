@@ -39,6 +39,7 @@ enum class WarningKind {
   kThinRegionsLeft,      ///< cells still hiding a thin region (the pipeline)
   kAmbiguousCellsLeft,   ///< cells still ambiguous at the refinement limit (the pipeline)
   kConesDropped,         ///< the refinement did not settle with cones; built without (the pipeline)
+  kReorientedTriangles,  ///< triangles reversed to agree with their neighbours (3D)
 };
 
 /// The stable name of a kind ("degenerate_simplices", "open_mesh", ...).
@@ -78,8 +79,10 @@ struct SceneLimits {
 /// gvd::Error{kInvalidScene} naming the object label and simplex/vertex index for missing or
 /// duplicate labels, out-of-range indices, non-finite or too large coordinates, an empty
 /// scene or empty objects; removes degenerate simplices (zero length/area, repeated
-/// indices) and records warnings for them, for open or non-manifold meshes and for
-/// objects with several connected components. O(V + S log S).
+/// indices) and records warnings for them; in 3D reverses triangles that run an edge the
+/// same way as their only neighbour across it, so that each edge-connected part is oriented
+/// one way (the way of its larger area; a warning says how many); records warnings for open
+/// or non-manifold meshes and for objects with several connected components. O(V + S log S).
 void validate_scene(Scene& scene, const SceneLimits& limits = {});
 
 /// An object's boundary and non-manifold elements: in 2D vertices of degree 1 and > 2, in 3D
