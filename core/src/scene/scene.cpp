@@ -126,32 +126,34 @@ namespace {
 /// strip) is left as it is. Returns the number of triangles reversed.
 uint64_t orient_consistently(SceneObject& object) {
   const size_t n = object.simplices.size();
-  // Directed edges (from, to) -> triangle; each undirected edge's two triangles when manifold.
-  std::unordered_map<uint64_t, std::pair<uint32_t, int>> uses;  // key -> (triangle, count)
-  auto key = [](uint32_t a, uint32_t b) { return uint64_t{std::min(a, b)} << 32 | std::max(a, b); };
-  uses.reserve(3 * n);
+  // The triangles across each edge used by exactly two (sorted undirected edges; 16 bytes per
+  // triangle side, as mesh_topology's pairs).
+  struct Side {
+    uint64_t edge;
+    uint32_t side;  ///< 3 * triangle + e
+  };
+  std::vector<Side> sides;
+  sides.reserve(3 * n);
+  for (uint32_t t = 0; t < n; ++t) {
+    const Simplex& s = object.simplices[t];
+    for (uint32_t e = 0; e < 3; ++e) {
+      const uint32_t a = s.v[e], b = s.v[(e + 1) % 3];
+      sides.push_back({uint64_t{std::min(a, b)} << 32 | std::max(a, b), 3 * t + e});
+    }
+  }
+  std::sort(sides.begin(), sides.end(),
+            [](const Side& x, const Side& y) { return x.edge < y.edge; });
   std::vector<uint32_t> across(3 * n, 0xFFFFFFFFu);
-  for (uint32_t t = 0; t < n; ++t) {
-    for (int e = 0; e < 3; ++e) {
-      const Simplex& s = object.simplices[t];
-      auto [it, inserted] = uses.emplace(key(s.v[e], s.v[(e + 1) % 3]), std::pair{t, 1});
-      if (inserted) continue;
-      if (++it->second.second == 2) {
-        const uint32_t u = it->second.first;
-        across[3 * t + e] = u;
-        const Simplex& w = object.simplices[u];
-        for (int f = 0; f < 3; ++f)
-          if (key(w.v[f], w.v[(f + 1) % 3]) == it->first) across[3 * u + f] = t;
-      }
+  for (size_t i = 0; i < sides.size();) {
+    size_t j = i;
+    while (j < sides.size() && sides[j].edge == sides[i].edge) ++j;
+    if (j - i == 2) {
+      across[sides[i].side] = sides[i + 1].side / 3;
+      across[sides[i + 1].side] = sides[i].side / 3;
     }
+    i = j;
   }
-  // Across edges shared by more than two triangles nothing propagates.
-  for (uint32_t t = 0; t < n; ++t) {
-    for (int e = 0; e < 3; ++e) {
-      const Simplex& s = object.simplices[t];
-      if (uses.at(key(s.v[e], s.v[(e + 1) % 3])).second != 2) across[3 * t + e] = 0xFFFFFFFFu;
-    }
-  }
+  std::vector<Side>().swap(sides);
   // Whether triangles t and u (sharing an edge) run it the same way.
   auto same_way = [&](uint32_t t, uint32_t u) {
     const Simplex& a = object.simplices[t];
