@@ -20,28 +20,18 @@ hold=${3:-500}
 here=$(cd "$(dirname "$0")/../.." && pwd)
 command -v wrk >/dev/null || { echo "bench_overload: wrk is not installed"; exit 2; }
 
-store=$(mktemp -d)
-out=$(mktemp)
-# shellcheck disable=SC2086
-"$build/server/gvd-server" --port 0 --store "$store" --quiet ${EXTRA_ARGS:-} >"$out" 2>&1 &
-pid=$!
+# shellcheck source=tests/service/bench_common.sh
+. "$here/tests/service/bench_common.sh"
 holder=
 cleanup() {
   [ -n "$holder" ] && { kill "$holder" 2>/dev/null || true; wait "$holder" 2>/dev/null || true; }
-  kill "$pid" 2>/dev/null || true; wait "$pid" 2>/dev/null || true; rm -rf "$store" "$out"
+  bench_stop_server
 }
 trap cleanup EXIT
-for _ in $(seq 50); do grep -q listening "$out" && break; sleep 0.1; done
-port=$(grep -o 'http://[^ ]*' "$out" | sed 's/.*://')
-base="http://127.0.0.1:$port"
+# shellcheck disable=SC2086
+bench_start_server "$build" ${EXTRA_ARGS:-}
 
-scene="$here/tests/data/scenes/balls_on_plate.json"
-id=$(curl -sS -X POST -H 'Content-Type: application/json' --data-binary "@$scene" "$base/v1/jobs" |
-     sed 's/.*"id":"\([0-9a-f]*\)".*/\1/')
-for _ in $(seq 300); do
-  curl -sS "$base/v1/jobs/$id" | grep -q '"status":"done"' && break
-  sleep 0.1
-done
+bench_compute "$here/tests/data/scenes/balls_on_plate.json"
 query="$base/v1/jobs/$id/objects/ball_0/neighbors?ring=1"
 curl -sS -o /dev/null "$query"
 echo "gvd-server overload test: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), job $id"

@@ -13,23 +13,13 @@ connections=${3:-8}
 here=$(cd "$(dirname "$0")/../.." && pwd)
 command -v wrk >/dev/null || { echo "bench_server: wrk is not installed (docker/install-deps.sh)"; exit 2; }
 
-store=$(mktemp -d)
-out=$(mktemp)
-"$build/server/gvd-server" --port 0 --store "$store" --quiet --http-threads 16 >"$out" 2>&1 &
-pid=$!
-cleanup() { kill "$pid" 2>/dev/null || true; wait "$pid" 2>/dev/null || true; rm -rf "$store" "$out"; }
-trap cleanup EXIT
-for _ in $(seq 50); do grep -q listening "$out" && break; sleep 0.1; done
-port=$(grep -o 'http://[^ ]*' "$out" | sed 's/.*://')
-base="http://127.0.0.1:$port"
+# shellcheck source=tests/service/bench_common.sh
+. "$here/tests/service/bench_common.sh"
+trap bench_stop_server EXIT
+bench_start_server "$build" --http-threads 16
 
 scene="$here/tests/data/scenes/balls_on_plate.json"
-id=$(curl -sS -X POST -H 'Content-Type: application/json' --data-binary "@$scene" "$base/v1/jobs" |
-     sed 's/.*"id":"\([0-9a-f]*\)".*/\1/')
-for _ in $(seq 300); do
-  curl -sS "$base/v1/jobs/$id" | grep -q '"status":"done"' && break
-  sleep 0.1
-done
+bench_compute "$scene"
 label=$(curl -sS "$base/v1/jobs/$id/graph" | sed 's/.*"nodes":\[{"label":"\([^"]*\)".*/\1/')
 # Warm the result cache and the query index.
 curl -sS -o /dev/null "$base/v1/jobs/$id/objects/$label/neighbors?ring=1"
