@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gvd/common/error.h"
@@ -435,6 +436,31 @@ int bisector_crossings(const Scene& scene, const std::vector<uint32_t> near[2], 
   return changes;
 }
 
+// Brute force beside a shaft's corner (objects first, first + 1: shaft, housing): the most
+// crossings of the bisector by a line along x within 6 g on either side of the plane x = plane,
+// over lines at corner.y + h g / 100 (|h| <= 150), on the plane and 0.1 g off it.
+std::pair<int, int> crossings_beside_plane(const Scene& scene, Vec3 corner, double plane, double g,
+                                           size_t first, int step) {
+  std::vector<uint32_t> near[2];
+  for (int k = 0; k < 2; ++k) {
+    const SceneObject& o = scene.objects[first + k];
+    for (uint32_t t = 0; t < o.simplices.size(); ++t)
+      if (dist(corner, closest_point_on_simplex(3, o.vertices, o.simplices[t], corner)) < 0.1)
+        near[k].push_back(t);
+  }
+  int worst = 0, worst_off = 0;
+  for (int h = -150; h <= 150; h += step) {
+    const Vec3 at{plane, corner.y + h * 0.01 * g, corner.z};
+    const Vec3 reach{6 * g, 0, 0};
+    worst = std::max({worst, bisector_crossings(scene, near, at - reach, at, 600, first),
+                      bisector_crossings(scene, near, at, at + reach, 600, first)});
+    const Vec3 off = at + Vec3{0.1 * g, 0, 0};
+    worst_off = std::max({worst_off, bisector_crossings(scene, near, off - reach, off, 600, first),
+                          bisector_crossings(scene, near, off, off + reach, 600, first)});
+  }
+  return {worst, worst_off};
+}
+
 // A pentagonal shaft in its bore (a vertex on +x; a far block makes the domain lopsided): at
 // the corners at 72 and 288 degrees the faces' normals lie on both sides of the y axis, so
 // the bisector there is a roof that a line along x meets twice. make_domain shifts the cube
@@ -460,24 +486,7 @@ TEST(Domain, StraddledRimsPutTheRoofsApexOnALatticePlane) {
     const double unit = d.to_unit(corner).x;
     const double plane = d.origin.x + std::round(unit * 32) / 32 * d.side;
     ASSERT_LT(std::abs(plane - corner.x), 3 * g) << "no lattice plane near the corner";
-    // The triangles within 0.1 of the corner (the only ones that can be nearest there).
-    std::vector<uint32_t> near[2];
-    for (int k = 0; k < 2; ++k) {
-      const SceneObject& o = scene.objects[k];
-      for (uint32_t t = 0; t < o.simplices.size(); ++t)
-        if (dist(corner, closest_point_on_simplex(3, o.vertices, o.simplices[t], corner)) < 0.1)
-          near[k].push_back(t);
-    }
-    int worst = 0, worst_off = 0;
-    for (int h = -150; h <= 150; ++h) {
-      const Vec3 at{plane, corner.y + h * 0.01 * g, corner.z};
-      const Vec3 reach{6 * g, 0, 0};
-      worst = std::max({worst, bisector_crossings(scene, near, at - reach, at, 600),
-                        bisector_crossings(scene, near, at, at + reach, 600)});
-      const Vec3 off = at + Vec3{0.1 * g, 0, 0};
-      worst_off = std::max({worst_off, bisector_crossings(scene, near, off - reach, off, 600),
-                            bisector_crossings(scene, near, off, off + reach, 600)});
-    }
+    const auto [worst, worst_off] = crossings_beside_plane(scene, corner, plane, g, 0, 1);
     EXPECT_LE(worst, 1) << "corner at " << angle;
     EXPECT_EQ(worst_off, 2) << "corner at " << angle;
   }
@@ -521,23 +530,7 @@ TEST(Domain, TheCubesSidePutsASecondApexOnALatticePlane) {
     const double unit = d.to_unit(Vec3{rims->apex, corner.y, corner.z}).x * 4096;
     EXPECT_NEAR(unit, std::round(unit), 1e-6);
     const double plane = d.origin.x + std::round(unit) / 4096 * d.side;
-    std::vector<uint32_t> near[2];
-    for (int k = 0; k < 2; ++k) {
-      const SceneObject& o = scene.objects[2 + k];
-      for (uint32_t t = 0; t < o.simplices.size(); ++t)
-        if (dist(corner, closest_point_on_simplex(3, o.vertices, o.simplices[t], corner)) < 0.1)
-          near[k].push_back(t);
-    }
-    int worst = 0, worst_off = 0;
-    for (int h = -150; h <= 150; h += 2) {
-      const Vec3 at{plane, corner.y + h * 0.01 * g, corner.z};
-      const Vec3 reach{6 * g, 0, 0};
-      worst = std::max({worst, bisector_crossings(scene, near, at - reach, at, 600, 2),
-                        bisector_crossings(scene, near, at, at + reach, 600, 2)});
-      const Vec3 off = at + Vec3{0.1 * g, 0, 0};
-      worst_off = std::max({worst_off, bisector_crossings(scene, near, off - reach, off, 600, 2),
-                            bisector_crossings(scene, near, off, off + reach, 600, 2)});
-    }
+    const auto [worst, worst_off] = crossings_beside_plane(scene, corner, plane, g, 2, 2);
     EXPECT_LE(worst, 1) << "corner at " << angle;
     EXPECT_EQ(worst_off, 2) << "corner at " << angle;
   }
