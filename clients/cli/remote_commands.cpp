@@ -34,7 +34,7 @@ struct ProblemExit {
   std::string_view type;
   int exit_code;
 };
-constexpr std::array<ProblemExit, 27> kProblemExits = {{
+constexpr std::array<ProblemExit, 28> kProblemExits = {{
     {"/problems/invalid-scene", kExitBadInput},
     {"/problems/invalid-argument", kExitBadInput},
     {"/problems/unsupported-format", kExitBadInput},
@@ -62,6 +62,7 @@ constexpr std::array<ProblemExit, 27> kProblemExits = {{
     {"/problems/uri-too-long", kExitInternal},    // our bug: long lists go in POST bodies
     {"/problems/request-timeout", kExitNetwork},  // a link too slow for --header-timeout
     {"/problems/overloaded", kExitBusy},          // every HTTP thread busy, queue full
+    {"/problems/adaptive-only", kExitBadInput},   // a grid job asked for the octree's outputs
 }};
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a

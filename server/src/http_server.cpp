@@ -653,7 +653,11 @@ struct HttpServer::Impl {
     }
     if (jobs.status(id) == JobStatus::kDone && not_modified(req, res, id)) return;
     const std::shared_ptr<LoadedResult> r = jobs.result(id);
-    if (what != Output::kGraph) require_adaptive(r->result(), id, "the GVD surface (gvd.*)");
+    if (what != Output::kGraph && is_grid_result(r->result())) {
+      res.headers.erase("ETag");  // set by the conditional check above: not for a refusal
+      res.headers.erase("Cache-Control");
+      require_adaptive(r->result(), id, "the GVD surface (gvd.glb, gvd.gltf, gvd.json)");
+    }
     not_modified(req, res, id);
     switch (what) {
       case Output::kGlb:

@@ -1716,6 +1716,9 @@ TEST(ServiceGrid, GridJobGraphIsTheBruteForceAdjacencyAndTheCli) {
   std::set<std::string> stages;
   for (const Json& st : done["progress"]["stages"]) stages.insert(st["name"].get<std::string>());
   EXPECT_EQ(stages.count("grid"), 1u) << done["progress"].dump();
+  EXPECT_EQ(done["links"].value("field", ""), "/v1/jobs/" + s.id + "/field.npy");
+  EXPECT_FALSE(done["links"].contains("glb"));
+  EXPECT_EQ(done["result"].value("graph_edges", 0), 3);
   // Another resolution or metric is another job.
   const Submitted other = submit(*c, scene_text, "?mode=grid&resolution=41");
   EXPECT_NE(other.id, s.id);
