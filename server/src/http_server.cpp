@@ -401,8 +401,11 @@ struct HttpServer::Impl {
     limits.max_simplices = options.max_simplices;
     Scene scene;
     if (req.is_multipart_form_data() && req.has_file("volume")) {
-      if (const auto p = req.files.find("params"); p != req.files.end())
+      if (const auto p = req.files.find("params"); p != req.files.end()) {
+        if (!Json::accept(p->second.content))
+          throw Error(ErrorCode::kInvalidArgument, "the \"params\" part is not valid JSON");
         params_from_json("{\"params\":" + p->second.content + "}", params);
+      }
       for (const auto& [name, part] : req.files) {
         if (name != "volume" && name != "params")
           throw Error(ErrorCode::kInvalidArgument,

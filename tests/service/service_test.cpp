@@ -1914,6 +1914,15 @@ TEST(ServiceGrid, LabelledVolumeGraphIsTheVoxelAdjacency) {
   auto r = c->Post("/v1/jobs?spacing=1,1,2&mode=grid&resolution=24", items);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200) << r->body;  // the same scene and parameters: the same job
+  // Its parameters may come in a "params" part, as for meshes.
+  items.push_back({"params", R"({"mode":"grid","resolution":24})", "", "application/json"});
+  r = c->Post("/v1/jobs?spacing=1,1,2", items);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  items.back().content = "{not json";
+  r = c->Post("/v1/jobs?spacing=1,1,2", items);
+  EXPECT_EQ(r->status, 400) << r->body;
+  EXPECT_NE(r->body.find("params"), std::string::npos) << r->body;
 }
 
 TEST(ServiceGrid, BadGridAndVolumeInputNamesTheField) {
