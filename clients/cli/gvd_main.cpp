@@ -188,7 +188,11 @@ remote mode (--server URL, or the environment variable GVD_SERVER; --local ignor
                              Job parameters: --max-depth, --contact-depth, --domain, --frame,
                              --ambiguity-levels, --ambiguity-rounds, --unseen-rounds, --refine,
                              --resolution, --curved-tolerance (threads, backend and limits are
-                             the server's own settings)
+                             the server's own settings). --mode grid --resolution N [--metric,
+                             --range-cells, --float64, --unsigned]: a grid job, whose outputs are
+                             --graph, -o FIELD.npy and --labels LABELS.npy. --volume LABELS.npy
+                             --spacing X,Y[,Z] [--background N|none]: a labelled volume (the
+                             server needs --spacing)
   gvd --server URL neighbors|nearest|path|explode|tight|contacts --job ID [query options]
                              a query on a finished job; the same JSON on stdout as locally.
                              Scene files instead of --job ID: submitted and waited for first

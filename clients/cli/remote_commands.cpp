@@ -34,7 +34,7 @@ struct ProblemExit {
   std::string_view type;
   int exit_code;
 };
-constexpr std::array<ProblemExit, 27> kProblemExits = {{
+constexpr std::array<ProblemExit, 28> kProblemExits = {{
     {"/problems/invalid-scene", kExitBadInput},
     {"/problems/invalid-argument", kExitBadInput},
     {"/problems/unsupported-format", kExitBadInput},
@@ -62,11 +62,12 @@ constexpr std::array<ProblemExit, 27> kProblemExits = {{
     {"/problems/uri-too-long", kExitInternal},    // our bug: long lists go in POST bodies
     {"/problems/request-timeout", kExitNetwork},  // a link too slow for --header-timeout
     {"/problems/overloaded", kExitBusy},          // every HTTP thread busy, queue full
+    {"/problems/adaptive-only", kExitBadInput},   // a grid job asked for the octree's outputs
 }};
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a
 // computation the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 10> kJobParams = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 15> kJobParams = {{
     {"--max-depth", "max_depth"},
     {"--contact-depth", "contact_depth"},
     {"--ambiguity-levels", "ambiguity_levels"},
@@ -77,20 +78,32 @@ constexpr std::array<std::pair<std::string_view, std::string_view>, 10> kJobPara
     {"--refine", "refine"},
     {"--resolution", "resolution"},
     {"--curved-tolerance", "curved_tolerance"},
+    {"--mode", "mode"},
+    {"--metric", "metric"},
+    {"--range-cells", "range_cells"},
+    {"--spacing", "spacing"},
+    {"--background", "background"},
 }};
-constexpr std::array<std::pair<std::string_view, std::string_view>, 5> kServerSide = {{
+// Boolean flags that are job parameters (sent as name=true).
+constexpr std::array<std::pair<std::string_view, std::string_view>, 2> kJobFlags = {{
+    {"--float64", "float64"},
+    {"--unsigned", "unsigned"},
+}};
+constexpr std::array<std::pair<std::string_view, std::string_view>, 6> kServerSide = {{
     {"--threads", "--job-threads"},
     {"--backend", "--backend"},
     {"--max-leaves", "--max-leaves"},
     {"--max-objects", "--max-objects"},
     {"--max-simplices", "--max-simplices"},
+    {"--max-cells", "--max-grid-cells"},
 }};
 
-constexpr std::array<std::pair<std::string_view, std::string_view>, 4> kSceneTypes = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 5> kSceneTypes = {{
     {".json", "application/json"},
     {".obj", "model/obj"},
     {".glb", "model/gltf-binary"},
     {".gltf", "model/gltf+json"},
+    {".npy", "application/x-npy"},  // a labelled volume (--volume)
 }};
 
 const std::vector<std::string>& remote_value_flags() {
@@ -195,6 +208,10 @@ class Remote {
       if (const auto v = args.value(std::string(flag))) {
         query += (query.empty() ? "?" : "&") + std::string(name) + "=" + url_encode(*v);
       }
+    }
+    for (const auto& [flag, name] : kJobFlags) {
+      if (args.has(std::string(flag)))
+        query += (query.empty() ? "?" : "&") + std::string(name) + "=true";
     }
     for (const auto& [flag, server_flag] : kServerSide) {
       if (args.has(std::string(flag))) {
@@ -396,14 +413,21 @@ void print_summary(const Json& doc, std::FILE* out) {
     }
     std::fprintf(out, "\n");
   }
-  std::fprintf(out,
-               "  octree: depth %.0f (limit %.0f), %.0f leaves (%.0f in certified pair cells), "
-               "%.0f vertices, %.1f bytes/leaf\n",
-               num("depth"), num("max_depth"), num("leaves"), num("certified_leaves"),
-               num("vertices"), num("bytes_per_leaf"));
-  std::fprintf(out,
-               "  gvd: %.0f simplices (both sides), %.0f neighbour pairs, %.0f refinement rounds\n",
-               num("gvd_simplices"), num("graph_edges"), num("refine_rounds"));
+  bool grid_job = false;
+  for (const Json& st : member(r, "stages", Json::array()))
+    grid_job = grid_job || text(st, "name", "") == "grid";
+  if (grid_job) {
+    std::fprintf(out, "  grid job (mode=grid): %.0f neighbour pairs\n", num("graph_edges"));
+  } else {
+    std::fprintf(out,
+                 "  octree: depth %.0f (limit %.0f), %.0f leaves (%.0f in certified pair cells), "
+                 "%.0f vertices, %.1f bytes/leaf\n",
+                 num("depth"), num("max_depth"), num("leaves"), num("certified_leaves"),
+                 num("vertices"), num("bytes_per_leaf"));
+    std::fprintf(
+        out, "  gvd: %.0f simplices (both sides), %.0f neighbour pairs, %.0f refinement rounds\n",
+        num("gvd_simplices"), num("graph_edges"), num("refine_rounds"));
+  }
   std::fprintf(out, "  stages:");
   for (const Json& st : member(r, "stages", Json::array())) {
     std::fprintf(out, " %s %.3f s;", text(st, "name", "").c_str(), number(st, "seconds", 0.0));
@@ -430,12 +454,41 @@ void download(Remote& remote, const std::string& id, const std::string& what,
 }
 
 int remote_compute(const std::string& url, int argc, char** argv) {
-  const Args args =
-      parse_remote(argc, argv, {"-o", "--output", "--graph", "--json", "--save"}, {"--no-wait"});
-  if (args.positional.empty()) throw UsageError{"compute needs at least one scene file"};
+  const Args args = parse_remote(argc, argv,
+                                 {"-o", "--output", "--graph", "--json", "--save", "--mode",
+                                  "--labels", "--metric", "--max-cells", "--range-cells"},
+                                 {"--no-wait", "--float64", "--unsigned"});
+  std::vector<std::string> files = args.positional;
+  if (const auto volume = args.value("--volume")) {
+    if (!files.empty()) throw UsageError{"--volume takes the place of the scene files"};
+    files = {*volume};
+  } else if (args.has("--spacing") || args.has("--background")) {
+    throw UsageError{"--spacing and --background go with --volume LABELS.npy"};
+  }
+  if (files.empty()) throw UsageError{"compute needs at least one scene file"};
   if (args.has("--job")) throw UsageError{"compute submits scene files; --job is for queries"};
+  const bool grid = args.value("--mode").value_or("adaptive") == "grid";
+  const auto out_path = args.value("-o") ? args.value("-o") : args.value("--output");
+  if (grid) {
+    // A grid job's outputs: its graph and grid (docs/API.md, "Grid jobs").
+    for (const char* flag : {"--json", "--save"}) {
+      if (args.has(flag))
+        throw UsageError{std::string(flag) +
+                         " needs the adaptive result; a grid job (--mode grid) has --graph, "
+                         "-o FIELD.npy and --labels LABELS.npy"};
+    }
+    for (const auto& p : {out_path, args.value("--labels")}) {
+      if (p && !p->ends_with(".npy"))
+        throw UsageError{"a grid job's grids come from a server as .npy (got " + *p +
+                         "); gvd grid writes NRRD locally"};
+    }
+  } else {
+    for (const char* flag : {"--labels", "--metric", "--range-cells", "--float64", "--unsigned"}) {
+      if (args.has(flag)) throw UsageError{std::string(flag) + " goes with --mode grid"};
+    }
+  }
   Remote remote(url, args);
-  const Json submitted = remote.submit(args.positional, args);
+  const Json submitted = remote.submit(files, args);
   const std::string id = text(submitted, "id", "");
   std::printf("%s\n", id.c_str());
   std::fflush(stdout);
@@ -447,10 +500,16 @@ int remote_compute(const std::string& url, int argc, char** argv) {
   const Json done = remote.wait(id);
 
   std::vector<std::string> written;
-  const auto glb_path = args.value("-o") ? args.value("-o") : args.value("--output");
-  if (glb_path) {
-    download(remote, id, "gvd.glb", *glb_path);
-    written.push_back(*glb_path + " (GVD, binary glTF)");
+  if (grid && out_path) {
+    download(remote, id, "field.npy", *out_path);
+    written.push_back(*out_path + " (distance per cell)");
+  } else if (out_path) {
+    download(remote, id, "gvd.glb", *out_path);
+    written.push_back(*out_path + " (GVD, binary glTF)");
+  }
+  if (const auto p = args.value("--labels")) {
+    download(remote, id, "labels.npy", *p);
+    written.push_back(*p + " (nearest object per cell)");
   }
   if (const auto p = args.value("--graph")) {
     download(remote, id, "graph", *p);

@@ -181,6 +181,11 @@ class JobFailed(GvdError):
     """409: outputs or queries of a failed job."""
 
 
+class AdaptiveOnly(GvdError):
+    """409: an output or query of a grid job (``mode=grid``) that needs the adaptive result
+    (GVD surface, result file, neighbours, nearest, paths, explode, tight, contacts)."""
+
+
 class NoPath(GvdError):
     """422: no path joins the points; ``path`` is the path document (empty ``points``,
     ``reason``)."""
@@ -219,6 +224,7 @@ PROBLEM_TYPES = {
     "/problems/uri-too-long": UriTooLong,
     "/problems/request-timeout": RequestTimeout,
     "/problems/overloaded": Overloaded,
+    "/problems/adaptive-only": AdaptiveOnly,
 }
 
 
@@ -239,10 +245,11 @@ def error_from_problem(problem: dict, status: Optional[int] = None,
 _CONTENT_TYPES = {
     ".json": "application/json", ".obj": "model/obj", ".glb": "model/gltf-binary",
     ".gltf": "model/gltf+json", ".stl": "model/stl", ".ply": "model/x-ply",
-    ".off": "application/octet-stream",
+    ".off": "application/octet-stream", ".npy": "application/x-npy",
 }
 _PARAMS = ("max_depth", "contact_depth", "ambiguity_levels", "ambiguity_rounds",
-           "unseen_rounds", "domain")
+           "unseen_rounds", "domain", "frame", "refine", "resolution", "curved_tolerance",
+           "mode", "metric", "float64", "unsigned", "range_cells", "spacing", "background")
 
 
 class _Response:
@@ -421,7 +428,11 @@ class Client:
         file stem), or a list of PLY/STL/OFF/OBJ paths, one object each, labelled by file stem
         (sent as multipart/form-data). ``params``: compute parameters (``max_depth``,
         ``contact_depth``, ``ambiguity_levels``, ``ambiguity_rounds``, ``unseen_rounds``,
-        ``domain`` as a list of numbers).
+        ``domain`` as a list of numbers, ...; ``mode="grid"`` with ``resolution=N``, ``metric``,
+        ``float64``, ``unsigned``, ``range_cells``: the uniform-grid discrete GVD, whose
+        outputs are ``graph()``, ``field_npy()`` and ``labels_npy()``). A labelled volume: the
+        path of an integer ``.npy`` with ``params={"spacing": [x, y, z]}`` (required) and
+        optionally ``"background"`` (docs/API.md, "Labelled volumes").
 
         Jobs are content-addressed, so submitting is safe to repeat: the same scene and
         parameters give the same job (computed once).
@@ -430,7 +441,9 @@ class Client:
         for key, value in (params or {}).items():
             if key not in _PARAMS:
                 raise ValueError(f"unknown parameter {key!r} (one of {', '.join(_PARAMS)})")
-            if isinstance(value, (list, tuple)):
+            if isinstance(value, bool):
+                value = "true" if value else "false"
+            elif isinstance(value, (list, tuple)):
                 value = ",".join(repr(float(v)) for v in value)
             query[key] = str(value)
         if isinstance(scene_or_path, dict):
@@ -630,6 +643,23 @@ class Job:
     def graph(self) -> dict:
         """The dual graph: nodes (objects) and edges (neighbouring pairs, area, clearance)."""
         return self.client.get_json(self._path("/graph"))
+
+    def field_npy(self, **query: Any) -> bytes:
+        """``field.npy``: a grid job's own distance grid (no arguments), or the finished
+        adaptive result sampled on a grid (``resolution=N``, ``metric``, ``float64``,
+        ``unsigned``, ``domain``), as the bytes of a numpy .npy file."""
+        return self._grid("/field.npy", query)
+
+    def labels_npy(self, **query: Any) -> bytes:
+        """``labels.npy``: the nearest object per cell (int32, -1 = none), as field_npy."""
+        return self._grid("/labels.npy", query)
+
+    def _grid(self, suffix: str, query: dict) -> bytes:
+        q = {k: ("true" if v is True else "false" if v is False else
+                 ",".join(repr(float(x)) for x in v) if isinstance(v, (list, tuple)) else str(v))
+             for k, v in query.items()}
+        path = self._path(suffix) + ("?" + urllib.parse.urlencode(q) if q else "")
+        return self.client.request("GET", path).body
 
     def result_file(self) -> bytes:
         """The whole result in the engine's file format (``gvd info``, local queries)."""

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,16 +15,20 @@
 #include <functional>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <regex>
 #include <string_view>
 
 #include "gvd/common/error.h"
 #include "gvd/common/json_depth.h"
+#include "gvd/grid/compute_grid.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
 #include "header_gate.h"
+#include "job_compute.h"
 #include "job_manager.h"
 #include "job_params.h"
 #include "metrics.h"
@@ -86,8 +91,11 @@ bool is_scene_media_type(const std::string& type) {
   return type == "application/json" || type == "application/octet-stream" || type == "text/plain" ||
          type.starts_with("model/") || type == "application/sla" ||
          type == "application/vnd.ms-pki.stl" || type == "application/x-ply" ||
-         type == "multipart/form-data";
+         type == "multipart/form-data" || type == "application/x-npy";
 }
+
+/// A numpy .npy file begins with these six bytes.
+bool is_npy(std::string_view bytes) { return bytes.starts_with("\x93NUMPY"); }
 
 struct Rejection {
   ProblemKind kind;
@@ -261,8 +269,9 @@ struct HttpServer::Impl {
                            "Content-Type \"" + req.get_header_value("Content-Type") +
                                "\" is not a scene: send application/json (scene JSON or glTF), "
                                "model/gltf-binary, model/obj, model/stl, model/x-ply, "
-                               "application/octet-stream (sniffed) or multipart/form-data (one "
-                               "mesh per part, part name = label)"};
+                               "application/octet-stream (sniffed), multipart/form-data (one "
+                               "mesh per part, part name = label) or application/x-npy (a "
+                               "labelled volume)"};
         }
       } else if (type != "application/json" && type != "text/plain" && !type.empty() &&
                  type != "application/x-www-form-urlencoded") {
@@ -375,9 +384,14 @@ struct HttpServer::Impl {
     if (options.rate_limit > 0) admit(req, res);
     JobParams params;
     std::string label = "object";
+    VolumeParams volume;
     for (const auto& [key, value] : req.params) {
       if (key == "label") {
         label = value;
+      } else if (key == "spacing") {
+        volume.spacing = value;
+      } else if (key == "background") {
+        volume.background = value;
       } else {
         params.set(key, value);
       }
@@ -386,15 +400,42 @@ struct HttpServer::Impl {
     limits.max_objects = options.max_objects;
     limits.max_simplices = options.max_simplices;
     Scene scene;
-    if (req.is_multipart_form_data()) {
+    if (req.is_multipart_form_data() && req.has_file("volume")) {
+      if (const auto p = req.files.find("params"); p != req.files.end()) {
+        if (!Json::accept(p->second.content))
+          throw Error(ErrorCode::kInvalidArgument, "the \"params\" part is not valid JSON");
+        params_from_json("{\"params\":" + p->second.content + "}", params);
+      }
+      for (const auto& [name, part] : req.files) {
+        if (name != "volume" && name != "params")
+          throw Error(ErrorCode::kInvalidArgument,
+                      "a multipart body with a \"volume\" part holds only it and \"params\", "
+                      "not part \"" +
+                          name + "\"");
+      }
+      scene = scene_from_volume(req.get_file_value("volume").content, volume, limits);
+    } else if (req.is_multipart_form_data()) {
       scene = scene_from_parts(req, limits, params);
+    } else if (media_type(req) == "application/x-npy" || is_npy(req.body)) {
+      scene = scene_from_volume(req.body, volume, limits);
     } else {
       if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
       const auto* data = reinterpret_cast<const uint8_t*>(req.body.data());
       scene = parse_scene_bytes({data, req.body.size()}, SceneFormat::kAuto, label, limits);
     }
+    if (!volume.used && (volume.spacing || volume.background)) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  std::string("parameter \"") + (volume.spacing ? "spacing" : "background") +
+                      "\" goes with a labelled volume (an .npy body, application/x-npy, or a "
+                      "multipart part named \"volume\")");
+    }
     params.check(scene.dimension, options);
-    (void)make_domain(scene, params.pipeline_options(options).domain);  // a user box must fit
+    if (params.is_grid()) {
+      // The cell count (--max-grid-cells) and the box, before the job is queued.
+      (void)make_grid_spec(scene, params.grid_options(options));
+    } else {
+      (void)make_domain(scene, params.pipeline_options(options).domain);  // a user box must fit
+    }
 
     JobRequest job;
     job.scene_json = scene_to_json(scene);
@@ -409,6 +450,71 @@ struct HttpServer::Impl {
     res.set_header("X-Gvd-Cache", outcome.created ? "miss" : "hit");
     res.status = outcome.status == JobStatus::kDone ? 200 : 202;
     res.set_content(outcome.status_json, "application/json");
+  }
+
+  /// The query parameters of a labelled volume upload (docs/API.md, "Labelled volumes").
+  struct VolumeParams {
+    std::optional<std::string> spacing;     ///< x,y[,z]: required for a volume
+    std::optional<std::string> background;  ///< a label >= 0 or "none"; default 0
+    bool used = false;                      ///< the body was a volume
+  };
+
+  /// A labelled .npy volume turned into a scene by the core (read_label_volume_npy,
+  /// scene_from_label_volume: one object per label, its voxel faces as its boundary).
+  static Scene scene_from_volume(const std::string& bytes, VolumeParams& volume,
+                                 const SceneLimits& limits) {
+    volume.used = true;
+    const LabelVolume labels = read_label_volume_npy(
+        {reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "the volume");
+    const size_t dim = static_cast<size_t>(labels.dimension);
+    if (!volume.spacing) {
+      throw Error(ErrorCode::kInvalidArgument,
+                  "parameter \"spacing\" is required for a labelled volume: the voxel size on "
+                  "each axis, " +
+                      std::string(dim == 2 ? "x,y" : "x,y,z") + " in scene units");
+    }
+    LabelVolumeOptions vo;
+    std::vector<double> spacing;
+    {
+      size_t start = 0;
+      const std::string& text = *volume.spacing;
+      while (start <= text.size()) {
+        size_t comma = text.find(',', start);
+        if (comma == std::string::npos) comma = text.size();
+        const std::string item = text.substr(start, comma - start);
+        double v = 0;
+        const auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
+        if (item.empty() || ec != std::errc() || ptr != item.data() + item.size() ||
+            !std::isfinite(v) || v <= 0) {
+          throw Error(
+              ErrorCode::kInvalidArgument,
+              "parameter \"spacing\" must be positive numbers x,y[,z], got \"" + text + "\"");
+        }
+        spacing.push_back(v);
+        start = comma + 1;
+      }
+      if (spacing.size() != dim) {
+        throw Error(ErrorCode::kInvalidArgument,
+                    "parameter \"spacing\" needs " + std::to_string(dim) + " numbers for this " +
+                        std::to_string(dim) + "D volume, got " + std::to_string(spacing.size()));
+      }
+    }
+    for (size_t a = 0; a < dim; ++a) vo.spacing[a] = spacing[a];
+    if (volume.background) {
+      const std::string& b = *volume.background;
+      uint64_t v = 0;
+      const auto [ptr, ec] = std::from_chars(b.data(), b.data() + b.size(), v);
+      if (b == "none") {
+        vo.background.reset();
+      } else if (b.empty() || ec != std::errc() || ptr != b.data() + b.size()) {
+        throw Error(
+            ErrorCode::kInvalidArgument,
+            "parameter \"background\" is a label (an integer >= 0) or none, got \"" + b + "\"");
+      } else {
+        vo.background = v;
+      }
+    }
+    return scene_from_label_volume(labels, vo, limits);
   }
 
   /// The per-client token bucket (--rate-limit): refused with 503 + Retry-After (the
@@ -550,6 +656,11 @@ struct HttpServer::Impl {
     }
     if (jobs.status(id) == JobStatus::kDone && not_modified(req, res, id)) return;
     const std::shared_ptr<LoadedResult> r = jobs.result(id);
+    if (what != Output::kGraph && is_grid_result(r->result())) {
+      res.headers.erase("ETag");  // set by the conditional check above: not for a refusal
+      res.headers.erase("Cache-Control");
+      require_adaptive(r->result(), id, "the GVD surface (gvd.glb, gvd.gltf, gvd.json)");
+    }
     not_modified(req, res, id);
     switch (what) {
       case Output::kGlb:
@@ -589,7 +700,8 @@ struct HttpServer::Impl {
   void result_file(const httplib::Request& req, httplib::Response& res) {
     const std::string id = req.matches[1].str();
     const std::string path = jobs.result_path(id);
-    (void)jobs.result(id);  // the status checks, and the file reads back
+    // The status checks, and the file reads back.
+    require_adaptive(jobs.result(id)->result(), id, "result.gvd");
     const std::string tag = result_file_tag(id, path);
     if (!tag.empty() && not_modified(req, res, id, tag)) return;
     const std::vector<uint8_t> bytes = read_file_bytes(path);

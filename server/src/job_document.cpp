@@ -15,9 +15,11 @@ namespace {
 
 // Share of the whole computation each progress stage roughly takes (for the overall fraction
 // of a running job; an estimate, documented as such).
-const std::pair<const char*, double> kStageWeights[] = {
-    {"scene", 0.02},   {"octree", 0.20}, {"distance", 0.30}, {"ambiguity", 0.25},
-    {"surface", 0.16}, {"graph", 0.05},  {"compact", 0.02},
+const std::pair<const char*, double> kStageWeights[] =
+    {
+        {"scene", 0.02},     {"octree", 0.20},  {"distance", 0.30},
+        {"ambiguity", 0.25}, {"surface", 0.16}, {"graph", 0.05},
+        {"compact", 0.02},   {"grid", 0.93},  // a grid job (mode=grid): scene, grid, graph
 };
 
 double stage_weight(const std::string& name) {
@@ -138,13 +140,22 @@ std::string job_document(const JobRecord& job, JobStatus shown,
                                     {"fraction", 1.0},
                                     {"seconds", st.value("seconds", 0.0)}});
     }
-    s["links"] = {{"self", self},
-                  {"glb", self + "/gvd.glb"},
-                  {"gltf", self + "/gvd.gltf"},
-                  {"json", self + "/gvd.json"},
-                  {"graph", self + "/graph"},
-                  {"result", self + "/result.gvd"},
-                  {"events", self + "/events"}};
+    if (s["params"].is_object() && s["params"].value("mode", "") == "grid") {
+      // A grid job has its graph and grid; the rest needs the adaptive result.
+      s["links"] = {{"self", self},
+                    {"graph", self + "/graph"},
+                    {"field", self + "/field.npy"},
+                    {"labels", self + "/labels.npy"},
+                    {"events", self + "/events"}};
+    } else {
+      s["links"] = {{"self", self},
+                    {"glb", self + "/gvd.glb"},
+                    {"gltf", self + "/gvd.gltf"},
+                    {"json", self + "/gvd.json"},
+                    {"graph", self + "/graph"},
+                    {"result", self + "/result.gvd"},
+                    {"events", self + "/events"}};
+    }
   } else {
     s["links"] = {{"self", self}, {"events", self + "/events"}};
   }

@@ -14,6 +14,7 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
+#include "job_compute.h"
 #include "job_document.h"
 #include "job_params.h"
 #include "problem.h"
@@ -330,6 +331,8 @@ JobManager::DeleteOutcome JobManager::remove(const std::string& id) {
     case JobStatus::kFailed:
     case JobStatus::kCancelled:
       remove_quietly(cache_.path_of(id));
+      remove_quietly(grid_field_path(dir("results"), id));
+      remove_quietly(grid_labels_path(dir("results"), id));
       remove_quietly(dir("results") + "/" + id + ".json");
       remove_quietly(dir("failed") + "/" + id + ".json");
       cache_.erase(id);
@@ -489,16 +492,15 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
     limits.max_simplices = options_.max_simplices;
     Scene scene = read_stored_scene(base, limits);
 
-    PipelineOptions options = JobParams::from_json(job->params_json).pipeline_options(options_);
-    options.cancel = &job->cancel;
-    options.progress = [this, job](const std::string& stage, double fraction) {
+    const ProgressFn progress = [this, job](const std::string& stage, double fraction) {
       std::lock_guard lock(mutex_);
       if (!record_progress(*job, stage, fraction)) return;
       ++version_;
       changed_cv_.notify_all();
     };
     std::shared_ptr<const GvdResult> result =
-        std::make_shared<const GvdResult>(compute_gvd(std::move(scene), options));
+        compute_job(std::move(scene), JobParams::from_json(job->params_json), options_,
+                    &job->cancel, progress, dir("results"), job->id);
     // Persist: the result file (atomic), then its status document, then drop the request.
     const std::vector<uint8_t> bytes = result_to_bytes(*result);
     write_file_atomic(cache_.path_of(job->id), bytes.data(), bytes.size());

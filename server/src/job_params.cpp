@@ -14,7 +14,8 @@ namespace {
 
 const char* const kNames[] = {
     "max_depth", "contact_depth", "ambiguity_levels", "ambiguity_rounds", "unseen_rounds",
-    "domain",    "refine",        "resolution",       "curved_tolerance", "frame"};
+    "domain",    "refine",        "resolution",       "curved_tolerance", "frame",
+    "mode",      "metric",        "float64",          "unsigned",         "range_cells"};
 
 [[noreturn]] void bad(const std::string& detail) {
   throw Error(ErrorCode::kInvalidArgument, detail);
@@ -32,6 +33,12 @@ int parse_int(const std::string& name, const std::string& text, int lo, int hi) 
         std::to_string(hi) + ", got " + text);
   }
   return v;
+}
+
+bool parse_flag(const std::string& name, const std::string& text) {
+  if (text == "1" || text == "true") return true;
+  if (text == "0" || text == "false") return false;
+  bad("parameter \"" + name + "\" is true or false (1 or 0), got \"" + text + "\"");
 }
 
 }  // namespace
@@ -60,10 +67,29 @@ void JobParams::set(const std::string& name, const std::string& value) {
     }
     refine = value;
   } else if (name == "resolution") {
-    if (value != "compact" && value != "full") {
-      bad("parameter \"resolution\" must be compact or full, got \"" + value + "\"");
+    if (value == "compact" || value == "full") {
+      resolution = value;
+    } else if (!value.empty() && value.find_first_not_of("0123456789") == std::string::npos) {
+      grid_resolution = parse_int(name, value, 1, 1 << 20);  // mode=grid: cells (check())
+    } else {
+      bad("parameter \"resolution\" must be compact or full (mode=adaptive), or a number of "
+          "cells along the longest side (mode=grid), got \"" +
+          value + "\"");
     }
-    resolution = value;
+  } else if (name == "mode") {
+    if (value != "adaptive" && value != "grid") {
+      bad("parameter \"mode\" must be adaptive or grid, got \"" + value + "\"");
+    }
+    mode = value;
+  } else if (name == "metric") {
+    (void)parse_grid_metric(value);  // l2, l1 or linf; the error names the choices
+    metric = value;
+  } else if (name == "float64") {
+    float64 = parse_flag(name, value);
+  } else if (name == "unsigned") {
+    unsigned_distance = parse_flag(name, value);
+  } else if (name == "range_cells") {
+    range_cells = parse_int(name, value, 0, 4096);
   } else if (name == "curved_tolerance") {
     double v = -1;
     const char* end = value.data() + value.size();
@@ -97,7 +123,8 @@ void JobParams::set(const std::string& name, const std::string& value) {
   } else {
     bad("unknown parameter \"" + name +
         "\" (known: max_depth, contact_depth, ambiguity_levels, ambiguity_rounds, "
-        "unseen_rounds, domain, frame, refine, resolution, curved_tolerance)");
+        "unseen_rounds, domain, frame, refine, resolution, curved_tolerance, mode, metric, "
+        "float64, unsigned, range_cells)");
   }
 }
 
@@ -110,6 +137,41 @@ void JobParams::check(int dimension, const ServerOptions& server) const {
     if (!(domain[i] < domain[i + domain.size() / 2])) {
       bad("parameter \"domain\": the lower corner must be below the upper corner");
     }
+  }
+  if (is_grid()) {
+    if (grid_resolution < 1) {
+      bad("parameter \"resolution\": mode=grid needs resolution=N, the number of cells along "
+          "the longest side of the domain");
+    }
+    const JobParams defaults;
+    const auto adaptive_only = [](const char* name) {
+      bad(std::string("parameter \"") + name +
+          "\" applies to the adaptive octree; mode=grid computes on a uniform grid");
+    };
+    if (max_depth != defaults.max_depth) adaptive_only("max_depth");
+    if (contact_depth != defaults.contact_depth) adaptive_only("contact_depth");
+    if (ambiguity_levels != defaults.ambiguity_levels) adaptive_only("ambiguity_levels");
+    if (ambiguity_rounds != defaults.ambiguity_rounds) adaptive_only("ambiguity_rounds");
+    if (unseen_rounds != defaults.unseen_rounds) adaptive_only("unseen_rounds");
+    if (frame != defaults.frame) adaptive_only("frame");
+    if (refine != defaults.refine) adaptive_only("refine");
+    if (resolution != defaults.resolution) adaptive_only("resolution (compact/full)");
+    if (curved_tolerance != defaults.curved_tolerance) adaptive_only("curved_tolerance");
+    return;
+  }
+  if (grid_resolution != 0) {
+    bad("parameter \"resolution\" = " + std::to_string(grid_resolution) +
+        " (a cell count) needs mode=grid; the adaptive mode takes compact or full");
+  }
+  {
+    const JobParams defaults;
+    const auto grid_only = [](const char* name) {
+      bad(std::string("parameter \"") + name + "\" goes with mode=grid");
+    };
+    if (metric != defaults.metric) grid_only("metric");
+    if (float64 != defaults.float64) grid_only("float64");
+    if (unsigned_distance != defaults.unsigned_distance) grid_only("unsigned");
+    if (range_cells != defaults.range_cells) grid_only("range_cells");
   }
   const int limit = lattice_bits(dimension);
   if (max_depth > limit) {
@@ -124,6 +186,14 @@ void JobParams::check(int dimension, const ServerOptions& server) const {
 }
 
 std::string JobParams::to_json() const {
+  if (is_grid()) {
+    // Only what a grid job uses; an adaptive job's text (and so its id) is as before.
+    const nlohmann::json g = {
+        {"mode", mode},       {"resolution", grid_resolution}, {"metric", metric},
+        {"float64", float64}, {"unsigned", unsigned_distance}, {"range_cells", range_cells},
+        {"domain", domain}};
+    return g.dump();
+  }
   nlohmann::json j = {{"max_depth", max_depth},
                       {"contact_depth", contact_depth},
                       {"ambiguity_levels", ambiguity_levels},
@@ -146,6 +216,16 @@ JobParams JobParams::from_json(const std::string& text) {
     throw Error(ErrorCode::kInvalidArgument, "the job parameters must be a JSON object");
   JobParams p;
   try {
+    p.mode = j.value("mode", std::string("adaptive"));
+    if (p.is_grid()) {
+      p.grid_resolution = j.at("resolution").get<int>();
+      p.metric = j.value("metric", std::string("l2"));
+      p.float64 = j.value("float64", false);
+      p.unsigned_distance = j.value("unsigned", false);
+      p.range_cells = j.value("range_cells", 0);
+      p.domain = j.value("domain", std::vector<double>{});
+      return p;
+    }
     p.max_depth = j.value("max_depth", 0);
     p.contact_depth = j.value("contact_depth", 0);
     p.ambiguity_levels = j.value("ambiguity_levels", -1);
@@ -197,6 +277,28 @@ PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
     b.extend(lo);
     b.extend(hi);
     o.domain.box = b;
+  }
+  return o;
+}
+
+GridOptions JobParams::grid_options(const ServerOptions& server) const {
+  GridOptions o;
+  o.resolution = grid_resolution;
+  o.metric = parse_grid_metric(metric);
+  o.signed_distance = !unsigned_distance;
+  o.range_cells = range_cells;
+  o.max_cells = server.max_grid_cells;
+  o.threads = server.job_threads;
+  o.compute = server.compute;
+  if (!domain.empty()) {
+    const size_t d = domain.size() / 2;
+    Box b;
+    for (size_t i = 0; i < d; ++i) {
+      b.lo[static_cast<int>(i)] = domain[i];
+      b.hi[static_cast<int>(i)] = domain[d + i];
+    }
+    if (d == 2) b.lo.z = b.hi.z = 0;
+    o.box = b;
   }
   return o;
 }

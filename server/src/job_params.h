@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "gvd/grid/compute_grid.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/scene.h"
 #include "server_options.h"
@@ -24,6 +25,19 @@ struct JobParams {
   std::string resolution = "compact";  ///< PipelineOptions::resolution: compact or full
   double curved_tolerance = 0;         ///< PipelineOptions::curved_tolerance, in [0, 1)
 
+  /// "adaptive" (the octree pipeline, compute_gvd) or "grid" (the uniform-grid discrete GVD
+  /// of compute_grid and its dual graph, as `gvd compute --mode grid`).
+  std::string mode = "adaptive";
+  /// mode=grid: cells along the longest side of the domain (GridOptions::resolution). Given
+  /// as `resolution=N`: with mode=grid the name means the grid, else compact/full.
+  int grid_resolution = 0;
+  std::string metric = "l2";       ///< mode=grid: GridOptions::metric (l2, l1, linf)
+  bool float64 = false;            ///< mode=grid: field.npy as float64 instead of float32
+  bool unsigned_distance = false;  ///< mode=grid: no negative distances inside closed objects
+  int range_cells = 0;             ///< mode=grid: GridOptions::range_cells (0 = default)
+
+  bool is_grid() const { return mode == "grid"; }
+
   /// Sets one parameter from its text form; gvd::Error{kInvalidArgument} for an unknown name
   /// or a bad value.
   void set(const std::string& name, const std::string& value);
@@ -37,6 +51,9 @@ struct JobParams {
 
   /// The engine options for this job under the server's limits.
   PipelineOptions pipeline_options(const ServerOptions& server) const;
+  /// mode=grid: the grid options under the server's limits (max_cells = --max-grid-cells,
+  /// the job threads and backend).
+  GridOptions grid_options(const ServerOptions& server) const;
 };
 
 /// Query-string names that are compute parameters.

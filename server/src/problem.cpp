@@ -39,6 +39,7 @@ constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
     {414, "/problems/uri-too-long", "Request line too long", false},
     {408, "/problems/request-timeout", "Request headers too slow", true},
     {503, "/problems/overloaded", "Server overloaded", true},
+    {409, "/problems/adaptive-only", "Needs the adaptive result", false},
 }};
 
 static_assert(static_cast<int>(ErrorCode::kInternal) == static_cast<int>(ProblemKind::kInternal),

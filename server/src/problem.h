@@ -39,6 +39,7 @@ enum class ProblemKind {
   kUriTooLong,        ///< a request line over cpp-httplib's 8 KiB
   kRequestTimeout,    ///< headers that did not arrive within --header-timeout
   kOverloaded,        ///< every HTTP thread busy and --max-queued-requests waiting
+  kAdaptiveOnly,      ///< an output or query of a grid job (mode=grid) that needs the octree
 };
 
 /// One row of the table: HTTP status, stable problem type URI, title, whether retrying the
@@ -54,7 +55,7 @@ const ProblemInfo& problem_info(ProblemKind kind);
 ProblemKind problem_kind(ErrorCode code);
 
 /// Every row, for the documentation and the tests.
-inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kOverloaded) + 1;
+inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kAdaptiveOnly) + 1;
 
 /// An RFC 9457 problem document (application/problem+json):
 /// {"type","title","status","detail","instance","request_id"} plus, from the core error's

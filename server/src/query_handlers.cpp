@@ -4,6 +4,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
@@ -13,6 +14,8 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/query/contact_report.h"
 #include "gvd/query/gvd_index.h"
+#include "job_compute.h"
+#include "job_params.h"
 #include "job_queue.h"
 #include "problem.h"
 
@@ -79,6 +82,7 @@ void send_json(httplib::Response& res, std::string body) {
 
 void QueryHandlers::neighbors(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
+  require_adaptive(result->result(), req.matches[1].str(), "neighbors");
   const GvdIndex& index = result->index();
   int ring = 1;
   if (const std::string r = param(req, "ring", false); !r.empty()) {
@@ -110,6 +114,7 @@ bool fast_mode(const httplib::Request& req) {
 
 void QueryHandlers::nearest(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
+  require_adaptive(result->result(), req.matches[1].str(), "nearest");
   const GvdIndex& index = result->index();
   const Vec3 p = parse_point("point", param(req, "point", true), index.dimension());
   send_json(res, nearest_to_json(index, index.nearest(p, fast_mode(req))));
@@ -117,6 +122,7 @@ void QueryHandlers::nearest(const httplib::Request& req, httplib::Response& res)
 
 void QueryHandlers::nearest_batch(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
+  require_adaptive(result->result(), req.matches[1].str(), "nearest");
   const GvdIndex& index = result->index();
   const std::vector<Vec3> points = parse_points_json(req.body, index.dimension());
   if (points.size() > max_batch_points_) {
@@ -146,6 +152,7 @@ void QueryHandlers::nearest_batch(const httplib::Request& req, httplib::Response
 
 void QueryHandlers::paths(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
+  require_adaptive(result->result(), req.matches[1].str(), "paths");
   const GvdIndex& index = result->index();
   check_json_depth(req.body, "the body", ErrorCode::kInvalidArgument);
   const Json doc = Json::parse(req.body);
@@ -181,6 +188,7 @@ void QueryHandlers::paths(const httplib::Request& req, httplib::Response& res) {
 
 void QueryHandlers::explode(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
+  require_adaptive(result->result(), req.matches[1].str(), "explode");
   const GvdIndex& index = result->index();
   ExplodeOptions options;
   if (const std::string s = param(req, "scale", false); !s.empty())
@@ -203,6 +211,7 @@ void QueryHandlers::explode(const httplib::Request& req, httplib::Response& res)
 
 void QueryHandlers::tight(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
+  require_adaptive(result->result(), req.matches[1].str(), "tight");
   const GvdIndex& index = result->index();
   const double below = parse_double("below", param(req, "below", true));
   if (below < 0) bad("\"below\" must be >= 0");
@@ -212,13 +221,59 @@ void QueryHandlers::tight(const httplib::Request& req, httplib::Response& res) {
 
 void QueryHandlers::contacts(const httplib::Request& req, httplib::Response& res) {
   const auto result = jobs_.result(req.matches[1].str());
+  require_adaptive(result->result(), req.matches[1].str(), "contacts");
   const GvdIndex& index = result->index();
   const double max_gap = parse_double("max_gap", param(req, "max_gap", true));
   if (!(max_gap >= 0)) bad("\"max_gap\" must be >= 0");
   send_json(res, contacts_to_json(index, max_gap, find_contacts(index, max_gap)));
 }
 
+void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response& res,
+                                  const JobParams& params, bool labels) {
+  // A grid job's own grid, computed with the job: its parameters are the job's.
+  for (const auto& [key, value] : req.params) {
+    bad("query parameter \"" + key + "\": a grid job's " + (labels ? "labels" : "field") +
+        ".npy is the grid computed with the job (resolution " +
+        std::to_string(params.grid_resolution) + ", metric " + params.metric +
+        "); its parameters are fixed when the job is submitted");
+  }
+  const std::string id = req.matches[1].str();
+  const auto result = jobs_.result(id);
+  const std::string dir = std::filesystem::path(jobs_.result_path(id)).parent_path().string();
+  const std::string path = labels ? grid_labels_path(dir, id) : grid_field_path(dir, id);
+  auto body = std::make_shared<std::vector<uint8_t>>(read_file_bytes(path));
+  GridOptions options;
+  options.resolution = params.grid_resolution;
+  options.box = params.grid_options({}).box;
+  options.max_cells = ~uint64_t{0} >> 32;
+  const GridSpec s = make_grid_spec(result->result().scene, options);
+  char origin[160];
+  std::snprintf(origin, sizeof origin, "%.17g,%.17g,%.17g", s.origin.x, s.origin.y, s.origin.z);
+  char h[40];
+  std::snprintf(h, sizeof h, "%.17g", s.h);
+  res.set_header("X-Gvd-Grid-Origin", origin);
+  res.set_header("X-Gvd-Grid-Cell", h);
+  res.set_header("X-Gvd-Grid-Metric", params.metric);
+  res.set_header("Content-Disposition",
+                 std::string("attachment; filename=\"") + (labels ? "labels" : "field") + ".npy\"");
+  res.set_header("ETag", "\"" + id + "\"");
+  res.set_header("Cache-Control", "public, max-age=86400");
+  res.set_content_provider(body->size(), "application/octet-stream",
+                           [body](size_t offset, size_t length, httplib::DataSink& sink) {
+                             const size_t n = std::min(length, body->size() - offset);
+                             return sink.write(reinterpret_cast<const char*>(body->data()) + offset,
+                                               n);
+                           });
+}
+
 void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bool labels) {
+  if (const auto doc = jobs_.status_json(req.matches[1].str())) {
+    const Json j = Json::parse(*doc, nullptr, false);
+    if (j.is_object() && j.contains("params") && j["params"].value("mode", "") == "grid") {
+      grid_job_file(req, res, JobParams::from_json(j["params"].dump()), labels);
+      return;
+    }
+  }
   // Everything about the request is checked before the result is loaded or any cell is
   // sampled: resolution, metric, flags, the box (its dimension against the job's), cells.
   ResultGridOptions options;

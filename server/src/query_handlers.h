@@ -2,6 +2,8 @@
 
 #include <cstdint>
 
+#include "job_params.h"
+
 namespace httplib {
 struct Request;
 struct Response;
@@ -33,9 +35,14 @@ class QueryHandlers {
   void contacts(const httplib::Request& req, httplib::Response& res);
   /// GET .../field.npy (`labels` false: distances) or .../labels.npy: the job's result sampled
   /// on a uniform grid (sample_result_grid), as a numpy .npy file.
+  /// A grid job's (mode=grid): its own grid, the files computed with it, no parameters.
   void grid(const httplib::Request& req, httplib::Response& res, bool labels);
 
  private:
+  /// grid() of a grid job: the job's field.npy / labels.npy from the store.
+  void grid_job_file(const httplib::Request& req, httplib::Response& res, const JobParams& params,
+                     bool labels);
+
   JobQueue& jobs_;
   uint64_t max_grid_cells_;
   uint64_t max_batch_points_;  ///< points of one batch nearest query

@@ -12,6 +12,7 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
+#include "job_compute.h"
 #include "job_params.h"
 #include "problem.h"
 
@@ -550,6 +551,8 @@ JobQueue::DeleteOutcome RedisJobQueue::remove(const std::string& id) {
           return redis.command({"PUBLISH", kChannel, id});
         });
         remove_quietly(cache_.path_of(id));
+        remove_quietly(grid_field_path(dir("results"), id));
+        remove_quietly(grid_labels_path(dir("results"), id));
         remove_quietly(dir("results") + "/" + id + ".json");
         remove_quietly(dir("failed") + "/" + id + ".json");
         cache_.erase(id);
@@ -1012,13 +1015,13 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
     limits.max_objects = options_.max_objects;
     limits.max_simplices = options_.max_simplices;
     Scene scene = read_stored_scene(base, limits);
-    PipelineOptions options = JobParams::from_json(job->params_json).pipeline_options(options_);
-    options.cancel = &job->cancel;
-    options.progress = [this, job](const std::string& stage, double fraction) {
+    const ProgressFn progress = [this, job](const std::string& stage, double fraction) {
       std::lock_guard lock(mutex_);
       if (record_progress(*job, stage, fraction)) job->dirty = true;
     };
-    const auto result = std::make_shared<const GvdResult>(compute_gvd(std::move(scene), options));
+    const std::shared_ptr<const GvdResult> result =
+        compute_job(std::move(scene), JobParams::from_json(job->params_json), options_,
+                    &job->cancel, progress, dir("results"), job->id);
     // The result file (atomic; a second worker finishing the same job writes the same bytes),
     // then its status document, then the request goes.
     const std::vector<uint8_t> bytes = result_to_bytes(*result);

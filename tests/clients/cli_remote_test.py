@@ -186,6 +186,44 @@ class RemoteCli(unittest.TestCase):
         self.assertEqual(rc, OK, err)
         self.assertEqual(json.loads(out)["neighbors"][0]["label"], "tetra_ascii")
 
+    def test_grid_job_outputs_are_the_local_grid_and_volumes_go_up(self):
+        d = fresh_dir("cli-remote-grid")
+        common = ["--mode", "grid", "--resolution", "40", "--metric", "l1", "--float64"]
+        rc, out, err = self.remote("compute", GEARS, *common, "--graph", f"{d}/g.json",
+                                   "-o", f"{d}/f.npy", "--labels", f"{d}/l.npy")
+        self.assertEqual(rc, OK, err)
+        self.assertIn("grid job (mode=grid)", err)
+        rc, _, err = gvd("compute", GEARS, *common, "--graph", f"{d}/lg.json", "-o",
+                         f"{d}/lf.npy", "--labels", f"{d}/ll.npy", "-q")
+        self.assertEqual(rc, OK, err)
+        for remote, local in (("f.npy", "lf.npy"), ("l.npy", "ll.npy")):
+            with open(f"{d}/{remote}", "rb") as a, open(f"{d}/{local}", "rb") as b:
+                self.assertEqual(a.read(), b.read(), remote)
+        with open(f"{d}/g.json") as a, open(f"{d}/lg.json") as b:
+            self.assertEqual(json.load(a)["edges"], json.load(b)["edges"])
+        # Outputs a grid job does not have are refused before submitting.
+        rc, _, err = self.remote("compute", GEARS, *common, "--save", f"{d}/r.gvd")
+        self.assertEqual(rc, USAGE, err)
+        # A labelled volume (2D, labels 1 | 2 | 3 in columns), spacing required by the server.
+        rows, cols = 6, 9
+        data = bytes(1 + x // 3 for _ in range(rows) for x in range(cols))
+        header = "{'descr': '|u1', 'fortran_order': False, 'shape': (%d, %d), }" % (rows, cols)
+        header += " " * (63 - (10 + len(header)) % 64) + "\n"
+        with open(f"{d}/v.npy", "wb") as f:
+            f.write(b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode()
+                    + data)
+        rc, _, err = self.remote("compute", "--volume", f"{d}/v.npy", "--spacing", "1,2",
+                                 "--mode", "grid", "--resolution", "20", "--graph",
+                                 f"{d}/vg.json", "-q")
+        self.assertEqual(rc, OK, err)
+        with open(f"{d}/vg.json") as f:
+            graph = json.load(f)
+        self.assertEqual({(e["a"], e["b"]) for e in graph["edges"]}, {(0, 1), (1, 2)})
+        rc, _, err = self.remote("compute", "--volume", f"{d}/v.npy", "--mode", "grid",
+                                 "--resolution", "20", "-q")
+        self.assertEqual(rc, BAD_INPUT, err)
+        self.assertIn("spacing", err)
+
 
 class NoEventStreams(unittest.TestCase):
     def test_compute_polls_when_the_server_has_no_stream_to_spare(self):
@@ -245,7 +283,7 @@ class ExitCodeTable(unittest.TestCase):
             documented = re.findall(r"^\| `(/problems/[a-z-]+)` \|", f.read(), re.M)
         with open(os.path.join(ROOT, "clients", "cli", "remote_commands.cpp")) as f:
             rows = re.findall(r'\{"(/problems/[a-z-]+)", (kExit\w+)\}', f.read())
-        self.assertEqual(len(documented), 27)
+        self.assertEqual(len(documented), 28)
         self.assertEqual(sorted(t for t, _ in rows), sorted(documented))
         codes = dict(rows)
         self.assertEqual(codes["/problems/queue-full"], "kExitBusy")

@@ -175,7 +175,7 @@ class FinishedJob(unittest.TestCase):
     def test_every_documented_problem_type_has_its_class(self):
         with open(os.path.join(ROOT, "docs", "API.md")) as f:
             documented = set(re.findall(r"^\| `(/problems/[a-z-]+)` \|", f.read(), re.M))
-        self.assertEqual(len(documented), 27)
+        self.assertEqual(len(documented), 28)
         self.assertEqual(documented, set(gc.PROBLEM_TYPES))
         classes = list(gc.PROBLEM_TYPES.values())
         self.assertEqual(len(set(classes)), len(classes), "one class per problem type")
@@ -204,6 +204,44 @@ class Submissions(unittest.TestCase):
                                 params={"max_depth": 5})
             one.wait(timeout=60)
             self.assertEqual([n["label"] for n in one.graph()["nodes"]], ["tetra_ascii"])
+
+    def test_grid_job_and_labelled_volume(self):
+        with ServerProcess(name="py-grid") as server:
+            client = gc.Client(server.url, retries=1, backoff=0.05)
+            self.addCleanup(client.close)
+            job = client.submit(GEARS, params={"mode": "grid", "resolution": 32, "float64": True})
+            done = job.wait(timeout=60)
+            self.assertEqual(done["params"]["mode"], "grid")
+            self.assertTrue(done["params"]["float64"])
+            status, _, field = raw_get(f"{server.url}/v1/jobs/{job.id}/field.npy")
+            self.assertEqual(status, 200)
+            self.assertEqual(job.field_npy(), field)
+            self.assertIn(b"'descr': '<f8'", field[:128])
+            self.assertEqual(len(job.graph()["edges"]), len(self.api_graph(server, job.id)))
+            with self.assertRaises(gc.AdaptiveOnly):
+                job.glb()
+            # A 2D volume: labels 1 | 2 | 3 in columns of 4 pixels, 8 rows, |u1.
+            rows, cols = 8, 12
+            data = bytes(1 + x // 4 for _ in range(rows) for x in range(cols))
+            header = "{'descr': '|u1', 'fortran_order': False, 'shape': (%d, %d), }" % (rows, cols)
+            header += " " * (63 - (10 + len(header)) % 64) + "\n"
+            npy = b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode() + data
+            path = os.path.join(fresh_dir("py-volume"), "labels.npy")
+            with open(path, "wb") as f:
+                f.write(npy)
+            vol = client.submit(path, params={"spacing": [1, 2], "mode": "grid", "resolution": 24})
+            vol.wait(timeout=60)
+            pairs = {tuple(sorted((e["a"], e["b"]))) for e in vol.graph()["edges"]}
+            self.assertEqual(pairs, {(0, 1), (1, 2)})
+            self.assertEqual([n["label"] for n in vol.graph()["nodes"]],
+                             ["label_1", "label_2", "label_3"])
+            with self.assertRaises(gc.InvalidArgument):
+                client.submit(path, params={"mode": "grid", "resolution": 24})  # no spacing
+
+    @staticmethod
+    def api_graph(server, job_id):
+        _, _, body = raw_get(f"{server.url}/v1/jobs/{job_id}/graph")
+        return json.loads(body)["edges"]
 
     def test_connection_refused_is_a_network_error_after_retries(self):
         s = socket.socket()

@@ -187,6 +187,46 @@ TEST(JobParams, NormalizedTextAndValidation) {
   EXPECT_EQ(JobParams{}.pipeline_options(server).max_depth, 10);
 }
 
+TEST(JobParams, GridModeIsItsOwnNormalizedTextAndAdaptiveIdsStay) {
+  // An adaptive job's text (and so its id) is what it was before mode=grid existed.
+  EXPECT_EQ(JobParams{}.to_json(),
+            "{\"ambiguity_levels\":-1,\"ambiguity_rounds\":-1,\"contact_depth\":0,"
+            "\"curved_tolerance\":0.0,\"domain\":[],\"frame\":\"auto\",\"max_depth\":0,"
+            "\"refine\":\"certified\",\"resolution\":\"compact\",\"unseen_rounds\":-1}");
+  JobParams g;
+  g.set("resolution", "64");  // before mode: the order of the query does not matter
+  g.set("mode", "grid");
+  g.set("metric", "linf");
+  g.set("float64", "true");
+  const JobParams back = JobParams::from_json(g.to_json());
+  EXPECT_EQ(back.to_json(), g.to_json());
+  EXPECT_TRUE(back.is_grid());
+  EXPECT_EQ(back.grid_resolution, 64);
+  EXPECT_EQ(back.metric, "linf");
+  EXPECT_TRUE(back.float64);
+  EXPECT_EQ(back.grid_options({}).resolution, 64);
+  EXPECT_EQ(back.grid_options({}).metric, GridMetric::kLinf);
+  ServerOptions server;
+  EXPECT_NO_THROW(g.check(2, server));
+  JobParams h = g;
+  h.set("resolution", "65");
+  EXPECT_NE(h.to_json(), g.to_json());
+  h.set("max_depth", "5");
+  EXPECT_THROW(h.check(2, server), Error);  // adaptive-only with mode=grid
+  JobParams no_resolution;
+  no_resolution.set("mode", "grid");
+  EXPECT_THROW(no_resolution.check(2, server), Error);
+  JobParams adaptive;
+  adaptive.set("metric", "l1");
+  EXPECT_THROW(adaptive.check(2, server), Error);  // grid-only without mode=grid
+  adaptive = {};
+  adaptive.set("resolution", "12");
+  EXPECT_THROW(adaptive.check(2, server), Error);
+  EXPECT_THROW(adaptive.set("resolution", "-3"), Error);
+  EXPECT_THROW(adaptive.set("mode", "voxels"), Error);
+  EXPECT_THROW(adaptive.set("float64", "maybe"), Error);
+}
+
 TEST(JobId, ContentAddressed) {
   const std::string scene = R"({"dimension":2,"objects":[]})";
   const std::string id = job_id(scene, JobParams{}.to_json());

@@ -10,11 +10,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -1591,6 +1594,371 @@ TEST(ServiceQueries, UnfinishedJobsAnswer409) {
   EXPECT_EQ(c->Get(("/v1/jobs/" + slow.id + "/field.npy?resolution=8").c_str())->status, 409);
   c->Delete(("/v1/jobs/" + slow.id).c_str());
   wait_for(*c, slow.id, {"cancelled"}, 10);
+}
+
+// ---- grid jobs (mode=grid) and labelled volumes (issue 13) ---------------------------------
+
+/// A numpy .npy file as the tests read it: the header's dict and the data after it.
+struct Npy {
+  std::string descr;
+  std::vector<uint64_t> shape;
+  std::string data;
+};
+
+/// Parses a .npy file by hand (magic, version 1.0, little-endian header length, dict).
+Npy parse_npy(const std::string& bytes) {
+  Npy n;
+  if (bytes.size() < 10 || bytes.substr(0, 6) != "\x93NUMPY") return n;
+  const size_t len = static_cast<unsigned char>(bytes[8]) |
+                     (static_cast<size_t>(static_cast<unsigned char>(bytes[9])) << 8);
+  const std::string header = bytes.substr(10, len);
+  const size_t d = header.find("'descr': '");
+  if (d != std::string::npos) n.descr = header.substr(d + 10, header.find('\'', d + 10) - d - 10);
+  const size_t sh = header.find("'shape': (");
+  if (sh != std::string::npos) {
+    std::stringstream in(header.substr(sh + 10, header.find(')', sh) - sh - 10));
+    std::string item;
+    while (std::getline(in, item, ',')) {
+      if (item.find_first_not_of(' ') != std::string::npos) n.shape.push_back(std::stoull(item));
+    }
+  }
+  n.data = bytes.substr(10 + len);
+  return n;
+}
+
+/// A .npy of a C-order array (`descr` e.g. "|u1", "<f4"), as numpy writes version 1.0.
+std::string make_npy(const std::string& descr, const std::vector<uint64_t>& shape,
+                     const std::string& data) {
+  std::string dims;
+  for (uint64_t v : shape) dims += std::to_string(v) + ",";
+  if (shape.size() > 1) dims.pop_back();
+  std::string header =
+      "{'descr': '" + descr + "', 'fortran_order': False, 'shape': (" + dims + "), }";
+  while ((10 + header.size() + 1) % 64 != 0) header += ' ';
+  header += '\n';
+  std::string out = "\x93NUMPY";
+  out += '\x01';
+  out += '\x00';
+  out += static_cast<char>(header.size() & 0xff);
+  out += static_cast<char>(header.size() >> 8);
+  return out + header + data;
+}
+
+/// A 2D scene's segments per object, for brute-force nearest objects.
+struct Segments2 {
+  std::vector<std::vector<std::array<double, 4>>> objects;
+};
+
+Segments2 scene_segments(const Json& scene) {
+  Segments2 s;
+  for (const Json& o : scene["objects"]) {
+    std::vector<std::array<double, 4>> segs;
+    for (const Json& e : o["segments"]) {
+      const Json& a = o["vertices"][e[0].get<size_t>()];
+      const Json& b = o["vertices"][e[1].get<size_t>()];
+      segs.push_back(
+          {a[0].get<double>(), a[1].get<double>(), b[0].get<double>(), b[1].get<double>()});
+    }
+    s.objects.push_back(std::move(segs));
+  }
+  return s;
+}
+
+/// Brute force: the distance from (x, y) to each object (over all its segments).
+std::vector<double> object_distances(const Segments2& s, double x, double y) {
+  std::vector<double> out;
+  for (const auto& segs : s.objects) {
+    double best = 1e300;
+    for (const auto& g : segs) {
+      const double dx = g[2] - g[0], dy = g[3] - g[1];
+      const double l2 = dx * dx + dy * dy;
+      double t = l2 > 0 ? ((x - g[0]) * dx + (y - g[1]) * dy) / l2 : 0;
+      t = std::clamp(t, 0.0, 1.0);
+      const double px = g[0] + t * dx - x, py = g[1] + t * dy - y;
+      best = std::min(best, std::sqrt(px * px + py * py));
+    }
+    out.push_back(best);
+  }
+  return out;
+}
+
+std::vector<double> header_numbers(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) v.push_back(std::stod(item));
+  return v;
+}
+
+/// The graph's edges as sorted label pairs.
+std::set<std::pair<std::string, std::string>> label_pairs(const Json& graph) {
+  std::set<std::pair<std::string, std::string>> pairs;
+  for (const Json& e : graph["edges"]) {
+    std::string a = graph["nodes"][e["a"].get<size_t>()]["label"];
+    std::string b = graph["nodes"][e["b"].get<size_t>()]["label"];
+    if (b < a) std::swap(a, b);
+    pairs.insert({a, b});
+  }
+  return pairs;
+}
+
+TEST(ServiceGrid, GridJobGraphIsTheBruteForceAdjacencyAndTheCli) {
+  const std::string store = fresh_dir("grid-job");
+  ServerProcess server(store);
+  auto c = client(server.port());
+  const std::string scene_text = data("scenes/gears2d.json");
+  const Submitted s = submit(*c, scene_text, "?mode=grid&resolution=40");
+  ASSERT_EQ(s.status, 202) << s.body.dump();
+  const Json done = wait_for(*c, s.id, {"done", "failed"});
+  ASSERT_EQ(done.value("status", ""), "done") << done.dump();
+  EXPECT_EQ(done["params"]["mode"], "grid");
+  EXPECT_EQ(done["params"]["resolution"], 40);
+  std::set<std::string> stages;
+  for (const Json& st : done["progress"]["stages"]) stages.insert(st["name"].get<std::string>());
+  EXPECT_EQ(stages.count("grid"), 1u) << done["progress"].dump();
+  EXPECT_EQ(done["links"].value("field", ""), "/v1/jobs/" + s.id + "/field.npy");
+  EXPECT_FALSE(done["links"].contains("glb"));
+  EXPECT_EQ(done["result"].value("graph_edges", 0), 3);
+  // Another resolution or metric is another job.
+  const Submitted other = submit(*c, scene_text, "?mode=grid&resolution=41");
+  EXPECT_NE(other.id, s.id);
+  EXPECT_NE(submit(*c, scene_text, "?mode=grid&resolution=40&metric=l1").id, s.id);
+  EXPECT_NE(submit(*c, scene_text).id, s.id);
+  EXPECT_EQ(submit(*c, scene_text, "?resolution=40&mode=grid").id, s.id);
+
+  const std::string url = "/v1/jobs/" + s.id;
+  auto r = c->Get((url + "/graph").c_str());
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json graph = Json::parse(r->body);
+  auto labels = c->Get((url + "/labels.npy").c_str());
+  ASSERT_EQ(labels->status, 200) << labels->body;
+  const Npy npy = parse_npy(labels->body);
+  ASSERT_EQ(npy.descr, "<i4");
+  ASSERT_EQ(npy.shape.size(), 2u);
+  const uint64_t ny = npy.shape[0], nx = npy.shape[1];
+  EXPECT_EQ(std::max(nx, ny), 40u);
+  ASSERT_EQ(npy.data.size(), nx * ny * 4);
+  const std::vector<double> origin = header_numbers(labels->get_header_value("X-Gvd-Grid-Origin"));
+  const double h = std::stod(labels->get_header_value("X-Gvd-Grid-Cell"));
+  ASSERT_EQ(origin.size(), 3u);
+
+  // Oracle: the nearest object at every cell centre by brute force, and the pairs of objects
+  // on two cells sharing a face.
+  const Json scene = Json::parse(scene_text);
+  const Segments2 segs = scene_segments(scene);
+  std::vector<int> oracle(nx * ny);
+  for (uint64_t j = 0; j < ny; ++j) {
+    for (uint64_t i = 0; i < nx; ++i) {
+      const std::vector<double> d =
+          object_distances(segs, origin[0] + (i + 0.5) * h, origin[1] + (j + 0.5) * h);
+      oracle[j * nx + i] = static_cast<int>(std::min_element(d.begin(), d.end()) - d.begin());
+    }
+  }
+  std::set<std::pair<std::string, std::string>> expected;
+  const auto add = [&](int a, int b) {
+    if (a == b) return;
+    std::string la = scene["objects"][a]["label"], lb = scene["objects"][b]["label"];
+    if (lb < la) std::swap(la, lb);
+    expected.insert({la, lb});
+  };
+  for (uint64_t j = 0; j < ny; ++j) {
+    for (uint64_t i = 0; i < nx; ++i) {
+      if (i + 1 < nx) add(oracle[j * nx + i], oracle[j * nx + i + 1]);
+      if (j + 1 < ny) add(oracle[j * nx + i], oracle[(j + 1) * nx + i]);
+    }
+  }
+  EXPECT_FALSE(expected.empty());
+  EXPECT_EQ(label_pairs(graph), expected);
+
+  // The same edges as `gvd compute --mode grid` on the same scene and parameters.
+  const std::string dir = fresh_dir("grid-job-cli");
+  ASSERT_TRUE(run_cli("compute " + std::string(GVD_TEST_DATA_DIR) +
+                          "/scenes/gears2d.json --mode grid --resolution 40 --graph " + dir +
+                          "/g.json -q",
+                      dir + "/cli.log"))
+      << read_text(dir + "/cli.log");
+  const Json cli = Json::parse(read_text(dir + "/g.json"));
+  ASSERT_EQ(cli["edges"].size(), graph["edges"].size());
+  for (size_t e = 0; e < cli["edges"].size(); ++e) {
+    EXPECT_EQ(cli["edges"][e]["a"], graph["edges"][e]["a"]);
+    EXPECT_EQ(cli["edges"][e]["b"], graph["edges"][e]["b"]);
+    EXPECT_NEAR(cli["edges"][e]["area"].get<double>(), graph["edges"][e]["area"].get<double>(),
+                1e-9);
+  }
+
+  // Outputs that need the adaptive result: 409 adaptive-only; the grid's own files take no
+  // sampling parameters.
+  for (const char* tail : {"/gvd.glb", "/gvd.json", "/result.gvd", "/nearest?point=0,0",
+                           "/objects/gear_a/neighbors", "/tight?below=1"}) {
+    r = c->Get((url + tail).c_str());
+    EXPECT_EQ(r->status, 409) << tail << " " << r->body;
+    EXPECT_EQ(Json::parse(r->body).value("type", ""), "/problems/adaptive-only") << tail;
+  }
+  r = c->Get((url + "/field.npy?resolution=8").c_str());
+  EXPECT_EQ(r->status, 400);
+  EXPECT_NE(r->body.find("resolution"), std::string::npos);
+  // DELETE removes the grid files with the result.
+  const std::string results = store + "/results/" + s.id;
+  EXPECT_TRUE(fs::exists(results + ".field.npy") && fs::exists(results + ".labels.npy"));
+  EXPECT_EQ(c->Delete(url.c_str())->status, 204);
+  EXPECT_EQ(c->Get(url.c_str())->status, 404);
+  EXPECT_FALSE(fs::exists(results + ".field.npy") || fs::exists(results + ".labels.npy") ||
+               fs::exists(results + ".gvd"));
+}
+
+TEST(ServiceGrid, GridJobFieldHasTheBruteForceLabelsAndDistances) {
+  ServerProcess server(fresh_dir("grid-field"));
+  auto c = client(server.port());
+  const std::string scene_text = data("scenes/gears2d.json");
+  const Submitted s = submit(*c, scene_text, "?mode=grid&resolution=64&unsigned=1");
+  ASSERT_EQ(wait_for(*c, s.id, {"done", "failed"}).value("status", ""), "done");
+  const auto field = c->Get(("/v1/jobs/" + s.id + "/field.npy").c_str());
+  const auto labels = c->Get(("/v1/jobs/" + s.id + "/labels.npy").c_str());
+  ASSERT_EQ(field->status, 200) << field->body;
+  ASSERT_EQ(labels->status, 200) << labels->body;
+  const Npy f = parse_npy(field->body), l = parse_npy(labels->body);
+  ASSERT_EQ(f.descr, "<f4");
+  ASSERT_EQ(f.shape, l.shape);
+  ASSERT_EQ(f.shape.size(), 2u);
+  const uint64_t ny = f.shape[0], nx = f.shape[1];
+  EXPECT_EQ(std::max(nx, ny), 64u);
+  ASSERT_EQ(f.data.size(), nx * ny * 4);
+  const std::vector<double> origin = header_numbers(field->get_header_value("X-Gvd-Grid-Origin"));
+  const double h = std::stod(field->get_header_value("X-Gvd-Grid-Cell"));
+  const Segments2 segs = scene_segments(Json::parse(scene_text));
+  int checked = 0;
+  for (uint64_t j = 0; j < ny; j += 3) {
+    for (uint64_t i = 0; i < nx; i += 3) {
+      const std::vector<double> d =
+          object_distances(segs, origin[0] + (i + 0.5) * h, origin[1] + (j + 0.5) * h);
+      std::vector<double> sorted = d;
+      std::sort(sorted.begin(), sorted.end());
+      const int nearest = static_cast<int>(std::min_element(d.begin(), d.end()) - d.begin());
+      float dist = 0;
+      int32_t label = 0;
+      std::memcpy(&dist, f.data.data() + 4 * (j * nx + i), 4);
+      std::memcpy(&label, l.data.data() + 4 * (j * nx + i), 4);
+      EXPECT_NEAR(dist, sorted[0], 1e-5 * (1 + sorted[0])) << i << "," << j;
+      // Within one cell (its diagonal) of a Voronoi boundary the label may be either side.
+      if (sorted[1] - sorted[0] <= std::sqrt(2.0) * h) continue;
+      EXPECT_EQ(label, nearest) << i << "," << j;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 100);
+}
+
+TEST(ServiceGrid, GridCellLimitIsCheckedBeforeWork) {
+  ServerProcess server(fresh_dir("grid-limit"), {"--max-grid-cells", "1000"});
+  auto c = client(server.port());
+  const Submitted s = submit(*c, data("scenes/gears2d.json"), "?mode=grid&resolution=100");
+  EXPECT_EQ(s.status, 422) << s.body.dump();
+  EXPECT_EQ(s.body.value("type", ""), "/problems/limit-exceeded");
+  EXPECT_TRUE(s.id.empty());
+  // Nothing was queued or computed.
+  EXPECT_TRUE(Json::parse(c->Get("/v1/jobs")->body)["jobs"].empty());
+  EXPECT_EQ(submit(*c, data("scenes/gears2d.json"), "?mode=grid&resolution=30").status, 202);
+}
+
+/// A 16^3 volume of labels 1, 2, 3 (uint8, x fastest): 1 below z = 5; 3 above z = 11 for
+/// x < 8; 2 elsewhere.
+std::string three_label_volume(std::vector<uint8_t>& v) {
+  const int n = 16;
+  v.assign(n * n * n, 2);
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        uint8_t label = 2;
+        if (z < 5) label = 1;
+        if (z >= 11 && x < 8) label = 3;
+        v[(z * n + y) * n + x] = label;
+      }
+  return make_npy("|u1", {16, 16, 16}, std::string(v.begin(), v.end()));
+}
+
+TEST(ServiceGrid, LabelledVolumeGraphIsTheVoxelAdjacency) {
+  ServerProcess server(fresh_dir("volume"));
+  auto c = client(server.port());
+  std::vector<uint8_t> v;
+  const std::string npy = three_label_volume(v);
+  // Oracle: label pairs on face-adjacent voxels.
+  std::set<std::pair<std::string, std::string>> expected;
+  const int n = 16;
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const int a = v[(z * n + y) * n + x];
+        const int next[3][3] = {{x + 1, y, z}, {x, y + 1, z}, {x, y, z + 1}};
+        for (const auto& q : next) {
+          if (q[0] >= n || q[1] >= n || q[2] >= n) continue;
+          const int b = v[(q[2] * n + q[1]) * n + q[0]];
+          if (a == b) continue;
+          std::string la = "label_" + std::to_string(a), lb = "label_" + std::to_string(b);
+          if (lb < la) std::swap(la, lb);
+          expected.insert({la, lb});
+        }
+      }
+  ASSERT_EQ(expected.size(), 2u);
+  for (const std::string query :
+       {"?spacing=1,1,2&mode=grid&resolution=24", "?spacing=1,1,2&max_depth=6"}) {
+    const Submitted s = submit(*c, npy, query, "application/x-npy");
+    ASSERT_EQ(s.status, 202) << query << " " << s.body.dump();
+    EXPECT_EQ(s.body["scene"]["objects"], 3) << s.body.dump();
+    const Json done = wait_for(*c, s.id, {"done", "failed"});
+    ASSERT_EQ(done.value("status", ""), "done") << done.dump();
+    const Json graph = Json::parse(c->Get(("/v1/jobs/" + s.id + "/graph").c_str())->body);
+    EXPECT_EQ(label_pairs(graph), expected) << query << " " << graph.dump();
+  }
+  // The same volume as a multipart part (sniffed as application/octet-stream).
+  httplib::MultipartFormDataItems items = {{"volume", npy, "v.npy", "application/octet-stream"}};
+  auto r = c->Post("/v1/jobs?spacing=1,1,2&mode=grid&resolution=24", items);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;  // the same scene and parameters: the same job
+  // Its parameters may come in a "params" part, as for meshes.
+  items.push_back({"params", R"({"mode":"grid","resolution":24})", "", "application/json"});
+  r = c->Post("/v1/jobs?spacing=1,1,2", items);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  items.back().content = "{not json";
+  r = c->Post("/v1/jobs?spacing=1,1,2", items);
+  EXPECT_EQ(r->status, 400) << r->body;
+  EXPECT_NE(r->body.find("params"), std::string::npos) << r->body;
+}
+
+TEST(ServiceGrid, BadGridAndVolumeInputNamesTheField) {
+  ServerProcess server(fresh_dir("volume-bad"));
+  auto c = client(server.port());
+  std::vector<uint8_t> v;
+  const std::string good = three_label_volume(v);
+  struct Case {
+    std::string body, query, type;
+    int status;
+    std::string says;
+  };
+  const std::string floats = make_npy("<f4", {4, 4, 4}, std::string(4 * 64, '\0'));
+  const std::string flat = make_npy("|u1", {16}, std::string(16, '\1'));
+  for (const Case& k : {
+           Case{floats, "?spacing=1,1,1", "application/x-npy", 415, "dtype"},
+           Case{flat, "?spacing=1", "application/x-npy", 415, "dimensions"},
+           Case{good, "", "application/x-npy", 400, "spacing"},
+           Case{good, "?spacing=1,1", "application/x-npy", 400, "spacing"},
+           Case{good, "?spacing=1,1,1&background=x", "application/x-npy", 400, "background"},
+           Case{data("scenes/gears2d.json"), "?spacing=1,1", "application/json", 400, "spacing"},
+           Case{data("scenes/gears2d.json"), "?mode=grid", "application/json", 400, "resolution"},
+           Case{data("scenes/gears2d.json"), "?resolution=64", "application/json", 400,
+                "mode=grid"},
+           Case{data("scenes/gears2d.json"), "?mode=grid&resolution=8&max_depth=5",
+                "application/json", 400, "max_depth"},
+           Case{data("scenes/gears2d.json"), "?mode=grid&resolution=8&metric=l3",
+                "application/json", 400, "l3"},
+           Case{data("scenes/gears2d.json"), "?mode=voxels", "application/json", 400, "mode"},
+       }) {
+    const Submitted s = submit(*c, k.body, k.query, k.type);
+    EXPECT_EQ(s.status, k.status) << k.query << " " << s.body.dump();
+    EXPECT_NE(s.body.value("detail", "").find(k.says), std::string::npos)
+        << k.query << " " << s.body.dump();
+  }
+  EXPECT_EQ(c->Get("/healthz")->status, 200);
 }
 
 }  // namespace
