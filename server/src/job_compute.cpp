@@ -61,6 +61,7 @@ std::shared_ptr<const GvdResult> compute_grid_job(Scene scene, const JobParams& 
   auto result = std::make_shared<GvdResult>();
   const int dim = scene.dimension;
   DomainOptions domain_options;
+  domain_options.frame = DomainFrame::kWorld;  // the grid runs along the user's axes
   if (options.box) domain_options.box = *options.box;
   result->domain = make_domain(scene, domain_options);
   result->octree.dimension = dim;
