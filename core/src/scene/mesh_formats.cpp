@@ -32,6 +32,14 @@ namespace {
   throw Error(ErrorCode::kInvalidScene, std::move(detail));
 }
 
+// An error at byte `offset` (0-based) of a binary file: the detail names the byte,
+// ErrorLocation::offset holds it.
+[[noreturn]] void invalid_at_byte(uint64_t offset, std::string detail) {
+  ErrorLocation where;
+  where.offset = static_cast<int64_t>(offset);
+  throw Error(ErrorCode::kInvalidScene, std::move(detail), where);
+}
+
 // An error on line `line` (1-based) of a text format: the detail says it, ErrorLocation::line
 // holds it.
 [[noreturn]] void invalid_at(size_t line, std::string detail) {
@@ -170,15 +178,22 @@ enum class PlyFormat { kAscii, kLittle, kBig };
 /// Reads the values of the body one by one, in either encoding.
 class PlyReader {
  public:
-  PlyReader(std::span<const uint8_t> body, PlyFormat format, const std::string& name)
-      : body_(body), format_(format), name_(name) {}
+  /// Where the next value starts in the file.
+  size_t offset() const { return base_ + pos_; }
+  /// `base`: where the body starts in the file (error offsets are the file's).
+  PlyReader(std::span<const uint8_t> body, PlyFormat format, const std::string& name, size_t base)
+      : body_(body), format_(format), name_(name), base_(base) {}
 
   double read(PlyType t, const std::string& where) {
     if (format_ == PlyFormat::kAscii) {
       while (pos_ < body_.size() && is_space(static_cast<char>(body_[pos_]))) ++pos_;
       const size_t start = pos_;
       while (pos_ < body_.size() && !is_space(static_cast<char>(body_[pos_]))) ++pos_;
-      if (pos_ == start) invalid("PLY \"" + name_ + "\" is truncated at " + where);
+      if (pos_ == start) {
+        invalid_at_byte(base_ + pos_, "PLY \"" + name_ + "\" is truncated at " + where +
+                                          ": the file ends at byte " +
+                                          std::to_string(base_ + pos_));
+      }
       const std::string_view token(reinterpret_cast<const char*>(body_.data()) + start,
                                    pos_ - start);
       double v = 0;
@@ -189,7 +204,12 @@ class PlyReader {
       return v;
     }
     const size_t n = ply_size(t);
-    if (body_.size() - pos_ < n) invalid("PLY \"" + name_ + "\" is truncated at " + where);
+    if (body_.size() - pos_ < n) {
+      invalid_at_byte(base_ + pos_, "PLY \"" + name_ + "\" is truncated at " + where + " (byte " +
+                                        std::to_string(base_ + pos_) + "): " + std::to_string(n) +
+                                        " bytes needed, " + std::to_string(body_.size() - pos_) +
+                                        " left");
+    }
     uint8_t raw[8];
     std::memcpy(raw, body_.data() + pos_, n);
     pos_ += n;
@@ -230,6 +250,7 @@ class PlyReader {
   size_t pos_ = 0;
   PlyFormat format_;
   const std::string& name_;
+  size_t base_;
 };
 
 // ---------------------------------------------------------------------------------- STL
@@ -444,7 +465,7 @@ Scene parse_ply(std::span<const uint8_t> bytes, const std::string& name,
   if (!ended) invalid(pre + "the header has no end_header line");
   if (!has_format) invalid(pre + "the header has no format line");
 
-  PlyReader reader(bytes.subspan(pos), format, name);
+  PlyReader reader(bytes.subspan(pos), format, name, pos);
   std::vector<Vec3> vertices;
   std::vector<Simplex> simplices;
   bool has_vertices = false, has_faces = false;
@@ -453,8 +474,11 @@ Scene parse_ply(std::span<const uint8_t> bytes, const std::string& name,
     // Every row holds at least one byte (binary) or two characters (ascii) per property.
     const uint64_t min_row = std::max<uint64_t>(1, e.properties.size());
     if (e.count > reader.remaining() / min_row + 1) {
-      invalid(pre + "element \"" + e.name + "\" declares " + std::to_string(e.count) +
-              " rows but the file is too short for them (truncated?)");
+      invalid_at_byte(reader.offset(), pre + "element \"" + e.name + "\" declares " +
+                                           std::to_string(e.count) + " rows from byte " +
+                                           std::to_string(reader.offset()) +
+                                           " on, but the file ends at byte " +
+                                           std::to_string(bytes.size()) + " (truncated?)");
     }
     const bool is_vertex = e.name == "vertex";
     const bool is_face = e.name == "face";
@@ -567,6 +591,26 @@ Scene parse_stl(std::span<const uint8_t> bytes, const std::string& name,
     return one_object_scene(name, std::move(welder.vertices), std::move(simplices));
   }
 
+  // Not 84 + 50 * count bytes, but binary after its 80-byte header (a NUL byte, which no ASCII
+  // STL holds; many exporters start the header with "solid" too): a truncated or padded binary
+  // STL, said so with the byte where its facets stop matching.
+  if (bytes.size() >= 84 &&
+      std::any_of(bytes.begin() + 84, bytes.end(), [](uint8_t b) { return b == 0; })) {
+    const uint64_t n = read_le32(bytes.data() + 80);
+    const uint64_t expected = 84 + 50 * n;
+    if (expected > bytes.size()) {
+      const uint64_t whole = (bytes.size() - 84) / 50;
+      invalid_at_byte(bytes.size(), pre + "binary STL truncated: its header declares " +
+                                        std::to_string(n) + " facets (" + std::to_string(expected) +
+                                        " bytes) but the file ends at byte " +
+                                        std::to_string(bytes.size()) + ", in facet " +
+                                        std::to_string(whole));
+    }
+    invalid_at_byte(expected, pre + "binary STL with " + std::to_string(bytes.size() - expected) +
+                                  " bytes after the " + std::to_string(n) +
+                                  " facets its header declares (from byte " +
+                                  std::to_string(expected) + ")");
+  }
   const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   if (!trim(text).starts_with("solid")) {
     invalid(pre + "neither ASCII (\"solid ...\") nor binary (size must be 84 + 50 * count)");

@@ -163,7 +163,74 @@ TEST(PlyLoad, TruncatedBinaryIsAnError) {
                ErrorCode::kInvalidScene, "truncated");
 }
 
+// Cut at every seventh length past the header, a binary PLY's error says a byte of the body
+// (ErrorLocation::offset and the detail): where the value it could not read starts (at most
+// 8 bytes before the end) or where the rows that cannot fit start.
+TEST(PlyLoad, TruncatedBinaryNamesTheByte) {
+  const std::vector<uint8_t> whole = read_bytes(kData + "/formats/cube_binary_be.ply");
+  const std::string text(whole.begin(), whole.end());
+  const size_t body = text.find("end_header\n") + 11;
+  for (size_t cut = body + 1; cut < whole.size(); cut += 7) {
+    const std::vector<uint8_t> bytes(whole.begin(), whole.begin() + static_cast<long>(cut));
+    try {
+      parse_scene_bytes(bytes, SceneFormat::kAuto, "cut");
+      ADD_FAILURE() << "cut at " << cut << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_LE(e.where().offset, static_cast<int64_t>(cut)) << cut;
+      EXPECT_GE(e.where().offset, static_cast<int64_t>(body)) << cut;
+      if (std::string(e.what()).find("is truncated at") != std::string::npos) {
+        EXPECT_GE(e.where().offset + 8, static_cast<int64_t>(cut)) << cut;
+      }
+      EXPECT_NE(std::string(e.what()).find("byte " + std::to_string(e.where().offset)),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------- STL
+
+// A binary STL whose 80-byte header starts with "solid" (as many exporters write it), cut
+// short: the error says binary and truncated, how many facets the header declares and the
+// byte where the file ends (was "no facets", read as ASCII); with bytes added after the last
+// facet, it says how many.
+TEST(StlLoad, TruncatedOrPaddedBinaryIsSaidSo) {
+  std::vector<uint8_t> bytes(84 + 50 * 3, 0);
+  const std::string header = "solid exported by a CAD tool";
+  std::copy(header.begin(), header.end(), bytes.begin());
+  bytes[80] = 3;
+  for (size_t f = 0; f < 3; ++f) {
+    for (size_t c = 0; c < 3; ++c) {
+      const float v[3] = {static_cast<float>(f + (c == 1)), static_cast<float>(c == 2), 0.5f};
+      std::memcpy(bytes.data() + 84 + 50 * f + 12 + 12 * c, v, sizeof v);
+    }
+  }
+  EXPECT_EQ(parse_scene_bytes(bytes, SceneFormat::kAuto, "ok").objects[0].simplices.size(), 3u);
+  std::vector<uint8_t> cut(bytes.begin(), bytes.end() - 20);
+  try {
+    parse_scene_bytes(cut, SceneFormat::kAuto, "cut");
+    ADD_FAILURE() << "a truncated binary STL was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().offset, static_cast<int64_t>(cut.size()));
+    const std::string what = e.what();
+    EXPECT_NE(what.find("binary STL truncated"), std::string::npos) << what;
+    EXPECT_NE(what.find("3 facets"), std::string::npos) << what;
+  }
+  // An ASCII STL with bytes above 0x7f (a UTF-8 name) is still read as ASCII.
+  const std::string ascii =
+      "solid W\xc3\xbcrfel\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n"
+      "   vertex 0 1 0\n  endloop\n endfacet\nendsolid W\xc3\xbcrfel\n" +
+      std::string(60, ' ');
+  EXPECT_EQ(parse_scene_bytes(std::vector<uint8_t>(ascii.begin(), ascii.end()), SceneFormat::kAuto,
+                              "utf8")
+                .objects[0]
+                .simplices.size(),
+            1u);
+  std::vector<uint8_t> padded = bytes;
+  padded.resize(bytes.size() + 5, 0);
+  expect_error([&] { parse_scene_bytes(padded, SceneFormat::kAuto, "padded"); },
+               ErrorCode::kInvalidScene, "5 bytes after the 3 facets");
+}
 
 TEST(StlLoad, AsciiIsWelded) {
   const Scene s = parse_file("formats/tetra_ascii.stl");

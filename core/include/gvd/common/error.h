@@ -37,7 +37,8 @@ struct ErrorLocation {
   std::string pointer;  ///< a JSON pointer (RFC 6901) into the scene document; "" when none
   int64_t line = -1;  ///< the line (1-based) of a text input (OBJ, PLY header, STL, OFF); -1: none
   /// A byte offset (0-based) into the JSON text that was parsed (a scene file, a request body,
-  /// a glTF's JSON) where it is malformed or nested too deep; -1: none
+  /// a glTF's JSON) where it is malformed or nested too deep, or into a binary mesh file (PLY,
+  /// STL) where it is truncated; -1: none
   int64_t offset = -1;
   bool empty() const {
     return object < 0 && label.empty() && element.empty() && pointer.empty() && line < 0 &&
