@@ -95,9 +95,10 @@ class PairCertifier final : public SplitOracle {
   /// two arms meet a line of some descendant each, the cone would be granted to the cell and
   /// its children and fail below them, and 2:1 balance would split cone cells next to it
   /// round after round. Refused, those cells follow the paper's rule (length/g along that
-  /// rim) and the cones elsewhere stay. make_domain puts one apex per axis on a lattice
-  /// plane, so only the others are ever held inside a cell below kRimAlignLevel. Call before
-  /// the first classify.
+  /// rim) and the cones elsewhere stay. make_domain puts one apex per axis on a plane of
+  /// level kRimAlignLevel (and may put a second one on one axis on a plane of level <= 12):
+  /// cells finer than that level never hold those inside, cells holding any other do. Call
+  /// before the first classify.
   void set_roof_apexes(std::vector<RoofApex> apexes) { apexes_ = std::move(apexes); }
   /// How near a lattice plane (unit domain) a roof's apex counts as on it.
   static constexpr double kApexPrecision = 1e-9;
