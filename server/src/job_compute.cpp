@@ -46,16 +46,9 @@ std::shared_ptr<const GvdResult> compute_grid_job(Scene scene, const JobParams& 
   check_cancel(cancel);
 
   // The grid first (atomic writes): a result file in the store means its grid is there.
-  const std::vector<uint64_t> shape = grid_shape(grid.spec);
-  std::vector<uint8_t> field;
-  if (params.float64) {
-    field = npy_bytes(GridValueType::kFloat64, shape, grid.distance.data());
-  } else {
-    const std::vector<float> f(grid.distance.begin(), grid.distance.end());
-    field = npy_bytes(GridValueType::kFloat32, shape, f.data());
-  }
+  const std::vector<uint8_t> field = grid_npy_bytes(grid, false, params.float64);
   write_file_atomic(grid_field_path(results_dir, id), field.data(), field.size());
-  const std::vector<uint8_t> labels = npy_bytes(GridValueType::kInt32, shape, grid.label.data());
+  const std::vector<uint8_t> labels = grid_npy_bytes(grid, true, false);
   write_file_atomic(grid_labels_path(results_dir, id), labels.data(), labels.size());
 
   auto result = std::make_shared<GvdResult>();

@@ -228,6 +228,34 @@ void QueryHandlers::contacts(const httplib::Request& req, httplib::Response& res
   send_json(res, contacts_to_json(index, max_gap, find_contacts(index, max_gap)));
 }
 
+namespace {
+
+// A grid's .npy bytes as an attachment, with its geometry in headers for clients that read
+// only the array; `etag` when the bytes are fixed for the job.
+void send_grid_npy(httplib::Response& res, const GridSpec& s, const std::string& metric,
+                   bool labels, std::shared_ptr<std::vector<uint8_t>> body,
+                   const std::string& etag = "") {
+  char origin[160];
+  std::snprintf(origin, sizeof origin, "%.17g,%.17g,%.17g", s.origin.x, s.origin.y, s.origin.z);
+  char h[40];
+  std::snprintf(h, sizeof h, "%.17g", s.h);
+  res.set_header("X-Gvd-Grid-Origin", origin);
+  res.set_header("X-Gvd-Grid-Cell", h);
+  res.set_header("X-Gvd-Grid-Metric", metric);
+  res.set_header("Content-Disposition",
+                 std::string("attachment; filename=\"") + (labels ? "labels" : "field") + ".npy\"");
+  if (!etag.empty()) res.set_header("ETag", "\"" + etag + "\"");
+  res.set_header("Cache-Control", "public, max-age=86400");
+  res.set_content_provider(body->size(), "application/octet-stream",
+                           [body](size_t offset, size_t length, httplib::DataSink& sink) {
+                             const size_t n = std::min(length, body->size() - offset);
+                             return sink.write(reinterpret_cast<const char*>(body->data()) + offset,
+                                               n);
+                           });
+}
+
+}  // namespace
+
 void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response& res,
                                   const JobParams& params, bool labels) {
   // A grid job's own grid, computed with the job: its parameters are the job's.
@@ -246,24 +274,8 @@ void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response
   options.resolution = params.grid_resolution;
   options.box = params.grid_options({}).box;
   options.max_cells = ~uint64_t{0} >> 32;
-  const GridSpec s = make_grid_spec(result->result().scene, options);
-  char origin[160];
-  std::snprintf(origin, sizeof origin, "%.17g,%.17g,%.17g", s.origin.x, s.origin.y, s.origin.z);
-  char h[40];
-  std::snprintf(h, sizeof h, "%.17g", s.h);
-  res.set_header("X-Gvd-Grid-Origin", origin);
-  res.set_header("X-Gvd-Grid-Cell", h);
-  res.set_header("X-Gvd-Grid-Metric", params.metric);
-  res.set_header("Content-Disposition",
-                 std::string("attachment; filename=\"") + (labels ? "labels" : "field") + ".npy\"");
-  res.set_header("ETag", "\"" + id + "\"");
-  res.set_header("Cache-Control", "public, max-age=86400");
-  res.set_content_provider(body->size(), "application/octet-stream",
-                           [body](size_t offset, size_t length, httplib::DataSink& sink) {
-                             const size_t n = std::min(length, body->size() - offset);
-                             return sink.write(reinterpret_cast<const char*>(body->data()) + offset,
-                                               n);
-                           });
+  send_grid_npy(res, make_grid_spec(result->result().scene, options), params.metric, labels,
+                std::move(body), id);
 }
 
 void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bool labels) {
@@ -317,35 +329,8 @@ void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bo
   }
   (void)make_result_grid_spec(gvd, options);  // the limits, before any work
   const DistanceGrid grid = sample_result_grid(gvd, options);
-  const std::vector<uint64_t> shape = grid_shape(grid.spec);
-  std::vector<uint8_t> bytes;
-  if (labels) {
-    bytes = npy_bytes(GridValueType::kInt32, shape, grid.label.data());
-  } else if (float64) {
-    bytes = npy_bytes(GridValueType::kFloat64, shape, grid.distance.data());
-  } else {
-    std::vector<float> f(grid.distance.begin(), grid.distance.end());
-    bytes = npy_bytes(GridValueType::kFloat32, shape, f.data());
-  }
-  // The grid's geometry, for clients that read only the array.
-  const GridSpec& s = grid.spec;
-  char origin[160];
-  std::snprintf(origin, sizeof origin, "%.17g,%.17g,%.17g", s.origin.x, s.origin.y, s.origin.z);
-  char h[40];
-  std::snprintf(h, sizeof h, "%.17g", s.h);
-  res.set_header("X-Gvd-Grid-Origin", origin);
-  res.set_header("X-Gvd-Grid-Cell", h);
-  res.set_header("X-Gvd-Grid-Metric", grid_metric_name(grid.metric));
-  res.set_header("Content-Disposition",
-                 std::string("attachment; filename=\"") + (labels ? "labels" : "field") + ".npy\"");
-  res.set_header("Cache-Control", "public, max-age=86400");
-  auto body = std::make_shared<std::vector<uint8_t>>(std::move(bytes));
-  res.set_content_provider(body->size(), "application/octet-stream",
-                           [body](size_t offset, size_t length, httplib::DataSink& sink) {
-                             const size_t n = std::min(length, body->size() - offset);
-                             return sink.write(reinterpret_cast<const char*>(body->data()) + offset,
-                                               n);
-                           });
+  send_grid_npy(res, grid.spec, grid_metric_name(grid.metric), labels,
+                std::make_shared<std::vector<uint8_t>>(grid_npy_bytes(grid, labels, float64)));
 }
 
 }  // namespace gvd::server

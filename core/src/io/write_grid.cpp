@@ -156,6 +156,14 @@ std::string nrrd_header(const GridSpec& spec, GridValueType type, const std::str
   return h;
 }
 
+std::vector<uint8_t> grid_npy_bytes(const DistanceGrid& grid, bool labels, bool float64) {
+  const std::vector<uint64_t> shape = grid_shape(grid.spec);
+  if (labels) return npy_bytes(GridValueType::kInt32, shape, grid.label.data());
+  if (float64) return npy_bytes(GridValueType::kFloat64, shape, grid.distance.data());
+  const std::vector<float> f(grid.distance.begin(), grid.distance.end());
+  return npy_bytes(GridValueType::kFloat32, shape, f.data());
+}
+
 std::vector<std::string> write_grid_distance(const DistanceGrid& grid, const std::string& path,
                                              bool float64) {
   kind_of(path);  // a bad name fails before any conversion

@@ -23,6 +23,10 @@ enum class GridValueType { kFloat32, kFloat64, kInt32 };
 std::vector<uint8_t> npy_bytes(GridValueType type, std::span<const uint64_t> shape,
                                const void* data);
 
+/// A grid's distances (float32, or float64 when `float64`) or, with `labels`, its labels
+/// (int32, -1 = none) as the bytes of a .npy file (npy_bytes over grid_shape).
+std::vector<uint8_t> grid_npy_bytes(const DistanceGrid& grid, bool labels, bool float64);
+
 /// The shape numpy sees for a grid: (ny, nx) in 2D, (nz, ny, nx) in 3D (x fastest, so
 /// array[k, j, i] is cell (i, j, k)).
 std::vector<uint64_t> grid_shape(const GridSpec& spec);
