@@ -1,6 +1,5 @@
 // `gvd`: compute generalized Voronoi diagrams from the command line and inspect results.
 
-#include <malloc.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -18,6 +17,7 @@
 #include "commands.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/peak_memory.h"
 #include "gvd/grid/grid_advice.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
@@ -654,11 +654,7 @@ int run(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   using namespace gvd::cli;
-  // One computation per process: big blocks freed by one stage are kept in the heap for the
-  // next instead of being unmapped and faulted in again (page faults are a tenth of the
-  // run time on a big scene otherwise).
-  mallopt(M_MMAP_THRESHOLD, 1 << 30);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  gvd::use_returning_heap();
   try {
     return run(argc, argv);
   } catch (const UsageError& e) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "gvd/common/error.h"
+#include "gvd/common/peak_memory.h"
 #include "gvd/kernels/opencl_backend.h"
 #include "http_server.h"
 #include "server_options.h"
@@ -22,6 +23,8 @@ extern char** environ;
 
 int main(int argc, char** argv) {
   using namespace gvd::server;
+  // Jobs' freed arrays go back to the system (the memory watchdog reads the resident size).
+  gvd::use_returning_heap();
   // Signals go to one thread that waits for them: blocked here, before any thread starts, so
   // every thread inherits the mask.
   sigset_t signals;

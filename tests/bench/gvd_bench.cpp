@@ -6,7 +6,6 @@
 // --gvd_write_scenes writes the scenes as scene JSON into DIR (for `gvd compute`) and exits.
 
 #include <benchmark/benchmark.h>
-#include <malloc.h>
 
 #include <algorithm>
 #include <cmath>
@@ -23,6 +22,7 @@
 #include "bench/boost_voronoi.h"
 #include "bench/sphere_lattice.h"
 #include "bench/table1_scenes.h"
+#include "gvd/common/peak_memory.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "support/scenes.h"
@@ -714,10 +714,8 @@ void print_summary() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // As the gvd command line does: freed big blocks stay in the heap for the next stage
-  // (reset_peak_rss hands them back between scenes).
-  mallopt(M_MMAP_THRESHOLD, 1 << 30);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // The heap policy of the gvd command line and server.
+  gvd::use_returning_heap();
   // Our one flag, removed before Google Benchmark parses the rest.
   bool slow = false;
   std::string scene_dir;

@@ -1,5 +1,7 @@
 #include "gvd/common/peak_memory.h"
 
+#include <malloc.h>
+
 #include <fstream>
 #include <string>
 
@@ -28,5 +30,10 @@ uint64_t status_kb(const std::string& name) {
 uint64_t peak_rss_bytes() { return status_kb("VmHWM:"); }
 
 uint64_t rss_bytes() { return status_kb("VmRSS:"); }
+
+void use_returning_heap() {
+  // Setting the threshold also stops glibc from moving it (and the trim threshold with it).
+  mallopt(M_MMAP_THRESHOLD, kReturnedBlockBytes);
+}
 
 }  // namespace gvd

@@ -64,6 +64,10 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
       for (uint32_t c = 0; c < (1u << dim); ++c) splits.push_back(child_cell(dim, splits[i], c));
     Octree previous = std::move(octree);
     octree = refine_octree(previous, geometry, splits, options.octree, plan.certified);
+    // The replaced octree is only looked up from now on (the distance update matches its
+    // leaves, the ambiguity limit locates in the first): its simplex lists go before the
+    // update, where the refinement's memory peaks.
+    previous.keep_cells_only();
     DistanceField next =
         compute_distances(octree, geometry, bvh, options.distance, std::move(field), previous);
     field = std::move(next);

@@ -58,49 +58,51 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
       },
       1);
   // Vertices: one per (object, other object, exact position). Identical points are made
-  // contiguous by sorting the records by (hash of the position, pair): a counting sort into
-  // buckets by the hash's top bits, then each bucket sorted on its own (both parallel).
-  // Equal hashes of different points (a 64-bit collision, not expected) would interleave
-  // their records: such a bucket is sorted again by the positions themselves.
-  struct Keyed {
-    uint64_t hash;
-    ObjectId lo, hi;
-    uint32_t record;
-    bool operator<(const Keyed& y) const {
-      return std::tie(hash, lo, hi) < std::tie(y.hash, y.lo, y.hi);
-    }
-  };
-  std::vector<Keyed> keyed;
+  // contiguous by sorting the records by the hash of their position: a counting sort into
+  // buckets by the hash's top bits (the 16-byte keys made as they are scattered, never held
+  // twice), then each bucket sorted on its own (both parallel). Within a run of one hash the
+  // records are then sorted by position and pair, which also keeps the points of a 64-bit
+  // collision (not expected) apart. Only the order of the records is kept.
+  std::vector<uint32_t> order(nc);  // the records in sorted order
   {
-    std::vector<Keyed> unsorted(nc);
-    parallel_for(nc, threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i) {
-        const SurfaceChunk::Corner& c = *record[i];
-        unsorted[i] = {position_hash(c.p), c.lo, c.hi, static_cast<uint32_t>(i)};
-      }
-    });
+    struct Keyed {
+      uint64_t hash;
+      uint32_t record;
+    };
+    std::vector<Keyed> keyed;
     constexpr int kBucketBits = 12;
-    const std::vector<size_t> bucket_begin = bucket_scatter(
-        unsorted, keyed, size_t{1} << kBucketBits,
+    const std::vector<size_t> bucket_begin = bucket_scatter_made(
+        nc,
+        [&](size_t i) {
+          return Keyed{position_hash(record[i]->p), static_cast<uint32_t>(i)};
+        },
+        keyed, size_t{1} << kBucketBits,
         [](const Keyed& x) { return static_cast<size_t>(x.hash >> (64 - kBucketBits)); }, threads);
+    auto same_point_and_pair = [&](uint32_t x, uint32_t y) {
+      const SurfaceChunk::Corner& a = *record[x];
+      const SurfaceChunk::Corner& b = *record[y];
+      return std::tie(a.p.x, a.p.y, a.p.z, a.lo, a.hi, x) <
+             std::tie(b.p.x, b.p.y, b.p.z, b.lo, b.hi, y);
+    };
     parallel_for(
         size_t{1} << kBucketBits, threads,
         [&](size_t bb, size_t be, int) {
           for (size_t bucket = bb; bucket < be; ++bucket) {
-            const auto first = keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket]);
-            const auto last = keyed.begin() + static_cast<std::ptrdiff_t>(bucket_begin[bucket + 1]);
-            std::sort(first, last);
-            bool collision = false;
-            for (auto it = first; it != last && it + 1 != last && !collision; ++it)
-              collision = it->hash == (it + 1)->hash &&
-                          record[it->record]->p != record[(it + 1)->record]->p;
-            if (!collision) continue;
-            std::sort(first, last, [&](const Keyed& x, const Keyed& y) {
-              const Vec3& px = record[x.record]->p;
-              const Vec3& py = record[y.record]->p;
-              return std::tie(x.hash, px.x, px.y, px.z, x.lo, x.hi) <
-                     std::tie(y.hash, py.x, py.y, py.z, y.lo, y.hi);
-            });
+            const size_t first = bucket_begin[bucket], last = bucket_begin[bucket + 1];
+            std::sort(keyed.begin() + static_cast<std::ptrdiff_t>(first),
+                      keyed.begin() + static_cast<std::ptrdiff_t>(last),
+                      [](const Keyed& x, const Keyed& y) {
+                        return std::tie(x.hash, x.record) < std::tie(y.hash, y.record);
+                      });
+            for (size_t i = first; i < last;) {
+              size_t j = i + 1;
+              while (j < last && keyed[j].hash == keyed[i].hash) ++j;
+              for (size_t k = i; k < j; ++k) order[k] = keyed[k].record;
+              if (j - i > 1)
+                std::sort(order.begin() + static_cast<std::ptrdiff_t>(i),
+                          order.begin() + static_cast<std::ptrdiff_t>(j), same_point_and_pair);
+              i = j;
+            }
           }
         },
         64);
@@ -109,27 +111,30 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
   // The records in sorted order (through `record`: no copy, the chunks hold them); runs of
   // one position; within a run, groups of one pair, whose records' sides together say which
   // of the pair's objects get a vertex.
-  auto sorted = [&](size_t i) -> SurfaceChunk::Corner& { return *record[keyed[i].record]; };
-  std::vector<uint8_t> new_group(nc), new_point(nc);
-  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) {
-      const SurfaceChunk::Corner* before = i == 0 ? nullptr : &sorted(i - 1);
-      const SurfaceChunk::Corner& c = sorted(i);
-      new_point[i] = before == nullptr || c.p != before->p;
-      new_group[i] = new_point[i] || c.lo != before->lo || c.hi != before->hi;
-    }
-  });
-  // The sides of each group, on its first record.
-  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) {
-      if (!new_group[i]) continue;
-      for (size_t j = i + 1; j < nc && !new_group[j]; ++j) sorted(i).sides |= sorted(j).sides;
-    }
-  });
+  auto sorted = [&](size_t i) -> SurfaceChunk::Corner& { return *record[order[i]]; };
+  std::vector<uint8_t> new_group(nc);
   std::vector<size_t> run_start;
-  for (size_t i = 0; i < nc; ++i)
-    if (new_point[i]) run_start.push_back(i);
-  run_start.push_back(nc);
+  {
+    std::vector<uint8_t> new_point(nc);
+    parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) {
+        const SurfaceChunk::Corner* before = i == 0 ? nullptr : &sorted(i - 1);
+        const SurfaceChunk::Corner& c = sorted(i);
+        new_point[i] = before == nullptr || c.p != before->p;
+        new_group[i] = new_point[i] || c.lo != before->lo || c.hi != before->hi;
+      }
+    });
+    // The sides of each group, on its first record.
+    parallel_for(nc, threads, [&](size_t b, size_t e, int) {
+      for (size_t i = b; i < e; ++i) {
+        if (!new_group[i]) continue;
+        for (size_t j = i + 1; j < nc && !new_group[j]; ++j) sorted(i).sides |= sorted(j).sides;
+      }
+    });
+    for (size_t i = 0; i < nc; ++i)
+      if (new_point[i]) run_start.push_back(i);
+    run_start.push_back(nc);
+  }
   const size_t runs = run_start.size() - 1;
 
   // Exact clearance once per distinct point; the records' witnesses bound the search.
@@ -138,9 +143,9 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
   std::vector<std::pair<uint64_t, uint32_t>> run_order(runs);
   parallel_for(runs, threads, [&](size_t b, size_t e, int) {
     for (size_t r = b; r < e; ++r) {
-      uint32_t first = keyed[run_start[r]].record;
+      uint32_t first = order[run_start[r]];
       for (size_t i = run_start[r] + 1; i < run_start[r + 1]; ++i)
-        first = std::min(first, keyed[i].record);
+        first = std::min(first, order[i]);
       run_order[r] = {first, static_cast<uint32_t>(r)};
     }
   });
@@ -157,8 +162,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
           const Vec3 p = sorted(run_start[r]).p;
           double bound2 = 1e300;
           for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
-            if (record[keyed[i].record]->witness != kNoVertex)
-              bound2 = std::min(bound2, dist2(p, closest[record[keyed[i].record]->witness]));
+            if (sorted(i).witness != kNoVertex)
+              bound2 = std::min(bound2, dist2(p, closest[sorted(i).witness]));
           if (have_previous) bound2 = std::min(bound2, dist2(p, previous) * (1 + 1e-9));
           const ClosestHit hit = bvh.nearest(p, bound2);
           run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
@@ -167,6 +172,7 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
         }
       },
       1024);
+  std::vector<std::pair<uint64_t, uint32_t>>().swap(run_order);
 
   Gvd gvd;
   gvd.dimension = dim;
@@ -224,8 +230,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
                   cell.clearance[at[side]] = run_clearance[r];
                 }
               }
-              index_of[2 * size_t{keyed[i].record}] = at[0];
-              index_of[2 * size_t{keyed[i].record} + 1] = at[1];
+              index_of[2 * size_t{order[i]}] = at[0];
+              index_of[2 * size_t{order[i]} + 1] = at[1];
             }
           }
         }
@@ -240,9 +246,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
   });
   auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
   release(record);
-  release(keyed);
+  release(order);
   release(new_group);
-  release(new_point);
   for (SurfaceChunk& chunk : chunks) release(chunk.corners);
   // Simplices: parts of whole chunks.
   const size_t simplex_parts = std::min(chunks.size(), 8 * static_cast<size_t>(threads));

@@ -3,14 +3,13 @@
 // resident memory to every gvd_bench row's peak).
 
 #include <benchmark/benchmark.h>
-#include <malloc.h>
 
 #include "bench/sphere_lattice.h"
+#include "gvd/common/peak_memory.h"
 
 int main(int argc, char** argv) {
-  // As gvd_bench and the gvd command line: freed big blocks stay in the heap.
-  mallopt(M_MMAP_THRESHOLD, 1 << 30);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // The heap policy of the gvd command line and server.
+  gvd::use_returning_heap();
   gvd::bench::register_sphere_lattice_benchmarks();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;

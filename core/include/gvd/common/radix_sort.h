@@ -9,16 +9,12 @@
 
 namespace gvd {
 
-/// Stable counting sort of `items` into `out` (resized) by `bucket_of(item)` in [0, buckets).
-/// With `threads` > 1 contiguous parts are counted and scattered in parallel (one histogram
-/// per part, so the order is the same whatever the threads). Returns the start of every
-/// bucket in `out` (buckets + 1 entries); with `skip_if_one_bucket`, returns an empty vector
-/// and leaves `out` alone when every item falls in one bucket.
-template <class T, class BucketOf>
-std::vector<size_t> bucket_scatter(const std::vector<T>& items, std::vector<T>& out, size_t buckets,
-                                   BucketOf&& bucket_of, int threads,
-                                   bool skip_if_one_bucket = false) {
-  const size_t n = items.size();
+/// bucket_scatter of the items item_at(0 .. n-1), made where they are needed (twice: to count,
+/// then to scatter) instead of read from an array: no second array of them is ever held.
+template <class T, class ItemAt, class BucketOf>
+std::vector<size_t> bucket_scatter_made(size_t n, ItemAt&& item_at, std::vector<T>& out,
+                                        size_t buckets, BucketOf&& bucket_of, int threads,
+                                        bool skip_if_one_bucket = false) {
   const size_t parts = n < (size_t{1} << 16) ? 1 : static_cast<size_t>(std::max(threads, 1));
   const size_t part_size = (n + parts - 1) / parts;
   std::vector<size_t> count(parts * buckets, 0);  // [part][bucket]
@@ -28,7 +24,7 @@ std::vector<size_t> bucket_scatter(const std::vector<T>& items, std::vector<T>& 
         for (size_t part = pb; part < pe; ++part) {
           size_t* c = &count[part * buckets];
           for (size_t i = part * part_size; i < std::min(n, (part + 1) * part_size); ++i)
-            ++c[bucket_of(items[i])];
+            ++c[bucket_of(item_at(i))];
         }
       },
       1);
@@ -50,12 +46,28 @@ std::vector<size_t> bucket_scatter(const std::vector<T>& items, std::vector<T>& 
       [&](size_t pb, size_t pe, int) {
         for (size_t part = pb; part < pe; ++part) {
           size_t* next = &count[part * buckets];
-          for (size_t i = part * part_size; i < std::min(n, (part + 1) * part_size); ++i)
-            out[next[bucket_of(items[i])]++] = items[i];
+          for (size_t i = part * part_size; i < std::min(n, (part + 1) * part_size); ++i) {
+            const T& item = item_at(i);
+            out[next[bucket_of(item)]++] = item;
+          }
         }
       },
       1);
   return start;
+}
+
+/// Stable counting sort of `items` into `out` (resized) by `bucket_of(item)` in [0, buckets).
+/// With `threads` > 1 contiguous parts are counted and scattered in parallel (one histogram
+/// per part, so the order is the same whatever the threads). Returns the start of every
+/// bucket in `out` (buckets + 1 entries); with `skip_if_one_bucket`, returns an empty vector
+/// and leaves `out` alone when every item falls in one bucket.
+template <class T, class BucketOf>
+std::vector<size_t> bucket_scatter(const std::vector<T>& items, std::vector<T>& out, size_t buckets,
+                                   BucketOf&& bucket_of, int threads,
+                                   bool skip_if_one_bucket = false) {
+  return bucket_scatter_made(
+      items.size(), [&](size_t i) -> const T& { return items[i]; }, out, buckets, bucket_of,
+      threads, skip_if_one_bucket);
 }
 
 /// Stable LSD radix sort of `items` by a 64-bit key (11 bits per pass): O(n), for the large

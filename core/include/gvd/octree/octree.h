@@ -172,6 +172,14 @@ struct Octree {
   uint32_t locate_lattice(const lattice::Coord& p) const;
   /// Bytes of the leaf arrays (code, level, object) — the octree proper.
   size_t structure_bytes() const;
+  /// Frees all but the leaves' codes and levels (what locate and the cells need): for an
+  /// octree that is only looked up, such as the one a refinement round replaced.
+  void keep_cells_only() {
+    std::vector<ObjectId>().swap(object);
+    std::vector<uint8_t>().swap(certified);
+    std::vector<uint32_t>().swap(simplex_begin);
+    std::vector<uint32_t>().swap(simplex_index);
+  }
 };
 
 /// Leaf location for many queries on one octree: where each top Morton prefix (16 bits) starts
