@@ -378,8 +378,8 @@ void define_module(py::module_& m) {
       make_namedtuple(m, "Explosion", {"scale", "ring", "displacement", "factor"},
                       "An exploded view (Result.explode): scale (displacement per ring), ring "
                       "int32 (n,) per object (0 = anchor, -1 = unreachable), displacement "
-                      "float64 (n, D) per object, factor float64 (n,): the share of the paper's "
-                      "displacement kept so that no two objects collide while they move.")
+                      "float64 (n, D) per object, factor float64 (n,): the share of scale x ring x "
+                      "direction kept so that no two objects collide while they move.")
           .inc_ref();
 
   py::class_<CancelToken>(m, "CancelToken",

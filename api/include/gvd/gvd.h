@@ -192,8 +192,8 @@ struct Explosion {
   double scale = 0;                  ///< displacement per ring used
   std::vector<int> ring;             ///< ring around the anchor (0 = anchor, -1 = unreachable)
   std::vector<double> displacement;  ///< dimension() numbers per object
-  /// Per object: the share of the paper's displacement kept (1, 1/2, ..., 1/16, 0) so that,
-  /// all moving at once, no two come closer than half of their gap or of the scale.
+  /// Per object: the share of scale * ring * direction kept (in [0, 1]; GvdIndex::explode) so
+  /// that, all moving at once, no two come closer than half of their gap or of the scale.
   std::vector<double> factor;
 };
 

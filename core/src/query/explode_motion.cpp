@@ -4,78 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 namespace gvd {
 
 namespace {
-
-/// The motion of two objects over t in [0, 1], in unit coordinates.
-struct PairMotion {
-  uint32_t a, b;
-  Vec3 move_a, move_b;  ///< displacement of each at t = 1
-};
-
-class MeshDistance {
- public:
-  MeshDistance(const UnitGeometry& geometry, const SimplexBvh& bvh)
-      : geometry_(geometry), bvh_(bvh), simplices_(geometry.object_count) {
-    for (uint32_t s = 0; s < geometry.simplices.size(); ++s)
-      simplices_[geometry.object_of[s]].push_back(s);
-  }
-
-  /// The simplices of one object.
-  const std::vector<uint32_t>& simplices_of(uint32_t object) const { return simplices_[object]; }
-
-  /// Exact distance between object a moved by `shift` and object b, unit coordinates: the
-  /// smaller object's simplices against the other's own tree.
-  double distance(uint32_t a, uint32_t b, Vec3 shift) const {
-    if (simplices_[a].size() > simplices_[b].size()) {
-      std::swap(a, b);
-      shift = shift * -1.0;
-    }
-    const int arity = geometry_.dimension == 2 ? 2 : 3;
-    double best = 1e300;
-    for (uint32_t s : simplices_[a]) {
-      Vec3 q[3];
-      for (int k = 0; k < arity; ++k) q[k] = geometry_.points[geometry_.simplices[s].v[k]] + shift;
-      const ClosestHit hit = bvh_.closest_to_simplex_in_object(q, b, best);
-      if (hit.found()) best = hit.dist2;
-      if (best == 0) break;
-    }
-    return std::sqrt(best);
-  }
-
-  /// Whether the pair stays at least `keep` apart for t in [0, 1] (keep = half of
-  /// min(gap at 0, margin); see collision_free_factors).
-  bool stays_apart(const PairMotion& m, double margin) const {
-    const Vec3 relative = m.move_a - m.move_b;
-    const double speed = norm(relative);
-    if (!(speed > 0)) return true;  // nothing changes between them
-    const double gap = distance(m.a, m.b, Vec3{});
-    double t = 0;
-    const double keep = 0.5 * std::min(gap, margin);
-    if (!(gap > 0)) {
-      t = 1e-4;  // touching at the start: they must come apart
-      if (!(distance(m.a, m.b, relative * t) > 0)) return false;
-    }
-    for (int step = 0; step < 256; ++step) {
-      const double d = distance(m.a, m.b, relative * t);
-      const double room = d - keep;
-      // Not closer than `keep` anywhere in [t, t + room / speed] (distance changes at most by
-      // the relative speed); a step too small to get anywhere is a meeting.
-      if (!(room > 1e-9 * (keep + speed))) return false;
-      t += room / speed;
-      if (t >= 1) return true;
-    }
-    return false;
-  }
-
- private:
-  const UnitGeometry& geometry_;
-  const SimplexBvh& bvh_;
-  std::vector<std::vector<uint32_t>> simplices_;
-};
 
 Box object_box(const UnitGeometry& g, const std::vector<uint32_t>& simplices) {
   Box b;
@@ -94,6 +26,10 @@ Box swept(const Box& box, Vec3 move, double grow) {
   return b;
 }
 
+uint64_t pair_key(uint32_t a, uint32_t b) {
+  return (uint64_t{std::min(a, b)} << 32) | std::max(a, b);
+}
+
 bool overlap(const Box& x, const Box& y) {
   for (int i = 0; i < 3; ++i)
     if (x.lo[i] > y.hi[i] || y.lo[i] > x.hi[i]) return false;
@@ -102,61 +38,116 @@ bool overlap(const Box& x, const Box& y) {
 
 }  // namespace
 
-std::vector<double> collision_free_factors(const UnitGeometry& geometry, const SimplexBvh& bvh,
-                                           const Domain& domain, std::span<const Vec3> displacement,
-                                           std::span<const uint32_t> order, double margin) {
-  const uint32_t n = geometry.object_count;
-  std::vector<double> factor(n, 0.0);
-  const Vec3 zero = domain.to_unit(Vec3{});
-  std::vector<Vec3> move(n);  // unit coordinates, the whole displacement
-  for (uint32_t o = 0; o < n && o < displacement.size(); ++o)
-    move[o] = domain.to_unit(displacement[o]) - zero;
-  const double unit_margin = margin / domain.side;
-  const MeshDistance distance(geometry, bvh);
-  auto empty = [&](uint32_t o) { return distance.simplices_of(o).empty(); };
-  std::vector<Box> box(n);
-  for (uint32_t o = 0; o < n; ++o) box[o] = object_box(geometry, distance.simplices_of(o));
+ExplodeMotion::ExplodeMotion(const UnitGeometry& geometry, const SimplexBvh& bvh,
+                             const Domain& domain, const DualGraph& graph, double margin)
+    : geometry_(geometry),
+      bvh_(bvh),
+      domain_(domain),
+      unit_margin_(margin / domain.side),
+      simplices_(geometry.object_count),
+      box_(geometry.object_count),
+      move_(geometry.object_count) {
+  for (uint32_t s = 0; s < geometry.simplices.size(); ++s)
+    simplices_[geometry.object_of[s]].push_back(s);
+  for (uint32_t o = 0; o < geometry.object_count; ++o)
+    box_[o] = object_box(geometry, simplices_[o]);
+  for (const DualEdge& e : graph.edges) neighbours_.insert(pair_key(e.a, e.b));
+}
 
-  // Candidate pairs: boxes swept by the whole displacements, grown by half the margin (the
-  // most any pair must keep), that meet. Sorted on x, then tested in full.
-  std::vector<Box> reach(n);
-  for (uint32_t o = 0; o < n; ++o) reach[o] = swept(box[o], move[o], 0.25 * unit_margin);
-  std::vector<uint32_t> by_x(n);
-  std::iota(by_x.begin(), by_x.end(), 0u);
-  std::sort(by_x.begin(), by_x.end(),
-            [&](uint32_t x, uint32_t y) { return reach[x].lo.x < reach[y].lo.x; });
-  std::vector<std::vector<uint32_t>> near(n);
-  for (size_t i = 0; i < n; ++i) {
-    const uint32_t a = by_x[i];
-    if (empty(a)) continue;
-    for (size_t j = i + 1; j < n && reach[by_x[j]].lo.x <= reach[a].hi.x; ++j) {
-      const uint32_t b = by_x[j];
-      if (empty(b) || !overlap(reach[a], reach[b])) continue;
-      near[a].push_back(b);
-      near[b].push_back(a);
-    }
-  }
+Vec3 ExplodeMotion::to_unit_vector(Vec3 displacement) const {
+  return domain_.to_unit(displacement) - domain_.to_unit(Vec3{});
+}
 
-  std::vector<uint8_t> done(n, 0);
-  for (uint32_t a : order) {
-    if (a >= n || done[a]) continue;
-    done[a] = 1;
-    if (!(norm(move[a]) > 0) || empty(a)) continue;  // stays: factor 0 is exact
-    for (double f : kExplodeFactors) {
-      if (f == 0) break;
-      bool safe = true;
-      for (uint32_t b : near[a]) {
-        const Vec3 mb = done[b] ? move[b] * factor[b] : Vec3{};
-        safe = distance.stays_apart({a, b, move[a] * f, mb}, unit_margin);
-        if (!safe) break;
-      }
-      if (safe) {
-        factor[a] = f;
-        break;
-      }
-    }
+/// Exact distance between object a moved by `shift` and object b, unit coordinates: the
+/// smaller object's simplices against the other's own tree.
+double ExplodeMotion::distance(uint32_t a, uint32_t b, Vec3 shift) const {
+  if (simplices_[a].size() > simplices_[b].size()) {
+    std::swap(a, b);
+    shift = shift * -1.0;
   }
-  return factor;
+  const int arity = geometry_.dimension == 2 ? 2 : 3;
+  double best = 1e300;
+  for (uint32_t s : simplices_[a]) {
+    Vec3 q[3];
+    for (int k = 0; k < arity; ++k) q[k] = geometry_.points[geometry_.simplices[s].v[k]] + shift;
+    const ClosestHit hit = bvh_.closest_to_simplex_in_object(q, b, best);
+    if (hit.found()) best = hit.dist2;
+    if (best == 0) break;
+  }
+  return std::sqrt(best);
+}
+
+double ExplodeMotion::gap(uint32_t a, uint32_t b) {
+  const uint64_t key = pair_key(a, b);
+  const auto it = gaps_.find(key);
+  if (it != gaps_.end()) return it->second;
+  const double d = distance(a, b, Vec3{});
+  gaps_.emplace(key, d);
+  return d;
+}
+
+/// Whether the pair keeps its distance bound (explode_motion.h) for t in [0, 1].
+bool ExplodeMotion::stays_apart(uint32_t a, uint32_t b, Vec3 move_a, Vec3 move_b) {
+  const Vec3 relative = move_a - move_b;
+  const double speed = norm(relative);
+  if (!(speed > 0)) return true;  // nothing changes between them
+  const double at_start = gap(a, b);
+  double t = 0;
+  double keep = 0.5 * std::min(at_start, unit_margin_);
+  if (!neighbours_.contains(pair_key(a, b)))
+    keep = std::max(keep, at_start - kExplodeSlack * unit_margin_);
+  if (!(at_start > 0)) {
+    t = 1e-4;  // touching at the start: they must come apart
+    if (!(distance(a, b, relative * t) > 0)) return false;
+  }
+  for (int step = 0; step < 1024; ++step) {
+    const double d = distance(a, b, relative * t);
+    const double room = d - keep;
+    // Not closer than `keep` anywhere in [t, t + room / speed] (distance changes at most by
+    // the relative speed); a step too small to get anywhere is a meeting.
+    if (!(room > 1e-9 * (keep + speed))) return false;
+    t += room / speed;
+    if (t >= 1) return true;
+  }
+  return false;
+}
+
+double ExplodeMotion::largest_share(uint32_t a, Vec3 displacement) {
+  const uint32_t n = geometry_.object_count;
+  const Vec3 move = to_unit_vector(displacement);
+  if (a >= n || !(norm(move) > 0) || simplices_[a].empty()) return 1;
+  // Candidates: objects whose boxes, swept by their motions and grown by half the margin
+  // (the most any pair must keep), meet this one's swept by the whole displacement.
+  const double grow = 0.25 * unit_margin_;
+  const Box reach = swept(box_[a], move, grow);
+  std::vector<uint32_t> near;
+  for (uint32_t b = 0; b < n; ++b) {
+    if (b != a && !simplices_[b].empty() && overlap(reach, swept(box_[b], move_[b], grow)))
+      near.push_back(b);
+  }
+  auto safe = [&](double share) {
+    for (uint32_t b : near)
+      if (!stays_apart(a, b, move * share, move_[b])) return false;
+    return true;
+  };
+  double lo = 0, hi = 0;
+  for (double share : kExplodeShares) {
+    if (safe(share)) {
+      lo = share;
+      break;
+    }
+    hi = share;
+  }
+  if (lo == 0 || hi == 0) return lo;  // nothing safe, or the whole displacement
+  for (int step = 0; step < kExplodeRefinements; ++step) {
+    const double mid = 0.5 * (lo + hi);
+    (safe(mid) ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+void ExplodeMotion::commit(uint32_t object, Vec3 displacement) {
+  if (object < move_.size()) move_[object] = to_unit_vector(displacement);
 }
 
 }  // namespace gvd

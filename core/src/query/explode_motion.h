@@ -1,33 +1,75 @@
 #pragma once
 
-// Collision-free exploded views (GvdIndex::explode): how much of each object's displacement
-// can be kept so that no two objects meet while all of them move at once, each along its
-// vector from t = 0 to t = 1 (the animation of exploded_to_glb).
+// Collision-free exploded views (GvdIndex::explode): how much of an object's displacement can
+// be kept so that no two objects meet while all of them move at once, each along its vector
+// from t = 0 to t = 1 (the animation of exploded_to_glb).
 
 #include <cstdint>
-#include <span>
+#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/graph/dual_graph.h"
 #include "gvd/scene/scene.h"
 
 namespace gvd {
 
-/// Factors of the kept displacement tried, largest first; the last (0: the object stays) is
-/// always safe, so the answer always exists.
-inline constexpr double kExplodeFactors[] = {1.0, 0.5, 0.25, 0.125, 0.0625, 0.0};
+/// Shares of a displacement tried first, largest first; between the last safe one and the
+/// one before it, the share is refined by kExplodeRefinements bisection steps. Below the
+/// last, the object stays (share 0, always safe).
+inline constexpr double kExplodeShares[] = {1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125, 0.015625};
+inline constexpr int kExplodeRefinements = 4;
+/// How much of the margin objects that are not neighbours may approach: a slack, so that a
+/// pair that slides past at a constant distance is certified in at most 1 / kExplodeSlack
+/// advancement steps.
+inline constexpr double kExplodeSlack = 0.01;
 
-/// For every object (index = object), the factor f of kExplodeFactors kept: objects are
-/// taken in `order` (the anchor and ring 1 first), and each keeps the largest f such that,
-/// with the objects before it moving by their kept displacements and those after it not
-/// moving, no pair it belongs to comes closer than half of min(its gap at t = 0, `margin`)
-/// at any t in [0, 1]. Certified, not sampled: conservative advancement on exact mesh
-/// distances (a pair whose distance is d at t cannot meet before t + d / |relative motion|).
-/// Pairs that touch at t = 0 are checked from t = 1e-4 on and must come apart. `displacement`
-/// is in user units; `geometry` / `bvh` are the result's unit-domain scene (bvh built with
-/// the objects of the simplices).
-std::vector<double> collision_free_factors(const UnitGeometry& geometry, const SimplexBvh& bvh,
-                                           const Domain& domain, std::span<const Vec3> displacement,
-                                           std::span<const uint32_t> order, double margin);
+/// Objects given their motion one at a time (GvdIndex::explode: ring by ring). An object
+/// not yet committed stays where it is; a committed one moves along its displacement over
+/// t in [0, 1]. A displacement is safe when, for every t in [0, 1], the object keeps from
+/// every other object at least
+///   - half of min(their gap at t = 0, `margin`) when the two are neighbours in the dual
+///     graph (their cells share an interface), and
+///   - their gap at t = 0 less kExplodeSlack * `margin` (but never less than the neighbours'
+///     bound) when they are not: objects that are not neighbours do not approach.
+/// Pairs touching at t = 0 are checked from t = 1e-4 on and must come apart. Certified, not
+/// sampled: conservative advancement on exact mesh distances (a pair whose distance is d at
+/// t cannot meet before t + d / |relative motion|). Every pair is checked when the later of
+/// its two objects is committed, with both motions final, so a view built by largest_share
+/// + commit is collision-free as a whole.
+class ExplodeMotion {
+ public:
+  /// `geometry` / `bvh`: the result's unit-domain scene (bvh built with the objects of the
+  /// simplices); `graph` says which pairs are neighbours; `margin` in user units (the explode
+  /// scale).
+  ExplodeMotion(const UnitGeometry& geometry, const SimplexBvh& bvh, const Domain& domain,
+                const DualGraph& graph, double margin);
+
+  /// The largest share s in [0, 1] found such that moving `object` by s * `displacement`
+  /// (user units) is safe against the committed objects' motions and the others standing:
+  /// the first safe one of kExplodeShares, refined by bisection towards the next larger
+  /// one; 0 when none is safe. 1 for a zero displacement or an object without simplices.
+  double largest_share(uint32_t object, Vec3 displacement);
+
+  /// Fixes the object's motion (user units); later shares are checked against it.
+  void commit(uint32_t object, Vec3 displacement);
+
+ private:
+  double distance(uint32_t a, uint32_t b, Vec3 shift) const;
+  double gap(uint32_t a, uint32_t b);
+  bool stays_apart(uint32_t a, uint32_t b, Vec3 move_a, Vec3 move_b);
+  Vec3 to_unit_vector(Vec3 displacement) const;
+
+  const UnitGeometry& geometry_;
+  const SimplexBvh& bvh_;
+  const Domain& domain_;
+  double unit_margin_;
+  std::vector<std::vector<uint32_t>> simplices_;  ///< per object
+  std::vector<Box> box_;                          ///< per object, unit coordinates
+  std::vector<Vec3> move_;                        ///< committed motion, unit coordinates
+  std::unordered_set<uint64_t> neighbours_;       ///< dual-graph pairs (lo << 32 | hi)
+  std::unordered_map<uint64_t, double> gaps_;     ///< unit gap at t = 0 by pair (lo << 32 | hi)
+};
 
 }  // namespace gvd

@@ -785,57 +785,108 @@ ExplodedView GvdIndex::explode(ObjectId anchor, const ExplodeOptions& options) c
   }
   view.objects.resize(n);
   for (uint32_t o = 0; o < n; ++o) view.objects[o].object = o;
+  // Rings: breadth-first on the dual graph, each sorted by object.
+  std::vector<std::vector<uint32_t>> rings{{anchor}};
   view.objects[anchor].ring = 0;
-  std::vector<uint32_t> frontier{anchor}, next;
-  for (int ring = 1; !frontier.empty(); ++ring) {
-    next.clear();
-    for (uint32_t from : frontier) {
+  for (;;) {
+    std::vector<uint32_t> next;
+    for (uint32_t from : rings.back()) {
       for (uint32_t k = m.dual.begin[from]; k < m.dual.begin[from + 1]; ++k) {
         const uint32_t to = m.dual.target[k];
         if (view.objects[to].ring >= 0) continue;
-        view.objects[to].ring = ring;
+        view.objects[to].ring = static_cast<int>(rings.size());
         next.push_back(to);
       }
     }
-    for (uint32_t d : next) {
-      // D_1: area-weighted mean normal of the interface with the anchor, pointing into D.
-      // D_i: area-weighted mean of D_{i-1} over D's neighbours in ring i - 1.
-      Vec3 sum;
-      double area = 0;
-      for (uint32_t k = m.dual.begin[d]; k < m.dual.begin[d + 1]; ++k) {
-        const uint32_t nb = m.dual.target[k];
-        if (view.objects[nb].ring != ring - 1) continue;
-        const uint32_t e = m.dual.edge[k];
-        if (ring == 1) {
-          sum = sum + (graph.edges[e].a == d ? m.normal_into_a[e] : m.normal_into_b[e]);
-        } else {
-          sum = sum + view.objects[nb].direction * graph.edges[e].area;
-        }
-        area += graph.edges[e].area;
-      }
-      Vec3 direction = area > 0 ? sum * (1.0 / area) : Vec3{};
-      if (m.dimension == 2) direction.z = 0;
-      view.objects[d].direction = direction;
-      view.objects[d].displacement = direction * (view.scale * ring);
-    }
-    std::swap(frontier, next);
+    if (next.empty()) break;
+    std::sort(next.begin(), next.end());
+    rings.push_back(std::move(next));
   }
-  // Collision-free: ring by ring, each object keeps as much of its displacement as lets it
-  // pass every other object at half their gap (or half the scale) while all move at once.
-  std::vector<uint32_t> order;
-  for (uint32_t o = 0; o < n; ++o)
-    if (view.objects[o].ring >= 0) order.push_back(o);
-  std::stable_sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
-    return view.objects[x].ring < view.objects[y].ring;
-  });
-  std::vector<Vec3> displacement(n);
-  for (uint32_t o = 0; o < n; ++o) displacement[o] = view.objects[o].displacement;
-  const std::vector<double> factor = collision_free_factors(
-      m.result->geometry, m.bvh, m.result->domain, displacement, order, view.scale);
-  for (uint32_t o = 0; o < n; ++o) {
-    ExplodedObject& e = view.objects[o];
-    e.factor = norm(e.displacement) > 0 ? factor[o] : 1.0;
-    e.displacement = e.displacement * e.factor;
+  // Ring by ring, object by object: pick a direction, keep the largest safe share of
+  // scale * ring along it, and fix that motion for the objects after it (ExplodeMotion).
+  ExplodeMotion motion(m.result->geometry, m.bvh, m.result->domain, graph, view.scale);
+  auto unit_or_zero = [](Vec3 v) { return norm(v) > 1e-6 ? v * (1.0 / norm(v)) : Vec3{}; };
+  for (size_t ring = 1; ring < rings.size(); ++ring) {
+    const double length = view.scale * static_cast<double>(ring);
+    for (uint32_t d : rings[ring]) {
+      // The paper's D: the area-weighted mean over D's neighbours in ring - 1 of their
+      // direction (D_i) or, for a neighbour that stays (the anchor: D_1), of the normal of
+      // the shared interface pointing into D. `apart`: the area-weighted sum of the normals of
+      // D's interfaces with its own ring (its ring-mates), pointing into D, away from them.
+      Vec3 along, apart;
+      double along_area = 0;
+      std::vector<Vec3> mates;  // per neighbour in D's ring: unit normal pointing into D
+      for (uint32_t k = m.dual.begin[d]; k < m.dual.begin[d + 1]; ++k) {
+        const ExplodedObject& nb = view.objects[m.dual.target[k]];
+        const uint32_t e = m.dual.edge[k];
+        const double area = graph.edges[e].area;
+        Vec3 into_d = graph.edges[e].a == d ? m.normal_into_a[e] : m.normal_into_b[e];
+        if (m.dimension == 2) into_d.z = 0;
+        if (nb.ring == static_cast<int>(ring) - 1) {
+          along = along + (norm(nb.displacement) > 0 ? nb.direction * area : into_d);
+          along_area += area;
+        } else if (nb.ring == static_cast<int>(ring)) {
+          apart = apart + into_d;
+          if (norm(into_d) > 0) mates.push_back(unit_or_zero(into_d));
+        }
+      }
+      if (along_area > 0) along = along * (1.0 / along_area);
+      if (m.dimension == 2) along.z = 0;
+      // Under an anchor that surrounds or carries the ring (balls in a box, gears in their
+      // frame), D leans towards the ring's other objects. Drop, for each neighbour in the
+      // ring, the part of a direction that points at it (twice over the neighbours) and keep
+      // the rest as a unit direction (out through a box's opening: the mean normal's length
+      // there only measures how much of the interface faced the walls); when less than a
+      // tenth is left (a closed frame or shell), the direction says nothing.
+      auto clear_of_mates = [&](Vec3 c) {
+        const double before = norm(c);
+        bool leaned = false;
+        for (int pass = 0; pass < 2; ++pass) {
+          for (const Vec3& n_k : mates) {
+            if (const double lean = dot(c, n_k); lean < 0) {
+              c = c - n_k * lean;
+              leaned = true;
+            }
+          }
+        }
+        if (!leaned) return c;
+        return norm(c) > 0.1 * before ? unit_or_zero(c) : Vec3{};
+      };
+      const Vec3 spread = clear_of_mates(unit_or_zero(apart));
+      along = clear_of_mates(along);
+      if (norm(along) <= 1e-6) along = Vec3{};
+      // Candidates, in order: the paper's direction, it turned away from the ring-mates,
+      // straight away from them. The paper's is kept unless another moves D at least twice
+      // as far; between the others the farther wins, the earlier on a tie.
+      const Vec3 candidates[] = {along, clear_of_mates(unit_or_zero(along + spread)), spread};
+      ExplodedObject& e = view.objects[d];
+      e.direction = Vec3{};
+      e.factor = 1;  // nothing to move; held back (0, first candidate) until one is kept
+      for (const Vec3& c : candidates) {
+        if (norm(c) > 0) {
+          e.direction = c;
+          e.factor = 0;
+          break;
+        }
+      }
+      int best = -1;
+      double best_kept = 0;  // kept share * |direction|
+      for (int i = 0; i < 3; ++i) {
+        const double bar = best == 0 ? 2 * best_kept : best_kept;
+        if (!(norm(candidates[i]) > bar)) continue;  // cannot win even kept whole
+        if (i > 0 && dist(candidates[i], candidates[i - 1]) < 1e-12) continue;  // tried
+        const double share = motion.largest_share(d, candidates[i] * length);
+        const double kept = share * norm(candidates[i]);
+        if (kept > bar) {
+          best = i;
+          best_kept = kept;
+          e.direction = candidates[i];
+          e.factor = share;
+        }
+      }
+      e.displacement = e.direction * (e.factor * length);
+      motion.commit(d, e.displacement);
+    }
   }
   return view;
 }

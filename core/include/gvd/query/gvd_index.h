@@ -75,13 +75,17 @@ struct PathAnswer {
 /// Exploded view (paper §7.4) around an anchor object.
 struct ExplodedObject {
   ObjectId object = kNoObject;
-  int ring = -1;      ///< ring around the anchor (0 = anchor, -1 = not connected to it)
-  Vec3 direction;     ///< D_i of the paper (area-weighted mean interface normal), |.| <= 1
+  int ring = -1;  ///< ring around the anchor (0 = anchor, -1 = not connected to it)
+  /// The direction used, |.| <= 1: D_i of the paper (area-weighted mean interface normal) or,
+  /// where that points at a ring-mate (GvdIndex::explode), a unit direction turned away from
+  /// the ring-mates.
+  Vec3 direction;
   Vec3 displacement;  ///< factor * scale * ring * direction, user units
-  /// The share of the paper's displacement kept (1, 1/2, ..., 1/16 or 0) so that, with every
-  /// object moving along its displacement at once, no two come closer than half of their gap
-  /// or of the scale, whichever is less (collision_free_factors). 1 for objects that do not
-  /// move.
+  /// The share of scale * ring * direction kept, in [0, 1], so that, with every object moving
+  /// along its displacement at once, no two come closer than half of their gap or of the
+  /// scale, whichever is less, and objects that are not dual-graph neighbours do not approach
+  /// by more than 1 % of the scale (ExplodeMotion). 0: held where it is; 1 for objects that
+  /// have no direction.
   double factor = 1;
 };
 
@@ -156,11 +160,19 @@ class GvdIndex {
   PathAnswer path(const PathQuery& query) const;
 
   /// Paper §7.4: D_1 for the anchor's 1-ring, D_i for ring i from the (i-1)-ring neighbours
-  /// adjacent to the object, weighted by interface area. Collision-free: all objects moving
-  /// at once along their displacements (t = 0 to 1, as the animated GLB does), no two come
-  /// closer than half of their gap or half the scale; an object whose paper displacement
-  /// would, keeps only a share of it (ExplodedObject::factor), decided ring by ring by
-  /// conservative advancement on exact mesh distances (certified for every t, not sampled).
+  /// adjacent to the object, weighted by interface area (a neighbour that does not move counts
+  /// with its interface normal, as the anchor does). Under an anchor that carries or surrounds
+  /// the objects D points at their ring-mates (dual-graph neighbours in the same ring): ring by
+  /// ring, object by object, the direction is chosen among D with the part pointing at any
+  /// ring-mate removed (then a unit vector: out through an opening), that turned away from
+  /// the ring-mates, and straight away from them (apart inside a closed anchor); D is kept
+  /// unless another moves the object at least twice as far. Collision-free: all objects
+  /// moving at once along their displacements (t = 0 to 1, as the animated GLB does), no two
+  /// come closer than half of their gap or half the scale and non-neighbours do not approach
+  /// by more than 1 % of the scale; each object keeps the largest share of its displacement
+  /// proved safe (ExplodedObject::factor) by conservative advancement on exact mesh distances
+  /// against the motions already fixed (certified for every t, not sampled). Cost: a few exact
+  /// mesh-distance marches per candidate direction and nearby pair.
   ExplodedView explode(ObjectId anchor, const ExplodeOptions& options = {}) const;
 
   /// Dual-graph edges with min_clearance < below, sorted by clearance (tightest first).
