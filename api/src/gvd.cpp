@@ -20,6 +20,7 @@
 #include "gvd/query/gvd_index.h"
 #include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
+#include "gvd/scene/units.h"
 
 namespace gvd::api {
 
@@ -204,6 +205,11 @@ Object Scene::add(std::string label, std::span<const double> vertices,
 }
 
 int Scene::dimension() const { return impl_->scene.dimension; }
+const std::string& Scene::units() const { return impl_->scene.units; }
+void Scene::set_units(std::string_view units) {
+  impl_->scene.units =
+      units.empty() ? std::string() : parse_units(units, "units", ErrorCode::kInvalidArgument);
+}
 int Scene::size() const { return static_cast<int>(impl_->scene.objects.size()); }
 const std::string& Scene::label(Object object) const {
   if (object < 0 || object >= size()) {
@@ -278,6 +284,7 @@ Result load(const std::string& path) { return Access::make_result(load_result(pa
 
 const GvdResult& Result::internal() const { return *impl_->result; }
 int Result::dimension() const { return internal().scene.dimension; }
+const std::string& Result::units() const { return internal().scene.units; }
 int Result::size() const { return static_cast<int>(internal().scene.objects.size()); }
 const std::string& Result::label(Object object) const {
   return internal().scene.objects[checked_object(internal(), object)].label;

@@ -26,6 +26,10 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
 /// The scene of `compute`: the files, or --volume (with --spacing, --background), within the
 /// --max-objects / --max-simplices limits.
 Scene load_compute_scene(const Args& args, const std::vector<std::string>& files);
+/// --units: the length unit of a scene (or of a loaded result's scene), set over its own
+/// "units" (said on stderr, unless -q/--quiet, when they differ). gvd::Error{kInvalidArgument}
+/// naming --units for a unit gvd does not know (gvd/scene/units.h). Nothing without --units.
+void apply_units(const Args& args, Scene& scene);
 
 /// The progress display on stderr (a bar on a terminal, one line per stage otherwise;
 /// nothing when `enabled` is false): call with the stage name and the fraction done, 0..1.

@@ -19,6 +19,7 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
 #include "gvd/scene/load_scene.h"
+#include "gvd/scene/units.h"
 
 namespace gvd::cli {
 namespace {
@@ -66,12 +67,13 @@ void check_grid_outputs(const std::optional<std::string>& output,
   }
 }
 
-void log_spec(const GridSpec& spec, GridMetric metric) {
+void log_spec(const GridSpec& spec, GridMetric metric, const std::string& units) {
   std::fprintf(stderr,
-               "gvd: grid %d x %d%s%s cells of %.6g (%llu cells), metric %s; computing...\n",
+               "gvd: grid %d x %d%s%s cells of %.6g%s (%llu cells), metric %s; computing...\n",
                spec.n[0], spec.n[1], spec.dimension == 3 ? " x " : "",
                spec.dimension == 3 ? std::to_string(spec.n[2]).c_str() : "", spec.h,
-               static_cast<unsigned long long>(spec.cell_count()), grid_metric_name(metric));
+               units_suffix(units).c_str(), static_cast<unsigned long long>(spec.cell_count()),
+               grid_metric_name(metric));
 }
 
 std::vector<std::string> write_outputs(const DistanceGrid& grid,
@@ -99,7 +101,7 @@ void prepare_grid(const Args& args, const Scene& scene, GridOptions& options, bo
     std::fprintf(stderr, "gvd: %zu objects, %llu simplices, %dD; %s; %d threads\n",
                  scene.objects.size(), static_cast<unsigned long long>(scene.simplex_count()),
                  scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
-    log_spec(spec, options.metric);
+    log_spec(spec, options.metric, scene.units);
   }
 }
 
@@ -133,7 +135,7 @@ int grid_from_result(const Args& args, const GridOptions& scene_options, bool qu
                  result.scene.dimension,
                  static_cast<unsigned long long>(result.octree.leaf_count()),
                  resolve_threads(options.threads));
-    log_spec(spec, options.metric);
+    log_spec(spec, options.metric, result.scene.units);
   }
   const DistanceGrid grid = sample_result_grid(result, options);
   const std::vector<std::string> written =

@@ -25,6 +25,7 @@
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
+#include "gvd/scene/units.h"
 #include "http_client.h"
 #include "remote_commands.h"
 
@@ -40,7 +41,7 @@ Usage:
                                    graph: interface area from the cell faces, gap and
                                    clearance exact (see "grid options")
   gvd info RESULT.gvd [--json]     depth, leaves, bytes per leaf, stage timings, warnings
-  gvd export RESULT.gvd [-o FILE.glb] [--graph FILE.json] [--json FILE.json]
+  gvd export RESULT.gvd [-o FILE.glb] [--graph FILE.json] [--json FILE.json] [--units U]
                                    the outputs of compute from a saved result, without
                                    recomputing
   gvd nearest INPUT (--points FILE.json | --point x,y[,z]...) [--fast]
@@ -78,6 +79,11 @@ compute options:
                              gap between the objects, touching)
   --json FILE.json           the GVD with float64 coordinates (for gaps below float32 resolution)
   --save FILE.gvd            the whole result (octree, distance field, GVD, graph), reloadable
+  --units U                  the length unit of the coordinates: nm, um (= µm), mm, cm, m,
+                             km, in, ft or Å; over a scene JSON's own "units" (meshes and
+                             volumes have none). A label only, nothing is scaled: every
+                             length reported says it (graph, queries, info, GLB extras).
+                             Queries and export also take it for a saved result
   --max-depth N              deepest octree level (default 26 in 2D, 21 in 3D = the limit)
   --domain x0,y0[,z0],x1,y1[,z1]
                              domain box (made a cube); default: bounding box + 5 % padding
@@ -187,8 +193,8 @@ remote mode (--server URL, or the environment variable GVD_SERVER; --local ignor
                              progress, downloads the outputs asked for; --no-wait: only submit.
                              Job parameters: --max-depth, --contact-depth, --domain, --frame,
                              --ambiguity-levels, --ambiguity-rounds, --unseen-rounds, --refine,
-                             --resolution, --curved-tolerance (threads, backend and limits are
-                             the server's own settings). --mode grid --resolution N [--metric,
+                             --resolution, --curved-tolerance, --units (threads, backend and
+                             limits are the server's own settings). --mode grid --resolution N [--metric,
                              --range-cells, --float64, --unsigned]: a grid job, whose outputs are
                              --graph, -o FIELD.npy and --labels LABELS.npy. --volume LABELS.npy
                              --spacing X,Y[,Z] [--background N|none]: a labelled volume (the
@@ -268,10 +274,10 @@ void print_grid_advice(const GvdResult& r, std::FILE* out) {
   }
   if (a.gap <= 0) return;
   std::fprintf(out,
-               "  uniform grid: the closest objects, %s and %s, are %.3g apart; a grid with a cell "
-               "diagonal below that needs resolution %.0f (%.3g cells): %s\n",
+               "  uniform grid: the closest objects, %s and %s, are %.3g%s apart; a grid with a "
+               "cell diagonal below that needs resolution %.0f (%.3g cells): %s\n",
                r.scene.objects[a.a].label.c_str(), r.scene.objects[a.b].label.c_str(), a.gap,
-               a.resolution, a.cells,
+               units_suffix(r.scene.units).c_str(), a.resolution, a.cells,
                a.fits ? "within gvd grid's default limit, so `gvd grid --resolution` that high "
                         "resolves it too"
                       : ("beyond gvd grid's default limit of " + std::to_string(a.cell_limit) +
@@ -281,12 +287,14 @@ void print_grid_advice(const GvdResult& r, std::FILE* out) {
 
 void print_summary(const GvdResult& r, std::FILE* out) {
   const ResultStats& s = r.stats;
-  std::fprintf(out, "  objects %zu, simplices %llu, dimension %d\n", r.scene.objects.size(),
-               static_cast<unsigned long long>(r.scene.simplex_count()), r.scene.dimension);
+  const std::string unit = units_suffix(r.scene.units);  // " mm", or nothing
+  std::fprintf(out, "  objects %zu, simplices %llu, dimension %d%s%s\n", r.scene.objects.size(),
+               static_cast<unsigned long long>(r.scene.simplex_count()), r.scene.dimension,
+               r.scene.units.empty() ? "" : ", units ", r.scene.units.c_str());
   std::fprintf(out, "  backend %s, %d threads\n", s.backend.c_str(), s.threads);
   const Domain& d = r.domain;
-  std::fprintf(out, "  domain: a %s of side %.9g from (%.9g, %.9g%s",
-               d.dimension == 2 ? "square" : "cube", d.side, d.origin.x, d.origin.y,
+  std::fprintf(out, "  domain: a %s of side %.9g%s from (%.9g, %.9g%s",
+               d.dimension == 2 ? "square" : "cube", d.side, unit.c_str(), d.origin.x, d.origin.y,
                d.dimension == 2 ? ")" : "");
   if (d.dimension == 3) std::fprintf(out, ", %.9g)", d.origin.z);
   if (!d.aligned()) {
@@ -376,7 +384,8 @@ const std::vector<std::string>& compute_value_flags() {
                                                  "--frame",
                                                  "--volume",
                                                  "--spacing",
-                                                 "--background"};
+                                                 "--background",
+                                                 "--units"};
   return flags;
 }
 
@@ -405,11 +414,28 @@ Scene load_compute_scene(const Args& args, const std::vector<std::string>& files
         vo.background = static_cast<uint64_t>((*n)[0]);
       }
     }
-    return scene_from_label_volume(labels, vo, limits);
+    Scene scene = scene_from_label_volume(labels, vo, limits);
+    apply_units(args, scene);
+    return scene;
   }
   if (args.has("--spacing") || args.has("--background"))
     throw UsageError{"--spacing and --background go with --volume LABELS.npy"};
-  return load_scene(files, limits);
+  Scene scene = load_scene(files, limits);
+  apply_units(args, scene);
+  return scene;
+}
+
+void apply_units(const Args& args, Scene& scene) {
+  const auto units = args.value("--units");
+  if (!units) return;
+  // The command line's word over the file's: a scene JSON's "units" are replaced (said on
+  // stderr when they differ), meshes and volumes (which have none) get them.
+  const std::string name = parse_units(*units, "--units", ErrorCode::kInvalidArgument);
+  if (!scene.units.empty() && scene.units != name && !(args.has("-q") || args.has("--quiet"))) {
+    std::fprintf(stderr, "gvd: --units %s replaces the input's units \"%s\"\n", name.c_str(),
+                 scene.units.c_str());
+  }
+  scene.units = name;
 }
 
 ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& files) {
@@ -550,8 +576,8 @@ int cmd_compute(int argc, char** argv) {
 }
 
 int cmd_export(int argc, char** argv) {
-  const Args args =
-      parse_args(argc, argv, 2, {"-o", "--output", "--graph", "--json"}, {"-q", "--quiet"});
+  const Args args = parse_args(argc, argv, 2, {"-o", "--output", "--graph", "--json", "--units"},
+                               {"-q", "--quiet"});
   if (args.positional.size() != 1) throw UsageError{"export needs exactly one result file"};
   const std::string& file = args.positional[0];
   if (!args.value("-o") && !args.value("--output") && !args.value("--graph") &&
@@ -563,7 +589,8 @@ int cmd_export(int argc, char** argv) {
         ErrorCode::kUnsupportedFormat,
         "\"" + file + "\" is not a saved result (a .gvd file written by gvd compute --save)");
   }
-  const GvdResult result = load_result(file);
+  GvdResult result = load_result(file);
+  apply_units(args, result.scene);  // --units labels a result saved without (or with others)
   const std::vector<std::string> written = write_requested_outputs(result, args);
   if (!(args.has("-q") || args.has("--quiet"))) {
     for (const std::string& w : written) std::fprintf(stderr, "gvd: wrote %s\n", w.c_str());

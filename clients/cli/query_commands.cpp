@@ -42,7 +42,9 @@ GvdIndex load_index(const Args& args) {
     throw UsageError{"give a result file (.gvd), a scene or --volume LABELS.npy"};
   std::shared_ptr<const GvdResult> result;
   if (args.positional.size() == 1 && is_result_file(args.positional[0])) {
-    result = std::make_shared<const GvdResult>(load_result(args.positional[0]));
+    GvdResult loaded = load_result(args.positional[0]);
+    apply_units(args, loaded.scene);
+    result = std::make_shared<const GvdResult>(std::move(loaded));
   } else {
     ComputeSetup setup = compute_setup(args, args.positional);
     result = std::make_shared<const GvdResult>(compute_gvd(std::move(setup.scene), setup.options));

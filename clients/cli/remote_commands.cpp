@@ -22,6 +22,7 @@
 #include "commands.h"
 #include "gvd/common/json_depth.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/scene/units.h"
 #include "http_client.h"
 
 namespace gvd::cli {
@@ -67,7 +68,7 @@ constexpr std::array<ProblemExit, 28> kProblemExits = {{
 
 // Flags that set a job parameter (sent as query parameters) and flags that configure a
 // computation the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 15> kJobParams = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 16> kJobParams = {{
     {"--max-depth", "max_depth"},
     {"--contact-depth", "contact_depth"},
     {"--ambiguity-levels", "ambiguity_levels"},
@@ -83,6 +84,7 @@ constexpr std::array<std::pair<std::string_view, std::string_view>, 15> kJobPara
     {"--range-cells", "range_cells"},
     {"--spacing", "spacing"},
     {"--background", "background"},
+    {"--units", "units"},
 }};
 // Boolean flags that are job parameters (sent as name=true).
 constexpr std::array<std::pair<std::string_view, std::string_view>, 2> kJobFlags = {{
@@ -387,8 +389,10 @@ int dimension_of(Remote& remote, const std::string& id) {
 void print_summary(const Json& doc, std::FILE* out) {
   const Json r = member(doc, "result", Json::object());
   auto num = [&](const char* k) { return number(r, k, 0.0); };
-  std::fprintf(out, "  objects %.0f, simplices %.0f, dimension %.0f\n", num("objects"),
-               num("simplices"), num("dimension"));
+  // The units of the job (top level of its status) or of its result (older servers: none).
+  const std::string units = text(doc, "units", text(r, "units", ""));
+  std::fprintf(out, "  objects %.0f, simplices %.0f, dimension %.0f%s%s\n", num("objects"),
+               num("simplices"), num("dimension"), units.empty() ? "" : ", units ", units.c_str());
   std::fprintf(out, "  backend %s, %.0f threads\n", text(r, "backend", "?").c_str(),
                num("threads"));
   const Json domain = member(r, "domain", Json::object());
@@ -399,7 +403,7 @@ void print_summary(const Json& doc, std::FILE* out) {
     for (size_t i = 0; i < origin.size(); ++i)
       std::fprintf(out, "%s%.9g", i > 0 ? ", " : "",
                    origin[i].is_number() ? origin[i].get<double>() : 0.0);
-    std::fprintf(out, ")");
+    std::fprintf(out, ")%s", units_suffix(units).c_str());
     const Json axes = member(domain, "axes", Json::array());
     if (axes.is_array() && !axes.empty()) {
       std::fprintf(out, ", its edges along the scene's faces:");

@@ -249,7 +249,8 @@ _CONTENT_TYPES = {
 }
 _PARAMS = ("max_depth", "contact_depth", "ambiguity_levels", "ambiguity_rounds",
            "unseen_rounds", "domain", "frame", "refine", "resolution", "curved_tolerance",
-           "mode", "metric", "float64", "unsigned", "range_cells", "spacing", "background")
+           "mode", "metric", "float64", "unsigned", "range_cells", "spacing", "background",
+           "units")
 
 
 class _Response:
@@ -430,7 +431,8 @@ class Client:
         ``contact_depth``, ``ambiguity_levels``, ``ambiguity_rounds``, ``unseen_rounds``,
         ``domain`` as a list of numbers, ...; ``mode="grid"`` with ``resolution=N``, ``metric``,
         ``float64``, ``unsigned``, ``range_cells``: the uniform-grid discrete GVD, whose
-        outputs are ``graph()``, ``field_npy()`` and ``labels_npy()``). A labelled volume: the
+        outputs are ``graph()``, ``field_npy()`` and ``labels_npy()``; ``units="mm"``: the
+        length unit, over a scene's own ``"units"``). A labelled volume: the
         path of an integer ``.npy`` with ``params={"spacing": [x, y, z]}`` (required) and
         optionally ``"background"`` (docs/API.md, "Labelled volumes").
 
@@ -526,6 +528,14 @@ class Job:
     def status(self) -> str:
         """``queued``, ``running``, ``done``, ``failed`` or ``cancelled``."""
         return self.info()["status"]
+
+    @property
+    def units(self) -> Optional[str]:
+        """The scene's length unit (``"mm"``, ...) as the last job document seen says it
+        (``info()`` refreshes it); None when the scene declares none."""
+        if not self.document:
+            self.info()
+        return self.document.get("units")
 
     def wait(self, progress: Optional[ProgressCallback] = None,
              timeout: Optional[float] = None, poll_interval: float = 0.25) -> dict:

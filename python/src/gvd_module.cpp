@@ -424,6 +424,18 @@ The facade copies both into the scene. Raises gvd.InvalidArgument (shape, dtype)
 gvd.InvalidScene (empty or duplicate label, a negative index; indices and coordinates are
 checked by compute(), which names the label, object, element and index).)doc")
       .def_property_readonly("dimension", [](const PyScene& s) { return s.scene.dimension(); })
+      .def_property(
+          "units",
+          [](const PyScene& s) -> std::optional<std::string> {
+            if (s.scene.units().empty()) return std::nullopt;
+            return s.scene.units();
+          },
+          [](PyScene& s, const std::optional<std::string>& units) {
+            s.scene.set_units(units.value_or(""));
+          },
+          "The length unit of the coordinates ('mm', 'µm', ...; None: none declared): a scene "
+          "JSON's \"units\", or set here (nm, um/µm, mm, cm, m, km, in, ft, Å; others raise "
+          "gvd.InvalidArgument). A label only: nothing is scaled; the result reports it.")
       .def("__len__", [](const PyScene& s) { return s.scene.size(); })
       .def_property_readonly(
           "labels",
@@ -468,6 +480,14 @@ checked by compute(), which names the label, object, element and index).)doc")
                           "A finished GVD and the queries on it (gvd.compute, gvd.load). "
                           "Immutable; its queries are thread-safe and run without the GIL.")
       .def_property_readonly("dimension", &api::Result::dimension)
+      .def_property_readonly(
+          "units",
+          [](const api::Result& r) -> std::optional<std::string> {
+            if (r.units().empty()) return std::nullopt;
+            return r.units();
+          },
+          "The scene's length unit ('mm', ...), in which every length of the result is; None "
+          "when the scene declared none.")
       .def("__len__", &api::Result::size, "Number of objects.")
       .def_property_readonly(
           "labels",

@@ -430,6 +430,7 @@ struct HttpServer::Impl {
                       "multipart part named \"volume\")");
     }
     params.check(scene.dimension, options);
+    if (!params.units.empty()) scene.units = params.units;  // the request's word over the file's
     if (params.is_grid()) {
       // The cell count (--max-grid-cells) and the box, before the job is queued.
       (void)make_grid_spec(scene, params.grid_options(options));
@@ -444,6 +445,7 @@ struct HttpServer::Impl {
     job.dimension = scene.dimension;
     job.objects = scene.objects.size();
     job.simplices = scene.simplex_count();
+    job.units = scene.units;
     job.warnings_json = warnings_to_json(scene.warnings);
     const SubmitOutcome outcome = jobs.submit(job);
     res.set_header("Location", "/v1/jobs/" + job.id);

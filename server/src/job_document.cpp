@@ -113,6 +113,9 @@ std::string job_document(const JobRecord& job, JobStatus shown,
       {"scene",
        {{"dimension", job.dimension}, {"objects", job.objects}, {"simplices", job.simplices}}},
       {"params", Json::parse(job.params_json.empty() ? "{}" : job.params_json)}};
+  // The length unit of every length in the document and the job's answers (the viewer reads
+  // it here); none declared: no key, never a made-up one.
+  if (!job.units.empty()) s["units"] = job.units;
   if (shown == JobStatus::kQueued && queue_position) s["queue_position"] = *queue_position;
   if (job.recovered) s["recovered"] = true;
   Json progress = {{"fraction", 0.0}, {"stage", nullptr}, {"stages", Json::array()}};

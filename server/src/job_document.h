@@ -26,6 +26,7 @@ struct JobRecord {
   int dimension = 3;
   uint64_t objects = 0;
   uint64_t simplices = 0;
+  std::string units;        ///< the scene's length unit; empty: none (no "units" key)
   double submitted_at = 0;  ///< unix seconds
   double started_at = 0;
   double finished_at = 0;

@@ -101,6 +101,7 @@ void JobManager::recover() {
     job->dimension = s.value("scene", Json::object()).value("dimension", 3);
     job->objects = s.value("scene", Json::object()).value("objects", uint64_t{0});
     job->simplices = s.value("scene", Json::object()).value("simplices", uint64_t{0});
+    job->units = s.value("units", std::string());
     job->submitted_at = unix_from_iso(s.value("submitted_at", Json()));
     job->started_at = unix_from_iso(s.value("started_at", Json()));
     job->finished_at = unix_from_iso(s.value("finished_at", Json()));
@@ -126,6 +127,7 @@ void JobManager::recover() {
         job->dimension = r.scene.dimension;
         job->objects = r.scene.objects.size();
         job->simplices = r.scene.simplex_count();
+        job->units = r.scene.units;
         job->result_info = result_info_json(r);
         jobs_[id] = job;
         write_file_atomic(status_path, status_json_locked(*job));
@@ -178,6 +180,7 @@ void JobManager::recover() {
       job->dimension = r.value("dimension", 3);
       job->objects = r.value("objects", uint64_t{0});
       job->simplices = r.value("simplices", uint64_t{0});
+      job->units = r.value("units", std::string());
       job->submitted_at = r.value("submitted_at", 0.0);
       job->recovered = true;
       jobs_.erase(id);  // a failed job submitted again
@@ -243,6 +246,7 @@ SubmitOutcome JobManager::submit(const JobRequest& request) {
   job->dimension = request.dimension;
   job->objects = request.objects;
   job->simplices = request.simplices;
+  job->units = request.units;
   job->submitted_at = unix_now();
   job->persisting = true;
   jobs_[request.id] = job;
@@ -253,13 +257,14 @@ SubmitOutcome JobManager::submit(const JobRequest& request) {
   try {
     const std::string base = dir("requests") + "/" + request.id;
     write_file_atomic(base + ".scene.json", request.scene_json);
-    const Json meta = {{"id", request.id},
-                       {"submitted_at", job->submitted_at},
-                       {"params", Json::parse(request.params_json)},
-                       {"warnings", Json::parse(request.warnings_json)},
-                       {"dimension", request.dimension},
-                       {"objects", request.objects},
-                       {"simplices", request.simplices}};
+    Json meta = {{"id", request.id},
+                 {"submitted_at", job->submitted_at},
+                 {"params", Json::parse(request.params_json)},
+                 {"warnings", Json::parse(request.warnings_json)},
+                 {"dimension", request.dimension},
+                 {"objects", request.objects},
+                 {"simplices", request.simplices}};
+    if (!request.units.empty()) meta["units"] = request.units;
     write_file_atomic(base + ".json", meta.dump());
     remove_quietly(dir("failed") + "/" + request.id + ".json");
   } catch (...) {

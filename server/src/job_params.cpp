@@ -8,6 +8,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/json_input.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/units.h"
 
 namespace gvd::server {
 namespace {
@@ -15,7 +16,8 @@ namespace {
 const char* const kNames[] = {
     "max_depth", "contact_depth", "ambiguity_levels", "ambiguity_rounds", "unseen_rounds",
     "domain",    "refine",        "resolution",       "curved_tolerance", "frame",
-    "mode",      "metric",        "float64",          "unsigned",         "range_cells"};
+    "mode",      "metric",        "float64",          "unsigned",         "range_cells",
+    "units"};
 
 [[noreturn]] void bad(const std::string& detail) {
   throw Error(ErrorCode::kInvalidArgument, detail);
@@ -90,6 +92,8 @@ void JobParams::set(const std::string& name, const std::string& value) {
     unsigned_distance = parse_flag(name, value);
   } else if (name == "range_cells") {
     range_cells = parse_int(name, value, 0, 4096);
+  } else if (name == "units") {
+    units = parse_units(value, "parameter \"units\"", ErrorCode::kInvalidArgument);
   } else if (name == "curved_tolerance") {
     double v = -1;
     const char* end = value.data() + value.size();
@@ -124,7 +128,7 @@ void JobParams::set(const std::string& name, const std::string& value) {
     bad("unknown parameter \"" + name +
         "\" (known: max_depth, contact_depth, ambiguity_levels, ambiguity_rounds, "
         "unseen_rounds, domain, frame, refine, resolution, curved_tolerance, mode, metric, "
-        "float64, unsigned, range_cells)");
+        "float64, unsigned, range_cells, units)");
   }
 }
 

@@ -35,6 +35,11 @@ struct JobParams {
   bool float64 = false;            ///< mode=grid: field.npy as float64 instead of float32
   bool unsigned_distance = false;  ///< mode=grid: no negative distances inside closed objects
   int range_cells = 0;             ///< mode=grid: GridOptions::range_cells (0 = default)
+  /// The scene's length unit (canonical, gvd/scene/units.h); empty: the scene's own, if any.
+  /// Not a compute parameter: submit sets it on the scene, over the scene's own "units",
+  /// before the scene is normalized, so it reaches the job id through the scene; to_json
+  /// leaves it out.
+  std::string units;
 
   bool is_grid() const { return mode == "grid"; }
 

@@ -27,6 +27,7 @@ struct JobRequest {
   int dimension = 3;
   uint64_t objects = 0;
   uint64_t simplices = 0;
+  std::string units;  ///< the scene's length unit (Scene::units), empty: none
 };
 
 /// The content address of a job: SHA-256 (first 128 bits, hex) of the algorithm version, the

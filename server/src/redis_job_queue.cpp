@@ -342,6 +342,7 @@ std::optional<RedisJobQueue::Found> RedisJobQueue::lookup_store(const std::strin
       job.dimension = meta.value("dimension", 3);
       job.objects = meta.value("objects", uint64_t{0});
       job.simplices = meta.value("simplices", uint64_t{0});
+      job.units = meta.value("units", std::string());
       job.submitted_at = meta.value("submitted_at", 0.0);
       job.recovered = true;
       return Found{JobStatus::kQueued, job_document(job, JobStatus::kQueued, std::nullopt)};
@@ -481,18 +482,20 @@ SubmitOutcome RedisJobQueue::submit(const JobRequest& request) {
   job.dimension = request.dimension;
   job.objects = request.objects;
   job.simplices = request.simplices;
+  job.units = request.units;
   job.submitted_at = unix_now();
   // The request goes to the shared store first (a worker of any replica reads it there): the
   // scene, then the request that points at it.
   const std::string base = dir("requests") + "/" + request.id;
   write_file_atomic(base + ".scene.json", request.scene_json);
-  const Json meta = {{"id", request.id},
-                     {"submitted_at", job.submitted_at},
-                     {"params", Json::parse(request.params_json)},
-                     {"warnings", Json::parse(request.warnings_json)},
-                     {"dimension", request.dimension},
-                     {"objects", request.objects},
-                     {"simplices", request.simplices}};
+  Json meta = {{"id", request.id},
+               {"submitted_at", job.submitted_at},
+               {"params", Json::parse(request.params_json)},
+               {"warnings", Json::parse(request.warnings_json)},
+               {"dimension", request.dimension},
+               {"objects", request.objects},
+               {"simplices", request.simplices}};
+  if (!request.units.empty()) meta["units"] = request.units;
   write_file_atomic(base + ".json", meta.dump());
   remove_quietly(dir("failed") + "/" + request.id + ".json");
   const std::string doc = job_document(job, JobStatus::kQueued, std::nullopt);
@@ -695,6 +698,7 @@ void RedisJobQueue::requeue_store(RedisConnection& redis, std::chrono::seconds m
       job.dimension = meta.value("dimension", 3);
       job.objects = meta.value("objects", uint64_t{0});
       job.simplices = meta.value("simplices", uint64_t{0});
+      job.units = meta.value("units", std::string());
       job.submitted_at = submitted_at;
       job.recovered = true;
       const std::string doc = job_document(job, JobStatus::kQueued, std::nullopt);
@@ -975,6 +979,7 @@ void RedisJobQueue::process(RedisConnection& redis, const std::string& entry, co
   job->dimension = meta.value("dimension", 3);
   job->objects = meta.value("objects", uint64_t{0});
   job->simplices = meta.value("simplices", uint64_t{0});
+  job->units = meta.value("units", std::string());
   job->submitted_at = meta.value("submitted_at", 0.0);
   job->recovered = deliveries > 1;
   job->started_at = unix_now();

@@ -199,6 +199,16 @@ class Submissions(unittest.TestCase):
             self.assertEqual(done["scene"]["objects"], 2)
             self.assertEqual([n["label"] for n in job.graph()["nodes"]], ["cube", "tetra_ascii"])
             self.assertEqual(done["params"]["max_depth"], 6)
+            # Meshes have no units unless given: then the job, its graph and answers say them.
+            self.assertIsNone(job.units)
+            self.assertNotIn("units", job.graph())
+            in_mm = client.submit(files, params={"max_depth": 6, "contact_depth": 4,
+                                                 "units": "mm"})
+            self.assertNotEqual(in_mm.id, job.id)
+            self.assertEqual(in_mm.wait(timeout=60)["units"], "mm")
+            self.assertEqual(in_mm.units, "mm")
+            self.assertEqual(in_mm.graph()["units"], "mm")
+            self.assertEqual(in_mm.tight(10.0)["units"], "mm")
             # One STL file on its own: labelled by its stem through ?label=.
             one = client.submit(os.path.join(DATA, "formats", "tetra_ascii.stl"),
                                 params={"max_depth": 5})

@@ -793,5 +793,54 @@ class Interop(unittest.TestCase):
         self.assertEqual(len(r.neighbors("lists")), 3)
 
 
+
+class Units(unittest.TestCase):
+    """A scene's length unit: read from a scene JSON or set on a Scene, carried by the result,
+    its saved file and its documents; None when none was declared (never a default)."""
+
+    def test_set_units_travel_with_the_result(self):
+        s = two_boxes()
+        self.assertIsNone(s.units)
+        r = gvd.compute(s, backend="cpu")
+        self.assertIsNone(r.units)
+        self.assertNotIn("units", json.loads(r.info_json()))
+        s.units = "um"
+        self.assertEqual(s.units, "\u00b5m")  # the canonical name
+        r = gvd.compute(s, backend="cpu")
+        self.assertEqual(r.units, "\u00b5m")
+        self.assertEqual(json.loads(r.info_json())["units"], "\u00b5m")
+        saved = os.path.join(OUT, "units.gvd")
+        r.save(saved)
+        self.assertEqual(gvd.load(saved).units, "\u00b5m")
+        graph = os.path.join(OUT, "units_graph.json")
+        r.write_graph_json(graph)
+        with open(graph, encoding="utf-8") as f:
+            self.assertEqual(json.load(f)["units"], "\u00b5m")
+        s.units = None
+        self.assertIsNone(s.units)
+
+    def test_scene_json_units_and_unknown_units(self):
+        doc = {"dimension": 2, "units": "mm", "objects": [
+            {"label": "a", "vertices": [[0, 0], [1, 0]], "segments": [[0, 1]]},
+            {"label": "b", "vertices": [[0, 1], [1, 1]], "segments": [[0, 1]]}]}
+        path = os.path.join(OUT, "units_scene.json")
+        with open(path, "w") as f:
+            json.dump(doc, f)
+        self.assertEqual(gvd.Scene.load(path).units, "mm")
+        self.assertEqual(gvd.compute(path, backend="cpu").units, "mm")
+        doc["units"] = "parsec"
+        with open(path, "w") as f:
+            json.dump(doc, f)
+        with self.assertRaises(gvd.InvalidScene) as e:
+            gvd.Scene.load(path)
+        self.assertIn('"units" must name a length unit', str(e.exception))
+        self.assertIn("parsec", str(e.exception))
+        s = gvd.Scene(2)
+        with self.assertRaises(gvd.InvalidArgument) as e:
+            s.units = "furlong"
+        self.assertIn("units", str(e.exception))
+        self.assertIsNone(s.units)
+
+
 if __name__ == "__main__":
     unittest.main()

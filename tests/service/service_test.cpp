@@ -900,6 +900,84 @@ TEST(Service, MultipartUploadOnePartPerObject) {
   EXPECT_NE(r->body.find("broken"), std::string::npos) << r->body;
 }
 
+// Units (docs/API.md, "Units"): a scene's "units", or the job parameter `units` over them,
+// are the top-level "units" of the job's status (from the first answer on, and after a
+// restart), of its graph and float64 JSON, of the query answers, and the GLB's asset extras.
+// A scene without them gets none; an unknown unit is refused naming the field.
+TEST(Service, UnitsTravelToTheStatusTheOutputsAndTheAnswers) {
+  const std::string store = fresh_dir("units");
+  Json scene = Json::parse(data("scenes/gears2d.json"));
+  scene["units"] = "mm";
+  std::string mm_id, plain_id;
+  {
+    ServerProcess server(store);
+    auto c = client(server.port());
+    const Submitted mm = submit(*c, scene.dump());
+    ASSERT_EQ(mm.status, 202) << mm.body.dump();
+    EXPECT_EQ(mm.body.value("units", ""), "mm") << mm.body.dump();
+    mm_id = mm.id;
+    const Json done = wait_for(*c, mm.id, {"done", "failed"});
+    ASSERT_EQ(done.value("status", ""), "done") << done.dump();
+    EXPECT_EQ(done.value("units", ""), "mm");
+    EXPECT_EQ(done["result"].value("units", ""), "mm");
+    const std::string base = "/v1/jobs/" + mm.id;
+    for (const std::string path : {"/graph", "/gvd.json", "/tight?below=1", "/nearest?point=0,0",
+                                   "/contacts?max_gap=0.1", "/objects/frame/neighbors"}) {
+      auto r = c->Get((base + path).c_str());
+      ASSERT_TRUE(r);
+      ASSERT_EQ(r->status, 200) << path << ": " << r->body;
+      EXPECT_EQ(Json::parse(r->body).value("units", ""), "mm") << path;
+    }
+    auto glb = c->Get((base + "/gvd.glb").c_str());
+    ASSERT_TRUE(glb);
+    const GlbFile parsed = parse_glb(std::vector<uint8_t>(glb->body.begin(), glb->body.end()));
+    EXPECT_EQ(parsed.json["asset"]["extras"]["units"], "mm");
+
+    // None declared: none shown, and a different job.
+    const Submitted plain = submit(*c, data("scenes/gears2d.json"));
+    plain_id = plain.id;
+    EXPECT_NE(plain.id, mm.id);
+    EXPECT_FALSE(plain.body.contains("units")) << plain.body.dump();
+    ASSERT_EQ(wait_for(*c, plain.id, {"done"}).value("status", ""), "done");
+    EXPECT_FALSE(status_of(*c, plain.id).contains("units"));
+    EXPECT_FALSE(status_of(*c, plain.id)["result"].contains("units"));
+    const Json g = Json::parse(c->Get(("/v1/jobs/" + plain.id + "/graph").c_str())->body);
+    EXPECT_FALSE(g.contains("units")) << g.dump();
+
+    // The parameter sets units (canonical name) and overrides the scene's own; the same
+    // scene in the same units is the same job.
+    const Submitted um = submit(*c, data("scenes/gears2d.json"), "?units=um");
+    EXPECT_EQ(um.body.value("units", ""), "\u00b5m") << um.body.dump();
+    EXPECT_NE(um.id, plain.id);
+    const Submitted metres = submit(*c, scene.dump(), "?units=m");
+    EXPECT_EQ(metres.body.value("units", ""), "m") << metres.body.dump();
+    EXPECT_EQ(submit(*c, data("scenes/gears2d.json"), "?units=mm").id, mm.id);
+    Json in_params = Json::parse(data("scenes/gears2d.json"));
+    in_params["params"] = {{"units", "cm"}};
+    EXPECT_EQ(submit(*c, in_params.dump()).body.value("units", ""), "cm");
+
+    // Unknown units: refused, the field named, the value quoted.
+    scene["units"] = "parsec";
+    const Submitted bad_scene = submit(*c, scene.dump());
+    EXPECT_EQ(bad_scene.status, 422) << bad_scene.body.dump();
+    EXPECT_NE(bad_scene.body.value("detail", "").find("\"units\" must name a length unit"),
+              std::string::npos)
+        << bad_scene.body.dump();
+    EXPECT_NE(bad_scene.body.value("detail", "").find("parsec"), std::string::npos);
+    const Submitted bad_param = submit(*c, data("scenes/gears2d.json"), "?units=furlong");
+    EXPECT_EQ(bad_param.status, 400) << bad_param.body.dump();
+    EXPECT_NE(bad_param.body.value("detail", "").find("parameter \"units\""), std::string::npos)
+        << bad_param.body.dump();
+    for (const std::string& id : {um.id, metres.id}) wait_for(*c, id, {"done", "failed"});
+  }
+  // After a restart (the status rebuilt from the result file when its document is lost).
+  fs::remove(store + "/results/" + mm_id + ".json");
+  ServerProcess server(store);
+  auto c = client(server.port());
+  EXPECT_EQ(status_of(*c, mm_id).value("units", ""), "mm");
+  EXPECT_FALSE(status_of(*c, plain_id).contains("units"));
+}
+
 TEST(Service, ConcurrentClients) {
   ServerProcess server(fresh_dir("concurrent"), {"--http-threads", "16"});
   auto c = client(server.port());

@@ -85,6 +85,12 @@ class Scene {
              std::span<const uint32_t> simplices);
 
   int dimension() const;
+  /// The length unit of the coordinates by its canonical name ("mm", "µm", ...); empty when
+  /// none is declared. A scene JSON's "units" (load()); never scaled, only reported.
+  const std::string& units() const;
+  /// Sets (or, with "", clears) the length unit: nm, um/µm, mm, cm, m, km, in, ft or Å, kept
+  /// by its canonical name; gvd::Error{kInvalidArgument} naming "units" for any other.
+  void set_units(std::string_view units);
   /// Number of objects.
   int size() const;
   const std::string& label(Object object) const;
@@ -227,6 +233,9 @@ struct Contact {
 class Result {
  public:
   int dimension() const;
+  /// The scene's length unit (Scene::units()): every length of the result is in it; empty
+  /// when the scene declared none.
+  const std::string& units() const;
   /// Number of objects.
   int size() const;
   const std::string& label(Object object) const;

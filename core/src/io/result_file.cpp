@@ -817,6 +817,7 @@ std::string result_info_json(const GvdResult& r) {
   doc["dimension"] = dim;
   doc["objects"] = r.scene.objects.size();
   doc["simplices"] = r.scene.simplex_count();
+  if (!r.scene.units.empty()) doc["units"] = r.scene.units;  // lengths below are in them
   doc["domain"] = {{"origin", dim == 2 ? Json::array({o.x, o.y}) : Json::array({o.x, o.y, o.z})},
                    {"side", r.domain.side}};
   if (!r.domain.aligned()) {

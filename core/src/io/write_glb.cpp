@@ -18,6 +18,15 @@
 namespace gvd {
 namespace {
 
+/// The scene's length unit as asset.extras.units (glTF's own unit is the metre; ours is a
+/// label, as everywhere: positions are the scene's coordinates, not converted). None: no extras.
+void set_units(tinygltf::Asset& asset, const std::string& units) {
+  if (units.empty()) return;
+  tinygltf::Value::Object extras;
+  extras["units"] = tinygltf::Value(units);
+  asset.extras = tinygltf::Value(std::move(extras));
+}
+
 constexpr const char* kMeshFeaturesExtension = "EXT_mesh_features";
 
 /// Colour of the domain-box side of a cell: it has no clearance to speak of.
@@ -231,6 +240,7 @@ std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene) {
   tinygltf::Model model;
   model.asset.version = "2.0";
   model.asset.generator = "gvd";
+  set_units(model.asset, scene.units);
   model.buffers.emplace_back();
   tinygltf::Scene gltf_scene;
   // A name keeps the scene a JSON object even without nodes (tinygltf writes an empty scene
@@ -264,6 +274,7 @@ std::vector<uint8_t> exploded_to_glb(const Scene& scene, std::span<const Vec3> d
   tinygltf::Model model;
   model.asset.version = "2.0";
   model.asset.generator = "gvd";
+  set_units(model.asset, scene.units);
   model.buffers.emplace_back();
   tinygltf::Scene gltf_scene;
   gltf_scene.name = "exploded";

@@ -107,9 +107,10 @@ std::string gvd_to_json(const Gvd& gvd, const Scene& scene) {
                        {"clearance", std::move(clearance)},
                        {"simplices", std::move(simplices)}});
   }
-  const json out = {{"dimension", gvd.dimension},
-                    {"null_feature_id", scene.objects.size()},
-                    {"objects", std::move(objects)}};
+  json out = {{"dimension", gvd.dimension},
+              {"null_feature_id", scene.objects.size()},
+              {"objects", std::move(objects)}};
+  if (!scene.units.empty()) out["units"] = scene.units;
   return out.dump();
 }
 
@@ -133,7 +134,8 @@ std::string graph_to_json(const DualGraph& graph, const Scene& scene) {
                      {"gap", edge.gap >= 0 ? json(edge.gap) : json(nullptr)},
                      {"touching", edge.touching}});
   }
-  const json out = {{"nodes", std::move(nodes)}, {"edges", std::move(edges)}};
+  json out = {{"nodes", std::move(nodes)}, {"edges", std::move(edges)}};
+  if (!scene.units.empty()) out["units"] = scene.units;
   return out.dump();
 }
 

@@ -412,7 +412,9 @@ std::string contacts_to_json(const GvdIndex& index, double max_gap,
          {"interface_area", c.interface_area},
          {"sites", std::move(sites)}});
   }
-  return json{{"max_gap", max_gap}, {"contacts", std::move(list)}}.dump();
+  json out{{"max_gap", max_gap}, {"contacts", std::move(list)}};
+  if (!r.scene.units.empty()) out["units"] = r.scene.units;
+  return out.dump();
 }
 
 }  // namespace gvd

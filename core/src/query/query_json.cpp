@@ -22,6 +22,13 @@ const std::string& label(const GvdIndex& index, ObjectId object) {
 /// A number, or null when it is not finite (JSON has no infinity).
 json number(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
 
+/// An answer with the scene's length unit at its top level ("units"), when it has one.
+std::string with_units(json doc, const GvdIndex& index) {
+  const std::string& units = index.result().scene.units;
+  if (!units.empty()) doc["units"] = units;
+  return doc.dump();
+}
+
 }  // namespace
 
 std::vector<Vec3> parse_points_json(std::string_view text, int dimension) {
@@ -68,26 +75,27 @@ std::vector<Vec3> parse_points_json(std::string_view text, int dimension) {
 
 std::string nearest_to_json(const GvdIndex& index, const NearestAnswer& answer) {
   const int dim = index.dimension();
-  return json{{"point", point_json(answer.point, dim)},
-              {"object", answer.object},
-              {"label", label(index, answer.object)},
-              {"distance", answer.distance},
-              {"signed_distance", answer.signed_distance()},
-              {"inside", answer.inside < 0 ? json(nullptr) : json(answer.inside == 1)},
-              {"closest", point_json(answer.closest, dim)}}
-      .dump();
+  return with_units({{"point", point_json(answer.point, dim)},
+                     {"object", answer.object},
+                     {"label", label(index, answer.object)},
+                     {"distance", answer.distance},
+                     {"signed_distance", answer.signed_distance()},
+                     {"inside", answer.inside < 0 ? json(nullptr) : json(answer.inside == 1)},
+                     {"closest", point_json(answer.closest, dim)}},
+                    index);
 }
 
 std::string nearest_error_to_json(const GvdIndex& index, Vec3 point, const Error& error) {
-  return json{{"point", point_json(point, index.dimension())},
-              {"object", nullptr},
-              {"label", nullptr},
-              {"distance", nullptr},
-              {"signed_distance", nullptr},
-              {"inside", nullptr},
-              {"closest", nullptr},
-              {"error", {{"code", error_code_name(error.code())}, {"detail", error.detail()}}}}
-      .dump();
+  return with_units(
+      {{"point", point_json(point, index.dimension())},
+       {"object", nullptr},
+       {"label", nullptr},
+       {"distance", nullptr},
+       {"signed_distance", nullptr},
+       {"inside", nullptr},
+       {"closest", nullptr},
+       {"error", {{"code", error_code_name(error.code())}, {"detail", error.detail()}}}},
+      index);
 }
 
 std::string neighbors_to_json(const GvdIndex& index, ObjectId object, int ring,
@@ -105,11 +113,11 @@ std::string neighbors_to_json(const GvdIndex& index, ObjectId object, int ring,
                     {"gap", n.gap >= 0 ? json(n.gap) : json(nullptr)},
                     {"touching", n.touching}});
   }
-  return json{{"object", object},
-              {"label", label(index, object)},
-              {"ring", ring},
-              {"neighbors", std::move(list)}}
-      .dump();
+  return with_units({{"object", object},
+                     {"label", label(index, object)},
+                     {"ring", ring},
+                     {"neighbors", std::move(list)}},
+                    index);
 }
 
 std::string path_to_json(const GvdIndex& index, const PathQuery& query, const PathAnswer& path) {
@@ -124,7 +132,7 @@ std::string path_to_json(const GvdIndex& index, const PathQuery& query, const Pa
            {"cost", query.cost == PathCost::kShortest ? "shortest" : "clearance"}};
   if (query.min_clearance > 0) out["required_clearance"] = query.min_clearance;
   if (!path.found) out["reason"] = path.reason;
-  return out.dump();
+  return with_units(std::move(out), index);
 }
 
 std::string exploded_to_json(const GvdIndex& index, const ExplodedView& view) {
@@ -138,11 +146,11 @@ std::string exploded_to_json(const GvdIndex& index, const ExplodedView& view) {
                        {"displacement", point_json(o.displacement, dim)},
                        {"factor", o.factor}});
   }
-  return json{{"anchor", view.anchor},
-              {"label", label(index, view.anchor)},
-              {"scale", view.scale},
-              {"objects", std::move(objects)}}
-      .dump();
+  return with_units({{"anchor", view.anchor},
+                     {"label", label(index, view.anchor)},
+                     {"scale", view.scale},
+                     {"objects", std::move(objects)}},
+                    index);
 }
 
 std::string tight_to_json(const GvdIndex& index, double below, std::span<const TightSpot> spots) {
@@ -158,7 +166,7 @@ std::string tight_to_json(const GvdIndex& index, double below, std::span<const T
                      {"gap", t.gap >= 0 ? json(t.gap) : json(nullptr)},
                      {"touching", t.touching}});
   }
-  return json{{"below", below}, {"pairs", std::move(pairs)}}.dump();
+  return with_units({{"below", below}, {"pairs", std::move(pairs)}}, index);
 }
 
 }  // namespace gvd

@@ -9,6 +9,7 @@
 #include "gvd/common/json_depth.h"
 #include "gvd/common/json_input.h"
 #include "gvd/scene/load_scene.h"
+#include "gvd/scene/units.h"
 
 namespace gvd {
 
@@ -84,6 +85,17 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
   Scene scene;
   scene.dimension = dim_it->get<double>() == 2.0 ? 2 : 3;
   const int dim = scene.dimension;
+  if (const auto units_it = doc.find("units"); units_it != doc.end()) {
+    ErrorLocation where;
+    where.pointer = "/units";
+    if (!units_it->is_string()) {
+      invalid(std::string("\"units\" must be a string naming a length unit (one of ") +
+                  std::string(kKnownUnits) + "), got " + brief(*units_it),
+              where);
+    }
+    scene.units =
+        parse_units(units_it->get<std::string>(), "\"units\"", ErrorCode::kInvalidScene, where);
+  }
 
   const auto objects_it = doc.find("objects");
   if (objects_it == doc.end()) invalid("missing \"objects\"");
@@ -234,6 +246,7 @@ std::string scene_to_json(const Scene& scene) {
                        {dim == 2 ? "segments" : "triangles", std::move(simplices)}});
   }
   Json doc = {{"dimension", dim}, {"objects", std::move(objects)}};
+  if (!scene.units.empty()) doc["units"] = scene.units;  // none: no key (old job ids stay)
   // Labels come from files and may not be valid UTF-8: replace rather than throw.
   return doc.dump(-1, ' ', false, Json::error_handler_t::replace);
 }

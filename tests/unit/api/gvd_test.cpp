@@ -53,6 +53,31 @@ TEST(GvdApi, DefaultsAreThoseOfTheCore) {
   EXPECT_EQ(a.backend, "auto");  // `gvd compute`'s default (the core's own is "cpu")
 }
 
+// The scene's length unit: set by name (canonical), carried by the result and its saved
+// file; none when none was set; an unknown unit names the field.
+TEST(GvdApi, UnitsAreSetCarriedAndChecked) {
+  Scene scene = two_squares(0.1);
+  EXPECT_EQ(scene.units(), "");
+  EXPECT_EQ(compute(scene, cpu()).units(), "");
+  scene.set_units("um");
+  EXPECT_EQ(scene.units(), "\u00b5m");
+  const Result r = compute(scene, cpu());
+  EXPECT_EQ(r.units(), "\u00b5m");
+  const std::string path = std::string(GVD_TEST_OUTPUT_DIR) + "/api_units.gvd";
+  r.save(path);
+  EXPECT_EQ(load(path).units(), "\u00b5m");
+  try {
+    scene.set_units("furlong");
+    ADD_FAILURE() << "an unknown unit was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument);
+    EXPECT_NE(e.detail().find("units must name a length unit"), std::string::npos) << e.detail();
+  }
+  EXPECT_EQ(scene.units(), "\u00b5m");
+  scene.set_units("");
+  EXPECT_EQ(scene.units(), "");
+}
+
 TEST(GvdApi, TwoSquaresIn2D) {
   const double gap = 0.01, mid = 1 + gap / 2;
   const Result r = compute(two_squares(gap), cpu());

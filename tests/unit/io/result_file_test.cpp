@@ -11,6 +11,9 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/octree/lattice.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/query/contact_report.h"
+#include "gvd/query/gvd_index.h"
+#include "support/gltf_validate.h"
 #include "support/scenes.h"
 
 namespace gvd {
@@ -284,6 +287,59 @@ TEST(ResultFile, RoundTrip3D) {
   expect_queries_work(r, loaded);
   // Saving the loaded result gives the same bytes: nothing is lost or reordered.
   EXPECT_EQ(result_to_bytes(loaded), read_file_bytes(path));
+}
+
+// The scene's units travel with the result (docs/FORMATS.md, "Units"): the saved file keeps
+// them, and every document and answer made from the reloaded result says them at its top
+// level; a result without units says none.
+TEST(ResultFile, UnitsTravelWithTheSavedResult) {
+  GvdResult with = result_2d();
+  with.scene.units = "\u00b5m";
+  const std::string path = output_path("units_2d.gvdres");
+  save_result(with, path);
+  const auto loaded = std::make_shared<const GvdResult>(load_result(path));
+  EXPECT_EQ(loaded->scene.units, "\u00b5m");
+  expect_same_result(with, *loaded);
+
+  const GvdResult without_loaded = load_result_bytes(result_to_bytes(result_2d()));
+  EXPECT_TRUE(without_loaded.scene.units.empty());
+  const auto without = std::make_shared<const GvdResult>(without_loaded);
+
+  for (const auto& r : {loaded, without}) {
+    const bool has = !r->scene.units.empty();
+    SCOPED_TRACE(has ? "with units" : "without units");
+    const GvdIndex index(r);
+    const ObjectId left = index.object("left");
+    PathQuery q;
+    q.from = {-0.55, -0.5, 0};
+    q.to = {2.05, -0.4, 0};
+    const std::vector<std::string> documents = {
+        result_info_json(*r),
+        graph_to_json(r->graph, r->scene),
+        gvd_to_json(r->gvd, r->scene),
+        tight_to_json(index, 1.0, index.tight(1.0)),
+        nearest_to_json(index, index.nearest({0.8, 0.0, 0})),
+        neighbors_to_json(index, left, 1, index.neighbors(left, 1)),
+        path_to_json(index, q, index.path(q)),
+        exploded_to_json(index, index.explode(left)),
+        contacts_to_json(index, 0.5, find_contacts(index, 0.5)),
+        "{\"asset\":" +
+            test::parse_glb(gvd_to_glb(r->gvd, r->scene))
+                .json.at("asset")
+                .value("extras", json::object())
+                .dump() +
+            "}",
+    };
+    for (const std::string& text : documents) {
+      const json doc = json::parse(text);
+      const json& top = doc.contains("asset") ? doc.at("asset") : doc;
+      if (has) {
+        EXPECT_EQ(top.value("units", ""), "\u00b5m") << text.substr(0, 200);
+      } else {
+        EXPECT_FALSE(top.contains("units")) << text.substr(0, 200);
+      }
+    }
+  }
 }
 
 // A tilted scene gets the octree's own frame (scene.h, DomainFrame): the axes are saved,

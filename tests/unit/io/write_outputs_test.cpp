@@ -495,6 +495,31 @@ TEST(GraphJsonTest, NoEdges) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Units: the scene's length unit at the top of every document (the GLB's asset extras), and
+// nothing at all when the scene declares none.
+// ---------------------------------------------------------------------------------------------
+
+TEST(UnitsTest, EveryWrittenDocumentSaysTheScenesUnits) {
+  Scene scene = make_scene(3);
+  scene.units = "mm";
+  const Gvd gvd = make_gvd_3d();
+  DualGraph graph;
+  graph.node_count = 3;
+  graph.edges.push_back({0, 1, 1.0, 0.5, {1.0, 0.5, 0.5}});
+
+  const std::vector<uint8_t> glb = gvd_to_glb(gvd, scene);
+  EXPECT_EQ(parse_glb(glb).json.at("asset").at("extras"), json({{"units", "mm"}}));
+  expect_valid_glb(glb, "units.glb");
+  EXPECT_EQ(json::parse(gvd_to_json(gvd, scene)).at("units"), "mm");
+  EXPECT_EQ(json::parse(graph_to_json(graph, scene)).at("units"), "mm");
+
+  scene.units.clear();  // none declared: none written, not a default
+  EXPECT_FALSE(parse_glb(gvd_to_glb(gvd, scene)).json.at("asset").contains("extras"));
+  EXPECT_FALSE(json::parse(gvd_to_json(gvd, scene)).contains("units"));
+  EXPECT_FALSE(json::parse(graph_to_json(graph, scene)).contains("units"));
+}
+
+// ---------------------------------------------------------------------------------------------
 // Files.
 // ---------------------------------------------------------------------------------------------
 

@@ -340,6 +340,7 @@ TEST(LoadScene, OneMeshFileIsAOneObjectScene) {
   const Scene s = load_scene(paths);
   ASSERT_EQ(s.objects.size(), 1u);
   EXPECT_EQ(s.objects[0].label, "cube");
+  EXPECT_TRUE(s.units.empty());  // meshes have no units unless the caller gives them
 }
 
 TEST(LoadScene, SeveralFilesAreOneObjectEachLabelledByStem) {
@@ -348,6 +349,7 @@ TEST(LoadScene, SeveralFilesAreOneObjectEachLabelledByStem) {
       kData + "/formats/groups.obj", kData + "/formats/two_nodes.glb"};
   const Scene s = load_scene(paths);
   ASSERT_EQ(s.objects.size(), 4u);
+  EXPECT_TRUE(s.units.empty());
   EXPECT_EQ(s.objects[0].label, "cube_binary_le");
   EXPECT_EQ(s.objects[1].label, "tetra_ascii");
   EXPECT_EQ(s.objects[2].label, "groups");

@@ -11,6 +11,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/scene/load_scene.h"
+#include "gvd/scene/units.h"
 
 namespace gvd {
 namespace {
@@ -57,7 +58,7 @@ TEST(SceneJson, ParsesAValidScene) {
 
 TEST(SceneJson, IgnoresUnknownKeys) {
   const Scene s = parse_scene_json(
-      R"({"dimension": 3, "units": "mm", "objects": [{"label": "a", "color": [1,0,0], )" + kTet +
+      R"({"dimension": 3, "author": "x", "objects": [{"label": "a", "color": [1,0,0], )" + kTet +
       "}]}");
   EXPECT_EQ(s.objects.size(), 1u);
 }
@@ -236,6 +237,59 @@ TEST(SceneJson, RoundTrips2D) {
   const Scene t = parse_scene_json(once);
   EXPECT_EQ(scene_to_json(t), once);
   EXPECT_EQ(t.objects[0].vertices[1], (Vec3{1.5, 0.25, 0}));
+}
+
+std::string with_units(const std::string& units, const std::string& dimension = "3") {
+  const std::string object =
+      dimension == "2" ? R"({"label": "w", "vertices": [[0,0],[1,0]], "segments": [[0,1]]})"
+                       : tet(R"("a")");
+  return R"({"dimension": )" + dimension + R"(, "units": )" + units + R"(, "objects": [)" + object +
+         "]}";
+}
+
+TEST(SceneUnits, AreReadKeptCanonicalAndWrittenBack) {
+  for (const std::string dim : {"2", "3"}) {
+    const Scene s = parse_scene_json(with_units(R"("mm")", dim));
+    EXPECT_EQ(s.units, "mm");
+    const std::string text = scene_to_json(s);
+    EXPECT_NE(text.find(R"("units":"mm")"), std::string::npos) << text;
+    EXPECT_EQ(parse_scene_json(text).units, "mm");
+  }
+  // One spelling per unit, so that "um" and "µm" scenes are the same job.
+  EXPECT_EQ(parse_scene_json(with_units(R"("um")")).units, "\u00b5m");
+  EXPECT_EQ(parse_scene_json(with_units("\"\u03bcm\"")).units, "\u00b5m");  // Greek mu
+  EXPECT_EQ(parse_scene_json(with_units("\"\u00b5m\"")).units, "\u00b5m");
+  EXPECT_EQ(parse_scene_json(with_units(R"("angstrom")")).units, "\u00c5");
+  for (const char* unit : {"nm", "cm", "m", "km", "in", "ft"})
+    EXPECT_EQ(parse_scene_json(with_units(std::string("\"") + unit + "\"")).units, unit);
+}
+
+TEST(SceneUnits, NoneDeclaredNoneInvented) {
+  const Scene s = parse_scene_json(scene_with(tet(R"("a")")));
+  EXPECT_TRUE(s.units.empty());
+  EXPECT_EQ(scene_to_json(s).find("units"), std::string::npos);
+}
+
+TEST(SceneUnits, AnUnknownUnitIsRejectedNamingTheField) {
+  for (const std::string bad : {R"("parsec")", R"("MM")", R"("")", R"(" mm")"}) {
+    try {
+      parse_scene_json(with_units(bad));
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kInvalidScene);
+      EXPECT_NE(e.detail().find("\"units\""), std::string::npos) << e.detail();
+      EXPECT_NE(e.detail().find(bad), std::string::npos) << e.detail();   // what was given
+      EXPECT_NE(e.detail().find("mm"), std::string::npos) << e.detail();  // what would do
+      EXPECT_EQ(e.where().pointer, "/units");
+    }
+  }
+  expect_invalid(with_units("42"), "\"units\" must be a string");
+  expect_invalid(with_units(R"(["mm"])"), "\"units\" must be a string");
+  // The unit of a command-line flag or a job parameter: the field as the caller names it.
+  expect_error([] { parse_units("furlong", "--units", ErrorCode::kInvalidArgument); },
+               ErrorCode::kInvalidArgument, "--units must name a length unit");
+  EXPECT_EQ(units_suffix("mm"), " mm");
+  EXPECT_EQ(units_suffix(""), "");
 }
 
 /// The structured location of the error `f` throws.

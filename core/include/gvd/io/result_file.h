@@ -25,7 +25,8 @@ struct ResultFileHeader {
 ///   header   8-byte magic "GVDRES\0\1", u32 format version (kResultFormatVersion),
 ///            u32 kAlgorithmVersion
 ///   sections u32 tag (4 ASCII chars in file order) + u64 payload length + payload:
-///            "SCNE" scene JSON (scene_to_json) + warnings JSON array
+///            "SCNE" scene JSON (scene_to_json, with "units" when the scene declares them:
+///                   readers before units ignore the key) + warnings JSON array
 ///            "DOMN" dimension, origin xyz, side[, axis x, y, z as 3 x xyz: only when the
 ///                   octree's frame is not the user's axes; older readers reject those]
 ///            "OCTR" dimension, max_depth, depth, leaf count, code[], level[], object[]
@@ -70,12 +71,12 @@ GvdResult load_result_bytes(std::span<const uint8_t> bytes);
 ResultFileHeader read_result_header(std::span<const uint8_t> bytes);
 
 /// The summary `gvd info` prints and the server's job status reuses, as compact JSON:
-/// {"dimension","objects","simplices","domain":{"origin":[x,y(,z)],"side"[,"axes"]},"backend","threads",
+/// {"dimension","objects","simplices"[,"units"],"domain":{"origin":[x,y(,z)],"side"[,"axes"]},"backend","threads",
 /// "max_depth","depth","leaves","vertices","octree_bytes","bytes_per_leaf","distance_bytes",
 /// "gvd_simplices","graph_edges","refine_rounds","ambiguous_cells_left","touching_leaves",
 /// "total_seconds","stages":[{"name","seconds","bytes","items"}],
 /// "warnings":[{"kind","object","count","detail"}]}. Sizes in bytes, times in seconds, the
-/// domain in user units.
+/// domain in user units ("units": the scene's, only when it declares them).
 std::string result_info_json(const GvdResult& result);
 
 /// ResultStats as JSON (the "STAT" section): the fields of ResultStats by name, stages as an

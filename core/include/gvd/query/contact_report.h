@@ -62,7 +62,7 @@ std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap,
 
 /// {"max_gap":G,"contacts":[{"a","label_a","b","label_b","gap","on_a","on_b","interference",
 /// "depth_lower_bound" (null when < 0),"interface_area","sites":[{"area","centroid","min_gap",
-/// "on_a","on_b"}]}]} (docs/FORMATS.md).
+/// "on_a","on_b"}]}]} (docs/FORMATS.md), and "units" when the scene declares them.
 std::string contacts_to_json(const GvdIndex& index, double max_gap,
                              const std::vector<Contact>& contacts);
 

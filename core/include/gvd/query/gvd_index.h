@@ -189,6 +189,8 @@ class GvdIndex {
 std::vector<Vec3> parse_points_json(std::string_view text, int dimension);
 
 /// JSON of the answers (docs/API.md and docs/FORMATS.md); labels are added next to object indices.
+/// Each answer also carries "units" (the scene's length unit, Scene::units) at its top level
+/// when the scene declares one, and no such key when it does not.
 /// Nearest: {"point":[...],"object":i,"label":"...","distance":d,"signed_distance":s,
 /// "inside":true|false|null,"closest":[...]} (inside null: the object is not closed; then
 /// signed_distance = distance).

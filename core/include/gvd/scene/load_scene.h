@@ -13,8 +13,9 @@ namespace gvd {
 /// Input formats the scene loader understands.
 enum class SceneFormat { kAuto, kJson, kObj, kGltf, kGlb, kPly, kStl, kOff };
 
-/// Parses the native scene JSON (docs/FORMATS.md) ({"dimension":..,"objects":[..]}) and validates
-/// it. Errors name the JSON path, object label and index.
+/// Parses the native scene JSON (docs/FORMATS.md) ({"dimension":..,"objects":[..]} and an
+/// optional "units": a length unit of units.h, kept canonical in Scene::units) and validates
+/// it. Errors name the JSON path, object label and index; an unknown unit names "units".
 Scene parse_scene_json(std::string_view text, const SceneLimits& limits = {});
 
 /// Parses an in-memory file in the given format (kAuto sniffs the content). `name` is used
@@ -44,7 +45,8 @@ Scene parse_scene_parts(std::span<const ScenePart> parts, const SceneLimits& lim
 /// (PLY/STL/OFF/OBJ), one object each, labelled by file stem (parse_scene_parts). Validated.
 Scene load_scene(std::span<const std::string> paths, const SceneLimits& limits = {});
 
-/// Serialises a scene to the native JSON (for round trips and the job store).
+/// Serialises a scene to the native JSON (for round trips and the job store); "units" only
+/// when the scene declares them.
 std::string scene_to_json(const Scene& scene);
 
 /// The one JSON form of warnings, in every document that lists them (the saved result, `gvd

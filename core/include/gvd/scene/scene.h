@@ -60,6 +60,9 @@ struct SceneWarning {
 struct Scene {
   int dimension = 3;
   std::vector<SceneObject> objects;
+  /// The length unit of the coordinates, by its canonical name ("mm", "µm", ...; units.h);
+  /// empty: none declared. A label only: every reported length says it, nothing is scaled.
+  std::string units;
   std::vector<SceneWarning> warnings;
 
   uint64_t simplex_count() const;
