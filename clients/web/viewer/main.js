@@ -280,7 +280,6 @@ async function loadResult(job, signal) {
   state.units = graph.units ?? job.units ?? null;
   showInfo(job);
   state.labels = graph.nodes.map((n) => n.label);
-  state.graph = graph;
   state.anchor = defaultAnchor(graph);
   $('anchor').replaceChildren(...state.labels.map((l) => new Option(l, l, false, l === state.anchor)));
   showDownloads(job.id);
@@ -624,7 +623,20 @@ $('show-axes').addEventListener('change', (e) => {
   updateScaleBar();
 });
 $('view-reset').addEventListener('click', () => view.resetView());
-$('up-axis').addEventListener('change', (e) => view.setUp(e.target.value));
+// The up axis is a property of where the user's meshes come from: kept across jobs and visits.
+try {
+  $('up-axis').value = localStorage.getItem('gvd.up') === 'y' ? 'y' : 'z';
+} catch {
+  // no storage: z up
+}
+$('up-axis').addEventListener('change', (e) => {
+  view.setUp(e.target.value);
+  try {
+    localStorage.setItem('gvd.up', e.target.value);
+  } catch {
+    // not kept
+  }
+});
 
 function applyClip() {
   const axis = $('clip-axis').value || null;
