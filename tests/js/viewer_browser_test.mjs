@@ -8,9 +8,9 @@
 // measure tool, tight places (= /tight), neighbours, picked and typed paths (= /paths), the
 // explode slider (paths hide), the default anchor (largest interface area), clipping, the up
 // axis, the axes inset, the scale bar, the view reset, a 2D scene, units, earlier jobs by file
-// name, a one-object scene, several STL files, a bad file. Every request must stay on the
-// server: the page works offline. Screenshots of a 3D and a 2D scene go to --out, and to
-// --docs DIR (docs/viewer-3d.png, docs/viewer-2d.png) when given.
+// name, several STL files, a part inside a box (clipping), a one-object scene, a bad file.
+// Every request must stay on the server: the page works offline. Screenshots of a 3D and a 2D
+// scene go to --out, and to --docs DIR (docs/viewer-3d.png, docs/viewer-2d.png) when given.
 //
 //   node viewer_browser_test.mjs --server build/server/gvd-server --data tests/data
 //        --out build/test-output/browser [--docs docs]
@@ -51,9 +51,9 @@ function startServer(binary, store) {
   });
 }
 
-/** An ASCII STL of the unit cube at `o` (12 triangles, outward normals). */
-function cubeStl(name, o) {
-  const v = (x, y, z) => `      vertex ${o[0] + x} ${o[1] + y} ${o[2] + z}`;
+/** An ASCII STL of the cube of side `s` at `o` (12 triangles, outward normals). */
+function cubeStl(name, o, s = 1) {
+  const v = (x, y, z) => `      vertex ${o[0] + s * x} ${o[1] + s * y} ${o[2] + s * z}`;
   const quads = [[[0, 0, 0], [0, 1, 0], [1, 1, 0], [1, 0, 0]], [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]],
                  [[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]], [[0, 1, 0], [0, 1, 1], [1, 1, 1], [1, 1, 0]],
                  [[0, 0, 0], [0, 0, 1], [0, 1, 1], [0, 1, 0]], [[1, 0, 0], [1, 1, 0], [1, 1, 1], [1, 0, 1]]];
@@ -624,7 +624,29 @@ async function main() {
     check(state.units === null && !(await page.textContent('#scalebar-label')).includes('mm'), 'no units when the scene has none');
     log(`3 STL files as one job: ${state.labels.join(', ')}`);
 
-    // 18. One object: the page says a GVD needs two.
+    // 18. A part inside a closed box (the teapot in a box of issue 16): hidden until the
+    //     clipping plane cuts the box open or the box is hidden.
+    const nested = [['box', [-1, -1, -1], 3], ['part', [0, 0, 0], 1]].map(([name, o, size]) => {
+      const file = join(out, `${name}.stl`);
+      writeFileSync(file, cubeStl(name, o, size));
+      return file;
+    });
+    previous = state.jobId;
+    await page.setInputFiles('#files', nested);
+    await page.waitForFunction((prev) => (window.gvdViewer.state.loaded && window.gvdViewer.state.jobId !== prev) ||
+                               window.gvdViewer.state.error, previous, {timeout: 45000});
+    state = await viewer(() => window.gvdViewer.state);
+    check(!state.error && state.labels.includes('part'), `the box and the part are shown (${state.error ?? state.labels})`);
+    check(await viewer(() => window.gvdViewer.screenPointOf('part')) === null, 'the part is hidden inside the box');
+    await page.selectOption('#clip-axis', 'x');
+    await page.locator('#clip-pos').fill('0.5');
+    check(await viewer(() => window.gvdViewer.screenPointOf('part')) !== null, 'the clipping plane opens the box: the part is seen');
+    await page.selectOption('#clip-axis', '');
+    await page.uncheck('#object-list tr[data-label="box"] .obj-visible');
+    check(await viewer(() => window.gvdViewer.screenPointOf('part')) !== null, 'hiding the box shows the part');
+    log('a part inside a box: seen through the clipping plane or with the box hidden');
+
+    // 19. One object: the page says a GVD needs two.
     previous = state.jobId;
     await page.setInputFiles('#files', {name: 'lonely.stl', mimeType: 'model/stl', buffer: Buffer.from(cubeStl('lonely', [0, 0, 0]))});
     await page.waitForFunction((prev) => (window.gvdViewer.state.loaded && window.gvdViewer.state.jobId !== prev) ||
@@ -634,7 +656,7 @@ async function main() {
           `a one-object scene says a GVD needs two objects ("${notice}")`);
     log(`one object: "${notice}"`);
 
-    // 19. A bad file: a readable message that names the file, not a broken page.
+    // 20. A bad file: a readable message that names the file, not a broken page.
     await page.setInputFiles('#files', {name: 'broken.stl', mimeType: 'model/stl', buffer: Buffer.from('solid x\nfacet')});
     await page.waitForFunction(() => window.gvdViewer.state.error !== null, null, {timeout: 10000});
     const message = await page.textContent('#error-text');
