@@ -381,13 +381,12 @@ function showObjectList(graph) {
       for (const b of document.querySelectorAll('#object-list .obj-cell')) b.classList.remove('active');
       cell.classList.toggle('active', on);
     });
-    const cells = [[sw, shown], [name], [opacity], [cell]].map((els) => {
-      if (els[0] === name) return name;
-      const td = document.createElement('td');
-      td.append(...els);
-      return td;
-    });
-    tr.append(...cells);
+    const td = (...els) => {
+      const cellTd = document.createElement('td');
+      cellTd.append(...els);
+      return cellTd;
+    };
+    tr.append(td(sw, shown), name, td(opacity), td(cell));
     return tr;
   });
   $('object-list').replaceChildren(...trs);

@@ -93,7 +93,7 @@ function copyColors(lines, wide) {
 }
 
 /** A text sprite (for the axes inset). */
-function label(text, color) {
+function textSprite(text, color) {
   const c = document.createElement('canvas');
   c.width = c.height = 64;
   const g = c.getContext('2d');
@@ -178,7 +178,7 @@ export class GvdView {
       const cone = new THREE.Mesh(new THREE.ConeGeometry(0.07, 0.22, 12), new THREE.MeshBasicMaterial({color, depthTest: false}));
       cone.position.copy(tip).multiplyScalar(0.9);
       cone.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), tip);
-      const text = label(name, color);
+      const text = textSprite(name, color);
       text.position.copy(tip).multiplyScalar(1.3);
       this.gizmoScene.add(line, cone, text);
     }
