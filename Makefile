@@ -13,7 +13,7 @@ PORT       ?= 8080
 STORE      ?= gvd-store
 
 .PHONY: all deps configure build run example test test-asan fuzz bench bench-server bench-overload \
-        format tidy clean \
+        format tidy clean screenshots \
         docker-build docker-lint bench-scale
 
 all: build
@@ -45,6 +45,12 @@ example: build
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 600
+
+# The viewer's pictures in docs/ (viewer-3d.png, viewer-2d.png): the browser test's own
+# screenshots, taken while it drives the page.
+screenshots: build
+	node tests/js/viewer_browser_test.mjs --server $(BUILD)/server/gvd-server --data tests/data \
+	  --out $(BUILD)/test-output/browser --docs docs
 
 test-asan: deps
 	cmake -S . -B $(BUILD_ASAN) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Debug -DGVD_SANITIZE=ON \
