@@ -2,6 +2,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <queue>
 #include <tuple>
@@ -44,7 +45,7 @@ namespace {
 // Compressed sparse rows.
 struct Csr {
   std::vector<uint32_t> begin;
-  std::vector<uint32_t> items;
+  GrowableArray<uint32_t> items;
 };
 
 // Exact closest points of a batch: the backend's solver, or SimplexBvh::nearest (the same
@@ -73,6 +74,16 @@ void check_cancel(const DistanceOptions& options) {
 // previous field, a vertex it had (same key) keeps its point: the positions are the same, so
 // the answer is too; only new vertices are queried. `old_count` > 0: the first old_count
 // vertices are the previous field's, by index (incremental topology); else found by key.
+// Reserves room for n elements and half again, unless the vector already has room for n. A
+// refinement round adds vertices to these arrays: growing a vector copies it, which would hold
+// the old and the new array at once, at the refinement's peak. The room is address space only
+// until the next round writes it (big blocks are mapped on their own, their untouched pages
+// never resident).
+template <class T>
+void reserve_with_room(std::vector<T>& v, size_t n) {
+  if (v.capacity() < n) v.reserve(n + n / 2);
+}
+
 void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const SimplexBvh& bvh,
                       const DistanceOptions& options, const DistanceField* previous,
                       uint32_t old_count, DistanceField* owned, int threads) {
@@ -97,10 +108,11 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
     field.point = std::move(owned->point);
     field.closest = std::move(owned->closest);
     std::vector<uint8_t> was_exact = std::move(owned->exact);
-    // At their size: growing by resize alone would double the capacity, kept to the end.
-    field.label.reserve(nv);
-    field.point.reserve(nv);
-    field.closest.reserve(nv);
+    // Within the room left by the last allocation (below) when it holds the new vertices;
+    // else at their size and half again.
+    reserve_with_room(field.label, nv);
+    reserve_with_room(field.point, nv);
+    reserve_with_room(field.closest, nv);
     field.label.resize(nv, kNoObject);
     field.point.resize(nv, kNoVertex);
     field.closest.resize(nv, Vec3{});
@@ -119,6 +131,9 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
       }
     });
   } else {
+    reserve_with_room(field.label, nv);
+    reserve_with_room(field.point, nv);
+    reserve_with_room(field.closest, nv);
     field.label.assign(nv, kNoObject);
     field.point.assign(nv, kNoVertex);
     field.closest.assign(nv, Vec3{});
@@ -334,27 +349,55 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         },
         grain);
     for (size_t i = 0; i < nl; ++i) leaf_verts.begin[i + 1] = leaf_verts.begin[i] + count[i];
-    leaf_verts.items.resize(leaf_verts.begin[nl]);
-    parallel_for(
-        nl, threads,
-        [&](size_t b, size_t e, int) {
-          size_t from_compact = 0;  // next entry of this chunk's compact lists
-          const Compact& mine = compact[b / grain];
-          for (size_t i = b; i < e; ++i) {
-            const uint32_t pos = leaf_verts.begin[i];
-            if (!recompute[i]) {
-              const uint32_t ol = old_leaf[i];
-              const uint32_t from = previous->leaf_begin[ol], to = previous->leaf_begin[ol + 1];
-              std::copy(previous->leaf_vertex.begin() + from, previous->leaf_vertex.begin() + to,
-                        leaf_verts.items.begin() + pos);
-              continue;
-            }
-            std::copy_n(mine.vertex.begin() + from_compact, count[i],
-                        leaf_verts.items.begin() + pos);
-            from_compact += count[i];
+    // A consumed field's lists grow in place into the new ones when every row can move up:
+    // no row may land below the end of a row of an earlier leaf that is still to be moved
+    // (splits only add vertices to a leaf, so this holds after refine_octree; checked).
+    bool in_place = incremental && owned != nullptr;
+    if (in_place) {
+      uint32_t pending_end = 0;  // end of the old rows of the leaves before i that move
+      for (size_t i = 0; i < nl && in_place; ++i) {
+        in_place = leaf_verts.begin[i] >= pending_end;
+        if (!recompute[i]) pending_end = previous->leaf_begin[old_leaf[i] + 1];
+      }
+    }
+    auto fill_row = [&](size_t i, const uint32_t* from) {
+      std::memmove(leaf_verts.items.data() + leaf_verts.begin[i], from,
+                   count[i] * sizeof(uint32_t));
+    };
+    if (in_place) {
+      // Backwards, so that a row is moved before anything is written over its old place.
+      leaf_verts.items = std::move(owned->leaf_vertex);
+      leaf_verts.items.resize(leaf_verts.begin[nl]);
+      for (size_t c = compact.size(); c-- > 0;) {
+        size_t from_compact = compact[c].vertex.size();
+        for (size_t i = std::min(nl, (c + 1) * grain); i-- > c * grain;) {
+          if (recompute[i]) {
+            from_compact -= count[i];
+            fill_row(i, compact[c].vertex.data() + from_compact);
+          } else {
+            fill_row(i, leaf_verts.items.data() + previous->leaf_begin[old_leaf[i]]);
           }
-        },
-        grain);
+        }
+        std::vector<uint32_t>().swap(compact[c].vertex);
+      }
+    } else {
+      leaf_verts.items.resize(leaf_verts.begin[nl]);
+      parallel_for(
+          nl, threads,
+          [&](size_t b, size_t e, int) {
+            size_t from_compact = 0;  // next entry of this chunk's compact lists
+            const Compact& mine = compact[b / grain];
+            for (size_t i = b; i < e; ++i) {
+              if (!recompute[i]) {
+                fill_row(i, previous->leaf_vertex.data() + previous->leaf_begin[old_leaf[i]]);
+                continue;
+              }
+              fill_row(i, mine.vertex.data() + from_compact);
+              from_compact += count[i];
+            }
+          },
+          grain);
+    }
   }
   // The previous field's lists are copied where they still hold.
   if (owned != nullptr) owned->drop_leaf_lists();
@@ -677,25 +720,30 @@ void sort_vertices(DistanceField& field, int threads) {
   // Incremental rounds append new vertices behind the sorted old ones: sort the tail and merge.
   size_t prefix = 1;
   while (prefix < nv && key[prefix - 1] < key[prefix]) ++prefix;
+  // Only the tail is sorted; the merge writes each position's old index (4 bytes per vertex,
+  // not a 16-byte pair: this runs at the end of the refinement, near its peak).
   using Keyed = std::pair<uint64_t, uint32_t>;
-  std::vector<Keyed> head(prefix), tail(nv - prefix);
-  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i)
-      (i < prefix ? head[i] : tail[i - prefix]) = {key[i], static_cast<uint32_t>(i)};
+  std::vector<Keyed> tail(nv - prefix);
+  parallel_for(nv - prefix, threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) tail[i] = {key[prefix + i], static_cast<uint32_t>(prefix + i)};
   });
   radix_sort(
       tail, [](const Keyed& x) { return x.first; }, threads);
-  std::vector<Keyed> order(nv);
-  std::merge(head.begin(), head.end(), tail.begin(), tail.end(), order.begin());
+  std::vector<uint32_t> order(nv);  // sorted position -> old index
+  for (size_t i = 0, h = 0, t = 0; i < nv; ++i) {
+    const bool from_head = t == tail.size() || (h < prefix && key[h] < tail[t].first);
+    order[i] = from_head ? static_cast<uint32_t>(h++) : tail[t++].second;
+  }
+  std::vector<Keyed>().swap(tail);
   std::vector<uint32_t> new_index(nv);
   parallel_for(nv, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) new_index[order[i].second] = static_cast<uint32_t>(i);
+    for (size_t i = b; i < e; ++i) new_index[order[i]] = static_cast<uint32_t>(i);
   });
   auto permute = [&](auto& values) {
     if (values.size() != nv) return;
     auto copy = values;
     parallel_for(nv, threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i) values[i] = copy[order[i].second];
+      for (size_t i = b; i < e; ++i) values[i] = copy[order[i]];
     });
   };
   permute(field.vertices.key);

@@ -241,6 +241,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks
   // there; lookups by key binary-search the sorted keys from now on (OctreeVertices::find).
   r.field.vertices.drop_index();
+  // Nor does anything after the refinement read the leaves' simplex lists (a result loaded
+  // from disk has none).
+  std::vector<uint32_t>().swap(r.octree.simplex_begin);
+  std::vector<uint32_t>().swap(r.octree.simplex_index);
 
   progress("surface", 0);
   sw = Stopwatch();

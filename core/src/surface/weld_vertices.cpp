@@ -5,7 +5,6 @@
 #include <tuple>
 #include <type_traits>
 
-#include "gvd/common/default_init.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
@@ -42,21 +41,17 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
   const int arity = dim == 2 ? 2 : 3;
   std::vector<SurfaceChunk> chunks = std::move(pieces.impl_->chunks);
   pieces.impl_.reset();
-  // All records by one index (chunk by chunk): a pointer to each, not a copy. A chunk's
-  // triangles index its own records, so they are offset by the chunk's start.
+  // All records by one index, chunk by chunk (the chunk found by a binary search over their
+  // starts: no array of pointers). A chunk's triangles index its own records.
   std::vector<size_t> chunk_start(chunks.size() + 1, 0);
   for (size_t c = 0; c < chunks.size(); ++c)
     chunk_start[c + 1] = chunk_start[c] + chunks[c].corners.size();
   const size_t nc = chunk_start.back();
-  UninitVector<SurfaceChunk::Corner*> record(nc);  // filled below, in parallel
-  parallel_for(
-      chunks.size(), threads,
-      [&](size_t b, size_t e, int) {
-        for (size_t c = b; c < e; ++c)
-          for (size_t i = 0; i < chunks[c].corners.size(); ++i)
-            record[chunk_start[c] + i] = &chunks[c].corners[i];
-      },
-      1);
+  auto record = [&](size_t r) -> SurfaceChunk::Corner& {
+    const size_t c = static_cast<size_t>(
+        std::upper_bound(chunk_start.begin(), chunk_start.end(), r) - chunk_start.begin() - 1);
+    return chunks[c].corners[r - chunk_start[c]];
+  };
   // Vertices: one per (object, other object, exact position). Identical points are made
   // contiguous by sorting the records by the hash of their position: a counting sort into
   // buckets by the hash's top bits (the 16-byte keys made as they are scattered, never held
@@ -74,13 +69,13 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
     const std::vector<size_t> bucket_begin = bucket_scatter_made(
         nc,
         [&](size_t i) {
-          return Keyed{position_hash(record[i]->p), static_cast<uint32_t>(i)};
+          return Keyed{position_hash(record(i).p), static_cast<uint32_t>(i)};
         },
         keyed, size_t{1} << kBucketBits,
         [](const Keyed& x) { return static_cast<size_t>(x.hash >> (64 - kBucketBits)); }, threads);
     auto same_point_and_pair = [&](uint32_t x, uint32_t y) {
-      const SurfaceChunk::Corner& a = *record[x];
-      const SurfaceChunk::Corner& b = *record[y];
+      const SurfaceChunk::Corner& a = record(x);
+      const SurfaceChunk::Corner& b = record(y);
       return std::tie(a.p.x, a.p.y, a.p.z, a.lo, a.hi, x) <
              std::tie(b.p.x, b.p.y, b.p.z, b.lo, b.hi, y);
     };
@@ -108,10 +103,10 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
         64);
   }
 
-  // The records in sorted order (through `record`: no copy, the chunks hold them); runs of
+  // The records in sorted order (no copy, the chunks hold them); runs of
   // one position; within a run, groups of one pair, whose records' sides together say which
   // of the pair's objects get a vertex.
-  auto sorted = [&](size_t i) -> SurfaceChunk::Corner& { return *record[order[i]]; };
+  auto sorted = [&](size_t i) -> SurfaceChunk::Corner& { return record(order[i]); };
   std::vector<uint8_t> new_group(nc);
   std::vector<size_t> run_start;
   {
@@ -206,8 +201,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
     cell.other.resize(vertices[cell.object]);
     cell.clearance.resize(vertices[cell.object]);
   }
-  // Per record, the vertex of each side (2 r: the lower object's, 2 r + 1: the higher's).
-  std::vector<uint32_t> index_of(2 * nc);
+  // Each record then holds the vertex of each side in place of what the weld no longer needs:
+  // `witness` the lower object's, `sides` the higher one's (a group's sides are read before).
   parallel_for(
       parts, threads,
       [&](size_t b, size_t e, int) {
@@ -217,8 +212,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
           for (size_t r = part_run[p]; r < part_run[p + 1]; ++r) {
             const Vec3 user = domain.from_unit(sorted(run_start[r]).p);
             for (size_t i = run_start[r]; i < run_start[r + 1]; ++i) {
+              SurfaceChunk::Corner& c = sorted(i);
               if (new_group[i]) {
-                const SurfaceChunk::Corner& c = sorted(i);
                 const ObjectId pair[2] = {c.lo, c.hi};
                 for (int side = 0; side < 2; ++side) {
                   if (!(c.sides >> side & 1)) continue;
@@ -230,25 +225,34 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
                   cell.clearance[at[side]] = run_clearance[r];
                 }
               }
-              index_of[2 * size_t{order[i]}] = at[0];
-              index_of[2 * size_t{order[i]} + 1] = at[1];
+              c.witness = at[0];
+              c.sides = at[1];
             }
           }
         }
       },
       1);
-  // The sorting state is done with; of the records only each one's lower object is still
-  // needed (which side of index_of a simplex takes): drop the rest before the simplices are
-  // written, which is where the peak of this stage would otherwise be.
-  std::vector<ObjectId> record_lo(nc);
-  parallel_for(nc, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) record_lo[i] = record[i]->lo;
-  });
+  // The sorting state is done with; the chunks' simplices take their vertices from the
+  // records, whose memory then goes before the cells' simplices are written.
   auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
-  release(record);
   release(order);
   release(new_group);
-  for (SurfaceChunk& chunk : chunks) release(chunk.corners);
+  release(run_start);
+  release(run_clearance);
+  parallel_for(
+      chunks.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t c = b; c < e; ++c) {
+          for (SurfaceChunk::Simplex& t : chunks[c].simplices) {
+            for (int k = 0; k < arity; ++k) {
+              const SurfaceChunk::Corner& corner = chunks[c].corners[t.v[k]];
+              t.v[k] = t.object == corner.lo ? corner.witness : corner.sides;
+            }
+          }
+          release(chunks[c].corners);
+        }
+      },
+      1);
   // Simplices: parts of whole chunks.
   const size_t simplex_parts = std::min(chunks.size(), 8 * static_cast<size_t>(threads));
   std::vector<size_t> part_chunk(simplex_parts + 1);
@@ -273,10 +277,7 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
           for (size_t c = part_chunk[p]; c < part_chunk[p + 1]; ++c) {
             for (const SurfaceChunk::Simplex& t : chunks[c].simplices) {
               uint32_t* out = &gvd.cells[t.object].indices[size_t{next[t.object]++} * arity];
-              for (int k = 0; k < arity; ++k) {
-                const size_t rec = chunk_start[c] + t.v[k];
-                out[k] = index_of[2 * rec + (t.object == record_lo[rec] ? 0 : 1)];
-              }
+              for (int k = 0; k < arity; ++k) out[k] = t.v[k];
             }
           }
         }

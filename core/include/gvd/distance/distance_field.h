@@ -5,6 +5,7 @@
 #include <functional>
 #include <vector>
 
+#include "gvd/common/growable_array.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/octree.h"
 #include "gvd/octree/vertices.h"
@@ -34,7 +35,9 @@ struct DistanceField {
   /// the leaf's LeafGrid). Built by compute_distances and kept for the refinement checks and
   /// the surfacing; empty in a field loaded from disk.
   std::vector<uint32_t> leaf_begin;
-  std::vector<uint32_t> leaf_vertex;
+  /// Grown in place by a refinement's update (the rows of unchanged leaves move up within it),
+  /// so that the old and the new lists, the refinement's largest arrays, are never both held.
+  GrowableArray<uint32_t> leaf_vertex;
   /// Per leaf: bit k set when slot k of its LeafGrid holds a vertex; the leaf's row of
   /// leaf_vertex lists those vertices in slot order.
   std::vector<uint32_t> leaf_slots;
@@ -43,7 +46,7 @@ struct DistanceField {
   /// Frees the per-leaf lists (grid() then looks vertices up by key, as in a loaded field).
   void drop_leaf_lists() {
     std::vector<uint32_t>().swap(leaf_begin);
-    std::vector<uint32_t>().swap(leaf_vertex);
+    leaf_vertex.release();
     std::vector<uint32_t>().swap(leaf_slots);
   }
   /// The LeafGrid of a leaf, from the CSR when present, else by hash lookups.

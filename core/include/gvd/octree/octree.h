@@ -143,7 +143,8 @@ struct Octree {
   /// perpendicular to one axis), so it may hold both objects and the GVD
   /// (refinement checks skip it). Empty after loading from disk.
   std::vector<uint8_t> certified;
-  /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries).
+  /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries). Only the
+  /// refinement reads them: empty in compute_gvd's result and in a loaded one.
   std::vector<uint32_t> simplex_begin;
   std::vector<uint32_t> simplex_index;
 
