@@ -86,7 +86,8 @@ void reserve_with_room(std::vector<T>& v, size_t n) {
 
 void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const SimplexBvh& bvh,
                       const DistanceOptions& options, const DistanceField* previous,
-                      uint32_t old_count, DistanceField* owned, int threads) {
+                      uint32_t old_count, DistanceField* owned,
+                      std::span<const uint32_t> leaf_vertices, int threads) {
   const size_t nv = field.vertices.size();
   // An owned previous field whose vertices keep their indices (old_count > 0) and whose
   // closest points are indexed by vertex (as this function leaves them) gives its arrays up:
@@ -154,25 +155,18 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
       }
     });
   }
+  // The vertices to query in the order the leaves (in Z order) first list them: consecutive
+  // queries are then near each other and walk the same parts of the BVH, which stay in cache.
+  // (Sorting them by Z order would hold 32 bytes per vertex at the distance stage's peak.)
+  const size_t queries = nv - static_cast<size_t>(std::count(reused.begin(), reused.end(), 1));
   std::vector<uint32_t> todo;
-  for (size_t v = 0; v < nv; ++v)
-    if (!reused[v]) todo.push_back(static_cast<uint32_t>(v));
-  {
-    // Queries in Z order (vertex keys are row-major): consecutive queries are then near each
-    // other and walk the same parts of the BVH, which stay in cache.
-    const int dim = field.vertices.dimension;
-    std::vector<std::pair<uint64_t, uint32_t>> z(todo.size());
-    parallel_for(todo.size(), threads, [&](size_t b, size_t e, int) {
-      for (size_t j = b; j < e; ++j) {
-        lattice::Coord c = lattice::vertex_coord(dim, field.vertices.key[todo[j]]);
-        for (uint32_t& x : c.c) x >>= 1;  // the lattice's far side, 2^B, needs one bit more
-        z[j] = {lattice::morton(dim, c), todo[j]};
-      }
-    });
-    radix_sort(
-        z, [](const std::pair<uint64_t, uint32_t>& x) { return x.first; }, threads);
-    for (size_t j = 0; j < todo.size(); ++j) todo[j] = z[j].second;
+  todo.reserve(queries);
+  for (const uint32_t v : leaf_vertices) {
+    if (reused[v]) continue;
+    reused[v] = 2;  // listed
+    todo.push_back(v);
   }
+  GVD_CHECK(todo.size() == queries, "exact distances: a vertex on no leaf's list");
   // In blocks, through buffers reused from one block to the next (less fresh memory, whose
   // first touch costs more than the queries' bookkeeping).
   const size_t block = std::min<size_t>(todo.size(), size_t{1} << 16);
@@ -380,6 +374,16 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         }
         std::vector<uint32_t>().swap(compact[c].vertex);
       }
+    } else if (!incremental) {
+      // Every row is in the chunks, in order: appended one chunk after the other, each freed
+      // once copied (growing remaps, so the lists are not held twice).
+      for (Compact& chunk : compact) {
+        const size_t at = leaf_verts.items.size();
+        leaf_verts.items.resize(at + chunk.vertex.size());
+        std::copy(chunk.vertex.begin(), chunk.vertex.end(), leaf_verts.items.begin() + at);
+        std::vector<uint32_t>().swap(chunk.vertex);
+      }
+      GVD_CHECK(leaf_verts.items.size() == leaf_verts.begin[nl], "leaf lists: chunk sizes");
     } else {
       leaf_verts.items.resize(leaf_verts.begin[nl]);
       parallel_for(
@@ -404,7 +408,9 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
   if (options.method == DistanceMethod::kExact) {
     field.seconds_topology = part.lap();
     exact_everywhere(field, geometry, bvh, options, previous, incremental ? old_count : 0,
-                     incremental ? owned : nullptr, threads);
+                     incremental ? owned : nullptr,
+                     std::span<const uint32_t>(leaf_verts.items.data(), leaf_verts.items.size()),
+                     threads);
     field.seconds_init = part.lap();
     field.leaf_begin = std::move(leaf_verts.begin);
     field.leaf_vertex = std::move(leaf_verts.items);

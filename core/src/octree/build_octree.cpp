@@ -92,32 +92,28 @@ struct CellSet {
 };
 
 // The parts one after the other, copied in parallel (each part into its own slot).
-CellSet concat(std::vector<CellSet>& parts, int threads) {
-  std::vector<size_t> code_at(parts.size() + 1, 0), pool_at(parts.size() + 1, 0);
-  for (size_t p = 0; p < parts.size(); ++p) {
-    code_at[p + 1] = code_at[p] + parts[p].codes.size();
-    pool_at[p + 1] = pool_at[p] + parts[p].pool.size();
+CellSet concat(std::vector<CellSet>& parts) {
+  // Appended in order, each part freed once copied: the pages of the whole are touched only as
+  // the parts are given back, so the cells are held about once, not twice (the copy is a few
+  // bytes per cell; a parallel one would need the whole array first).
+  size_t cells = 0, refs = 0;
+  for (const CellSet& part : parts) {
+    cells += part.codes.size();
+    refs += part.pool.size();
   }
   CellSet out;
-  out.codes.resize(code_at.back());
-  out.certified.resize(code_at.back());
-  out.pool.resize(pool_at.back());
-  out.begin.assign(code_at.back() + 1, 0);
-  parallel_for(
-      parts.size(), threads,
-      [&](size_t b, size_t e, int) {
-        for (size_t p = b; p < e; ++p) {
-          const CellSet& part = parts[p];
-          std::copy(part.codes.begin(), part.codes.end(), out.codes.begin() + code_at[p]);
-          std::copy(part.certified.begin(), part.certified.end(),
-                    out.certified.begin() + code_at[p]);
-          std::copy(part.pool.begin(), part.pool.end(), out.pool.begin() + pool_at[p]);
-          for (size_t i = 0; i < part.codes.size(); ++i)
-            out.begin[code_at[p] + i + 1] = part.begin[i + 1] + static_cast<uint32_t>(pool_at[p]);
-          parts[p] = CellSet();
-        }
-      },
-      4);
+  out.codes.reserve(cells);
+  out.certified.reserve(cells);
+  out.pool.reserve(refs);
+  out.begin.reserve(cells + 1);
+  for (CellSet& part : parts) {
+    const uint32_t base = static_cast<uint32_t>(out.pool.size());
+    out.codes.insert(out.codes.end(), part.codes.begin(), part.codes.end());
+    out.certified.insert(out.certified.end(), part.certified.begin(), part.certified.end());
+    out.pool.insert(out.pool.end(), part.pool.begin(), part.pool.end());
+    for (size_t i = 1; i < part.begin.size(); ++i) out.begin.push_back(part.begin[i] + base);
+    part = CellSet();
+  }
   return out;
 }
 
@@ -330,7 +326,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
                       std::to_string(level) + " holds " + std::to_string(most) +
                       " simplices: many objects share cells (coincident or overlapping copies?)");
     }
-    CellSet next = concat(out.chunks, threads);
+    CellSet next = concat(out.chunks);
     cache.sets.push_back(std::move(current));
     cache.index.push_back(std::move(index_of_code));
     cache.split.push_back(std::move(split));
@@ -457,7 +453,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
           leaf_chunks.at(b) = std::move(leaves);
         },
         grain);
-    CellSet next = concat(next_chunks.chunks, threads);
+    CellSet next = concat(next_chunks.chunks);
     Leaves merged;
     std::vector<CellSet> lists;
     lists.reserve(leaf_chunks.chunks.size());
@@ -468,7 +464,7 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
       merged.certified.insert(merged.certified.end(), l.certified.begin(), l.certified.end());
       lists.push_back(std::move(l.lists));
     }
-    merged.lists = concat(lists, threads);
+    merged.lists = concat(lists);
     leaf_count += merged.code.size();
     if (leaf_count + next.size() > options.max_leaves) {
       throw Error(ErrorCode::kLimitExceeded, "octree exceeds the leaf limit of " +
@@ -787,7 +783,7 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   std::vector<CellSet> sets;
   sets.reserve(parts.size());
   for (Part& p : parts) sets.push_back(std::move(p.leaves));
-  CellSet leaves = concat(sets, threads);
+  CellSet leaves = concat(sets);
   tree.code = std::move(leaves.codes);
   tree.certified = std::move(leaves.certified);
   tree.simplex_begin = std::move(leaves.begin);
