@@ -267,6 +267,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         added, [](uint64_t k) { return k; }, threads);
     added.erase(std::unique(added.begin(), added.end()), added.end());
     field.vertices.key.reserve(old_count + added.size());
+    field.vertices.index.reserve(old_count + added.size());
     for (uint64_t key : added) field.vertices.insert(key);
   } else {
     field.vertices = enumerate_vertices(octree, threads);

@@ -8,6 +8,10 @@
 
 namespace gvd {
 
+namespace {
+constexpr uint32_t kVertexIndexMaxLoad = 75;  // percent
+}  // namespace
+
 OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
   threads = resolve_threads(threads);
   const int dim = octree.dimension;
@@ -52,7 +56,10 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
 }
 
 void OctreeVertices::rebuild_index(int threads) {
-  index = FlatMap64::of_distinct_keys(key, threads);
+  // Three quarters full (not half): the largest index of the refinement, and the filter below
+  // answers most misses before the table is probed. With room for a quarter more keys, which
+  // a refinement round rarely exceeds: growing rehashes, holding two tables at once.
+  index = FlatMap64::of_distinct_keys(key, threads, kVertexIndexMaxLoad, key.size() / 4);
   filter_bits_ = 6;
   while ((size_t{1} << filter_bits_) < 8 * key.size()) ++filter_bits_;
   filter.assign((size_t{1} << filter_bits_) / 64, 0);

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -10,19 +11,25 @@
 
 namespace gvd {
 
-/// Open-addressing hash map from 64-bit keys to 32-bit values (linear probing, power-of-two
-/// capacity, load <= 1/2). The key ~0 is reserved. Used for O(1) octree cell and vertex
-/// lookups; one flat array, so it is cheap to build and to share read-only across threads.
-/// A key and its value share a slot (one cache line per hit, not two).
+/// Open-addressing hash map from 64-bit keys to 32-bit values (linear probing; load at most
+/// 1/2, or a higher bound given for a big map whose misses are mostly answered elsewhere,
+/// such as the octree vertices' map behind its filter). The key ~0 is reserved. Used for O(1)
+/// octree cell and vertex lookups; one flat array, so it is cheap to build and to share read-only
+/// across threads. A key and its value share a slot (one cache line per hit, not two).
 class FlatMap64 {
  public:
   static constexpr uint64_t kEmptyKey = ~0ull;
   static constexpr uint32_t kMissing = ~0u;
 
+  /// The default bound on the load, in percent.
+  static constexpr uint32_t kDefaultMaxLoad = 50;
+
   FlatMap64() { rehash(16); }
   explicit FlatMap64(size_t expected) { rehash(capacity_for(expected)); }
-  /// An empty map for `expected` keys whose (big) table is cleared on `threads` threads.
-  FlatMap64(size_t expected, int threads) {
+  /// An empty map for `expected` keys, at most `max_load` percent full (50 ... 90), whose
+  /// (big) table is cleared on `threads` threads.
+  FlatMap64(size_t expected, int threads, uint32_t max_load = kDefaultMaxLoad)
+      : max_load_(max_load) {
     const size_t capacity = capacity_for(expected);
     slots_.resize(capacity);  // left uninitialised (DefaultInitAllocator), cleared below
     parallel_for(
@@ -32,15 +39,16 @@ class FlatMap64 {
                     slots_.begin() + static_cast<std::ptrdiff_t>(e), Slot{kEmptyKey, 0});
         },
         size_t{1} << 16);
-    mask_ = capacity - 1;
   }
 
   /// The map keys[i] -> i of distinct keys, built on `threads` threads: the table is cut into
   /// ranges of slots, each range filled by one thread with the keys whose search starts there
   /// (in index order), and the few whose probe runs past their range's end are inserted
   /// afterwards. The layout is the same whatever the threads.
-  static FlatMap64 of_distinct_keys(std::span<const uint64_t> keys, int threads) {
-    FlatMap64 map(keys.size(), threads);
+  /// `room`: keys that may be inserted later without a rehash.
+  static FlatMap64 of_distinct_keys(std::span<const uint64_t> keys, int threads,
+                                    uint32_t max_load = kDefaultMaxLoad, size_t room = 0) {
+    FlatMap64 map(keys.size() + room, threads, max_load);
     const size_t capacity = map.slots_.size();
     size_t ranges = 1;
     while (ranges < 64 && ranges * 4096 < capacity) ranges *= 2;
@@ -48,14 +56,14 @@ class FlatMap64 {
     std::vector<uint32_t> index(keys.size()), by_range;
     for (size_t i = 0; i < keys.size(); ++i) index[i] = static_cast<uint32_t>(i);
     const std::vector<size_t> start = bucket_scatter(
-        index, by_range, ranges, [&](uint32_t i) { return map.slot(keys[i]) / range_size; },
-        threads);
+        index, by_range, ranges,
+        [&](uint32_t i) { return std::min(map.slot(keys[i]) / range_size, ranges - 1); }, threads);
     std::vector<std::vector<uint32_t>> overflow(ranges);
     parallel_for(
         ranges, threads,
         [&](size_t rb, size_t re, int) {
           for (size_t r = rb; r < re; ++r) {
-            const size_t end = (r + 1) * range_size;
+            const size_t end = r + 1 == ranges ? capacity : (r + 1) * range_size;
             for (size_t k = start[r]; k < start[r + 1]; ++k) {
               const uint32_t i = by_range[k];
               size_t j = map.slot(keys[i]);
@@ -73,20 +81,24 @@ class FlatMap64 {
     for (const auto& list : overflow) {
       for (const uint32_t i : list) {
         size_t j = map.slot(keys[i]);
-        while (map.slots_[j].key != kEmptyKey) j = (j + 1) & map.mask_;
+        while (map.slots_[j].key != kEmptyKey) j = map.next(j);
         map.slots_[j] = {keys[i], i};
       }
     }
     return map;
   }
 
+  /// Makes room for `n` keys in all (one rehash, if the table is too small for them).
+  void reserve(size_t n) {
+    if (capacity_for(n) > slots_.size()) rehash(capacity_for(n));
+  }
   /// Inserts key -> value unless present; returns the stored value (existing or new).
   uint32_t insert(uint64_t key, uint32_t value) {
-    if (2 * (size_ + 1) > slots_.size()) rehash(slots_.size() * 2);
+    if (full()) rehash(capacity_for(2 * size_));
     size_t i = slot(key);
     while (slots_[i].key != kEmptyKey) {
       if (slots_[i].key == key) return slots_[i].value;
-      i = (i + 1) & mask_;
+      i = next(i);
     }
     slots_[i] = {key, value};
     ++size_;
@@ -94,14 +106,14 @@ class FlatMap64 {
   }
   /// Sets key -> value (inserting or overwriting).
   void set(uint64_t key, uint32_t value) {
-    if (2 * (size_ + 1) > slots_.size()) rehash(slots_.size() * 2);
+    if (full()) rehash(capacity_for(2 * size_));
     size_t i = slot(key);
     while (slots_[i].key != kEmptyKey) {
       if (slots_[i].key == key) {
         slots_[i].value = value;
         return;
       }
-      i = (i + 1) & mask_;
+      i = next(i);
     }
     slots_[i] = {key, value};
     ++size_;
@@ -111,7 +123,7 @@ class FlatMap64 {
     size_t i = slot(key);
     while (slots_[i].key != kEmptyKey) {
       if (slots_[i].key == key) return slots_[i].value;
-      i = (i + 1) & mask_;
+      i = next(i);
     }
     return kMissing;
   }
@@ -141,20 +153,22 @@ class FlatMap64 {
   }
 
  private:
-  static size_t capacity_for(size_t n) {
-    size_t c = 16;
-    while (c < 2 * n + 2) c *= 2;
-    return c;
+  size_t capacity_for(size_t n) const {
+    return std::max<size_t>(16, (n + 1) * 100 / max_load_ + 1);
   }
+  bool full() const { return (size_ + 1) * 100 > slots_.size() * max_load_; }
+  size_t next(size_t i) const { return i + 1 == slots_.size() ? 0 : i + 1; }
   size_t slot(uint64_t key) const {
-    // Fibonacci hashing after a murmur-style mix: octree keys are highly structured.
+    // A murmur-style mix (octree keys are highly structured), then scaled to the table by a
+    // multiply-shift (any table size, no power of two).
     uint64_t h = key;
     h ^= h >> 33;
     h *= 0xff51afd7ed558ccdull;
     h ^= h >> 33;
     h *= 0xc4ceb9fe1a85ec53ull;
     h ^= h >> 33;
-    return static_cast<size_t>(h) & mask_;
+    __extension__ using Wide = unsigned __int128;
+    return static_cast<size_t>((static_cast<Wide>(h) * slots_.size()) >> 64);
   }
   // 12 bytes, not 16: the tables are the largest index of the refinement (the vertex map
   // ~40 B per vertex at 16). A key may straddle a cache line (x86 loads it unaligned).
@@ -166,20 +180,19 @@ class FlatMap64 {
   void rehash(size_t capacity) {
     UninitVector<Slot> old = std::move(slots_);
     slots_.assign(capacity, Slot{kEmptyKey, 0});
-    mask_ = capacity - 1;
     size_ = 0;
     for (const Slot& s : old) {
       if (s.key == kEmptyKey) continue;
       size_t j = slot(s.key);
-      while (slots_[j].key != kEmptyKey) j = (j + 1) & mask_;
+      while (slots_[j].key != kEmptyKey) j = next(j);
       slots_[j] = s;
       ++size_;
     }
   }
 
   UninitVector<Slot> slots_;
-  size_t mask_ = 0;
   size_t size_ = 0;
+  uint32_t max_load_ = kDefaultMaxLoad;  ///< percent
 };
 
 }  // namespace gvd
