@@ -243,7 +243,9 @@ int compute_grid_mode(const Args& args) {
   prepare_grid(args, scene, options, quiet);
   const DistanceGrid grid = compute_grid(scene, options);
   Stopwatch sw;
-  const DualGraph graph = grid_dual_graph(grid, scene, options.threads);
+  GridGraphOptions graph_options;
+  graph_options.threads = options.threads;
+  const DualGraph graph = grid_dual_graph(grid, scene, graph_options);
   const double graph_seconds = sw.seconds();
   std::vector<std::string> written = write_outputs(grid, output, labels, args.has("--float64"));
   if (graph_path) {

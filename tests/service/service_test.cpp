@@ -1926,6 +1926,69 @@ TEST(ServiceGrid, GridJobFieldHasTheBruteForceLabelsAndDistances) {
   EXPECT_GT(checked, 100);
 }
 
+/// `count` copies of one UV sphere (radius 1, 8 rings x 16 segments) as scene JSON: a grid
+/// job over them can cull no site (every range sees all of them at the same distance).
+std::string coincident_spheres_json(int count) {
+  const int rings = 8, segments = 16;
+  Json v = Json::array(), t = Json::array();
+  v.push_back({0, 0, 1});
+  for (int r = 1; r < rings; ++r) {
+    const double theta = 3.141592653589793 * r / rings;
+    for (int s = 0; s < segments; ++s) {
+      const double phi = 2 * 3.141592653589793 * s / segments;
+      v.push_back(
+          {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)});
+    }
+  }
+  v.push_back({0, 0, -1});
+  const int south = 1 + (rings - 1) * segments;
+  auto at = [&](int r, int s) { return 1 + (r - 1) * segments + s % segments; };
+  for (int s = 0; s < segments; ++s) {
+    t.push_back({0, at(1, s), at(1, s + 1)});
+    t.push_back({south, at(rings - 1, s + 1), at(rings - 1, s)});
+    for (int r = 1; r + 1 < rings; ++r) {
+      t.push_back({at(r, s), at(r + 1, s), at(r + 1, s + 1)});
+      t.push_back({at(r, s), at(r + 1, s + 1), at(r, s + 1)});
+    }
+  }
+  Json objects = Json::array();
+  for (int i = 0; i < count; ++i)
+    objects.push_back({{"label", "s" + std::to_string(i)}, {"vertices", v}, {"triangles", t}});
+  return Json{{"dimension", 3}, {"objects", objects}}.dump();
+}
+
+// Issue 13: a grid job was stopped only between its stages, so DELETE (and --job-seconds, the
+// memory watchdog) waited for the whole grid. Now the grid reports progress within its stage
+// and a DELETE stops it within about a second.
+TEST(ServiceGrid, DeleteStopsARunningGridJobWithinASecond) {
+  ServerProcess server(fresh_dir("grid-cancel"), {"--workers", "1"});
+  auto c = client(server.port());
+  const Submitted s = submit(*c, coincident_spheres_json(400), "?mode=grid&resolution=64");
+  ASSERT_EQ(s.status, 202) << s.body.dump();
+  // Progress inside the grid stage: a fraction strictly between 0 and 1.
+  double fraction = 0;
+  Json seen;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < deadline && !(fraction > 0 && fraction < 1)) {
+    seen = status_of(*c, s.id);
+    for (const Json& st : seen["progress"].value("stages", Json::array()))
+      if (st.value("name", "") == "grid") fraction = st.value("fraction", 0.0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(seen.value("status", ""), "running") << seen.dump();
+  EXPECT_GT(fraction, 0.0) << seen.dump();
+  EXPECT_LT(fraction, 1.0) << seen.dump();
+  const auto t0 = std::chrono::steady_clock::now();
+  auto r = c->Delete(("/v1/jobs/" + s.id).c_str());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 202);
+  const Json cancelled = wait_for(*c, s.id, {"cancelled", "done", "failed"}, 20);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(cancelled.value("status", ""), "cancelled") << cancelled.dump();
+  EXPECT_LT(seconds, 1.5) << "the grid job took " << seconds << " s to stop";
+}
+
 TEST(ServiceGrid, GridCellLimitIsCheckedBeforeWork) {
   ServerProcess server(fresh_dir("grid-limit"), {"--max-grid-cells", "1000"});
   auto c = client(server.port());

@@ -9,6 +9,7 @@
 #include <string_view>
 #include <unordered_map>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 
 namespace gvd {
@@ -211,6 +212,7 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
   };
   for (uint64_t k = 0; k < nz; ++k) {
     for (uint64_t j = 0; j < ny; ++j) {
+      throw_if_cancelled(options.cancel, "reading the label volume");
       for (uint64_t i = 0; i < nx; ++i) {
         const uint64_t label = volume.labels[(k * ny + j) * nx + i];
         if (options.background && label == *options.background) continue;

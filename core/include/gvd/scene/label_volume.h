@@ -5,6 +5,7 @@
 // others', and the adaptive pipeline runs on those objects as on meshes.
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -35,6 +36,9 @@ struct LabelVolumeOptions {
   std::array<double, 3> origin{0, 0, 0};
   /// The label that is no object (background); none: every label is an object.
   std::optional<uint64_t> background = 0;
+  /// Set to true by another thread to stop with gvd::Error{kCancelled}; read every row of
+  /// voxels.
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 /// One object per label (in increasing order, labelled "label_<id>"): its boundary faces
