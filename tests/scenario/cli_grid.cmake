@@ -96,6 +96,11 @@ run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --mode voxels --graph ${pref
 
 run_rc(2 ${GVD} compute --volume ${prefix}_gears_labels.npy --spacing 1,1,1 -q)
 run_rc(3 ${GVD} compute --volume ${DATA}/scenes/gears2d.json -q)
+# A .npy that is no label volume: invalid input (3) naming the field, as a bad scene is.
+run_rc(3 ${GVD} compute --volume ${prefix}_gears.npy --spacing 1,1 -q)
+if(NOT LAST_ERR MATCHES "invalid_scene" OR NOT LAST_ERR MATCHES "dtype <f4")
+  message(FATAL_ERROR "a float volume is not invalid input naming its dtype:\n${LAST_ERR}")
+endif()
 
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 0 -o ${prefix}_x.npy)
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json -o ${prefix}_x.npy)

@@ -2079,8 +2079,11 @@ TEST(ServiceGrid, BadGridAndVolumeInputNamesTheField) {
   const std::string floats = make_npy("<f4", {4, 4, 4}, std::string(4 * 64, '\0'));
   const std::string flat = make_npy("|u1", {16}, std::string(16, '\1'));
   for (const Case& k : {
-           Case{floats, "?spacing=1,1,1", "application/x-npy", 415, "dtype"},
-           Case{flat, "?spacing=1", "application/x-npy", 415, "dimensions"},
+           // A .npy whose content is no label volume: invalid input (422), not 415.
+           Case{floats, "?spacing=1,1,1", "application/x-npy", 422, "dtype <f4"},
+           Case{flat, "?spacing=1", "application/x-npy", 422, "2 or 3 dimensions"},
+           Case{std::string("\x93NUMPY\x09\x00\x10\x00", 10) + std::string(16, ' '), "?spacing=1",
+                "application/x-npy", 415, "version"},
            Case{good, "", "application/x-npy", 400, "spacing"},
            Case{good, "?spacing=1,1", "application/x-npy", 400, "spacing"},
            Case{good, "?spacing=1,1,1&background=x", "application/x-npy", 400, "background"},
