@@ -1903,6 +1903,7 @@ TEST(ServiceGrid, GridJobFieldHasTheBruteForceLabelsAndDistances) {
   ASSERT_EQ(f.data.size(), nx * ny * 4);
   const std::vector<double> origin = header_numbers(field->get_header_value("X-Gvd-Grid-Origin"));
   const double h = std::stod(field->get_header_value("X-Gvd-Grid-Cell"));
+  EXPECT_FALSE(field->has_header("X-Gvd-Grid-Units"));  // the scene declared none
   const Segments2 segs = scene_segments(Json::parse(scene_text));
   int checked = 0;
   for (uint64_t j = 0; j < ny; j += 3) {
@@ -1924,6 +1925,27 @@ TEST(ServiceGrid, GridJobFieldHasTheBruteForceLabelsAndDistances) {
     }
   }
   EXPECT_GT(checked, 100);
+}
+
+// The scene's units label the grid's geometry headers (ASCII), on a grid job's own field and
+// on a grid sampled from an adaptive job.
+TEST(ServiceGrid, GridHeadersSayTheScenesUnits) {
+  ServerProcess server(fresh_dir("grid-units"));
+  auto c = client(server.port());
+  Json scene = Json::parse(data("scenes/gears2d.json"));
+  scene["units"] = "um";
+  const Submitted grid_job = submit(*c, scene.dump(), "?mode=grid&resolution=16");
+  const Submitted adaptive = submit(*c, scene.dump());
+  ASSERT_EQ(wait_for(*c, grid_job.id, {"done", "failed"}).value("status", ""), "done");
+  ASSERT_EQ(wait_for(*c, adaptive.id, {"done", "failed"}).value("status", ""), "done");
+  for (const std::string& url :
+       {"/v1/jobs/" + grid_job.id + "/field.npy", "/v1/jobs/" + grid_job.id + "/labels.npy",
+        "/v1/jobs/" + adaptive.id + "/field.npy?resolution=8"}) {
+    const auto r = c->Get(url.c_str());
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << url << " " << r->body;
+    EXPECT_EQ(r->get_header_value("X-Gvd-Grid-Units"), "um") << url;
+  }
 }
 
 /// `count` copies of one UV sphere (radius 1, 8 rings x 16 segments) as scene JSON: a grid

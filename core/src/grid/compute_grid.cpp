@@ -561,6 +561,7 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
   DistanceGrid out;
   out.spec = make_grid_spec(scene, options);
   out.metric = options.metric;
+  out.units = scene.units;
   const GridSpec& spec = out.spec;
   const std::atomic<bool>* cancel = options.cancel;
   // The evaluation is ~all of the work; signing the rest.

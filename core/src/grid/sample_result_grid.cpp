@@ -81,6 +81,7 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
   DistanceGrid out;
   out.spec = make_result_grid_spec(result, options);
   out.metric = options.metric;
+  out.units = result.scene.units;
   const GridSpec& spec = out.spec;
   const int dim = spec.dimension;
   const Scene& scene = result.scene;

@@ -123,6 +123,9 @@ struct DistanceGrid {
   /// was found visible; its Voronoi region lies in it (empty when culling was off).
   std::vector<RangeBounds> site_bounds;
   int range_cells = 0;
+  /// The scene's length unit ("mm", ...; Scene::units): the distances, the origin and the
+  /// cell size are in it. Empty: none declared. A label only (NRRD's "space units").
+  std::string units;
   GridStats stats;
 };
 
