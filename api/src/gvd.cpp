@@ -12,6 +12,8 @@
 #include <utility>
 
 #include "gvd/common/parallel.h"
+#include "gvd/grid/compute_grid.h"
+#include "gvd/grid/sample_result_grid.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
@@ -94,6 +96,46 @@ ObjectId checked_object(const GvdResult& r, Object object) {
                 {.object = static_cast<int64_t>(object)});
   }
   return static_cast<ObjectId>(object);
+}
+
+/// The box of a `domain` option (lo..., hi...: 2 x dimension numbers; corners in any order).
+Box domain_box(const std::vector<double>& domain, int dim) {
+  if (domain.size() != static_cast<size_t>(2 * dim)) {
+    throw Error(ErrorCode::kInvalidArgument,
+                "the domain needs " + std::to_string(2 * dim) + " numbers (lo..., hi...) for a " +
+                    std::to_string(dim) + "D scene, got " + std::to_string(domain.size()));
+  }
+  Box box;
+  Vec3 lo, hi;
+  for (int a = 0; a < dim; ++a) {
+    lo[a] = domain[static_cast<size_t>(a)];
+    hi[a] = domain[static_cast<size_t>(dim + a)];
+  }
+  box.extend(lo);
+  box.extend(hi);
+  return box;
+}
+
+/// The facade's grid of the core's (arrays moved, not copied).
+Grid grid_of(DistanceGrid&& g) {
+  Grid out;
+  out.dimension = g.spec.dimension;
+  out.shape = g.spec.n;
+  out.origin = {g.spec.origin.x, g.spec.origin.y, g.spec.origin.z};
+  out.cell = g.spec.h;
+  out.metric = grid_metric_name(g.metric);
+  out.units = std::move(g.units);
+  out.distance = std::move(g.distance);
+  out.label = std::move(g.label);
+  out.backend = g.stats.backend;
+  out.seconds = g.stats.seconds;
+  return out;
+}
+
+void check_grid_options(const GridOptions& options) {
+  if (options.threads < 0 || options.range_cells < 0) {
+    throw Error(ErrorCode::kInvalidArgument, "threads and range_cells must not be negative");
+  }
 }
 
 /// One backend per request ("auto", "opencl", "cpu") for the whole process: OpenCL is
@@ -249,24 +291,7 @@ Result compute(const Scene& scene, const ComputeOptions& options) {
                 "max_depth, threads and contact_depth must not be negative");
   }
   po.domain.frame = parse_domain_frame(options.frame);
-  if (!options.domain.empty()) {
-    const int dim = s.dimension;
-    if (options.domain.size() != static_cast<size_t>(2 * dim)) {
-      throw Error(ErrorCode::kInvalidArgument, "the domain needs " + std::to_string(2 * dim) +
-                                                   " numbers (lo..., hi...) for a " +
-                                                   std::to_string(dim) + "D scene, got " +
-                                                   std::to_string(options.domain.size()));
-    }
-    Box box;
-    Vec3 lo, hi;
-    for (int a = 0; a < dim; ++a) {
-      lo[a] = options.domain[static_cast<size_t>(a)];
-      hi[a] = options.domain[static_cast<size_t>(dim + a)];
-    }
-    box.extend(lo);
-    box.extend(hi);
-    po.domain.box = box;
-  }
+  if (!options.domain.empty()) po.domain.box = domain_box(options.domain, s.dimension);
   const kernels::BackendChoice choice = backend_for(options.backend);
   po.backend = choice.backend;
   po.compute = choice.compute;
@@ -276,6 +301,25 @@ Result compute(const Scene& scene, const ComputeOptions& options) {
   }
   po.cancel = options.cancel;
   return Access::make_result(compute_gvd(std::move(s), po));
+}
+
+Grid grid(const Scene& scene, const GridOptions& options) {
+  gvd::Scene s = Access::scene(scene);
+  validate_scene(s);
+  check_grid_options(options);
+  ::gvd::GridOptions go;
+  go.resolution = options.resolution;
+  go.metric = parse_grid_metric(options.metric);
+  go.signed_distance = options.signed_distance;
+  if (!options.domain.empty()) go.box = domain_box(options.domain, s.dimension);
+  go.range_cells = options.range_cells;
+  go.max_cells = options.max_cells;
+  go.threads = options.threads;
+  (void)make_grid_spec(s, go);  // the limits, before the backend starts or memory is taken
+  go.compute = backend_for(options.backend).compute;
+  go.cancel = options.cancel;
+  if (options.progress) go.progress = [&options](double f) { options.progress("grid", f); };
+  return grid_of(compute_grid(s, go));
 }
 
 Result load(const std::string& path) { return Access::make_result(load_result(path)); }
@@ -291,6 +335,21 @@ const std::string& Result::label(Object object) const {
 }
 Object Result::object(std::string_view label) const {
   return object_of(impl_->index().object(label));
+}
+
+Grid Result::grid(const GridOptions& options) const {
+  check_grid_options(options);
+  const GvdResult& r = internal();
+  ResultGridOptions ro;
+  ro.resolution = options.resolution;
+  ro.metric = parse_grid_metric(options.metric);
+  ro.signed_distance = options.signed_distance;
+  if (!options.domain.empty()) ro.box = domain_box(options.domain, r.scene.dimension);
+  ro.max_cells = options.max_cells;
+  ro.threads = options.threads;
+  ro.cancel = options.cancel;
+  if (options.progress) ro.progress = [&options](double f) { options.progress("grid", f); };
+  return grid_of(sample_result_grid(r, ro));
 }
 
 std::vector<Contact> Result::contacts(double max_gap) const {

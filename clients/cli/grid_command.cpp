@@ -116,7 +116,8 @@ int grid_from_result(const Args& args, const GridOptions& scene_options, bool qu
                        "on the CPU"};
     }
   }
-  const GvdResult result = load_result(args.positional[0]);
+  GvdResult result = load_result(args.positional[0]);
+  apply_units(args, result.scene);  // --units labels a result saved without (or with others)
   ResultGridOptions options;
   options.resolution = scene_options.resolution;
   options.metric = scene_options.metric;
@@ -158,11 +159,11 @@ int grid_from_result(const Args& args, const GridOptions& scene_options, bool qu
 }  // namespace
 
 int cmd_grid(int argc, char** argv) {
-  const Args args =
-      parse_args(argc, argv, 2,
-                 {"-o", "--output", "--labels", "--resolution", "--metric", "--domain", "--threads",
-                  "--backend", "--max-cells", "--range-cells", "--max-objects", "--max-simplices"},
-                 {"--float64", "--unsigned", "-q", "--quiet"});
+  const Args args = parse_args(
+      argc, argv, 2,
+      {"-o", "--output", "--labels", "--resolution", "--metric", "--domain", "--threads",
+       "--backend", "--max-cells", "--range-cells", "--max-objects", "--max-simplices", "--units"},
+      {"--float64", "--unsigned", "-q", "--quiet"});
   if (args.positional.empty()) throw UsageError{"grid needs a scene file or a saved result"};
   const bool quiet = args.has("-q") || args.has("--quiet");
   const auto output = args.value("-o") ? args.value("-o") : args.value("--output");
@@ -177,7 +178,8 @@ int cmd_grid(int argc, char** argv) {
   SceneLimits limits;
   limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
   limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
-  const Scene scene = load_scene(args.positional, limits);
+  Scene scene = load_scene(args.positional, limits);
+  apply_units(args, scene);
   prepare_grid(args, scene, options, quiet);
   if (!quiet && scene.objects.size() == 1)
     std::fprintf(stderr, "gvd: one object: every cell's label is 0 (a distance field)\n");
@@ -243,7 +245,9 @@ int compute_grid_mode(const Args& args) {
   prepare_grid(args, scene, options, quiet);
   const DistanceGrid grid = compute_grid(scene, options);
   Stopwatch sw;
-  const DualGraph graph = grid_dual_graph(grid, scene, options.threads);
+  GridGraphOptions graph_options;
+  graph_options.threads = options.threads;
+  const DualGraph graph = grid_dual_graph(grid, scene, graph_options);
   const double graph_seconds = sw.seconds();
   std::vector<std::string> written = write_outputs(grid, output, labels, args.has("--float64"));
   if (graph_path) {

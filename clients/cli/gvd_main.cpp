@@ -167,6 +167,9 @@ grid options (gvd grid, and gvd compute --mode grid):
   --range-cells N            cells along a side of a culling range (default 8 in 2D, 4 in 3D)
   --backend opencl|cpu|auto  where the per-range kernel runs (default auto, as for compute)
   --threads N                CPU twin threads (default: all cores)
+  --units U                  gvd grid: the length unit of the coordinates (as for compute:
+                             over the scene's or result's own "units"); a NRRD output says
+                             it as "space units" (a .npy has no place for it)
   From RESULT.gvd (compute --save): the box defaults to the result's domain (a cube: N^D
   cells); each cell's search is bounded by the closest points stored on its octree leaf's
   vertices, then decided by exact distances to the scene's simplices. Guaranteed: the labels

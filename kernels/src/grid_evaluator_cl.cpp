@@ -2,12 +2,14 @@
 // item per row of cells, the grid's best keys and sites kept on the device between batches.
 
 #include <algorithm>
+#include <chrono>
 #include <limits>
 #include <mutex>
 #include <vector>
 
 #include "backend_impl.h"
 #include "cl_runtime.h"
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/grid/grid_evaluator.h"
 
@@ -86,12 +88,38 @@ class OpenClGridEvaluator final : public GridEvaluator {
     cl::set_arg(k, a++, dist_.get());
     cl::set_arg(k, a++, visible_.get());
     const size_t local = std::min<size_t>(impl_->local_size, 16);
-    const size_t global = round_up(items, local);
-    cl::check(clEnqueueNDRangeKernel(q, k.get(), 1, nullptr, &global, &local, 0, nullptr, nullptr),
-              "clEnqueueNDRangeKernel", " (gvd_grid_distance)");
+    if (cancel_ == nullptr) {
+      const size_t global = round_up(items, local);
+      cl::check(
+          clEnqueueNDRangeKernel(q, k.get(), 1, nullptr, &global, &local, 0, nullptr, nullptr),
+          "clEnqueueNDRangeKernel", " (gvd_grid_distance)");
+    } else {
+      launch_in_slices(q, k, items, local);
+    }
     cl::check(clEnqueueReadBuffer(q, visible_.get(), CL_TRUE, 0, visible.size_bytes(),
                                   visible.data(), 0, nullptr, nullptr),
               "clEnqueueReadBuffer", " (grid visibility flags)");
+  }
+
+  /// The launch as slices of work items (global offsets; each item is one row of cells and
+  /// writes only its own cells and flags, so slices are independent), the cancel flag read
+  /// between them. A slice's size follows the last one's time towards ~0.1 s, so that a set
+  /// flag is seen within about that, while slices stay large enough to fill the device.
+  void launch_in_slices(cl_command_queue q, const cl::Kernel& k, uint32_t items, size_t local) {
+    using Clock = std::chrono::steady_clock;
+    size_t slice = round_up(std::min<size_t>(items, 64), local);
+    for (size_t first = 0; first < items;) {
+      throw_if_cancelled(cancel_, "the grid's evaluation");
+      const size_t global = round_up(std::min<size_t>(slice, items - first), local);
+      const Clock::time_point start = Clock::now();
+      cl::check(clEnqueueNDRangeKernel(q, k.get(), 1, &first, &global, &local, 0, nullptr, nullptr),
+                "clEnqueueNDRangeKernel", " (gvd_grid_distance)");
+      cl::check(clFinish(q), "clFinish", " (gvd_grid_distance)");
+      first += global;
+      const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+      if (seconds < 0.05) slice *= 2;
+      if (seconds > 0.2 && slice > local) slice = round_up(slice / 2, local);
+    }
   }
 
   void read_best(std::span<double> key, std::span<uint32_t> site) override {

@@ -13,6 +13,7 @@ The engine of ``gvd compute`` in-process, on numpy arrays; docs/PYTHON.md is the
     r.path(p, q, min_clearance=0.01)
     V, F = r.cell("a")
     r.save("r.gvd"); gvd.load("r.gvd"); r.write_glb("gvd.glb")
+    g = gvd.grid(scene, 256)                  # uniform grid: g.distance, g.labels (numpy)
 """
 
 from ._gvd import (  # noqa: F401  (the module's whole API, implemented in C++)
@@ -24,7 +25,9 @@ from ._gvd import (  # noqa: F401  (the module's whole API, implemented in C++)
     Nearest,
     Path,
     Explosion,
+    Grid,
     compute,
+    grid,
     load,
     Error,
     InvalidScene,
@@ -39,14 +42,14 @@ from ._gvd import (  # noqa: F401  (the module's whole API, implemented in C++)
 )
 
 __all__ = [
-    "Scene", "Result", "Cell", "CancelToken", "Nearest", "Path", "Explosion",
-    "compute", "load",
+    "Scene", "Result", "Cell", "CancelToken", "Nearest", "Path", "Explosion", "Grid",
+    "compute", "grid", "load",
     "Error", "InvalidScene", "InvalidArgument", "UnsupportedFormat", "OutsideDomain",
     "LimitExceeded", "NotFound", "IoError", "Cancelled", "InternalError",
 ]
 
 # The classes are defined in gvd._gvd; they are documented and used as gvd.X.
-for _cls in (Scene, Result, Cell, CancelToken, compute, load):
+for _cls in (Scene, Result, Cell, CancelToken, compute, grid, load):
     try:
         _cls.__module__ = "gvd"
     except (AttributeError, TypeError):

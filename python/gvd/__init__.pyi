@@ -87,6 +87,17 @@ class Explosion(NamedTuple):
     displacement: np.ndarray  # float64 (n, D)
     factor: np.ndarray  # float64 (n,): share of the paper's displacement kept (collision-free)
 
+class Grid(NamedTuple):
+    """A uniform grid (gvd.grid, Result.grid). Fields may be added: read them by name."""
+
+    distance: np.ndarray  # float32 (float64 with float64=True), (ny, nx) / (nz, ny, nx)
+    labels: np.ndarray  # int32, same shape: nearest object, -1 for none
+    origin: np.ndarray  # float64 (D,): the corner of cell 0
+    cell: float  # edge length of a cell
+    metric: str  # 'l2', 'l1' or 'linf'
+    units: Optional[str]  # the scene's length unit, None when it declared none
+    backend: str
+
 class Cell:
     vertices: np.ndarray  # float64 (n, D)
     faces: np.ndarray  # uint32 (m, D)
@@ -117,6 +128,19 @@ class Result:
     ) -> Path: ...
     def cell(self, object: _ObjectRef) -> Cell: ...
     def explode(self, anchor: _ObjectRef, scale: float = 0.0) -> Explosion: ...
+    def grid(
+        self,
+        resolution: int = 256,
+        *,
+        metric: str = "l2",
+        signed: bool = True,
+        float64: bool = False,
+        domain: Optional[Sequence[float]] = None,
+        max_cells: int = 134217728,
+        threads: int = 0,
+        progress: Union[None, bool, Callable[[str, float], Any]] = None,
+        cancel: Optional[CancelToken] = None,
+    ) -> Grid: ...
     def save(self, path: _PathLike) -> None: ...
     def write_glb(self, path: _PathLike) -> None: ...
     def write_json(self, path: _PathLike) -> None: ...
@@ -148,4 +172,19 @@ def compute(
     ambiguity_rounds: int = -1,
     unseen_rounds: int = -1,
 ) -> Result: ...
+def grid(
+    scene: Union[Scene, _PathLike, Sequence[_PathLike]],
+    resolution: int = 256,
+    *,
+    metric: str = "l2",
+    signed: bool = True,
+    float64: bool = False,
+    domain: Optional[Sequence[float]] = None,
+    range_cells: int = 0,
+    max_cells: int = 134217728,
+    threads: int = 0,
+    backend: str = "auto",
+    progress: Union[None, bool, Callable[[str, float], Any]] = None,
+    cancel: Optional[CancelToken] = None,
+) -> Grid: ...
 def load(path: _PathLike) -> Result: ...

@@ -27,7 +27,7 @@ using namespace pybind11::literals;
 
 /// The named-tuple types of the answers (created in the module at import; kept alive by it).
 struct Types {
-  py::handle nearest, path, explosion;
+  py::handle nearest, path, explosion, grid;
 };
 Types types;
 
@@ -232,6 +232,90 @@ py::object explode(const api::Result& r, const py::handle& anchor, double scale)
                          to_numpy(std::move(e.factor), {n}));
 }
 
+/// The options gvd.grid and Result.grid share.
+api::GridOptions grid_options(int resolution, const std::string& metric, bool signed_distance,
+                              const std::optional<std::vector<double>>& domain, uint64_t max_cells,
+                              int threads) {
+  api::GridOptions o;
+  o.resolution = resolution;
+  o.metric = metric;
+  o.signed_distance = signed_distance;
+  if (domain) o.domain = *domain;
+  o.max_cells = max_cells;
+  o.threads = threads;
+  return o;
+}
+
+/// An api::Grid as a gvd.Grid whose arrays have numpy's shape (ny, nx) / (nz, ny, nx) (x
+/// fastest, as the facade lays them out) and own the facade's vectors: the labels and float64
+/// distances are moved, not copied; float32 distances are converted once, without the GIL.
+py::object grid_tuple(api::Grid&& g, bool float64) {
+  std::vector<py::ssize_t> shape;
+  if (g.dimension == 3) shape.push_back(g.shape[2]);
+  shape.push_back(g.shape[1]);
+  shape.push_back(g.shape[0]);
+  py::array distance;
+  if (float64) {
+    distance = to_numpy(std::move(g.distance), shape);
+  } else {
+    std::vector<float> narrow;
+    {
+      py::gil_scoped_release unlocked;
+      narrow.assign(g.distance.begin(), g.distance.end());
+      std::vector<double>().swap(g.distance);  // the doubles go now, not with the grid
+    }
+    distance = to_numpy(std::move(narrow), shape);
+  }
+  py::array labels = to_numpy(std::move(g.label), shape);
+  py::array_t<double> origin(g.dimension);
+  for (int a = 0; a < g.dimension; ++a) origin.mutable_at(a) = g.origin[static_cast<size_t>(a)];
+  py::object units = g.units.empty() ? py::object(py::none()) : py::object(py::str(g.units));
+  return types.grid(distance, labels, origin, g.cell, g.metric, units, g.backend);
+}
+
+/// gvd.grid: the scene's uniform-grid GVD on a worker thread (run_in_python).
+py::object scene_grid(const py::object& scene, int resolution, const std::string& metric,
+                      bool signed_distance, bool float64,
+                      const std::optional<std::vector<double>>& domain, int range_cells,
+                      uint64_t max_cells, int threads, const std::string& backend,
+                      const py::object& progress, CancelToken* token) {
+  api::GridOptions o =
+      grid_options(resolution, metric, signed_distance, domain, max_cells, threads);
+  o.range_cells = range_cells;
+  o.backend = backend;
+  std::optional<PyScene> loaded;
+  if (!py::isinstance<PyScene>(scene)) loaded.emplace(load_scene(scene));
+  PyScene& s = loaded ? *loaded : scene.cast<PyScene&>();
+  Reading reading(s);
+  std::optional<api::Grid> g;
+  run_in_python(
+      [&](const std::atomic<bool>* cancel, const WorkProgress& report) {
+        o.cancel = cancel;
+        o.progress = report;
+        g.emplace(api::grid(s.scene, o));
+      },
+      progress, token);
+  return grid_tuple(std::move(*g), float64);
+}
+
+/// Result.grid: the grid sampled from the result on a worker thread (run_in_python).
+py::object result_grid(const api::Result& r, int resolution, const std::string& metric,
+                       bool signed_distance, bool float64,
+                       const std::optional<std::vector<double>>& domain, uint64_t max_cells,
+                       int threads, const py::object& progress, CancelToken* token) {
+  api::GridOptions o =
+      grid_options(resolution, metric, signed_distance, domain, max_cells, threads);
+  std::optional<api::Grid> g;
+  run_in_python(
+      [&](const std::atomic<bool>* cancel, const WorkProgress& report) {
+        o.cancel = cancel;
+        o.progress = report;
+        g.emplace(r.grid(o));
+      },
+      progress, token);
+  return grid_tuple(std::move(*g), float64);
+}
+
 /// Contacts as a list of dicts (the keys of `gvd contacts`' JSON; points as (D,) arrays).
 py::list contacts(const api::Result& r, double max_gap) {
   std::vector<api::Contact> found;
@@ -380,6 +464,28 @@ void define_module(py::module_& m) {
                       "int32 (n,) per object (0 = anchor, -1 = unreachable), displacement "
                       "float64 (n, D) per object, factor float64 (n,): the share of scale x ring x "
                       "direction kept so that no two objects collide while they move.")
+          .inc_ref();
+
+  types.grid =
+      make_namedtuple(
+          m, "Grid", {"distance", "labels", "origin", "cell", "metric", "units", "backend"},
+          "A uniform grid (gvd.grid, Result.grid): per cell centre the nearest object and the "
+          "distance to it. Arrays of shape (ny, nx) in 2D, (nz, ny, nx) in 3D (x fastest: "
+          "distance[k, j, i] is cell (i, j, k)):\n"
+          "  distance  float32 (float64 with float64=True): the metric distance from the cell "
+          "centre to the nearest object, negative inside a closed object (signed=True); inf "
+          "when there is none\n"
+          "  labels    int32: the nearest object's index (exact ties: the lower), -1 for none\n"
+          "  origin    float64 (D,): the corner of cell 0; cell (i, j, k) spans origin + "
+          "[i, i+1] x [j, j+1] x [k, k+1] times cell, its centre origin + (i+0.5, j+0.5, "
+          "k+0.5) * cell\n"
+          "  cell      float: the cells' edge length\n"
+          "  metric    'l2', 'l1' or 'linf'\n"
+          "  units     the scene's length unit ('mm', ...) of distance, origin and cell; None "
+          "when it declared none\n"
+          "  backend   where it ran ('cpu', 'opencl (...)', 'cpu (sampled from the adaptive "
+          "result)')\n"
+          "Fields may be added in later versions: read them by name.")
           .inc_ref();
 
   py::class_<CancelToken>(m, "CancelToken",
@@ -558,6 +664,22 @@ add fields.)doc")
            "depth_lower_bound (None unless computable), interface_area (of the GVD between "
            "them) and sites (connected regions of that interface below the bound: area, "
            "centroid, min_gap, on_a, on_b).")
+      .def(
+          "grid", &result_grid, "resolution"_a = 256, py::kw_only(), "metric"_a = "l2",
+          "signed"_a = true, "float64"_a = false, "domain"_a = py::none(),
+          "max_cells"_a = api::GridOptions{}.max_cells, "threads"_a = 0, "progress"_a = py::none(),
+          "cancel"_a = static_cast<CancelToken*>(nullptr),
+          R"doc(grid(resolution=256, *, metric='l2', signed=True, float64=False, domain=None, max_cells=2**27, threads=0, progress=None, cancel=None) -> gvd.Grid
+
+The uniform grid sampled exactly from this result (`gvd grid RESULT.gvd`): per cell centre the
+nearest object and its distance in the metric, not interpolated: the same labels and distances
+as gvd.grid(scene) over the same box. The box is the result's domain (a square / cube:
+resolution**D cells) unless domain=[lo..., hi...] gives one (it must hold every vertex).
+metric 'l2' | 'l1' | 'linf'; signed=False: no negative distances inside closed objects;
+float64=True: distance as float64 (the computed array itself) instead of float32; max_cells:
+more cells raise gvd.LimitExceeded before any work. Runs on `threads` threads (0 = all
+cores) without the GIL; progress and cancel as for gvd.compute (the stage "grid"); Ctrl-C
+stops it within a fraction of a second (KeyboardInterrupt).)doc")
       .def("save", &write_to<&api::Result::save>, "path"_a,
            "Writes the whole result, reloadable by gvd.load (`gvd compute --save`).")
       .def("write_glb", &write_to<&api::Result::write_glb>, "path"_a,
@@ -621,6 +743,35 @@ add fields.)doc")
       "max_leaves"_a = d.max_leaves, "max_objects"_a = d.max_objects,
       "max_simplices"_a = d.max_simplices, "ambiguity_levels"_a = d.ambiguity_levels,
       "ambiguity_rounds"_a = d.ambiguity_rounds, "unseen_rounds"_a = d.unseen_rounds, kComputeDoc);
+
+  m.def(
+      "grid", &scene_grid, "scene"_a, "resolution"_a = 256, py::kw_only(), "metric"_a = "l2",
+      "signed"_a = true, "float64"_a = false, "domain"_a = py::none(), "range_cells"_a = 0,
+      "max_cells"_a = api::GridOptions{}.max_cells, "threads"_a = 0, "backend"_a = "auto",
+      "progress"_a = py::none(), "cancel"_a = static_cast<CancelToken*>(nullptr),
+      R"doc(grid(scene, resolution=256, *, metric='l2', signed=True, float64=False, domain=None, range_cells=0, max_cells=2**27, threads=0, backend='auto', progress=None, cancel=None) -> gvd.Grid
+
+The uniform-grid discrete GVD of a scene (`gvd grid SCENE`; Sud et al. 2006's range culling):
+for every cell centre the exact nearest object (labels, int32, -1 for none) and the distance to
+it in the metric, negative inside closed objects (an ESDF). Arrays of shape (ny, nx) / (nz, ny,
+nx), x fastest (gvd.Grid says how cells map to coordinates).
+
+scene       a gvd.Scene, or scene file path(s) as for gvd.compute
+resolution  cells along the longest side of the box; the other sides get as many cells of the
+            same size as cover them
+metric      'l2' | 'l1' | 'linf'
+signed      False: distances are not negated inside closed objects
+float64     distance as float64 (the computed array itself, no copy) instead of float32
+domain      the box [lo..., hi...] (2*D numbers; it must hold every vertex); None = the scene's
+            bounding box + 5 % of its longest side on every side
+range_cells cells per side of a culling range; 0 = default (2D 8, 3D 4)
+max_cells   more cells raise gvd.LimitExceeded before any work
+threads     worker threads, 0 = all cores
+backend     'auto' | 'opencl' | 'cpu': where the per-range evaluation runs
+progress, cancel   as for gvd.compute (the stage "grid", its fraction advancing within it)
+
+Runs without the GIL; Ctrl-C or cancel stops it within a fraction of a second. Raises
+gvd.InvalidScene, gvd.InvalidArgument, gvd.LimitExceeded, gvd.Cancelled.)doc");
 
   m.def(
       "load",

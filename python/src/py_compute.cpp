@@ -61,7 +61,6 @@ struct Shared {
   std::condition_variable changed;
   std::vector<std::pair<std::string, double>> events;  ///< progress not yet delivered
   bool finished = false;
-  std::optional<api::Result> result;
   std::exception_ptr error;
 };
 
@@ -88,22 +87,10 @@ class JoinOnExit {
   std::atomic<bool>& cancel_;
 };
 
-/// Marks the scene as read by a computation for the scope (GIL held on both ends).
-class Reading {
- public:
-  explicit Reading(PyScene& scene) : scene_(scene) { ++scene_.computing; }
-  Reading(const Reading&) = delete;
-  Reading& operator=(const Reading&) = delete;
-  ~Reading() { --scene_.computing; }
-
- private:
-  PyScene& scene_;
-};
-
 }  // namespace
 
-api::Result compute_in_python(PyScene& scene, api::ComputeOptions options,
-                              const py::object& progress, CancelToken* token) {
+void run_in_python(const std::function<void(const std::atomic<bool>*, const WorkProgress&)>& work,
+                   const py::object& progress, CancelToken* token) {
   const bool bar = py::isinstance<py::bool_>(progress) && progress.cast<bool>();
   const bool callback = !progress.is_none() && !py::isinstance<py::bool_>(progress);
   if (callback && !PyCallable_Check(progress.ptr())) {
@@ -113,9 +100,9 @@ api::Result compute_in_python(PyScene& scene, api::ComputeOptions options,
   TextBar text_bar;
   Shared shared;
   std::atomic<bool> cancel{token != nullptr && token->cancelled()};
-  options.cancel = &cancel;
+  WorkProgress report;
   if (bar || callback) {
-    options.progress = [&shared](std::string_view stage, double fraction) {
+    report = [&shared](std::string_view stage, double fraction) {
       std::lock_guard<std::mutex> lock(shared.mutex);
       // Consecutive reports of one stage collapse into the latest: every stage is delivered.
       if (!shared.events.empty() && shared.events.back().first == stage) {
@@ -127,18 +114,14 @@ api::Result compute_in_python(PyScene& scene, api::ComputeOptions options,
     };
   }
 
-  Reading reading(scene);
-  const api::Scene& input = scene.scene;
-  std::thread worker([&shared, &input, &options] {
-    std::optional<api::Result> result;
+  std::thread worker([&shared, &work, &cancel, &report] {
     std::exception_ptr error;
     try {
-      result.emplace(api::compute(input, options));
+      work(&cancel, report);
     } catch (...) {
       error = std::current_exception();
     }
     std::lock_guard<std::mutex> lock(shared.mutex);
-    shared.result = std::move(result);
     shared.error = error;
     shared.finished = true;
     shared.changed.notify_all();
@@ -181,7 +164,21 @@ api::Result compute_in_python(PyScene& scene, api::ComputeOptions options,
   if (bar) text_bar.finish();
   if (raised) throw std::move(*raised);
   if (shared.error) std::rethrow_exception(shared.error);
-  return std::move(*shared.result);
+}
+
+api::Result compute_in_python(PyScene& scene, api::ComputeOptions options,
+                              const py::object& progress, CancelToken* token) {
+  Reading reading(scene);
+  const api::Scene& input = scene.scene;
+  std::optional<api::Result> result;
+  run_in_python(
+      [&](const std::atomic<bool>* cancel, const WorkProgress& report) {
+        options.cancel = cancel;
+        options.progress = report;
+        result.emplace(api::compute(input, options));
+      },
+      progress, token);
+  return std::move(*result);
 }
 
 }  // namespace gvd::python

@@ -31,16 +31,22 @@ std::shared_ptr<const GvdResult> compute_grid_job(Scene scene, const JobParams& 
   };
   Stopwatch total;
   report("scene", 1);
-  const GridOptions options = params.grid_options(server);
+  GridOptions options = params.grid_options(server);
   (void)make_grid_spec(scene, options);  // the limits, before any memory is taken
   check_cancel(cancel);
   report("grid", 0);
+  options.cancel = cancel;
+  options.progress = [&](double f) { report("grid", f); };
   const DistanceGrid grid = compute_grid(scene, options);
   report("grid", 1);
   check_cancel(cancel);
   report("graph", 0);
   Stopwatch graph_watch;
-  DualGraph graph = grid_dual_graph(grid, scene, options.threads);
+  GridGraphOptions graph_options;
+  graph_options.threads = options.threads;
+  graph_options.cancel = cancel;
+  graph_options.progress = [&](double f) { report("graph", f); };
+  DualGraph graph = grid_dual_graph(grid, scene, graph_options);
   const double graph_seconds = graph_watch.seconds();
   report("graph", 1);
   check_cancel(cancel);

@@ -20,8 +20,9 @@ namespace gvd::server {
 /// result file reads back); the grid itself is written first as `<results_dir>/<id>.field.npy`
 /// (distance: float32, or float64 with the job's float64) and `<id>.labels.npy` (int32), so a
 /// result file in the store means its grid files are complete. `progress` gets the stages
-/// "scene", "grid" and "graph". Throws gvd::Error (kCancelled when `cancel` is set between
-/// stages: the grid computation itself is bounded by --max-grid-cells and not interrupted).
+/// "scene", "grid" and "graph", each with fractions as it advances. Throws gvd::Error
+/// (kCancelled when `cancel` is set: every stage reads it at bounded intervals, the grid's
+/// too, so DELETE, --job-seconds and the memory watchdog stop a job within about a second).
 std::shared_ptr<const GvdResult> compute_job(Scene scene, const JobParams& params,
                                              const ServerOptions& server,
                                              const std::atomic<bool>* cancel,

@@ -14,6 +14,7 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/query/contact_report.h"
 #include "gvd/query/gvd_index.h"
+#include "gvd/scene/units.h"
 #include "job_compute.h"
 #include "job_params.h"
 #include "job_queue.h"
@@ -233,8 +234,8 @@ namespace {
 // A grid's .npy bytes as an attachment, with its geometry in headers for clients that read
 // only the array; `etag` when the bytes are fixed for the job.
 void send_grid_npy(httplib::Response& res, const GridSpec& s, const std::string& metric,
-                   bool labels, std::shared_ptr<std::vector<uint8_t>> body,
-                   const std::string& etag = "") {
+                   const std::string& units, bool labels,
+                   std::shared_ptr<std::vector<uint8_t>> body, const std::string& etag = "") {
   char origin[160];
   std::snprintf(origin, sizeof origin, "%.17g,%.17g,%.17g", s.origin.x, s.origin.y, s.origin.z);
   char h[40];
@@ -242,6 +243,7 @@ void send_grid_npy(httplib::Response& res, const GridSpec& s, const std::string&
   res.set_header("X-Gvd-Grid-Origin", origin);
   res.set_header("X-Gvd-Grid-Cell", h);
   res.set_header("X-Gvd-Grid-Metric", metric);
+  if (!units.empty()) res.set_header("X-Gvd-Grid-Units", ascii_units(units));
   res.set_header("Content-Disposition",
                  std::string("attachment; filename=\"") + (labels ? "labels" : "field") + ".npy\"");
   if (!etag.empty()) res.set_header("ETag", "\"" + etag + "\"");
@@ -274,7 +276,8 @@ void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response
   options.resolution = params.grid_resolution;
   options.box = params.grid_options({}).box;
   options.max_cells = ~uint64_t{0} >> 32;
-  send_grid_npy(res, make_grid_spec(result->result().scene, options), params.metric, labels,
+  const Scene& scene = result->result().scene;
+  send_grid_npy(res, make_grid_spec(scene, options), params.metric, scene.units, labels,
                 std::move(body), id);
 }
 
@@ -329,7 +332,7 @@ void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bo
   }
   (void)make_result_grid_spec(gvd, options);  // the limits, before any work
   const DistanceGrid grid = sample_result_grid(gvd, options);
-  send_grid_npy(res, grid.spec, grid_metric_name(grid.metric), labels,
+  send_grid_npy(res, grid.spec, grid_metric_name(grid.metric), grid.units, labels,
                 std::make_shared<std::vector<uint8_t>>(grid_npy_bytes(grid, labels, float64)));
 }
 

@@ -223,6 +223,14 @@ class RemoteCli(unittest.TestCase):
                                  "--resolution", "20", "-q")
         self.assertEqual(rc, BAD_INPUT, err)
         self.assertIn("spacing", err)
+        # A float .npy is no label volume: invalid input naming the dtype (422 on the server),
+        # the exit code of the same mistake made locally.
+        rc, _, err = self.remote("compute", "--volume", f"{d}/f.npy", "--spacing", "1,1", "-q")
+        self.assertEqual(rc, BAD_INPUT, err)
+        self.assertIn("dtype <f8", err)
+        rc, _, err = gvd("compute", "--volume", f"{d}/f.npy", "--spacing", "1,1", "-q")
+        self.assertEqual(rc, BAD_INPUT, err)
+        self.assertIn("dtype <f8", err)
 
 
 class NoEventStreams(unittest.TestCase):

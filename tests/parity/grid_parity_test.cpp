@@ -7,9 +7,13 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstring>
 #include <random>
+#include <thread>
 
+#include "gvd/common/error.h"
 #include "gvd/grid/compute_grid.h"
 #include "parity/opencl_env.h"
 #include "support/scenes.h"
@@ -113,6 +117,39 @@ TEST(GridParity, ClosedMeshes3D) {
     o.metric = m;
     expect_same_grid(scene, o, backend);
   }
+}
+
+// The kernel launch is sliced and the flag read between slices: 400 coincident spheres (no
+// site can be culled; one batch alone takes seconds) stop within a second of the flag.
+TEST(GridParity, CancelStopsAKernelLaunchWithinASecond) {
+  GVD_REQUIRE_OPENCL(backend);
+  std::vector<SceneObject> objs;
+  for (int i = 0; i < 400; ++i)
+    objs.push_back(test::make_sphere("s" + std::to_string(i), {0, 0, 0}, 1, 8, 16));
+  const Scene scene = test::make_scene(3, std::move(objs));
+  std::atomic<bool> cancel{false};
+  GridOptions o;
+  o.resolution = 64;
+  o.compute = backend;
+  o.cancel = &cancel;
+  std::atomic<int> outcome{-1};  // 0: finished, 1: cancelled, 2: another error
+  std::chrono::steady_clock::time_point ended;
+  std::thread worker([&] {
+    try {
+      const DistanceGrid g = compute_grid(scene, o);
+      EXPECT_EQ(g.stats.backend, backend->name());
+      outcome = 0;
+    } catch (const Error& e) {
+      outcome = e.code() == ErrorCode::kCancelled ? 1 : 2;
+    }
+    ended = std::chrono::steady_clock::now();
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const auto asked = std::chrono::steady_clock::now();
+  cancel = true;
+  worker.join();
+  EXPECT_EQ(outcome.load(), 1);
+  EXPECT_LT(std::chrono::duration<double>(ended - asked).count(), 1.0);
 }
 
 }  // namespace

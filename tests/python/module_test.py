@@ -248,6 +248,210 @@ class Volumes(unittest.TestCase):
         self.assertEqual(len(every), 4)
 
 
+def cell_centres(g):
+    """The cell centres of a gvd.Grid, shape (..., D) in its arrays' layout (x fastest)."""
+    d = len(g.origin)
+    axes = [g.origin[a] + (np.arange(g.labels.shape[d - 1 - a]) + 0.5) * g.cell for a in range(d)]
+    mesh = np.meshgrid(*reversed(axes), indexing="ij")  # (z,) y, x
+    return np.stack(list(reversed(mesh)), axis=-1)  # x, y(, z) per cell
+
+
+def box_distance(p, lo, hi, metric):
+    """Signed distance from points p (..., D) to the box [lo, hi] in the metric: the norm of
+    the per-axis excess outside; inside, minus the least distance to a face (the same in every
+    norm: the nearest boundary point is straight along one axis)."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    excess = np.maximum(np.maximum(lo - p, p - hi), 0.0)
+    order = {"l2": 2, "l1": 1, "linf": np.inf}[metric]
+    outside = np.linalg.norm(excess, ord=order, axis=-1)
+    depth = np.minimum(p - lo, hi - p).min(axis=-1)
+    return np.where(depth > 0, -depth, outside)
+
+
+def segment_distance(p, a, b):
+    """Euclidean distance from points p (..., 2) to the segment [a, b]."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    t = np.clip(((p - a) @ (b - a)) / ((b - a) @ (b - a)), 0.0, 1.0)
+    return np.linalg.norm(p - (a + t[..., None] * (b - a)), axis=-1)
+
+
+def expect_grid_matches(test, g, distances, scale):
+    """Labels equal the oracle's nearest object except at near-ties (the exact answer there is
+    a rounding away), distances equal to float precision. `distances`: (objects, ...) signed."""
+    unsigned = np.abs(distances)
+    nearest = np.argmin(unsigned, axis=0)
+    ordered = np.sort(unsigned, axis=0)
+    clear = (ordered[1] - ordered[0]) > 1e-9 * scale if len(distances) > 1 else np.ones_like(
+        nearest, dtype=bool)
+    # Not vacuous: most cells are clear (L-infinity ties whole regions: where the same axis
+    # dominates both objects' distances, they are equal).
+    test.assertGreater(clear.mean(), 0.5)
+    np.testing.assert_array_equal(g.labels[clear], nearest[clear])
+    want = np.take_along_axis(distances, nearest[None], axis=0)[0]
+    tol = (1e-9 if g.distance.dtype == np.float64 else 1e-6) * scale
+    np.testing.assert_allclose(g.distance[clear], want[clear], rtol=0, atol=tol)
+
+
+class Grids(unittest.TestCase):
+    """gvd.grid and Result.grid against oracles written here: nearest object and distance at
+    every cell centre from the analytic distance to a box, and brute force over segments."""
+
+    BOXES = (((0, 0, 0), (1, 1, 1)), ((1.1, 0, 0), (2.1, 1, 1)))
+
+    def test_boxes_every_metric(self):
+        for metric in ("l2", "l1", "linf"):
+            g = gvd.grid(two_boxes(), 24, metric=metric, float64=True)
+            self.assertEqual(g.metric, metric)
+            self.assertEqual(g.distance.dtype, np.float64)
+            self.assertEqual(g.labels.dtype, np.int32)
+            self.assertEqual(g.distance.shape, g.labels.shape)
+            self.assertEqual(g.labels.shape[2], 24)  # x, the longest side, has 24 cells
+            p = cell_centres(g)
+            want = np.stack([box_distance(p, lo, hi, metric) for lo, hi in self.BOXES])
+            expect_grid_matches(self, g, want, 2.1)
+            self.assertTrue((g.distance < 0).any())  # cells inside the boxes, signed
+
+    def test_float32_and_unsigned(self):
+        g = gvd.grid(two_boxes(), 20)
+        self.assertEqual(g.distance.dtype, np.float32)
+        p = cell_centres(g)
+        want = np.stack([box_distance(p, lo, hi, "l2") for lo, hi in self.BOXES])
+        expect_grid_matches(self, g, want, 2.1)
+        self.assertIsNone(g.units)
+        scene = two_boxes()
+        scene.units = "mm"
+        self.assertEqual(gvd.grid(scene, 4).units, "mm")
+        self.assertEqual(gvd.compute(scene, backend="cpu").grid(4).units, "mm")
+        u = gvd.grid(two_boxes(), 20, signed=False)
+        np.testing.assert_array_equal(u.distance, np.abs(g.distance))
+        np.testing.assert_array_equal(u.labels, g.labels)
+
+    def test_segments_2d_brute_force(self):
+        rng = np.random.default_rng(11)
+        scene = gvd.Scene(2)
+        segments = []
+        for i in range(25):
+            a = rng.random(2)
+            b = a + 0.1 * (rng.random(2) - 0.5)
+            segments.append((a, b))
+            scene.add(f"s{i}", np.array([a, b]), np.array([[0, 1]]))
+        g = gvd.grid(scene, 80, domain=[-0.1, -0.1, 1.1, 1.1], float64=True)
+        self.assertEqual(g.labels.shape, (80, 80))
+        np.testing.assert_allclose(g.origin, [-0.1, -0.1])
+        self.assertAlmostEqual(g.cell, 1.2 / 80)
+        p = cell_centres(g)
+        want = np.stack([segment_distance(p, a, b) for a, b in segments])
+        expect_grid_matches(self, g, want, 1.2)
+        self.assertFalse((g.distance < 0).any())  # open objects: never signed
+
+    def test_result_grid_is_exact(self):
+        r = gvd.compute(two_boxes(), backend="cpu", frame="world")
+        g = r.grid(16, float64=True)
+        self.assertEqual(g.labels.shape, (16, 16, 16))  # the result's domain is a cube
+        self.assertIn("sampled", g.backend)
+        p = cell_centres(g)
+        want = np.stack([box_distance(p, lo, hi, "l2") for lo, hi in self.BOXES])
+        expect_grid_matches(self, g, want, 2.1)
+        # The same grid as gvd.grid on the scene over the same box.
+        hi = g.origin + np.array(g.labels.shape[::-1]) * g.cell
+        s = gvd.grid(two_boxes(), 16, float64=True, domain=[*g.origin, *hi])
+        np.testing.assert_array_equal(s.labels, g.labels)
+        np.testing.assert_allclose(s.distance, g.distance, rtol=0, atol=1e-12)
+        g32 = r.grid(16, metric="linf")
+        want = np.stack([box_distance(p, lo, hi, "linf") for lo, hi in self.BOXES])
+        expect_grid_matches(self, g32, want, 2.1)
+
+    def test_arrays_own_the_facade_vectors(self):
+        g = gvd.grid(two_boxes(), 16, float64=True)
+        for a in (g.distance, g.labels):
+            self.assertFalse(a.flags.owndata)
+            self.assertEqual(type(a.base).__name__, "PyCapsule")
+            self.assertTrue(a.flags.c_contiguous)
+
+    def test_errors(self):
+        with self.assertRaises(gvd.InvalidArgument):
+            gvd.grid(two_boxes(), 0)
+        with self.assertRaises(gvd.InvalidArgument):
+            gvd.grid(two_boxes(), 8, metric="l3")
+        with self.assertRaises(gvd.InvalidArgument):
+            gvd.grid(two_boxes(), 8, domain=[0, 0, 1, 1])  # 4 numbers for a 3D scene
+        with self.assertRaises(gvd.InvalidArgument):
+            gvd.grid(two_boxes(), 8, domain=[0.5, 0, 0, 3, 1, 1])  # cuts the left box
+        with self.assertRaises(gvd.LimitExceeded):
+            gvd.grid(two_boxes(), 1000, max_cells=1000)
+        r = gvd.compute(two_boxes(), backend="cpu")
+        with self.assertRaises(gvd.LimitExceeded):
+            r.grid(1000, max_cells=1000)
+
+    def test_progress_within_the_stage(self):
+        seen = []
+        # Long enough (~1 s) for the calling thread to deliver reports while it runs.
+        gvd.grid(lattice_scene(3, 1e-2, 2), 96, threads=1,
+                 progress=lambda stage, f: seen.append((stage, f)))
+        self.assertEqual({s for s, _ in seen}, {"grid"})
+        fractions = [f for _, f in seen]
+        self.assertEqual(fractions, sorted(fractions))
+        self.assertEqual(fractions[-1], 1.0)
+        self.assertGreater(len([f for f in fractions if 0 < f < 1]), 3, fractions)
+
+    def test_cancel_token_stops_within_a_second(self):
+        # Coincident spheres: no site can be culled, the grid alone would take minutes.
+        scene = gvd.Scene(3)
+        v, f = meshes.icosphere((0, 0, 0), 1.0, 1)
+        for i in range(300):
+            scene.add(f"s{i}", v, f)
+        token = gvd.CancelToken()
+        asked = []
+
+        def cancel_later():
+            time.sleep(0.3)
+            asked.append(time.monotonic())
+            token.cancel()
+
+        t = threading.Thread(target=cancel_later)
+        t.start()
+        with self.assertRaises(gvd.Cancelled):
+            gvd.grid(scene, 64, threads=2, cancel=token)
+        stopped = time.monotonic()
+        t.join()
+        self.assertLess(stopped - asked[0], 1.0)
+        token.reset()
+        r = gvd.compute(two_boxes(), backend="cpu")
+        token.cancel()
+        with self.assertRaises(gvd.Cancelled):
+            r.grid(32, cancel=token)
+
+    def test_gil_is_released(self):
+        during, elapsed = Gil.count_during(
+            self, lambda: gvd.grid(lattice_scene(2, 1e-2, 2), 96, threads=1, backend="cpu"))
+        self.assertGreater(elapsed, 0.2, "the grid is too short to tell")
+        self.assertGreater(during, 10_000, f"{during} loop turns in {elapsed:.2f} s")
+
+    def test_help_and_stub(self):
+        text = pydoc.render_doc(gvd.grid)
+        for word in ("resolution", "metric", "signed", "float64", "cancel", "Ctrl-C"):
+            self.assertIn(word, text)
+        self.assertIn("sampled exactly", pydoc.render_doc(gvd.Result.grid))
+        import ast
+        stub = os.path.join(os.path.dirname(gvd.__file__), "__init__.pyi")
+        with open(stub) as f:
+            tree = ast.parse(f.read())
+        result = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "Result")
+        for fn, doc in ((next(n for n in tree.body
+                              if isinstance(n, ast.FunctionDef) and n.name == "grid"), gvd.grid),
+                        (next(n for n in result.body
+                              if isinstance(n, ast.FunctionDef) and n.name == "grid"),
+                         gvd.Result.grid)):
+            stub_defaults = {a.arg: ast.literal_eval(d) for a, d in
+                             zip(fn.args.kwonlyargs, fn.args.kw_defaults)}
+            sig = doc.__doc__.splitlines()[0]
+            actual = {}
+            for part in sig[sig.index("*,") + 2:sig.rindex(")")].split(","):
+                name, _, default = part.partition("=")
+                actual[name.split(":")[0].strip()] = ast.literal_eval(default.strip())
+            self.assertEqual(stub_defaults, actual, fn.name)
+
+
 class Analytic(unittest.TestCase):
     """Two unit cubes 0.1 apart: the GVD is the plane x = 1.05, every answer known."""
 

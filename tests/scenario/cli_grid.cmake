@@ -30,6 +30,18 @@ file(STRINGS ${prefix}_balls.nrrd header LIMIT_COUNT 12)
 if(NOT header MATCHES "type: double" OR NOT header MATCHES "space origin")
   message(FATAL_ERROR "unexpected NRRD header: ${header}")
 endif()
+if(header MATCHES "space units")
+  message(FATAL_ERROR "a scene without units gave a NRRD with units: ${header}")
+endif()
+# --units (over the scene's own): the NRRD header says them, one per axis.
+run_rc(0 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 20 -o ${prefix}_units.nrrd
+       --units mm -q)
+file(STRINGS ${prefix}_units.nrrd header LIMIT_COUNT 14)
+if(NOT header MATCHES "space units: \"mm\" \"mm\"")
+  message(FATAL_ERROR "--units mm is not the NRRD's space units: ${header}")
+endif()
+run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 20 -o ${prefix}_x.nrrd
+       --units parsec -q)
 
 execute_process(COMMAND /usr/bin/python3 -c "import numpy" RESULT_VARIABLE no_numpy
                 OUTPUT_QUIET ERROR_QUIET)
@@ -96,6 +108,11 @@ run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --mode voxels --graph ${pref
 
 run_rc(2 ${GVD} compute --volume ${prefix}_gears_labels.npy --spacing 1,1,1 -q)
 run_rc(3 ${GVD} compute --volume ${DATA}/scenes/gears2d.json -q)
+# A .npy that is no label volume: invalid input (3) naming the field, as a bad scene is.
+run_rc(3 ${GVD} compute --volume ${prefix}_gears.npy --spacing 1,1 -q)
+if(NOT LAST_ERR MATCHES "invalid_scene" OR NOT LAST_ERR MATCHES "dtype <f4")
+  message(FATAL_ERROR "a float volume is not invalid input naming its dtype:\n${LAST_ERR}")
+endif()
 
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 0 -o ${prefix}_x.npy)
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json -o ${prefix}_x.npy)

@@ -1903,6 +1903,7 @@ TEST(ServiceGrid, GridJobFieldHasTheBruteForceLabelsAndDistances) {
   ASSERT_EQ(f.data.size(), nx * ny * 4);
   const std::vector<double> origin = header_numbers(field->get_header_value("X-Gvd-Grid-Origin"));
   const double h = std::stod(field->get_header_value("X-Gvd-Grid-Cell"));
+  EXPECT_FALSE(field->has_header("X-Gvd-Grid-Units"));  // the scene declared none
   const Segments2 segs = scene_segments(Json::parse(scene_text));
   int checked = 0;
   for (uint64_t j = 0; j < ny; j += 3) {
@@ -1924,6 +1925,90 @@ TEST(ServiceGrid, GridJobFieldHasTheBruteForceLabelsAndDistances) {
     }
   }
   EXPECT_GT(checked, 100);
+}
+
+// The scene's units label the grid's geometry headers (ASCII), on a grid job's own field and
+// on a grid sampled from an adaptive job.
+TEST(ServiceGrid, GridHeadersSayTheScenesUnits) {
+  ServerProcess server(fresh_dir("grid-units"));
+  auto c = client(server.port());
+  Json scene = Json::parse(data("scenes/gears2d.json"));
+  scene["units"] = "um";
+  const Submitted grid_job = submit(*c, scene.dump(), "?mode=grid&resolution=16");
+  const Submitted adaptive = submit(*c, scene.dump());
+  ASSERT_EQ(wait_for(*c, grid_job.id, {"done", "failed"}).value("status", ""), "done");
+  ASSERT_EQ(wait_for(*c, adaptive.id, {"done", "failed"}).value("status", ""), "done");
+  for (const std::string& url :
+       {"/v1/jobs/" + grid_job.id + "/field.npy", "/v1/jobs/" + grid_job.id + "/labels.npy",
+        "/v1/jobs/" + adaptive.id + "/field.npy?resolution=8"}) {
+    const auto r = c->Get(url.c_str());
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << url << " " << r->body;
+    EXPECT_EQ(r->get_header_value("X-Gvd-Grid-Units"), "um") << url;
+  }
+}
+
+/// `count` copies of one UV sphere (radius 1, 8 rings x 16 segments) as scene JSON: a grid
+/// job over them can cull no site (every range sees all of them at the same distance).
+std::string coincident_spheres_json(int count) {
+  const int rings = 8, segments = 16;
+  Json v = Json::array(), t = Json::array();
+  v.push_back({0, 0, 1});
+  for (int r = 1; r < rings; ++r) {
+    const double theta = 3.141592653589793 * r / rings;
+    for (int s = 0; s < segments; ++s) {
+      const double phi = 2 * 3.141592653589793 * s / segments;
+      v.push_back(
+          {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)});
+    }
+  }
+  v.push_back({0, 0, -1});
+  const int south = 1 + (rings - 1) * segments;
+  auto at = [&](int r, int s) { return 1 + (r - 1) * segments + s % segments; };
+  for (int s = 0; s < segments; ++s) {
+    t.push_back({0, at(1, s), at(1, s + 1)});
+    t.push_back({south, at(rings - 1, s + 1), at(rings - 1, s)});
+    for (int r = 1; r + 1 < rings; ++r) {
+      t.push_back({at(r, s), at(r + 1, s), at(r + 1, s + 1)});
+      t.push_back({at(r, s), at(r + 1, s + 1), at(r, s + 1)});
+    }
+  }
+  Json objects = Json::array();
+  for (int i = 0; i < count; ++i)
+    objects.push_back({{"label", "s" + std::to_string(i)}, {"vertices", v}, {"triangles", t}});
+  return Json{{"dimension", 3}, {"objects", objects}}.dump();
+}
+
+// Issue 13: a grid job was stopped only between its stages, so DELETE (and --job-seconds, the
+// memory watchdog) waited for the whole grid. Now the grid reports progress within its stage
+// and a DELETE stops it within about a second.
+TEST(ServiceGrid, DeleteStopsARunningGridJobWithinASecond) {
+  ServerProcess server(fresh_dir("grid-cancel"), {"--workers", "1"});
+  auto c = client(server.port());
+  const Submitted s = submit(*c, coincident_spheres_json(400), "?mode=grid&resolution=64");
+  ASSERT_EQ(s.status, 202) << s.body.dump();
+  // Progress inside the grid stage: a fraction strictly between 0 and 1.
+  double fraction = 0;
+  Json seen;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < deadline && !(fraction > 0 && fraction < 1)) {
+    seen = status_of(*c, s.id);
+    for (const Json& st : seen["progress"].value("stages", Json::array()))
+      if (st.value("name", "") == "grid") fraction = st.value("fraction", 0.0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(seen.value("status", ""), "running") << seen.dump();
+  EXPECT_GT(fraction, 0.0) << seen.dump();
+  EXPECT_LT(fraction, 1.0) << seen.dump();
+  const auto t0 = std::chrono::steady_clock::now();
+  auto r = c->Delete(("/v1/jobs/" + s.id).c_str());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 202);
+  const Json cancelled = wait_for(*c, s.id, {"cancelled", "done", "failed"}, 20);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(cancelled.value("status", ""), "cancelled") << cancelled.dump();
+  EXPECT_LT(seconds, 1.5) << "the grid job took " << seconds << " s to stop";
 }
 
 TEST(ServiceGrid, GridCellLimitIsCheckedBeforeWork) {
@@ -2016,8 +2101,11 @@ TEST(ServiceGrid, BadGridAndVolumeInputNamesTheField) {
   const std::string floats = make_npy("<f4", {4, 4, 4}, std::string(4 * 64, '\0'));
   const std::string flat = make_npy("|u1", {16}, std::string(16, '\1'));
   for (const Case& k : {
-           Case{floats, "?spacing=1,1,1", "application/x-npy", 415, "dtype"},
-           Case{flat, "?spacing=1", "application/x-npy", 415, "dimensions"},
+           // A .npy whose content is no label volume: invalid input (422), not 415.
+           Case{floats, "?spacing=1,1,1", "application/x-npy", 422, "dtype <f4"},
+           Case{flat, "?spacing=1", "application/x-npy", 422, "2 or 3 dimensions"},
+           Case{std::string("\x93NUMPY\x09\x00\x10\x00", 10) + std::string(16, ' '), "?spacing=1",
+                "application/x-npy", 415, "version"},
            Case{good, "", "application/x-npy", 400, "spacing"},
            Case{good, "?spacing=1,1", "application/x-npy", 400, "spacing"},
            Case{good, "?spacing=1,1,1&background=x", "application/x-npy", 400, "background"},

@@ -228,6 +228,51 @@ struct Contact {
   std::vector<ContactSite> sites;  ///< largest first
 };
 
+/// Options of grid() and Result::grid(): the options of `gvd grid` (`gvd grid --help`).
+struct GridOptions {
+  /// --resolution: cells along the longest side of the box (>= 1); the other sides get as many
+  /// cells of the same size as cover them.
+  int resolution = 256;
+  std::string metric = "l2";    ///< --metric l2|l1|linf
+  bool signed_distance = true;  ///< negative inside closed objects (false: --unsigned)
+  /// --domain: the box as lo..., hi... (2 x dimension numbers, user units); it must hold every
+  /// vertex. Empty: grid(): the scene's bounding box + 5 % of its longest side on every side;
+  /// Result::grid(): the result's domain (a square / cube: resolution^D cells).
+  std::vector<double> domain;
+  int range_cells = 0;  ///< --range-cells (grid() only): cells per range side; 0 = default
+  /// --max-cells: more cells are refused before any work (gvd::Error{kLimitExceeded}).
+  uint64_t max_cells = uint64_t{1} << 27;
+  int threads = 0;  ///< --threads: worker threads, 0 = all cores
+  /// --backend auto|opencl|cpu (grid() only): where the per-range evaluation runs, chosen as
+  /// compute() chooses it. Result::grid() samples on the CPU.
+  std::string backend = "auto";
+  /// Called from the computing thread with the stage ("grid") and the fraction done in
+  /// [0, 1], within the stage. Optional.
+  std::function<void(std::string_view stage, double fraction)> progress;
+  /// When it becomes true, the computation stops within a fraction of a second and throws
+  /// gvd::Error{kCancelled}. Optional; must outlive the call.
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+/// A uniform grid of cubic cells with, per cell centre, the nearest object and its distance.
+/// Cell (i, j, k) spans origin + [i, i+1] x [j, j+1] x [k, k+1] times `cell`; arrays hold
+/// one value per cell, x fastest: index (k * shape[1] + j) * shape[0] + i (numpy's C order
+/// for an array of shape (nz, ny, nx) / (ny, nx)).
+struct Grid {
+  int dimension = 3;
+  std::array<int, 3> shape{1, 1, 1};  ///< nx, ny, nz (nz = 1 in 2D)
+  std::array<double, 3> origin{};     ///< the corner of cell (0, 0, 0) (z = 0 in 2D)
+  double cell = 0;                    ///< edge length of a cell
+  std::string metric;                 ///< "l2", "l1" or "linf"
+  std::string units;  ///< the scene's length unit (Scene::units), "" when none declared
+  /// Per cell: the metric distance from its centre to the nearest object; negative inside a
+  /// closed object (with signed_distance); +inf for none.
+  std::vector<double> distance;
+  std::vector<Object> label;  ///< per cell: the nearest object (exact ties: the lower); kNone
+  std::string backend;        ///< where it ran ("cpu", "opencl (...)", "cpu (sampled ...)")
+  double seconds = 0;
+};
+
 /// A finished GVD and the queries on it. Cheap to copy (copies share the immutable result).
 /// The query index is built at the first query (O(result size)), once.
 class Result {
@@ -268,6 +313,11 @@ class Result {
   /// below the bound (`gvd contacts`). The gaps are measured exactly from the simplices, not
   /// read off the GVD. gvd::Error{kInvalidArgument} for a negative or non-finite bound.
   std::vector<Contact> contacts(double max_gap) const;
+  /// The uniform grid sampled exactly from this result (`gvd grid RESULT.gvd`; the same labels
+  /// and distances as grid() on the scene over the same box): gvd::Error{kInvalidArgument} for
+  /// a bad option, {kLimitExceeded} over max_cells, {kCancelled}. options.range_cells and
+  /// options.backend do not apply.
+  Grid grid(const GridOptions& options = {}) const;
 
   /// Writes the whole result (reloadable by load()), atomically; gvd::Error{kIo} on failure.
   void save(const std::string& path) const;
@@ -295,6 +345,13 @@ class Result {
 /// (kInvalidArgument), a limit is hit (kLimitExceeded), or options.cancel was set
 /// (kCancelled).
 Result compute(const Scene& scene, const ComputeOptions& options = {});
+
+/// The uniform-grid discrete GVD of a scene (`gvd grid SCENE`: Sud et al. 2006's range
+/// culling): per cell centre the exact nearest object and distance in the metric, signed
+/// inside closed objects. Throws gvd::Error: an invalid scene (kInvalidScene), a bad option
+/// (kInvalidArgument), more cells than options.max_cells (kLimitExceeded, before any work),
+/// options.cancel set (kCancelled).
+Grid grid(const Scene& scene, const GridOptions& options = {});
 
 /// Loads a result written by Result::save or `gvd compute --save`.
 Result load(const std::string& path);

@@ -17,6 +17,7 @@
 #include <numeric>
 #include <utility>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/stopwatch.h"
@@ -145,13 +146,18 @@ struct Ranges {
   }
 };
 
+/// Simplices binned or signed between two reads of the cancel flag.
+constexpr uint32_t kCancelSimplices = 4096;
+
 /// S(T) for every range: the objects whose geometry touches the closed range box (sorted).
-std::vector<Sites> swept_sets(const GridGeometry& g, const GridSpec& spec, const Ranges& r) {
+std::vector<Sites> swept_sets(const GridGeometry& g, const GridSpec& spec, const Ranges& r,
+                              const std::atomic<bool>* cancel) {
   std::vector<Sites> swept(r.count());
   const double slack = spec.h * 1e-6;
   const double side = spec.h * r.b;
   const uint32_t sites = static_cast<uint32_t>(g.object_of.size());
   for (uint32_t s = 0; s < sites; ++s) {
+    if (s % kCancelSimplices == 0) throw_if_cancelled(cancel, "the grid's binning");
     const Vec3 a = g.points[g.simplices[3 * s]];
     const Vec3 b = g.points[g.simplices[3 * s + 1]];
     const Vec3 c = g.points[g.simplices[3 * s + 2]];
@@ -193,9 +199,18 @@ struct Pending {
 
 class Culler {
  public:
+  /// `report(f)` gets the fraction of the evaluation done (0 .. 1) after each wavefront.
   Culler(const GridGeometry& g, const GridSpec& spec, const Ranges& r, GridEvaluator& eval,
-         GridStats& stats, std::vector<RangeBounds>& bounds)
-      : g_(g), spec_(spec), r_(r), eval_(eval), stats_(stats), bounds_(bounds) {}
+         GridStats& stats, std::vector<RangeBounds>& bounds, const std::atomic<bool>* cancel,
+         std::function<void(double)> report)
+      : g_(g),
+        spec_(spec),
+        r_(r),
+        eval_(eval),
+        stats_(stats),
+        bounds_(bounds),
+        cancel_(cancel),
+        report_(std::move(report)) {}
 
   void run(bool cull) {
     evaluated_.assign(r_.count(), {});
@@ -205,10 +220,10 @@ class Culler {
       return;
     }
     const Stopwatch sw;
-    const std::vector<Sites> swept = swept_sets(g_, spec_, r_);
+    const std::vector<Sites> swept = swept_sets(g_, spec_, r_, cancel_);
     stats_.bin_seconds = sw.seconds();
     const int dirs = 1 << spec_.dimension;
-    for (int sigma = 0; sigma < dirs; ++sigma) sweep(sigma, swept);
+    for (int sigma = 0; sigma < dirs; ++sigma) sweep(sigma, dirs, swept);
   }
 
  private:
@@ -233,7 +248,7 @@ class Culler {
   /// equal distance from the sweep's start corner; a range depends only on its predecessor
   /// along each axis (Theorem 2), so the ranges of one wavefront run as one batch. In 3D the
   /// wavefronts cut across slices; the order within a slice is the paper's (Algorithm 1).
-  void sweep(int sigma, const std::vector<Sites>& swept) {
+  void sweep(int sigma, int dirs, const std::vector<Sites>& swept) {
     const int dim = spec_.dimension;
     std::vector<Sites> pis(r_.count());
     std::vector<std::vector<size_t>> fronts;
@@ -248,7 +263,9 @@ class Culler {
       fronts[w].push_back(t);
     }
     Sites merged, tmp;
-    for (const std::vector<size_t>& front : fronts) {
+    for (size_t f = 0; f < fronts.size(); ++f) {
+      throw_if_cancelled(cancel_, "the grid's sweeps");
+      const std::vector<size_t>& front = fronts[f];
       std::vector<Pending> pending;
       pending.reserve(front.size());
       for (size_t t : front) {
@@ -276,6 +293,7 @@ class Culler {
       }
       evaluate(pending);
       for (Pending& job : pending) pis[job.tile] = std::move(job.kept);
+      if (report_) report_((sigma + static_cast<double>(f + 1) / fronts.size()) / dirs);
     }
   }
 
@@ -289,6 +307,7 @@ class Culler {
     std::vector<size_t> in_batch;
     auto flush = [&] {
       if (jobs.empty()) return;
+      throw_if_cancelled(cancel_, "the grid's evaluation");
       std::vector<int32_t> visible(sites.size(), 0);
       const Stopwatch sw;
       eval_.evaluate(jobs, sites, static_cast<uint32_t>(items), visible);
@@ -344,6 +363,7 @@ class Culler {
     const uint64_t cells = cells_of(job.tile);
     Sites now_visible;
     for (size_t first = 0; first < job.fresh.size(); first += per_chunk) {
+      throw_if_cancelled(cancel_, "the grid's evaluation");
       const size_t count = std::min<size_t>(per_chunk, job.fresh.size() - first);
       const Sites chunk(job.fresh.begin() + static_cast<std::ptrdiff_t>(first),
                         job.fresh.begin() + static_cast<std::ptrdiff_t>(first + count));
@@ -426,6 +446,7 @@ class Culler {
         job.kept.clear();
       }
       evaluate(pending);
+      if (report_) report_(static_cast<double>(first + count) / sites);
     }
   }
 
@@ -435,6 +456,8 @@ class Culler {
   GridEvaluator& eval_;
   GridStats& stats_;
   std::vector<RangeBounds>& bounds_;
+  const std::atomic<bool>* cancel_;
+  std::function<void(double)> report_;
   std::vector<Sites> evaluated_, visible_;  // per range, sorted
   bool track_ = true;
 };
@@ -448,12 +471,14 @@ struct Crossing {
 }  // namespace
 
 void sign_grid_distances(const Scene& scene, const GridGeometry& g, const GridSpec& spec,
-                         const std::vector<uint8_t>& closed, DistanceGrid& out, int threads) {
+                         const std::vector<uint8_t>& closed, DistanceGrid& out, int threads,
+                         const std::atomic<bool>* cancel) {
   const int dim = spec.dimension;
   const size_t rows = static_cast<size_t>(spec.n[1]) * static_cast<size_t>(spec.n[2]);
   std::vector<std::vector<Crossing>> crossings(rows);
   const uint32_t sites = static_cast<uint32_t>(g.object_of.size());
   for (uint32_t s = 0; s < sites; ++s) {
+    if (s % kCancelSimplices == 0) throw_if_cancelled(cancel, "the grid's signs");
     const ObjectId o = g.object_of[s];
     if (!closed[o]) continue;
     const Vec3 a = g.points[g.simplices[3 * s]];
@@ -495,6 +520,7 @@ void sign_grid_distances(const Scene& scene, const GridGeometry& g, const GridSp
       [&](size_t b, size_t e, int) {
         std::vector<uint8_t> parity(scene.objects.size(), 0);
         for (size_t row = b; row < e; ++row) {
+          throw_if_cancelled(cancel, "the grid's signs");
           std::vector<Crossing>& cr = crossings[row];
           if (cr.empty()) continue;
           std::sort(cr.begin(), cr.end(),
@@ -516,7 +542,8 @@ void sign_grid_distances(const Scene& scene, const GridGeometry& g, const GridSp
 }
 
 void sign_closed_objects(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
-                         bool signed_distance, int threads, DistanceGrid& out) {
+                         bool signed_distance, int threads, DistanceGrid& out,
+                         const std::atomic<bool>* cancel) {
   out.closed.assign(scene.objects.size(), 0);
   if (!signed_distance) return;
   for (size_t o = 0; o < scene.objects.size(); ++o)
@@ -525,7 +552,7 @@ void sign_closed_objects(const Scene& scene, const GridGeometry& geometry, const
       static_cast<uint32_t>(std::count(out.closed.begin(), out.closed.end(), uint8_t{1}));
   if (out.stats.closed_objects == 0) return;
   const Stopwatch sw;
-  sign_grid_distances(scene, geometry, spec, out.closed, out, threads);
+  sign_grid_distances(scene, geometry, spec, out.closed, out, threads, cancel);
   out.stats.sign_seconds = sw.seconds();
 }
 
@@ -534,12 +561,22 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
   DistanceGrid out;
   out.spec = make_grid_spec(scene, options);
   out.metric = options.metric;
+  out.units = scene.units;
   const GridSpec& spec = out.spec;
+  const std::atomic<bool>* cancel = options.cancel;
+  // The evaluation is ~all of the work; signing the rest.
+  constexpr double kEvaluateShare = 0.95;
+  auto report = [&](double f) {
+    if (options.progress) options.progress(f);
+  };
   if (options.range_cells < 0) {
     throw Error(ErrorCode::kInvalidArgument, "range_cells must be positive (0 = default)");
   }
+  throw_if_cancelled(cancel, "the grid");
   const GridGeometry g = make_grid_geometry(scene);
   GVD_CHECK(g.object_of.size() < GVD_NO_SIMPLEX, "too many simplices for 32-bit indices");
+  throw_if_cancelled(cancel, "the grid");
+  report(0);
   Ranges r;
   r.b = options.range_cells > 0 ? options.range_cells : (spec.dimension == 2 ? 8 : 4);
   for (size_t i = 0; i < static_cast<size_t>(spec.dimension); ++i)
@@ -551,13 +588,16 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
   if (options.compute) eval = options.compute->grid_evaluator(g, spec, options.metric);
   out.stats.backend = eval ? options.compute->name() : "cpu";
   if (!eval) eval = make_cpu_grid_evaluator(g, item_spec, options.threads);
+  eval->set_cancel(cancel);
 
   out.stats.sites = g.object_count();
   out.stats.ranges = r.count();
   out.stats.brute_force_pairs = spec.cell_count() * g.object_count();
   out.site_bounds.assign(g.object_count(), RangeBounds{});
-  Culler culler(g, spec, r, *eval, out.stats, out.site_bounds);
+  Culler culler(g, spec, r, *eval, out.stats, out.site_bounds, cancel,
+                [&](double f) { report(kEvaluateShare * f); });
   culler.run(options.cull);
+  throw_if_cancelled(cancel, "the grid");
 
   const size_t cells = spec.cell_count();
   std::vector<double> key(cells);
@@ -575,7 +615,9 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
     }
   });
 
-  sign_closed_objects(scene, g, spec, options.signed_distance, options.threads, out);
+  report(kEvaluateShare);
+  sign_closed_objects(scene, g, spec, options.signed_distance, options.threads, out, cancel);
+  report(1);
   out.stats.seconds = total.seconds();
   return out;
 }

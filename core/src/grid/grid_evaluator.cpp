@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/compute/compute_backend.h"
@@ -141,6 +142,8 @@ class CpuGridEvaluator final : public GridEvaluator {
         items, threads_,
         [&](size_t b, size_t e, int) {
           for (size_t i = b; i < e; ++i) {
+            // One row of a range: at most a few ms even for many sites per range.
+            throw_if_cancelled(cancel_, "the grid's evaluation");
             item::gvd_grid_item(&spec_, geometry_.nodes.data(), geometry_.order.data(),
                                 geometry_.roots.data(), points, simplices, jobs.data(), job_count,
                                 sites.data(), static_cast<uint32_t>(i), best_key_.data(),

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
@@ -32,9 +33,11 @@ struct PairFaces {
 using PairMap = std::unordered_map<uint64_t, PairFaces>;
 
 /// Calls visit(cell, axis, neighbour, a, b) for every face between two cells of different
-/// objects (a < b) in the slices [begin, end) (along z in 3D, y in 2D).
+/// objects (a < b) in the slices [begin, end) (along z in 3D, y in 2D); reads `cancel` every
+/// row.
 template <class Visit>
-void for_each_interface_face(const DistanceGrid& grid, size_t begin, size_t end, Visit&& visit) {
+void for_each_interface_face(const DistanceGrid& grid, size_t begin, size_t end,
+                             const std::atomic<bool>* cancel, Visit&& visit) {
   const GridSpec& spec = grid.spec;
   const int dim = spec.dimension;
   const uint64_t nx = static_cast<uint64_t>(spec.n[0]), ny = static_cast<uint64_t>(spec.n[1]);
@@ -42,6 +45,7 @@ void for_each_interface_face(const DistanceGrid& grid, size_t begin, size_t end,
   for (size_t s = begin; s < end; ++s) {
     const uint64_t rows = dim == 3 ? ny : 1;
     for (uint64_t r = 0; r < rows; ++r) {
+      throw_if_cancelled(cancel, "the grid's dual graph");
       const uint64_t j = dim == 3 ? r : s, k = dim == 3 ? s : 0;
       for (uint64_t i = 0; i < nx; ++i) {
         const uint64_t cell = i + j * stride[1] + k * stride[2];
@@ -91,14 +95,23 @@ PairMap merge(std::vector<PairMap>& parts) {
 
 }  // namespace
 
-DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene, int threads) {
+DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene,
+                          const GridGraphOptions& options) {
   const GridSpec& spec = grid.spec;
   const int dim = spec.dimension;
   GVD_CHECK(dim == scene.dimension && grid.label.size() == spec.cell_count() &&
                 grid.distance.size() == spec.cell_count(),
             "grid_dual_graph: the grid is not one of this scene");
-  threads = resolve_threads(threads);
+  const int threads = resolve_threads(options.threads);
+  const std::atomic<bool>* cancel = options.cancel;
   const size_t slices = static_cast<size_t>(dim == 3 ? spec.n[2] : spec.n[1]);
+  // Progress, reported from the calling thread (index 0 of parallel_for): each pass over the
+  // faces is 0.45 of the work, the contacts and gaps at the end the rest.
+  std::atomic<size_t> done{0};
+  auto advance = [&](size_t count, int t, double base) {
+    const size_t now = done.fetch_add(count) + count;
+    if (t == 0 && options.progress) options.progress(base + 0.45 * now / slices);
+  };
   auto magnitude = [&](uint64_t cell) { return std::abs(grid.distance[cell]); };
 
   // Pass 1: faces per pair, and the face whose cells are nearest the objects.
@@ -107,17 +120,21 @@ DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene, int thre
       slices, threads,
       [&](size_t b, size_t e, int t) {
         PairMap& m = parts[static_cast<size_t>(t)];
-        for_each_interface_face(
-            grid, b, e, [&](uint64_t cell, int axis, uint64_t next, ObjectId a, ObjectId o) {
-              PairFaces& p = m[uint64_t{a} << 32 | o];
-              ++p.faces;
-              const double estimate = magnitude(cell) + magnitude(next);
-              const uint64_t face = cell * 3 + static_cast<uint64_t>(axis);
-              if (estimate < p.least || (estimate == p.least && face < p.face)) {
-                p.least = estimate;
-                p.face = face;
-              }
-            });
+        for (size_t slice = b; slice < e; ++slice) {
+          for_each_interface_face(
+              grid, slice, slice + 1, cancel,
+              [&](uint64_t cell, int axis, uint64_t next, ObjectId a, ObjectId o) {
+                PairFaces& p = m[uint64_t{a} << 32 | o];
+                ++p.faces;
+                const double estimate = magnitude(cell) + magnitude(next);
+                const uint64_t face = cell * 3 + static_cast<uint64_t>(axis);
+                if (estimate < p.least || (estimate == p.least && face < p.face)) {
+                  p.least = estimate;
+                  p.face = face;
+                }
+              });
+          advance(1, t, 0.0);
+        }
       },
       1);
   const PairMap counted = merge(parts);
@@ -141,26 +158,32 @@ DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene, int thre
     upper[key] = clearance(face_centre(spec, p.face / 3, static_cast<int>(p.face % 3)));
   const double shrink = grid.metric == GridMetric::kL1 ? 1 / std::sqrt(double(dim)) : 1.0;
   for (PairMap& m : parts) m.clear();
+  done = 0;
+  throw_if_cancelled(cancel, "the grid's dual graph");
   parallel_for(
       slices, threads,
       [&](size_t b, size_t e, int t) {
         PairMap& m = parts[static_cast<size_t>(t)];
-        for_each_interface_face(
-            grid, b, e, [&](uint64_t cell, int axis, uint64_t next, ObjectId a, ObjectId o) {
-              const uint64_t key = uint64_t{a} << 32 | o;
-              const double bound =
-                  shrink * std::min(magnitude(cell), magnitude(next)) - 0.5 * spec.h;
-              if (bound > upper.at(key)) return;
-              const Vec3 centre = face_centre(spec, cell, axis);
-              const double c = clearance(centre);
-              PairFaces& p = m[key];
-              const uint64_t face = cell * 3 + static_cast<uint64_t>(axis);
-              if (c < p.least || (c == p.least && face < p.face)) {
-                p.least = c;
-                p.face = face;
-                p.point = centre;
-              }
-            });
+        for (size_t slice = b; slice < e; ++slice) {
+          for_each_interface_face(
+              grid, slice, slice + 1, cancel,
+              [&](uint64_t cell, int axis, uint64_t next, ObjectId a, ObjectId o) {
+                const uint64_t key = uint64_t{a} << 32 | o;
+                const double bound =
+                    shrink * std::min(magnitude(cell), magnitude(next)) - 0.5 * spec.h;
+                if (bound > upper.at(key)) return;
+                const Vec3 centre = face_centre(spec, cell, axis);
+                const double c = clearance(centre);
+                PairFaces& p = m[key];
+                const uint64_t face = cell * 3 + static_cast<uint64_t>(axis);
+                if (c < p.least || (c == p.least && face < p.face)) {
+                  p.least = c;
+                  p.face = face;
+                  p.point = centre;
+                }
+              });
+          advance(1, t, 0.45);
+        }
       },
       1);
   const PairMap measured = merge(parts);
@@ -189,8 +212,10 @@ DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene, int thre
   // Contacts as the adaptive pipeline finds them: closer than two finest cells' diagonals.
   const int max_depth = resolve_max_depth(dim, 0);
   const double tolerance = 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth);
-  const ContactPairs contacts = find_contact_pairs(geometry, bvh, tolerance, threads);
+  const ContactPairs contacts = find_contact_pairs(geometry, bvh, tolerance, threads, cancel);
+  throw_if_cancelled(cancel, "the grid's dual graph");
   measure_gaps(graph, bvh, domain, contacts.pairs(), threads);
+  if (options.progress) options.progress(1);
   return graph;
 }
 

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/stopwatch.h"
@@ -80,6 +81,7 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
   DistanceGrid out;
   out.spec = make_result_grid_spec(result, options);
   out.metric = options.metric;
+  out.units = result.scene.units;
   const GridSpec& spec = out.spec;
   const int dim = spec.dimension;
   const Scene& scene = result.scene;
@@ -108,13 +110,22 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
   out.label.resize(cells);
   std::atomic<uint64_t> evaluated{0}, bounded{0};
   const size_t rows = static_cast<size_t>(spec.n[1]) * static_cast<size_t>(spec.n[2]);
+  // Sampling is ~all of the work; signing the rest. Progress from the calling thread (index 0
+  // of parallel_for) as rows are finished by any thread.
+  constexpr double kSampleShare = 0.95;
+  std::atomic<size_t> rows_done{0};
+  const std::atomic<bool>* cancel = options.cancel;
+  if (options.progress) options.progress(0);
   parallel_for(
       rows, resolve_threads(options.threads),
-      [&](size_t b, size_t e, int) {
+      [&](size_t b, size_t e, int t) {
         LeafBound cache;
         std::vector<uint32_t> excluded;
         uint64_t my_evaluated = 0, my_bounded = 0;
         for (size_t row = b; row < e; ++row) {
+          throw_if_cancelled(cancel, "sampling the grid");
+          const size_t finished = rows_done.fetch_add(1);  // rows before this one
+          if (t == 0 && options.progress) options.progress(kSampleShare * finished / rows);
           const int j = static_cast<int>(row % static_cast<size_t>(spec.n[1]));
           const int k = static_cast<int>(row / static_cast<size_t>(spec.n[1]));
           for (int i = 0; i < spec.n[0]; ++i) {
@@ -196,7 +207,9 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
   out.stats.backend = "cpu (sampled from the adaptive result)";
   out.stats.evaluate_seconds = total.seconds();
 
-  sign_closed_objects(scene, g, spec, options.signed_distance, options.threads, out);
+  if (options.progress) options.progress(kSampleShare);
+  sign_closed_objects(scene, g, spec, options.signed_distance, options.threads, out, cancel);
+  if (options.progress) options.progress(1);
   out.stats.seconds = total.seconds();
   return out;
 }

@@ -6,6 +6,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/scene/units.h"
 
 namespace gvd {
 
@@ -61,7 +62,8 @@ FileKind kind_of(const std::string& path) {
 }
 
 std::vector<std::string> write_values(const GridSpec& spec, GridValueType type, const void* data,
-                                      const std::string& path, const std::string& comment) {
+                                      const std::string& path, const std::string& comment,
+                                      const std::string& units) {
   const size_t bytes = spec.cell_count() * value_size(type);
   switch (kind_of(path)) {
     case FileKind::kNpy: {
@@ -71,7 +73,7 @@ std::vector<std::string> write_values(const GridSpec& spec, GridValueType type, 
       return {path};
     }
     case FileKind::kNrrd: {
-      std::string file = nrrd_header(spec, type, "", comment);
+      std::string file = nrrd_header(spec, type, "", comment, units);
       file.append(static_cast<const char*>(data), bytes);
       write_file_atomic(path, file);
       return {path};
@@ -81,7 +83,7 @@ std::vector<std::string> write_values(const GridSpec& spec, GridValueType type, 
       const size_t slash = raw.find_last_of('/');
       const std::string name = slash == std::string::npos ? raw : raw.substr(slash + 1);
       write_file_atomic(raw, data, bytes);
-      write_file_atomic(path, nrrd_header(spec, type, name, comment));
+      write_file_atomic(path, nrrd_header(spec, type, name, comment, units));
       return {path, raw};
     }
   }
@@ -128,7 +130,7 @@ std::vector<uint8_t> npy_bytes(GridValueType type, std::span<const uint64_t> sha
 }
 
 std::string nrrd_header(const GridSpec& spec, GridValueType type, const std::string& data_file,
-                        const std::string& comment) {
+                        const std::string& comment, const std::string& units) {
   const int d = spec.dimension;
   std::string h = "NRRD0004\n";
   if (!comment.empty()) h += "# " + comment + "\n";
@@ -148,6 +150,12 @@ std::string nrrd_header(const GridSpec& spec, GridValueType type, const std::str
   h += "\nendian: little\nencoding: raw\nspace origin: (";
   for (int i = 0; i < d; ++i) h += (i ? "," : "") + number(spec.origin[i] + 0.5 * spec.h);
   h += ")\n";
+  if (!units.empty()) {
+    const std::string ascii = ascii_units(units);  // NRRD headers are ASCII text
+    h += "space units:";
+    for (int i = 0; i < d; ++i) h += " \"" + ascii + "\"";
+    h += "\n";
+  }
   if (!data_file.empty()) {
     h += "data file: " + data_file + "\n";
   } else {
@@ -170,15 +178,16 @@ std::vector<std::string> write_grid_distance(const DistanceGrid& grid, const std
   const std::string comment = std::string("gvd grid distance, metric ") +
                               grid_metric_name(grid.metric) + ", negative inside closed objects";
   if (float64)
-    return write_values(grid.spec, GridValueType::kFloat64, grid.distance.data(), path, comment);
+    return write_values(grid.spec, GridValueType::kFloat64, grid.distance.data(), path, comment,
+                        grid.units);
   std::vector<float> f(grid.distance.size());
   for (size_t i = 0; i < f.size(); ++i) f[i] = static_cast<float>(grid.distance[i]);
-  return write_values(grid.spec, GridValueType::kFloat32, f.data(), path, comment);
+  return write_values(grid.spec, GridValueType::kFloat32, f.data(), path, comment, grid.units);
 }
 
 std::vector<std::string> write_grid_labels(const DistanceGrid& grid, const std::string& path) {
   return write_values(grid.spec, GridValueType::kInt32, grid.label.data(), path,
-                      "gvd grid labels: index of the nearest object, -1 = none");
+                      "gvd grid labels: index of the nearest object, -1 = none", grid.units);
 }
 
 }  // namespace gvd

@@ -9,13 +9,22 @@
 #include <string_view>
 #include <unordered_map>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 
 namespace gvd {
 namespace {
 
+/// Not a .npy file gvd reads (no magic, an unknown version): the format is wrong.
 [[noreturn]] void malformed(const std::string& name, const std::string& why) {
   throw Error(ErrorCode::kUnsupportedFormat, "\"" + name + "\" is not a label volume .npy: " + why);
+}
+
+/// A .npy file whose header or data is not a label volume (a float dtype, 1 or 4 dimensions,
+/// a truncated file): the format is right, its content wrong, as a mesh file's broken data
+/// is. `why` names the field (dtype, shape, ...).
+[[noreturn]] void invalid(const std::string& name, const std::string& why) {
+  throw Error(ErrorCode::kInvalidScene, "\"" + name + "\" is not a label volume: " + why);
 }
 
 /// The value of `key` in the header dict ('key': value), as the text up to the next ',' at
@@ -23,9 +32,9 @@ namespace {
 std::string header_value(std::string_view header, std::string_view key, const std::string& name) {
   const std::string quoted = "'" + std::string(key) + "'";
   const size_t at = header.find(quoted);
-  if (at == std::string_view::npos) malformed(name, "the header has no " + quoted);
+  if (at == std::string_view::npos) invalid(name, "the header has no " + quoted);
   size_t p = header.find(':', at + quoted.size());
-  if (p == std::string_view::npos) malformed(name, "the header's " + quoted + " has no value");
+  if (p == std::string_view::npos) invalid(name, "the header's " + quoted + " has no value");
   ++p;
   int depth = 0;
   size_t end = p;
@@ -68,23 +77,23 @@ LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::str
     header_len = bytes[8] | (size_t{bytes[9]} << 8);
     header_at = 10;
   } else if (major == 2 || major == 3) {
-    if (bytes.size() < 12) malformed(name, "truncated header");
+    if (bytes.size() < 12) invalid(name, "truncated header");
     header_len =
         bytes[8] | (size_t{bytes[9]} << 8) | (size_t{bytes[10]} << 16) | (size_t{bytes[11]} << 24);
     header_at = 12;
   } else {
     malformed(name, "format version " + std::to_string(major) + " (1, 2 or 3 are read)");
   }
-  if (bytes.size() < header_at + header_len) malformed(name, "truncated header");
+  if (bytes.size() < header_at + header_len) invalid(name, "truncated header");
   const std::string_view header(reinterpret_cast<const char*>(bytes.data() + header_at),
                                 header_len);
   std::string descr = header_value(header, "descr", name);
   if (descr.size() < 2 || (descr.front() != '\'' && descr.front() != '"')) {
-    malformed(name, "descr " + descr + " is not a string");
+    invalid(name, "dtype (descr) " + descr + " is not a string");
   }
   descr = descr.substr(1, descr.size() - 2);
   const std::string fortran = header_value(header, "fortran_order", name);
-  if (fortran != "True" && fortran != "False") malformed(name, "fortran_order " + fortran);
+  if (fortran != "True" && fortran != "False") invalid(name, "fortran_order " + fortran);
   std::string shape_text = header_value(header, "shape", name);
   std::vector<uint64_t> shape;
   for (size_t i = 0; i < shape_text.size();) {
@@ -92,7 +101,7 @@ LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::str
       size_t j = i;
       uint64_t v = 0;
       while (j < shape_text.size() && std::isdigit(static_cast<unsigned char>(shape_text[j]))) {
-        if (v > (uint64_t{1} << 40)) malformed(name, "a dimension of the shape is too large");
+        if (v > (uint64_t{1} << 40)) invalid(name, "a dimension of the shape is too large");
         v = v * 10 + static_cast<uint64_t>(shape_text[j] - '0');
         ++j;
       }
@@ -103,22 +112,29 @@ LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::str
     }
   }
   if (shape.size() != 2 && shape.size() != 3) {
-    malformed(name, "shape " + shape_text + ": a label volume has 2 or 3 dimensions");
+    invalid(name, "shape " + shape_text + ": a label volume has 2 or 3 dimensions, not " +
+                      std::to_string(shape.size()));
   }
   for (uint64_t s : shape)
-    if (s == 0) malformed(name, "shape " + shape_text + " has no voxels");
+    if (s == 0) invalid(name, "shape " + shape_text + " has no voxels");
   // Little-endian (or single-byte) integers only.
   const char order = descr.empty() ? '?' : descr[0];
   const std::string kind = descr.size() > 1 ? descr.substr(1) : "";
   if (order == '>' || (order != '<' && order != '|' && order != '=')) {
-    malformed(name, "dtype " + descr + " (little-endian integers are read)");
+    invalid(name, "dtype " + descr +
+                      " is not little-endian (labels are read as little-endian "
+                      "integers: convert with .astype('<u4'))");
   }
   size_t width = 0;
   if (kind == "i1" || kind == "u1") width = 1;
   if (kind == "i2" || kind == "u2") width = 2;
   if (kind == "i4" || kind == "u4") width = 4;
   if (kind == "i8" || kind == "u8") width = 8;
-  if (width == 0) malformed(name, "dtype " + descr + " (integer labels are read)");
+  if (width == 0) {
+    invalid(name, "dtype " + descr +
+                      " is not an integer type (labels are integers: int8 .. int64, "
+                      "uint8 .. uint64)");
+  }
 
   LabelVolume v;
   v.dimension = static_cast<int>(shape.size());
@@ -127,8 +143,8 @@ LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::str
   const uint64_t count = v.size[0] * v.size[1] * v.size[2];
   const size_t data_at = header_at + header_len;
   if (count > (bytes.size() - data_at) / width) {
-    malformed(name, "the data holds fewer than the " + std::to_string(count) + " values of shape " +
-                        shape_text);
+    invalid(name, "truncated: the data holds fewer than the " + std::to_string(count) +
+                      " values of shape " + shape_text);
   }
   const uint8_t* data = bytes.data() + data_at;
   v.labels.resize(count);
@@ -211,6 +227,7 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
   };
   for (uint64_t k = 0; k < nz; ++k) {
     for (uint64_t j = 0; j < ny; ++j) {
+      throw_if_cancelled(options.cancel, "reading the label volume");
       for (uint64_t i = 0; i < nx; ++i) {
         const uint64_t label = volume.labels[(k * ny + j) * nx + i];
         if (options.background && label == *options.background) continue;

@@ -45,4 +45,10 @@ std::string units_suffix(std::string_view units) {
   return units.empty() ? std::string() : " " + std::string(units);
 }
 
+std::string ascii_units(std::string_view units) {
+  if (units == "µm") return "um";
+  if (units == "Å") return "angstrom";
+  return std::string(units);
+}
+
 }  // namespace gvd

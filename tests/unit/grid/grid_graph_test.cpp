@@ -100,7 +100,7 @@ TEST(GridDualGraph, RandomRectanglesMatchAFaceCountAndTheAdaptiveGraph2D) {
   GridOptions o;
   o.resolution = 300;
   const DistanceGrid grid = compute_grid(scene, o);
-  const DualGraph g = grid_dual_graph(grid, scene, 2);
+  const DualGraph g = grid_dual_graph(grid, scene, {.threads = 2});
   const GridSpec& s = grid.spec;
   std::map<std::pair<ObjectId, ObjectId>, uint64_t> faces;
   std::map<std::pair<ObjectId, ObjectId>, double> least;  // brute-force face clearance

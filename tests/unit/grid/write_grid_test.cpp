@@ -208,6 +208,36 @@ TEST(WriteGrid, NrrdIn2D) {
   EXPECT_EQ(data, h.size());  // ends with the blank line
 }
 
+// Issue 13: the scene's units reach the NRRD header ("space units", one per axis, ASCII),
+// and no header says units when the scene declared none.
+TEST(WriteGrid, NrrdSaysTheScenesUnits) {
+  size_t data = 0;
+  Scene scene = test::make_scene(3, {test::make_box("b", {0.1, 0.1, 0.1}, {0.4, 0.5, 0.3})});
+  GridOptions o;
+  o.resolution = 5;
+  EXPECT_EQ(compute_grid(scene, o).units, "");
+  EXPECT_EQ(
+      parse_nrrd(nrrd_header(compute_grid(scene, o).spec, GridValueType::kInt32, "", ""), &data)
+          .count("space units"),
+      0u);
+  scene.units = "mm";
+  const DistanceGrid g = compute_grid(scene, o);
+  EXPECT_EQ(g.units, "mm");
+  for (const std::string& path : write_grid_distance(g, out_path("units.nhdr"), false)) {
+    if (!path.ends_with(".nhdr")) continue;
+    EXPECT_EQ(parse_nrrd(read_all(path), &data)["space units"], "\"mm\" \"mm\" \"mm\"");
+  }
+  const std::string attached = read_all(write_grid_labels(g, out_path("units.nrrd"))[0]);
+  EXPECT_EQ(parse_nrrd(attached, &data)["space units"], "\"mm\" \"mm\" \"mm\"");
+  EXPECT_EQ(
+      parse_nrrd(nrrd_header(g.spec, GridValueType::kFloat32, "", "", "µm"), &data)["space units"],
+      "\"um\" \"um\" \"um\"");
+  const DistanceGrid flat = small_grid(2);
+  EXPECT_EQ(parse_nrrd(nrrd_header(flat.spec, GridValueType::kFloat32, "", "", "Å"),
+                       &data)["space units"],
+            "\"angstrom\" \"angstrom\"");
+}
+
 TEST(WriteGrid, UnknownExtensionIsAnError) {
   const DistanceGrid g = small_grid(2);
   try {

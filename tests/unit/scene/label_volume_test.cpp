@@ -94,17 +94,34 @@ TEST(LabelVolume, BadFilesSayWhatAndWhich) {
     EXPECT_EQ(e.code(), ErrorCode::kInvalidScene);
     EXPECT_NE(e.detail().find("voxel 1"), std::string::npos) << e.detail();
   }
+  // A .npy whose content is no label volume is invalid input naming the field (422 over
+  // HTTP, like a broken mesh file), not an unsupported format (415): the format is right.
   const float floats[2] = {1, 2};
-  for (const auto& bytes :
-       {npy("<f4", "(1, 2)", false, floats, 8), npy("<i4", "(2,)", false, negative, 8),
-        npy("<i4", "(4, 4)", false, negative, 8),
-        std::vector<uint8_t>{'n', 'o', 't', ' ', 'n', 'p', 'y', 0, 0, 0}}) {
+  const uint8_t bytes16[16] = {};
+  struct Case {
+    std::vector<uint8_t> bytes;
+    ErrorCode code;
+    std::string says;
+  };
+  for (const Case& c : {
+           Case{npy("<f4", "(1, 2)", false, floats, 8), ErrorCode::kInvalidScene, "dtype <f4"},
+           Case{npy(">i4", "(1, 2)", false, negative, 8), ErrorCode::kInvalidScene, "dtype >i4"},
+           Case{npy("|b1", "(1, 2)", false, bytes16, 2), ErrorCode::kInvalidScene, "dtype |b1"},
+           Case{npy("<i4", "(2,)", false, negative, 8), ErrorCode::kInvalidScene,
+                "shape (2,): a label volume has 2 or 3 dimensions"},
+           Case{npy("|u1", "(1, 2, 2, 4)", false, bytes16, 16), ErrorCode::kInvalidScene, "not 4"},
+           Case{npy("|u1", "(0, 2)", false, bytes16, 0), ErrorCode::kInvalidScene, "no voxels"},
+           Case{npy("<i4", "(4, 4)", false, negative, 8), ErrorCode::kInvalidScene, "truncated"},
+           Case{std::vector<uint8_t>{'n', 'o', 't', ' ', 'n', 'p', 'y', 0, 0, 0},
+                ErrorCode::kUnsupportedFormat, "no numpy magic"},
+       }) {
     try {
-      read_label_volume_npy(bytes, "seg.npy");
-      FAIL() << "malformed input must be an error";
+      read_label_volume_npy(c.bytes, "seg.npy");
+      ADD_FAILURE() << c.says << ": malformed input must be an error";
     } catch (const Error& e) {
-      EXPECT_EQ(e.code(), ErrorCode::kUnsupportedFormat);
+      EXPECT_EQ(e.code(), c.code) << e.detail();
       EXPECT_NE(e.detail().find("seg.npy"), std::string::npos) << e.detail();
+      EXPECT_NE(e.detail().find(c.says), std::string::npos) << e.detail();
     }
   }
 }

@@ -8,7 +8,9 @@
 // guaranteed.
 
 #include <array>
+#include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -67,6 +69,15 @@ struct GridOptions {
   int threads = 0;  ///< 0 = all cores (CPU twin)
   /// Where the per-range evaluation runs (the OpenCL backend, or null for the CPU twin).
   std::shared_ptr<ComputeBackend> compute;
+  /// Set to true by another thread to stop with gvd::Error{kCancelled}. Read between the
+  /// sweeps' wavefronts and batches, every few thousand sites while binning and signing, and
+  /// inside a batch: every row of cells on the CPU twin, every slice of a kernel launch
+  /// (slices of ~0.1 s) on OpenCL. So a set flag stops the computation within a fraction of
+  /// a second whatever the grid's size.
+  const std::atomic<bool>* cancel = nullptr;
+  /// Called on the calling thread with the fraction done (0 .. 1, non-decreasing) after each
+  /// wavefront of ranges and while signing; an exception it throws stops the computation.
+  std::function<void(double)> progress;
 };
 
 /// What the computation did (for logs, the bench and the culling ratio).
@@ -112,6 +123,9 @@ struct DistanceGrid {
   /// was found visible; its Voronoi region lies in it (empty when culling was off).
   std::vector<RangeBounds> site_bounds;
   int range_cells = 0;
+  /// The scene's length unit ("mm", ...; Scene::units): the distances, the origin and the
+  /// cell size are in it. Empty: none declared. A label only (NRRD's "space units").
+  std::string units;
   GridStats stats;
 };
 

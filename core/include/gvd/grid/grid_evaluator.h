@@ -4,6 +4,7 @@
 // so that it runs on the OpenCL backend (kernels/cl/grid_distance.cl) or on its CPU twin;
 // both run gvd_grid_item (grid_item.h) per cell.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -40,13 +41,17 @@ GridGeometry make_grid_geometry(const Scene& scene);
 /// `out.label` and `out.distance` (unsigned) are read and the distances negated in place.
 /// Shared by compute_grid and sample_result_grid, so both sign the same cells. O(simplices x
 /// rows they cross + cells).
+/// `cancel` (may be null) is read every few thousand simplices and every row: set, it stops
+/// with gvd::Error{kCancelled}.
 void sign_grid_distances(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
-                         const std::vector<uint8_t>& closed, DistanceGrid& out, int threads);
+                         const std::vector<uint8_t>& closed, DistanceGrid& out, int threads,
+                         const std::atomic<bool>* cancel = nullptr);
 /// Sets `out.closed` (is_closed_object per object; all 0 without `signed_distance`) and signs
 /// the distances of the closed ones (sign_grid_distances), with their count and time in
 /// `out.stats`. The last step of compute_grid and sample_result_grid.
 void sign_closed_objects(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
-                         bool signed_distance, int threads, DistanceGrid& out);
+                         bool signed_distance, int threads, DistanceGrid& out,
+                         const std::atomic<bool>* cancel = nullptr);
 
 /// The device-side grid description of a spec and metric.
 item::GvdGridSpec make_item_spec(const GridSpec& spec, GridMetric metric);
@@ -66,6 +71,13 @@ class GridEvaluator {
   virtual void read_best(std::span<double> key, std::span<uint32_t> site) = 0;
   /// How many site x cell distances one batch may hold (the scratch buffer).
   static constexpr uint64_t max_pairs() { return uint64_t{1} << 22; }
+  /// A flag (may be null) that evaluate() reads inside a batch: the CPU twin every row of
+  /// cells, the OpenCL evaluator between slices of its launch. Set, evaluate() throws
+  /// gvd::Error{kCancelled}; the best keys are then those of an unfinished batch.
+  void set_cancel(const std::atomic<bool>* cancel) { cancel_ = cancel; }
+
+ protected:
+  const std::atomic<bool>* cancel_ = nullptr;
 };
 
 /// The CPU twin: gvd_grid_item over the items on `threads` threads (0 = all cores).

@@ -4,11 +4,25 @@
 // labels meet across a cell face, with the interface's area and the pair's exact gap and
 // clearance, in the adaptive pipeline's DualGraph so that every writer and query takes it.
 
+#include <atomic>
+#include <functional>
+
 #include "gvd/graph/dual_graph.h"
 #include "gvd/grid/compute_grid.h"
 #include "gvd/scene/scene.h"
 
 namespace gvd {
+
+/// Options of `grid_dual_graph`.
+struct GridGraphOptions {
+  int threads = 0;  ///< 0 = all cores
+  /// Set to true by another thread to stop with gvd::Error{kCancelled}; read every row of
+  /// cells in both passes over the faces and by the touching-pair pass.
+  const std::atomic<bool>* cancel = nullptr;
+  /// Called on the calling thread with the fraction done (0 .. 1, non-decreasing) as slices of
+  /// the grid are finished; an exception it throws stops the computation.
+  std::function<void(double)> progress;
+};
 
 /// The dual graph of `grid` (compute_grid on `scene`): an edge for every pair of objects whose
 /// labels lie on two cells sharing a face. `area` is the shared faces' area (length in 2D),
@@ -19,6 +33,7 @@ namespace gvd {
 /// the gap at the middle of the pair's closest points where no third object is nearer to it
 /// (measure_gaps), else the least exact distance from a shared face's centre to the objects.
 /// Cells labelled -1 (no object) meet nothing. O(cells + interface faces · log M).
-DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene, int threads = 0);
+DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene,
+                          const GridGraphOptions& options = {});
 
 }  // namespace gvd

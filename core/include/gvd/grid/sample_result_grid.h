@@ -6,7 +6,9 @@
 // the closest points stored on the vertices of the leaf holding a cell centre bound its
 // distance from above, and that bound prunes one exact search over the scene's simplices.
 
+#include <atomic>
 #include <cstdint>
+#include <functional>
 #include <optional>
 
 #include "gvd/grid/compute_grid.h"
@@ -28,6 +30,12 @@ struct ResultGridOptions {
   /// Refused before any work: more cells than this (gvd::Error{kLimitExceeded}).
   uint64_t max_cells = uint64_t{1} << 27;
   int threads = 0;  ///< 0 = all cores
+  /// Set to true by another thread to stop with gvd::Error{kCancelled}; read every row of
+  /// cells (and while signing, as compute_grid).
+  const std::atomic<bool>* cancel = nullptr;
+  /// Called on the calling thread with the fraction done (0 .. 1, non-decreasing) as rows of
+  /// cells are finished; an exception it throws stops the computation.
+  std::function<void(double)> progress;
 };
 
 /// The grid `sample_result_grid` samples (validated as make_grid_spec: resolution >= 1, a

@@ -36,12 +36,15 @@ std::vector<uint64_t> grid_shape(const GridSpec& spec);
 /// places samples at their positions, which are the cell centres), little endian, raw.
 /// `data_file` non-empty: a detached header naming it ("data file:"); empty: the header of
 /// an attached file (it ends with the blank line after which the data follows). `comment`
-/// goes on a "#" line.
+/// goes on a "#" line. `units` (a canonical unit name, gvd/scene/units.h; empty: none) gives
+/// "space units", the same on every axis, in ASCII ("µm" as "um", "Å" as "angstrom").
 std::string nrrd_header(const GridSpec& spec, GridValueType type, const std::string& data_file,
-                        const std::string& comment);
+                        const std::string& comment, const std::string& units = "");
 
 /// Writes a grid's distances (float32, or float64 when `float64`) to `path` by its
-/// extension: .npy, .nrrd (attached) or .nhdr (detached, data in <stem>.raw beside it).
+/// extension: .npy, .nrrd (attached) or .nhdr (detached, data in <stem>.raw beside it); a
+/// NRRD header says the grid's units (nrrd_header). numpy's .npy header has no place for them
+/// (numpy refuses unknown keys).
 /// Returns the files written. gvd::Error{kInvalidArgument} for another extension, {kIo} when
 /// a file cannot be written.
 std::vector<std::string> write_grid_distance(const DistanceGrid& grid, const std::string& path,

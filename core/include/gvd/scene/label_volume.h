@@ -5,6 +5,7 @@
 // others', and the adaptive pipeline runs on those objects as on meshes.
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -24,8 +25,11 @@ struct LabelVolume {
 
 /// Reads a numpy .npy file of integer labels: descr '<i1'/'<i2'/'<i4'/'<i8', '|u1', '<u2',
 /// '<u4', '<u8' (and '|i1'), 2 or 3 dimensions in C order (shape (ny, nx) or (nz, ny, nx),
-/// x fastest, as gvd grid writes them) or Fortran order. Negative values are an error
-/// (kInvalidScene naming the voxel); a malformed file is kUnsupportedFormat naming the file.
+/// x fastest, as gvd grid writes them) or Fortran order. Errors name the file: bytes that are
+/// not a .npy gvd reads (no magic, an unknown format version) are kUnsupportedFormat; a .npy
+/// whose content is no label volume is kInvalidScene naming the field (a dtype that is not a
+/// little-endian integer, a shape of other than 2 or 3 dimensions or without voxels, a
+/// truncated header or data), as is a negative label (naming the voxel).
 LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::string& name);
 
 struct LabelVolumeOptions {
@@ -35,6 +39,9 @@ struct LabelVolumeOptions {
   std::array<double, 3> origin{0, 0, 0};
   /// The label that is no object (background); none: every label is an object.
   std::optional<uint64_t> background = 0;
+  /// Set to true by another thread to stop with gvd::Error{kCancelled}; read every row of
+  /// voxels.
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 /// One object per label (in increasing order, labelled "label_<id>"): its boundary faces

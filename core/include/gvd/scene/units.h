@@ -29,4 +29,8 @@ std::string parse_units(std::string_view text, std::string_view field, ErrorCode
 /// What follows a length when it is printed: " mm" (a space and the unit), "" without units.
 std::string units_suffix(std::string_view units);
 
+/// A canonical unit name in ASCII, for headers that must be (NRRD, HTTP): "µm" -> "um",
+/// "Å" -> "angstrom", the others as they are.
+std::string ascii_units(std::string_view units);
+
 }  // namespace gvd
