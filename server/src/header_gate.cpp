@@ -19,6 +19,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <unordered_map>
 #include <vector>
 
 namespace gvd::server {
@@ -155,10 +156,11 @@ struct GatedServer::Connection {
   std::string client;  ///< remote address, for the per-client cap
   size_t requests_left = 0;
   std::unique_ptr<ConnectionStream> stream;
-  Clock::time_point since;     ///< when it began to wait
-  Clock::time_point deadline;  ///< when it is closed if still waiting
-  bool partial = false;        ///< some bytes of the request have arrived
-  uint32_t turn = 0;           ///< which wait at the gate (epoll events carry it with the fd)
+  Clock::time_point since;       ///< when it began to wait
+  Clock::time_point deadline;    ///< when it is closed if still waiting
+  bool partial = false;          ///< some bytes of the request have arrived
+  bool counted_partial = false;  ///< counted in its address's share of partial connections
+  uint32_t turn = 0;             ///< which wait at the gate (epoll events carry it with the fd)
   ~Connection() {
     if (fd >= 0) close_socket(fd);
   }
@@ -309,6 +311,7 @@ class GatedServer::Gate {
     thread_.join();
     std::lock_guard lock(mutex_);
     waiting_.clear();
+    shares_.clear();
     ::close(epoll_);
     ::close(wake_);
     running_ = false;
@@ -334,10 +337,13 @@ class GatedServer::Gate {
       serve_later(std::move(c));
       return;
     }
-    make_room(c->client);
+    if (c->partial) limit_partial(c->client, -1, 1);
+    limit_total();
     c->turn = ++turns_;
     epoll_event ev = event_for(*c);
     if (::epoll_ctl(epoll_, EPOLL_CTL_ADD, c->fd, &ev) != 0) return;
+    next_sweep_ = std::min(next_sweep_, c->deadline);
+    track(*c, +1);
     const int fd = c->fd;
     waiting_[fd] = std::move(c);
   }
@@ -356,6 +362,13 @@ class GatedServer::Gate {
  private:
   using Waiting = std::map<int, std::unique_ptr<Connection>>;
 
+  /// Connections of one remote address waiting at the gate: all, and those with part of
+  /// their headers.
+  struct Share {
+    int waiting = 0;
+    int partial = 0;
+  };
+
   static constexpr uint64_t kWakeKey = ~uint64_t{0};
 
   /// One readiness report for `c` (one-shot: re-armed while it waits).
@@ -366,40 +379,78 @@ class GatedServer::Gate {
     return ev;
   }
 
-  /// Before a connection of `client` waits: close the oldest waiting one of that client when
-  /// it has its share, and the oldest of all when the gate is full. One whose headers have
-  /// just arrived (its event not yet handled) is served instead, and makes room as well.
-  void make_room(const std::string& client) {
+  /// Counts `c` in (+1) or out (-1) of its address's share of the waiting connections.
+  void track(Connection& c, int sign) {
+    Share& s = shares_[c.client];
+    s.waiting += sign;
+    if (sign > 0 && c.partial) c.counted_partial = true;
+    if (c.counted_partial) s.partial += sign;
+    if (sign < 0) c.counted_partial = false;
+    if (s.waiting <= 0) shares_.erase(c.client);
+  }
+
+  /// Takes `it` out of the waiting connections (its socket stays open).
+  std::unique_ptr<Connection> take(Waiting::iterator it) {
+    ::epoll_ctl(epoll_, EPOLL_CTL_DEL, it->first, nullptr);
+    track(*it->second, -1);
+    std::unique_ptr<Connection> c = std::move(it->second);
+    waiting_.erase(it);
+    return c;
+  }
+
+  void drop(Waiting::iterator it) { take(it); }  // closes the socket
+
+  /// Makes room for a waiting connection by closing `victim`, unless its headers have just
+  /// arrived (its event not yet handled): then it is served, which makes room as well.
+  void evict(Waiting::iterator victim) {
+    const Peek p = peek(*victim->second);
+    if (p == Peek::kReady) {
+      serve_later(take(victim));
+      return;
+    }
+    if (p != Peek::kClosed) ++evicted_;
+    drop(victim);
+  }
+
+  /// Before (`coming` = 1) or after (0) a connection of `client` counts as partial: while
+  /// that address would hold more than its share of partial connections, its oldest partial
+  /// one other than `keep` (a descriptor, or -1) is closed.
+  void limit_partial(const std::string& client, int keep, int coming) {
     for (;;) {
-      int of_client = 0;
-      auto oldest_of_client = waiting_.end();
-      auto oldest = waiting_.end();
-      for (auto it = waiting_.begin(); it != waiting_.end(); ++it) {
-        if (oldest == waiting_.end() || it->second->since < oldest->second->since) oldest = it;
-        if (it->second->client != client) continue;
-        ++of_client;
-        if (oldest_of_client == waiting_.end() ||
-            it->second->since < oldest_of_client->second->since) {
-          oldest_of_client = it;
-        }
-      }
+      const auto share = shares_.find(client);
+      const int partial = (share == shares_.end() ? 0 : share->second.partial) + coming;
+      if (partial <= limits.max_waiting_per_client) return;
       auto victim = waiting_.end();
-      if (of_client >= limits.max_waiting_per_client) {
-        victim = oldest_of_client;
-      } else if (static_cast<int>(waiting_.size()) >= limits.max_waiting) {
-        victim = oldest;
+      for (auto it = waiting_.begin(); it != waiting_.end(); ++it) {
+        const Connection& w = *it->second;
+        if (!w.partial || it->first == keep || w.client != client) continue;
+        if (victim == waiting_.end() || w.since < victim->second->since) victim = it;
       }
       if (victim == waiting_.end()) return;
-      const Peek p = peek(*victim->second);
-      if (p == Peek::kReady) {
-        ::epoll_ctl(epoll_, EPOLL_CTL_DEL, victim->first, nullptr);
-        serve_later(std::move(victim->second));
-        waiting_.erase(victim);
-        continue;  // room made without closing anyone; look again only if still full
+      evict(victim);
+    }
+  }
+
+  /// Before a connection waits: while the gate is full, the oldest waiting connection of the
+  /// address with the most waiting ones is closed.
+  void limit_total() {
+    while (static_cast<int>(waiting_.size()) >= limits.max_waiting) {
+      const std::string* largest = nullptr;
+      int most = 0;
+      for (const auto& [client, share] : shares_) {
+        if (share.waiting > most) {
+          most = share.waiting;
+          largest = &client;
+        }
       }
-      if (p != Peek::kClosed) ++evicted_;
-      drop(victim);
-      return;
+      if (largest == nullptr) return;
+      auto victim = waiting_.end();
+      for (auto it = waiting_.begin(); it != waiting_.end(); ++it) {
+        if (it->second->client != *largest) continue;
+        if (victim == waiting_.end() || it->second->since < victim->second->since) victim = it;
+      }
+      if (victim == waiting_.end()) return;
+      evict(victim);
     }
   }
 
@@ -454,11 +505,6 @@ class GatedServer::Gate {
         ::send(c.fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   }
 
-  void drop(Waiting::iterator it) {
-    ::epoll_ctl(epoll_, EPOLL_CTL_DEL, it->first, nullptr);
-    waiting_.erase(it);  // closes the socket
-  }
-
   /// Looks at what has arrived without taking it: ready when the headers are complete (or
   /// as large as the gate lets them grow: httplib then refuses them with a reason).
   Peek peek(Connection& c) {
@@ -470,6 +516,56 @@ class GatedServer::Gate {
     return p;
   }
 
+  /// One event of the waiting connection `it`.
+  void handle(Waiting::iterator it, uint32_t events) {
+    Connection& c = *it->second;
+    const Peek p = peek(c);
+    const bool hung_up = (events & (EPOLLRDHUP | EPOLLHUP | EPOLLERR)) != 0;
+    if (p == Peek::kReady) {
+      serve_later(take(it));
+    } else if (p == Peek::kTooLarge) {
+      refuse(c, 431);
+      drop(it);
+    } else if (p == Peek::kClosed || hung_up) {
+      drop(it);
+    } else {
+      const int fd = it->first;
+      if (c.partial && !c.counted_partial) {
+        // Began its headers: now it counts toward its address's share of partial ones.
+        ++shares_[c.client].partial;
+        c.counted_partial = true;
+        next_sweep_ = std::min(next_sweep_, c.deadline);
+        const std::string client = c.client;
+        limit_partial(client, fd, 0);
+      }
+      const auto still = waiting_.find(fd);
+      if (still == waiting_.end()) return;
+      epoll_event ev = event_for(*still->second);
+      ::epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev);
+    }
+  }
+
+  /// Closes the connections past their deadline (408 if they sent part of their headers) and
+  /// sets when to look again.
+  void sweep(Clock::time_point now) {
+    auto next = now + std::chrono::seconds(1);
+    for (auto it = waiting_.begin(); it != waiting_.end();) {
+      if (it->second->deadline > now) {
+        next = std::min(next, it->second->deadline);
+        ++it;
+        continue;
+      }
+      if (it->second->partial) {
+        refuse(*it->second, 408);
+        ++timed_out_;
+      }
+      auto following = std::next(it);
+      drop(it);
+      it = following;
+    }
+    next_sweep_ = next;
+  }
+
   void run() {
     std::vector<epoll_event> events(256);
     for (;;) {
@@ -477,12 +573,10 @@ class GatedServer::Gate {
       {
         std::lock_guard lock(mutex_);
         if (stopping_) return;
-        const auto now = Clock::now();
-        for (const auto& [fd, c] : waiting_) {
-          const auto left =
-              std::chrono::duration_cast<std::chrono::milliseconds>(c->deadline - now).count();
-          ms = static_cast<int>(std::clamp<int64_t>(left + 1, 0, ms));
-        }
+        const auto left =
+            std::chrono::duration_cast<std::chrono::milliseconds>(next_sweep_ - Clock::now())
+                .count();
+        ms = static_cast<int>(std::clamp<int64_t>(left + 1, 0, ms));
       }
       const int n = ::epoll_wait(epoll_, events.data(), static_cast<int>(events.size()), ms);
       {
@@ -500,37 +594,12 @@ class GatedServer::Gate {
           const int fd = static_cast<int>(key & 0xFFFFFFFFu);
           const auto it = waiting_.find(fd);
           if (it == waiting_.end() || it->second->turn != key >> 32) continue;
-          const Peek p = peek(*it->second);
-          const bool hung_up =
-              (events[static_cast<size_t>(i)].events & (EPOLLRDHUP | EPOLLHUP | EPOLLERR)) != 0;
-          if (p == Peek::kReady) {
-            ::epoll_ctl(epoll_, EPOLL_CTL_DEL, fd, nullptr);
-            serve_later(std::move(it->second));
-            waiting_.erase(it);
-          } else if (p == Peek::kTooLarge) {
-            refuse(*it->second, 431);
-            drop(it);
-          } else if (p == Peek::kClosed || hung_up) {
-            drop(it);
-          } else {
-            epoll_event ev = event_for(*it->second);
-            ::epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev);
-          }
+          handle(it, events[static_cast<size_t>(i)].events);
         }
+        // The deadlines are looked at only when the earliest may have passed (not at every
+        // event: with many kept-alive connections waiting that was a scan per request).
         const auto now = Clock::now();
-        for (auto it = waiting_.begin(); it != waiting_.end();) {
-          if (it->second->deadline > now) {
-            ++it;
-            continue;
-          }
-          if (it->second->partial) {
-            refuse(*it->second, 408);
-            ++timed_out_;
-          }
-          auto next = std::next(it);
-          drop(it);
-          it = next;
-        }
+        if (now >= next_sweep_) sweep(now);
       }
     }
   }
@@ -538,6 +607,7 @@ class GatedServer::Gate {
   GatedServer& server_;
   mutable std::mutex mutex_;
   Waiting waiting_;
+  std::unordered_map<std::string, Share> shares_;  ///< per remote address
   BoundedPool* pool_ = nullptr;
   int epoll_ = -1;
   int wake_ = -1;
@@ -546,6 +616,8 @@ class GatedServer::Gate {
   std::thread thread_;
   std::vector<char> buffer_;
   uint32_t turns_ = 0;  ///< counts waits; kWakeKey is no connection's key (its fd half is -1)
+  /// No waiting connection's deadline is earlier (it may be later: a sweep then finds none).
+  Clock::time_point next_sweep_ = Clock::time_point::max();
   uint64_t timed_out_ = 0;
   uint64_t evicted_ = 0;
   uint64_t overloaded_ = 0;

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace gvd::server {
 
@@ -18,8 +19,14 @@ struct GateLimits {
   /// itself (or, if the request line alone is that long, lets httplib answer 414). The
   /// header limit plus a request line.
   size_t max_header_bytes = 16384 + 8192;
-  int max_waiting_per_client = 64;  ///< per remote address; the oldest waiting one is closed
-  int max_waiting = 4096;           ///< in all; the oldest waiting one is closed
+  /// Per remote address: connections that have sent part of a request's headers and wait for
+  /// the rest (a slowloris holds partial headers); past it the oldest such one is closed. A
+  /// kept-alive connection idle between requests holds nothing but a descriptor and is not
+  /// counted here (a busy client, or a proxy, keeps many of them), only in `max_waiting`.
+  int max_waiting_per_client = 64;
+  /// In all, idle or partial; past it the oldest waiting connection of the address with the
+  /// most waiting ones is closed (so one address cannot push every other one out).
+  int max_waiting = 4096;
   /// The whole answer (status line, headers, body) the gate sends before closing a
   /// connection itself: 408 (headers too slow) or 431 (a header line over cpp-httplib's
   /// 8 KiB, or headers over max_header_bytes). Empty: a bare status line.

@@ -115,9 +115,12 @@ const std::vector<Spec>& specs() {
              "seconds from a request's first byte to the end of its headers (then 408)",
              &ServerOptions::header_timeout, 0.1, 3600.0),
       number("--max-waiting-per-client",
-             "connections of one remote address waiting for their headers (oldest closed)",
+             "connections of one remote address waiting with part of their headers (oldest "
+             "closed; idle kept-alive ones are not counted)",
              &ServerOptions::max_waiting_per_client, 1, 1000000),
-      number("--max-waiting", "connections waiting for their headers in all (oldest closed)",
+      number("--max-waiting",
+             "connections waiting for a request in all, idle or not (the oldest of the address "
+             "with the most is closed)",
              &ServerOptions::max_waiting, 1, 1000000),
       number("--max-queued-requests",
              "requests waiting for a busy HTTP thread; beyond, 503 overloaded at once",

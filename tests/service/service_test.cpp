@@ -1290,6 +1290,80 @@ TEST(Service, FullRequestQueueAnswers503AtOnce) {
   EXPECT_LE(lines, 3);
 }
 
+/// Sends `request` on the kept-alive connection `fd` and returns one answer (its headers and
+/// the body of its Content-Length), or what arrived before the server closed or `ms` passed.
+std::string exchange_on(int fd, const std::string& request, int ms = 2000) {
+  timeval tv{ms / 1000, (ms % 1000) * 1000};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  if (send(fd, request.data(), request.size(), MSG_NOSIGNAL) !=
+      static_cast<ssize_t>(request.size())) {
+    return "";
+  }
+  std::string out;
+  char buf[4096];
+  for (;;) {
+    const size_t head_end = out.find("\r\n\r\n");
+    if (head_end != std::string::npos) {
+      const size_t cl = out.find("Content-Length: ");
+      const size_t len =
+          cl != std::string::npos && cl < head_end ? std::stoul(out.substr(cl + 16)) : 0;
+      if (out.size() >= head_end + 4 + len) break;
+    }
+    const ssize_t n = recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    out.append(buf, static_cast<size_t>(n));
+  }
+  return out;
+}
+
+/// The value of a metric line `name value` in /metrics (-1 if absent).
+double metric_value(int port, const std::string& name) {
+  auto m = client(port)->Get("/metrics");
+  if (!m) return -1;
+  const std::string key = "\n" + name + " ";
+  const size_t at = m->body.find(key);
+  return at == std::string::npos ? -1 : std::stod(m->body.substr(at + key.size()));
+}
+
+// Issue 16: the per-address cap of the header gate closed kept-alive connections that sat
+// idle between requests, so a client (or a proxy, or wrk) with more connections than the cap
+// reconnected over and over: the 256-connection load test's p99. Only connections that have
+// sent part of their headers count toward the cap now; an idle one holds a descriptor only.
+// Here 40 kept-alive connections from one address, with room for 8, make a request, sit idle
+// at the gate, and make another on the same connection: all answered. 12 connections that
+// stall in their headers still find room for 8 only.
+TEST(Service, IdleKeptAliveConnectionsAreNotEvicted) {
+  ServerProcess server(fresh_dir("idle-keep-alive"), {"--max-waiting-per-client", "8"});
+  const int port = server.port();
+  const std::string request = "GET /v1/jobs HTTP/1.1\r\nHost: x\r\n\r\n";
+  std::vector<int> idle;
+  for (int i = 0; i < 40; ++i) {
+    idle.push_back(connect_to(port));
+    ASSERT_GE(idle.back(), 0);
+    ASSERT_EQ(raw_status(exchange_on(idle.back(), request)), 200) << i;
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // all wait at the gate, idle
+  int answered = 0;
+  for (const int fd : idle) answered += raw_status(exchange_on(fd, request)) == 200 ? 1 : 0;
+  EXPECT_EQ(answered, 40);
+  EXPECT_EQ(metric_value(port, "gvd_http_connections_evicted"), 0);
+
+  std::vector<int> stalled;
+  for (int i = 0; i < 12; ++i) {
+    stalled.push_back(connect_to(port));
+    const std::string start = "GET /v1/jobs HTTP/1.1\r\nHost: x\r\nX-Slow: ";
+    (void)!send(stalled.back(), start.data(), start.size(), MSG_NOSIGNAL);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(metric_value(port, "gvd_http_connections_evicted"), 4);
+  answered = 0;
+  for (const int fd : idle) answered += raw_status(exchange_on(fd, request)) == 200 ? 1 : 0;
+  EXPECT_EQ(answered, 40);
+  for (const int fd : idle) close(fd);
+  for (const int fd : stalled) close(fd);
+}
+
 TEST(Service, HealthReadinessMetrics) {
   ServerProcess server(fresh_dir("health"));
   auto c = client(server.port());
