@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <condition_variable>
@@ -159,6 +160,7 @@ struct GatedServer::Connection {
   Clock::time_point since;       ///< when it began to wait
   Clock::time_point deadline;    ///< when it is closed if still waiting
   bool partial = false;          ///< some bytes of the request have arrived
+  bool priority = false;         ///< its ready request is for the probes' lane
   bool counted_partial = false;  ///< counted in its address's share of partial connections
   uint32_t turn = 0;             ///< which wait at the gate (epoll events carry it with the fd)
   ~Connection() {
@@ -273,6 +275,20 @@ class BoundedPool {
   std::vector<std::thread> threads_;  ///< last: the threads start once the rest is set up
 };
 
+/// Whether `request` (its first bytes) asks for one of `paths` with GET: `GET <path>` and then
+/// a space or a query.
+bool is_priority(std::string_view request, const std::vector<std::string>& paths) {
+  if (!request.starts_with("GET ")) return false;
+  request.remove_prefix(4);
+  for (const std::string& path : paths) {
+    if (request.size() > path.size() && request.starts_with(path) &&
+        (request[path.size()] == ' ' || request[path.size()] == '?')) {
+      return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace
 
 /// The epoll thread that holds connections until their headers are complete, and the task
@@ -283,11 +299,14 @@ class GatedServer::Gate {
   ~Gate() { stop(); }
 
   GateLimits limits;
+  std::atomic<uint64_t> priority_served{0};
 
-  /// Starts the epoll thread with `pool` running the requests.
-  void start(BoundedPool* pool) {
+  /// Starts the epoll thread with `pool` running the requests and `probes` (may be null) the
+  /// probes' lane.
+  void start(BoundedPool* pool, BoundedPool* probes) {
     std::lock_guard lock(mutex_);
     pool_ = pool;
+    probes_ = probes;
     epoll_ = ::epoll_create1(EPOLL_CLOEXEC);
     wake_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
     epoll_event ev{};
@@ -316,6 +335,7 @@ class GatedServer::Gate {
     ::close(wake_);
     running_ = false;
     pool_ = nullptr;
+    probes_ = nullptr;
   }
 
   /// Holds `c` until its next request's headers are complete (or closes it). Headers that
@@ -356,6 +376,7 @@ class GatedServer::Gate {
       n.queued = pool_->queued();
     }
     n.overloaded = overloaded_;
+    n.priority_served = priority_served;
     return n;
   }
 
@@ -467,11 +488,14 @@ class GatedServer::Gate {
         ::send(c.fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   }
 
-  /// Gives `c` to a thread of the pool, or answers it at once when the pool is full.
+  /// Gives `c` to a thread of the pool (a probe to the probes' lane), or answers it at once
+  /// when the pool is full.
   void serve_later(std::unique_ptr<Connection> c) {
+    const bool priority = c->priority && probes_ != nullptr;
     Connection* raw = c.release();
     std::function<void()> task = [this, raw] { server_.serve(std::unique_ptr<Connection>(raw)); };
-    if (pool_->try_enqueue(task, static_cast<size_t>(std::max(limits.max_queued, 0)))) return;
+    BoundedPool* pool = priority ? probes_ : pool_;
+    if (pool->try_enqueue(task, static_cast<size_t>(std::max(limits.max_queued, 0)))) return;
     c.reset(raw);  // not queued: still ours
     refuse_overloaded(*c);
   }
@@ -506,12 +530,17 @@ class GatedServer::Gate {
   }
 
   /// Looks at what has arrived without taking it: ready when the headers are complete (or
-  /// as large as the gate lets them grow: httplib then refuses them with a reason).
+  /// as large as the gate lets them grow: httplib then refuses them with a reason). A ready
+  /// request is marked for the probes' lane when it is a probe.
   Peek peek(Connection& c) {
     const Peek p = peek_headers(c, limits.max_header_bytes, buffer_);
     if (p == Peek::kPartial && !c.partial) {
       c.partial = true;
       c.deadline = Clock::now() + seconds(limits.header_seconds);
+    }
+    if (p == Peek::kReady) {
+      c.priority = !limits.priority_paths.empty() &&
+                   is_priority({buffer_.data(), buffer_.size()}, limits.priority_paths);
     }
     return p;
   }
@@ -609,6 +638,7 @@ class GatedServer::Gate {
   Waiting waiting_;
   std::unordered_map<std::string, Share> shares_;  ///< per remote address
   BoundedPool* pool_ = nullptr;
+  BoundedPool* probes_ = nullptr;
   int epoll_ = -1;
   int wake_ = -1;
   bool running_ = false;
@@ -627,13 +657,18 @@ namespace {
 
 /// What cpp-httplib's accept loop feeds (the only caller of enqueue: each task is
 /// process_and_close_socket of a new connection), with the gate and the request threads
-/// started and stopped beside it: the gate stops first (it enqueues), then the pool drains
+/// started and stopped beside it: the gate stops first (it enqueues), then the pools drain
 /// what was queued.
 class GateQueue final : public httplib::TaskQueue {
  public:
   GateQueue(GatedServer::Gate& gate, int threads)
-      : gate_(gate), pool_(static_cast<size_t>(threads)) {
-    gate_.start(&pool_);
+      : gate_(gate),
+        pool_(static_cast<size_t>(threads)),
+        probes_(gate.limits.priority_paths.empty()
+                    ? nullptr
+                    : std::make_unique<BoundedPool>(
+                          static_cast<size_t>(std::max(gate.limits.priority_threads, 1)))) {
+    gate_.start(&pool_, probes_.get());
   }
   ~GateQueue() override { gate_.stop(); }
   /// Runs the task here, in the accept thread: handing a new connection to the gate only
@@ -642,11 +677,13 @@ class GateQueue final : public httplib::TaskQueue {
   void shutdown() override {
     gate_.stop();
     pool_.shutdown();
+    if (probes_) probes_->shutdown();
   }
 
  private:
   GatedServer::Gate& gate_;
   BoundedPool pool_;
+  std::unique_ptr<BoundedPool> probes_;
 };
 
 }  // namespace
@@ -679,6 +716,7 @@ void GatedServer::serve(std::unique_ptr<Connection> c) {
     const bool close_connection = c->requests_left == 1;
     bool closed = false;
     const bool ok = process_request(*c->stream, close_connection, closed, nullptr);
+    if (c->priority) ++gate_->priority_served;
     if (after_request_) after_request_();
     --c->requests_left;
     if (!ok || closed || close_connection) return;
@@ -686,12 +724,16 @@ void GatedServer::serve(std::unique_ptr<Connection> c) {
     // arrives whole within a moment (a busy keep-alive client sends it as soon as it has the
     // answer; handing it over through the gate would cost a wake-up of two threads). Anything
     // slower waits at the gate, not in this thread: a thread waits at most kLinger per request.
-    if (has_headers(c->stream->buffered())) continue;
+    // A probes' thread keeps only probes: anything else goes through the gate to the others.
     thread_local std::vector<char> buffer;
-    if (wait_for(c->fd, POLLIN, kLingerMs) &&
+    std::string_view next = c->stream->buffered();
+    bool ready = has_headers(next);
+    if (!ready && wait_for(c->fd, POLLIN, kLingerMs) &&
         peek_headers(*c, gate_->limits.max_header_bytes, buffer) == Peek::kReady) {
-      continue;
+      ready = true;
+      next = {buffer.data(), buffer.size()};
     }
+    if (ready && (!c->priority || is_priority(next, gate_->limits.priority_paths))) continue;
     gate_->wait(std::move(c));
     return;
   }

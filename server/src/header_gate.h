@@ -40,16 +40,24 @@ struct GateLimits {
   /// in the gate's thread or the accept thread, with the gate locked: it must be quick and
   /// must not call back into the server. Empty: a bare 503.
   std::function<std::string(std::string_view method, std::string_view path)> overloaded;
+  /// Health probes' lane: a request whose request line is `GET <path>` (then a space or a
+  /// `?`) for one of these paths is served by `priority_threads` threads of its own, never
+  /// queued behind other requests (a probe must say within its timeout whether the process
+  /// lives, however long the other requests take). When they are busy too and
+  /// `max_queued` probes wait, the overloaded answer is sent as for any request.
+  std::vector<std::string> priority_paths;
+  int priority_threads = 1;
 };
 
 /// What the gate has done since the server started (the /metrics counters).
 struct GateCounts {
-  uint64_t waiting = 0;     ///< connections waiting for headers now
-  uint64_t timed_out = 0;   ///< closed because their headers did not arrive in time
-  uint64_t evicted = 0;     ///< closed to make room (per-client or total cap)
-  uint64_t busy = 0;        ///< threads running a request now
-  uint64_t queued = 0;      ///< requests with complete headers waiting for a thread now
-  uint64_t overloaded = 0;  ///< answered by the gate because threads and queue were full
+  uint64_t waiting = 0;          ///< connections waiting for headers now
+  uint64_t timed_out = 0;        ///< closed because their headers did not arrive in time
+  uint64_t evicted = 0;          ///< closed to make room (per-client or total cap)
+  uint64_t busy = 0;             ///< threads running a request now
+  uint64_t queued = 0;           ///< requests with complete headers waiting for a thread now
+  uint64_t overloaded = 0;       ///< answered by the gate because threads and queue were full
+  uint64_t priority_served = 0;  ///< requests served by the probes' lane since start
 };
 
 /// An httplib::Server whose threads never wait for request headers. cpp-httplib gives each
@@ -65,7 +73,8 @@ struct GateCounts {
 /// Ready requests queue for the threads up to GateLimits::max_queued; past that the gate
 /// answers them itself (503 + Retry-After, built by GateLimits::overloaded) instead of letting
 /// them wait in an unbounded queue. New connections are taken over by the gate in the accept
-/// thread, so they never wait behind busy threads either.
+/// thread, so they never wait behind busy threads either. Probes (GateLimits::priority_paths)
+/// go to threads of their own instead of that queue.
 class GatedServer : public httplib::Server {
  public:
   explicit GatedServer(int threads);

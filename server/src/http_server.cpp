@@ -790,7 +790,21 @@ struct HttpServer::Impl {
                                        : "the web viewer is not installed on this server");
   }
 
-  void readyz(const httplib::Request&, httplib::Response& res) {
+  void readyz(const httplib::Request& req, httplib::Response& res) {
+    // Probes have their own threads: say so when the others are all busy and their queue is
+    // full, as the gate does when it answers a probe itself.
+    const GateCounts gate = http.gate_counts();
+    if (!draining && gate.busy >= static_cast<uint64_t>(options.http_threads) &&
+        gate.queued >= static_cast<uint64_t>(options.max_queued_requests)) {
+      t_request.route = "overloaded";
+      metrics.count("gvd_http_requests_overloaded_total");
+      log_overload(req.path);
+      res.status = 503;
+      res.set_header("Retry-After", std::to_string(options.retry_after));
+      res.set_header("Cache-Control", "no-store");
+      res.set_content(overloaded_readyz(), "application/json");
+      return;
+    }
     std::string why;
     const bool queue_up = jobs.available(&why);
     Json body = {{"status", draining   ? "draining"
@@ -830,6 +844,13 @@ struct HttpServer::Impl {
     throw ProblemError(ProblemKind::kRouteNotFound, "no problem type " + name);
   }
 
+  /// /readyz while every HTTP thread is busy and --max-queued-requests requests wait.
+  std::string overloaded_readyz() const {
+    return json_text(Json{{"status", "overloaded"},
+                          {"http_threads", options.http_threads},
+                          {"max_queued_requests", options.max_queued_requests}});
+  }
+
   /// The answer to a request that finds every HTTP thread busy and --max-queued-requests
   /// requests waiting: the gate sends it at once, built from the request line alone (no
   /// thread runs it, so nothing here may block). Health probes are still answered: /healthz
@@ -846,9 +867,7 @@ struct HttpServer::Impl {
       status = 200;
       body = "{\"status\":\"ok\"}";
     } else if (get && path == "/readyz") {
-      body = json_text(Json{{"status", "overloaded"},
-                            {"http_threads", options.http_threads},
-                            {"max_queued_requests", options.max_queued_requests}});
+      body = overloaded_readyz();
     } else {
       type = "application/problem+json";
       body = problem_json(
@@ -918,6 +937,10 @@ void HttpServer::Impl::setup() {
   gate.max_waiting_per_client = options.max_waiting_per_client;
   gate.max_waiting = options.max_waiting;
   gate.max_queued = options.max_queued_requests;
+  // Probes have a lane of their own (they need no body and little state): an orchestrator's
+  // /healthz must not time out behind slow requests and restart a server that is only busy.
+  gate.priority_paths = {"/healthz", "/readyz", "/metrics"};
+  gate.priority_threads = 2;
   gate.overloaded = [this](std::string_view method, std::string_view path) {
     return overloaded_answer(method, path);
   };
@@ -1128,6 +1151,9 @@ void HttpServer::Impl::setup() {
   metrics.gauge("gvd_http_queued_requests",
                 "Requests with complete headers waiting for a busy HTTP thread now.",
                 [this] { return static_cast<double>(http.gate_counts().queued); });
+  metrics.gauge("gvd_http_probes_served",
+                "Requests since start served in the probes' lane (/healthz, /readyz, /metrics).",
+                [this] { return static_cast<double>(http.gate_counts().priority_served); });
   metrics.gauge(
       "gvd_http_max_queued_requests",
       "Requests that may wait for a thread before 503 overloaded (--max-queued-requests).",

@@ -611,4 +611,76 @@ TEST(HeaderGate, IdleConnectionsDoNotCountTowardTheClientCap) {
   for (const int fd : stalled) close(fd);
 }
 
+// Issue 16: a probe no longer waits in the queue behind requests that hold every thread: the
+// gate sends /healthz to threads of its own. Two threads blocked, two requests queued (room
+// for four): /healthz is answered at once, and a kept-alive probe connection can go on with a
+// normal request, which then waits its turn.
+TEST(HeaderGate, ProbesHaveALaneOfTheirOwn) {
+  GatedServer http(2);
+  GateLimits limits;
+  limits.max_queued = 4;
+  limits.priority_paths = {"/healthz"};
+  http.set_gate_limits(limits);
+  std::mutex mutex;
+  std::condition_variable released_cv;
+  bool released = false;
+  http.Get("/block", [&](const httplib::Request&, httplib::Response& res) {
+    std::unique_lock lock(mutex);
+    released_cv.wait(lock, [&] { return released; });
+    res.set_content("done", "text/plain");
+  });
+  http.Get("/healthz", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content("ok", "text/plain");
+  });
+  const int port = http.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { http.listen_after_bind(); });
+
+  const std::string block = "GET /block HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  std::vector<int> blocked;
+  for (int i = 0; i < 4; ++i) {
+    blocked.push_back(connect_loopback(port));
+    (void)!send(blocked.back(), block.data(), block.size(), MSG_NOSIGNAL);
+  }
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (http.gate_counts().queued < 2 && std::chrono::steady_clock::now() < end) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_EQ(http.gate_counts().busy, 2u);
+  ASSERT_EQ(http.gate_counts().queued, 2u);
+
+  const int probe = connect_loopback(port);
+  for (const char* target : {"/healthz", "/healthz?x=1"}) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string got =
+        exchange_on(probe, "GET " + std::string(target) + " HTTP/1.1\r\nHost: x\r\n\r\n");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_TRUE(got.starts_with("HTTP/1.1 200 ")) << got;
+    EXPECT_TRUE(got.ends_with("ok")) << got;
+    EXPECT_LT(seconds, 0.5);
+  }
+  EXPECT_EQ(http.gate_counts().priority_served, 2u);
+  // Not a probe: it waits for a main thread like the others.
+  const std::string next = "GET /block HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  (void)!send(probe, next.data(), next.size(), MSG_NOSIGNAL);
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (http.gate_counts().queued < 3 && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(http.gate_counts().queued, 3u);
+  {
+    std::lock_guard lock(mutex);
+    released = true;
+  }
+  released_cv.notify_all();
+  blocked.push_back(probe);
+  for (const int fd : blocked) {
+    EXPECT_TRUE(read_all(fd).ends_with("done"));
+    close(fd);
+  }
+  http.stop();
+  serving.join();
+}
+
 }  // namespace gvd::server

@@ -1290,6 +1290,21 @@ TEST(Service, FullRequestQueueAnswers503AtOnce) {
   EXPECT_LE(lines, 3);
 }
 
+/// Sets an environment variable for the life of the object (servers started meanwhile see it:
+/// an older gvd-server ignores variables it does not know, where it would refuse a flag).
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const std::string& value) : name_(name) {
+    setenv(name, value.c_str(), 1);
+  }
+  ~ScopedEnv() { unsetenv(name_); }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  const char* name_;
+};
+
 /// Sends `request` on the kept-alive connection `fd` and returns one answer (its headers and
 /// the body of its Content-Length), or what arrived before the server closed or `ms` passed.
 std::string exchange_on(int fd, const std::string& request, int ms = 2000) {
@@ -1362,6 +1377,50 @@ TEST(Service, IdleKeptAliveConnectionsAreNotEvicted) {
   EXPECT_EQ(answered, 40);
   for (const int fd : idle) close(fd);
   for (const int fd : stalled) close(fd);
+}
+
+// Issue 16: probes waited in the one FIFO queue of ready requests behind whatever held the
+// threads, until it was full (then the gate answered them). They have a lane of their own now.
+// Two slow bodies hold both threads and two more requests wait for them (the queue holds 8):
+// /healthz, /readyz and /metrics are answered at once all the same.
+TEST(Service, ProbesAreAnsweredWhileRequestsWaitForThreads) {
+  const ScopedEnv readers("GVD_MAX_BODY_READERS", "2");
+  ServerProcess server(fresh_dir("probe-lane"), {"--http-threads", "2", "--max-queued-requests",
+                                                 "8", "--read-timeout", "30"});
+  const int port = server.port();
+  const std::string body = R"({"dimension":3,"objects":[]})";
+  const std::string padded = body + std::string(64 - body.size(), ' ');
+  const std::string head =
+      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+      "Content-Length: 64\r\nConnection: close\r\n\r\n";
+  std::vector<int> holders;
+  for (int i = 0; i < 4; ++i) {
+    holders.push_back(connect_to(port));
+    ASSERT_GE(holders.back(), 0);
+    const std::string start = head + padded.substr(0, 1);
+    (void)!send(holders.back(), start.data(), start.size(), MSG_NOSIGNAL);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  for (const char* path : {"/healthz", "/readyz", "/metrics", "/healthz?verbose=1"}) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string got =
+        raw_exchange(port, std::string("GET ") + path + " HTTP/1.1\r\nHost: x\r\n\r\n");
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_EQ(raw_status(got), 200) << path << ": " << got;
+    EXPECT_LT(ms, 500) << path;
+  }
+  // Nothing was refused for it, and the requests that wait are still served.
+  for (const int fd : holders) {
+    (void)!send(fd, padded.data() + 1, padded.size() - 1, MSG_NOSIGNAL);
+  }
+  for (const int fd : holders) {
+    bool closed = false;
+    EXPECT_EQ(raw_status(read_for(fd, 10000, closed)), 422);
+    close(fd);
+  }
+  EXPECT_GE(metric_value(port, "gvd_http_probes_served"), 4);
+  EXPECT_LE(metric_value(port, "gvd_http_requests_overloaded_total"), 0);  // -1: never counted
 }
 
 TEST(Service, HealthReadinessMetrics) {
