@@ -76,20 +76,56 @@ class ConnectionStream final : public httplib::Stream {
  public:
   ConnectionStream(int fd, int read_ms, int write_ms)
       : fd_(fd), read_ms_(read_ms), write_ms_(write_ms) {}
+  ~ConnectionStream() override { end_body(); }
+  ConnectionStream(const ConnectionStream&) = delete;
+  ConnectionStream& operator=(const ConnectionStream&) = delete;
 
-  bool is_readable() const override { return off_ < len_ || wait_for(fd_, POLLIN, read_ms_); }
+  bool is_readable() const override { return off_ < len_ || wait_for(fd_, POLLIN, wait_ms()); }
   bool is_writable() const override { return wait_for(fd_, POLLOUT, write_ms_); }
 
   ssize_t read(char* ptr, size_t size) override {
-    if (off_ < len_) return take(ptr, size);
-    if (!wait_for(fd_, POLLIN, read_ms_)) return -1;
-    if (size >= sizeof buf_) return receive(ptr, size);
+    if (off_ < len_) return counted(take(ptr, size));
+    if (body_left_ > 0 && Clock::now() >= deadline_) {
+      timed_out_ = true;
+      return -1;
+    }
+    const int ms = wait_ms();
+    if (!wait_for(fd_, POLLIN, ms)) {
+      // The body's deadline, not the read time-out, ended the wait.
+      if (body_left_ > 0 && ms < read_ms_) timed_out_ = true;
+      return -1;
+    }
+    if (size >= sizeof buf_) return counted(receive(ptr, size));
     const ssize_t n = receive(buf_, sizeof buf_);
     if (n <= 0) return n;
     off_ = 0;
     len_ = static_cast<size_t>(n);
-    return take(ptr, size);
+    return counted(take(ptr, size));
   }
+
+  /// The next `length` bytes taken are a request body that must arrive by `deadline`;
+  /// `readers` (if any) counts this stream until they have been taken or end_body().
+  void begin_body(uint64_t length, Clock::time_point deadline, std::atomic<int>* readers) {
+    end_body();
+    body_left_ = length;
+    deadline_ = deadline;
+    readers_ = readers;
+    in_body_ = true;
+  }
+  /// The body is over (read, or the request ended): its reader slot is given back.
+  void end_body() {
+    body_left_ = 0;
+    if (readers_ != nullptr) readers_->fetch_sub(1, std::memory_order_relaxed);
+    readers_ = nullptr;
+  }
+  /// Before each request: no body yet, nothing timed out.
+  void begin_request() {
+    end_body();
+    in_body_ = false;
+    timed_out_ = false;
+  }
+  bool in_body() const { return in_body_; }
+  bool timed_out() const { return timed_out_; }
 
   ssize_t write(const char* ptr, size_t size) override {
     if (!wait_for(fd_, POLLOUT, write_ms_)) return -1;
@@ -119,6 +155,20 @@ class ConnectionStream final : public httplib::Stream {
   std::string_view buffered() const { return {buf_ + off_, len_ - off_}; }
 
  private:
+  /// How long one read may wait: the read time-out, or less when a body's deadline is nearer.
+  int wait_ms() const {
+    if (body_left_ == 0) return read_ms_;
+    const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline_ - Clock::now());
+    return static_cast<int>(std::clamp<int64_t>(left.count(), 0, read_ms_));
+  }
+  /// Counts bytes taken against the body being read.
+  ssize_t counted(ssize_t n) {
+    if (n > 0 && body_left_ > 0) {
+      body_left_ -= std::min<uint64_t>(body_left_, static_cast<uint64_t>(n));
+      if (body_left_ == 0) end_body();
+    }
+    return n;
+  }
   ssize_t take(char* ptr, size_t size) {
     const size_t n = std::min(size, len_ - off_);
     std::memcpy(ptr, buf_ + off_, n);
@@ -138,6 +188,11 @@ class ConnectionStream final : public httplib::Stream {
   char buf_[4096];
   size_t off_ = 0;
   size_t len_ = 0;
+  uint64_t body_left_ = 0;  ///< bytes of the body not yet taken (0: not reading one)
+  Clock::time_point deadline_{};
+  std::atomic<int>* readers_ = nullptr;
+  bool in_body_ = false;    ///< begin_body was called for this request
+  bool timed_out_ = false;  ///< a read failed because the body's deadline passed
 };
 
 /// The end of a request's headers (a blank line; bare LF line ends count, as for httplib).
@@ -145,7 +200,13 @@ bool has_headers(std::string_view bytes) {
   return bytes.find("\r\n\r\n") != bytes.npos || bytes.find("\n\n") != bytes.npos;
 }
 
+/// Closes a socket. What has arrived and was not read is read first (a little, without
+/// waiting): a socket closed with unread bytes is reset, which can destroy an answer just
+/// sent (a 503 or 408 before the body) before the client has read it.
 void close_socket(int fd) {
+  char sink[4096];
+  for (int i = 0; i < 16 && ::recv(fd, sink, sizeof sink, MSG_DONTWAIT) > 0; ++i) {
+  }
   ::shutdown(fd, SHUT_RDWR);
   ::close(fd);
 }
@@ -289,6 +350,8 @@ bool is_priority(std::string_view request, const std::vector<std::string>& paths
   return false;
 }
 
+thread_local GatedServer::Connection* t_connection = nullptr;  ///< the request being served
+
 }  // namespace
 
 /// The epoll thread that holds connections until their headers are complete, and the task
@@ -299,6 +362,9 @@ class GatedServer::Gate {
   ~Gate() { stop(); }
 
   GateLimits limits;
+  std::atomic<int> body_readers{0};
+  std::atomic<uint64_t> body_refused{0};
+  std::atomic<uint64_t> body_timed_out{0};
   std::atomic<uint64_t> priority_served{0};
 
   /// Starts the epoll thread with `pool` running the requests and `probes` (may be null) the
@@ -376,6 +442,9 @@ class GatedServer::Gate {
       n.queued = pool_->queued();
     }
     n.overloaded = overloaded_;
+    n.body_readers = static_cast<uint64_t>(std::max(body_readers.load(), 0));
+    n.body_refused = body_refused;
+    n.body_timed_out = body_timed_out;
     n.priority_served = priority_served;
     return n;
   }
@@ -698,6 +767,29 @@ void GatedServer::set_gate_limits(const GateLimits& limits) { gate_->limits = li
 
 GateCounts GatedServer::gate_counts() const { return gate_->counts(); }
 
+bool GatedServer::begin_body(uint64_t length) {
+  Connection* c = t_connection;
+  if (c == nullptr || length == 0 || c->stream->in_body()) return true;
+  const GateLimits& limits = gate_->limits;
+  std::atomic<int>* readers = nullptr;
+  if (limits.max_body_readers > 0) {
+    readers = &gate_->body_readers;
+    if (readers->fetch_add(1, std::memory_order_relaxed) >= limits.max_body_readers) {
+      readers->fetch_sub(1, std::memory_order_relaxed);
+      ++gate_->body_refused;
+      return false;
+    }
+  }
+  const double allowed =
+      limits.body_seconds + static_cast<double>(length) / std::max(limits.min_body_rate, 1.0);
+  c->stream->begin_body(length, Clock::now() + seconds(std::min(allowed, 1e7)), readers);
+  return true;
+}
+
+bool GatedServer::body_timed_out() {
+  return t_connection != nullptr && t_connection->stream->timed_out();
+}
+
 bool GatedServer::process_and_close_socket(socket_t sock) {
   auto c = std::make_unique<Connection>();
   c->fd = sock;
@@ -715,11 +807,17 @@ void GatedServer::serve(std::unique_ptr<Connection> c) {
   while (c->requests_left > 0 && svr_sock_ != INVALID_SOCKET) {
     const bool close_connection = c->requests_left == 1;
     bool closed = false;
+    c->stream->begin_request();
+    t_connection = c.get();  // for begin_body and body_timed_out, called by the handlers
     const bool ok = process_request(*c->stream, close_connection, closed, nullptr);
+    t_connection = nullptr;
+    const bool timed_out = c->stream->timed_out();
+    c->stream->end_body();
+    if (timed_out) ++gate_->body_timed_out;
     if (c->priority) ++gate_->priority_served;
     if (after_request_) after_request_();
     --c->requests_left;
-    if (!ok || closed || close_connection) return;
+    if (!ok || closed || close_connection || timed_out) return;
     // The next request is served here when it is already read into the buffer (pipelined) or
     // arrives whole within a moment (a busy keep-alive client sends it as soon as it has the
     // answer; handing it over through the gate would cost a wake-up of two threads). Anything

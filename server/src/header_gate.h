@@ -47,6 +47,14 @@ struct GateLimits {
   /// `max_queued` probes wait, the overloaded answer is sent as for any request.
   std::vector<std::string> priority_paths;
   int priority_threads = 1;
+  /// Request bodies are read in the threads. At most this many threads read one at once
+  /// (0: no cap): GatedServer::begin_body refuses more, so that slow bodies cannot take every
+  /// thread. A body must arrive within `body_seconds` + its length / `min_body_rate`
+  /// (bytes per second) of the moment its reading began; past that the read fails and
+  /// GatedServer::body_timed_out() says why (the connection is then closed).
+  int max_body_readers = 0;
+  double body_seconds = 30;
+  double min_body_rate = 1 << 20;
 };
 
 /// What the gate has done since the server started (the /metrics counters).
@@ -57,6 +65,9 @@ struct GateCounts {
   uint64_t busy = 0;             ///< threads running a request now
   uint64_t queued = 0;           ///< requests with complete headers waiting for a thread now
   uint64_t overloaded = 0;       ///< answered by the gate because threads and queue were full
+  uint64_t body_readers = 0;     ///< threads reading a request body now
+  uint64_t body_refused = 0;     ///< bodies refused since start: max_body_readers were read
+  uint64_t body_timed_out = 0;   ///< bodies that did not arrive within their deadline
   uint64_t priority_served = 0;  ///< requests served by the probes' lane since start
 };
 
@@ -74,7 +85,8 @@ struct GateCounts {
 /// answers them itself (503 + Retry-After, built by GateLimits::overloaded) instead of letting
 /// them wait in an unbounded queue. New connections are taken over by the gate in the accept
 /// thread, so they never wait behind busy threads either. Probes (GateLimits::priority_paths)
-/// go to threads of their own instead of that queue.
+/// go to threads of their own instead of that queue. Bodies are read in the threads, each
+/// with a deadline, and only so many at once (begin_body).
 class GatedServer : public httplib::Server {
  public:
   explicit GatedServer(int threads);
@@ -87,6 +99,17 @@ class GatedServer : public httplib::Server {
   /// are gone (the server returns memory to the system there after large bodies).
   void set_after_request(std::function<void()> fn) { after_request_ = std::move(fn); }
   GateCounts gate_counts() const;
+
+  /// In a request's thread, before its body is read (a pre-routing or Expect handler): takes
+  /// one of GateLimits::max_body_readers for a body of `length` bytes and starts its
+  /// deadline. False when that many other bodies are being read: refuse the request without
+  /// reading its body. The slot is given back once the body has been read or the request is
+  /// over. Calling it again for the same request changes nothing. Outside a request thread
+  /// of this server (or for an empty body) it returns true.
+  bool begin_body(uint64_t length);
+  /// In a request's thread: whether this request's body missed its deadline (its read failed
+  /// for that reason; the error handler answers 408 and the connection is closed).
+  static bool body_timed_out();
 
   struct Connection;
   class Gate;

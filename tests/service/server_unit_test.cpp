@@ -683,4 +683,85 @@ TEST(HeaderGate, ProbesHaveALaneOfTheirOwn) {
   serving.join();
 }
 
+// Issue 16: a body read in a thread had only a time-out per recv. With begin_body (called by
+// the server's pre-routing handler), a body has a deadline (body_seconds + length /
+// min_body_rate), past which the read fails and body_timed_out() says so; and at most
+// max_body_readers threads read one at once.
+TEST(HeaderGate, BodiesHaveADeadlineAndAReaderCap) {
+  GatedServer http(4);
+  GateLimits limits;
+  limits.max_body_readers = 1;
+  limits.body_seconds = 0.5;
+  limits.min_body_rate = 1000;  // + 0.1 s for the 100 bytes below
+  http.set_gate_limits(limits);
+  http.set_pre_routing_handler([&](const httplib::Request& req, httplib::Response& res) {
+    if (http.begin_body(std::stoull(req.get_header_value("Content-Length", 0)))) {
+      return httplib::Server::HandlerResponse::Unhandled;
+    }
+    res.status = 503;
+    res.set_content("busy", "text/plain");
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  http.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+    if (GatedServer::body_timed_out()) res.set_content("too slow", "text/plain");
+  });
+  http.Post("/p", [](const httplib::Request& req, httplib::Response& res) {
+    res.set_content(std::to_string(req.body.size()), "text/plain");
+  });
+  const int port = http.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { http.listen_after_bind(); });
+
+  const std::string head =
+      "POST /p HTTP/1.1\r\nHost: x\r\nContent-Length: 100\r\nConnection: close\r\n\r\n";
+  const int slow = connect_loopback(port);
+  const std::string start = head + "a";
+  const auto t0 = std::chrono::steady_clock::now();
+  (void)!send(slow, start.data(), start.size(), MSG_NOSIGNAL);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(http.gate_counts().body_readers, 1u);
+
+  // A second body while the first is read: refused before it is read.
+  const int second = connect_loopback(port);
+  (void)!send(second, start.data(), start.size(), MSG_NOSIGNAL);
+  const std::string refused = read_all(second);
+  close(second);
+  EXPECT_TRUE(refused.starts_with("HTTP/1.1 503 ")) << refused;
+  EXPECT_EQ(http.gate_counts().body_refused, 1u);
+
+  // The slow one sends a byte every 50 ms (each recv is quick): failed at ~0.6 s.
+  timeval tv{0, 50'000};
+  setsockopt(slow, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  std::string got;
+  char buf[1024];
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(3)) {
+    (void)!send(slow, "a", 1, MSG_NOSIGNAL);
+    const ssize_t n = recv(slow, buf, sizeof buf, 0);
+    if (n == 0) break;
+    if (n > 0) got.append(buf, static_cast<size_t>(n));
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  close(slow);
+  EXPECT_TRUE(got.ends_with("too slow")) << got;
+  EXPECT_GT(seconds, 0.55);
+  EXPECT_LT(seconds, 1.5);
+  EXPECT_EQ(http.gate_counts().body_timed_out, 1u);
+  EXPECT_EQ(http.gate_counts().body_readers, 0u);
+
+  // A body that arrives in time is read, and gives its slot back.
+  for (int i = 0; i < 2; ++i) {
+    const int fd = connect_loopback(port);
+    const std::string whole = head + std::string(100, 'b');
+    (void)!send(fd, whole.data(), whole.size(), MSG_NOSIGNAL);
+    const std::string answer = read_all(fd);
+    close(fd);
+    EXPECT_TRUE(answer.starts_with("HTTP/1.1 200 ")) << answer;
+    EXPECT_TRUE(answer.ends_with("100")) << answer;
+  }
+  EXPECT_EQ(http.gate_counts().body_readers, 0u);
+  http.stop();
+  serving.join();
+}
+
 }  // namespace gvd::server

@@ -1199,13 +1199,14 @@ TEST(Service, HeaderDeadlineIdleCloseAndPipelinedRequests) {
 // further request is answered at once (503 /problems/overloaded + Retry-After) instead of
 // waiting in an unbounded queue; /healthz stays 200 and /readyz says "overloaded". The threads
 // are held legitimately, without CPU: POST bodies that arrive slowly (bodies are read in the
-// threads). Afterwards the queued requests are served, not dropped, and so is everything else.
+// threads; --max-body-readers 2 lets both threads read one, where by default only half of
+// them may). Afterwards the queued requests are served, not dropped, and so is everything else.
 TEST(Service, FullRequestQueueAnswers503AtOnce) {
   const std::string dir = fresh_dir("overload");
   const std::string log = dir + "/server.log";
   ServerProcess server(dir + "/store",
                        {"--http-threads", "2", "--max-queued-requests", "2", "--retry-after", "3",
-                        "--read-timeout", "30"},
+                        "--read-timeout", "30", "--max-body-readers", "2"},
                        log);
   const int port = server.port();
   // Two requests hold the two threads, two more wait for them: headers and the first byte of
@@ -1421,6 +1422,92 @@ TEST(Service, ProbesAreAnsweredWhileRequestsWaitForThreads) {
   }
   EXPECT_GE(metric_value(port, "gvd_http_probes_served"), 4);
   EXPECT_LE(metric_value(port, "gvd_http_requests_overloaded_total"), 0);  // -1: never counted
+}
+
+// Issue 16: request bodies are read in the threads with a time-out per recv only, so a body
+// sent a byte at a time held a thread for as long as its sender liked. Now the whole body has
+// --body-seconds + its length / --min-body-rate: then 408 and the connection is closed.
+TEST(Service, SlowBodyGets408AtItsDeadline) {
+  const ScopedEnv seconds("GVD_BODY_SECONDS", "1");
+  const ScopedEnv rate("GVD_MIN_BODY_RATE", "1000000");
+  ServerProcess server(fresh_dir("slow-body"), {"--read-timeout", "10"});
+  const int port = server.port();
+  const int fd = connect_to(port);
+  ASSERT_GE(fd, 0);
+  const std::string head =
+      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+      "Content-Length: 200\r\n\r\n{";
+  (void)!send(fd, head.data(), head.size(), MSG_NOSIGNAL);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string got;
+  bool closed = false;
+  for (int i = 0; i < 60 && !closed && got.find("\r\n\r\n") == std::string::npos; ++i) {
+    (void)!send(fd, " ", 1, MSG_NOSIGNAL);  // a byte every 100 ms: each recv is quick
+    got += read_for(fd, 100, closed);
+  }
+  got += read_for(fd, 500, closed);
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  close(fd);
+  ASSERT_EQ(raw_status(got), 408) << got;
+  EXPECT_NE(got.find("\r\nConnection: close\r\n"), std::string::npos) << got;
+  const Json problem = Json::parse(got.substr(got.find("\r\n\r\n") + 4), nullptr, false);
+  EXPECT_EQ(problem.value("type", ""), "/problems/request-timeout") << got;
+  EXPECT_NE(problem.value("detail", "").find("--body-seconds"), std::string::npos) << got;
+  EXPECT_TRUE(closed);
+  EXPECT_GT(took, 0.9);
+  EXPECT_LT(took, 3.0);
+  EXPECT_EQ(metric_value(port, "gvd_http_body_timeouts"), 1);
+  EXPECT_EQ(metric_value(port, "gvd_http_body_readers"), 0);
+  // A body that arrives in time is read as before.
+  auto r = client(port)->Post("/v1/jobs", R"({"dimension":3,"objects":[]})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+}
+
+// Issue 16: however many threads, slow bodies could take every one of them. At most
+// --max-body-readers threads read a body at once; one more body is refused before it is read
+// (503 /problems/overloaded + Retry-After, connection closed) while requests without a body
+// are served by the other threads.
+TEST(Service, BodyReadersAreCapped) {
+  const ScopedEnv readers("GVD_MAX_BODY_READERS", "1");
+  ServerProcess server(fresh_dir("body-readers"),
+                       {"--http-threads", "4", "--read-timeout", "30", "--retry-after", "2"});
+  const int port = server.port();
+  const std::string body = R"({"dimension":3,"objects":[]})";
+  const std::string padded = body + std::string(64 - body.size(), ' ');
+  const std::string head =
+      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+      "Content-Length: 64\r\nConnection: close\r\n\r\n";
+  const int holder = connect_to(port);
+  ASSERT_GE(holder, 0);
+  const std::string start = head + padded.substr(0, 1);
+  (void)!send(holder, start.data(), start.size(), MSG_NOSIGNAL);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string got = raw_exchange(port, start);
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_EQ(raw_status(got), 503) << got;
+  EXPECT_LT(ms, 1000);
+  EXPECT_NE(got.find("\r\nRetry-After: 2\r\n"), std::string::npos) << got;
+  const Json problem = Json::parse(got.substr(got.find("\r\n\r\n") + 4), nullptr, false);
+  EXPECT_EQ(problem.value("type", ""), "/problems/overloaded") << got;
+  EXPECT_NE(problem.value("detail", "").find("--max-body-readers"), std::string::npos) << got;
+  auto c = client(port);
+  auto r = c->Get("/v1/jobs");  // a request without a body: a free thread serves it
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(metric_value(port, "gvd_http_body_readers"), 1);
+  EXPECT_EQ(metric_value(port, "gvd_http_body_readers_refused"), 1);
+
+  (void)!send(holder, padded.data() + 1, padded.size() - 1, MSG_NOSIGNAL);
+  bool closed = false;
+  EXPECT_EQ(raw_status(read_for(holder, 10000, closed)), 422);
+  close(holder);
+  // The slot is free again.
+  EXPECT_EQ(raw_status(raw_exchange(port, head + padded)), 422);
+  EXPECT_EQ(metric_value(port, "gvd_http_body_readers"), 0);
 }
 
 TEST(Service, HealthReadinessMetrics) {
