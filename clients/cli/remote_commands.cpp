@@ -61,7 +61,7 @@ constexpr std::array<ProblemExit, 28> kProblemExits = {{
     {"/problems/rate-limited", kExitBusy},
     {"/problems/queue-unavailable", kExitBusy},
     {"/problems/uri-too-long", kExitInternal},    // our bug: long lists go in POST bodies
-    {"/problems/request-timeout", kExitNetwork},  // a link too slow for --header-timeout
+    {"/problems/request-timeout", kExitNetwork},  // too slow for --header-timeout/--body-seconds
     {"/problems/overloaded", kExitBusy},          // every HTTP thread busy, queue full
     {"/problems/adaptive-only", kExitBadInput},   // a grid job asked for the octree's outputs
 }};

@@ -129,7 +129,8 @@ class UriTooLong(GvdError):
 
 
 class RequestTimeout(GvdError):
-    """408: the request headers took longer than the server's --header-timeout."""
+    """408: the request headers took longer than the server's --header-timeout, or its body
+    longer than --body-seconds + Content-Length / --min-body-rate."""
 
 
 class UnsupportedMediaType(GvdError):

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <condition_variable>
@@ -19,6 +20,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <unordered_map>
 #include <vector>
 
 namespace gvd::server {
@@ -74,20 +76,56 @@ class ConnectionStream final : public httplib::Stream {
  public:
   ConnectionStream(int fd, int read_ms, int write_ms)
       : fd_(fd), read_ms_(read_ms), write_ms_(write_ms) {}
+  ~ConnectionStream() override { end_body(); }
+  ConnectionStream(const ConnectionStream&) = delete;
+  ConnectionStream& operator=(const ConnectionStream&) = delete;
 
-  bool is_readable() const override { return off_ < len_ || wait_for(fd_, POLLIN, read_ms_); }
+  bool is_readable() const override { return off_ < len_ || wait_for(fd_, POLLIN, wait_ms()); }
   bool is_writable() const override { return wait_for(fd_, POLLOUT, write_ms_); }
 
   ssize_t read(char* ptr, size_t size) override {
-    if (off_ < len_) return take(ptr, size);
-    if (!wait_for(fd_, POLLIN, read_ms_)) return -1;
-    if (size >= sizeof buf_) return receive(ptr, size);
+    if (off_ < len_) return counted(take(ptr, size));
+    if (body_left_ > 0 && Clock::now() >= deadline_) {
+      timed_out_ = true;
+      return -1;
+    }
+    const int ms = wait_ms();
+    if (!wait_for(fd_, POLLIN, ms)) {
+      // The body's deadline, not the read time-out, ended the wait.
+      if (body_left_ > 0 && ms < read_ms_) timed_out_ = true;
+      return -1;
+    }
+    if (size >= sizeof buf_) return counted(receive(ptr, size));
     const ssize_t n = receive(buf_, sizeof buf_);
     if (n <= 0) return n;
     off_ = 0;
     len_ = static_cast<size_t>(n);
-    return take(ptr, size);
+    return counted(take(ptr, size));
   }
+
+  /// The next `length` bytes taken are a request body that must arrive by `deadline`;
+  /// `readers` (if any) counts this stream until they have been taken or end_body().
+  void begin_body(uint64_t length, Clock::time_point deadline, std::atomic<int>* readers) {
+    end_body();
+    body_left_ = length;
+    deadline_ = deadline;
+    readers_ = readers;
+    in_body_ = true;
+  }
+  /// The body is over (read, or the request ended): its reader slot is given back.
+  void end_body() {
+    body_left_ = 0;
+    if (readers_ != nullptr) readers_->fetch_sub(1, std::memory_order_relaxed);
+    readers_ = nullptr;
+  }
+  /// Before each request: no body yet, nothing timed out.
+  void begin_request() {
+    end_body();
+    in_body_ = false;
+    timed_out_ = false;
+  }
+  bool in_body() const { return in_body_; }
+  bool timed_out() const { return timed_out_; }
 
   ssize_t write(const char* ptr, size_t size) override {
     if (!wait_for(fd_, POLLOUT, write_ms_)) return -1;
@@ -117,6 +155,20 @@ class ConnectionStream final : public httplib::Stream {
   std::string_view buffered() const { return {buf_ + off_, len_ - off_}; }
 
  private:
+  /// How long one read may wait: the read time-out, or less when a body's deadline is nearer.
+  int wait_ms() const {
+    if (body_left_ == 0) return read_ms_;
+    const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline_ - Clock::now());
+    return static_cast<int>(std::clamp<int64_t>(left.count(), 0, read_ms_));
+  }
+  /// Counts bytes taken against the body being read.
+  ssize_t counted(ssize_t n) {
+    if (n > 0 && body_left_ > 0) {
+      body_left_ -= std::min<uint64_t>(body_left_, static_cast<uint64_t>(n));
+      if (body_left_ == 0) end_body();
+    }
+    return n;
+  }
   ssize_t take(char* ptr, size_t size) {
     const size_t n = std::min(size, len_ - off_);
     std::memcpy(ptr, buf_ + off_, n);
@@ -136,6 +188,11 @@ class ConnectionStream final : public httplib::Stream {
   char buf_[4096];
   size_t off_ = 0;
   size_t len_ = 0;
+  uint64_t body_left_ = 0;  ///< bytes of the body not yet taken (0: not reading one)
+  Clock::time_point deadline_{};
+  std::atomic<int>* readers_ = nullptr;
+  bool in_body_ = false;    ///< begin_body was called for this request
+  bool timed_out_ = false;  ///< a read failed because the body's deadline passed
 };
 
 /// The end of a request's headers (a blank line; bare LF line ends count, as for httplib).
@@ -143,7 +200,13 @@ bool has_headers(std::string_view bytes) {
   return bytes.find("\r\n\r\n") != bytes.npos || bytes.find("\n\n") != bytes.npos;
 }
 
+/// Closes a socket. What has arrived and was not read is read first (a little, without
+/// waiting): a socket closed with unread bytes is reset, which can destroy an answer just
+/// sent (a 503 or 408 before the body) before the client has read it.
 void close_socket(int fd) {
+  char sink[4096];
+  for (int i = 0; i < 16 && ::recv(fd, sink, sizeof sink, MSG_DONTWAIT) > 0; ++i) {
+  }
   ::shutdown(fd, SHUT_RDWR);
   ::close(fd);
 }
@@ -155,10 +218,12 @@ struct GatedServer::Connection {
   std::string client;  ///< remote address, for the per-client cap
   size_t requests_left = 0;
   std::unique_ptr<ConnectionStream> stream;
-  Clock::time_point since;     ///< when it began to wait
-  Clock::time_point deadline;  ///< when it is closed if still waiting
-  bool partial = false;        ///< some bytes of the request have arrived
-  uint32_t turn = 0;           ///< which wait at the gate (epoll events carry it with the fd)
+  Clock::time_point since;       ///< when it began to wait
+  Clock::time_point deadline;    ///< when it is closed if still waiting
+  bool partial = false;          ///< some bytes of the request have arrived
+  bool priority = false;         ///< its ready request is for the probes' lane
+  bool counted_partial = false;  ///< counted in its address's share of partial connections
+  uint32_t turn = 0;             ///< which wait at the gate (epoll events carry it with the fd)
   ~Connection() {
     if (fd >= 0) close_socket(fd);
   }
@@ -271,6 +336,22 @@ class BoundedPool {
   std::vector<std::thread> threads_;  ///< last: the threads start once the rest is set up
 };
 
+/// Whether `request` (its first bytes) asks for one of `paths` with GET: `GET <path>` and then
+/// a space or a query.
+bool is_priority(std::string_view request, const std::vector<std::string>& paths) {
+  if (!request.starts_with("GET ")) return false;
+  request.remove_prefix(4);
+  for (const std::string& path : paths) {
+    if (request.size() > path.size() && request.starts_with(path) &&
+        (request[path.size()] == ' ' || request[path.size()] == '?')) {
+      return true;
+    }
+  }
+  return false;
+}
+
+thread_local GatedServer::Connection* t_connection = nullptr;  ///< the request being served
+
 }  // namespace
 
 /// The epoll thread that holds connections until their headers are complete, and the task
@@ -281,11 +362,17 @@ class GatedServer::Gate {
   ~Gate() { stop(); }
 
   GateLimits limits;
+  std::atomic<int> body_readers{0};
+  std::atomic<uint64_t> body_refused{0};
+  std::atomic<uint64_t> body_timed_out{0};
+  std::atomic<uint64_t> priority_served{0};
 
-  /// Starts the epoll thread with `pool` running the requests.
-  void start(BoundedPool* pool) {
+  /// Starts the epoll thread with `pool` running the requests and `probes` (may be null) the
+  /// probes' lane.
+  void start(BoundedPool* pool, BoundedPool* probes) {
     std::lock_guard lock(mutex_);
     pool_ = pool;
+    probes_ = probes;
     epoll_ = ::epoll_create1(EPOLL_CLOEXEC);
     wake_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
     epoll_event ev{};
@@ -309,10 +396,12 @@ class GatedServer::Gate {
     thread_.join();
     std::lock_guard lock(mutex_);
     waiting_.clear();
+    shares_.clear();
     ::close(epoll_);
     ::close(wake_);
     running_ = false;
     pool_ = nullptr;
+    probes_ = nullptr;
   }
 
   /// Holds `c` until its next request's headers are complete (or closes it). Headers that
@@ -334,10 +423,13 @@ class GatedServer::Gate {
       serve_later(std::move(c));
       return;
     }
-    make_room(c->client);
+    if (c->partial) limit_partial(c->client, -1, 1);
+    limit_total();
     c->turn = ++turns_;
     epoll_event ev = event_for(*c);
     if (::epoll_ctl(epoll_, EPOLL_CTL_ADD, c->fd, &ev) != 0) return;
+    next_sweep_ = std::min(next_sweep_, c->deadline);
+    track(*c, +1);
     const int fd = c->fd;
     waiting_[fd] = std::move(c);
   }
@@ -350,11 +442,22 @@ class GatedServer::Gate {
       n.queued = pool_->queued();
     }
     n.overloaded = overloaded_;
+    n.body_readers = static_cast<uint64_t>(std::max(body_readers.load(), 0));
+    n.body_refused = body_refused;
+    n.body_timed_out = body_timed_out;
+    n.priority_served = priority_served;
     return n;
   }
 
  private:
   using Waiting = std::map<int, std::unique_ptr<Connection>>;
+
+  /// Connections of one remote address waiting at the gate: all, and those with part of
+  /// their headers.
+  struct Share {
+    int waiting = 0;
+    int partial = 0;
+  };
 
   static constexpr uint64_t kWakeKey = ~uint64_t{0};
 
@@ -366,40 +469,78 @@ class GatedServer::Gate {
     return ev;
   }
 
-  /// Before a connection of `client` waits: close the oldest waiting one of that client when
-  /// it has its share, and the oldest of all when the gate is full. One whose headers have
-  /// just arrived (its event not yet handled) is served instead, and makes room as well.
-  void make_room(const std::string& client) {
+  /// Counts `c` in (+1) or out (-1) of its address's share of the waiting connections.
+  void track(Connection& c, int sign) {
+    Share& s = shares_[c.client];
+    s.waiting += sign;
+    if (sign > 0 && c.partial) c.counted_partial = true;
+    if (c.counted_partial) s.partial += sign;
+    if (sign < 0) c.counted_partial = false;
+    if (s.waiting <= 0) shares_.erase(c.client);
+  }
+
+  /// Takes `it` out of the waiting connections (its socket stays open).
+  std::unique_ptr<Connection> take(Waiting::iterator it) {
+    ::epoll_ctl(epoll_, EPOLL_CTL_DEL, it->first, nullptr);
+    track(*it->second, -1);
+    std::unique_ptr<Connection> c = std::move(it->second);
+    waiting_.erase(it);
+    return c;
+  }
+
+  void drop(Waiting::iterator it) { take(it); }  // closes the socket
+
+  /// Makes room for a waiting connection by closing `victim`, unless its headers have just
+  /// arrived (its event not yet handled): then it is served, which makes room as well.
+  void evict(Waiting::iterator victim) {
+    const Peek p = peek(*victim->second);
+    if (p == Peek::kReady) {
+      serve_later(take(victim));
+      return;
+    }
+    if (p != Peek::kClosed) ++evicted_;
+    drop(victim);
+  }
+
+  /// Before (`coming` = 1) or after (0) a connection of `client` counts as partial: while
+  /// that address would hold more than its share of partial connections, its oldest partial
+  /// one other than `keep` (a descriptor, or -1) is closed.
+  void limit_partial(const std::string& client, int keep, int coming) {
     for (;;) {
-      int of_client = 0;
-      auto oldest_of_client = waiting_.end();
-      auto oldest = waiting_.end();
-      for (auto it = waiting_.begin(); it != waiting_.end(); ++it) {
-        if (oldest == waiting_.end() || it->second->since < oldest->second->since) oldest = it;
-        if (it->second->client != client) continue;
-        ++of_client;
-        if (oldest_of_client == waiting_.end() ||
-            it->second->since < oldest_of_client->second->since) {
-          oldest_of_client = it;
-        }
-      }
+      const auto share = shares_.find(client);
+      const int partial = (share == shares_.end() ? 0 : share->second.partial) + coming;
+      if (partial <= limits.max_waiting_per_client) return;
       auto victim = waiting_.end();
-      if (of_client >= limits.max_waiting_per_client) {
-        victim = oldest_of_client;
-      } else if (static_cast<int>(waiting_.size()) >= limits.max_waiting) {
-        victim = oldest;
+      for (auto it = waiting_.begin(); it != waiting_.end(); ++it) {
+        const Connection& w = *it->second;
+        if (!w.partial || it->first == keep || w.client != client) continue;
+        if (victim == waiting_.end() || w.since < victim->second->since) victim = it;
       }
       if (victim == waiting_.end()) return;
-      const Peek p = peek(*victim->second);
-      if (p == Peek::kReady) {
-        ::epoll_ctl(epoll_, EPOLL_CTL_DEL, victim->first, nullptr);
-        serve_later(std::move(victim->second));
-        waiting_.erase(victim);
-        continue;  // room made without closing anyone; look again only if still full
+      evict(victim);
+    }
+  }
+
+  /// Before a connection waits: while the gate is full, the oldest waiting connection of the
+  /// address with the most waiting ones is closed.
+  void limit_total() {
+    while (static_cast<int>(waiting_.size()) >= limits.max_waiting) {
+      const std::string* largest = nullptr;
+      int most = 0;
+      for (const auto& [client, share] : shares_) {
+        if (share.waiting > most) {
+          most = share.waiting;
+          largest = &client;
+        }
       }
-      if (p != Peek::kClosed) ++evicted_;
-      drop(victim);
-      return;
+      if (largest == nullptr) return;
+      auto victim = waiting_.end();
+      for (auto it = waiting_.begin(); it != waiting_.end(); ++it) {
+        if (it->second->client != *largest) continue;
+        if (victim == waiting_.end() || it->second->since < victim->second->since) victim = it;
+      }
+      if (victim == waiting_.end()) return;
+      evict(victim);
     }
   }
 
@@ -416,11 +557,14 @@ class GatedServer::Gate {
         ::send(c.fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   }
 
-  /// Gives `c` to a thread of the pool, or answers it at once when the pool is full.
+  /// Gives `c` to a thread of the pool (a probe to the probes' lane), or answers it at once
+  /// when the pool is full.
   void serve_later(std::unique_ptr<Connection> c) {
+    const bool priority = c->priority && probes_ != nullptr;
     Connection* raw = c.release();
     std::function<void()> task = [this, raw] { server_.serve(std::unique_ptr<Connection>(raw)); };
-    if (pool_->try_enqueue(task, static_cast<size_t>(std::max(limits.max_queued, 0)))) return;
+    BoundedPool* pool = priority ? probes_ : pool_;
+    if (pool->try_enqueue(task, static_cast<size_t>(std::max(limits.max_queued, 0)))) return;
     c.reset(raw);  // not queued: still ours
     refuse_overloaded(*c);
   }
@@ -454,20 +598,70 @@ class GatedServer::Gate {
         ::send(c.fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
   }
 
-  void drop(Waiting::iterator it) {
-    ::epoll_ctl(epoll_, EPOLL_CTL_DEL, it->first, nullptr);
-    waiting_.erase(it);  // closes the socket
-  }
-
   /// Looks at what has arrived without taking it: ready when the headers are complete (or
-  /// as large as the gate lets them grow: httplib then refuses them with a reason).
+  /// as large as the gate lets them grow: httplib then refuses them with a reason). A ready
+  /// request is marked for the probes' lane when it is a probe.
   Peek peek(Connection& c) {
     const Peek p = peek_headers(c, limits.max_header_bytes, buffer_);
     if (p == Peek::kPartial && !c.partial) {
       c.partial = true;
       c.deadline = Clock::now() + seconds(limits.header_seconds);
     }
+    if (p == Peek::kReady) {
+      c.priority = !limits.priority_paths.empty() &&
+                   is_priority({buffer_.data(), buffer_.size()}, limits.priority_paths);
+    }
     return p;
+  }
+
+  /// One event of the waiting connection `it`.
+  void handle(Waiting::iterator it, uint32_t events) {
+    Connection& c = *it->second;
+    const Peek p = peek(c);
+    const bool hung_up = (events & (EPOLLRDHUP | EPOLLHUP | EPOLLERR)) != 0;
+    if (p == Peek::kReady) {
+      serve_later(take(it));
+    } else if (p == Peek::kTooLarge) {
+      refuse(c, 431);
+      drop(it);
+    } else if (p == Peek::kClosed || hung_up) {
+      drop(it);
+    } else {
+      const int fd = it->first;
+      if (c.partial && !c.counted_partial) {
+        // Began its headers: now it counts toward its address's share of partial ones.
+        ++shares_[c.client].partial;
+        c.counted_partial = true;
+        next_sweep_ = std::min(next_sweep_, c.deadline);
+        const std::string client = c.client;
+        limit_partial(client, fd, 0);
+      }
+      const auto still = waiting_.find(fd);
+      if (still == waiting_.end()) return;
+      epoll_event ev = event_for(*still->second);
+      ::epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev);
+    }
+  }
+
+  /// Closes the connections past their deadline (408 if they sent part of their headers) and
+  /// sets when to look again.
+  void sweep(Clock::time_point now) {
+    auto next = now + std::chrono::seconds(1);
+    for (auto it = waiting_.begin(); it != waiting_.end();) {
+      if (it->second->deadline > now) {
+        next = std::min(next, it->second->deadline);
+        ++it;
+        continue;
+      }
+      if (it->second->partial) {
+        refuse(*it->second, 408);
+        ++timed_out_;
+      }
+      auto following = std::next(it);
+      drop(it);
+      it = following;
+    }
+    next_sweep_ = next;
   }
 
   void run() {
@@ -477,12 +671,10 @@ class GatedServer::Gate {
       {
         std::lock_guard lock(mutex_);
         if (stopping_) return;
-        const auto now = Clock::now();
-        for (const auto& [fd, c] : waiting_) {
-          const auto left =
-              std::chrono::duration_cast<std::chrono::milliseconds>(c->deadline - now).count();
-          ms = static_cast<int>(std::clamp<int64_t>(left + 1, 0, ms));
-        }
+        const auto left =
+            std::chrono::duration_cast<std::chrono::milliseconds>(next_sweep_ - Clock::now())
+                .count();
+        ms = static_cast<int>(std::clamp<int64_t>(left + 1, 0, ms));
       }
       const int n = ::epoll_wait(epoll_, events.data(), static_cast<int>(events.size()), ms);
       {
@@ -500,37 +692,12 @@ class GatedServer::Gate {
           const int fd = static_cast<int>(key & 0xFFFFFFFFu);
           const auto it = waiting_.find(fd);
           if (it == waiting_.end() || it->second->turn != key >> 32) continue;
-          const Peek p = peek(*it->second);
-          const bool hung_up =
-              (events[static_cast<size_t>(i)].events & (EPOLLRDHUP | EPOLLHUP | EPOLLERR)) != 0;
-          if (p == Peek::kReady) {
-            ::epoll_ctl(epoll_, EPOLL_CTL_DEL, fd, nullptr);
-            serve_later(std::move(it->second));
-            waiting_.erase(it);
-          } else if (p == Peek::kTooLarge) {
-            refuse(*it->second, 431);
-            drop(it);
-          } else if (p == Peek::kClosed || hung_up) {
-            drop(it);
-          } else {
-            epoll_event ev = event_for(*it->second);
-            ::epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev);
-          }
+          handle(it, events[static_cast<size_t>(i)].events);
         }
+        // The deadlines are looked at only when the earliest may have passed (not at every
+        // event: with many kept-alive connections waiting that was a scan per request).
         const auto now = Clock::now();
-        for (auto it = waiting_.begin(); it != waiting_.end();) {
-          if (it->second->deadline > now) {
-            ++it;
-            continue;
-          }
-          if (it->second->partial) {
-            refuse(*it->second, 408);
-            ++timed_out_;
-          }
-          auto next = std::next(it);
-          drop(it);
-          it = next;
-        }
+        if (now >= next_sweep_) sweep(now);
       }
     }
   }
@@ -538,7 +705,9 @@ class GatedServer::Gate {
   GatedServer& server_;
   mutable std::mutex mutex_;
   Waiting waiting_;
+  std::unordered_map<std::string, Share> shares_;  ///< per remote address
   BoundedPool* pool_ = nullptr;
+  BoundedPool* probes_ = nullptr;
   int epoll_ = -1;
   int wake_ = -1;
   bool running_ = false;
@@ -546,6 +715,8 @@ class GatedServer::Gate {
   std::thread thread_;
   std::vector<char> buffer_;
   uint32_t turns_ = 0;  ///< counts waits; kWakeKey is no connection's key (its fd half is -1)
+  /// No waiting connection's deadline is earlier (it may be later: a sweep then finds none).
+  Clock::time_point next_sweep_ = Clock::time_point::max();
   uint64_t timed_out_ = 0;
   uint64_t evicted_ = 0;
   uint64_t overloaded_ = 0;
@@ -555,13 +726,18 @@ namespace {
 
 /// What cpp-httplib's accept loop feeds (the only caller of enqueue: each task is
 /// process_and_close_socket of a new connection), with the gate and the request threads
-/// started and stopped beside it: the gate stops first (it enqueues), then the pool drains
+/// started and stopped beside it: the gate stops first (it enqueues), then the pools drain
 /// what was queued.
 class GateQueue final : public httplib::TaskQueue {
  public:
   GateQueue(GatedServer::Gate& gate, int threads)
-      : gate_(gate), pool_(static_cast<size_t>(threads)) {
-    gate_.start(&pool_);
+      : gate_(gate),
+        pool_(static_cast<size_t>(threads)),
+        probes_(gate.limits.priority_paths.empty()
+                    ? nullptr
+                    : std::make_unique<BoundedPool>(
+                          static_cast<size_t>(std::max(gate.limits.priority_threads, 1)))) {
+    gate_.start(&pool_, probes_.get());
   }
   ~GateQueue() override { gate_.stop(); }
   /// Runs the task here, in the accept thread: handing a new connection to the gate only
@@ -570,11 +746,13 @@ class GateQueue final : public httplib::TaskQueue {
   void shutdown() override {
     gate_.stop();
     pool_.shutdown();
+    if (probes_) probes_->shutdown();
   }
 
  private:
   GatedServer::Gate& gate_;
   BoundedPool pool_;
+  std::unique_ptr<BoundedPool> probes_;
 };
 
 }  // namespace
@@ -588,6 +766,29 @@ GatedServer::~GatedServer() = default;
 void GatedServer::set_gate_limits(const GateLimits& limits) { gate_->limits = limits; }
 
 GateCounts GatedServer::gate_counts() const { return gate_->counts(); }
+
+bool GatedServer::begin_body(uint64_t length) {
+  Connection* c = t_connection;
+  if (c == nullptr || length == 0 || c->stream->in_body()) return true;
+  const GateLimits& limits = gate_->limits;
+  std::atomic<int>* readers = nullptr;
+  if (limits.max_body_readers > 0) {
+    readers = &gate_->body_readers;
+    if (readers->fetch_add(1, std::memory_order_relaxed) >= limits.max_body_readers) {
+      readers->fetch_sub(1, std::memory_order_relaxed);
+      ++gate_->body_refused;
+      return false;
+    }
+  }
+  const double allowed =
+      limits.body_seconds + static_cast<double>(length) / std::max(limits.min_body_rate, 1.0);
+  c->stream->begin_body(length, Clock::now() + seconds(std::min(allowed, 1e7)), readers);
+  return true;
+}
+
+bool GatedServer::body_timed_out() {
+  return t_connection != nullptr && t_connection->stream->timed_out();
+}
 
 bool GatedServer::process_and_close_socket(socket_t sock) {
   auto c = std::make_unique<Connection>();
@@ -606,10 +807,25 @@ void GatedServer::serve(std::unique_ptr<Connection> c) {
   while (c->requests_left > 0 && svr_sock_ != INVALID_SOCKET) {
     const bool close_connection = c->requests_left == 1;
     bool closed = false;
+    c->stream->begin_request();
+    t_connection = c.get();  // for begin_body and body_timed_out, called by the handlers
     const bool ok = process_request(*c->stream, close_connection, closed, nullptr);
+    t_connection = nullptr;
+    const bool timed_out = c->stream->timed_out();
+    c->stream->end_body();
+    if (timed_out) ++gate_->body_timed_out;
+    if (c->priority) ++gate_->priority_served;
     if (after_request_) after_request_();
     --c->requests_left;
-    if (!ok || closed || close_connection) return;
+    if (!ok || closed || close_connection || timed_out) return;
+    // A probes' thread serves one request per turn: the connection goes back to the gate,
+    // which sends its next request to whichever threads it is for. Lingering here, a client
+    // asking /healthz as fast as it can kept a probes' thread to itself (p99 135 ms for the
+    // others with 8 such connections).
+    if (c->priority) {
+      gate_->wait(std::move(c));
+      return;
+    }
     // The next request is served here when it is already read into the buffer (pipelined) or
     // arrives whole within a moment (a busy keep-alive client sends it as soon as it has the
     // answer; handing it over through the gate would cost a wake-up of two threads). Anything

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace gvd::server {
 
@@ -18,8 +19,14 @@ struct GateLimits {
   /// itself (or, if the request line alone is that long, lets httplib answer 414). The
   /// header limit plus a request line.
   size_t max_header_bytes = 16384 + 8192;
-  int max_waiting_per_client = 64;  ///< per remote address; the oldest waiting one is closed
-  int max_waiting = 4096;           ///< in all; the oldest waiting one is closed
+  /// Per remote address: connections that have sent part of a request's headers and wait for
+  /// the rest (a slowloris holds partial headers); past it the oldest such one is closed. A
+  /// kept-alive connection idle between requests holds nothing but a descriptor and is not
+  /// counted here (a busy client, or a proxy, keeps many of them), only in `max_waiting`.
+  int max_waiting_per_client = 64;
+  /// In all, idle or partial; past it the oldest waiting connection of the address with the
+  /// most waiting ones is closed (so one address cannot push every other one out).
+  int max_waiting = 4096;
   /// The whole answer (status line, headers, body) the gate sends before closing a
   /// connection itself: 408 (headers too slow) or 431 (a header line over cpp-httplib's
   /// 8 KiB, or headers over max_header_bytes). Empty: a bare status line.
@@ -33,16 +40,35 @@ struct GateLimits {
   /// in the gate's thread or the accept thread, with the gate locked: it must be quick and
   /// must not call back into the server. Empty: a bare 503.
   std::function<std::string(std::string_view method, std::string_view path)> overloaded;
+  /// Health probes' lane: a request whose request line is `GET <path>` (then a space or a
+  /// `?`) for one of these paths is served by `priority_threads` threads of its own, never
+  /// queued behind other requests (a probe must say within its timeout whether the process
+  /// lives, however long the other requests take). When they are busy too and
+  /// `max_queued` probes wait, the overloaded answer is sent as for any request.
+  std::vector<std::string> priority_paths;
+  int priority_threads = 1;
+  /// Request bodies are read in the threads. At most this many threads read one at once
+  /// (0: no cap): GatedServer::begin_body refuses more, so that slow bodies cannot take every
+  /// thread. A body must arrive within `body_seconds` + its length / `min_body_rate`
+  /// (bytes per second) of the moment its reading began; past that the read fails and
+  /// GatedServer::body_timed_out() says why (the connection is then closed).
+  int max_body_readers = 0;
+  double body_seconds = 30;
+  double min_body_rate = 1 << 20;
 };
 
 /// What the gate has done since the server started (the /metrics counters).
 struct GateCounts {
-  uint64_t waiting = 0;     ///< connections waiting for headers now
-  uint64_t timed_out = 0;   ///< closed because their headers did not arrive in time
-  uint64_t evicted = 0;     ///< closed to make room (per-client or total cap)
-  uint64_t busy = 0;        ///< threads running a request now
-  uint64_t queued = 0;      ///< requests with complete headers waiting for a thread now
-  uint64_t overloaded = 0;  ///< answered by the gate because threads and queue were full
+  uint64_t waiting = 0;          ///< connections waiting for headers now
+  uint64_t timed_out = 0;        ///< closed because their headers did not arrive in time
+  uint64_t evicted = 0;          ///< closed to make room (per-client or total cap)
+  uint64_t busy = 0;             ///< threads running a request now
+  uint64_t queued = 0;           ///< requests with complete headers waiting for a thread now
+  uint64_t overloaded = 0;       ///< answered by the gate because threads and queue were full
+  uint64_t body_readers = 0;     ///< threads reading a request body now
+  uint64_t body_refused = 0;     ///< bodies refused since start: max_body_readers were read
+  uint64_t body_timed_out = 0;   ///< bodies that did not arrive within their deadline
+  uint64_t priority_served = 0;  ///< requests served by the probes' lane since start
 };
 
 /// An httplib::Server whose threads never wait for request headers. cpp-httplib gives each
@@ -58,7 +84,9 @@ struct GateCounts {
 /// Ready requests queue for the threads up to GateLimits::max_queued; past that the gate
 /// answers them itself (503 + Retry-After, built by GateLimits::overloaded) instead of letting
 /// them wait in an unbounded queue. New connections are taken over by the gate in the accept
-/// thread, so they never wait behind busy threads either.
+/// thread, so they never wait behind busy threads either. Probes (GateLimits::priority_paths)
+/// go to threads of their own instead of that queue. Bodies are read in the threads, each
+/// with a deadline, and only so many at once (begin_body).
 class GatedServer : public httplib::Server {
  public:
   explicit GatedServer(int threads);
@@ -71,6 +99,17 @@ class GatedServer : public httplib::Server {
   /// are gone (the server returns memory to the system there after large bodies).
   void set_after_request(std::function<void()> fn) { after_request_ = std::move(fn); }
   GateCounts gate_counts() const;
+
+  /// In a request's thread, before its body is read (a pre-routing or Expect handler): takes
+  /// one of GateLimits::max_body_readers for a body of `length` bytes and starts its
+  /// deadline. False when that many other bodies are being read: refuse the request without
+  /// reading its body. The slot is given back once the body has been read or the request is
+  /// over. Calling it again for the same request changes nothing. Outside a request thread
+  /// of this server (or for an empty body) it returns true.
+  bool begin_body(uint64_t length);
+  /// In a request's thread: whether this request's body missed its deadline (its read failed
+  /// for that reason; the error handler answers 408 and the connection is closed).
+  static bool body_timed_out();
 
   struct Connection;
   class Gate;

@@ -790,7 +790,21 @@ struct HttpServer::Impl {
                                        : "the web viewer is not installed on this server");
   }
 
-  void readyz(const httplib::Request&, httplib::Response& res) {
+  void readyz(const httplib::Request& req, httplib::Response& res) {
+    // Probes have their own threads: say so when the others are all busy and their queue is
+    // full, as the gate does when it answers a probe itself.
+    const GateCounts gate = http.gate_counts();
+    if (!draining && gate.busy >= static_cast<uint64_t>(options.http_threads) &&
+        gate.queued >= static_cast<uint64_t>(options.max_queued_requests)) {
+      t_request.route = "overloaded";
+      metrics.count("gvd_http_requests_overloaded_total");
+      log_overload(req.path);
+      res.status = 503;
+      res.set_header("Retry-After", std::to_string(options.retry_after));
+      res.set_header("Cache-Control", "no-store");
+      res.set_content(overloaded_readyz(), "application/json");
+      return;
+    }
     std::string why;
     const bool queue_up = jobs.available(&why);
     Json body = {{"status", draining   ? "draining"
@@ -830,6 +844,13 @@ struct HttpServer::Impl {
     throw ProblemError(ProblemKind::kRouteNotFound, "no problem type " + name);
   }
 
+  /// /readyz while every HTTP thread is busy and --max-queued-requests requests wait.
+  std::string overloaded_readyz() const {
+    return json_text(Json{{"status", "overloaded"},
+                          {"http_threads", options.http_threads},
+                          {"max_queued_requests", options.max_queued_requests}});
+  }
+
   /// The answer to a request that finds every HTTP thread busy and --max-queued-requests
   /// requests waiting: the gate sends it at once, built from the request line alone (no
   /// thread runs it, so nothing here may block). Health probes are still answered: /healthz
@@ -846,9 +867,7 @@ struct HttpServer::Impl {
       status = 200;
       body = "{\"status\":\"ok\"}";
     } else if (get && path == "/readyz") {
-      body = json_text(Json{{"status", "overloaded"},
-                            {"http_threads", options.http_threads},
-                            {"max_queued_requests", options.max_queued_requests}});
+      body = overloaded_readyz();
     } else {
       type = "application/problem+json";
       body = problem_json(
@@ -906,6 +925,40 @@ struct HttpServer::Impl {
   Clock::time_point overload_logged{};
   uint64_t overload_unlogged = 0;
 
+  /// --max-body-readers, or half of the HTTP threads when it is 0.
+  int max_body_readers() const {
+    return options.max_body_readers > 0 ? options.max_body_readers
+                                        : std::max(1, options.http_threads / 2);
+  }
+
+  /// Before a body is read (check_request has passed: its Content-Length is a number within
+  /// --max-body): a slot among --max-body-readers and the body's deadline, or a refusal.
+  std::optional<Rejection> begin_body(const httplib::Request& req) {
+    const bool has_body_method =
+        req.method == "POST" || req.method == "PUT" || req.method == "PATCH";
+    if (!has_body_method || !req.has_header("Content-Length")) return std::nullopt;
+    const uint64_t length = std::stoull(req.get_header_value("Content-Length"));
+    if (http.begin_body(length)) return std::nullopt;
+    return Rejection{ProblemKind::kOverloaded,
+                     std::to_string(max_body_readers()) +
+                         " HTTP threads are reading request bodies, the most that may "
+                         "(--max-body-readers); retry after Retry-After"};
+  }
+
+  std::string body_timeout_detail(const httplib::Request& req) const {
+    const std::string length = req.get_header_value("Content-Length");
+    const double seconds =
+        options.body_seconds + static_cast<double>(length.empty() ? 0 : std::stoull(length)) /
+                                   static_cast<double>(options.min_body_rate);
+    char detail[256];
+    std::snprintf(detail, sizeof detail,
+                  "the request body of %s bytes did not arrive within %.3g s (--body-seconds "
+                  "%g + Content-Length / --min-body-rate %llu bytes/s)",
+                  length.empty() ? "0" : length.c_str(), seconds, options.body_seconds,
+                  static_cast<unsigned long long>(options.min_body_rate));
+    return detail;
+  }
+
   void setup();
 };
 
@@ -918,6 +971,13 @@ void HttpServer::Impl::setup() {
   gate.max_waiting_per_client = options.max_waiting_per_client;
   gate.max_waiting = options.max_waiting;
   gate.max_queued = options.max_queued_requests;
+  // Probes have a lane of their own (they need no body and little state): an orchestrator's
+  // /healthz must not time out behind slow requests and restart a server that is only busy.
+  gate.priority_paths = {"/healthz", "/readyz", "/metrics"};
+  gate.priority_threads = 2;
+  gate.max_body_readers = max_body_readers();
+  gate.body_seconds = options.body_seconds;
+  gate.min_body_rate = static_cast<double>(options.min_body_rate);
   gate.overloaded = [this](std::string_view method, std::string_view path) {
     return overloaded_answer(method, path);
   };
@@ -971,7 +1031,7 @@ void HttpServer::Impl::setup() {
 
   http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     begin_request(req, res);
-    if (const auto r = check_request(req)) {
+    if (auto r = check_request(req); r || (r = begin_body(req))) {
       reject(req, res, *r);
       return httplib::Server::HandlerResponse::Handled;
     }
@@ -980,7 +1040,7 @@ void HttpServer::Impl::setup() {
   // "Expect: 100-continue" is answered before routing: refuse there too, before the body.
   http.set_expect_100_continue_handler([this](const httplib::Request& req, httplib::Response& res) {
     begin_request(req, res);
-    if (const auto r = check_request(req)) {
+    if (auto r = check_request(req); r || (r = begin_body(req))) {
       reject(req, res, *r);
       return res.status;
     }
@@ -990,6 +1050,13 @@ void HttpServer::Impl::setup() {
                                                                      httplib::Response& res) {
     if (!res.body.empty() || res.content_provider_) {
       return httplib::Server::HandlerResponse::Unhandled;
+    }
+    if (GatedServer::body_timed_out()) {
+      // The read failed at the body's deadline (httplib says 400): say so; the gate closes
+      // the connection after this answer.
+      res.set_header("Connection", "close");
+      send_problem(req, res, ProblemKind::kRequestTimeout, body_timeout_detail(req));
+      return httplib::Server::HandlerResponse::Handled;
     }
     const int status = res.status;
     if (status == 404) {
@@ -1128,6 +1195,21 @@ void HttpServer::Impl::setup() {
   metrics.gauge("gvd_http_queued_requests",
                 "Requests with complete headers waiting for a busy HTTP thread now.",
                 [this] { return static_cast<double>(http.gate_counts().queued); });
+  metrics.gauge("gvd_http_body_readers", "HTTP threads reading a request body now.",
+                [this] { return static_cast<double>(http.gate_counts().body_readers); });
+  metrics.gauge("gvd_http_max_body_readers",
+                "HTTP threads that may read request bodies at once (--max-body-readers).",
+                [this] { return static_cast<double>(max_body_readers()); });
+  metrics.gauge(
+      "gvd_http_body_readers_refused",
+      "Requests refused since start (503 overloaded) because --max-body-readers bodies were read.",
+      [this] { return static_cast<double>(http.gate_counts().body_refused); });
+  metrics.gauge("gvd_http_body_timeouts",
+                "Request bodies since start that did not arrive within their deadline (408).",
+                [this] { return static_cast<double>(http.gate_counts().body_timed_out); });
+  metrics.gauge("gvd_http_probes_served",
+                "Requests since start served in the probes' lane (/healthz, /readyz, /metrics).",
+                [this] { return static_cast<double>(http.gate_counts().priority_served); });
   metrics.gauge(
       "gvd_http_max_queued_requests",
       "Requests that may wait for a thread before 503 overloaded (--max-queued-requests).",

@@ -37,7 +37,7 @@ constexpr std::array<ProblemInfo, kProblemKindCount> kTable = {{
     {429, "/problems/rate-limited", "Too many submissions", true},
     {503, "/problems/queue-unavailable", "Job queue unavailable", true},
     {414, "/problems/uri-too-long", "Request line too long", false},
-    {408, "/problems/request-timeout", "Request headers too slow", true},
+    {408, "/problems/request-timeout", "Request too slow", true},
     {503, "/problems/overloaded", "Server overloaded", true},
     {409, "/problems/adaptive-only", "Needs the adaptive result", false},
 }};

@@ -37,7 +37,8 @@ enum class ProblemKind {
   kRateLimited,       ///< one client over its submission rate (--rate-limit)
   kQueueUnavailable,  ///< the shared job queue (Redis) cannot be reached
   kUriTooLong,        ///< a request line over cpp-httplib's 8 KiB
-  kRequestTimeout,    ///< headers that did not arrive within --header-timeout
+  kRequestTimeout,    ///< headers or a body that did not arrive in time (--header-timeout,
+                      ///< --body-seconds)
   kOverloaded,        ///< every HTTP thread busy and --max-queued-requests waiting
   kAdaptiveOnly,      ///< an output or query of a grid job (mode=grid) that needs the octree
 };

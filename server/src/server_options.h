@@ -55,6 +55,14 @@ struct ServerOptions {
   /// Requests whose headers have arrived and that wait for a busy HTTP thread; one more is
   /// answered at once with 503 /problems/overloaded + Retry-After (header_gate.h).
   int max_queued_requests = 256;
+  /// Request bodies are read in the HTTP threads: at most this many threads read one at once
+  /// (beyond, 503 /problems/overloaded + Retry-After before the body is read), so slow bodies
+  /// cannot take every thread; 0 = half of http_threads. A body must arrive within
+  /// body_seconds + its Content-Length / min_body_rate (bytes per second) of the moment its
+  /// reading began, or 408 /problems/request-timeout and the connection is closed.
+  int max_body_readers = 0;
+  double body_seconds = 30;
+  uint64_t min_body_rate = 1 << 20;
   int max_streams = 4;        ///< concurrent SSE streams
   int retry_after = 5;        ///< seconds, on 503
   double grace_seconds = 10;  ///< SIGTERM: wait this long for running jobs

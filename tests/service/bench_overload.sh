@@ -5,11 +5,14 @@
 #      the threads);
 #   2. the same query paced at ~5,000 requests/s over 256 connections;
 #   3. HOLD connections (default 500) each send the headers of a POST and then one body byte
-#      a second, which holds a thread per connection (request bodies are read in the threads);
-#      meanwhile curl probes /healthz and /readyz and wrk -c8 asks for the neighbour query.
-#      500 > 128 threads + 256 queued (--max-queued-requests): every thread is busy and the
-#      queue full, so the excess must be answered at once (503 + Retry-After), not queued
-#      behind bodies that take minutes.
+#      a second, which holds a thread per connection reading it (request bodies are read in
+#      the threads); meanwhile curl probes /healthz and /readyz and wrk -c8 asks for the
+#      neighbour query. At most --max-body-readers threads (default 64, half of them) read
+#      bodies: the other POSTs are refused at once (503 + Retry-After, before their body), and
+#      the query is served by the free threads. With EXTRA_ARGS="--max-body-readers 128" the
+#      bodies take every thread and fill the queue (500 > 128 threads + 256 queued): then the
+#      excess must be answered at once (503 overloaded), not queued behind bodies that take
+#      minutes, and the probes still answered (they have threads of their own).
 # Bounded runs, 127.0.0.1 only. EXTRA_ARGS are added to the server's command line.
 #
 #   tests/service/bench_overload.sh BUILD_DIR [DURATION] [HOLD]
@@ -82,5 +85,5 @@ holder=
 sleep 1
 curl -sS -o /dev/null -m 5 -w "after the load: neighbors %{http_code} in %{time_total} s\n" "$query"
 echo "== /metrics afterwards (overload counters):"
-curl -sS -m 5 "$base/metrics" | grep -E '^gvd_http_(requests_overloaded_total|queued|busy|max_queued|connections_evicted)' ||
+curl -sS -m 5 "$base/metrics" | grep -E '^gvd_http_(requests_overloaded_total|queued|busy|max_queued|connections_evicted|body_|probes)' ||
   echo "(none)"

@@ -539,4 +539,229 @@ TEST(HeaderGate, FullQueueIsAnsweredAtOnce) {
   serving.join();
 }
 
+namespace {
+
+/// One answer read from the kept-alive connection `fd` after sending `request` (headers and
+/// the body of its Content-Length), or what came before the server closed it.
+std::string exchange_on(int fd, const std::string& request) {
+  if (send(fd, request.data(), request.size(), MSG_NOSIGNAL) !=
+      static_cast<ssize_t>(request.size())) {
+    return "";
+  }
+  std::string out;
+  char buf[1024];
+  for (;;) {
+    const size_t head_end = out.find("\r\n\r\n");
+    if (head_end != std::string::npos) {
+      const size_t cl = out.find("Content-Length: ");
+      const size_t len =
+          cl != std::string::npos && cl < head_end ? std::stoul(out.substr(cl + 16)) : 0;
+      if (out.size() >= head_end + 4 + len) return out;
+    }
+    const ssize_t n = recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) return out;
+    out.append(buf, static_cast<size_t>(n));
+  }
+}
+
+}  // namespace
+
+// Issue 16: kept-alive connections idle between requests hold nothing but a descriptor; only
+// those with part of their headers count toward the per-address cap (before, 256 connections
+// of one load generator were closed and reopened over and over with a cap of 64). Eight idle
+// connections with room for three all make their next request; four stalled ones: the oldest
+// stalled one is closed, no idle one.
+TEST(HeaderGate, IdleConnectionsDoNotCountTowardTheClientCap) {
+  GatedServer http(2);
+  GateLimits limits;
+  limits.max_waiting_per_client = 3;
+  http.set_gate_limits(limits);
+  http.Get("/n", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content("n", "text/plain");
+  });
+  const int port = http.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { http.listen_after_bind(); });
+
+  const std::string request = "GET /n HTTP/1.1\r\nHost: x\r\n\r\n";
+  std::vector<int> idle;
+  for (int i = 0; i < 8; ++i) {
+    idle.push_back(connect_loopback(port));
+    ASSERT_TRUE(exchange_on(idle.back(), request).starts_with("HTTP/1.1 200 "));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // past the threads' linger
+  EXPECT_EQ(http.gate_counts().waiting, 8u);
+  const std::string stall = "GET /n HTTP/1.1\r\nHost: x\r\nX-N: ";
+  std::vector<int> stalled;
+  for (int i = 0; i < 4; ++i) {
+    stalled.push_back(connect_loopback(port));
+    (void)!send(stalled.back(), stall.data(), stall.size(), MSG_NOSIGNAL);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(read_all(stalled[0]), "");  // the oldest stalled one, closed at once
+  EXPECT_EQ(http.gate_counts().evicted, 1u);
+  EXPECT_EQ(http.gate_counts().waiting, 11u);
+  for (const int fd : idle) {
+    EXPECT_TRUE(exchange_on(fd, request).starts_with("HTTP/1.1 200 "));
+    close(fd);
+  }
+  EXPECT_EQ(http.gate_counts().evicted, 1u);
+  http.stop();
+  serving.join();
+  for (const int fd : stalled) close(fd);
+}
+
+// Issue 16: a probe no longer waits in the queue behind requests that hold every thread: the
+// gate sends /healthz to threads of its own. Two threads blocked, two requests queued (room
+// for four): /healthz is answered at once, and a kept-alive probe connection can go on with a
+// normal request, which then waits its turn.
+TEST(HeaderGate, ProbesHaveALaneOfTheirOwn) {
+  GatedServer http(2);
+  GateLimits limits;
+  limits.max_queued = 4;
+  limits.priority_paths = {"/healthz"};
+  http.set_gate_limits(limits);
+  std::mutex mutex;
+  std::condition_variable released_cv;
+  bool released = false;
+  http.Get("/block", [&](const httplib::Request&, httplib::Response& res) {
+    std::unique_lock lock(mutex);
+    released_cv.wait(lock, [&] { return released; });
+    res.set_content("done", "text/plain");
+  });
+  http.Get("/healthz", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content("ok", "text/plain");
+  });
+  const int port = http.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { http.listen_after_bind(); });
+
+  const std::string block = "GET /block HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  std::vector<int> blocked;
+  for (int i = 0; i < 4; ++i) {
+    blocked.push_back(connect_loopback(port));
+    (void)!send(blocked.back(), block.data(), block.size(), MSG_NOSIGNAL);
+  }
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (http.gate_counts().queued < 2 && std::chrono::steady_clock::now() < end) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_EQ(http.gate_counts().busy, 2u);
+  ASSERT_EQ(http.gate_counts().queued, 2u);
+
+  const int probe = connect_loopback(port);
+  for (const char* target : {"/healthz", "/healthz?x=1"}) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string got =
+        exchange_on(probe, "GET " + std::string(target) + " HTTP/1.1\r\nHost: x\r\n\r\n");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_TRUE(got.starts_with("HTTP/1.1 200 ")) << got;
+    EXPECT_TRUE(got.ends_with("ok")) << got;
+    EXPECT_LT(seconds, 0.5);
+  }
+  EXPECT_EQ(http.gate_counts().priority_served, 2u);
+  // Not a probe: it waits for a main thread like the others.
+  const std::string next = "GET /block HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  (void)!send(probe, next.data(), next.size(), MSG_NOSIGNAL);
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (http.gate_counts().queued < 3 && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(http.gate_counts().queued, 3u);
+  {
+    std::lock_guard lock(mutex);
+    released = true;
+  }
+  released_cv.notify_all();
+  blocked.push_back(probe);
+  for (const int fd : blocked) {
+    EXPECT_TRUE(read_all(fd).ends_with("done"));
+    close(fd);
+  }
+  http.stop();
+  serving.join();
+}
+
+// Issue 16: a body read in a thread had only a time-out per recv. With begin_body (called by
+// the server's pre-routing handler), a body has a deadline (body_seconds + length /
+// min_body_rate), past which the read fails and body_timed_out() says so; and at most
+// max_body_readers threads read one at once.
+TEST(HeaderGate, BodiesHaveADeadlineAndAReaderCap) {
+  GatedServer http(4);
+  GateLimits limits;
+  limits.max_body_readers = 1;
+  limits.body_seconds = 0.5;
+  limits.min_body_rate = 1000;  // + 0.1 s for the 100 bytes below
+  http.set_gate_limits(limits);
+  http.set_pre_routing_handler([&](const httplib::Request& req, httplib::Response& res) {
+    if (http.begin_body(std::stoull(req.get_header_value("Content-Length", 0)))) {
+      return httplib::Server::HandlerResponse::Unhandled;
+    }
+    res.status = 503;
+    res.set_content("busy", "text/plain");
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  http.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+    if (GatedServer::body_timed_out()) res.set_content("too slow", "text/plain");
+  });
+  http.Post("/p", [](const httplib::Request& req, httplib::Response& res) {
+    res.set_content(std::to_string(req.body.size()), "text/plain");
+  });
+  const int port = http.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { http.listen_after_bind(); });
+
+  const std::string head =
+      "POST /p HTTP/1.1\r\nHost: x\r\nContent-Length: 100\r\nConnection: close\r\n\r\n";
+  const int slow = connect_loopback(port);
+  const std::string start = head + "a";
+  const auto t0 = std::chrono::steady_clock::now();
+  (void)!send(slow, start.data(), start.size(), MSG_NOSIGNAL);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(http.gate_counts().body_readers, 1u);
+
+  // A second body while the first is read: refused before it is read.
+  const int second = connect_loopback(port);
+  (void)!send(second, start.data(), start.size(), MSG_NOSIGNAL);
+  const std::string refused = read_all(second);
+  close(second);
+  EXPECT_TRUE(refused.starts_with("HTTP/1.1 503 ")) << refused;
+  EXPECT_EQ(http.gate_counts().body_refused, 1u);
+
+  // The slow one sends a byte every 50 ms (each recv is quick): failed at ~0.6 s.
+  timeval tv{0, 50'000};
+  setsockopt(slow, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  std::string got;
+  char buf[1024];
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(3)) {
+    (void)!send(slow, "a", 1, MSG_NOSIGNAL);
+    const ssize_t n = recv(slow, buf, sizeof buf, 0);
+    if (n == 0) break;
+    if (n > 0) got.append(buf, static_cast<size_t>(n));
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  close(slow);
+  EXPECT_TRUE(got.ends_with("too slow")) << got;
+  EXPECT_GT(seconds, 0.55);
+  EXPECT_LT(seconds, 1.5);
+  EXPECT_EQ(http.gate_counts().body_timed_out, 1u);
+  EXPECT_EQ(http.gate_counts().body_readers, 0u);
+
+  // A body that arrives in time is read, and gives its slot back.
+  for (int i = 0; i < 2; ++i) {
+    const int fd = connect_loopback(port);
+    const std::string whole = head + std::string(100, 'b');
+    (void)!send(fd, whole.data(), whole.size(), MSG_NOSIGNAL);
+    const std::string answer = read_all(fd);
+    close(fd);
+    EXPECT_TRUE(answer.starts_with("HTTP/1.1 200 ")) << answer;
+    EXPECT_TRUE(answer.ends_with("100")) << answer;
+  }
+  EXPECT_EQ(http.gate_counts().body_readers, 0u);
+  http.stop();
+  serving.join();
+}
+
 }  // namespace gvd::server
