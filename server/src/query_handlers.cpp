@@ -262,7 +262,7 @@ void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response
   for (const auto& [key, value] : req.params) {
     bad("query parameter \"" + key + "\": a grid job's " + (labels ? "labels" : "field") +
         ".npy is the grid computed with the job (resolution " +
-        std::to_string(params.grid_resolution) + ", metric " + params.metric +
+        std::to_string(params.grid_resolution) + ", metric " + grid_metric_name(params.metric) +
         "); its parameters are fixed when the job is submitted");
   }
   const std::string id = req.matches[1].str();
@@ -274,8 +274,8 @@ void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response
   options.resolution = params.grid_resolution;
   options.box = params.grid_options({}).box;
   options.max_cells = ~uint64_t{0} >> 32;
-  send_grid_npy(res, make_grid_spec(result->result().scene, options), params.metric, labels,
-                std::move(body), id);
+  send_grid_npy(res, make_grid_spec(result->result().scene, options),
+                grid_metric_name(params.metric), labels, std::move(body), id);
 }
 
 void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bool labels) {
