@@ -270,30 +270,28 @@ Result compute(const Scene& scene, const ComputeOptions& options) {
   limits.max_simplices = options.max_simplices;
   validate_scene(s, limits);
 
-  PipelineOptions po;
-  po.max_depth = options.max_depth;
-  po.contact_depth = options.contact_depth;
-  po.max_leaves = options.max_leaves;
-  po.ambiguity_levels = options.ambiguity_levels;
-  po.ambiguity_rounds = options.ambiguity_rounds;
-  po.unseen_rounds = options.unseen_rounds;
-  po.threads = options.threads;
-  po.octree_build = options.octree_build;
-  po.distance = options.distance;
-  po.refine = options.refine;
-  po.resolution = options.resolution;
-  if (!(options.curved_tolerance >= 0 && options.curved_tolerance < 1)) {
-    throw Error(ErrorCode::kInvalidArgument, "curved_tolerance must be in [0, 1)");
-  }
-  po.curved_tolerance = options.curved_tolerance;
-  if (options.max_depth < 0 || options.threads < 0 || options.contact_depth < 0) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "max_depth, threads and contact_depth must not be negative");
-  }
-  po.domain.frame = parse_domain_frame(options.frame);
-  if (!options.domain.empty()) po.domain.box = domain_box(options.domain, s.dimension);
+  // The options through the parameter table (gvd/pipeline/parameters.h): its ranges and
+  // choices, its checks across parameters, named as the keywords are.
+  PipelineParams params;
+  params.max_depth = options.max_depth;
+  params.contact_depth = options.contact_depth;
+  params.domain = options.domain;
+  params.frame = parse_choice<DomainFrame>(options.frame);
+  params.threads = options.threads;
+  params.octree_build = parse_choice<OctreeBuild>(options.octree_build);
+  params.distance = parse_choice<DistanceMethod>(options.distance);
+  params.refine = parse_choice<RefineRule>(options.refine);
+  params.resolution = parse_choice<GvdResolution>(options.resolution);
+  params.curved_tolerance = options.curved_tolerance;
+  params.ambiguity_levels = options.ambiguity_levels;
+  params.ambiguity_rounds = options.ambiguity_rounds;
+  params.unseen_rounds = options.unseen_rounds;
+  params.max_leaves = options.max_leaves;
+  params.check_ranges(ParamSpelling::kApi);
+  params.check(s.dimension, ParamSpelling::kApi);
+  PipelineOptions po = pipeline_options(params);
   const kernels::BackendChoice choice = backend_for(options.backend);
-  po.backend = choice.backend;
+  po.backend = parse_choice<BackendRequest>(choice.backend);
   po.compute = choice.compute;
   po.backend_note = choice.note;
   if (options.progress) {

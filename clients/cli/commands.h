@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "cli_options.h"
+#include "gvd/pipeline/parameters.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/scene.h"
 
@@ -15,6 +16,13 @@ namespace gvd::cli {
 /// The flags of `compute` that take a value and configure the computation (also accepted by
 /// the query commands when their input is a scene).
 const std::vector<std::string>& compute_value_flags();
+
+/// The parameters of the table (gvd/pipeline/parameters.h) given as flags, parsed by it: a
+/// malformed value is a UsageError naming the flag (exit 2), an unknown --units a
+/// gvd::Error{kInvalidArgument} (exit 3).
+PipelineParams params_from_flags(const Args& args);
+/// params.check for a scene of `dimension`, its errors as UsageError.
+void check_params(const PipelineParams& params, int dimension);
 
 /// A loaded scene and the pipeline options from the command line (with a progress display on
 /// stderr unless -q/--quiet). Logs the scene size and the backend.

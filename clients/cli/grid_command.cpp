@@ -18,6 +18,7 @@
 #include "gvd/io/write_grid.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
+#include "gvd/pipeline/parameters.h"
 #include "gvd/scene/load_scene.h"
 #include "gvd/scene/units.h"
 
@@ -202,24 +203,41 @@ int cmd_grid(int argc, char** argv) {
   return kExitOk;
 }
 
+// The table's flags of the grid mode (but --resolution, which the adaptive mode has too).
+std::vector<std::string> grid_flags(bool boolean) {
+  std::vector<std::string> flags;
+  for (const ParamSpec& p : pipeline_parameters()) {
+    if (p.on(kCliFlag) && p.mode == ParamMode::kGrid && p.name != "resolution" &&
+        (p.kind == ParamKind::kFlag) == boolean) {
+      flags.push_back(flag_name(p));
+    }
+  }
+  return flags;
+}
+
 const std::vector<std::string>& grid_mode_value_flags() {
-  static const std::vector<std::string> flags = {"--labels", "--metric", "--max-cells",
-                                                 "--range-cells"};
+  static const std::vector<std::string> flags = [] {
+    std::vector<std::string> f = {"--labels"};
+    for (const std::string& flag : grid_flags(false)) f.push_back(flag);
+    return f;
+  }();
   return flags;
 }
 
 const std::vector<std::string>& grid_mode_boolean_flags() {
-  static const std::vector<std::string> flags = {"--float64", "--unsigned"};
+  static const std::vector<std::string> flags = grid_flags(true);
   return flags;
 }
 
 int compute_grid_mode(const Args& args) {
-  for (const char* flag :
-       {"--max-depth", "--contact-depth", "--unseen-rounds", "--max-leaves", "--ambiguity-levels",
-        "--ambiguity-rounds", "--octree-build", "--distance", "--refine", "--curved-tolerance",
-        "--frame", "--json", "--save"}) {
+  std::vector<std::string> adaptive_only = {"--json", "--save"};
+  for (const ParamSpec& p : pipeline_parameters()) {
+    if (p.on(kCliFlag) && p.mode == ParamMode::kAdaptive && p.name != "resolution")
+      adaptive_only.push_back(flag_name(p));
+  }
+  for (const std::string& flag : adaptive_only) {
     if (args.has(flag)) {
-      throw UsageError{std::string(flag) +
+      throw UsageError{flag +
                        " applies to the adaptive octree; --mode grid computes on a uniform grid "
                        "(see \"grid options\")"};
     }

@@ -22,6 +22,7 @@
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/kernels/opencl_backend.h"
+#include "gvd/pipeline/parameters.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
@@ -32,7 +33,7 @@
 namespace gvd::cli {
 namespace {
 
-constexpr const char* kUsage = R"(gvd — generalized Voronoi diagrams of closely spaced objects
+constexpr const char* kUsageHead = R"(gvd — generalized Voronoi diagrams of closely spaced objects
 
 Usage:
   gvd compute SCENE... [options]   compute the GVD of a scene
@@ -79,73 +80,21 @@ compute options:
                              gap between the objects, touching)
   --json FILE.json           the GVD with float64 coordinates (for gaps below float32 resolution)
   --save FILE.gvd            the whole result (octree, distance field, GVD, graph), reloadable
-  --units U                  the length unit of the coordinates: nm, um (= µm), mm, cm, m,
-                             km, in, ft or Å; over a scene JSON's own "units" (meshes and
-                             volumes have none). A label only, nothing is scaled: every
-                             length reported says it (graph, queries, info, GLB extras).
-                             Queries and export also take it for a saved result
-  --max-depth N              deepest octree level (default 26 in 2D, 21 in 3D = the limit)
-  --domain x0,y0[,z0],x1,y1[,z1]
-                             domain box (made a cube); default: bounding box + 5 % padding
-  --volume LABELS.npy        a labelled voxel volume instead of scene files: an integer .npy
+)";
+// (the parameters of any mode, from the table)
+constexpr const char* kUsageVolume =
+    R"(  --volume LABELS.npy        a labelled voxel volume instead of scene files: an integer .npy
                              (shape (ny, nx) or (nz, ny, nx), x fastest, as gvd grid writes);
                              each label becomes an object "label_<id>", its boundary the
                              voxel faces it shares with other labels or the background
   --spacing X,Y[,Z]          --volume: the voxel size on each axis (default 1; anisotropic
                              voxels are honoured throughout)
   --background N|none        --volume: the label that is no object (default 0)
-  --frame auto|world         the octree's axes: auto (default) turns them to the scene's
-                             faces in 3D when more of their area lies square to another
-                             frame than to x, y, z (a tilted part: its straight rims then
-                             cost what they cost untilted) and shifts the domain within
-                             its padding (and grows it by up to 10 %) to put shafts'
-                             corners on octree planes; world
-                             keeps x, y, z and the plain bounding cube. Results are in
-                             your coordinates either way
-  --threads N                worker threads (default: all cores)
-  --backend opencl|cpu|auto  where the data-parallel steps run (default auto: OpenCL when a
-                             device with fp64 exists, else the CPU twins, saying why; an
-                             explicit opencl without one is an error, exit 3). The device:
-                             GVD_OPENCL_DEVICE="P:D" or a name part; kernel binary cache:
-                             GVD_KERNEL_CACHE_DIR (default $XDG_CACHE_HOME/gvd/kernels)
-  --octree-build levels|data-parallel
-                             first octree: level by level (default) or the data-parallel
-                             Karras/conflict-cell build (on OpenCL with that backend);
-                             the same leaves
-  --distance exact|wavefront closest points of the vertices of empty cells: exact for
-                             every vertex (default; data-parallel) or the paper's
-                             wavefront expansion (§4, serial, within 3/2 of the truth)
-  --refine certified|paper   where objects come close: certified pair cells (default: a
-                             cell is not split where exact distances prove that the GVD
-                             in it is the plane between two flat patches or mirror images,
-                             or a curve swept along a straight rim parallel or square
-                             to an axis (a shaft's corner too, once --frame auto put it
-                             on an octree plane),
-                             so thin gaps cost what their geometry needs) or the paper's
-                             rule alone (§3: cells shrink to the gap over the whole contact)
-  --resolution compact|full  GVD output: flat parts merged into large pieces (default;
-                             the dual graph is measured before) or one piece per octree
-                             leaf, as surfaced
-  --curved-tolerance F       with compact output, merge curved parts too while they stay
-                             within F of the local clearance of the surfaced GVD and clear
-                             of every object by half of it (default 0: flat parts only)
-  --contact-depth N          depth at which refinement between touching or intersecting
-                             objects stops (default 14 in 2D, 8 in 3D)
-  --max-leaves N             octree leaf limit (default 12000000; peak memory is about
-                             1 KB per leaf); it also bounds the cells' simplex lists (8
-                             references per leaf), which many objects sharing cells fill
-  --max-objects N            object limit (default 100000)
-  --max-simplices N          simplex limit (default 20000000)
-  --ambiguity-levels N       levels of ambiguity refinement below the §3 octree
-                             (default: unlimited in 2D, 2 in 3D)
-  --ambiguity-rounds N       rounds of ambiguity refinement (default: 48 in 2D, 3 in 3D)
-  --unseen-rounds N          rounds that refine cells hiding a thin region of another object
-                             (default: 48 in 2D, 4 in 3D)
-  -q, --quiet                no progress or summary on stderr
+)";
+// (the parameters of the adaptive mode, from the table)
+constexpr const char* kUsageQuiet = R"(  -q, --quiet                no progress or summary on stderr
 
 grid options (gvd grid, and gvd compute --mode grid):
-  --resolution N             cells along the longest side of the domain (cells are cubes;
-                             the other sides get as many as cover them)
   --graph FILE.json          compute --mode grid: the dual graph of the labels (objects whose
                              cells share a face; area = the shared faces; gap, touching and
                              clearance measured exactly on the objects, as in the adaptive
@@ -156,15 +105,11 @@ grid options (gvd grid, and gvd compute --mode grid):
                              (NRRD header + FILE.raw)
   --labels FILE              index of the nearest object per cell (int32, -1 = none), same
                              formats. Arrays are [y, x] (2D) / [z, y, x] (3D), x fastest
-  --float64                  distances as float64
-  --unsigned                 no signs
-  --metric l2|l1|linf        the distance (default l2)
-  --domain x0,y0[,z0],x1,y1[,z1]
+)";
+// (the parameters of the grid mode, from the table)
+constexpr const char* kUsageGrid = R"(  --domain x0,y0[,z0],x1,y1[,z1]
                              domain box; it must hold every vertex (default: bounding box
                              + 5 % of its longest side on every side)
-  --max-cells N              refuse grids of more cells (default 134217728; checked before
-                             any work, exit 4)
-  --range-cells N            cells along a side of a culling range (default 8 in 2D, 4 in 3D)
   --backend opencl|cpu|auto  where the per-range kernel runs (default auto, as for compute)
   --threads N                CPU twin threads (default: all cores)
   --units U                  gvd grid: the length unit of the coordinates (as for compute:
@@ -218,6 +163,14 @@ not found (also an unknown object label or job id), 6 cancelled, 7 no path joins
 8 server busy (still 503 after the retries) or job not finished yet, 9 network error (server
 not reachable: connection refused, reset or timed out).
 )";
+
+/// `gvd --help`: the compute and grid parameters' lines come from the parameter table
+/// (gvd/pipeline/parameters.h), the rest is written here.
+std::string usage() {
+  return std::string(kUsageHead) + parameter_help(ParamMode::kAny) + kUsageVolume +
+         parameter_help(ParamMode::kAdaptive) + kUsageQuiet + parameter_help(ParamMode::kGrid) +
+         kUsageGrid;
+}
 
 int exit_code_for(ErrorCode code) {
   switch (code) {
@@ -368,28 +321,49 @@ std::function<void(const std::string&, double)> progress_display(bool enabled) {
 }
 
 const std::vector<std::string>& compute_value_flags() {
-  static const std::vector<std::string> flags = {"--max-depth",
-                                                 "--domain",
-                                                 "--threads",
-                                                 "--backend",
-                                                 "--max-leaves",
-                                                 "--max-objects",
-                                                 "--max-simplices",
-                                                 "--ambiguity-levels",
-                                                 "--ambiguity-rounds",
-                                                 "--contact-depth",
-                                                 "--unseen-rounds",
-                                                 "--octree-build",
-                                                 "--distance",
-                                                 "--refine",
-                                                 "--resolution",
-                                                 "--curved-tolerance",
-                                                 "--frame",
-                                                 "--volume",
-                                                 "--spacing",
-                                                 "--background",
-                                                 "--units"};
+  static const std::vector<std::string> flags = [] {
+    // The table's flags of the adaptive mode and of any mode (--mode is compute's own), and
+    // the labelled volume's.
+    std::vector<std::string> f;
+    for (const ParamSpec& p : pipeline_parameters()) {
+      if (p.on(kCliFlag) && p.kind != ParamKind::kFlag && p.mode != ParamMode::kGrid &&
+          p.name != "mode") {
+        f.push_back(flag_name(p));
+      }
+    }
+    for (const char* volume : {"--volume", "--spacing", "--background"}) f.push_back(volume);
+    return f;
+  }();
   return flags;
+}
+
+PipelineParams params_from_flags(const Args& args) {
+  PipelineParams params;
+  for (const ParamSpec& p : pipeline_parameters()) {
+    if (!p.on(kCliFlag) || find_parameter(p.name) != &p) continue;  // "resolution" once
+    const std::string flag = flag_name(p);
+    try {
+      if (p.kind == ParamKind::kFlag) {
+        if (args.has(flag)) params.set(p.name, "true", ParamSpelling::kCli);
+      } else if (const auto v = args.value(flag)) {
+        params.set(p.name, *v, ParamSpelling::kCli);
+      }
+    } catch (const Error& e) {
+      // A malformed flag value is a command-line mistake (exit 2); an unknown unit is invalid
+      // input (exit 3), as the scene's own "units" are.
+      if (p.kind == ParamKind::kUnits) throw;
+      throw UsageError{e.detail()};
+    }
+  }
+  return params;
+}
+
+void check_params(const PipelineParams& params, int dimension) {
+  try {
+    params.check(dimension, ParamSpelling::kCli);
+  } catch (const Error& e) {
+    throw UsageError{e.detail()};
+  }
 }
 
 Scene load_compute_scene(const Args& args, const std::vector<std::string>& files) {
@@ -447,54 +421,14 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
   setup.scene = load_compute_scene(args, files);
   const Scene& scene = setup.scene;
 
+  const PipelineParams params = params_from_flags(args);
+  check_params(params, scene.dimension);
   PipelineOptions& options = setup.options;
-  options.max_depth = args.int_value("--max-depth", 0);
-  options.contact_depth = args.int_value("--contact-depth", 0);
-  options.unseen_rounds = args.int_value("--unseen-rounds", options.unseen_rounds);
-  options.threads = args.int_value("--threads", 0);
-  options.max_leaves = args.u64_value("--max-leaves", options.max_leaves);
-  options.ambiguity_levels = args.int_value("--ambiguity-levels", options.ambiguity_levels);
-  options.ambiguity_rounds = args.int_value("--ambiguity-rounds", options.ambiguity_rounds);
-  const std::string backend = args.value("--backend").value_or("auto");
-  options.octree_build = args.value("--octree-build").value_or("levels");
-  options.distance = args.value("--distance").value_or("exact");
-  if (options.distance != "exact" && options.distance != "wavefront")
-    throw UsageError{"--distance must be exact or wavefront"};
-  options.resolution = args.value("--resolution").value_or("compact");
-  if (options.resolution != "compact" && options.resolution != "full")
-    throw UsageError{"--resolution must be compact or full"};
-  if (const auto t = args.numbers("--curved-tolerance")) {
-    if (t->size() != 1 || !((*t)[0] >= 0 && (*t)[0] < 1))
-      throw UsageError{"--curved-tolerance expects one number in [0, 1)"};
-    options.curved_tolerance = (*t)[0];
-  }
-  options.refine = args.value("--refine").value_or("certified");
-  if (options.refine != "certified" && options.refine != "paper")
-    throw UsageError{"--refine must be certified or paper"};
-  const std::string frame = args.value("--frame").value_or("auto");
-  if (frame != "auto" && frame != "world") throw UsageError{"--frame must be auto or world"};
-  options.domain.frame = parse_domain_frame(frame);
-  if (options.max_depth < 0) throw UsageError{"--max-depth must be positive"};
-  if (options.threads < 0) throw UsageError{"--threads must be positive"};
-  if (const auto box = args.numbers("--domain")) {
-    const size_t d = static_cast<size_t>(scene.dimension);
-    if (box->size() != 2 * d) {
-      throw UsageError{"--domain expects " + std::to_string(2 * d) + " numbers for a " +
-                       std::to_string(d) + "D scene"};
-    }
-    Box b;
-    Vec3 lo, hi;
-    for (size_t i = 0; i < d; ++i) {
-      lo[static_cast<int>(i)] = (*box)[i];
-      hi[static_cast<int>(i)] = (*box)[d + i];
-    }
-    b.extend(lo);
-    b.extend(hi);
-    options.domain.box = b;
-  }
+  options = pipeline_options(params);
   // OpenCL is initialised here, once, before any computation (kernels/opencl_backend.h).
-  const kernels::BackendChoice choice = kernels::choose_backend(backend);
-  options.backend = choice.backend;
+  const kernels::BackendChoice choice =
+      kernels::choose_backend(std::string(choice_name(params.backend)));
+  options.backend = parse_choice<BackendRequest>(choice.backend);
   options.compute = choice.compute;
   options.backend_note = choice.note;
   if (!quiet) {
@@ -552,9 +486,7 @@ int cmd_compute(int argc, char** argv) {
                        file + " -o gvd.glb [--graph g.json] [--json gvd.json]"};
     }
   }
-  const std::string mode = args.value("--mode").value_or("adaptive");
-  if (mode != "adaptive" && mode != "grid") throw UsageError{"--mode must be adaptive or grid"};
-  if (mode == "grid") return compute_grid_mode(args);
+  if (params_from_flags(args).is_grid()) return compute_grid_mode(args);
   for (const std::string& flag : grid_mode_value_flags()) {
     if (args.has(flag)) throw UsageError{flag + " goes with --mode grid"};
   }
@@ -653,12 +585,12 @@ std::optional<std::string> take_server(int& argc, char** argv) {
 int run(int argc, char** argv) {
   const std::optional<std::string> server = take_server(argc, argv);
   if (argc < 2) {
-    std::fputs(kUsage, stderr);
+    std::fputs(usage().c_str(), stderr);
     return kExitUsage;
   }
   const std::string command = argv[1];
   if (command == "--help" || command == "-h" || command == "help") {
-    std::fputs(kUsage, stdout);
+    std::fputs(usage().c_str(), stdout);
     return kExitOk;
   }
   if (command == "--version") {

@@ -22,6 +22,7 @@
 #include "commands.h"
 #include "gvd/common/json_depth.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/pipeline/parameters.h"
 #include "gvd/scene/units.h"
 #include "http_client.h"
 
@@ -66,30 +67,12 @@ constexpr std::array<ProblemExit, 28> kProblemExits = {{
     {"/problems/adaptive-only", kExitBadInput},   // a grid job asked for the octree's outputs
 }};
 
-// Flags that set a job parameter (sent as query parameters) and flags that configure a
-// computation the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 16> kJobParams = {{
-    {"--max-depth", "max_depth"},
-    {"--contact-depth", "contact_depth"},
-    {"--ambiguity-levels", "ambiguity_levels"},
-    {"--ambiguity-rounds", "ambiguity_rounds"},
-    {"--unseen-rounds", "unseen_rounds"},
-    {"--domain", "domain"},
-    {"--frame", "frame"},
-    {"--refine", "refine"},
-    {"--resolution", "resolution"},
-    {"--curved-tolerance", "curved_tolerance"},
-    {"--mode", "mode"},
-    {"--metric", "metric"},
-    {"--range-cells", "range_cells"},
+// Flags that set a job parameter (sent as query parameters): the table's job parameters
+// (gvd/pipeline/parameters.h) and the labelled volume's; flags that configure a computation
+// the server does its own way (refused in remote mode rather than ignored).
+constexpr std::array<std::pair<std::string_view, std::string_view>, 2> kVolumeParams = {{
     {"--spacing", "spacing"},
     {"--background", "background"},
-    {"--units", "units"},
-}};
-// Boolean flags that are job parameters (sent as name=true).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 2> kJobFlags = {{
-    {"--float64", "float64"},
-    {"--unsigned", "unsigned"},
 }};
 constexpr std::array<std::pair<std::string_view, std::string_view>, 6> kServerSide = {{
     {"--threads", "--job-threads"},
@@ -206,14 +189,19 @@ class Remote {
   /// Submits the scene files with the job parameters of `args`; returns the job document.
   Json submit(const std::vector<std::string>& files, const Args& args) {
     std::string query;
-    for (const auto& [flag, name] : kJobParams) {
+    for (const ParamSpec& p : pipeline_parameters()) {
+      if (!p.on(kJobParam) || !p.on(kCliFlag) || find_parameter(p.name) != &p) continue;
+      const std::string flag = flag_name(p);
+      if (p.kind == ParamKind::kFlag) {
+        if (args.has(flag)) query += (query.empty() ? "?" : "&") + std::string(p.name) + "=true";
+      } else if (const auto v = args.value(flag)) {
+        query += (query.empty() ? "?" : "&") + std::string(p.name) + "=" + url_encode(*v);
+      }
+    }
+    for (const auto& [flag, name] : kVolumeParams) {
       if (const auto v = args.value(std::string(flag))) {
         query += (query.empty() ? "?" : "&") + std::string(name) + "=" + url_encode(*v);
       }
-    }
-    for (const auto& [flag, name] : kJobFlags) {
-      if (args.has(std::string(flag)))
-        query += (query.empty() ? "?" : "&") + std::string(name) + "=true";
     }
     for (const auto& [flag, server_flag] : kServerSide) {
       if (args.has(std::string(flag))) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "gvd/gvd.h"
+#include "gvd/pipeline/parameters.h"
 #include "py_arrays.h"
 #include "py_compute.h"
 #include "py_errors.h"
@@ -772,6 +773,45 @@ progress, cancel   as for gvd.compute (the stage "grid", its fraction advancing 
 
 Runs without the GIL; Ctrl-C or cancel stops it within a fraction of a second. Raises
 gvd.InvalidScene, gvd.InvalidArgument, gvd.LimitExceeded, gvd.Cancelled.)doc");
+
+  m.def(
+      "_parameters",
+      [] {
+        py::list out;
+        for (const ParamSpec& p : pipeline_parameters()) {
+          if (!p.on(kPythonKeyword)) continue;
+          py::dict entry;
+          entry["name"] = std::string(p.name);
+          py::list choices;
+          for (const std::string_view c : p.choices) choices.append(std::string(c));
+          entry["choices"] = choices;
+          switch (p.kind) {
+            case ParamKind::kInt:
+              entry["default"] = static_cast<int>(p.value);
+              break;
+            case ParamKind::kCount:
+              entry["default"] = static_cast<uint64_t>(p.value);
+              break;
+            case ParamKind::kNumber:
+              entry["default"] = p.value;
+              break;
+            case ParamKind::kFlag:
+              entry["default"] = p.value != 0;
+              break;
+            case ParamKind::kChoice:
+              entry["default"] = std::string(p.choices.front());
+              break;
+            case ParamKind::kBox:
+            case ParamKind::kUnits:
+              entry["default"] = py::none();
+              break;
+          }
+          out.append(entry);
+        }
+        return out;
+      },
+      "The keywords of compute() in the parameter table (gvd/pipeline/parameters.h): a list of "
+      "{name, default, choices}; the tests check compute's signature against it.");
 
   m.def(
       "load",

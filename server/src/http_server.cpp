@@ -1228,7 +1228,7 @@ HttpServer::HttpServer(const ServerOptions& options) : impl_(std::make_unique<Im
       {"label":"a","vertices":[[0,0],[1,0]],"segments":[[0,1]]},
       {"label":"b","vertices":[[0,1],[1,1]],"segments":[[0,1]]}]})");
   PipelineOptions o;
-  o.backend = options.compute ? "opencl" : "cpu";
+  o.backend = options.compute ? BackendRequest::kOpenCl : BackendRequest::kCpu;
   o.compute = options.compute;
   o.backend_note = options.backend_note;
   o.threads = 1;

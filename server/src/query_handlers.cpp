@@ -264,7 +264,7 @@ void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response
   for (const auto& [key, value] : req.params) {
     bad("query parameter \"" + key + "\": a grid job's " + (labels ? "labels" : "field") +
         ".npy is the grid computed with the job (resolution " +
-        std::to_string(params.grid_resolution) + ", metric " + params.metric +
+        std::to_string(params.grid_resolution) + ", metric " + grid_metric_name(params.metric) +
         "); its parameters are fixed when the job is submitted");
   }
   const std::string id = req.matches[1].str();
@@ -277,8 +277,8 @@ void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response
   options.box = params.grid_options({}).box;
   options.max_cells = ~uint64_t{0} >> 32;
   const Scene& scene = result->result().scene;
-  send_grid_npy(res, make_grid_spec(scene, options), params.metric, scene.units, labels,
-                std::move(body), id);
+  send_grid_npy(res, make_grid_spec(scene, options), grid_metric_name(params.metric), scene.units,
+                labels, std::move(body), id);
 }
 
 void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bool labels) {

@@ -137,7 +137,7 @@ void BM_Gvd(benchmark::State& state, const SceneCase* c, const std::string& dist
   const Scene& scene = scene_of(*c);
   gvd::PipelineOptions options;
   options.threads = kThreads;
-  options.distance = distance;
+  options.distance = gvd::parse_choice<gvd::DistanceMethod>(distance);
   SceneRun run;
   run.name = distance == "exact" ? std::string(c->name) : std::string(c->name) + "/wf";
   run.paper = c->paper;
@@ -320,7 +320,7 @@ void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
   const Scene scene = make_thin_gap_scene(c.scene, c.gap);
   gvd::PipelineOptions options;
   options.threads = kThreads;
-  options.refine = c.refine;
+  options.refine = gvd::parse_choice<gvd::RefineRule>(c.refine);
   if (c.scene.ends_with("_xyz")) options.domain.frame = gvd::DomainFrame::kWorld;
   ThinGapRun run;
   run.c = c;

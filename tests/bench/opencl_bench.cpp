@@ -229,7 +229,7 @@ void BM_PipelineBackend(benchmark::State& state, std::string scene, std::string 
   gvd::PipelineOptions o;
   o.threads = kThreads;
   if (impl == "opencl") {
-    o.backend = "opencl";
+    o.backend = gvd::BackendRequest::kOpenCl;
     o.compute = cl;
   }
   gvd::ResultStats stats;

@@ -19,9 +19,9 @@ constexpr double kTolerance = 1e-12;  // unit domain
 GvdResult run(const Scene& scene, std::shared_ptr<ComputeBackend> compute,
               const char* octree_build = "levels") {
   PipelineOptions o;
-  o.octree_build = octree_build;
+  o.octree_build = parse_choice<OctreeBuild>(octree_build);
   o.threads = 2;
-  o.backend = compute ? "opencl" : "cpu";
+  o.backend = compute ? BackendRequest::kOpenCl : BackendRequest::kCpu;
   o.compute = std::move(compute);
   return compute_gvd(scene, o);
 }

@@ -770,6 +770,27 @@ class Progress(unittest.TestCase):
         self.assertEqual(stub_defaults, actual)
 
 
+    def test_keywords_are_the_parameter_table(self):
+        # compute()'s keywords and defaults are the core's parameter table's Python keywords
+        # (gvd/pipeline/parameters.h), none missing and none besides (but scene, progress and
+        # cancel, which are no parameters).
+        import ast
+        sig = gvd.compute.__doc__.splitlines()[0]
+        actual = {}
+        for part in sig[sig.index("*,") + 2:sig.rindex(")")].split(","):
+            name, _, default = part.partition("=")
+            actual[name.split(":")[0].strip()] = ast.literal_eval(default.strip())
+        for name in ("progress", "cancel"):
+            del actual[name]
+        table = {p["name"]: p for p in gvd._gvd._parameters()}
+        self.assertEqual(set(actual), set(table))
+        for name, p in table.items():
+            self.assertEqual(actual[name], p["default"], name)
+            self.assertEqual(type(actual[name]), type(p["default"]), name)
+            for choice in p["choices"]:  # every choice is accepted by name
+                self.assertIn(choice, gvd.compute.__doc__, name)
+
+
 def lattice_scene(n, gap, subdivisions):
     s = gvd.Scene(3)
     for label, v, f in meshes.sphere_lattice(n, gap, subdivisions):

@@ -172,7 +172,7 @@ TEST(JobParams, NormalizedTextAndValidation) {
   EXPECT_THROW(a.set("colour", "red"), Error);
   EXPECT_THROW(a.set("frame", "tilted"), Error);
   a.set("frame", "world");
-  EXPECT_EQ(JobParams::from_json(a.to_json()).frame, "world");
+  EXPECT_EQ(JobParams::from_json(a.to_json()).frame, DomainFrame::kWorld);
   EXPECT_EQ(JobParams::from_json(a.to_json()).pipeline_options({}).domain.frame,
             DomainFrame::kWorld);
   EXPECT_EQ(JobParams{}.pipeline_options({}).domain.frame, DomainFrame::kAuto);
@@ -202,7 +202,7 @@ TEST(JobParams, GridModeIsItsOwnNormalizedTextAndAdaptiveIdsStay) {
   EXPECT_EQ(back.to_json(), g.to_json());
   EXPECT_TRUE(back.is_grid());
   EXPECT_EQ(back.grid_resolution, 64);
-  EXPECT_EQ(back.metric, "linf");
+  EXPECT_EQ(back.metric, GridMetric::kLinf);
   EXPECT_TRUE(back.float64);
   EXPECT_EQ(back.grid_options({}).resolution, 64);
   EXPECT_EQ(back.grid_options({}).metric, GridMetric::kLinf);

@@ -50,7 +50,7 @@ OctreeOptions octree_options(const PipelineOptions& options, const ContactPairs&
 
 Octree first_octree(const UnitGeometry& geometry, const PipelineOptions& options,
                     const OctreeOptions& oo) {
-  if (options.octree_build == "data-parallel") {
+  if (options.octree_build == OctreeBuild::kDataParallel) {
     const std::unique_ptr<OctreeBuildSteps> steps =
         options.compute ? options.compute->octree_build_steps(geometry) : nullptr;
     return build_octree_data_parallel(geometry, oo, steps.get());
@@ -65,8 +65,7 @@ DistanceOptions distance_options(const PipelineOptions& options, ClosestPointSol
   dopt.threads = options.threads;
   dopt.cancel = options.cancel;
   dopt.solver = solver;
-  dopt.method =
-      options.distance == "wavefront" ? DistanceMethod::kWavefront : DistanceMethod::kExact;
+  dopt.method = options.distance;
   dopt.progress = [progress](double f) { progress("distance", f); };
   return dopt;
 }
@@ -121,27 +120,12 @@ std::vector<PairCertifier::RoofApex> roof_apexes(const SceneFrame& frame, const 
 }  // namespace
 
 GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
-  if (options.backend != "cpu" && (options.backend != "opencl" || !options.compute)) {
+  if (options.backend != BackendRequest::kCpu &&
+      (options.backend != BackendRequest::kOpenCl || !options.compute)) {
     throw Error(ErrorCode::kInvalidArgument,
-                "backend '" + options.backend +
+                "backend '" + std::string(choice_name(options.backend)) +
                     "' is not available here (core runs: cpu; opencl needs a ComputeBackend "
                     "from gvd_kernels in PipelineOptions::compute)");
-  }
-  if (options.octree_build != "levels" && options.octree_build != "data-parallel") {
-    throw Error(ErrorCode::kInvalidArgument,
-                "octree build '" + options.octree_build + "' is unknown (levels or data-parallel)");
-  }
-  if (options.resolution != "compact" && options.resolution != "full") {
-    throw Error(ErrorCode::kInvalidArgument,
-                "resolution '" + options.resolution + "' is unknown (compact or full)");
-  }
-  if (options.refine != "certified" && options.refine != "paper") {
-    throw Error(ErrorCode::kInvalidArgument,
-                "refinement '" + options.refine + "' is unknown (certified or paper)");
-  }
-  if (options.distance != "exact" && options.distance != "wavefront") {
-    throw Error(ErrorCode::kInvalidArgument,
-                "distance method '" + options.distance + "' is unknown (exact or wavefront)");
   }
   const Stopwatch total;
   const uint64_t start_rss = rss_bytes();
@@ -188,7 +172,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     r.stats.stages.resize(first_stage);
     if (!cones) sw = Stopwatch();  // the first attempt's octree stage counts the contacts too
     certifier.reset();
-    if (options.refine == "certified") {
+    if (options.refine == RefineRule::kCertified) {
       certifier.emplace(r.geometry, bvh, &contacts, true, cones);
       certifier->set_roof_apexes(apexes);
     } else if (!cones) {
@@ -274,7 +258,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   measure_gaps(r.graph, bvh, r.domain, contacts.pairs(), options.threads);
   r.stats.stages.push_back(
       {"graph", sw.seconds(), r.graph.edges.size() * sizeof(DualEdge), r.graph.edges.size()});
-  if (options.resolution == "compact") {
+  if (options.resolution == GvdResolution::kCompact) {
     // After the graph: its areas and clearances are those of the full-resolution GVD.
     progress("compact", 0);
     sw = Stopwatch();

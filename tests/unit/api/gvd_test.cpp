@@ -42,10 +42,10 @@ TEST(GvdApi, DefaultsAreThoseOfTheCore) {
   EXPECT_EQ(a.ambiguity_rounds, p.ambiguity_rounds);
   EXPECT_EQ(a.unseen_rounds, p.unseen_rounds);
   EXPECT_EQ(a.threads, p.threads);
-  EXPECT_EQ(a.octree_build, p.octree_build);
-  EXPECT_EQ(a.distance, p.distance);
-  EXPECT_EQ(a.refine, p.refine);
-  EXPECT_EQ(a.resolution, p.resolution);
+  EXPECT_EQ(a.octree_build, choice_name(p.octree_build));
+  EXPECT_EQ(a.distance, choice_name(p.distance));
+  EXPECT_EQ(a.refine, choice_name(p.refine));
+  EXPECT_EQ(a.resolution, choice_name(p.resolution));
   EXPECT_EQ(a.curved_tolerance, p.curved_tolerance);
   EXPECT_EQ(a.frame, domain_frame_name(p.domain.frame));
   EXPECT_EQ(a.max_objects, l.max_objects);

@@ -21,9 +21,9 @@ GvdResult run(Scene scene, int max_depth = 0, const std::string& distance = "exa
               const std::string& refine = "certified", const std::string& resolution = "compact") {
   PipelineOptions o;
   o.max_depth = max_depth;
-  o.distance = distance;
-  o.refine = refine;
-  o.resolution = resolution;
+  o.distance = parse_choice<DistanceMethod>(distance);
+  o.refine = parse_choice<RefineRule>(refine);
+  o.resolution = parse_choice<GvdResolution>(resolution);
   o.threads = 2;
   return compute_gvd(std::move(scene), o);
 }

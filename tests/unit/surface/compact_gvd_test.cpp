@@ -24,7 +24,7 @@ namespace {
 GvdResult run(const Scene& scene, const std::string& resolution) {
   PipelineOptions o;
   o.threads = 2;
-  o.resolution = resolution;
+  o.resolution = parse_choice<GvdResolution>(resolution);
   return compute_gvd(scene, o);
 }
 
@@ -114,9 +114,9 @@ TEST(CompactGvd, CurvedInterfacesMergeWithinTheirTolerance3D) {
                            test::make_box("box", {-1.01, -1.01, -1.01}, {1.01, 1.01, 1.01})});
   PipelineOptions o;
   o.threads = 2;
-  o.resolution = "full";
+  o.resolution = GvdResolution::kFull;
   const GvdResult full = compute_gvd(scene, o);
-  o.resolution = "compact";
+  o.resolution = GvdResolution::kCompact;
   o.curved_tolerance = 1e-2;
   const GvdResult compact = compute_gvd(scene, o);
   EXPECT_EQ(test::count_gvd_object_crossings(compact.scene, compact.gvd), 0u);

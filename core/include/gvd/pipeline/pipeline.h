@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "gvd/compute/compute_backend.h"
+#include "gvd/pipeline/parameters.h"
 #include "gvd/result/gvd_result.h"
 #include "gvd/scene/scene.h"
 
@@ -31,28 +32,28 @@ struct PipelineOptions {
   /// to max_depth in 2D, 2 in 3D.
   int ambiguity_levels = -1;
   int threads = 0;  ///< 0 = all cores
-  /// "cpu" (the CPU twins) or "opencl"; "opencl" needs `compute` (core has no OpenCL: the
-  /// caller makes one with gvd::kernels::choose_backend).
-  std::string backend = "cpu";
+  /// kCpu (the CPU twins) or kOpenCl; kOpenCl needs `compute` (core has no OpenCL: the
+  /// caller makes one with gvd::kernels::choose_backend, which resolves kAuto).
+  BackendRequest backend = BackendRequest::kCpu;
   /// The data-parallel backend (closest-point initialisation); null = the CPU twins.
   std::shared_ptr<ComputeBackend> compute;
-  /// How the first octree is built: "levels" (build_octree, level-synchronous; the faster on
-  /// 2 cores) or "data-parallel" (build_octree_data_parallel: the draft's Karras / conflict-
+  /// How the first octree is built: kLevels (build_octree, level-synchronous; the faster on
+  /// 2 cores) or kDataParallel (build_octree_data_parallel: the draft's Karras / conflict-
   /// cell construction, on the backend's kernels when it has them). Same leaves either way.
-  std::string octree_build = "levels";
-  /// Closest points of the vertices of empty leaves: "exact" (every vertex by the BVH or the
-  /// backend's kernel; the default) or "wavefront" (the paper's Algorithm 1). DistanceMethod.
-  std::string distance = "exact";
-  /// Where different objects come close: "certified" (the default: a cell is not split where
+  OctreeBuild octree_build = OctreeBuild::kLevels;
+  /// Closest points of the vertices of empty leaves: kExact (every vertex by the BVH or the
+  /// backend's kernel; the default) or kWavefront (the paper's Algorithm 1).
+  DistanceMethod distance = DistanceMethod::kExact;
+  /// Where different objects come close: kCertified (the default: a cell is not split where
   /// exact distances certify that two objects' bisector in it is one plane, or a curve swept
   /// along a straight rim parallel to an axis, so cost follows the geometry, not 1/gap;
-  /// PairCertifier) or "paper" (the paper's rule of §3 alone: cells shrink to the gap over
+  /// PairCertifier) or kPaper (the paper's rule of §3 alone: cells shrink to the gap over
   /// the whole contact).
-  std::string refine = "certified";
-  /// "compact" (default: flat parts of the GVD merged into large pieces, compact_gvd.h) or
-  /// "full" (one piece per octree leaf it crosses, as surfaced).
-  std::string resolution = "compact";
-  /// With "compact": curved parts are merged too while they stay within this fraction of the
+  RefineRule refine = RefineRule::kCertified;
+  /// kCompact (default: flat parts of the GVD merged into large pieces, compact_gvd.h) or
+  /// kFull (one piece per octree leaf it crosses, as surfaced).
+  GvdResolution resolution = GvdResolution::kCompact;
+  /// With kCompact: curved parts are merged too while they stay within this fraction of the
   /// local clearance of the surfaced GVD (compact_gvd.h); 0 = flat parts only.
   double curved_tolerance = 0;
   /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
@@ -61,6 +62,12 @@ struct PipelineOptions {
   ProgressFn progress;  ///< optional
   const std::atomic<bool>* cancel = nullptr;
 };
+
+/// The engine options of `params` (parameters.h): the octree and refinement parameters, the
+/// domain box, threads, leaf limit, frame and the choices. `backend`, `compute` and the
+/// progress are the caller's (params.backend is a request that kernels::choose_backend
+/// resolves). Call params.check(dimension, ...) first.
+PipelineOptions pipeline_options(const PipelineParams& params);
 
 /// The whole pipeline (docs/ARCHITECTURE.md draws it):
 /// Scene -> make_domain/make_unit_geometry -> build_octree -> Octree -> compute_distances ->
