@@ -309,6 +309,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     const size_t grain = 2048;
     struct Compact {
       std::vector<uint32_t> vertex;
+      size_t begin = 0, end = 0;  // its leaves (parallel_for may hand a thread several grains)
     };
     field.leaf_slots.resize(nl);
     std::vector<Compact> compact((nl + grain - 1) / grain);
@@ -340,6 +341,8 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
           }
           // Kept until every chunk is done: without unused capacity.
           mine.vertex.shrink_to_fit();
+          mine.begin = b;
+          mine.end = e;
           compact[b / grain] = std::move(mine);
         },
         grain);
@@ -365,7 +368,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
       leaf_verts.items.resize(leaf_verts.begin[nl]);
       for (size_t c = compact.size(); c-- > 0;) {
         size_t from_compact = compact[c].vertex.size();
-        for (size_t i = std::min(nl, (c + 1) * grain); i-- > c * grain;) {
+        for (size_t i = compact[c].end; i-- > compact[c].begin;) {
           if (recompute[i]) {
             from_compact -= count[i];
             fill_row(i, compact[c].vertex.data() + from_compact);

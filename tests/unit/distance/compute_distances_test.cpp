@@ -82,25 +82,30 @@ TEST(ComputeDistances, ExactMethodAgreesWithBruteForceOnEveryVertexIn3d) {
 }
 
 TEST_P(ComputeDistancesMethod, IncrementalRefinementEqualsAFullRecomputation) {
-  for (int dim : {2, 3}) {
+  // threads 1: one worker takes every chunk of leaves at once (the consumed field's lists,
+  // grown in place, must not assume a chunk per grain).
+  for (const auto& [dim, threads] : {std::pair{2, 0}, {3, 0}, {2, 1}, {3, 1}}) {
+    SCOPED_TRACE("dim " + std::to_string(dim) + ", threads " + std::to_string(threads));
     auto s =
         setup(dim == 2 ? test::make_scene(2, {test::make_circle("a", {0, 0, 0}, 1, 32),
                                               test::make_circle("b", {2.01, 0, 0}, 1, 32),
                                               test::make_circle("c", {1, 1.8, 0}, 0.7, 32)})
                        : test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
                                               test::make_sphere("b", {2.02, 0, 0}, 1, 8, 16)}));
-    const DistanceField first = compute_distances(s->octree, s->geometry, s->bvh, options());
+    DistanceOptions o = options();
+    o.threads = threads;
+    const DistanceField first = compute_distances(s->octree, s->geometry, s->bvh, o);
     // Split every fifth leaf.
     std::vector<CellRef> splits;
     for (uint32_t l = 0; l < s->octree.leaf_count(); l += 5)
       splits.push_back(cell_of(s->octree, l));
     const Octree refined = refine_octree(s->octree, s->geometry, splits);
     DistanceField incremental =
-        compute_distances(refined, s->geometry, s->bvh, options(), &first, &s->octree);
-    const DistanceField full = compute_distances(refined, s->geometry, s->bvh, options(), &first);
+        compute_distances(refined, s->geometry, s->bvh, o, &first, &s->octree);
+    const DistanceField full = compute_distances(refined, s->geometry, s->bvh, o, &first);
     // The overload that consumes the previous field gives the same field.
     const DistanceField consumed =
-        compute_distances(refined, s->geometry, s->bvh, options(), DistanceField(first), s->octree);
+        compute_distances(refined, s->geometry, s->bvh, o, DistanceField(first), s->octree);
     EXPECT_EQ(consumed.vertices.key, incremental.vertices.key);
     EXPECT_EQ(consumed.label, incremental.label);
     EXPECT_EQ(consumed.point, incremental.point);
