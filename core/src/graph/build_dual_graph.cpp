@@ -2,6 +2,7 @@
 #include <cmath>
 #include <map>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/parallel.h"
 #include "gvd/graph/dual_graph.h"
 
@@ -43,7 +44,7 @@ DualGraph build_dual_graph(const Gvd& gvd) {
 }
 
 void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
-                        const Domain& domain, int threads) {
+                        const Domain& domain, int threads, const std::atomic<bool>* cancel) {
   const int arity = gvd.dimension == 2 ? 2 : 3;
   struct Piece {
     uint32_t cell, first;  // the simplex's first index in cell.indices
@@ -75,7 +76,7 @@ void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
   parallel_for(
       pieces.size(), threads,
       [&](size_t b, size_t e, int) {
-        for (size_t i = b; i < e; ++i) {
+        for (size_t i = b; i < e && !is_cancelled(cancel); ++i) {
           const GvdCell& cell = gvd.cells[pieces[i].cell];
           Vec3 q[3];
           for (int k = 0; k < arity; ++k)
@@ -85,6 +86,7 @@ void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
         }
       },
       64);
+  throw_if_cancelled(cancel, "clearances");
   for (size_t i = 0; i < pieces.size(); ++i) {
     if (!hits[i].found()) continue;
     DualEdge& e = graph.edges[pieces[i].edge];
@@ -97,16 +99,19 @@ void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
 }
 
 void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
-                  const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads) {
+                  const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads,
+                  const std::atomic<bool>* cancel) {
   std::vector<SimplexBvh::ObjectPair> pairs(graph.edges.size());
   parallel_for(
       graph.edges.size(), threads,
       [&](size_t b, size_t e, int) {
-        for (size_t i = b; i < e; ++i)
+        for (size_t i = b; i < e && !is_cancelled(cancel); ++i)
           pairs[i] = bvh.object_distance(graph.edges[i].a, graph.edges[i].b);
       },
       1);
+  throw_if_cancelled(cancel, "gap measurement");
   for (size_t i = 0; i < graph.edges.size(); ++i) {
+    if ((i & 255) == 0) throw_if_cancelled(cancel, "gap measurement");
     DualEdge& e = graph.edges[i];
     if (!pairs[i].found) continue;
     e.gap = std::sqrt(pairs[i].dist2) * domain.side;

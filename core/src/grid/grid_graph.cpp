@@ -214,7 +214,7 @@ DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene,
   const double tolerance = 2.0 * std::sqrt(double(dim)) * std::ldexp(1.0, -max_depth);
   const ContactPairs contacts = find_contact_pairs(geometry, bvh, tolerance, threads, cancel);
   throw_if_cancelled(cancel, "the grid's dual graph");
-  measure_gaps(graph, bvh, domain, contacts.pairs(), threads);
+  measure_gaps(graph, bvh, domain, contacts.pairs(), threads, cancel);
   if (options.progress) options.progress(1);
   return graph;
 }

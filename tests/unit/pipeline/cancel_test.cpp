@@ -4,10 +4,12 @@
 
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <thread>
 
 #include "gvd/common/error.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/graph/dual_graph.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"
 #include "support/scenes.h"
@@ -36,6 +38,35 @@ TEST(Cancel, TouchingPairPassStopsAtOnce) {
   }
   cancel = false;
   EXPECT_EQ(find_contact_pairs(g, bvh, 1e-6, 2, &cancel).pairs().size(), 50u * 49 / 2);
+}
+
+// The graph stage's exact measurements (an edge between two large objects is a long search)
+// stop with the flag; unset, they give the pipeline's own figures again.
+TEST(Cancel, GraphMeasurementsStopAtOnce) {
+  const Scene scene = test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                           test::make_sphere("b", {2.5, 0, 0}, 1, 8, 16),
+                                           test::make_sphere("c", {0, 2.5, 0}, 1, 8, 16)});
+  GvdResult r = compute_gvd(scene);
+  ASSERT_FALSE(r.graph.edges.empty());
+  const SimplexBvh bvh(3, r.geometry.points, r.geometry.simplices, r.geometry.object_of);
+  std::atomic<bool> cancel{true};
+  DualGraph graph = r.graph;
+  for (DualEdge& e : graph.edges) e.gap = -1;
+  auto expect_cancelled = [](const std::function<void()>& work, const char* what) {
+    try {
+      work();
+      ADD_FAILURE() << what << " ran to the end with the flag set";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kCancelled) << what << ": " << e.what();
+    }
+  };
+  expect_cancelled([&] { measure_gaps(graph, bvh, r.domain, {}, 2, &cancel); }, "measure_gaps");
+  expect_cancelled([&] { tighten_clearances(graph, r.gvd, bvh, r.domain, 2, &cancel); },
+                   "tighten_clearances");
+  cancel = false;
+  measure_gaps(graph, bvh, r.domain, {}, 2, &cancel);
+  for (size_t i = 0; i < graph.edges.size(); ++i)
+    EXPECT_DOUBLE_EQ(graph.edges[i].gap, r.graph.edges[i].gap) << "edge " << i;
 }
 
 // The latency asked of a release build. Sanitizer builds run 10-20 times slower, and the scene

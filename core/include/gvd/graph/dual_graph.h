@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <vector>
 
 #include "gvd/geometry/simplex_bvh.h"
@@ -49,10 +50,14 @@ DualGraph build_dual_graph(const Gvd& gvd);
 /// Where no third object is nearer to the middle of the pair's closest points than half the
 /// gap, that middle lies on the interface and no interface point is nearer to the objects:
 /// min_clearance becomes half the gap, exactly, and tightest_point that middle.
+/// Both read `cancel` (may be null) between edges or pieces and stop with
+/// gvd::Error{kCancelled}: an edge between two large objects is a long exact search.
 void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
-                  const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads);
+                  const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads,
+                  const std::atomic<bool>* cancel = nullptr);
 
 void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
-                        const Domain& domain, int threads);
+                        const Domain& domain, int threads,
+                        const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace gvd
