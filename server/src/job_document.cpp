@@ -169,6 +169,19 @@ std::string job_document(const JobRecord& job, JobStatus shown,
   return s.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
+void write_stored_request(const std::string& base, const JobRequest& request, double submitted_at) {
+  write_file_atomic(base + ".scene.json", request.scene_json);
+  nlohmann::json meta = {{"id", request.id},
+                         {"submitted_at", submitted_at},
+                         {"params", nlohmann::json::parse(request.params_json)},
+                         {"warnings", nlohmann::json::parse(request.warnings_json)},
+                         {"dimension", request.dimension},
+                         {"objects", request.objects},
+                         {"simplices", request.simplices}};
+  if (!request.units.empty()) meta["units"] = request.units;
+  write_file_atomic(base + ".json", meta.dump());
+}
+
 Scene read_stored_scene(const std::string& base, const SceneLimits& limits) {
   auto text = [](const std::string& path) {
     const std::vector<uint8_t> bytes = read_file_bytes(path);

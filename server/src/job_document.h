@@ -54,6 +54,11 @@ nlohmann::json iso_time(double unix_seconds);
 /// The seconds since the Unix epoch of an iso_time text; 0 for null or anything else.
 double unix_from_iso(const nlohmann::json& text);
 
+/// Stores a request for either queue's workers: the scene (`<base>.scene.json`) first, then the
+/// request that points at it (`<base>.json`: id, time, parameters, upload warnings, sizes and
+/// units); each file written atomically, so recovery trusts a request only with its scene.
+void write_stored_request(const std::string& base, const JobRequest& request, double submitted_at);
+
 /// The scene of a stored request (`<base>.scene.json`, parsed within `limits`) with the
 /// warnings of its original upload that normalizing removed (`<base>.json`: degenerate
 /// simplices): what both queues' workers compute.

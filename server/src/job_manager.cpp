@@ -255,17 +255,7 @@ SubmitOutcome JobManager::submit(const JobRequest& request) {
   // Persist before answering (outside the lock: the writes are fsynced): the scene first, then
   // the request that points at it (recovery only trusts a request whose scene is complete).
   try {
-    const std::string base = dir("requests") + "/" + request.id;
-    write_file_atomic(base + ".scene.json", request.scene_json);
-    Json meta = {{"id", request.id},
-                 {"submitted_at", job->submitted_at},
-                 {"params", Json::parse(request.params_json)},
-                 {"warnings", Json::parse(request.warnings_json)},
-                 {"dimension", request.dimension},
-                 {"objects", request.objects},
-                 {"simplices", request.simplices}};
-    if (!request.units.empty()) meta["units"] = request.units;
-    write_file_atomic(base + ".json", meta.dump());
+    write_stored_request(dir("requests") + "/" + request.id, request, job->submitted_at);
     remove_quietly(dir("failed") + "/" + request.id + ".json");
   } catch (...) {
     lock.lock();

@@ -486,17 +486,7 @@ SubmitOutcome RedisJobQueue::submit(const JobRequest& request) {
   job.submitted_at = unix_now();
   // The request goes to the shared store first (a worker of any replica reads it there): the
   // scene, then the request that points at it.
-  const std::string base = dir("requests") + "/" + request.id;
-  write_file_atomic(base + ".scene.json", request.scene_json);
-  Json meta = {{"id", request.id},
-               {"submitted_at", job.submitted_at},
-               {"params", Json::parse(request.params_json)},
-               {"warnings", Json::parse(request.warnings_json)},
-               {"dimension", request.dimension},
-               {"objects", request.objects},
-               {"simplices", request.simplices}};
-  if (!request.units.empty()) meta["units"] = request.units;
-  write_file_atomic(base + ".json", meta.dump());
+  write_stored_request(dir("requests") + "/" + request.id, request, job.submitted_at);
   remove_quietly(dir("failed") + "/" + request.id + ".json");
   const std::string doc = job_document(job, JobStatus::kQueued, std::nullopt);
   RedisReply r = api([&](RedisConnection& redis) {

@@ -18,6 +18,7 @@
 #include "gvd/grid/sample_result_grid.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/label_volume.h"
+#include "support/cancel.h"
 #include "support/scenes.h"
 
 namespace gvd {
@@ -119,14 +120,7 @@ TEST(Cancel, SetFlagStopsEveryGridStageAtOnce) {
   const Scene scene = test::make_scene(2, {test::make_segment("a", {0, 0, 0}, {1, 0, 0}),
                                            test::make_rect("b", {0, 1, 0}, {1, 2, 0})});
   std::atomic<bool> cancel{true};
-  auto expect_cancelled = [](const std::function<void()>& work, const char* what) {
-    try {
-      work();
-      ADD_FAILURE() << what << " ran to the end with the flag set";
-    } catch (const Error& e) {
-      EXPECT_EQ(e.code(), ErrorCode::kCancelled) << what << ": " << e.what();
-    }
-  };
+  using test::expect_cancelled;
   GridOptions o;
   o.resolution = 32;
   o.cancel = &cancel;

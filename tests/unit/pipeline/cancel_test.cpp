@@ -1,10 +1,11 @@
 // Cancellation: a set flag stops compute_gvd promptly in every stage, including the touching-
 // pair pass, whose cost grows as the square of the number of coincident objects.
+#include "support/cancel.h"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
-#include <functional>
 #include <thread>
 
 #include "gvd/common/error.h"
@@ -52,14 +53,7 @@ TEST(Cancel, GraphMeasurementsStopAtOnce) {
   std::atomic<bool> cancel{true};
   DualGraph graph = r.graph;
   for (DualEdge& e : graph.edges) e.gap = -1;
-  auto expect_cancelled = [](const std::function<void()>& work, const char* what) {
-    try {
-      work();
-      ADD_FAILURE() << what << " ran to the end with the flag set";
-    } catch (const Error& e) {
-      EXPECT_EQ(e.code(), ErrorCode::kCancelled) << what << ": " << e.what();
-    }
-  };
+  using test::expect_cancelled;
   expect_cancelled([&] { measure_gaps(graph, bvh, r.domain, {}, 2, &cancel); }, "measure_gaps");
   expect_cancelled([&] { tighten_clearances(graph, r.gvd, bvh, r.domain, 2, &cancel); },
                    "tighten_clearances");
