@@ -1116,6 +1116,7 @@ LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
           // average), at the cost of one copy of a chunk that is still in cache.
           chunk.corners.shrink_to_fit();
           chunk.simplices.shrink_to_fit();
+          chunk.twin.shrink_to_fit();
           chunks[b / grain] = std::move(chunk);
         },
         grain);

@@ -51,11 +51,23 @@ struct SurfaceChunk {
   };
   std::vector<Corner> corners;
   std::vector<Simplex> simplices;
+  // Surfacing emits each interface piece twice, once per side, the second right after the
+  // first with its first two corners swapped and the pair's other object: such a second one
+  // is not stored, its first's `twin` is set instead (half the simplices held until the
+  // weld, which writes both; per object the order of the simplices is the same).
+  std::vector<uint8_t> twin;
+
+  // The simplex of the other side of a twinned one (corners as records of this chunk).
+  Simplex twin_of(const Simplex& t) const {
+    const Corner& c = corners[t.v[0]];
+    return {{t.v[1], t.v[0], t.v[2]}, t.object == c.lo ? c.hi : c.lo};
+  }
 
   // Appends one leaf's pieces, merging equal (point, pair) within the leaf (a small
   // open-addressing table over the leaf's records; the scan covers only a collision chain).
   void add(const std::vector<Piece>& pieces, int arity, const std::vector<Vec3>& closest) {
     const size_t first = corners.size();
+    const size_t first_simplex = simplices.size();
     size_t bits = 6;
     while ((size_t{1} << bits) < 4 * pieces.size() * arity) ++bits;
     const size_t mask = (size_t{1} << bits) - 1;
@@ -89,7 +101,16 @@ struct SurfaceChunk {
         }
         t.v[k] = at;
       }
+      if (simplices.size() > first_simplex && !twin.back()) {
+        const Simplex& last = simplices.back();
+        if (last.object == piece.other && t.v[0] == last.v[1] && t.v[1] == last.v[0] &&
+            (arity == 2 || t.v[2] == last.v[2])) {
+          twin.back() = 1;
+          continue;
+        }
+      }
       simplices.push_back(t);
+      twin.push_back(0);
     }
   }
 

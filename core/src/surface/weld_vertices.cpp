@@ -233,7 +233,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
       },
       1);
   // The sorting state is done with; the chunks' simplices take their vertices from the
-  // records, whose memory then goes before the cells' simplices are written.
+  // records (twins written out as two), whose memory then goes before the cells' simplices
+  // are written.
   auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
   release(order);
   release(new_group);
@@ -243,13 +244,24 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
       chunks.size(), threads,
       [&](size_t b, size_t e, int) {
         for (size_t c = b; c < e; ++c) {
-          for (SurfaceChunk::Simplex& t : chunks[c].simplices) {
+          SurfaceChunk& chunk = chunks[c];
+          auto welded = [&](SurfaceChunk::Simplex t) {
             for (int k = 0; k < arity; ++k) {
-              const SurfaceChunk::Corner& corner = chunks[c].corners[t.v[k]];
+              const SurfaceChunk::Corner& corner = chunk.corners[t.v[k]];
               t.v[k] = t.object == corner.lo ? corner.witness : corner.sides;
             }
+            return t;
+          };
+          std::vector<SurfaceChunk::Simplex> both;
+          both.reserve(chunk.simplices.size() +
+                       static_cast<size_t>(std::count(chunk.twin.begin(), chunk.twin.end(), 1)));
+          for (size_t i = 0; i < chunk.simplices.size(); ++i) {
+            both.push_back(welded(chunk.simplices[i]));
+            if (chunk.twin[i]) both.push_back(welded(chunk.twin_of(chunk.simplices[i])));
           }
-          release(chunks[c].corners);
+          chunk.simplices = std::move(both);
+          release(chunk.twin);
+          release(chunk.corners);
         }
       },
       1);
