@@ -313,7 +313,6 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     };
     field.leaf_slots.resize(nl);
     std::vector<Compact> compact((nl + grain - 1) / grain);
-    std::vector<uint32_t> count(nl);
     parallel_for(
         nl, threads,
         [&](size_t b, size_t e, int) {
@@ -324,7 +323,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
           for (size_t i = b; i < e; ++i) {
             if (!recompute[i]) {
               const uint32_t ol = old_leaf[i];
-              count[i] = previous->leaf_begin[ol + 1] - previous->leaf_begin[ol];
+              leaf_verts.begin[i + 1] = previous->leaf_begin[ol + 1] - previous->leaf_begin[ol];
               field.leaf_slots[i] = previous->leaf_slots[ol];
               continue;
             }
@@ -336,7 +335,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
               slots |= 1u << k;
               ++c;
             }
-            count[i] = c;
+            leaf_verts.begin[i + 1] = c;
             field.leaf_slots[i] = slots;
           }
           // Kept until every chunk is done: without unused capacity.
@@ -346,7 +345,9 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
           compact[b / grain] = std::move(mine);
         },
         grain);
-    for (size_t i = 0; i < nl; ++i) leaf_verts.begin[i + 1] = leaf_verts.begin[i] + count[i];
+    // Each leaf's count was written to begin[i + 1]: summed in place (no count array).
+    for (size_t i = 0; i < nl; ++i) leaf_verts.begin[i + 1] += leaf_verts.begin[i];
+    auto count = [&](size_t i) { return leaf_verts.begin[i + 1] - leaf_verts.begin[i]; };
     // A consumed field's lists grow in place into the new ones when every row can move up:
     // no row may land below the end of a row of an earlier leaf that is still to be moved
     // (splits only add vertices to a leaf, so this holds after refine_octree; checked).
@@ -360,7 +361,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     }
     auto fill_row = [&](size_t i, const uint32_t* from) {
       std::memmove(leaf_verts.items.data() + leaf_verts.begin[i], from,
-                   count[i] * sizeof(uint32_t));
+                   count(i) * sizeof(uint32_t));
     };
     if (in_place) {
       // Backwards, so that a row is moved before anything is written over its old place.
@@ -370,7 +371,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         size_t from_compact = compact[c].vertex.size();
         for (size_t i = compact[c].end; i-- > compact[c].begin;) {
           if (recompute[i]) {
-            from_compact -= count[i];
+            from_compact -= count(i);
             fill_row(i, compact[c].vertex.data() + from_compact);
           } else {
             fill_row(i, leaf_verts.items.data() + previous->leaf_begin[old_leaf[i]]);
@@ -401,7 +402,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
                 continue;
               }
               fill_row(i, mine.vertex.data() + from_compact);
-              from_compact += count[i];
+              from_compact += count(i);
             }
           },
           grain);
@@ -730,7 +731,7 @@ void sort_vertices(DistanceField& field, int threads) {
   // Incremental rounds append new vertices behind the sorted old ones: sort the tail and merge.
   size_t prefix = 1;
   while (prefix < nv && key[prefix - 1] < key[prefix]) ++prefix;
-  // Only the tail is sorted; the merge writes each position's old index (4 bytes per vertex,
+  // Only the tail is sorted; the merge writes each vertex's new position (4 bytes per vertex,
   // not a 16-byte pair: this runs at the end of the refinement, near its peak).
   using Keyed = std::pair<uint64_t, uint32_t>;
   std::vector<Keyed> tail(nv - prefix);
@@ -739,28 +740,39 @@ void sort_vertices(DistanceField& field, int threads) {
   });
   radix_sort(
       tail, [](const Keyed& x) { return x.first; }, threads);
-  std::vector<uint32_t> order(nv);  // sorted position -> old index
+  std::vector<uint32_t> new_index(nv);  // old index -> sorted position
   for (size_t i = 0, h = 0, t = 0; i < nv; ++i) {
     const bool from_head = t == tail.size() || (h < prefix && key[h] < tail[t].first);
-    order[i] = from_head ? static_cast<uint32_t>(h++) : tail[t++].second;
+    new_index[from_head ? h++ : tail[t++].second] = static_cast<uint32_t>(i);
   }
   std::vector<Keyed>().swap(tail);
-  std::vector<uint32_t> new_index(nv);
-  parallel_for(nv, threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) new_index[order[i]] = static_cast<uint32_t>(i);
-  });
-  auto permute = [&](auto& values) {
-    if (values.size() != nv) return;
-    auto copy = values;
-    parallel_for(nv, threads, [&](size_t b, size_t e, int) {
-      for (size_t i = b; i < e; ++i) values[i] = copy[order[i]];
-    });
-  };
-  permute(field.vertices.key);
-  permute(field.label);
-  permute(field.point);
-  permute(field.exact);
-  permute(field.changed);
+  // The per-vertex arrays are permuted in place, cycle by cycle (no copy of any of them: the
+  // key array alone is 8 bytes per vertex); a cycle's start is where new_index points back.
+  std::vector<uint8_t>* bytes[] = {&field.exact, &field.changed};
+  std::vector<uint32_t>* words[] = {&field.label, &field.point};
+  for (auto* a : bytes) GVD_CHECK(a->size() == nv || a->empty(), "sort_vertices: array size");
+  for (auto* a : words) GVD_CHECK(a->size() == nv || a->empty(), "sort_vertices: array size");
+  std::vector<uint64_t>& keys = field.vertices.key;
+  std::vector<bool> placed(nv, false);
+  for (size_t start = 0; start < nv; ++start) {
+    if (placed[start] || new_index[start] == start) continue;
+    // Carry the element at `start` to its position, the one found there to its own, and
+    // so on until the cycle closes at `start`.
+    uint64_t k = keys[start];
+    uint8_t b[2];
+    uint32_t w[2];
+    for (int a = 0; a < 2; ++a) b[a] = bytes[a]->empty() ? 0 : (*bytes[a])[start];
+    for (int a = 0; a < 2; ++a) w[a] = words[a]->empty() ? 0 : (*words[a])[start];
+    for (size_t at = new_index[start];; at = new_index[at]) {
+      std::swap(k, keys[at]);
+      for (int a = 0; a < 2; ++a)
+        if (!bytes[a]->empty()) std::swap(b[a], (*bytes[a])[at]);
+      for (int a = 0; a < 2; ++a)
+        if (!words[a]->empty()) std::swap(w[a], (*words[a])[at]);
+      placed[at] = true;
+      if (at == start) break;
+    }
+  }
   // Same keys, new positions: the index's values are renumbered in place (no inserts).
   field.vertices.index.transform_values([&](uint32_t v) { return new_index[v]; }, threads);
   parallel_for(field.leaf_vertex.size(), threads, [&](size_t b, size_t e, int) {

@@ -241,7 +241,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     // Only the leaves needed the per-leaf vertex lists (~50 B per leaf): they go before the
     // weld, where memory peaks.
     r.field.drop_leaf_lists();
-    r.gvd = weld_gvd(std::move(pieces), r.field.closest, r.geometry, bvh, r.domain, so);
+    r.gvd = weld_gvd(std::move(pieces), r.geometry, bvh, r.domain, so);
   }
   uint64_t simplices = 0, gvd_bytes = 0;
   for (const GvdCell& c : r.gvd.cells) {

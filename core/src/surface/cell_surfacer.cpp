@@ -17,10 +17,9 @@ namespace {
 using surface_detail::Piece;
 using surface_detail::SurfaceChunk;
 
-// Where a cell's pieces go, with the witness for all of them.
+// Where a cell's pieces go.
 struct Sink {
   std::vector<Piece>& out;
-  uint32_t witness;
 };
 
 // A bisector point on a polygon edge and the labels / positions of the edge's ends, in the
@@ -196,10 +195,6 @@ class CellSurfacer {
   // which bounds the clearance search at the pieces made from it.
   Vec3 witness(const Spoke& s) const {
     return field_.closest[field_.point[static_cast<uint32_t>(s.edge >> 32)]];
-  }
-  // The same point as an index into DistanceField::closest (what pieces carry).
-  uint32_t witness_index(const Spoke& s) const {
-    return field_.point[static_cast<uint32_t>(s.edge >> 32)];
   }
 
   PolygonGvd polygon(const detail::FacePolygon& poly) const {
@@ -392,7 +387,7 @@ class CellSurfacer {
 
   void cell(uint32_t leaf, std::vector<Piece>& pieces) const {
     const LeafGrid grid = field_.grid(octree_, leaf);
-    Sink out{pieces, field_.point[grid[0]]};
+    Sink out{pieces};
     bool mixed = false;
     const ObjectId first = field_.label[grid[0]];
     for (uint32_t v : grid)
@@ -590,12 +585,12 @@ class CellSurfacer {
   static void emit(Sink& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {
     if (obj == kNoObject || obj == kManyObjects) return;
     if (a == b || b == c || a == c) return;  // collapsed: removing it keeps the surface closed
-    out.out.push_back({{a, b, c}, obj, other, out.witness});
+    out.out.push_back({{a, b, c}, obj, other});
   }
   static void emit(Sink& out, Vec3 a, Vec3 b, ObjectId obj, ObjectId other) {
     if (obj == kNoObject || obj == kManyObjects) return;
     if (a == b) return;
-    out.out.push_back({{a, b, Vec3{}}, obj, other, out.witness});
+    out.out.push_back({{a, b, Vec3{}}, obj, other});
   }
 
   void cell_2d(uint32_t leaf, const LeafGrid& grid, bool mixed, Sink& out) const {
@@ -606,13 +601,11 @@ class CellSurfacer {
     // The ring runs counter-clockwise, so label_a lies to the left of bisector -> centroid.
     // Two spokes through their midpoint are one straight segment: emit it whole.
     if (g.n == 2) {
-      out.witness = witness_index(g.spokes[0]);
       emit(out, g.spokes[0].p, g.spokes[1].p, g.spokes[0].label_a, g.spokes[0].label_b);
       emit(out, g.spokes[1].p, g.spokes[0].p, g.spokes[0].label_b, g.spokes[0].label_a);
     } else {
       for (int i = 0; i < g.n; ++i) {
         const Spoke& s = g.spokes[i];
-        out.witness = witness_index(s);
         emit(out, s.p, g.centroid, s.label_a, s.label_b);
         emit(out, g.centroid, s.p, s.label_b, s.label_a);
       }
@@ -704,7 +697,6 @@ class CellSurfacer {
       if (g.n == 2 && !g.curve.empty()) {
         // A traced curve: a fan from the apex over its chords.
         const Spoke& s0 = g.spokes[0];
-        out.witness = witness_index(s0);
         Vec3 prev = s0.p;
         for (size_t k = 0; k <= g.curve.size(); ++k) {
           const Vec3 next = k < g.curve.size() ? g.curve[k] : g.spokes[1].p;
@@ -723,7 +715,6 @@ class CellSurfacer {
         // Two spokes meet at their midpoint in a straight line: one triangle per side instead
         // of two, with the same edges as the cell across (which merges the same face).
         const Spoke& s0 = g.spokes[0];
-        out.witness = witness_index(s0);
         const Spoke& s1 = g.spokes[1];
         if (outward_plus) {
           emit(out, s0.p, s1.p, rc, s0.label_a, s0.label_b);
@@ -737,7 +728,6 @@ class CellSurfacer {
       }
       for (int i = 0; i < g.n; ++i) {
         const Spoke& s = g.spokes[i];
-        out.witness = witness_index(s);
         if (outward_plus) {
           emit(out, s.p, g.centroid, rc, s.label_a, s.label_b);
           emit(out, g.centroid, s.p, rc, s.label_b, s.label_a);
@@ -976,12 +966,6 @@ class CellSurfacer {
       }
       final_tris.insert(final_tris.end(), parts.begin(), parts.end());
     }
-    for (int f = 0; f < np; ++f) {
-      if (gvds[f].n > 0) {
-        out.witness = witness_index(gvds[f].spokes[0]);
-        break;
-      }
-    }
     for (const Tri& t : final_tris) {
       emit(out, t.v[0], t.v[1], t.v[2], x, y);
       emit(out, t.v[1], t.v[0], t.v[2], y, x);
@@ -998,7 +982,6 @@ class CellSurfacer {
       // The straight GVD segment p0 -> p1 splits the face into two convex parts; fan each
       // from its first point so that the segment itself is an edge (as in the GVD triangles).
       const Spoke& s0 = g.spokes[0];
-      out.witness = witness_index(s0);
       const Spoke& s1 = g.spokes[1];
       auto fan = [&](Vec3 from, int first, int last, Vec3 to, ObjectId obj) {
         Vec3 prev = field_.vertices.position(poly.v[first]);
@@ -1110,11 +1093,12 @@ LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
           for (size_t i = b; i < e; ++i) {
             local.clear();
             surfacer.cell(active[i], local);
-            chunk.add(local, arity, field.closest);
+            chunk.add(local, arity);
           }
           // Kept until the weld, where memory peaks: without the growth's slack (a third on
           // average), at the cost of one copy of a chunk that is still in cache.
           chunk.corners.shrink_to_fit();
+          chunk.sides.shrink_to_fit();
           chunk.simplices.shrink_to_fit();
           chunk.twin.shrink_to_fit();
           chunks[b / grain] = std::move(chunk);
@@ -1128,8 +1112,8 @@ LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
 
 Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
                 const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
-  return weld_gvd(surface_leaves(octree, field, geometry, bvh, options), field.closest, geometry,
-                  bvh, domain, options);
+  return weld_gvd(surface_leaves(octree, field, geometry, bvh, options), geometry, bvh, domain,
+                  options);
 }
 
 }  // namespace gvd

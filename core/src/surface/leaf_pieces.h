@@ -16,8 +16,6 @@ struct Piece {
   Vec3 p[3];
   ObjectId object;
   ObjectId other;
-  uint32_t witness;  // a closest point (DistanceField::closest) near the piece: bounds the
-                     // clearance search
 };
 
 // A hash of a point's exact coordinates (-0 and +0 alike): equal points, equal hashes.
@@ -39,17 +37,18 @@ inline uint64_t position_hash(Vec3 p) {
 // and b is one record for both sides; `sides` says which of them has a vertex there (bit 0:
 // the lower object, bit 1: the higher one), so the records are half as many as the corners.
 struct SurfaceChunk {
+  // 32 bytes: these records are what memory peaks on at the end of surfacing and in the weld.
   struct Corner {
-    Vec3 p;
+    Vec3 p;           // the weld writes the record's vertices over it once p is used
     ObjectId lo, hi;  // the pair, lo < hi (hi = kNoObject on the domain box)
-    uint32_t sides;
-    uint32_t witness;  // the nearest of its pieces' witnesses (DistanceField::closest index)
   };
+  static_assert(sizeof(Corner) == 32);
   struct Simplex {
     uint32_t v[3];
     ObjectId object;
   };
   std::vector<Corner> corners;
+  std::vector<uint8_t> sides;  // per corner
   std::vector<Simplex> simplices;
   // Surfacing emits each interface piece twice, once per side, the second right after the
   // first with its first two corners swapped and the pair's other object: such a second one
@@ -65,7 +64,7 @@ struct SurfaceChunk {
 
   // Appends one leaf's pieces, merging equal (point, pair) within the leaf (a small
   // open-addressing table over the leaf's records; the scan covers only a collision chain).
-  void add(const std::vector<Piece>& pieces, int arity, const std::vector<Vec3>& closest) {
+  void add(const std::vector<Piece>& pieces, int arity) {
     const size_t first = corners.size();
     const size_t first_simplex = simplices.size();
     size_t bits = 6;
@@ -76,7 +75,7 @@ struct SurfaceChunk {
       Simplex t{{0, 0, 0}, piece.object};
       const ObjectId lo = std::min(piece.object, piece.other);
       const ObjectId hi = std::max(piece.object, piece.other);
-      const uint32_t side = piece.object == lo ? 1u : 2u;
+      const uint8_t side = piece.object == lo ? 1 : 2;
       for (int k = 0; k < arity; ++k) {
         const Vec3& p = piece.p[k];
         size_t slot = (position_hash(p) ^ (uint64_t{lo} * 0x9e3779b97f4a7c15ull) ^ hi) & mask;
@@ -91,13 +90,10 @@ struct SurfaceChunk {
         if (at == kEmpty) {
           at = static_cast<uint32_t>(corners.size());
           table[slot] = static_cast<uint32_t>(at - first);
-          corners.push_back({p, lo, hi, side, piece.witness});
+          corners.push_back({p, lo, hi});
+          sides.push_back(side);
         } else {
-          corners[at].sides |= side;
-          if (piece.witness != kNoVertex &&
-              (corners[at].witness == kNoVertex ||
-               dist2(p, closest[piece.witness]) < dist2(p, closest[corners[at].witness])))
-            corners[at].witness = piece.witness;
+          sides[at] |= side;
         }
         t.v[k] = at;
       }
@@ -118,6 +114,19 @@ struct SurfaceChunk {
   static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
   std::vector<uint32_t> table;  // scratch of add(): slot -> record - first
 };
+
+// The weld's vertices of a record (the lower object's, the higher one's), written over its
+// position once that is no longer read.
+inline void set_vertices(SurfaceChunk::Corner& c, uint32_t lo_vertex, uint32_t hi_vertex) {
+  const uint32_t v[2] = {lo_vertex, hi_vertex};
+  static_assert(sizeof v == sizeof c.p.x);
+  std::memcpy(&c.p.x, v, sizeof v);
+}
+inline uint32_t vertex_of(const SurfaceChunk::Corner& c, ObjectId object) {
+  uint32_t v[2];
+  std::memcpy(v, &c.p.x, sizeof v);
+  return v[object == c.lo ? 0 : 1];
+}
 
 }  // namespace gvd::surface_detail
 

@@ -33,8 +33,8 @@ std::vector<uint32_t> part_starts(std::vector<uint32_t>& base, size_t parts, siz
 
 }  // namespace
 
-Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeometry& geometry,
-             const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
+Gvd weld_gvd(LeafPieces&& pieces, const UnitGeometry& geometry, const SimplexBvh& bvh,
+             const Domain& domain, const SurfaceOptions& options) {
   GVD_CHECK(pieces.impl_ != nullptr, "weld_gvd: the pieces were already welded");
   const int dim = geometry.dimension;
   const int threads = resolve_threads(options.threads);
@@ -47,10 +47,17 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
   for (size_t c = 0; c < chunks.size(); ++c)
     chunk_start[c + 1] = chunk_start[c] + chunks[c].corners.size();
   const size_t nc = chunk_start.back();
+  auto chunk_of = [&](size_t r) {
+    return static_cast<size_t>(std::upper_bound(chunk_start.begin(), chunk_start.end(), r) -
+                               chunk_start.begin() - 1);
+  };
   auto record = [&](size_t r) -> SurfaceChunk::Corner& {
-    const size_t c = static_cast<size_t>(
-        std::upper_bound(chunk_start.begin(), chunk_start.end(), r) - chunk_start.begin() - 1);
+    const size_t c = chunk_of(r);
     return chunks[c].corners[r - chunk_start[c]];
+  };
+  auto sides_of = [&](size_t r) -> uint8_t& {
+    const size_t c = chunk_of(r);
+    return chunks[c].sides[r - chunk_start[c]];
   };
   // Vertices: one per (object, other object, exact position). Identical points are made
   // contiguous by sorting the records by the hash of their position: a counting sort into
@@ -107,6 +114,7 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
   // one position; within a run, groups of one pair, whose records' sides together say which
   // of the pair's objects get a vertex.
   auto sorted = [&](size_t i) -> SurfaceChunk::Corner& { return record(order[i]); };
+  auto sorted_sides = [&](size_t i) -> uint8_t& { return sides_of(order[i]); };
   std::vector<uint8_t> new_group(nc);
   std::vector<size_t> run_start;
   {
@@ -123,7 +131,7 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
     parallel_for(nc, threads, [&](size_t b, size_t e, int) {
       for (size_t i = b; i < e; ++i) {
         if (!new_group[i]) continue;
-        for (size_t j = i + 1; j < nc && !new_group[j]; ++j) sorted(i).sides |= sorted(j).sides;
+        for (size_t j = i + 1; j < nc && !new_group[j]; ++j) sorted_sides(i) |= sorted_sides(j);
       }
     });
     for (size_t i = 0; i < nc; ++i)
@@ -132,7 +140,9 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
   }
   const size_t runs = run_start.size() - 1;
 
-  // Exact clearance once per distinct point; the records' witnesses bound the search.
+  // Exact clearance once per distinct point; the last answer of the thread bounds the search
+  // (the points come in the leaves' order, so it is close: on the spheres this bound alone is
+  // as fast as one from a closest point of the leaf).
   // In the order the leaves made them (Z order, so nearby queries follow each other and
   // share the BVH's cache lines) rather than in hash order.
   std::vector<std::pair<uint64_t, uint32_t>> run_order(runs);
@@ -155,11 +165,7 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
         for (size_t o = b; o < e; ++o) {
           const size_t r = run_order[o].second;
           const Vec3 p = sorted(run_start[r]).p;
-          double bound2 = 1e300;
-          for (size_t i = run_start[r]; i < run_start[r + 1]; ++i)
-            if (sorted(i).witness != kNoVertex)
-              bound2 = std::min(bound2, dist2(p, closest[sorted(i).witness]));
-          if (have_previous) bound2 = std::min(bound2, dist2(p, previous) * (1 + 1e-9));
+          const double bound2 = have_previous ? dist2(p, previous) * (1 + 1e-9) : 1e300;
           const ClosestHit hit = bvh.nearest(p, bound2);
           run_clearance[r] = std::sqrt(hit.found() ? hit.dist2 : bound2) * domain.side;
           have_previous = hit.found();
@@ -189,8 +195,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
           for (size_t i = run_start[part_run[p]]; i < run_start[part_run[p + 1]]; ++i) {
             if (!new_group[i]) continue;
             const SurfaceChunk::Corner& c = sorted(i);
-            if (c.sides & 1) ++vertex_base[p * objects + c.lo];
-            if (c.sides & 2) ++vertex_base[p * objects + c.hi];
+            if (sorted_sides(i) & 1) ++vertex_base[p * objects + c.lo];
+            if (sorted_sides(i) & 2) ++vertex_base[p * objects + c.hi];
           }
         }
       },
@@ -201,8 +207,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
     cell.other.resize(vertices[cell.object]);
     cell.clearance.resize(vertices[cell.object]);
   }
-  // Each record then holds the vertex of each side in place of what the weld no longer needs:
-  // `witness` the lower object's, `sides` the higher one's (a group's sides are read before).
+  // Each record then holds the vertex of each side in place of its position, which its run
+  // has read before (set_vertices).
   parallel_for(
       parts, threads,
       [&](size_t b, size_t e, int) {
@@ -216,7 +222,7 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
               if (new_group[i]) {
                 const ObjectId pair[2] = {c.lo, c.hi};
                 for (int side = 0; side < 2; ++side) {
-                  if (!(c.sides >> side & 1)) continue;
+                  if (!(sorted_sides(i) >> side & 1)) continue;
                   const ObjectId o = pair[side];
                   GvdCell& cell = gvd.cells[o];
                   at[side] = next[o]++;
@@ -225,8 +231,7 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
                   cell.clearance[at[side]] = run_clearance[r];
                 }
               }
-              c.witness = at[0];
-              c.sides = at[1];
+              surface_detail::set_vertices(c, at[0], at[1]);
             }
           }
         }
@@ -246,10 +251,8 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
         for (size_t c = b; c < e; ++c) {
           SurfaceChunk& chunk = chunks[c];
           auto welded = [&](SurfaceChunk::Simplex t) {
-            for (int k = 0; k < arity; ++k) {
-              const SurfaceChunk::Corner& corner = chunk.corners[t.v[k]];
-              t.v[k] = t.object == corner.lo ? corner.witness : corner.sides;
-            }
+            for (int k = 0; k < arity; ++k)
+              t.v[k] = surface_detail::vertex_of(chunk.corners[t.v[k]], t.object);
             return t;
           };
           std::vector<SurfaceChunk::Simplex> both;
@@ -261,6 +264,7 @@ Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeome
           }
           chunk.simplices = std::move(both);
           release(chunk.twin);
+          release(chunk.sides);
           release(chunk.corners);
         }
       },

@@ -38,7 +38,7 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
 /// needs (the field's per-leaf vertex lists): memory peaks in the second, where the pieces
 /// of all leaves are welded into shared vertices. `surface_leaves` surfaces every leaf;
 /// `weld_gvd` merges equal corners, measures the clearances and writes the cells, and needs
-/// of the field only its closest points (`field.closest`). The result is extract_gvd's.
+/// nothing of the field. The result is extract_gvd's.
 class LeafPieces {
  public:
   LeafPieces();
@@ -51,13 +51,13 @@ class LeafPieces {
   std::unique_ptr<Impl> impl_;
   friend LeafPieces surface_leaves(const Octree&, const DistanceField&, const UnitGeometry&,
                                    const SimplexBvh&, const SurfaceOptions&);
-  friend Gvd weld_gvd(LeafPieces&&, std::span<const Vec3>, const UnitGeometry&, const SimplexBvh&,
-                      const Domain&, const SurfaceOptions&);
+  friend Gvd weld_gvd(LeafPieces&&, const UnitGeometry&, const SimplexBvh&, const Domain&,
+                      const SurfaceOptions&);
 };
 LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
                           const UnitGeometry& geometry, const SimplexBvh& bvh,
                           const SurfaceOptions& options = {});
-Gvd weld_gvd(LeafPieces&& pieces, std::span<const Vec3> closest, const UnitGeometry& geometry,
-             const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options = {});
+Gvd weld_gvd(LeafPieces&& pieces, const UnitGeometry& geometry, const SimplexBvh& bvh,
+             const Domain& domain, const SurfaceOptions& options = {});
 
 }  // namespace gvd
