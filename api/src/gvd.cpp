@@ -487,12 +487,11 @@ Explosion Result::explode(std::string_view anchor, double scale) const {
 void Result::save(const std::string& path) const { save_result(internal(), path); }
 
 void Result::write_glb(const std::string& path) const {
-  const std::vector<uint8_t> glb = gvd_to_glb(internal().gvd, internal().scene);
-  write_file_atomic(path, glb.data(), glb.size());
+  write_glb_file(path, internal().gvd, internal().scene);
 }
 
 void Result::write_json(const std::string& path) const {
-  write_file_atomic(path, gvd_to_json(internal().gvd, internal().scene));
+  write_json_file(path, internal().gvd, internal().scene);
 }
 
 void Result::write_graph_json(const std::string& path) const {

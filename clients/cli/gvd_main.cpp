@@ -448,8 +448,7 @@ std::vector<std::string> write_requested_outputs(const GvdResult& result, const 
   std::vector<std::string> written;
   const auto glb_path = args.value("-o") ? args.value("-o") : args.value("--output");
   if (glb_path) {
-    const std::vector<uint8_t> glb = gvd_to_glb(result.gvd, result.scene);
-    write_file_atomic(*glb_path, glb.data(), glb.size());
+    write_glb_file(*glb_path, result.gvd, result.scene);
     written.push_back(*glb_path + " (GVD, binary glTF)");
   }
   if (const auto p = args.value("--graph")) {
@@ -457,7 +456,7 @@ std::vector<std::string> write_requested_outputs(const GvdResult& result, const 
     written.push_back(*p + " (dual graph)");
   }
   if (const auto p = args.value("--json")) {
-    write_file_atomic(*p, gvd_to_json(result.gvd, result.scene));
+    write_json_file(*p, result.gvd, result.scene);
     written.push_back(*p + " (GVD, float64 JSON)");
   }
   if (const auto p = args.value("--save")) {

@@ -6,10 +6,13 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "gvd/common/error.h"
@@ -202,14 +205,58 @@ int add_cell(tinygltf::Model& model, const GvdCell& cell, ObjectId index, const 
   return static_cast<int>(model.nodes.size() - 1);
 }
 
-std::vector<uint8_t> model_to_glb(tinygltf::Model& model) {
+/// The model as a GLB file in two parts. The binary buffer is moved out of the model before
+/// tinygltf serialises it (tinygltf copies it into its own buffer and then into the stream:
+/// a large GVD was held about five times at once), and only the JSON comes from tinygltf.
+GlbFile model_to_glb(tinygltf::Model& model) {
+  GlbFile file;
+  std::vector<unsigned char> bin;
+  if (!model.buffers.empty()) bin = std::move(model.buffers[0].data);
   std::ostringstream out(std::ios::out | std::ios::binary);
   tinygltf::TinyGLTF writer;
   const bool ok = writer.WriteGltfSceneToStream(&model, out, /*prettyPrint=*/false,
                                                 /*writeBinary=*/true);
   GVD_CHECK(ok && out.good(), "tinygltf failed to serialise the model");
-  const std::string bytes = out.str();
-  return std::vector<uint8_t>(bytes.begin(), bytes.end());
+  // tinygltf's file without binary data: the 12-byte header, then the JSON chunk (8-byte chunk
+  // header, then the text, padded with spaces). Its buffer's byteLength is that of the empty
+  // buffer: set to the real one.
+  const std::string glb = out.str();
+  GVD_CHECK(glb.size() >= 20, "tinygltf wrote no JSON chunk");
+  uint32_t json_chunk = 0;
+  std::memcpy(&json_chunk, glb.data() + 12, sizeof json_chunk);
+  GVD_CHECK(glb.size() >= 20 + size_t{json_chunk}, "tinygltf's JSON chunk is truncated");
+  std::string json = glb.substr(20, json_chunk);
+  while (!json.empty() && json.back() == ' ') json.pop_back();
+  if (!bin.empty()) {
+    nlohmann::json document = nlohmann::json::parse(json);
+    document["buffers"][0]["byteLength"] = bin.size();
+    json = document.dump();
+  }
+  // The container (glTF 2.0 binary, little-endian): what tinygltf writes with the buffer in.
+  auto put32 = [&](uint32_t v) {
+    unsigned char b[4];
+    std::memcpy(b, &v, 4);
+    file.head.insert(file.head.end(), b, b + 4);
+  };
+  const size_t json_padded = (json.size() + 3) / 4 * 4;
+  const size_t bin_padded = (bin.size() + 3) / 4 * 4;
+  const size_t total = 12 + 8 + json_padded + (bin.empty() ? 0 : 8 + bin_padded);
+  GVD_CHECK(total <= 0xFFFFFFFFu, "the GLB exceeds 4 GiB, the format's limit");
+  file.head.reserve(12 + 8 + json_padded + 8);
+  file.head.insert(file.head.end(), {'g', 'l', 'T', 'F'});
+  put32(2);
+  put32(static_cast<uint32_t>(total));
+  put32(static_cast<uint32_t>(json_padded));
+  put32(0x4E4F534Au);  // "JSON"
+  file.head.insert(file.head.end(), json.begin(), json.end());
+  file.head.resize(12 + 8 + json_padded, ' ');
+  if (!bin.empty()) {
+    put32(static_cast<uint32_t>(bin_padded));
+    put32(0x004E4942u);  // "BIN"
+    bin.resize(bin_padded, 0);
+    file.bin = std::move(bin);
+  }
+  return file;
 }
 
 /// The flat index list of an object's simplices (3 per triangle, 2 per segment).
@@ -222,7 +269,7 @@ std::vector<uint32_t> simplex_indices(const SceneObject& object, int dimension) 
 
 }  // namespace
 
-std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene) {
+GlbFile gvd_glb_file(const Gvd& gvd, const Scene& scene) {
   GVD_CHECK(gvd.dimension == 2 || gvd.dimension == 3, "gvd dimension must be 2 or 3");
   GVD_CHECK(gvd.cells.size() <= scene.objects.size(), "gvd has more cells than scene objects");
   // Object indices and the null feature id are written as JSON integers and float32 values:
@@ -246,6 +293,15 @@ std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene) {
   // A name keeps the scene a JSON object even without nodes (tinygltf writes an empty scene
   // as null, which is invalid glTF).
   gltf_scene.name = "gvd";
+  // The buffer at its final size from the start (growing it would hold it twice at times):
+  // per vertex 3 + 1 + 1 + 3 floats, per index 2 or 4 bytes, each bufferView 4-byte aligned.
+  size_t buffer_bytes = 0;
+  for (const GvdCell& cell : gvd.cells) {
+    if (cell.indices.empty()) continue;
+    const size_t index_bytes = cell.indices.size() * (cell.positions.size() <= 0xFFFFu ? 2 : 4);
+    buffer_bytes += 8 * sizeof(float) * cell.positions.size() + (index_bytes + 3) / 4 * 4;
+  }
+  model.buffers[0].data.reserve(buffer_bytes);
   for (size_t i = 0; i < gvd.cells.size(); ++i) {
     if (gvd.cells[i].indices.empty()) continue;
     gltf_scene.nodes.push_back(add_cell(model, gvd.cells[i], static_cast<ObjectId>(i), scene,
@@ -345,7 +401,26 @@ std::vector<uint8_t> exploded_to_glb(const Scene& scene, std::span<const Vec3> d
   model.scenes.push_back(std::move(gltf_scene));
   model.defaultScene = 0;
   model.buffers[0].data.resize((model.buffers[0].data.size() + 3) / 4 * 4, 0);
-  return model_to_glb(model);
+  return model_to_glb(model).bytes();
+}
+
+std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene) {
+  return gvd_glb_file(gvd, scene).bytes();
+}
+
+void write_glb_file(const std::string& path, const Gvd& gvd, const Scene& scene) {
+  const GlbFile glb = gvd_glb_file(gvd, scene);
+  write_file_atomic(path, [&](const std::function<void(std::string_view)>& put) {
+    for (const std::vector<uint8_t>* part : {&glb.head, &glb.bin})
+      put(std::string_view(reinterpret_cast<const char*>(part->data()), part->size()));
+  });
+}
+
+std::vector<uint8_t> GlbFile::bytes() && {
+  std::vector<uint8_t> out = std::move(head);
+  out.insert(out.end(), bin.begin(), bin.end());
+  std::vector<uint8_t>().swap(bin);
+  return out;
 }
 
 }  // namespace gvd

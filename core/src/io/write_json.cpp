@@ -4,11 +4,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
@@ -62,12 +65,31 @@ std::string directory_of(const std::string& path) {
 
 }  // namespace
 
-std::string gvd_to_json(const Gvd& gvd, const Scene& scene) {
+void write_gvd_json(const Gvd& gvd, const Scene& scene,
+                    const std::function<void(std::string_view)>& sink) {
   GVD_CHECK(gvd.dimension == 2 || gvd.dimension == 3, "gvd dimension must be 2 or 3");
   GVD_CHECK(gvd.cells.size() <= scene.objects.size(), "gvd has more cells than scene objects");
   const size_t k = static_cast<size_t>(gvd.dimension);  // vertices per simplex
-
-  json objects = json::array();
+  // Written piece by piece, as nlohmann's compact dump of the whole document would print it
+  // (keys in order, its number formatting), without holding that document (a large GVD's took
+  // several times the result's memory): arrays go out in blocks of elements, each block
+  // dumped by nlohmann without its brackets.
+  std::string block;
+  auto array = [&](size_t n, auto&& element) {
+    sink("[");
+    constexpr size_t kBlock = 4096;
+    for (size_t first = 0; first < n; first += kBlock) {
+      json part = json::array();
+      for (size_t i = first; i < std::min(n, first + kBlock); ++i) part.push_back(element(i));
+      block = part.dump();
+      if (first > 0) sink(",");
+      sink(std::string_view(block).substr(1, block.size() - 2));
+    }
+    sink("]");
+  };
+  sink("{\"dimension\":" + std::to_string(gvd.dimension) +
+       ",\"null_feature_id\":" + std::to_string(scene.objects.size()) + ",\"objects\":[");
+  bool first_object = true;
   for (size_t i = 0; i < gvd.cells.size(); ++i) {
     const GvdCell& cell = gvd.cells[i];
     if (cell.indices.empty()) continue;  // the same cells as the GLB: only non-empty ones
@@ -76,42 +98,47 @@ std::string gvd_to_json(const Gvd& gvd, const Scene& scene) {
     GVD_CHECK(cell.other.size() == n && cell.clearance.size() == n,
               "gvd cell attributes must have one value per vertex");
     GVD_CHECK(cell.indices.size() % k == 0, "gvd cell indices must form whole simplices");
-
-    json positions = json::array();
-    json other = json::array();
-    json clearance = json::array();
-    for (size_t v = 0; v < n; ++v) {
-      positions.push_back(point_json(cell.positions[v], gvd.dimension));
-      if (cell.other[v] == kNoObject) {
-        other.push_back(-1);
-      } else {
-        GVD_CHECK(cell.other[v] < scene.objects.size(), "gvd cell 'other' out of range");
-        other.push_back(cell.other[v]);
-      }
+    sink(first_object ? "{\"clearance\":" : ",{\"clearance\":");
+    first_object = false;
+    array(n, [&](size_t v) {
       GVD_CHECK(std::isfinite(cell.clearance[v]), "gvd cell clearance must be finite");
-      clearance.push_back(cell.clearance[v]);
-    }
-    json simplices = json::array();
-    for (size_t s = 0; s < cell.indices.size(); s += k) {
+      return json(cell.clearance[v]);
+    });
+    sink(",\"label\":" + json(scene.objects[i].label).dump() + ",\"object\":" + std::to_string(i) +
+         ",\"other\":");
+    array(n, [&](size_t v) {
+      if (cell.other[v] == kNoObject) return json(-1);
+      GVD_CHECK(cell.other[v] < scene.objects.size(), "gvd cell 'other' out of range");
+      return json(cell.other[v]);
+    });
+    sink(",\"positions\":");
+    array(n, [&](size_t v) { return point_json(cell.positions[v], gvd.dimension); });
+    sink(",\"simplices\":");
+    array(cell.indices.size() / k, [&](size_t t) {
       json simplex = json::array();
       for (size_t j = 0; j < k; ++j) {
-        GVD_CHECK(cell.indices[s + j] < n, "gvd cell index out of range");
-        simplex.push_back(cell.indices[s + j]);
+        GVD_CHECK(cell.indices[t * k + j] < n, "gvd cell index out of range");
+        simplex.push_back(cell.indices[t * k + j]);
       }
-      simplices.push_back(std::move(simplex));
-    }
-    objects.push_back({{"object", i},
-                       {"label", scene.objects[i].label},
-                       {"positions", std::move(positions)},
-                       {"other", std::move(other)},
-                       {"clearance", std::move(clearance)},
-                       {"simplices", std::move(simplices)}});
+      return simplex;
+    });
+    sink("}");
   }
-  json out = {{"dimension", gvd.dimension},
-              {"null_feature_id", scene.objects.size()},
-              {"objects", std::move(objects)}};
-  if (!scene.units.empty()) out["units"] = scene.units;
-  return out.dump();
+  sink("]");
+  if (!scene.units.empty()) sink(",\"units\":" + json(scene.units).dump());
+  sink("}");
+}
+
+void write_json_file(const std::string& path, const Gvd& gvd, const Scene& scene) {
+  write_file_atomic(path, [&](const std::function<void(std::string_view)>& put) {
+    write_gvd_json(gvd, scene, put);
+  });
+}
+
+std::string gvd_to_json(const Gvd& gvd, const Scene& scene) {
+  std::string out;
+  write_gvd_json(gvd, scene, [&](std::string_view s) { out.append(s); });
+  return out;
 }
 
 std::string graph_to_json(const DualGraph& graph, const Scene& scene) {
@@ -140,6 +167,14 @@ std::string graph_to_json(const DualGraph& graph, const Scene& scene) {
 }
 
 void write_file_atomic(const std::string& path, const void* data, size_t size) {
+  write_file_atomic(path, [&](const std::function<void(std::string_view)>& put) {
+    put(std::string_view(static_cast<const char*>(data), size));
+  });
+}
+
+void write_file_atomic(
+    const std::string& path,
+    const std::function<void(const std::function<void(std::string_view)>&)>& produce) {
   // A process-wide counter makes temporary names unique between threads of this process (the
   // pid separates processes); O_EXCL guards against anything left over by a crashed run.
   static std::atomic<uint64_t> counter{0};
@@ -148,7 +183,34 @@ void write_file_atomic(const std::string& path, const void* data, size_t size) {
 
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) throw_io("cannot create a temporary file for", path, errno);
-  int error = write_all(fd, static_cast<const unsigned char*>(data), size);
+  // Small pieces are gathered into writes of about 1 MiB; large ones go out as they are.
+  constexpr size_t kBuffer = size_t{1} << 20;
+  std::string buffer;
+  int error = 0;
+  auto flush = [&] {
+    if (error == 0 && !buffer.empty())
+      error = write_all(fd, reinterpret_cast<const unsigned char*>(buffer.data()), buffer.size());
+    buffer.clear();
+  };
+  try {
+    produce([&](std::string_view piece) {
+      if (error != 0) return;
+      if (piece.size() >= kBuffer) {
+        flush();
+        if (error == 0)
+          error = write_all(fd, reinterpret_cast<const unsigned char*>(piece.data()), piece.size());
+        return;
+      }
+      if (buffer.size() + piece.size() > kBuffer) flush();
+      if (buffer.capacity() < kBuffer) buffer.reserve(kBuffer);
+      buffer.append(piece);
+    });
+    flush();
+  } catch (...) {
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw;
+  }
   if (error == 0 && ::fsync(fd) != 0) error = errno;
   if (::close(fd) != 0 && error == 0) error = errno;
   if (error == 0 && ::rename(tmp.c_str(), path.c_str()) != 0) error = errno;

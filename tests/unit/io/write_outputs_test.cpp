@@ -6,11 +6,14 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "gvd/common/error.h"
@@ -374,6 +377,29 @@ TEST(WriteGlbTest, LargeCellUsesUint32Indices) {
   expect_valid_glb(bytes, "ring_2d.glb");
 }
 
+TEST(WriteGlbTest, FileInTwoPartsIsTheGlb) {
+  // The CLI writes head and bin one after the other; the server takes gvd_to_glb's bytes.
+  // Both must be one valid file: the header's total length counts both parts, and the
+  // buffer's byteLength (set after tinygltf wrote the JSON without the data) is the data's.
+  for (int dimension : {2, 3}) {
+    const Gvd gvd = dimension == 3 ? make_gvd_3d() : make_gvd_2d();
+    const Scene scene = make_scene(dimension);
+    const gvd::GlbFile parts = gvd_glb_file(gvd, scene);
+    std::vector<uint8_t> joined = parts.head;
+    joined.insert(joined.end(), parts.bin.begin(), parts.bin.end());
+    EXPECT_EQ(joined, gvd_to_glb(gvd, scene));
+    uint32_t total = 0;
+    std::memcpy(&total, joined.data() + 8, 4);
+    EXPECT_EQ(total, joined.size());
+    EXPECT_EQ(parts.bin.size() % 4, 0u);
+    const GlbFile glb = parse_glb(joined);
+    EXPECT_EQ((glb.json.at("buffers")[0].at("byteLength").get<size_t>() + 3) / 4 * 4,
+              parts.bin.size());
+    expect_glb_matches(joined, gvd, scene);
+    expect_valid_glb(joined, dimension == 3 ? "two_parts_3d.glb" : "two_parts_2d.glb");
+  }
+}
+
 TEST(WriteGlbTest, EmptyGvdIsValidGlb) {
   Gvd gvd;
   gvd.dimension = 3;
@@ -432,6 +458,51 @@ TEST(GvdJsonTest, Float64ValuesRoundTripExactly) {
   }
   EXPECT_EQ(doc["objects"][0]["positions"][0][0].get<double>(), 1.0 / 3.0);
   EXPECT_EQ(doc["objects"][0]["positions"][0][1].get<double>(), 1e-12);
+}
+
+TEST(GvdJsonTest, LargeCellsRoundTripAcrossTheWritersBlocks) {
+  // The writer dumps arrays in blocks of elements: a cell of 10,001 vertices and 5,000
+  // triangles crosses block boundaries in every array.
+  constexpr uint32_t kVertices = 10001;
+  Gvd gvd = make_gvd_3d();
+  GvdCell& cell = gvd.cells[1];
+  cell.positions.clear();
+  cell.other.clear();
+  cell.clearance.clear();
+  cell.indices.clear();
+  for (uint32_t v = 0; v < kVertices; ++v) {
+    cell.positions.push_back({v / 3.0, 1.0 / (v + 1), -v * 1e-9});
+    cell.other.push_back(v % 3 == 0 ? kNoObject : 0);
+    cell.clearance.push_back(v * 0.125 + 1.0 / 7.0);
+  }
+  for (uint32_t t = 0; t < 5000; ++t)
+    for (uint32_t k = 0; k < 3; ++k) cell.indices.push_back((t * 7 + k * 13) % kVertices);
+  const Scene scene = make_scene(3);
+  std::string pieces;
+  size_t calls = 0;
+  write_gvd_json(gvd, scene, [&](std::string_view s) {
+    pieces.append(s);
+    ++calls;
+  });
+  EXPECT_EQ(pieces, gvd_to_json(gvd, scene));
+  EXPECT_GT(calls, 10u);  // handed over in pieces, not as one text
+  const json doc = json::parse(pieces);
+  ASSERT_EQ(doc.at("objects").size(), 2u);
+  const json& object = doc["objects"][1];
+  EXPECT_EQ(object.at("object"), 1);
+  ASSERT_EQ(object.at("positions").size(), kVertices);
+  ASSERT_EQ(object.at("other").size(), kVertices);
+  ASSERT_EQ(object.at("clearance").size(), kVertices);
+  for (uint32_t v = 0; v < kVertices; ++v) {
+    for (int c = 0; c < 3; ++c)
+      ASSERT_EQ(object["positions"][v][c].get<double>(), cell.positions[v][c]) << v;
+    ASSERT_EQ(object["other"][v].get<int64_t>(), cell.other[v] == kNoObject ? -1 : 0) << v;
+    ASSERT_EQ(object["clearance"][v].get<double>(), cell.clearance[v]) << v;
+  }
+  ASSERT_EQ(object.at("simplices").size(), 5000u);
+  for (size_t t = 0; t < 5000; ++t)
+    for (size_t k = 0; k < 3; ++k)
+      ASSERT_EQ(object["simplices"][t][k].get<uint32_t>(), cell.indices[3 * t + k]);
 }
 
 TEST(GvdJsonTest, TwoDimensionalHasTwoCoordinatesAndSegments) {
@@ -554,6 +625,35 @@ TEST(AtomicWriteTest, WritesCompleteFileAndLeavesNoTemporary) {
 
   write_file_atomic(path, std::string());
   EXPECT_TRUE(read_file_bytes(path).empty());
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"out.bin"});
+}
+
+TEST(AtomicWriteTest, PiecesMakeOneFileAndAFailedProducerLeavesTheOldOne) {
+  const fs::path dir = fresh_dir("atomic_pieces");
+  const std::string path = (dir / "out.bin").string();
+  // Small pieces (gathered) and pieces over the 1 MiB buffer (written as they are).
+  std::string expected;
+  write_file_atomic(path, [&](const std::function<void(std::string_view)>& put) {
+    for (size_t i = 0; i < 300; ++i) {
+      const size_t size = i % 50 == 7 ? (size_t{1} << 20) + i : i % 13;
+      const std::string piece(size, static_cast<char>('a' + i % 26));
+      expected += piece;
+      put(piece);
+    }
+  });
+  const std::vector<uint8_t> bytes = read_file_bytes(path);
+  EXPECT_EQ(std::string(bytes.begin(), bytes.end()), expected);
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"out.bin"});
+
+  // A producer that throws half way: the error comes through, the old file stays whole and
+  // no temporary is left.
+  EXPECT_THROW(write_file_atomic(path,
+                                 [&](const std::function<void(std::string_view)>& put) {
+                                   put(std::string(3 << 20, 'x'));
+                                   throw Error(ErrorCode::kInternal, "the producer failed");
+                                 }),
+               Error);
+  EXPECT_EQ(read_file_bytes(path), bytes);
   EXPECT_EQ(entries(dir), std::vector<std::string>{"out.bin"});
 }
 

@@ -1,8 +1,10 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "gvd/graph/dual_graph.h"
@@ -19,6 +21,18 @@ namespace gvd {
 /// declares them, are the asset's extras: {"units": "mm"}.
 std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene);
 
+/// A binary glTF file in two parts, so that a large one is written without being held twice:
+/// the file is `head` (the 12-byte header, the JSON chunk and the binary chunk's 8-byte
+/// header) followed by `bin` (the binary chunk's data, padded to 4 bytes; empty when the GVD
+/// is). gvd_to_glb's bytes are gvd_glb_file's `head` + `bin`.
+struct GlbFile {
+  std::vector<uint8_t> head;
+  std::vector<uint8_t> bin;
+  /// The whole file in one array (bin is freed).
+  std::vector<uint8_t> bytes() &&;
+};
+GlbFile gvd_glb_file(const Gvd& gvd, const Scene& scene);
+
 /// An exploded view (paper §7.4) as binary glTF: one node per scene object (name = label,
 /// extras = {"label", "object", "displacement"}) showing the object's own geometry (3D
 /// TRIANGLES, 2D LINES at z = 0, a distinct colour each), and one animation "explode" that
@@ -31,6 +45,10 @@ std::vector<uint8_t> exploded_to_glb(const Scene& scene, std::span<const Vec3> d
 /// "positions":[[x,y(,z)]..], "other":[..], "clearance":[..], "simplices":[[i,j(,k)]..]}]}, and
 /// "units" (Scene::units) when the scene declares them.
 std::string gvd_to_json(const Gvd& gvd, const Scene& scene);
+/// The same JSON handed to `sink` piece by piece (its bytes are gvd_to_json's), for writing a
+/// large GVD without holding its text.
+void write_gvd_json(const Gvd& gvd, const Scene& scene,
+                    const std::function<void(std::string_view)>& sink);
 
 /// The dual graph JSON of docs/FORMATS.md: {"nodes":[{"object","label"}],"edges":[{"a","b","area",
 /// "min_clearance"}]}, and "units" (Scene::units) when the scene declares them.
@@ -39,6 +57,16 @@ std::string graph_to_json(const DualGraph& graph, const Scene& scene);
 /// Writes bytes to a file atomically (temporary file + rename); gvd::Error{kIo} on failure.
 void write_file_atomic(const std::string& path, const void* data, size_t size);
 void write_file_atomic(const std::string& path, const std::string& text);
+/// The same for a file written piece by piece, so that it need not be held in memory whole:
+/// `produce` calls its argument with each piece in order.
+void write_file_atomic(
+    const std::string& path,
+    const std::function<void(const std::function<void(std::string_view)>&)>& produce);
+
+/// gvd_to_glb and gvd_to_json written to a file atomically, without first holding the whole
+/// file in memory (the GLB's buffer once, the JSON in pieces).
+void write_glb_file(const std::string& path, const Gvd& gvd, const Scene& scene);
+void write_json_file(const std::string& path, const Gvd& gvd, const Scene& scene);
 
 /// Reads a whole file; gvd::Error{kIo} when it cannot be read.
 std::vector<uint8_t> read_file_bytes(const std::string& path);
