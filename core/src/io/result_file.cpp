@@ -10,10 +10,12 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -90,13 +92,26 @@ std::string tag_name(const Tag& tag) {
 // Writing
 // ---------------------------------------------------------------------------------------------
 
+/// Writes the file's bytes to a sink, hashing them as they go. A file is written in two
+/// passes over the same calls: the first (no sink) only measures each section, so that the
+/// second can put each section's length before its content without holding the file.
 class Writer {
  public:
-  explicit Writer(size_t expected_bytes) { out_.reserve(expected_bytes); }
+  using Sink = std::function<void(std::string_view)>;
+  /// Measuring pass: appends each section's length to `lengths`.
+  explicit Writer(std::vector<uint64_t>& lengths) : lengths_(lengths) {}
+  /// Writing pass: takes the lengths the measuring pass found.
+  Writer(std::vector<uint64_t>& lengths, const Sink& sink) : lengths_(lengths), sink_(&sink) {}
 
   void raw(const void* data, size_t size) {
+    pos_ += size;
+    if (sink_ == nullptr) return;
     const auto* p = static_cast<const uint8_t*>(data);
-    out_.insert(out_.end(), p, p + size);
+    for (size_t i = 0; i < size; ++i) {
+      hash_ ^= p[i];
+      hash_ *= 0x100000001b3ull;
+    }
+    (*sink_)(std::string_view(static_cast<const char*>(data), size));
   }
   void u32(uint32_t v) { raw(&v, sizeof v); }
   void u64(uint64_t v) { raw(&v, sizeof v); }
@@ -129,25 +144,39 @@ class Writer {
   void begin_section(const Tag& tag) {
     GVD_CHECK(section_start_ == kNoSection, "sections do not nest");
     raw(tag.data(), tag.size());
-    section_start_ = out_.size();
-    u64(0);  // patched by end_section
+    if (sink_ == nullptr) {
+      u64(0);
+    } else {
+      GVD_CHECK(next_section_ < lengths_.size(), "a section the measuring pass did not see");
+      u64(lengths_[next_section_++]);
+    }
+    section_start_ = pos_;
   }
   void end_section() {
     GVD_CHECK(section_start_ != kNoSection, "end_section without begin_section");
-    const uint64_t length = out_.size() - section_start_ - sizeof(uint64_t);
-    std::memcpy(out_.data() + section_start_, &length, sizeof length);
+    if (sink_ == nullptr) {
+      lengths_.push_back(pos_ - section_start_);
+    } else {
+      GVD_CHECK(lengths_[next_section_ - 1] == pos_ - section_start_,
+                "a section changed between the passes");
+    }
     section_start_ = kNoSection;
   }
 
-  std::vector<uint8_t> finish() {
+  /// The checksum of everything written (writing pass), after it; returns the file's size.
+  size_t finish() {
     GVD_CHECK(section_start_ == kNoSection, "unterminated section");
-    u64(fnv1a64(out_));
-    return std::move(out_);
+    u64(hash_);
+    return pos_;
   }
 
  private:
   static constexpr size_t kNoSection = ~size_t{0};
-  std::vector<uint8_t> out_;
+  std::vector<uint64_t>& lengths_;
+  const Sink* sink_ = nullptr;
+  size_t pos_ = 0;
+  size_t next_section_ = 0;
+  uint64_t hash_ = 0xcbf29ce484222325ull;  // FNV-1a 64 (fnv1a64)
   size_t section_start_ = kNoSection;
 };
 
@@ -600,8 +629,9 @@ void check_consistency(const GvdResult& r) {
 
 // ---------------------------------------------------------------------------------------------
 
-std::vector<uint8_t> result_to_bytes(const GvdResult& r) {
-  Writer out(expected_size(r));
+namespace {
+
+void write_result(const GvdResult& r, Writer& out) {
   out.raw(kMagic, sizeof kMagic);
   out.u32(kResultFormatVersion);
   out.u32(kAlgorithmVersion);
@@ -690,13 +720,31 @@ std::vector<uint8_t> result_to_bytes(const GvdResult& r) {
   out.begin_section(kStats);
   out.string(stats_to_json(r.stats));
   out.end_section();
+}
 
+/// The file's bytes handed to `sink` in order (the two passes of Writer); returns its size.
+size_t write_result(const GvdResult& r, const Writer::Sink& sink) {
+  std::vector<uint64_t> lengths;
+  Writer measure(lengths);
+  write_result(r, measure);
+  Writer out(lengths, sink);
+  write_result(r, out);
   return out.finish();
 }
 
+}  // namespace
+
+std::vector<uint8_t> result_to_bytes(const GvdResult& r) {
+  std::vector<uint8_t> bytes;
+  bytes.reserve(expected_size(r));
+  write_result(
+      r, [&](std::string_view piece) { bytes.insert(bytes.end(), piece.begin(), piece.end()); });
+  return bytes;
+}
+
 void save_result(const GvdResult& result, const std::string& path) {
-  const std::vector<uint8_t> bytes = result_to_bytes(result);
-  write_file_atomic(path, bytes.data(), bytes.size());
+  // Streamed into the file: a large result is not held a second time as bytes.
+  write_file_atomic(path, [&](const Writer::Sink& put) { write_result(result, put); });
 }
 
 ResultFileHeader read_result_header(std::span<const uint8_t> bytes) {
