@@ -266,9 +266,13 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     radix_sort(
         added, [](uint64_t k) { return k; }, threads);
     added.erase(std::unique(added.begin(), added.end()), added.end());
+    // Appended, and the index built again at the new size (inserting into it would need room
+    // kept free in every round, or a second table while it grows).
+    field.vertices.drop_index();
     field.vertices.key.reserve(old_count + added.size());
-    field.vertices.index.reserve(old_count + added.size());
-    for (uint64_t key : added) field.vertices.insert(key);
+    field.vertices.key.insert(field.vertices.key.end(), added.begin(), added.end());
+    std::vector<uint64_t>().swap(added);
+    field.vertices.rebuild_index(threads);
   } else {
     field.vertices = enumerate_vertices(octree, threads);
   }

@@ -55,11 +55,11 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads) {
   return out;
 }
 
-void OctreeVertices::rebuild_index(int threads) {
+void OctreeVertices::rebuild_index(int threads, size_t room) {
   // Three quarters full (not half): the largest index of the refinement, and the filter below
-  // answers most misses before the table is probed. With room for a quarter more keys, which
-  // a refinement round rarely exceeds: growing rehashes, holding two tables at once.
-  index = FlatMap64::of_distinct_keys(key, threads, kVertexIndexMaxLoad, key.size() / 4);
+  // answers most misses before the table is probed.
+  index = FlatMap64();  // the old table goes first
+  index = FlatMap64::of_distinct_keys(key, threads, kVertexIndexMaxLoad, room);
   filter_bits_ = 6;
   while ((size_t{1} << filter_bits_) < 8 * key.size()) ++filter_bits_;
   filter.assign((size_t{1} << filter_bits_) / 64, 0);

@@ -225,6 +225,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks
   // there; lookups by key binary-search the sorted keys from now on (OctreeVertices::find).
   r.field.vertices.drop_index();
+  // Which vertices changed in the last round is of no use from here on.
+  std::vector<uint8_t>().swap(r.field.changed);
   // Nor does anything after the refinement read the leaves' simplex lists (a result loaded
   // from disk has none).
   std::vector<uint32_t>().swap(r.octree.simplex_begin);

@@ -53,10 +53,11 @@ class FlatMap64 {
     size_t ranges = 1;
     while (ranges < 64 && ranges * 4096 < capacity) ranges *= 2;
     const size_t range_size = capacity / ranges;
-    std::vector<uint32_t> index(keys.size()), by_range;
-    for (size_t i = 0; i < keys.size(); ++i) index[i] = static_cast<uint32_t>(i);
-    const std::vector<size_t> start = bucket_scatter(
-        index, by_range, ranges,
+    // The key indices by range, made as they are scattered (no array of all indices first:
+    // this runs in the refinement, near its peak).
+    std::vector<uint32_t> by_range;
+    const std::vector<size_t> start = bucket_scatter_made(
+        keys.size(), [](size_t i) { return static_cast<uint32_t>(i); }, by_range, ranges,
         [&](uint32_t i) { return std::min(map.slot(keys[i]) / range_size, ranges - 1); }, threads);
     std::vector<std::vector<uint32_t>> overflow(ranges);
     parallel_for(

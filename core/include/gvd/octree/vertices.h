@@ -45,8 +45,9 @@ struct OctreeVertices {
     const uint64_t h = filter_hash(k);
     return filter[h >> 6] >> (h & 63) & 1;
   }
-  /// Builds `index` and `filter` from `key` (distinct keys), on `threads` threads.
-  void rebuild_index(int threads = 1);
+  /// Builds `index` and `filter` from `key` (distinct keys), on `threads` threads, with room
+  /// for `room` more keys before the index must grow (growing holds two tables at once).
+  void rebuild_index(int threads = 1, size_t room = 0);
   /// Appends k unless present; returns its index.
   uint32_t insert(uint64_t k) {
     GVD_CHECK(indexed(), "OctreeVertices::insert after drop_index");
