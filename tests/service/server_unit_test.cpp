@@ -337,12 +337,12 @@ TEST(ResultCache, LeastRecentlyUsedIsEvicted) {
   ResultCache cache("/nonexistent-dir", 2, [&](bool hit) { (hit ? hits : misses)++; });
   cache.put("a", std::make_shared<GvdResult>());
   cache.put("b", std::make_shared<GvdResult>());
-  EXPECT_NE(cache.get("a"), nullptr);  // a is now the newest
+  EXPECT_NE(cache.get("a", "{}"), nullptr);  // a is now the newest
   cache.put("c", std::make_shared<GvdResult>());
   EXPECT_EQ(cache.size(), 2u);
-  EXPECT_EQ(cache.get("b"), nullptr);  // evicted, and not on disk
-  EXPECT_NE(cache.get("a"), nullptr);
-  EXPECT_NE(cache.get("c"), nullptr);
+  EXPECT_EQ(cache.get("b", "{}"), nullptr);  // evicted, and not on disk
+  EXPECT_NE(cache.get("a", "{}"), nullptr);
+  EXPECT_NE(cache.get("c", "{}"), nullptr);
   EXPECT_EQ(hits, 3);
   EXPECT_EQ(misses, 1);
 }

@@ -661,7 +661,11 @@ TEST(Service, RestartRebuildsAMissingStatusDocumentAndDropsTemporaryFiles) {
     id = submit(*c, data("scenes/gears2d.json")).id;
     ASSERT_EQ(wait_for(*c, id, {"done"}).value("status", ""), "done");
   }
-  // As if killed between writing the result and its status document, and during a write.
+  // As if killed between writing the result and its status document (the stored request,
+  // removed after that document, is still there), and during a write.
+  const Json done = Json::parse(read_text(store + "/results/" + id + ".json"));
+  std::ofstream(store + "/requests/" + id + ".json")
+      << Json{{"id", id}, {"params", done["params"]}};
   fs::remove(store + "/results/" + id + ".json");
   std::ofstream(store + "/results/" + id + ".gvd.tmp.123.0") << "partial";
   std::ofstream(store + "/requests/" + std::string(32, 'a') + ".scene.json") << "{}";  // orphan
@@ -674,6 +678,7 @@ TEST(Service, RestartRebuildsAMissingStatusDocumentAndDropsTemporaryFiles) {
   EXPECT_TRUE(fs::exists(store + "/results/" + id + ".json"));
   EXPECT_FALSE(fs::exists(store + "/results/" + id + ".gvd.tmp.123.0"));
   EXPECT_FALSE(fs::exists(store + "/requests/" + std::string(32, 'a') + ".scene.json"));
+  EXPECT_FALSE(fs::exists(store + "/requests/" + id + ".json"));
 }
 
 // The log lines of a server run with a log file, as JSON objects (other lines skipped).
@@ -740,6 +745,83 @@ TEST(Service, CorruptStoredResultIsAStorageErrorAndLogged) {
     error_line |= j.value("level", "") == "error" &&
                   j.value("error", "").find("stored result of job " + id) != std::string::npos;
   EXPECT_TRUE(error_line) << read_text(log);
+}
+
+// Reliability D7: a job's id is the hash of its scene and parameters, but a result file copied
+// (or restored) under another job's id was served as that job. Loaded from the store, a file's
+// scene with the job's parameters must make the job's id: one that does not is a storage error
+// (500 io-error naming the job, not the store's path, and an error log line). (A result file
+// holds no parameters: a copy between two jobs of the same scene is not detected.) A result without
+// its status document is listed again only when its stored request gives its parameters and they
+// make its id; otherwise it is dropped with a store_entry_dropped line.
+TEST(Service, StoredResultUnderAnotherJobsIdIsNotServed) {
+  const std::string store = fresh_dir("result-other-id");
+  std::string a, b;
+  {
+    ServerProcess server(store);
+    auto c = client(server.port());
+    a = submit(*c, data("scenes/gears2d.json")).id;
+    // Another scene (one label differs) with other parameters.
+    Json other = Json::parse(data("scenes/gears2d.json"));
+    other["objects"][0]["label"] = other["objects"][0]["label"].get<std::string>() + "_b";
+    b = submit(*c, other.dump(), "?max_depth=12").id;
+    ASSERT_EQ(wait_for(*c, a, {"done"}).value("status", ""), "done");
+    ASSERT_EQ(wait_for(*c, b, {"done"}).value("status", ""), "done");
+  }
+  const std::string results = store + "/results/";
+  fs::copy_file(results + a + ".gvd", results + b + ".gvd", fs::copy_options::overwrite_existing);
+  // A result under a new id, without a status document: with a stored request whose
+  // parameters make another id, and without any request.
+  const std::string with_request(32, 'c'), bare(32, 'd');
+  fs::copy_file(results + a + ".gvd", results + with_request + ".gvd");
+  fs::copy_file(results + a + ".gvd", results + bare + ".gvd");
+  const Json params = Json::parse(read_text(results + a + ".json"))["params"];
+  std::ofstream(store + "/requests/" + with_request + ".json")
+      << Json{{"id", with_request}, {"params", params}};
+  const std::string log = store + "/server.log";
+  ServerProcess server(store, {}, log);
+  auto c = client(server.port());
+  EXPECT_EQ(status_of(*c, b).value("status", ""), "done");
+  for (const std::string out : {"/graph", "/gvd.glb", "/result.gvd", "/gvd.json"}) {
+    auto r = c->Get(("/v1/jobs/" + b + out).c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 500) << out;
+    const Json p = Json::parse(r->body, nullptr, false);
+    EXPECT_EQ(p.value("type", ""), "/problems/io-error") << out;
+    const std::string detail = p.value("detail", "");
+    EXPECT_NE(detail.find("stored result of job " + b + " belongs to another job"),
+              std::string::npos)
+        << detail;
+    EXPECT_NE(detail.find("with this job's parameters makes job "), std::string::npos) << detail;
+    EXPECT_EQ(detail.find(store), std::string::npos) << "the store's path leaks: " << detail;
+  }
+  auto r =
+      c->Post(("/v1/jobs/" + b + "/nearest").c_str(), R"({"points":[[0,0]]})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 500);
+  // The job the file does belong to is served as before.
+  EXPECT_EQ(c->Get(("/v1/jobs/" + a + "/graph").c_str())->status, 200);
+  // Not listed: neither copy without a status document.
+  for (const std::string& id : {with_request, bare}) {
+    EXPECT_EQ(c->Get(("/v1/jobs/" + id).c_str())->status, 404) << id;
+    EXPECT_EQ(c->Get(("/v1/jobs/" + id + "/graph").c_str())->status, 404) << id;
+  }
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait(), 0);
+  const std::vector<Json> lines = log_lines(log);
+  bool error_line = false;
+  for (const Json& j : lines)
+    error_line |= j.value("level", "") == "error" &&
+                  j.value("error", "").find("stored result of job " + b) != std::string::npos;
+  EXPECT_TRUE(error_line) << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "results/" + with_request + ".gvd"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "belongs to another job (" + a + ")"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "results/" + bare + ".gvd"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "no stored request holds its"))
+      << read_text(log);
 }
 
 // Reliability D12: what the restart drops from the store, it says in the log, with the reason.
@@ -982,7 +1064,11 @@ TEST(Service, UnitsTravelToTheStatusTheOutputsAndTheAnswers) {
         << bad_param.body.dump();
     for (const std::string& id : {um.id, metres.id}) wait_for(*c, id, {"done", "failed"});
   }
-  // After a restart (the status rebuilt from the result file when its document is lost).
+  // After a restart (the status rebuilt from the result file and the stored request when its
+  // document is lost: killed between the two writes).
+  const Json done = Json::parse(read_text(store + "/results/" + mm_id + ".json"));
+  std::ofstream(store + "/requests/" + mm_id + ".json")
+      << Json{{"id", mm_id}, {"params", done["params"]}};
   fs::remove(store + "/results/" + mm_id + ".json");
   ServerProcess server(store);
   auto c = client(server.port());
