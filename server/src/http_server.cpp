@@ -419,9 +419,11 @@ struct HttpServer::Impl {
     } else if (media_type(req) == "application/x-npy" || is_npy(req.body)) {
       scene = scene_from_volume(req.body, volume, limits);
     } else {
-      if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
+      // The scene first: its parse refuses a body over the limits early, where the params'
+      // parse reads all of it.
       const auto* data = reinterpret_cast<const uint8_t*>(req.body.data());
       scene = parse_scene_bytes({data, req.body.size()}, SceneFormat::kAuto, label, limits);
+      if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
     }
     if (!volume.used && (volume.spacing || volume.background)) {
       throw Error(ErrorCode::kInvalidArgument,
@@ -540,7 +542,14 @@ struct HttpServer::Impl {
   /// Compute parameters given inside a scene JSON: {"params": {"max_depth": 12, ...}}.
   static void params_from_json(const std::string& body, JobParams& params) {
     check_json_depth(body, "the scene", ErrorCode::kInvalidScene);
-    const Json doc = Json::parse(body, nullptr, false);
+    // Only the top level's "params" is built: the rest of a scene body (up to --max-body of
+    // vertices, ~100 bytes of DOM per value) is read and dropped.
+    const Json doc = Json::parse(
+        body,
+        [](int depth, Json::parse_event_t event, Json& parsed) {
+          return depth != 1 || event != Json::parse_event_t::key || parsed == "params";
+        },
+        false);
     if (!doc.is_object() || !doc.contains("params")) return;
     const Json& p = doc["params"];
     if (!p.is_object())

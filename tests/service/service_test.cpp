@@ -505,12 +505,50 @@ TEST(Service, DeleteCancelsQueuedAndRunningJobsAndForgetsFinishedOnes) {
 }
 
 /// Resident memory of process `pid`, MB (from /proc; 0 if unknown).
-double resident_mb(pid_t pid) {
+double resident_mb(pid_t pid, const std::string& field = "VmRSS:") {
   std::ifstream status("/proc/" + std::to_string(pid) + "/status");
   for (std::string line; std::getline(status, line);) {
-    if (line.starts_with("VmRSS:")) return std::stod(line.substr(6)) / 1024.0;
+    if (line.starts_with(field)) return std::stod(line.substr(field.size())) / 1024.0;
   }
   return 0;
+}
+
+// Reliability D4: the scene limits were checked after the whole body was parsed into a JSON
+// document: the 66 MB scene of 11M vertices took ~10 s and ~0.7-1.4 GB before its 422, and so
+// did the same body with a "params" key (whose parse read the whole body first). Both are now
+// refused while the text is read: 422 limit-exceeded naming the vertex limit (3 per simplex of
+// --max-simplices), in well under the 10 s and without a peak above the body's own memory.
+TEST(Service, OversizedSceneIsRefusedWhileItIsParsed) {
+  ServerProcess server(fresh_dir("big-body-early"));
+  auto c = client(server.port());
+  const double start_peak = resident_mb(server.pid(), "VmHWM:");
+  std::string vertices;
+  vertices.reserve(66'000'000);
+  for (int i = 0; i < 11'000'000; ++i) vertices += i == 0 ? "[0,0]" : ",[0,0]";
+  for (const std::string head : {"", R"("params":{"max_depth":9},)"}) {
+    const std::string big = "{" + head + R"("dimension":2,"objects":[{"label":"a","vertices":[)" +
+                            vertices + "],\"segments\":[[0,1]]}]}";
+    const auto t0 = std::chrono::steady_clock::now();
+    auto r = c->Post("/v1/jobs", big, "application/json");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 422) << r->body.substr(0, 300);
+    const Json p = Json::parse(r->body, nullptr, false);
+    EXPECT_EQ(p.value("type", ""), "/problems/limit-exceeded") << r->body.substr(0, 300);
+    EXPECT_NE(p.value("detail", "")
+                  .find("more than the limit of 6000000 vertices (3 per simplex "
+                        "of the limit of 2000000 simplices)"),
+              std::string::npos)
+        << r->body.substr(0, 300);
+    std::printf("refused in %.2f s\n", seconds);
+    EXPECT_LT(seconds, 5.0) << head;
+  }
+  // The body (66 MB, read into a string that grows by doubling) and little else.
+  const double peak = resident_mb(server.pid(), "VmHWM:");
+  std::printf("server peak resident: %.0f MB at start, %.0f MB after both bodies\n", start_peak,
+              peak);
+  EXPECT_LT(peak - start_peak, 300.0);
 }
 
 // D4 (in part): a rejected 66 MB scene (11M vertices) left ~1.4 GB resident, and with
