@@ -23,7 +23,7 @@ using Json = nlohmann::json;
 }
 
 /// The location of objects[index] (and of one of its elements), with its JSON pointer.
-ErrorLocation at(size_t index, const std::string& label, std::string pointer = "",
+ErrorLocation at(size_t index, const std::string& label, const std::string& pointer = "",
                  const char* element = "", size_t element_index = static_cast<size_t>(-1)) {
   return {static_cast<int64_t>(index), label, element,
           element_index == static_cast<size_t>(-1) ? -1 : static_cast<int64_t>(element_index),
