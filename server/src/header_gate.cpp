@@ -69,6 +69,60 @@ void address_of(const sockaddr_storage& a, std::string& ip, int& port) {
   ip = text;
 }
 
+/// The request bodies being read and held, for GatedServer::begin_body: reader slots (in all
+/// and per remote address) and bytes (each body's Content-Length). A reader slot is given back
+/// once its body has been read; the bytes once the request is over (the body and whatever
+/// its handler made of it are in memory until then).
+class BodyLedger {
+ public:
+  BodyAdmission take(const std::string& client, uint64_t length, const GateLimits& limits) {
+    std::lock_guard lock(mutex_);
+    if (limits.max_body_readers > 0 && readers_ >= limits.max_body_readers) {
+      return BodyAdmission::kTooManyReaders;
+    }
+    const auto it = by_client_.find(client);
+    const int mine = it == by_client_.end() ? 0 : it->second;
+    if (limits.max_body_readers_per_client > 0 && mine >= limits.max_body_readers_per_client) {
+      return BodyAdmission::kTooManyForClient;
+    }
+    if (limits.max_body_bytes > 0 &&
+        (length > limits.max_body_bytes || bytes_ > limits.max_body_bytes - length)) {
+      return BodyAdmission::kOverBudget;
+    }
+    ++readers_;
+    ++by_client_[client];
+    bytes_ += length;
+    return BodyAdmission::kAdmitted;
+  }
+  /// The body of `client`'s request has been read (or will not be).
+  void end_read(const std::string& client) {
+    std::lock_guard lock(mutex_);
+    --readers_;
+    if (const auto it = by_client_.find(client); it != by_client_.end() && --it->second <= 0) {
+      by_client_.erase(it);
+    }
+  }
+  /// The request whose body had `length` bytes is over.
+  void release(uint64_t length) {
+    std::lock_guard lock(mutex_);
+    bytes_ -= std::min(bytes_, length);
+  }
+  int readers() const {
+    std::lock_guard lock(mutex_);
+    return readers_;
+  }
+  uint64_t bytes() const {
+    std::lock_guard lock(mutex_);
+    return bytes_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  int readers_ = 0;
+  uint64_t bytes_ = 0;
+  std::unordered_map<std::string, int> by_client_;  ///< addresses reading a body now only
+};
+
 /// The socket as httplib's Stream, read through a small buffer (httplib reads headers a byte
 /// at a time). The buffer belongs to the connection, so bytes of a pipelined next request
 /// read with this one are not lost between requests.
@@ -76,7 +130,7 @@ class ConnectionStream final : public httplib::Stream {
  public:
   ConnectionStream(int fd, int read_ms, int write_ms)
       : fd_(fd), read_ms_(read_ms), write_ms_(write_ms) {}
-  ~ConnectionStream() override { end_body(); }
+  ~ConnectionStream() override { end_request(); }
   ConnectionStream(const ConnectionStream&) = delete;
   ConnectionStream& operator=(const ConnectionStream&) = delete;
 
@@ -103,24 +157,36 @@ class ConnectionStream final : public httplib::Stream {
     return counted(take(ptr, size));
   }
 
-  /// The next `length` bytes taken are a request body that must arrive by `deadline`;
-  /// `readers` (if any) counts this stream until they have been taken or end_body().
-  void begin_body(uint64_t length, Clock::time_point deadline, std::atomic<int>* readers) {
-    end_body();
+  /// The next `length` bytes taken are a request body that must arrive by `deadline`; they
+  /// were taken from `ledger` for `client` (which outlive the request): the reader slot is
+  /// given back once they have been taken or at end_body(), the bytes at end_request().
+  void begin_body(uint64_t length, Clock::time_point deadline, BodyLedger* ledger,
+                  const std::string* client) {
+    end_request();
     body_left_ = length;
     deadline_ = deadline;
-    readers_ = readers;
+    ledger_ = ledger;
+    client_ = client;
+    reading_ = true;
+    held_ = length;
     in_body_ = true;
   }
   /// The body is over (read, or the request ended): its reader slot is given back.
   void end_body() {
     body_left_ = 0;
-    if (readers_ != nullptr) readers_->fetch_sub(1, std::memory_order_relaxed);
-    readers_ = nullptr;
+    if (reading_) ledger_->end_read(*client_);
+    reading_ = false;
+  }
+  /// The request is over: its body's bytes are given back too.
+  void end_request() {
+    end_body();
+    if (ledger_ != nullptr) ledger_->release(held_);
+    ledger_ = nullptr;
+    held_ = 0;
   }
   /// Before each request: no body yet, nothing timed out.
   void begin_request() {
-    end_body();
+    end_request();
     in_body_ = false;
     timed_out_ = false;
   }
@@ -190,9 +256,12 @@ class ConnectionStream final : public httplib::Stream {
   size_t len_ = 0;
   uint64_t body_left_ = 0;  ///< bytes of the body not yet taken (0: not reading one)
   Clock::time_point deadline_{};
-  std::atomic<int>* readers_ = nullptr;
-  bool in_body_ = false;    ///< begin_body was called for this request
-  bool timed_out_ = false;  ///< a read failed because the body's deadline passed
+  BodyLedger* ledger_ = nullptr;         ///< where this request's body was admitted (or null)
+  const std::string* client_ = nullptr;  ///< whose body it is (the connection's address)
+  bool reading_ = false;                 ///< holds a reader slot of ledger_
+  uint64_t held_ = 0;                    ///< bytes held in ledger_ until the request is over
+  bool in_body_ = false;                 ///< begin_body was called for this request
+  bool timed_out_ = false;               ///< a read failed because the body's deadline passed
 };
 
 /// The end of a request's headers (a blank line; bare LF line ends count, as for httplib).
@@ -362,8 +431,10 @@ class GatedServer::Gate {
   ~Gate() { stop(); }
 
   GateLimits limits;
-  std::atomic<int> body_readers{0};
+  BodyLedger bodies;
   std::atomic<uint64_t> body_refused{0};
+  std::atomic<uint64_t> body_refused_client{0};
+  std::atomic<uint64_t> body_refused_bytes{0};
   std::atomic<uint64_t> body_timed_out{0};
   std::atomic<uint64_t> priority_served{0};
 
@@ -442,8 +513,11 @@ class GatedServer::Gate {
       n.queued = pool_->queued();
     }
     n.overloaded = overloaded_;
-    n.body_readers = static_cast<uint64_t>(std::max(body_readers.load(), 0));
+    n.body_readers = static_cast<uint64_t>(std::max(bodies.readers(), 0));
+    n.body_bytes = bodies.bytes();
     n.body_refused = body_refused;
+    n.body_refused_client = body_refused_client;
+    n.body_refused_bytes = body_refused_bytes;
     n.body_timed_out = body_timed_out;
     n.priority_served = priority_served;
     return n;
@@ -767,23 +841,29 @@ void GatedServer::set_gate_limits(const GateLimits& limits) { gate_->limits = li
 
 GateCounts GatedServer::gate_counts() const { return gate_->counts(); }
 
-bool GatedServer::begin_body(uint64_t length) {
+BodyAdmission GatedServer::begin_body(uint64_t length) {
   Connection* c = t_connection;
-  if (c == nullptr || length == 0 || c->stream->in_body()) return true;
+  if (c == nullptr || length == 0 || c->stream->in_body()) return BodyAdmission::kAdmitted;
   const GateLimits& limits = gate_->limits;
-  std::atomic<int>* readers = nullptr;
-  if (limits.max_body_readers > 0) {
-    readers = &gate_->body_readers;
-    if (readers->fetch_add(1, std::memory_order_relaxed) >= limits.max_body_readers) {
-      readers->fetch_sub(1, std::memory_order_relaxed);
+  const BodyAdmission admitted = gate_->bodies.take(c->client, length, limits);
+  switch (admitted) {
+    case BodyAdmission::kAdmitted:
+      break;
+    case BodyAdmission::kTooManyReaders:
       ++gate_->body_refused;
-      return false;
-    }
+      return admitted;
+    case BodyAdmission::kTooManyForClient:
+      ++gate_->body_refused_client;
+      return admitted;
+    case BodyAdmission::kOverBudget:
+      ++gate_->body_refused_bytes;
+      return admitted;
   }
   const double allowed =
       limits.body_seconds + static_cast<double>(length) / std::max(limits.min_body_rate, 1.0);
-  c->stream->begin_body(length, Clock::now() + seconds(std::min(allowed, 1e7)), readers);
-  return true;
+  c->stream->begin_body(length, Clock::now() + seconds(std::min(allowed, 1e7)), &gate_->bodies,
+                        &c->client);
+  return admitted;
 }
 
 bool GatedServer::body_timed_out() {
@@ -812,7 +892,7 @@ void GatedServer::serve(std::unique_ptr<Connection> c) {
     const bool ok = process_request(*c->stream, close_connection, closed, nullptr);
     t_connection = nullptr;
     const bool timed_out = c->stream->timed_out();
-    c->stream->end_body();
+    c->stream->end_request();
     if (timed_out) ++gate_->body_timed_out;
     if (c->priority) ++gate_->priority_served;
     if (after_request_) after_request_();

@@ -53,22 +53,40 @@ struct GateLimits {
   /// (bytes per second) of the moment its reading began; past that the read fails and
   /// GatedServer::body_timed_out() says why (the connection is then closed).
   int max_body_readers = 0;
+  /// Of those, how many bodies one remote address may be reading at once (0: no cap of its
+  /// own), so that one client cannot take every reader slot from the others.
+  int max_body_readers_per_client = 0;
+  /// Bytes of request bodies (their Content-Length) held at once, from begin_body until the
+  /// request is over, when the body and what its handler made of it are gone (0: no budget).
+  /// A body that would take the sum past it is refused; one larger than it, always.
+  uint64_t max_body_bytes = 0;
   double body_seconds = 30;
   double min_body_rate = 1 << 20;
 };
 
+/// Whether a request body may be read now (GatedServer::begin_body), or which limit refuses it.
+enum class BodyAdmission {
+  kAdmitted,
+  kTooManyReaders,    ///< GateLimits::max_body_readers bodies are being read
+  kTooManyForClient,  ///< the remote address is reading max_body_readers_per_client bodies
+  kOverBudget,        ///< the bodies held would exceed GateLimits::max_body_bytes
+};
+
 /// What the gate has done since the server started (the /metrics counters).
 struct GateCounts {
-  uint64_t waiting = 0;          ///< connections waiting for headers now
-  uint64_t timed_out = 0;        ///< closed because their headers did not arrive in time
-  uint64_t evicted = 0;          ///< closed to make room (per-client or total cap)
-  uint64_t busy = 0;             ///< threads running a request now
-  uint64_t queued = 0;           ///< requests with complete headers waiting for a thread now
-  uint64_t overloaded = 0;       ///< answered by the gate because threads and queue were full
-  uint64_t body_readers = 0;     ///< threads reading a request body now
-  uint64_t body_refused = 0;     ///< bodies refused since start: max_body_readers were read
-  uint64_t body_timed_out = 0;   ///< bodies that did not arrive within their deadline
-  uint64_t priority_served = 0;  ///< requests served by the probes' lane since start
+  uint64_t waiting = 0;              ///< connections waiting for headers now
+  uint64_t timed_out = 0;            ///< closed because their headers did not arrive in time
+  uint64_t evicted = 0;              ///< closed to make room (per-client or total cap)
+  uint64_t busy = 0;                 ///< threads running a request now
+  uint64_t queued = 0;               ///< requests with complete headers waiting for a thread now
+  uint64_t overloaded = 0;           ///< answered by the gate because threads and queue were full
+  uint64_t body_readers = 0;         ///< threads reading a request body now
+  uint64_t body_bytes = 0;           ///< bytes of the bodies held now (being read or handled)
+  uint64_t body_refused = 0;         ///< bodies refused since start: max_body_readers were read
+  uint64_t body_refused_client = 0;  ///< ... their address read max_body_readers_per_client
+  uint64_t body_refused_bytes = 0;   ///< ... they would have taken max_body_bytes past it
+  uint64_t body_timed_out = 0;       ///< bodies that did not arrive within their deadline
+  uint64_t priority_served = 0;      ///< requests served by the probes' lane since start
 };
 
 /// An httplib::Server whose threads never wait for request headers. cpp-httplib gives each
@@ -101,12 +119,14 @@ class GatedServer : public httplib::Server {
   GateCounts gate_counts() const;
 
   /// In a request's thread, before its body is read (a pre-routing or Expect handler): takes
-  /// one of GateLimits::max_body_readers for a body of `length` bytes and starts its
-  /// deadline. False when that many other bodies are being read: refuse the request without
-  /// reading its body. The slot is given back once the body has been read or the request is
-  /// over. Calling it again for the same request changes nothing. Outside a request thread
-  /// of this server (or for an empty body) it returns true.
-  bool begin_body(uint64_t length);
+  /// one of GateLimits::max_body_readers (and of the remote address's
+  /// max_body_readers_per_client) and `length` bytes of max_body_bytes for a body of
+  /// `length` bytes, and starts its deadline. Anything but kAdmitted says which limit is
+  /// reached: refuse the request without reading its body. The slots are given back once the
+  /// body has been read, the bytes once the request is over. Calling it again for the same
+  /// request changes nothing. Outside a request thread of this server (or for an empty body)
+  /// it admits.
+  BodyAdmission begin_body(uint64_t length);
   /// In a request's thread: whether this request's body missed its deadline (its read failed
   /// for that reason; the error handler answers 408 and the connection is closed).
   static bool body_timed_out();

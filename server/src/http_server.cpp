@@ -419,9 +419,11 @@ struct HttpServer::Impl {
     } else if (media_type(req) == "application/x-npy" || is_npy(req.body)) {
       scene = scene_from_volume(req.body, volume, limits);
     } else {
-      if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
+      // The scene first: its parse refuses a body over the limits early, where the params'
+      // parse reads all of it.
       const auto* data = reinterpret_cast<const uint8_t*>(req.body.data());
       scene = parse_scene_bytes({data, req.body.size()}, SceneFormat::kAuto, label, limits);
+      if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
     }
     if (!volume.used && (volume.spacing || volume.background)) {
       throw Error(ErrorCode::kInvalidArgument,
@@ -540,7 +542,14 @@ struct HttpServer::Impl {
   /// Compute parameters given inside a scene JSON: {"params": {"max_depth": 12, ...}}.
   static void params_from_json(const std::string& body, JobParams& params) {
     check_json_depth(body, "the scene", ErrorCode::kInvalidScene);
-    const Json doc = Json::parse(body, nullptr, false);
+    // Only the top level's "params" is built: the rest of a scene body (up to --max-body of
+    // vertices, ~100 bytes of DOM per value) is read and dropped.
+    const Json doc = Json::parse(
+        body,
+        [](int depth, Json::parse_event_t event, Json& parsed) {
+          return depth != 1 || event != Json::parse_event_t::key || parsed == "params";
+        },
+        false);
     if (!doc.is_object() || !doc.contains("params")) return;
     const Json& p = doc["params"];
     if (!p.is_object())
@@ -930,19 +939,48 @@ struct HttpServer::Impl {
     return options.max_body_readers > 0 ? options.max_body_readers
                                         : std::max(1, options.http_threads / 2);
   }
+  /// --max-body-readers-per-client, or a quarter of max_body_readers() (at least 1) when 0.
+  int max_body_readers_per_client() const {
+    return options.max_body_readers_per_client > 0
+               ? std::min(options.max_body_readers_per_client, max_body_readers())
+               : std::max(1, max_body_readers() / 4);
+  }
+  /// --body-budget, or four bodies of --max-body when it is 0.
+  uint64_t body_budget() const {
+    if (options.body_budget > 0) return options.body_budget;
+    return options.max_body > UINT64_MAX / 4 ? UINT64_MAX : options.max_body * 4;
+  }
 
   /// Before a body is read (check_request has passed: its Content-Length is a number within
-  /// --max-body): a slot among --max-body-readers and the body's deadline, or a refusal.
+  /// --max-body): a slot among --max-body-readers (and its address's share of them), its
+  /// bytes within --body-budget and the body's deadline, or a refusal.
   std::optional<Rejection> begin_body(const httplib::Request& req) {
     const bool has_body_method =
         req.method == "POST" || req.method == "PUT" || req.method == "PATCH";
     if (!has_body_method || !req.has_header("Content-Length")) return std::nullopt;
     const uint64_t length = std::stoull(req.get_header_value("Content-Length"));
-    if (http.begin_body(length)) return std::nullopt;
-    return Rejection{ProblemKind::kOverloaded,
-                     std::to_string(max_body_readers()) +
-                         " HTTP threads are reading request bodies, the most that may "
-                         "(--max-body-readers); retry after Retry-After"};
+    switch (http.begin_body(length)) {
+      case BodyAdmission::kAdmitted:
+        return std::nullopt;
+      case BodyAdmission::kTooManyReaders:
+        return Rejection{ProblemKind::kOverloaded,
+                         std::to_string(max_body_readers()) +
+                             " HTTP threads are reading request bodies, the most that may "
+                             "(--max-body-readers); retry after Retry-After"};
+      case BodyAdmission::kTooManyForClient:
+        return Rejection{ProblemKind::kOverloaded,
+                         "this client address (" + req.remote_addr + ") is sending " +
+                             std::to_string(max_body_readers_per_client()) +
+                             " request bodies already, the most one address may "
+                             "(--max-body-readers-per-client); retry after Retry-After"};
+      case BodyAdmission::kOverBudget:
+        return Rejection{ProblemKind::kOverloaded,
+                         "the request bodies being read and handled and this one (" +
+                             std::to_string(length) + " bytes) would exceed " +
+                             std::to_string(body_budget()) +
+                             " bytes (--body-budget); retry after Retry-After"};
+    }
+    return std::nullopt;
   }
 
   std::string body_timeout_detail(const httplib::Request& req) const {
@@ -976,6 +1014,8 @@ void HttpServer::Impl::setup() {
   gate.priority_paths = {"/healthz", "/readyz", "/metrics"};
   gate.priority_threads = 2;
   gate.max_body_readers = max_body_readers();
+  gate.max_body_readers_per_client = max_body_readers_per_client();
+  gate.max_body_bytes = body_budget();
   gate.body_seconds = options.body_seconds;
   gate.min_body_rate = static_cast<double>(options.min_body_rate);
   gate.overloaded = [this](std::string_view method, std::string_view path) {
@@ -1204,6 +1244,23 @@ void HttpServer::Impl::setup() {
       "gvd_http_body_readers_refused",
       "Requests refused since start (503 overloaded) because --max-body-readers bodies were read.",
       [this] { return static_cast<double>(http.gate_counts().body_refused); });
+  metrics.gauge("gvd_http_max_body_readers_per_client",
+                "Request bodies one client address may send at once "
+                "(--max-body-readers-per-client).",
+                [this] { return static_cast<double>(max_body_readers_per_client()); });
+  metrics.gauge("gvd_http_body_readers_refused_client",
+                "Requests refused since start (503 overloaded) because their address was reading "
+                "--max-body-readers-per-client bodies.",
+                [this] { return static_cast<double>(http.gate_counts().body_refused_client); });
+  metrics.gauge("gvd_http_body_bytes", "Bytes of the request bodies being read or handled now.",
+                [this] { return static_cast<double>(http.gate_counts().body_bytes); });
+  metrics.gauge("gvd_http_body_budget_bytes",
+                "Bytes of request bodies that may be held at once (--body-budget).",
+                [this] { return static_cast<double>(body_budget()); });
+  metrics.gauge("gvd_http_body_budget_refused",
+                "Requests refused since start (503 overloaded) because their body would have "
+                "exceeded --body-budget.",
+                [this] { return static_cast<double>(http.gate_counts().body_refused_bytes); });
   metrics.gauge("gvd_http_body_timeouts",
                 "Request bodies since start that did not arrive within their deadline (408).",
                 [this] { return static_cast<double>(http.gate_counts().body_timed_out); });

@@ -118,12 +118,32 @@ void JobManager::recover() {
       jobs_[id] = restore(Json::parse(read_text(status_path)), JobStatus::kDone);
     } catch (const std::exception&) {
       // The result without its status document (killed between the two writes): rebuild it.
+      // Its parameters are in the stored request, removed only after the status document was
+      // written; without them the file cannot be told from another job's.
       try {
         const GvdResult r = load_result(p.string());
+        std::string params_json;
+        try {
+          params_json =
+              Json::parse(read_text(dir("requests") + "/" + id + ".json")).at("params").dump();
+        } catch (const std::exception&) {
+          log_event("warn", "store_entry_dropped", id, 0,
+                    "results/" + id +
+                        ".gvd has no status document, and no stored request holds its "
+                        "parameters (requests/" +
+                        id + ".json): the job is not listed, submit it again");
+          continue;
+        }
+        if (const std::string owner = job_id(scene_to_json(r.scene), params_json); owner != id) {
+          log_event("warn", "store_entry_dropped", id, 0,
+                    "results/" + id + ".gvd has no status document and belongs to another job (" +
+                        owner + "): the job is not listed, submit it again");
+          continue;
+        }
         auto job = std::make_shared<Job>();
         job->id = id;
         job->status = JobStatus::kDone;
-        job->params_json = "{}";
+        job->params_json = params_json;
         job->dimension = r.scene.dimension;
         job->objects = r.scene.objects.size();
         job->simplices = r.scene.simplex_count();
@@ -340,6 +360,7 @@ JobManager::DeleteOutcome JobManager::remove(const std::string& id) {
 }
 
 std::shared_ptr<LoadedResult> JobManager::result(const std::string& id) {
+  std::string params_json;
   {
     std::lock_guard lock(mutex_);
     const auto it = jobs_.find(id);
@@ -358,8 +379,9 @@ std::shared_ptr<LoadedResult> JobManager::result(const std::string& id) {
       case JobStatus::kDone:
         break;
     }
+    params_json = job.params_json;
   }
-  auto loaded = cache_.get(id);
+  auto loaded = cache_.get(id, params_json);
   if (!loaded) throw ProblemError(ProblemKind::kNotFound, "the result of job " + id + " is gone");
   return loaded;
 }

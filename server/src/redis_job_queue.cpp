@@ -385,15 +385,19 @@ std::optional<std::string> RedisJobQueue::status_json(const std::string& id) con
   }
 }
 
-std::optional<JobStatus> RedisJobQueue::status(const std::string& id) const {
+std::optional<RedisJobQueue::Found> RedisJobQueue::find(const std::string& id) const {
   try {
-    const auto found = api([&](RedisConnection& redis) { return lookup(redis, id); });
-    if (!found) return std::nullopt;
-    return found->status;
+    return api([&](RedisConnection& redis) { return lookup(redis, id); });
   } catch (const ProblemError&) {
-    if (const auto found = lookup_store(id)) return found->status;
+    if (auto found = lookup_store(id)) return found;
     throw;
   }
+}
+
+std::optional<JobStatus> RedisJobQueue::status(const std::string& id) const {
+  const auto found = find(id);
+  if (!found) return std::nullopt;
+  return found->status;
 }
 
 std::shared_ptr<LoadedResult> RedisJobQueue::result(const std::string& id) {
@@ -404,15 +408,15 @@ std::shared_ptr<LoadedResult> RedisJobQueue::result(const std::string& id) {
     recent = it != done_seen_.end() && Clock::now() - it->second < std::chrono::seconds(1);
   }
   if (recent) {
-    if (auto loaded = cache_.get(id)) return loaded;
+    if (auto loaded = cache_.cached(id)) return loaded;
   }
-  const auto s = status(id);
-  if (!s) throw ProblemError(ProblemKind::kNotFound, "no job " + id);
-  switch (*s) {
+  const auto found = find(id);
+  if (!found) throw ProblemError(ProblemKind::kNotFound, "no job " + id);
+  switch (found->status) {
     case JobStatus::kQueued:
     case JobStatus::kRunning:
       throw ProblemError(ProblemKind::kJobNotFinished,
-                         "job " + id + " is " + std::string(job_status_name(*s)) +
+                         "job " + id + " is " + std::string(job_status_name(found->status)) +
                              "; poll /v1/jobs/" + id + " or follow /v1/jobs/" + id + "/events");
     case JobStatus::kFailed:
       throw ProblemError(ProblemKind::kJobFailed, "job " + id + " failed; see /v1/jobs/" + id);
@@ -421,7 +425,11 @@ std::shared_ptr<LoadedResult> RedisJobQueue::result(const std::string& id) {
     case JobStatus::kDone:
       break;
   }
-  auto loaded = cache_.get(id);
+  // The parameters the id was made of, to check that the stored file belongs to it.
+  const Json doc = Json::parse(found->doc, nullptr, false);
+  const std::string params_json =
+      doc.is_object() ? doc.value("params", Json::object()).dump() : std::string("{}");
+  auto loaded = cache_.get(id, params_json);
   if (!loaded) throw ProblemError(ProblemKind::kNotFound, "the result of job " + id + " is gone");
   std::lock_guard lock(mutex_);
   if (done_seen_.size() > 10000) done_seen_.clear();

@@ -92,6 +92,8 @@ class RedisJobQueue final : public JobQueue {
   std::optional<Found> lookup(RedisConnection& redis, const std::string& id,
                               bool requests = true) const;
   std::optional<Found> lookup_store(const std::string& id, bool requests = true) const;
+  /// lookup through Redis, or the store alone while Redis is away (throws when neither knows).
+  std::optional<Found> find(const std::string& id) const;
 
   void worker_loop(int index);
   void maintenance_loop();

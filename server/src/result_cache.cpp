@@ -7,6 +7,8 @@
 #include "gvd/common/error.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/scene/load_scene.h"
+#include "job_queue.h"
 
 namespace gvd::server {
 
@@ -46,15 +48,18 @@ ResultCache::ResultCache(std::string dir, size_t capacity, std::function<void(bo
       capacity_(std::max<size_t>(1, capacity)),
       on_lookup_(std::move(on_lookup)) {}
 
-std::shared_ptr<LoadedResult> ResultCache::get(const std::string& id) {
-  {
-    std::lock_guard lock(mutex_);
-    if (const auto it = index_.find(id); it != index_.end()) {
-      order_.splice(order_.begin(), order_, it->second);
-      if (on_lookup_) on_lookup_(true);
-      return it->second->second;
-    }
-  }
+std::shared_ptr<LoadedResult> ResultCache::cached(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  const auto it = index_.find(id);
+  if (it == index_.end()) return nullptr;
+  order_.splice(order_.begin(), order_, it->second);
+  if (on_lookup_) on_lookup_(true);
+  return it->second->second;
+}
+
+std::shared_ptr<LoadedResult> ResultCache::get(const std::string& id,
+                                               const std::string& params_json) {
+  if (auto hit = cached(id)) return hit;
   if (on_lookup_) on_lookup_(false);
   const std::string path = path_of(id);
   std::error_code ec;
@@ -72,6 +77,15 @@ std::shared_ptr<LoadedResult> ResultCache::get(const std::string& id) {
     if (e.code() != ErrorCode::kInvalidArgument) throw;
     throw Error(ErrorCode::kIo, "the stored result of job " + id + " is corrupt (" + e.detail() +
                                     "); DELETE the job and submit it again to recompute it");
+  }
+  // A job id is the hash of its scene and parameters, and the file holds the scene as it was
+  // hashed: a file of another job (copied or restored under this name) says so here.
+  if (const std::string owner = job_id(scene_to_json(loaded->result().scene), params_json);
+      owner != id) {
+    throw Error(ErrorCode::kIo, "the stored result of job " + id +
+                                    " belongs to another job: its scene with this job's "
+                                    "parameters makes job " +
+                                    owner + "; DELETE the job and submit it again to recompute it");
   }
   std::lock_guard lock(mutex_);
   if (const auto it = index_.find(id); it != index_.end()) return it->second->second;

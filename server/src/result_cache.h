@@ -50,9 +50,15 @@ class ResultCache {
 
   std::string path_of(const std::string& id) const { return dir_ + "/" + id + ".gvd"; }
 
-  /// The result of a finished job; nullptr when there is no such file. Throws gvd::Error when
-  /// the file exists but cannot be read or is corrupt.
-  std::shared_ptr<LoadedResult> get(const std::string& id);
+  /// The result of finished job `id`, computed with the normalized parameters `params_json`
+  /// (its status document's "params"); nullptr when there is no such file. A file loaded from
+  /// the store must belong to the id: job_id(scene_to_json(its scene), params_json) == id
+  /// (a result copied under another job's id is not served as that job). Throws gvd::Error
+  /// {kIo} naming the job, not the store's path, when the file exists but cannot be read, is
+  /// corrupt, or belongs to another job.
+  std::shared_ptr<LoadedResult> get(const std::string& id, const std::string& params_json);
+  /// The cached result of `id`, or nullptr (never loads).
+  std::shared_ptr<LoadedResult> cached(const std::string& id);
   /// Caches a result just computed (already saved by the caller).
   void put(const std::string& id, std::shared_ptr<const GvdResult> result);
   void erase(const std::string& id);

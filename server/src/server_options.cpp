@@ -129,6 +129,14 @@ const std::vector<Spec>& specs() {
              "HTTP threads reading a request body at once; beyond, 503 overloaded before the "
              "body (0 = half of --http-threads)",
              &ServerOptions::max_body_readers, 0, 1024),
+      number("--max-body-readers-per-client",
+             "of --max-body-readers, bodies one client address may send at once; beyond, 503 "
+             "overloaded before the body (0 = a quarter of them, at least 1)",
+             &ServerOptions::max_body_readers_per_client, 0, 1024),
+      number("--body-budget",
+             "bytes of request bodies held at once (read or being handled); beyond, 503 "
+             "overloaded before the body (0 = 4 x --max-body; else at least --max-body)",
+             &ServerOptions::body_budget, uint64_t{0}, kU64),
       number("--body-seconds",
              "seconds a request body may take, plus its length / --min-body-rate (then 408)",
              &ServerOptions::body_seconds, 0.1, 86400.0),
@@ -175,6 +183,11 @@ void check(ServerOptions& o) {
     throw UsageError("--backend must be cpu, opencl or auto, got \"" + o.backend + "\"");
   }
   if (o.store.empty()) throw UsageError("--store must not be empty");
+  if (o.body_budget != 0 && o.body_budget < o.max_body) {
+    throw UsageError("--body-budget " + std::to_string(o.body_budget) +
+                     " is less than --max-body " + std::to_string(o.max_body) +
+                     ": a body of the largest size allowed could never be read");
+  }
   if (o.role != "api" && o.role != "worker" && o.role != "both") {
     throw UsageError("--role must be api, worker or both, got \"" + o.role + "\"");
   }

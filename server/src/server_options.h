@@ -61,6 +61,13 @@ struct ServerOptions {
   /// body_seconds + its Content-Length / min_body_rate (bytes per second) of the moment its
   /// reading began, or 408 /problems/request-timeout and the connection is closed.
   int max_body_readers = 0;
+  /// Of max_body_readers, how many bodies one remote address may be sending at once (beyond,
+  /// 503 overloaded + Retry-After before the body); 0 = a quarter of them, at least 1.
+  int max_body_readers_per_client = 0;
+  /// Bytes of request bodies (their Content-Length) held at once, from before the body is
+  /// read until its request is answered (beyond, 503 overloaded + Retry-After before the
+  /// body); 0 = 4 x max_body. At least max_body otherwise.
+  uint64_t body_budget = 0;
   double body_seconds = 30;
   uint64_t min_body_rate = 1 << 20;
   int max_streams = 4;        ///< concurrent SSE streams

@@ -8,8 +8,10 @@
 #      a second, which holds a thread per connection reading it (request bodies are read in
 #      the threads); meanwhile curl probes /healthz and /readyz and wrk -c8 asks for the
 #      neighbour query. At most --max-body-readers threads (default 64, half of them) read
-#      bodies: the other POSTs are refused at once (503 + Retry-After, before their body), and
-#      the query is served by the free threads. With EXTRA_ARGS="--max-body-readers 128" the
+#      bodies, and the holders, all from 127.0.0.1, only --max-body-readers-per-client of
+#      them (default 16, a quarter): the other POSTs are refused at once (503 + Retry-After,
+#      before their body), and the query is served by the free threads. With
+#      EXTRA_ARGS="--max-body-readers 128 --max-body-readers-per-client 128" the
 #      bodies take every thread and fill the queue (500 > 128 threads + 256 queued): then the
 #      excess must be answered at once (503 overloaded), not queued behind bodies that take
 #      minutes, and the probes still answered (they have threads of their own).

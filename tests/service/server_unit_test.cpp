@@ -1,6 +1,7 @@
 // Unit tests of the server's pieces (CTest label `unit`, also under ASan): no server process;
 // the header gate's test listens on a loopback port of its own.
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <netinet/in.h>
@@ -129,6 +130,12 @@ TEST(ServerOptions, BadValuesAreUsageErrors) {
   EXPECT_THROW(parse_server_options({"--backend", "gpu"}, {}, help), UsageError);
   EXPECT_THROW(parse_server_options({}, {{"GVD_WORKERS", "-1"}}, help), UsageError);
   EXPECT_THROW(parse_server_options({"--job-seconds", "nan"}, {}, help), UsageError);
+  // A budget for the bodies held at once that no body of the largest size fits in.
+  EXPECT_THROW(parse_server_options({"--max-body", "1000", "--body-budget", "999"}, {}, help),
+               UsageError);
+  EXPECT_EQ(
+      parse_server_options({"--max-body", "1000", "--body-budget", "1000"}, {}, help).body_budget,
+      1000u);
 }
 
 TEST(ServerOptions, QueueIsABoundOrARedisUrl) {
@@ -330,12 +337,12 @@ TEST(ResultCache, LeastRecentlyUsedIsEvicted) {
   ResultCache cache("/nonexistent-dir", 2, [&](bool hit) { (hit ? hits : misses)++; });
   cache.put("a", std::make_shared<GvdResult>());
   cache.put("b", std::make_shared<GvdResult>());
-  EXPECT_NE(cache.get("a"), nullptr);  // a is now the newest
+  EXPECT_NE(cache.get("a", "{}"), nullptr);  // a is now the newest
   cache.put("c", std::make_shared<GvdResult>());
   EXPECT_EQ(cache.size(), 2u);
-  EXPECT_EQ(cache.get("b"), nullptr);  // evicted, and not on disk
-  EXPECT_NE(cache.get("a"), nullptr);
-  EXPECT_NE(cache.get("c"), nullptr);
+  EXPECT_EQ(cache.get("b", "{}"), nullptr);  // evicted, and not on disk
+  EXPECT_NE(cache.get("a", "{}"), nullptr);
+  EXPECT_NE(cache.get("c", "{}"), nullptr);
   EXPECT_EQ(hits, 3);
   EXPECT_EQ(misses, 1);
 }
@@ -695,7 +702,8 @@ TEST(HeaderGate, BodiesHaveADeadlineAndAReaderCap) {
   limits.min_body_rate = 1000;  // + 0.1 s for the 100 bytes below
   http.set_gate_limits(limits);
   http.set_pre_routing_handler([&](const httplib::Request& req, httplib::Response& res) {
-    if (http.begin_body(std::stoull(req.get_header_value("Content-Length", 0)))) {
+    if (http.begin_body(std::stoull(req.get_header_value("Content-Length", 0))) ==
+        BodyAdmission::kAdmitted) {
       return httplib::Server::HandlerResponse::Unhandled;
     }
     res.status = 503;
@@ -760,6 +768,128 @@ TEST(HeaderGate, BodiesHaveADeadlineAndAReaderCap) {
     EXPECT_TRUE(answer.ends_with("100")) << answer;
   }
   EXPECT_EQ(http.gate_counts().body_readers, 0u);
+  http.stop();
+  serving.join();
+}
+
+// Issue 16 and D4: begin_body's other two limits. Each address may be reading
+// max_body_readers_per_client bodies; the bytes of the bodies held (being read, or read and
+// still handled) stay within max_body_bytes, and are given back when the request is over,
+// not when its body has been read.
+TEST(HeaderGate, BodiesHaveAShareForEachAddressAndAByteBudget) {
+  GatedServer http(8);
+  GateLimits limits;
+  limits.max_body_readers_per_client = 1;
+  limits.max_body_bytes = 150;
+  http.set_gate_limits(limits);
+  http.set_pre_routing_handler([&](const httplib::Request& req, httplib::Response& res) {
+    const BodyAdmission a = http.begin_body(std::stoull(req.get_header_value("Content-Length", 0)));
+    if (a == BodyAdmission::kAdmitted) return httplib::Server::HandlerResponse::Unhandled;
+    res.status = 503;
+    res.set_content(a == BodyAdmission::kTooManyForClient ? "client"
+                    : a == BodyAdmission::kOverBudget     ? "bytes"
+                                                          : "readers",
+                    "text/plain");
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  std::mutex mutex;
+  std::condition_variable released_cv;
+  bool released = false;
+  http.Post("/hold", [&](const httplib::Request& req, httplib::Response& res) {
+    std::unique_lock lock(mutex);
+    released_cv.wait(lock, [&] { return released; });
+    res.set_content(std::to_string(req.body.size()), "text/plain");
+  });
+  http.Post("/p", [](const httplib::Request& req, httplib::Response& res) {
+    res.set_content(std::to_string(req.body.size()), "text/plain");
+  });
+  const int port = http.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { http.listen_after_bind(); });
+  const auto connect_from = [port](const char* from) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in source{};
+    source.sin_family = AF_INET;
+    inet_pton(AF_INET, from, &source.sin_addr);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<uint16_t>(port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (bind(fd, reinterpret_cast<sockaddr*>(&source), sizeof source) != 0 ||
+        connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+      close(fd);
+      return -1;
+    }
+    timeval tv{3, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    return fd;
+  };
+  const auto post = [](const char* path, size_t length) {
+    return std::string("POST ") + path +
+           " HTTP/1.1\r\nHost: x\r\nContent-Length: " + std::to_string(length) +
+           "\r\nConnection: close\r\n\r\n";
+  };
+  const auto wait_until = [&](auto done) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (!done() && std::chrono::steady_clock::now() < end) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return done();
+  };
+
+  // 127.0.0.1 sends 10 bytes slowly: it reads its share, a second body of its is refused.
+  const int slow = connect_from("127.0.0.1");
+  ASSERT_GE(slow, 0);
+  const std::string start = post("/p", 10) + "a";
+  (void)!send(slow, start.data(), start.size(), MSG_NOSIGNAL);
+  ASSERT_TRUE(wait_until([&] { return http.gate_counts().body_readers == 1; }));
+  int fd = connect_from("127.0.0.1");
+  std::string head = post("/p", 1) + "b";
+  (void)!send(fd, head.data(), head.size(), MSG_NOSIGNAL);
+  std::string got = read_all(fd);
+  close(fd);
+  EXPECT_TRUE(got.starts_with("HTTP/1.1 503 ") && got.ends_with("client")) << got;
+  EXPECT_EQ(http.gate_counts().body_refused_client, 1u);
+
+  // 127.0.0.2's body of 100 bytes is read and held by its handler: no longer a reader, but its
+  // bytes are still held (110 of 150).
+  const int held = connect_from("127.0.0.2");
+  ASSERT_GE(held, 0);
+  head = post("/hold", 100) + std::string(100, 'c');
+  (void)!send(held, head.data(), head.size(), MSG_NOSIGNAL);
+  ASSERT_TRUE(wait_until([&] { return http.gate_counts().body_bytes == 110; }));
+  EXPECT_EQ(http.gate_counts().body_readers, 1u);
+
+  // 50 more bytes would be 160: refused; 40 fit, are read, and given back once answered.
+  fd = connect_from("127.0.0.3");
+  head = post("/p", 50) + std::string(50, 'd');
+  (void)!send(fd, head.data(), head.size(), MSG_NOSIGNAL);
+  got = read_all(fd);
+  close(fd);
+  EXPECT_TRUE(got.starts_with("HTTP/1.1 503 ") && got.ends_with("bytes")) << got;
+  EXPECT_EQ(http.gate_counts().body_refused_bytes, 1u);
+  fd = connect_from("127.0.0.3");
+  head = post("/p", 40) + std::string(40, 'e');
+  (void)!send(fd, head.data(), head.size(), MSG_NOSIGNAL);
+  got = read_all(fd);
+  close(fd);
+  EXPECT_TRUE(got.starts_with("HTTP/1.1 200 ") && got.ends_with("40")) << got;
+  EXPECT_TRUE(wait_until([&] { return http.gate_counts().body_bytes == 110; }));
+
+  // The held request is answered, the slow body arrives: nothing is held any more.
+  {
+    std::lock_guard lock(mutex);
+    released = true;
+  }
+  released_cv.notify_all();
+  EXPECT_TRUE(read_all(held).ends_with("100"));
+  close(held);
+  (void)!send(slow, "aaaaaaaaa", 9, MSG_NOSIGNAL);
+  EXPECT_TRUE(read_all(slow).ends_with("10"));
+  close(slow);
+  EXPECT_TRUE(wait_until([&] { return http.gate_counts().body_bytes == 0; }));
+  EXPECT_EQ(http.gate_counts().body_readers, 0u);
+  EXPECT_EQ(http.gate_counts().body_refused, 0u);
   http.stop();
   serving.join();
 }

@@ -112,8 +112,19 @@ Json wait_for(httplib::Client& c, const std::string& id, const std::set<std::str
 }
 
 /// A loopback connection to the server (-1 if it cannot connect).
-int connect_to(int port) {
+/// A connection to the server on loopback; with `from`, made from that source address (any
+/// of 127.0.0.0/8 is this host), so that the server sees several clients.
+int connect_to(int port, const char* from = nullptr) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (from != nullptr) {
+    sockaddr_in source{};
+    source.sin_family = AF_INET;
+    inet_pton(AF_INET, from, &source.sin_addr);
+    if (bind(fd, reinterpret_cast<sockaddr*>(&source), sizeof source) != 0) {
+      close(fd);
+      return -1;
+    }
+  }
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(static_cast<uint16_t>(port));
@@ -125,10 +136,11 @@ int connect_to(int port) {
   return fd;
 }
 
-/// Sends raw bytes on a new connection and returns whatever the server answers (until it
-/// closes or `ms` pass).
-std::string raw_exchange(int port, const std::string& request, int ms = 2000) {
-  const int fd = connect_to(port);
+/// Sends raw bytes on a new connection (from source address `from`, if given) and returns
+/// whatever the server answers (until it closes or `ms` pass).
+std::string raw_exchange(int port, const std::string& request, int ms = 2000,
+                         const char* from = nullptr) {
+  const int fd = connect_to(port, from);
   if (fd < 0) return "";
   timeval tv{ms / 1000, (ms % 1000) * 1000};
   setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
@@ -493,12 +505,50 @@ TEST(Service, DeleteCancelsQueuedAndRunningJobsAndForgetsFinishedOnes) {
 }
 
 /// Resident memory of process `pid`, MB (from /proc; 0 if unknown).
-double resident_mb(pid_t pid) {
+double resident_mb(pid_t pid, const std::string& field = "VmRSS:") {
   std::ifstream status("/proc/" + std::to_string(pid) + "/status");
   for (std::string line; std::getline(status, line);) {
-    if (line.starts_with("VmRSS:")) return std::stod(line.substr(6)) / 1024.0;
+    if (line.starts_with(field)) return std::stod(line.substr(field.size())) / 1024.0;
   }
   return 0;
+}
+
+// Reliability D4: the scene limits were checked after the whole body was parsed into a JSON
+// document: the 66 MB scene of 11M vertices took ~10 s and ~0.7-1.4 GB before its 422, and so
+// did the same body with a "params" key (whose parse read the whole body first). Both are now
+// refused while the text is read: 422 limit-exceeded naming the vertex limit (3 per simplex of
+// --max-simplices), in well under the 10 s and without a peak above the body's own memory.
+TEST(Service, OversizedSceneIsRefusedWhileItIsParsed) {
+  ServerProcess server(fresh_dir("big-body-early"));
+  auto c = client(server.port());
+  const double start_peak = resident_mb(server.pid(), "VmHWM:");
+  std::string vertices;
+  vertices.reserve(66'000'000);
+  for (int i = 0; i < 11'000'000; ++i) vertices += i == 0 ? "[0,0]" : ",[0,0]";
+  for (const std::string head : {"", R"("params":{"max_depth":9},)"}) {
+    const std::string big = "{" + head + R"("dimension":2,"objects":[{"label":"a","vertices":[)" +
+                            vertices + "],\"segments\":[[0,1]]}]}";
+    const auto t0 = std::chrono::steady_clock::now();
+    auto r = c->Post("/v1/jobs", big, "application/json");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 422) << r->body.substr(0, 300);
+    const Json p = Json::parse(r->body, nullptr, false);
+    EXPECT_EQ(p.value("type", ""), "/problems/limit-exceeded") << r->body.substr(0, 300);
+    EXPECT_NE(p.value("detail", "")
+                  .find("more than the limit of 6000000 vertices (3 per simplex "
+                        "of the limit of 2000000 simplices)"),
+              std::string::npos)
+        << r->body.substr(0, 300);
+    std::printf("refused in %.2f s\n", seconds);
+    EXPECT_LT(seconds, 5.0) << head;
+  }
+  // The body (66 MB, read into a string that grows by doubling) and little else.
+  const double peak = resident_mb(server.pid(), "VmHWM:");
+  std::printf("server peak resident: %.0f MB at start, %.0f MB after both bodies\n", start_peak,
+              peak);
+  EXPECT_LT(peak - start_peak, 300.0);
 }
 
 // D4 (in part): a rejected 66 MB scene (11M vertices) left ~1.4 GB resident, and with
@@ -649,7 +699,11 @@ TEST(Service, RestartRebuildsAMissingStatusDocumentAndDropsTemporaryFiles) {
     id = submit(*c, data("scenes/gears2d.json")).id;
     ASSERT_EQ(wait_for(*c, id, {"done"}).value("status", ""), "done");
   }
-  // As if killed between writing the result and its status document, and during a write.
+  // As if killed between writing the result and its status document (the stored request,
+  // removed after that document, is still there), and during a write.
+  const Json done = Json::parse(read_text(store + "/results/" + id + ".json"));
+  std::ofstream(store + "/requests/" + id + ".json")
+      << Json{{"id", id}, {"params", done["params"]}};
   fs::remove(store + "/results/" + id + ".json");
   std::ofstream(store + "/results/" + id + ".gvd.tmp.123.0") << "partial";
   std::ofstream(store + "/requests/" + std::string(32, 'a') + ".scene.json") << "{}";  // orphan
@@ -662,6 +716,7 @@ TEST(Service, RestartRebuildsAMissingStatusDocumentAndDropsTemporaryFiles) {
   EXPECT_TRUE(fs::exists(store + "/results/" + id + ".json"));
   EXPECT_FALSE(fs::exists(store + "/results/" + id + ".gvd.tmp.123.0"));
   EXPECT_FALSE(fs::exists(store + "/requests/" + std::string(32, 'a') + ".scene.json"));
+  EXPECT_FALSE(fs::exists(store + "/requests/" + id + ".json"));
 }
 
 // The log lines of a server run with a log file, as JSON objects (other lines skipped).
@@ -728,6 +783,83 @@ TEST(Service, CorruptStoredResultIsAStorageErrorAndLogged) {
     error_line |= j.value("level", "") == "error" &&
                   j.value("error", "").find("stored result of job " + id) != std::string::npos;
   EXPECT_TRUE(error_line) << read_text(log);
+}
+
+// Reliability D7: a job's id is the hash of its scene and parameters, but a result file copied
+// (or restored) under another job's id was served as that job. Loaded from the store, a file's
+// scene with the job's parameters must make the job's id: one that does not is a storage error
+// (500 io-error naming the job, not the store's path, and an error log line). (A result file
+// holds no parameters: a copy between two jobs of the same scene is not detected.) A result without
+// its status document is listed again only when its stored request gives its parameters and they
+// make its id; otherwise it is dropped with a store_entry_dropped line.
+TEST(Service, StoredResultUnderAnotherJobsIdIsNotServed) {
+  const std::string store = fresh_dir("result-other-id");
+  std::string a, b;
+  {
+    ServerProcess server(store);
+    auto c = client(server.port());
+    a = submit(*c, data("scenes/gears2d.json")).id;
+    // Another scene (one label differs) with other parameters.
+    Json other = Json::parse(data("scenes/gears2d.json"));
+    other["objects"][0]["label"] = other["objects"][0]["label"].get<std::string>() + "_b";
+    b = submit(*c, other.dump(), "?max_depth=12").id;
+    ASSERT_EQ(wait_for(*c, a, {"done"}).value("status", ""), "done");
+    ASSERT_EQ(wait_for(*c, b, {"done"}).value("status", ""), "done");
+  }
+  const std::string results = store + "/results/";
+  fs::copy_file(results + a + ".gvd", results + b + ".gvd", fs::copy_options::overwrite_existing);
+  // A result under a new id, without a status document: with a stored request whose
+  // parameters make another id, and without any request.
+  const std::string with_request(32, 'c'), bare(32, 'd');
+  fs::copy_file(results + a + ".gvd", results + with_request + ".gvd");
+  fs::copy_file(results + a + ".gvd", results + bare + ".gvd");
+  const Json params = Json::parse(read_text(results + a + ".json"))["params"];
+  std::ofstream(store + "/requests/" + with_request + ".json")
+      << Json{{"id", with_request}, {"params", params}};
+  const std::string log = store + "/server.log";
+  ServerProcess server(store, {}, log);
+  auto c = client(server.port());
+  EXPECT_EQ(status_of(*c, b).value("status", ""), "done");
+  for (const std::string out : {"/graph", "/gvd.glb", "/result.gvd", "/gvd.json"}) {
+    auto r = c->Get(("/v1/jobs/" + b + out).c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 500) << out;
+    const Json p = Json::parse(r->body, nullptr, false);
+    EXPECT_EQ(p.value("type", ""), "/problems/io-error") << out;
+    const std::string detail = p.value("detail", "");
+    EXPECT_NE(detail.find("stored result of job " + b + " belongs to another job"),
+              std::string::npos)
+        << detail;
+    EXPECT_NE(detail.find("with this job's parameters makes job "), std::string::npos) << detail;
+    EXPECT_EQ(detail.find(store), std::string::npos) << "the store's path leaks: " << detail;
+  }
+  auto r =
+      c->Post(("/v1/jobs/" + b + "/nearest").c_str(), R"({"points":[[0,0]]})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 500);
+  // The job the file does belong to is served as before.
+  EXPECT_EQ(c->Get(("/v1/jobs/" + a + "/graph").c_str())->status, 200);
+  // Not listed: neither copy without a status document.
+  for (const std::string& id : {with_request, bare}) {
+    EXPECT_EQ(c->Get(("/v1/jobs/" + id).c_str())->status, 404) << id;
+    EXPECT_EQ(c->Get(("/v1/jobs/" + id + "/graph").c_str())->status, 404) << id;
+  }
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait(), 0);
+  const std::vector<Json> lines = log_lines(log);
+  bool error_line = false;
+  for (const Json& j : lines)
+    error_line |= j.value("level", "") == "error" &&
+                  j.value("error", "").find("stored result of job " + b) != std::string::npos;
+  EXPECT_TRUE(error_line) << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "results/" + with_request + ".gvd"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "belongs to another job (" + a + ")"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "results/" + bare + ".gvd"))
+      << read_text(log);
+  EXPECT_TRUE(logged(lines, "warn", "store_entry_dropped", "no stored request holds its"))
+      << read_text(log);
 }
 
 // Reliability D12: what the restart drops from the store, it says in the log, with the reason.
@@ -970,7 +1102,11 @@ TEST(Service, UnitsTravelToTheStatusTheOutputsAndTheAnswers) {
         << bad_param.body.dump();
     for (const std::string& id : {um.id, metres.id}) wait_for(*c, id, {"done", "failed"});
   }
-  // After a restart (the status rebuilt from the result file when its document is lost).
+  // After a restart (the status rebuilt from the result file and the stored request when its
+  // document is lost: killed between the two writes).
+  const Json done = Json::parse(read_text(store + "/results/" + mm_id + ".json"));
+  std::ofstream(store + "/requests/" + mm_id + ".json")
+      << Json{{"id", mm_id}, {"params", done["params"]}};
   fs::remove(store + "/results/" + mm_id + ".json");
   ServerProcess server(store);
   auto c = client(server.port());
@@ -1200,14 +1336,16 @@ TEST(Service, HeaderDeadlineIdleCloseAndPipelinedRequests) {
 // waiting in an unbounded queue; /healthz stays 200 and /readyz says "overloaded". The threads
 // are held legitimately, without CPU: POST bodies that arrive slowly (bodies are read in the
 // threads; --max-body-readers 2 lets both threads read one, where by default only half of
-// them may). Afterwards the queued requests are served, not dropped, and so is everything else.
+// them may, and --max-body-readers-per-client 2 lets this one address read both). Afterwards
+// the queued requests are served, not dropped, and so is everything else.
 TEST(Service, FullRequestQueueAnswers503AtOnce) {
   const std::string dir = fresh_dir("overload");
   const std::string log = dir + "/server.log";
-  ServerProcess server(dir + "/store",
-                       {"--http-threads", "2", "--max-queued-requests", "2", "--retry-after", "3",
-                        "--read-timeout", "30", "--max-body-readers", "2"},
-                       log);
+  ServerProcess server(
+      dir + "/store",
+      {"--http-threads", "2", "--max-queued-requests", "2", "--retry-after", "3", "--read-timeout",
+       "30", "--max-body-readers", "2", "--max-body-readers-per-client", "2"},
+      log);
   const int port = server.port();
   // Two requests hold the two threads, two more wait for them: headers and the first byte of
   // a 64-byte body each.
@@ -1341,6 +1479,17 @@ double metric_value(int port, const std::string& name) {
   return at == std::string::npos ? -1 : std::stod(m->body.substr(at + key.size()));
 }
 
+/// The metric once it equals `value` (a request's body bytes are given back just after its
+/// answer is sent), or its last value after 2 s.
+double metric_becomes(int port, const std::string& name, double value) {
+  double now = metric_value(port, name);
+  for (int i = 0; i < 200 && now != value; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    now = metric_value(port, name);
+  }
+  return now;
+}
+
 // Issue 16: the per-address cap of the header gate closed kept-alive connections that sat
 // idle between requests, so a client (or a proxy, or wrk) with more connections than the cap
 // reconnected over and over: the 256-connection load test's p99. Only connections that have
@@ -1383,9 +1532,11 @@ TEST(Service, IdleKeptAliveConnectionsAreNotEvicted) {
 // Issue 16: probes waited in the one FIFO queue of ready requests behind whatever held the
 // threads, until it was full (then the gate answered them). They have a lane of their own now.
 // Two slow bodies hold both threads and two more requests wait for them (the queue holds 8):
-// /healthz, /readyz and /metrics are answered at once all the same.
+// /healthz, /readyz and /metrics are answered at once all the same. (The holders share one
+// address: it may send both bodies.)
 TEST(Service, ProbesAreAnsweredWhileRequestsWaitForThreads) {
   const ScopedEnv readers("GVD_MAX_BODY_READERS", "2");
+  const ScopedEnv share("GVD_MAX_BODY_READERS_PER_CLIENT", "2");
   ServerProcess server(fresh_dir("probe-lane"), {"--http-threads", "2", "--max-queued-requests",
                                                  "8", "--read-timeout", "30"});
   const int port = server.port();
@@ -1508,6 +1659,136 @@ TEST(Service, BodyReadersAreCapped) {
   // The slot is free again.
   EXPECT_EQ(raw_status(raw_exchange(port, head + padded)), 422);
   EXPECT_EQ(metric_value(port, "gvd_http_body_readers"), 0);
+}
+
+// Issue 16: one client address could take every --max-body-readers slot, and every other
+// client then got 503 for as long as its bodies took. Each address may now be reading
+// --max-body-readers-per-client bodies (default: a quarter of the readers); one more from it
+// is refused before its body (503 + Retry-After, naming the flag) while other addresses are
+// read and answered.
+TEST(Service, OneAddressCannotTakeEveryBodyReader) {
+  ServerProcess server(
+      fresh_dir("body-readers-per-client"),
+      {"--http-threads", "8", "--max-body-readers", "4", "--max-body-readers-per-client", "2",
+       "--read-timeout", "30", "--retry-after", "2"});
+  const int port = server.port();
+  const std::string body = R"({"dimension":3,"objects":[]})";
+  const std::string padded = body + std::string(64 - body.size(), ' ');
+  const std::string head =
+      "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+      "Content-Length: 64\r\nConnection: close\r\n\r\n";
+  const std::string start = head + padded.substr(0, 1);
+  // 127.0.0.1 sends two bodies slowly: both are read (its share).
+  std::vector<int> holders;
+  for (int i = 0; i < 2; ++i) {
+    holders.push_back(connect_to(port));
+    ASSERT_GE(holders.back(), 0);
+    (void)!send(holders.back(), start.data(), start.size(), MSG_NOSIGNAL);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(metric_becomes(port, "gvd_http_body_readers", 2), 2);
+
+  // A third body from the same address: refused at once, before its body.
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string got = raw_exchange(port, start, 2000, "127.0.0.1");
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_EQ(raw_status(got), 503) << got;
+  EXPECT_LT(ms, 1000);
+  EXPECT_NE(got.find("\r\nRetry-After: 2\r\n"), std::string::npos) << got;
+  EXPECT_NE(got.find("\r\nConnection: close\r\n"), std::string::npos) << got;
+  const Json problem = Json::parse(got.substr(got.find("\r\n\r\n") + 4), nullptr, false);
+  EXPECT_EQ(problem.value("type", ""), "/problems/overloaded") << got;
+  EXPECT_NE(problem.value("detail", "").find("--max-body-readers-per-client"), std::string::npos)
+      << got;
+
+  // Other addresses are read: one slowly (it holds a third slot) and one whole (answered).
+  const int other = connect_to(port, "127.0.0.2");
+  ASSERT_GE(other, 0);
+  (void)!send(other, start.data(), start.size(), MSG_NOSIGNAL);
+  EXPECT_EQ(raw_status(raw_exchange(port, head + padded, 5000, "127.0.0.3")), 422);
+  EXPECT_EQ(metric_becomes(port, "gvd_http_body_readers", 3), 3);
+  EXPECT_EQ(metric_value(port, "gvd_http_body_readers_refused_client"), 1);
+  EXPECT_LE(metric_value(port, "gvd_http_body_readers_refused"), 0);
+
+  // Once one of its bodies has arrived, the first address may send another.
+  (void)!send(holders[0], padded.data() + 1, padded.size() - 1, MSG_NOSIGNAL);
+  bool closed = false;
+  EXPECT_EQ(raw_status(read_for(holders[0], 10000, closed)), 422);
+  EXPECT_EQ(raw_status(raw_exchange(port, head + padded, 5000, "127.0.0.1")), 422);
+  for (const int fd : {holders[1], other}) {
+    (void)!send(fd, padded.data() + 1, padded.size() - 1, MSG_NOSIGNAL);
+    EXPECT_EQ(raw_status(read_for(fd, 10000, closed)), 422);
+    close(fd);
+  }
+  close(holders[0]);
+  EXPECT_EQ(metric_value(port, "gvd_http_body_readers"), 0);
+}
+
+// The default share is a quarter of the readers, at least one; and the bytes of the bodies held
+// at once have a budget (--body-budget, default 4 x --max-body), which must hold a body of the
+// largest size.
+TEST(Service, BodyReaderShareAndBudgetDefaults) {
+  {
+    ServerProcess server(fresh_dir("body-defaults"), {"--http-threads", "16"});
+    EXPECT_EQ(metric_value(server.port(), "gvd_http_max_body_readers"), 8);
+    EXPECT_EQ(metric_value(server.port(), "gvd_http_max_body_readers_per_client"), 2);
+    EXPECT_EQ(metric_value(server.port(), "gvd_http_body_budget_bytes"), 4.0 * (64 << 20));
+  }
+  ServerProcess server(fresh_dir("body-defaults-small"),
+                       {"--http-threads", "2", "--max-body", "1000"});
+  EXPECT_EQ(metric_value(server.port(), "gvd_http_max_body_readers_per_client"), 1);
+  EXPECT_EQ(metric_value(server.port(), "gvd_http_body_budget_bytes"), 4000);
+}
+
+// Reliability D4: bodies in memory had no bound but --max-body each times the threads reading
+// them (128 x 64 MiB). The bytes of the bodies being read or handled now have a budget: a body
+// that would take the sum past --body-budget is refused before it is read (503 + Retry-After),
+// one that fits is read, and the bytes are given back once a request is answered.
+TEST(Service, BodiesHeldAtOnceHaveAByteBudget) {
+  ServerProcess server(fresh_dir("body-budget"),
+                       {"--http-threads", "8", "--max-body", "1000", "--body-budget", "1500",
+                        "--read-timeout", "30", "--retry-after", "2"});
+  const int port = server.port();
+  const auto post = [](size_t length) {
+    return "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+           "Content-Length: " +
+           std::to_string(length) + "\r\nConnection: close\r\n\r\n";
+  };
+  const auto padded = [](size_t length) {
+    const std::string body = R"({"dimension":3,"objects":[]})";
+    return body + std::string(length - body.size(), ' ');
+  };
+  // A body of 1000 bytes arrives slowly: 1000 of the 1500 bytes are held.
+  const int holder = connect_to(port, "127.0.0.1");
+  ASSERT_GE(holder, 0);
+  const std::string start = post(1000) + "{";
+  (void)!send(holder, start.data(), start.size(), MSG_NOSIGNAL);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(metric_value(port, "gvd_http_body_bytes"), 1000);
+
+  // 600 more would be 1600: refused before the body, whoever sends it.
+  std::string got = raw_exchange(port, post(600), 2000, "127.0.0.2");
+  ASSERT_EQ(raw_status(got), 503) << got;
+  EXPECT_NE(got.find("\r\nRetry-After: 2\r\n"), std::string::npos) << got;
+  const Json problem = Json::parse(got.substr(got.find("\r\n\r\n") + 4), nullptr, false);
+  EXPECT_EQ(problem.value("type", ""), "/problems/overloaded") << got;
+  EXPECT_NE(problem.value("detail", "").find("--body-budget"), std::string::npos) << got;
+  EXPECT_NE(problem.value("detail", "").find("1500 bytes"), std::string::npos) << got;
+  EXPECT_EQ(metric_value(port, "gvd_http_body_budget_refused"), 1);
+  // 500 fit: read and answered, and their bytes given back.
+  EXPECT_EQ(raw_status(raw_exchange(port, post(500) + padded(500), 5000, "127.0.0.3")), 422);
+  EXPECT_EQ(metric_becomes(port, "gvd_http_body_bytes", 1000), 1000);
+
+  // The slow body arrives: all bytes are free again, and 600 are read.
+  const std::string rest = padded(1000).substr(1);
+  (void)!send(holder, rest.data(), rest.size(), MSG_NOSIGNAL);
+  bool closed = false;
+  EXPECT_EQ(raw_status(read_for(holder, 10000, closed)), 422);
+  close(holder);
+  EXPECT_EQ(metric_becomes(port, "gvd_http_body_bytes", 0), 0);
+  EXPECT_EQ(raw_status(raw_exchange(port, post(600) + padded(600), 5000, "127.0.0.2")), 422);
+  EXPECT_EQ(metric_becomes(port, "gvd_http_body_bytes", 0), 0);
 }
 
 TEST(Service, HealthReadinessMetrics) {

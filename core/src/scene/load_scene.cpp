@@ -14,13 +14,15 @@
 #include <vector>
 
 #include "gvd/common/error.h"
-#include "gvd/common/json_input.h"
 
 namespace gvd {
 
 // The readers, one definition each in scene_json.cpp, mesh_formats.cpp and gltf_scene.cpp.
 // They return unvalidated scenes (except scene_from_json_value, which validates).
 Scene scene_from_json_value(const nlohmann::json& doc, const SceneLimits& limits);
+/// The JSON text parsed once its nesting, objects, vertices, simplices and values are counted
+/// within `limits` (a pass that builds nothing, so an oversized scene is refused early).
+nlohmann::json parse_scene_json_value(std::string_view text, const SceneLimits& limits);
 Scene parse_obj(std::string_view text, const std::string& name, bool single_object,
                 const SceneLimits& limits);
 Scene parse_ply(std::span<const uint8_t> bytes, const std::string& name, const SceneLimits& limits);
@@ -86,7 +88,7 @@ Scene parse_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std:
     } else if (lead.starts_with("{") || lead.starts_with("[") || lead.starts_with("null") ||
                lead.starts_with("true") || lead.starts_with("false")) {
       // JSON that is no object is no scene either: said as such (not "unrecognised format").
-      const nlohmann::json doc = parse_json_input(text, "the scene", ErrorCode::kInvalidScene);
+      const nlohmann::json doc = parse_scene_json_value(text, limits);
       if (doc.is_object() && doc.contains("asset")) {
         format = SceneFormat::kGltf;
       } else {
@@ -111,8 +113,7 @@ Scene parse_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std:
   Scene scene;
   switch (format) {
     case SceneFormat::kJson:
-      return scene_from_json_value(parse_json_input(text, "the scene", ErrorCode::kInvalidScene),
-                                   limits);
+      return scene_from_json_value(parse_scene_json_value(text, limits), limits);
     case SceneFormat::kObj:
       scene = parse_obj(text, name, single_object, limits);
       break;

@@ -299,6 +299,15 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
                                                " simplices, more than the limit of " +
                                                std::to_string(limits.max_simplices));
   }
+  if (const uint64_t vertices = scene.vertex_count(); vertices > limits.vertex_limit()) {
+    throw Error(
+        ErrorCode::kLimitExceeded,
+        "the scene has " + std::to_string(vertices) + " vertices, more than the limit of " +
+            std::to_string(limits.vertex_limit()) +
+            (limits.max_vertices != 0 ? std::string()
+                                      : " (3 per simplex of the limit of " +
+                                            std::to_string(limits.max_simplices) + " simplices)"));
+  }
 
   std::unordered_map<std::string, size_t> first_index;
   for (size_t i = 0; i < scene.objects.size(); ++i) {

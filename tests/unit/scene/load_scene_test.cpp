@@ -444,6 +444,22 @@ TEST(ParseSceneParts, ErrorsNameTheParts) {
       ErrorCode::kLimitExceeded, "3 meshes, more than the limit of 2 objects");
 }
 
+// Reliability D4: a mesh of many vertices and few simplices (no format bounded the vertices)
+// is refused at 3 vertices per simplex of the simplex limit, unless a vertex limit is set.
+TEST(LoadScene, VerticesAreLimitedInEveryFormat) {
+  std::string off = "OFF\n7 2 0\n";
+  for (int i = 0; i < 7; ++i) off += std::to_string(i) + " 0 " + std::to_string(i % 2) + "\n";
+  off += "3 0 1 2\n3 1 2 3\n";
+  SceneLimits limits;
+  limits.max_simplices = 2;
+  expect_error([&] { parse_scene_bytes(bytes_of(off), SceneFormat::kOff, "m", limits); },
+               ErrorCode::kLimitExceeded,
+               "the scene has 7 vertices, more than the limit of 6 (3 per simplex of the limit of "
+               "2 simplices)");
+  limits.max_vertices = 7;
+  EXPECT_EQ(parse_scene_bytes(bytes_of(off), SceneFormat::kOff, "m", limits).vertex_count(), 7u);
+}
+
 TEST(ParseSceneParts, DegenerateSimplicesAreReportedUnderThePartNamingItsSource) {
   // A tetrahedron plus one zero-area triangle (a repeated vertex).
   const std::vector<uint8_t> off = bytes_of(

@@ -1,6 +1,7 @@
 // parse_scene_json rejections and the scene_to_json round trip.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -10,6 +11,7 @@
 #include <string>
 
 #include "gvd/common/error.h"
+#include "gvd/common/peak_memory.h"
 #include "gvd/scene/load_scene.h"
 #include "gvd/scene/units.h"
 
@@ -198,6 +200,96 @@ TEST(SceneJson, RejectsMoreSimplicesThanTheLimit) {
   limits.max_simplices = 6;
   expect_error([&] { parse_scene_json(scene_with(tet(R"("a")") + "," + tet(R"("b")")), limits); },
                ErrorCode::kLimitExceeded, "objects[1] (\"b\")");
+}
+
+// Reliability D4: the limits were checked on the parsed document, so a body over them was
+// parsed whole first (a 66 MB scene of 11M vertices: 10 s and ~0.7 GB before its 422). They
+// are counted while the text is read: a scene over a limit is refused even though its text is
+// cut short after the limit (the whole document was needed before: a parse error), with the
+// limit and where it was reached.
+TEST(SceneJson, LimitsAreEnforcedBeforeTheWholeTextIsRead) {
+  SceneLimits limits;
+  limits.max_objects = 1;
+  const std::string two = scene_with(tet(R"("a")") + "," + tet(R"("b")"));
+  const std::string cut = two.substr(0, two.size() - 12);  // ends in b's third triangle
+  expect_error([&] { parse_scene_json(cut, limits); }, ErrorCode::kLimitExceeded,
+               "the scene has more than the limit of 1 objects (objects[1] is one too many)");
+  // Without the limit it is the parse error it always was.
+  expect_error([&] { parse_scene_json(cut); }, ErrorCode::kInvalidScene, "JSON parse error");
+
+  limits = {};
+  limits.max_simplices = 6;
+  expect_error([&] { parse_scene_json(cut, limits); }, ErrorCode::kLimitExceeded,
+               "the scene has more than the limit of 6 simplices (reached at objects[1] (\"b\"))");
+  try {
+    parse_scene_json(cut, limits);
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().object, 1);
+    EXPECT_EQ(e.where().pointer, "/objects/1/triangles/2");
+  }
+
+  // Vertices: 3 per simplex of max_simplices unless set; the label is named once read.
+  limits = {};
+  limits.max_simplices = 8;  // 24 vertices: a has 4, b's 21st is one too many
+  std::string vertices = R"("vertices": [[0,0,0])";
+  for (int i = 0; i < 29; ++i) vertices += ",[0,0,0]";
+  const std::string many = scene_with(tet(R"("a")") + "," + tet(R"("b")", vertices));
+  expect_error([&] { parse_scene_json(many.substr(0, many.size() - 30), limits); },
+               ErrorCode::kLimitExceeded,
+               "the scene has more than the limit of 24 vertices (3 per simplex of the limit of 8 "
+               "simplices) (reached at objects[1] (\"b\"))");
+  try {
+    parse_scene_json(many, limits);
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().pointer, "/objects/1/vertices/20");
+    EXPECT_EQ(e.where().index, 20);
+  }
+  limits.max_vertices = 5;
+  expect_error([&] { parse_scene_json(many, limits); }, ErrorCode::kLimitExceeded,
+               "more than the limit of 5 vertices (reached at objects[1] (\"b\"))");
+  // Within the limits: parsed as before.
+  limits = {};
+  limits.max_objects = 2;
+  limits.max_simplices = 8;
+  limits.max_vertices = 8;
+  EXPECT_EQ(parse_scene_json(two, limits).objects.size(), 2u);
+}
+
+// Values outside the objects (an unknown key's array) cost as much memory as vertices: the
+// document holds at most 4 values per vertex and simplex, 16 per object and 65536 besides.
+TEST(SceneJson, UnknownKeysCannotHoldUnboundedValues) {
+  SceneLimits limits;
+  limits.max_objects = 1;
+  limits.max_simplices = 4;  // 12 vertices: 4 x 16 + 16 + 65536 = 65616 values
+  std::string extra = "0";
+  for (int i = 0; i < 70000; ++i) extra += ",0";
+  const std::string text = R"({"extra": [)" + extra + "], " + scene_with(tet(R"("a")")).substr(1);
+  expect_error([&] { parse_scene_json(text, limits); }, ErrorCode::kLimitExceeded,
+               "the scene JSON holds more than 65616 values");
+  EXPECT_EQ(parse_scene_json(scene_with(tet(R"("a")")), limits).objects.size(), 1u);
+}
+
+// The 66 MB body of the review, with the server's default limits (2M simplices: 6M vertices):
+// refused while parsing, without building the 11M vertices (~0.7 GB as a DOM).
+TEST(SceneJson, AHugeVertexListIsRefusedWithoutBuildingIt) {
+  std::string text = R"({"dimension":2,"objects":[{"label":"a","vertices":[)";
+  text.reserve(67'000'000);
+  for (int i = 0; i < 11'000'000; ++i) text += i == 0 ? "[0,0]" : ",[0,0]";
+  text += R"(],"segments":[[0,1]]}]})";
+  SceneLimits limits;
+  limits.max_objects = 10000;
+  limits.max_simplices = 2'000'000;
+  const uint64_t before = rss_bytes();
+  const auto t0 = std::chrono::steady_clock::now();
+  expect_error([&] { parse_scene_json(text, limits); }, ErrorCode::kLimitExceeded,
+               "more than the limit of 6000000 vertices");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const uint64_t peak = peak_rss_bytes();
+  if (before > 0 && peak > 0) {
+    EXPECT_LT(peak - std::min(peak, before), 64ull << 20) << "bytes above the text";
+  }
+  EXPECT_LT(seconds, 5.0);  // ~0.3 s; the DOM took ~10 s
 }
 
 TEST(SceneJson, RoundTrips3D) {

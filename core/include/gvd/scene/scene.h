@@ -75,7 +75,16 @@ struct Scene {
 struct SceneLimits {
   uint64_t max_objects = 100000;
   uint64_t max_simplices = 20000000;
+  /// Vertices of all objects; 0: 3 per simplex of max_simplices (a soup of separate
+  /// triangles), so that a file of vertices without simplices cannot fill the memory.
+  uint64_t max_vertices = 0;
   double max_abs_coordinate = 1e15;  ///< larger magnitudes lose all precision in the lattice
+
+  /// max_vertices, or 3 x max_simplices when it is 0 (saturated at UINT64_MAX).
+  uint64_t vertex_limit() const {
+    if (max_vertices != 0) return max_vertices;
+    return max_simplices > UINT64_MAX / 3 ? UINT64_MAX : 3 * max_simplices;
+  }
 };
 
 /// Checks the structure of a parsed scene and normalises it in place: throws
