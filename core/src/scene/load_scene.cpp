@@ -20,7 +20,8 @@ namespace gvd {
 
 // The readers, one definition each in scene_json.cpp, mesh_formats.cpp and gltf_scene.cpp.
 // They return unvalidated scenes (except scene_from_json_value, which validates).
-Scene scene_from_json_value(const nlohmann::json& doc, const SceneLimits& limits);
+Scene scene_from_json_value(const nlohmann::json& doc, const SceneLimits& limits,
+                            const std::atomic<bool>* cancel = nullptr);
 Scene parse_obj(std::string_view text, const std::string& name, bool single_object,
                 const SceneLimits& limits);
 Scene parse_ply(std::span<const uint8_t> bytes, const std::string& name, const SceneLimits& limits);
