@@ -131,8 +131,7 @@ TEST(Cancel, CertifierConstructionStopsAtOnce) {
   const UnitGeometry g = make_unit_geometry(scene, make_domain(scene));
   const SimplexBvh bvh(3, g.points, g.simplices, g.object_of);
   std::atomic<bool> cancel{true};
-  expect_cancelled([&] { PairCertifier(g, bvh, nullptr, true, true, &cancel); },
-                   "PairCertifier");
+  expect_cancelled([&] { PairCertifier(g, bvh, nullptr, true, true, &cancel); }, "PairCertifier");
   cancel = false;
   const PairCertifier with(g, bvh, nullptr, true, true, &cancel);
   const PairCertifier without(g, bvh, nullptr, true, true);
