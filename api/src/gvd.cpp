@@ -268,7 +268,7 @@ Result compute(const Scene& scene, const ComputeOptions& options) {
   SceneLimits limits;
   limits.max_objects = options.max_objects;
   limits.max_simplices = options.max_simplices;
-  validate_scene(s, limits);
+  validate_scene(s, limits, options.cancel);
 
   // The options through the parameter table (gvd/pipeline/parameters.h): its ranges and
   // choices, its checks across parameters, named as the keywords are.
@@ -303,7 +303,7 @@ Result compute(const Scene& scene, const ComputeOptions& options) {
 
 Grid grid(const Scene& scene, const GridOptions& options) {
   gvd::Scene s = Access::scene(scene);
-  validate_scene(s);
+  validate_scene(s, {}, options.cancel);
   check_grid_options(options);
   ::gvd::GridOptions go;
   go.resolution = options.resolution;

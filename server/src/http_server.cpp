@@ -400,6 +400,9 @@ struct HttpServer::Impl {
     limits.max_objects = options.max_objects;
     limits.max_simplices = options.max_simplices;
     Scene scene;
+    // A labelled volume is only checked here (its header and parameters): the worker turns it
+    // into a scene, where the job's progress shows it and DELETE stops it.
+    const std::string* volume_bytes = nullptr;
     if (req.is_multipart_form_data() && req.has_file("volume")) {
       if (const auto p = req.files.find("params"); p != req.files.end()) {
         if (!Json::accept(p->second.content))
@@ -413,11 +416,11 @@ struct HttpServer::Impl {
                       "not part \"" +
                           name + "\"");
       }
-      scene = scene_from_volume(req.get_file_value("volume").content, volume, limits);
+      volume_bytes = &req.files.find("volume")->second.content;
     } else if (req.is_multipart_form_data()) {
       scene = scene_from_parts(req, limits, params);
     } else if (media_type(req) == "application/x-npy" || is_npy(req.body)) {
-      scene = scene_from_volume(req.body, volume, limits);
+      volume_bytes = &req.body;
     } else {
       // The scene first: its parse refuses a body over the limits early, where the params'
       // parse reads all of it.
@@ -425,30 +428,47 @@ struct HttpServer::Impl {
       scene = parse_scene_bytes({data, req.body.size()}, SceneFormat::kAuto, label, limits);
       if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
     }
+    JobRequest job;
+    if (volume_bytes != nullptr) {
+      volume.used = true;
+      const LabelVolumeHeader header = read_label_volume_header(
+          {reinterpret_cast<const uint8_t*>(volume_bytes->data()), volume_bytes->size()},
+          "the volume");
+      job.volume_json =
+          volume_options_json(volume_options(header.dimension, volume), header.dimension);
+      job.volume_npy = *volume_bytes;
+      job.dimension = header.dimension;
+    }
     if (!volume.used && (volume.spacing || volume.background)) {
       throw Error(ErrorCode::kInvalidArgument,
                   std::string("parameter \"") + (volume.spacing ? "spacing" : "background") +
                       "\" goes with a labelled volume (an .npy body, application/x-npy, or a "
                       "multipart part named \"volume\")");
     }
-    params.check(scene.dimension, options);
-    if (!params.units.empty()) scene.units = params.units;  // the request's word over the file's
-    if (params.is_grid()) {
-      // The cell count (--max-grid-cells) and the box, before the job is queued.
-      (void)make_grid_spec(scene, params.grid_options(options));
+    if (volume.used) {
+      // The scene's bounds, and with them the grid's cells and a user box's fit, are known
+      // once the worker has the scene: those limits fail the job then (the same problem).
+      params.check(job.dimension, options);
+      job.units = params.units;
     } else {
-      (void)make_domain(scene, params.pipeline_options(options).domain);  // a user box must fit
+      params.check(scene.dimension, options);
+      if (!params.units.empty()) scene.units = params.units;  // the request's word over the file's
+      if (params.is_grid()) {
+        // The cell count (--max-grid-cells) and the box, before the job is queued.
+        (void)make_grid_spec(scene, params.grid_options(options));
+      } else if (const DomainOptions domain = params.pipeline_options(options).domain; domain.box) {
+        (void)make_domain(scene, domain);  // a user box must fit (no frame is searched for it)
+      }
+      job.scene_json = scene_to_json(scene);
+      job.dimension = scene.dimension;
+      job.objects = scene.objects.size();
+      job.simplices = scene.simplex_count();
+      job.units = scene.units;
+      job.warnings_json = warnings_to_json(scene.warnings);
     }
-
-    JobRequest job;
-    job.scene_json = scene_to_json(scene);
     job.params_json = params.to_json();
-    job.id = job_id(job.scene_json, job.params_json);
-    job.dimension = scene.dimension;
-    job.objects = scene.objects.size();
-    job.simplices = scene.simplex_count();
-    job.units = scene.units;
-    job.warnings_json = warnings_to_json(scene.warnings);
+    job.id = volume.used ? volume_job_id(job.volume_json, job.volume_npy, job.params_json)
+                         : job_id(job.scene_json, job.params_json);
     const SubmitOutcome outcome = jobs.submit(job);
     res.set_header("Location", "/v1/jobs/" + job.id);
     res.set_header("X-Gvd-Cache", outcome.created ? "miss" : "hit");
@@ -463,14 +483,11 @@ struct HttpServer::Impl {
     bool used = false;                      ///< the body was a volume
   };
 
-  /// A labelled .npy volume turned into a scene by the core (read_label_volume_npy,
+  /// The options of a `dimension`-D labelled volume from the query parameters (400 naming the
+  /// parameter): the worker converts the volume with them (read_label_volume_npy,
   /// scene_from_label_volume: one object per label, its voxel faces as its boundary).
-  static Scene scene_from_volume(const std::string& bytes, VolumeParams& volume,
-                                 const SceneLimits& limits) {
-    volume.used = true;
-    const LabelVolume labels = read_label_volume_npy(
-        {reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "the volume");
-    const size_t dim = static_cast<size_t>(labels.dimension);
+  static LabelVolumeOptions volume_options(int dimension, const VolumeParams& volume) {
+    const size_t dim = static_cast<size_t>(dimension);
     if (!volume.spacing) {
       throw Error(ErrorCode::kInvalidArgument,
                   "parameter \"spacing\" is required for a labelled volume: the voxel size on "
@@ -518,7 +535,7 @@ struct HttpServer::Impl {
         vo.background = v;
       }
     }
-    return scene_from_label_volume(labels, vo, limits);
+    return vo;
   }
 
   /// The per-client token bucket (--rate-limit): refused with 503 + Retry-After (the

@@ -80,6 +80,7 @@ std::shared_ptr<const GvdResult> compute_grid_job(Scene scene, const JobParams& 
   s.stages.push_back({"graph", graph_seconds, 0, result->graph.edges.size()});
   s.total_seconds = total.seconds();
   s.peak_rss_bytes = peak_rss_bytes();
+  s.job = id;
   result->scene = std::move(scene);
   return result;
 }
@@ -97,7 +98,9 @@ std::shared_ptr<const GvdResult> compute_job(Scene scene, const JobParams& param
   PipelineOptions options = params.pipeline_options(server);
   options.cancel = cancel;
   options.progress = progress;
-  return std::make_shared<const GvdResult>(compute_gvd(std::move(scene), options));
+  auto result = std::make_shared<GvdResult>(compute_gvd(std::move(scene), options));
+  result->stats.job = id;  // the stored file names its job (ResultCache checks it)
+  return result;
 }
 
 bool is_grid_result(const GvdResult& result) {

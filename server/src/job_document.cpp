@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 
 #include "gvd/io/write_outputs.h"
 #include "gvd/scene/load_scene.h"
@@ -20,6 +21,7 @@ const std::pair<const char*, double> kStageWeights[] =
         {"scene", 0.02},     {"octree", 0.20},  {"distance", 0.30},
         {"ambiguity", 0.25}, {"surface", 0.16}, {"graph", 0.05},
         {"compact", 0.02},   {"grid", 0.93},  // a grid job (mode=grid): scene, grid, graph
+        {"volume", 0.05},  // a labelled volume turned into a scene by the worker, first
 };
 
 double stage_weight(const std::string& name) {
@@ -170,7 +172,14 @@ std::string job_document(const JobRecord& job, JobStatus shown,
 }
 
 void write_stored_request(const std::string& base, const JobRequest& request, double submitted_at) {
-  write_file_atomic(base + ".scene.json", request.scene_json);
+  const bool volume = !request.volume_json.empty();
+  if (volume) {
+    write_file_atomic(base + ".volume.npy",
+                      reinterpret_cast<const uint8_t*>(request.volume_npy.data()),
+                      request.volume_npy.size());
+  } else {
+    write_file_atomic(base + ".scene.json", request.scene_json);
+  }
   nlohmann::json meta = {{"id", request.id},
                          {"submitted_at", submitted_at},
                          {"params", nlohmann::json::parse(request.params_json)},
@@ -178,17 +187,51 @@ void write_stored_request(const std::string& base, const JobRequest& request, do
                          {"dimension", request.dimension},
                          {"objects", request.objects},
                          {"simplices", request.simplices}};
+  if (volume) meta["volume"] = nlohmann::json::parse(request.volume_json);
   if (!request.units.empty()) meta["units"] = request.units;
   write_file_atomic(base + ".json", meta.dump());
 }
 
-Scene read_stored_scene(const std::string& base, const SceneLimits& limits) {
+bool stored_input_exists(const std::string& base, const nlohmann::json& meta) {
+  std::error_code ec;
+  return std::filesystem::exists(base + (meta.contains("volume") ? ".volume.npy" : ".scene.json"),
+                                 ec);
+}
+
+void remove_stored_request(const std::string& base) {
+  std::error_code ec;
+  std::filesystem::remove(base + ".json", ec);
+  for (const char* suffix : kStoredInputSuffixes) std::filesystem::remove(base + suffix, ec);
+}
+
+Scene read_stored_scene(const std::string& base, const SceneLimits& limits,
+                        const std::atomic<bool>* cancel,
+                        const std::function<void(const std::string&, double)>& progress) {
   auto text = [](const std::string& path) {
     const std::vector<uint8_t> bytes = read_file_bytes(path);
     return std::string(bytes.begin(), bytes.end());
   };
   const nlohmann::json meta = nlohmann::json::parse(text(base + ".json"));
-  Scene scene = parse_scene_json(text(base + ".scene.json"), limits);
+  if (meta.contains("volume")) {
+    const auto report = [&](double f) {
+      if (progress) progress("volume", f);
+    };
+    report(0);
+    Scene scene;
+    {
+      const std::vector<uint8_t> bytes = read_file_bytes(base + ".volume.npy");
+      const LabelVolume labels = read_label_volume_npy(bytes, "the volume", cancel);
+      LabelVolumeOptions options = volume_options_from_json(meta["volume"]);
+      options.cancel = cancel;
+      options.progress = [&](double f) { report(0.95 * f); };  // validation: the rest
+      scene = scene_from_label_volume(labels, options, limits);
+    }
+    report(1);
+    if (const std::string units = meta.value("units", std::string()); !units.empty())
+      scene.units = units;
+    return scene;
+  }
+  Scene scene = parse_scene_json(text(base + ".scene.json"), limits, cancel);
   // Only what normalizing removed: the topology warnings are recomputed from the scene.
   std::vector<SceneWarning> warnings =
       warnings_from_json(meta.value("warnings", nlohmann::json::array()).dump());
@@ -196,6 +239,28 @@ Scene read_stored_scene(const std::string& base, const SceneLimits& limits) {
                 [](const SceneWarning& w) { return w.kind != WarningKind::kDegenerateSimplices; });
   scene.warnings.insert(scene.warnings.begin(), warnings.begin(), warnings.end());
   return scene;
+}
+
+std::string volume_options_json(const LabelVolumeOptions& options, int dimension) {
+  nlohmann::json spacing = nlohmann::json::array();
+  for (int a = 0; a < dimension; ++a) spacing.push_back(options.spacing[static_cast<size_t>(a)]);
+  nlohmann::json v = {{"spacing", spacing}, {"background", nullptr}};
+  if (options.background) v["background"] = *options.background;
+  return v.dump();
+}
+
+LabelVolumeOptions volume_options_from_json(const nlohmann::json& volume) {
+  LabelVolumeOptions options;
+  const nlohmann::json& spacing = volume.at("spacing");
+  for (size_t a = 0; a < spacing.size() && a < 3; ++a)
+    options.spacing[a] = spacing[a].get<double>();
+  const nlohmann::json& background = volume.at("background");
+  if (background.is_null()) {
+    options.background.reset();
+  } else {
+    options.background = background.get<uint64_t>();
+  }
+  return options;
 }
 
 }  // namespace gvd::server

@@ -1,12 +1,15 @@
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "gvd/scene/label_volume.h"
 #include "gvd/scene/scene.h"
 #include "job_queue.h"
 
@@ -54,14 +57,34 @@ nlohmann::json iso_time(double unix_seconds);
 /// The seconds since the Unix epoch of an iso_time text; 0 for null or anything else.
 double unix_from_iso(const nlohmann::json& text);
 
-/// Stores a request for either queue's workers: the scene (`<base>.scene.json`) first, then the
-/// request that points at it (`<base>.json`: id, time, parameters, upload warnings, sizes and
-/// units); each file written atomically, so recovery trusts a request only with its scene.
+/// Stores a request for either queue's workers: its input first (`<base>.scene.json`, or a
+/// labelled volume's bytes, `<base>.volume.npy`), then the request that points at it
+/// (`<base>.json`: id, time, parameters, upload warnings, sizes, units, and a volume's
+/// options); each file written atomically, so recovery trusts a request only with its input.
 void write_stored_request(const std::string& base, const JobRequest& request, double submitted_at);
 
-/// The scene of a stored request (`<base>.scene.json`, parsed within `limits`) with the
-/// warnings of its original upload that normalizing removed (`<base>.json`: degenerate
-/// simplices): what both queues' workers compute.
-Scene read_stored_scene(const std::string& base, const SceneLimits& limits);
+/// Whether the input of a stored request (`<base>.json`, whose text is `meta`) is complete:
+/// its scene, or its volume when the request is a volume's.
+bool stored_input_exists(const std::string& base, const nlohmann::json& meta);
+/// Removes a stored request's files (request, scene, volume), quietly.
+void remove_stored_request(const std::string& base);
+/// The input files a stored request may have besides `<base>.json` (recovery lists them).
+inline constexpr const char* kStoredInputSuffixes[] = {".scene.json", ".volume.npy"};
+
+/// The scene of a stored request, what both queues' workers compute: `<base>.scene.json`
+/// parsed within `limits`, with the warnings of its original upload that normalizing removed
+/// (`<base>.json`: degenerate simplices); or a labelled volume's `<base>.volume.npy` turned
+/// into a scene (read_label_volume_npy, scene_from_label_volume with the stored options and
+/// units), reporting stage "volume" to `progress` (may be empty). `cancel` (may be null) is
+/// read while the scene is validated and the volume converted: set, gvd::Error{kCancelled}.
+/// Errors of the conversion are those the upload would have met had it been converted there.
+Scene read_stored_scene(const std::string& base, const SceneLimits& limits,
+                        const std::atomic<bool>* cancel = nullptr,
+                        const std::function<void(const std::string&, double)>& progress = {});
+
+/// The options of a labelled volume as stored with its request (JobRequest::volume_json):
+/// {"spacing":[x,y(,z)],"background":label|null}, in a canonical text (part of the job id).
+std::string volume_options_json(const LabelVolumeOptions& options, int dimension);
+LabelVolumeOptions volume_options_from_json(const nlohmann::json& volume);
 
 }  // namespace gvd::server

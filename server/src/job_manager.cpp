@@ -7,6 +7,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 
 #include "gvd/common/error.h"
@@ -38,18 +39,20 @@ void remove_quietly(const std::string& path) {
 
 }  // namespace
 
-std::string job_id(std::string_view scene_json, std::string_view params_json) {
+namespace {
+
+/// SHA-256 (first 128 bits, hex) of the algorithm version and `parts` in order.
+std::string content_id(std::initializer_list<std::string_view> parts) {
   EVP_MD_CTX* ctx = EVP_MD_CTX_new();
   GVD_CHECK(ctx != nullptr, "EVP_MD_CTX_new");
   const std::string head = "gvd-job\nalgorithm " + std::to_string(kAlgorithmVersion) + "\n";
   unsigned char digest[EVP_MAX_MD_SIZE];
   unsigned int length = 0;
-  const bool ok = EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr) == 1 &&
-                  EVP_DigestUpdate(ctx, head.data(), head.size()) == 1 &&
-                  EVP_DigestUpdate(ctx, params_json.data(), params_json.size()) == 1 &&
-                  EVP_DigestUpdate(ctx, "\n", 1) == 1 &&
-                  EVP_DigestUpdate(ctx, scene_json.data(), scene_json.size()) == 1 &&
-                  EVP_DigestFinal_ex(ctx, digest, &length) == 1;
+  bool ok = EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr) == 1 &&
+            EVP_DigestUpdate(ctx, head.data(), head.size()) == 1;
+  for (const std::string_view part : parts)
+    ok = ok && EVP_DigestUpdate(ctx, part.data(), part.size()) == 1;
+  ok = ok && EVP_DigestFinal_ex(ctx, digest, &length) == 1;
   EVP_MD_CTX_free(ctx);
   GVD_CHECK(ok && length >= 16, "SHA-256 failed");
   static constexpr char kHex[] = "0123456789abcdef";
@@ -59,6 +62,23 @@ std::string job_id(std::string_view scene_json, std::string_view params_json) {
     id += kHex[digest[i] & 15];
   }
   return id;
+}
+
+}  // namespace
+
+std::string job_id(std::string_view scene_json, std::string_view params_json) {
+  return content_id({params_json, "\n", scene_json});
+}
+
+std::string result_owner(const GvdResult& result, std::string_view params_json) {
+  if (!result.stats.job.empty()) return result.stats.job;
+  return job_id(scene_to_json(result.scene), params_json);
+}
+
+std::string volume_job_id(std::string_view volume_json, std::string_view npy,
+                          std::string_view params_json) {
+  // A scene's JSON starts with '{': no volume's text can equal a scene's.
+  return content_id({params_json, "\nvolume ", volume_json, "\n", npy});
 }
 
 JobManager::JobManager(const ServerOptions& options, Metrics& metrics)
@@ -134,7 +154,7 @@ void JobManager::recover() {
                         id + ".json): the job is not listed, submit it again");
           continue;
         }
-        if (const std::string owner = job_id(scene_to_json(r.scene), params_json); owner != id) {
+        if (const std::string owner = result_owner(r, params_json); owner != id) {
           log_event("warn", "store_entry_dropped", id, 0,
                     "results/" + id + ".gvd has no status document and belongs to another job (" +
                         owner + "): the job is not listed, submit it again");
@@ -157,8 +177,7 @@ void JobManager::recover() {
                       std::string(e.what()) + "): the job is not listed");
       }
     }
-    remove_quietly(dir("requests") + "/" + id + ".json");
-    remove_quietly(dir("requests") + "/" + id + ".scene.json");
+    remove_stored_request(dir("requests") + "/" + id);
   }
   for (const fs::path& p : list(dir("results"))) {
     const std::string name = p.filename().string();
@@ -191,8 +210,11 @@ void JobManager::recover() {
     const std::string id = p.stem().string();
     try {
       const Json r = Json::parse(read_text(p.string()));
-      if (!fs::exists(dir("requests") + "/" + id + ".scene.json"))
-        throw std::runtime_error("its scene, requests/" + id + ".scene.json, is missing");
+      if (!stored_input_exists(dir("requests") + "/" + id, r)) {
+        throw std::runtime_error("its input, requests/" + id +
+                                 (r.contains("volume") ? ".volume.npy" : ".scene.json") +
+                                 ", is missing");
+      }
       auto job = std::make_shared<Job>();
       job->id = id;
       job->status = JobStatus::kQueued;
@@ -214,8 +236,9 @@ void JobManager::recover() {
   }
   for (const fs::path& p : list(dir("requests"))) {
     const std::string name = p.filename().string();
-    if (name.ends_with(".scene.json")) {
-      const std::string id = name.substr(0, name.size() - std::string(".scene.json").size());
+    for (const std::string_view suffix : kStoredInputSuffixes) {
+      if (!name.ends_with(suffix) || name.find(".tmp.") != std::string::npos) continue;
+      const std::string id = name.substr(0, name.size() - suffix.size());
       if (!fs::exists(dir("requests") + "/" + id + ".json")) {  // its request was dropped
         log_event("info", "store_entry_dropped", id, 0,
                   "requests/" + name + " belongs to no pending request: removed");
@@ -451,8 +474,7 @@ void JobManager::log_event(const char* level, const char* event, const std::stri
 }
 
 void JobManager::remove_request_files(const std::string& id) const {
-  remove_quietly(dir("requests") + "/" + id + ".json");
-  remove_quietly(dir("requests") + "/" + id + ".scene.json");
+  remove_stored_request(dir("requests") + "/" + id);
 }
 
 void JobManager::finish_locked(Job& job, JobStatus status) {
@@ -507,14 +529,22 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
     SceneLimits limits;
     limits.max_objects = options_.max_objects;
     limits.max_simplices = options_.max_simplices;
-    Scene scene = read_stored_scene(base, limits);
-
     const ProgressFn progress = [this, job](const std::string& stage, double fraction) {
       std::lock_guard lock(mutex_);
       if (!record_progress(*job, stage, fraction)) return;
       ++version_;
       changed_cv_.notify_all();
     };
+    Scene scene = read_stored_scene(base, limits, &job->cancel, progress);
+    {
+      // A volume's objects are known from here on.
+      std::lock_guard lock(mutex_);
+      job->dimension = scene.dimension;
+      job->objects = scene.objects.size();
+      job->simplices = scene.simplex_count();
+      ++version_;
+      changed_cv_.notify_all();
+    }
     std::shared_ptr<const GvdResult> result =
         compute_job(std::move(scene), JobParams::from_json(job->params_json), options_,
                     &job->cancel, progress, dir("results"), job->id);

@@ -24,7 +24,8 @@ namespace gvd::server {
 
 /// The jobs: a bounded queue, a worker pool (separate from the HTTP threads), a watchdog for
 /// per-job limits (time, memory), and the on-disk store:
-///   <store>/requests/<id>.json  a submitted, unfinished job (written before the 202)
+///   <store>/requests/<id>.json  a submitted, unfinished job (written before the 202), after
+///                               its input: <id>.scene.json, or a volume's <id>.volume.npy
 ///   <store>/results/<id>.gvd    a finished result (the engine's result file)
 ///   <store>/results/<id>.json   its status document
 ///   <store>/failed/<id>.json    the status document of a failed job

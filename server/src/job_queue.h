@@ -20,19 +20,35 @@ std::optional<JobStatus> job_status_from_name(std::string_view name);
 
 /// What a submission carries besides the id (all of it is persisted before the answer).
 struct JobRequest {
-  std::string id;           ///< job_id(scene_json, params_json)
-  std::string scene_json;   ///< the normalized scene (scene_to_json of the validated scene)
-  std::string params_json;  ///< normalized compute parameters (JSON object)
+  std::string id;  ///< job_id(scene_json, params_json), or volume_job_id for a volume
+  /// The normalized scene (scene_to_json of the validated scene); empty for a volume.
+  std::string scene_json;
+  /// A labelled volume: the .npy bytes as uploaded (only their header checked) and the
+  /// options to convert them with (volume_options_json); the worker turns them into the scene
+  /// (read_stored_scene). Empty for a scene. The bytes are a view (of the request's body, up
+  /// to --max-body): valid while JobQueue::submit runs, which stores them.
+  std::string_view volume_npy;
+  std::string volume_json;
+  std::string params_json;           ///< normalized compute parameters (JSON object)
   std::string warnings_json = "[]";  ///< warnings found while parsing (JSON array)
   int dimension = 3;
-  uint64_t objects = 0;
-  uint64_t simplices = 0;
-  std::string units;  ///< the scene's length unit (Scene::units), empty: none
+  uint64_t objects = 0;    ///< 0 for a volume until the worker has converted it
+  uint64_t simplices = 0;  ///< as objects
+  std::string units;       ///< the scene's length unit (Scene::units), empty: none
 };
 
 /// The content address of a job: SHA-256 (first 128 bits, hex) of the algorithm version, the
 /// normalized parameters and the normalized scene.
 std::string job_id(std::string_view scene_json, std::string_view params_json);
+/// The job a stored result belongs to: the one it names (ResultStats::job, written by the
+/// server), else, for a file written before results named their job (when every job's id
+/// was its scene's), the job of its scene with `params_json`.
+std::string result_owner(const GvdResult& result, std::string_view params_json);
+/// The content address of a labelled volume's job: as job_id, over the volume's options and
+/// its .npy bytes as uploaded (so one volume with one set of parameters is one job; a volume
+/// and the same scene sent as meshes are two).
+std::string volume_job_id(std::string_view volume_json, std::string_view npy,
+                          std::string_view params_json);
 
 struct SubmitOutcome {
   bool created = false;  ///< false: the same job already existed (a cache hit)

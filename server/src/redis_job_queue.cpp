@@ -532,8 +532,7 @@ JobQueue::DeleteOutcome RedisJobQueue::remove(const std::string& id) {
           return redis.command({"EVAL", kCancelQueuedScript, "2", key(id), kChannel, id, doc});
         });
         if (r.str() != "queued") continue;  // started meanwhile: look again
-        remove_quietly(dir("requests") + "/" + id + ".json");
-        remove_quietly(dir("requests") + "/" + id + ".scene.json");
+        remove_stored_request(dir("requests") + "/" + id);
         log_event("warn", "job_cancelled", id);
         return DeleteOutcome::kCancelled;
       }
@@ -678,9 +677,9 @@ void RedisJobQueue::requeue_store(RedisConnection& redis, std::chrono::seconds m
       const auto written = fs::last_write_time(entry.path(), ec);
       if (ec || now - written < min_age) continue;  // being submitted right now
     }
-    if (!fs::exists(dir("requests") + "/" + id + ".scene.json", ec)) continue;
     try {
       const Json meta = Json::parse(read_text(entry.path().string()));
+      if (!stored_input_exists(dir("requests") + "/" + id, meta)) continue;
       pending.emplace_back(meta.value("submitted_at", 0.0), id);
     } catch (const std::exception&) {
       // Being written or damaged: its submitter answers for it.
@@ -947,16 +946,14 @@ void RedisJobQueue::process(RedisConnection& redis, const std::string& entry, co
     } catch (const std::exception&) {
       // Redis still has it.
     }
-    remove_quietly(dir("requests") + "/" + id + ".json");
-    remove_quietly(dir("requests") + "/" + id + ".scene.json");
+    remove_stored_request(dir("requests") + "/" + id);
     finish(redis, id, entry, JobStatus::kFailed, doc);
     log_event("warn", "job_failed", id, detail);
     return;
   }
   if (const auto stored = lookup_store(id); stored && stored->status == JobStatus::kDone) {
     // Its worker stopped after saving the result (or another worker finished it): publish.
-    remove_quietly(dir("requests") + "/" + id + ".json");
-    remove_quietly(dir("requests") + "/" + id + ".scene.json");
+    remove_stored_request(dir("requests") + "/" + id);
     finish(redis, id, entry, JobStatus::kDone, stored->doc);
     return;
   }
@@ -1017,11 +1014,19 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
     SceneLimits limits;
     limits.max_objects = options_.max_objects;
     limits.max_simplices = options_.max_simplices;
-    Scene scene = read_stored_scene(base, limits);
     const ProgressFn progress = [this, job](const std::string& stage, double fraction) {
       std::lock_guard lock(mutex_);
       if (record_progress(*job, stage, fraction)) job->dirty = true;
     };
+    Scene scene = read_stored_scene(base, limits, &job->cancel, progress);
+    {
+      // A volume's objects are known from here on (published at the next heartbeat).
+      std::lock_guard lock(mutex_);
+      job->dimension = scene.dimension;
+      job->objects = scene.objects.size();
+      job->simplices = scene.simplex_count();
+      job->dirty = true;
+    }
     const std::shared_ptr<const GvdResult> result =
         compute_job(std::move(scene), JobParams::from_json(job->params_json), options_,
                     &job->cancel, progress, dir("results"), job->id);
@@ -1041,8 +1046,7 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
     } catch (const std::exception&) {
       // The hash in Redis has it.
     }
-    remove_quietly(base + ".json");
-    remove_quietly(base + ".scene.json");
+    remove_stored_request(base);
     cache_.put(job->id, result);
     for (const StageStats& st : result->stats.stages) metrics_.stage(st.name, st.seconds);
     metrics_.job_finished("done", job->finished_at - job->started_at);
@@ -1116,8 +1120,7 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
       // Redis has it.
     }
   }
-  remove_quietly(base + ".json");
-  remove_quietly(base + ".scene.json");
+  remove_stored_request(base);
   metrics_.job_finished(std::string(job_status_name(final)), job->finished_at - job->started_at);
   finish(redis, job->id, job->entry, final, doc);
   log_event("warn", final == JobStatus::kFailed ? "job_failed" : "job_cancelled", job->id, detail);

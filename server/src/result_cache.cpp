@@ -78,10 +78,10 @@ std::shared_ptr<LoadedResult> ResultCache::get(const std::string& id,
     throw Error(ErrorCode::kIo, "the stored result of job " + id + " is corrupt (" + e.detail() +
                                     "); DELETE the job and submit it again to recompute it");
   }
-  // A job id is the hash of its scene and parameters, and the file holds the scene as it was
-  // hashed: a file of another job (copied or restored under this name) says so here.
-  if (const std::string owner = job_id(scene_to_json(loaded->result().scene), params_json);
-      owner != id) {
+  // A file of another job (copied or restored under this name) says so here: a file the
+  // server wrote names its job; one without a name (written before jobs were named) holds its
+  // scene as it was hashed into the job's id with the parameters.
+  if (const std::string owner = result_owner(loaded->result(), params_json); owner != id) {
     throw Error(ErrorCode::kIo, "the stored result of job " + id +
                                     " belongs to another job: its scene with this job's "
                                     "parameters makes job " +

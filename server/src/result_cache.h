@@ -52,8 +52,8 @@ class ResultCache {
 
   /// The result of finished job `id`, computed with the normalized parameters `params_json`
   /// (its status document's "params"); nullptr when there is no such file. A file loaded from
-  /// the store must belong to the id: job_id(scene_to_json(its scene), params_json) == id
-  /// (a result copied under another job's id is not served as that job). Throws gvd::Error
+  /// the store must belong to the id: result_owner(it, params_json) == id (a result copied
+  /// under another job's id is not served as that job). Throws gvd::Error
   /// {kIo} naming the job, not the store's path, when the file exists but cannot be read, is
   /// corrupt, or belongs to another job.
   std::shared_ptr<LoadedResult> get(const std::string& id, const std::string& params_json);

@@ -315,6 +315,31 @@ class RedisScaleOut(unittest.TestCase):
             done = self.wait_done(self.replicas[0].url, job_id, 60)
             self.assertNotIn("queue_position", done)
 
+    def test_2c_a_labelled_volume_is_converted_by_the_worker_that_runs_it(self):
+        # 12^3 uint8 labels: 1 below z = 4, 3 above z = 8 for x < 6, 2 elsewhere.
+        n = 12
+        voxels = bytes(1 if z < 4 else (3 if z >= 8 and x < 6 else 2)
+                       for z in range(n) for y in range(n) for x in range(n))
+        header = "{'descr': '|u1', 'fortran_order': False, 'shape': (%d, %d, %d), }" % (n, n, n)
+        header += " " * ((64 - (10 + len(header) + 1) % 64) % 64) + "\n"
+        npy = b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode() + voxels
+        query = "spacing=1,1,2&max_depth=6"
+        ids = set()
+        for base in (self.replicas[0].url, self.single.url):
+            status, _, body = http("POST", f"{base}/v1/jobs?{query}", npy,
+                                   {"Content-Type": "application/x-npy"})
+            self.assertEqual(status, 202, body[:300])
+            job = json.loads(body)
+            self.assertEqual(job["scene"]["objects"], 0, "converted before it was queued")
+            ids.add(job["id"])
+        self.assertEqual(len(ids), 1, "one volume and one set of parameters: one job id")
+        job_id = ids.pop()
+        done = self.wait_done(self.replicas[2].url, job_id, 60)
+        self.assertEqual(done["scene"]["objects"], 3, json.dumps(done)[:500])
+        self.wait_done(self.single.url, job_id, 60)
+        graph = lambda base: json.loads(http("GET", f"{base}/v1/jobs/{job_id}/graph")[2])
+        self.assertEqual(graph(self.replicas[1].url)["edges"], graph(self.single.url)["edges"])
+
     def test_3_progress_events_through_a_replica_that_does_not_run_the_job(self):
         scene = slow_scene()
         params = dict(SLOW, max_depth=14)

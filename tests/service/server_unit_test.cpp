@@ -8,6 +8,8 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <filesystem>
@@ -21,8 +23,10 @@
 #include "gvd/common/error.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
 #include "header_gate.h"
+#include "job_document.h"
 #include "job_manager.h"
 #include "job_params.h"
 #include "metrics.h"
@@ -30,11 +34,13 @@
 #include "result_cache.h"
 #include "server_options.h"
 #include "static_files.h"
+#include "support/cancel.h"
 
 namespace gvd::server {
 namespace {
 
 using Json = nlohmann::json;
+namespace fs = std::filesystem;
 
 TEST(ProblemTable, EveryCoreErrorCodeHasAClientOrServerStatus) {
   for (ErrorCode code :
@@ -243,6 +249,102 @@ TEST(JobId, ContentAddressed) {
   p.max_depth = 5;
   EXPECT_NE(id, job_id(scene, p.to_json()));
   EXPECT_NE(id, job_id(scene + " ", JobParams{}.to_json()));
+  // Scene ids stay those of every earlier store: SHA-256 of the same text, computed apart
+  // (python3: hashlib.sha256(b'gvd-job\nalgorithm 4\n{}\n' + scene).hexdigest()[:32]).
+  EXPECT_EQ(job_id(scene, "{}"), "17eeb7ebe5b1b2308d6548a04d30f680");
+}
+
+// A labelled volume's job is addressed by its bytes and options as uploaded (the scene is only
+// made by the worker): the same upload is the same job, any change another.
+TEST(JobId, VolumesAreAddressedByTheirBytesAndOptions) {
+  const std::string npy = "\x93NUMPY bytes", options = R"({"background":0,"spacing":[1,1,2]})";
+  const std::string params = JobParams{}.to_json();
+  const std::string id = volume_job_id(options, npy, params);
+  EXPECT_EQ(id.size(), 32u);
+  EXPECT_EQ(id, volume_job_id(options, npy, params));
+  EXPECT_NE(id, volume_job_id(options, npy + " ", params));
+  EXPECT_NE(id, volume_job_id(R"({"background":null,"spacing":[1,1,2]})", npy, params));
+  JobParams p;
+  p.max_depth = 5;
+  EXPECT_NE(id, volume_job_id(options, npy, p.to_json()));
+  EXPECT_NE(id, job_id(options + "\n" + npy, params));
+}
+
+/// A 3D .npy of uint8 labels (x fastest) of shape (nz, ny, nx).
+std::string label_npy(const std::vector<uint8_t>& labels, int nx, int ny, int nz) {
+  std::string header = "{'descr': '|u1', 'fortran_order': False, 'shape': (" + std::to_string(nz) +
+                       ", " + std::to_string(ny) + ", " + std::to_string(nx) + "), }";
+  while ((10 + header.size() + 1) % 64 != 0) header += ' ';
+  header += '\n';
+  std::string out = "\x93NUMPY";
+  out += '\x01';
+  out += '\x00';
+  out += static_cast<char>(header.size() & 0xFF);
+  out += static_cast<char>(header.size() >> 8);
+  return out + header + std::string(labels.begin(), labels.end());
+}
+
+// The worker's side of a volume upload (read_stored_scene): the stored bytes become the scene
+// the core makes of them, with the request's units, reporting stage "volume"; a set cancel flag
+// stops the conversion; what the conversion finds wrong is the error the core gives.
+TEST(StoredRequest, AVolumeIsConvertedByTheWorker) {
+  const std::string dir =
+      fs::temp_directory_path() / ("gvd-stored-volume-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::vector<uint8_t> labels(8 * 8 * 8, 1);
+  for (size_t i = 0; i < labels.size() / 2; ++i) labels[i] = 2;  // z < 4: label 2
+  LabelVolumeOptions options;
+  options.spacing = {1, 1, 2};
+  std::string npy = label_npy(labels, 8, 8, 8);
+  JobRequest request;
+  request.volume_npy = npy;
+  request.volume_json = volume_options_json(options, 3);
+  request.params_json = JobParams{}.to_json();
+  request.units = "mm";
+  request.id = volume_job_id(request.volume_json, request.volume_npy, request.params_json);
+  const std::string base = dir + "/" + request.id;
+  write_stored_request(base, request, unix_now());
+  EXPECT_TRUE(fs::exists(base + ".volume.npy"));
+  EXPECT_FALSE(fs::exists(base + ".scene.json"));
+  EXPECT_TRUE(stored_input_exists(base, Json::parse(R"({"volume":{}})")));
+
+  std::atomic<bool> cancel{true};
+  test::expect_cancelled([&] { read_stored_scene(base, {}, &cancel); }, "read_stored_scene");
+  cancel = false;
+  std::vector<double> seen;
+  const Scene scene = read_stored_scene(base, {}, &cancel, [&](const std::string& stage, double f) {
+    EXPECT_EQ(stage, "volume");
+    seen.push_back(f);
+  });
+  const auto* bytes = reinterpret_cast<const uint8_t*>(request.volume_npy.data());
+  Scene direct =
+      scene_from_label_volume(read_label_volume_npy({bytes, request.volume_npy.size()}, "v"),
+                              volume_options_from_json(Json::parse(request.volume_json)));
+  direct.units = "mm";
+  EXPECT_EQ(scene_to_json(scene), scene_to_json(direct));
+  ASSERT_EQ(scene.objects.size(), 2u);
+  ASSERT_FALSE(seen.empty());
+  EXPECT_EQ(seen.front(), 0);
+  EXPECT_EQ(seen.back(), 1);
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+
+  // All background: the job fails as the upload did when the HTTP thread converted it.
+  std::fill(labels.begin(), labels.end(), 0);
+  npy = label_npy(labels, 8, 8, 8);
+  request.volume_npy = npy;
+  write_stored_request(base, request, unix_now());
+  try {
+    read_stored_scene(base, {});
+    ADD_FAILURE() << "a volume of background only must fail";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kInvalidScene);
+    EXPECT_NE(e.detail().find("no label other than the background"), std::string::npos)
+        << e.detail();
+  }
+  remove_stored_request(base);
+  EXPECT_FALSE(fs::exists(base + ".volume.npy"));
+  EXPECT_FALSE(fs::exists(base + ".json"));
+  fs::remove_all(dir);
 }
 
 TEST(Metrics, PrometheusText) {

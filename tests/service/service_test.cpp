@@ -2541,7 +2541,9 @@ std::string three_label_volume(std::vector<uint8_t>& v) {
 }
 
 TEST(ServiceGrid, LabelledVolumeGraphIsTheVoxelAdjacency) {
-  ServerProcess server(fresh_dir("volume"));
+  const std::string store = fresh_dir("volume");
+  std::string adaptive_id;
+  ServerProcess server(store);
   auto c = client(server.port());
   std::vector<uint8_t> v;
   const std::string npy = three_label_volume(v);
@@ -2567,11 +2569,30 @@ TEST(ServiceGrid, LabelledVolumeGraphIsTheVoxelAdjacency) {
        {"?spacing=1,1,2&mode=grid&resolution=24", "?spacing=1,1,2&max_depth=6"}) {
     const Submitted s = submit(*c, npy, query, "application/x-npy");
     ASSERT_EQ(s.status, 202) << query << " " << s.body.dump();
-    EXPECT_EQ(s.body["scene"]["objects"], 3) << s.body.dump();
+    // The worker converts the volume: its objects are known once it has.
+    EXPECT_EQ(s.body["scene"]["dimension"], 3) << s.body.dump();
     const Json done = wait_for(*c, s.id, {"done", "failed"});
     ASSERT_EQ(done.value("status", ""), "done") << done.dump();
+    EXPECT_EQ(done["scene"]["objects"], 3) << done.dump();
+    EXPECT_EQ(done["result"]["objects"], 3) << done.dump();
     const Json graph = Json::parse(c->Get(("/v1/jobs/" + s.id + "/graph").c_str())->body);
     EXPECT_EQ(label_pairs(graph), expected) << query << " " << graph.dump();
+    if (query.find("mode=grid") == std::string::npos) {
+      // The stored adaptive result is served as this job's (its id addresses the volume's
+      // bytes, not the scene the worker made of them).
+      const auto glb = c->Get(("/v1/jobs/" + s.id + "/gvd.glb").c_str());
+      ASSERT_TRUE(glb);
+      EXPECT_EQ(glb->status, 200) << glb->body;
+      adaptive_id = s.id;
+    }
+  }
+  {
+    // ... also by a server started again, which loads it from the store.
+    ServerProcess again(store);
+    auto c2 = client(again.port());
+    const auto glb = c2->Get(("/v1/jobs/" + adaptive_id + "/gvd.glb").c_str());
+    ASSERT_TRUE(glb);
+    EXPECT_EQ(glb->status, 200) << glb->body;
   }
   // The same volume as a multipart part (sniffed as application/octet-stream).
   httplib::MultipartFormDataItems items = {{"volume", npy, "v.npy", "application/octet-stream"}};
@@ -2587,6 +2608,67 @@ TEST(ServiceGrid, LabelledVolumeGraphIsTheVoxelAdjacency) {
   r = c->Post("/v1/jobs?spacing=1,1,2", items);
   EXPECT_EQ(r->status, 400) << r->body;
   EXPECT_NE(r->body.find("params"), std::string::npos) << r->body;
+}
+
+// A labelled volume is converted by the job's worker, not by the HTTP thread: the upload is
+// answered at once, the job shows stage "volume" while the volume is turned into a scene,
+// DELETE stops it there, and what only the conversion finds fails the job with the problem
+// the upload was answered with when the HTTP thread converted it.
+TEST(ServiceGrid, VolumesAreConvertedByTheJob) {
+  ServerProcess server(fresh_dir("volume-job"), {"--workers", "1"});
+  auto c = client(server.port());
+  // 256^3 voxels (16 MB of uint8), two labels: a second or more of conversion here.
+  const uint64_t n = 256;
+  std::string voxels(n * n * n, '\1');
+  std::fill(voxels.begin(), voxels.begin() + static_cast<std::ptrdiff_t>(n * n * n / 2), '\2');
+  const auto posted = std::chrono::steady_clock::now();
+  const Submitted big =
+      submit(*c, make_npy("|u1", {n, n, n}, voxels), "?spacing=1,1,1", "application/x-npy");
+  const double answer =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - posted).count();
+  ASSERT_EQ(big.status, 202) << big.body.dump();
+  EXPECT_EQ(big.body["scene"]["objects"], 0) << big.body.dump();
+  // Seen in its conversion, then cancelled there.
+  Json seen;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < deadline) {
+    seen = status_of(*c, big.id);
+    if (seen.value("status", "") != "queued") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  while (std::chrono::steady_clock::now() < deadline && seen.value("status", "") == "running" &&
+         !seen["progress"]["stage"].is_string()) {
+    seen = status_of(*c, big.id);
+  }
+  ASSERT_EQ(seen["progress"]["stage"], "volume") << seen.dump();
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(c->Delete(("/v1/jobs/" + big.id).c_str())->status, 202);
+  const Json cancelled = wait_for(*c, big.id, {"cancelled", "done", "failed"}, 30);
+  const double latency =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_EQ(cancelled.value("status", ""), "cancelled") << cancelled.dump();
+  EXPECT_EQ(cancelled["progress"]["stages"].back()["name"], "volume") << cancelled.dump();
+  EXPECT_LT(latency, 1.0);
+  EXPECT_LT(answer, 2.0) << "the upload waited for its conversion";
+
+  // Found by the conversion only: the job fails with the upload's old answer.
+  struct Case {
+    std::string npy;
+    std::string type, says;
+  };
+  for (const Case& k : {
+           Case{make_npy("|u1", {4, 4, 4}, std::string(64, '\0')), "/problems/invalid-scene",
+                "no label other than the background"},
+           Case{make_npy("|i1", {2, 2, 2}, std::string("\1\1\1\xff\1\1\1\1", 8)),
+                "/problems/invalid-scene", "voxel 3"},
+       }) {
+    const Submitted s = submit(*c, k.npy, "?spacing=1,1,1", "application/x-npy");
+    ASSERT_EQ(s.status, 202) << s.body.dump();
+    const Json failed = wait_for(*c, s.id, {"done", "failed"});
+    ASSERT_EQ(failed.value("status", ""), "failed") << failed.dump();
+    EXPECT_EQ(failed["error"]["type"], k.type) << failed.dump();
+    EXPECT_NE(failed["error"].value("detail", "").find(k.says), std::string::npos) << failed.dump();
+  }
 }
 
 TEST(ServiceGrid, BadGridAndVolumeInputNamesTheField) {

@@ -6,6 +6,7 @@
 #include <string>
 #include <thread>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/geometry/primitives.h"
 
@@ -28,6 +29,8 @@ bool simplex_overlaps_box(int dimension, std::span<const Vec3> points, const Sim
 namespace {
 
 constexpr uint32_t kLeafSize = 4;
+/// Items a build handles between two reads of the cancel flag (about 1 ms of work).
+constexpr uint32_t kCancelGrain = 1u << 14;
 
 // The number of nodes build_tree makes for n items (median splits down to kLeafSize), so the
 // arrays are allocated once at their size.
@@ -38,10 +41,12 @@ size_t tree_nodes(uint32_t n) {
 
 // Top-down median split along the largest axis of the centre bounds, in depth-first layout: a
 // left child directly follows its parent, the parent stores the index of its right child.
-// Leaf ranges index `items[begin, end)` (positions in that array). Appends to `nodes`.
+// Leaf ranges index `items[begin, end)` (positions in that array). Appends to `nodes`. Reads
+// `cancel` after every kCancelGrain items partitioned (`work` carries the count between calls).
 template <class BoxOf, class CenterOf>
 void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxOf&& box_of,
-                CenterOf&& center_of, std::vector<SimplexBvh::Node>& nodes) {
+                CenterOf&& center_of, std::vector<SimplexBvh::Node>& nodes,
+                const std::atomic<bool>* cancel, uint32_t& work) {
   struct Frame {
     uint32_t begin, end, parent;  // parent: node whose `first` (right child) to set, or ~0
   };
@@ -50,6 +55,11 @@ void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxO
   while (!stack.empty()) {
     const Frame f = stack.back();
     stack.pop_back();
+    work += f.end - f.begin;
+    if (work >= kCancelGrain) {
+      work = 0;
+      throw_if_cancelled(cancel, "indexing the scene");
+    }
     const uint32_t self = static_cast<uint32_t>(nodes.size());
     if (f.parent != ~0u) nodes[f.parent].first = self;
     nodes.push_back({});
@@ -81,7 +91,8 @@ void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxO
 }  // namespace
 
 SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
-                       std::span<const Simplex> simplices, std::span<const uint32_t> object_of)
+                       std::span<const Simplex> simplices, std::span<const uint32_t> object_of,
+                       const std::atomic<bool>* cancel)
     : dimension_(dimension) {
   if (simplices.size() > kMaxSimplices) {
     throw Error(ErrorCode::kLimitExceeded, "the scene has " + std::to_string(simplices.size()) +
@@ -94,6 +105,7 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
   std::vector<Box> boxes(m);
   std::vector<Vec3> centers(m);
   for (uint32_t i = 0; i < m; ++i) {
+    if (i % kCancelGrain == 0) throw_if_cancelled(cancel, "indexing the scene");
     for (int k = 0; k < arity; ++k) boxes[i].extend(points[simplices[i].v[k]]);
     centers[i] = boxes[i].center();
   }
@@ -132,13 +144,14 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
       if (start[o] < start[o + 1]) object_tree_nodes += tree_nodes(start[o + 1] - start[o]);
     object_nodes_.reserve(object_tree_nodes);
     auto build_objects = [&] {
+      uint32_t work = 0;
       for (uint32_t o = 0; o < objects; ++o) {
         if (start[o] == start[o + 1]) continue;
         object_root_[o] = static_cast<uint32_t>(object_nodes_.size());
         build_tree(
             object_items_, start[o], start[o + 1],
             [&](uint32_t s) -> const Box& { return boxes[s]; },
-            [&](uint32_t s) -> const Vec3& { return centers[s]; }, object_nodes_);
+            [&](uint32_t s) -> const Vec3& { return centers[s]; }, object_nodes_, cancel, work);
       }
     };
     if (m >= 4096) {
@@ -156,9 +169,10 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
   order_.resize(m);
   std::iota(order_.begin(), order_.end(), 0u);
   nodes_.reserve(tree_nodes(m));
+  uint32_t work = 0;
   build_tree(
       order_, 0, m, [&](uint32_t s) -> const Box& { return boxes[s]; },
-      [&](uint32_t s) -> const Vec3& { return centers[s]; }, nodes_);
+      [&](uint32_t s) -> const Vec3& { return centers[s]; }, nodes_, cancel, work);
   arity_ = arity;
   corner_.resize(static_cast<size_t>(m) * arity);
   {

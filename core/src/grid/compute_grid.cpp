@@ -573,7 +573,7 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
     throw Error(ErrorCode::kInvalidArgument, "range_cells must be positive (0 = default)");
   }
   throw_if_cancelled(cancel, "the grid");
-  const GridGeometry g = make_grid_geometry(scene);
+  const GridGeometry g = make_grid_geometry(scene, cancel);
   GVD_CHECK(g.object_of.size() < GVD_NO_SIMPLEX, "too many simplices for 32-bit indices");
   throw_if_cancelled(cancel, "the grid");
   report(0);

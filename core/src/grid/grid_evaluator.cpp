@@ -16,13 +16,15 @@ static_assert(sizeof(item::GvdGridJob) == 40, "GvdGridJob must match the device 
 static_assert(sizeof(Vec3) == sizeof(item::GvdPoint));
 
 namespace {
-uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end);
+uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end,
+                        const std::atomic<bool>* cancel);
 }  // namespace
 
-GridGeometry make_grid_geometry(const Scene& scene) {
+GridGeometry make_grid_geometry(const Scene& scene, const std::atomic<bool>* cancel) {
   GridGeometry g;
   g.dimension = scene.dimension;
   for (ObjectId o = 0; o < scene.objects.size(); ++o) {
+    throw_if_cancelled(cancel, "the grid");
     const SceneObject& obj = scene.objects[o];
     const uint32_t base = static_cast<uint32_t>(g.points.size());
     for (Vec3 v : obj.vertices) {
@@ -40,7 +42,7 @@ GridGeometry make_grid_geometry(const Scene& scene) {
     GVD_CHECK(count > 0, "make_grid_geometry: an object without simplices");
     const uint32_t begin = static_cast<uint32_t>(g.order.size());
     for (uint32_t s = 0; s < count; ++s) g.order.push_back(first + s);
-    g.roots.push_back(build_bvh_node(g, begin, begin + count));
+    g.roots.push_back(build_bvh_node(g, begin, begin + count, cancel));
   }
   return g;
 }
@@ -72,8 +74,11 @@ namespace {
 
 /// Lays out the BVH node of order[begin, end) at the end of g.nodes and its subtrees after
 /// it (depth-first: left child next, right child after the left subtree); median split on
-/// the longest axis of the simplices' centres, leaves of at most 4. Returns the node.
-uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end) {
+/// the longest axis of the simplices' centres, leaves of at most 4. Returns the node. Reads
+/// `cancel` at nodes of 16k simplices or more (below, a subtree is well under a millisecond).
+uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end,
+                        const std::atomic<bool>* cancel) {
+  if (end - begin >= (1u << 14)) throw_if_cancelled(cancel, "the grid");
   auto centre = [&](uint32_t s, int axis) {
     double lo = 1e300, hi = -1e300;
     for (uint32_t k = 0; k < 3; ++k) {
@@ -106,8 +111,8 @@ uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end) {
   const uint32_t mid = begin + (end - begin) / 2;
   std::nth_element(g.order.begin() + begin, g.order.begin() + mid, g.order.begin() + end,
                    [&](uint32_t l, uint32_t r) { return centre(l, axis) < centre(r, axis); });
-  build_bvh_node(g, begin, mid);
-  const uint32_t right = build_bvh_node(g, mid, end);
+  build_bvh_node(g, begin, mid, cancel);
+  const uint32_t right = build_bvh_node(g, mid, end, cancel);
   g.nodes[node].first = right;
   g.nodes[node].count = 0;
   return node;

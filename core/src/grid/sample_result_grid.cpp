@@ -85,7 +85,7 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
   const GridSpec& spec = out.spec;
   const int dim = spec.dimension;
   const Scene& scene = result.scene;
-  const GridGeometry g = make_grid_geometry(scene);
+  const GridGeometry g = make_grid_geometry(scene, options.cancel);
   GVD_CHECK(g.object_of.size() < GVD_NO_SIMPLEX, "too many simplices for 32-bit indices");
   std::vector<Simplex> simplices(g.object_of.size());
   for (size_t s = 0; s < simplices.size(); ++s)

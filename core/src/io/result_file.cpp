@@ -186,26 +186,28 @@ Json stats_to_value(const ResultStats& s) {
     stages.push_back(
         {{"name", st.name}, {"seconds", st.seconds}, {"bytes", st.bytes}, {"items", st.items}});
   }
-  return {{"stages", std::move(stages)},
-          {"backend", s.backend},
-          {"threads", s.threads},
-          {"max_depth", s.max_depth},
-          {"depth", s.depth},
-          {"leaves", s.leaves},
-          {"vertices", s.vertices},
-          {"octree_bytes", s.octree_bytes},
-          {"bytes_per_leaf", s.bytes_per_leaf},
-          {"distance_bytes", s.distance_bytes},
-          {"gvd_simplices", s.gvd_simplices},
-          {"graph_edges", s.graph_edges},
-          {"refine_rounds", s.refine_rounds},
-          {"ambiguous_cells_left", s.ambiguous_at_limit},
-          {"thin_regions_left", s.unseen_left},
-          {"touching_leaves", s.touching_leaves},
-          {"certified_leaves", s.certified_leaves},
-          {"total_seconds", s.total_seconds},
-          {"peak_rss_bytes", s.peak_rss_bytes},
-          {"start_rss_bytes", s.start_rss_bytes}};
+  Json value = {{"stages", std::move(stages)},
+                {"backend", s.backend},
+                {"threads", s.threads},
+                {"max_depth", s.max_depth},
+                {"depth", s.depth},
+                {"leaves", s.leaves},
+                {"vertices", s.vertices},
+                {"octree_bytes", s.octree_bytes},
+                {"bytes_per_leaf", s.bytes_per_leaf},
+                {"distance_bytes", s.distance_bytes},
+                {"gvd_simplices", s.gvd_simplices},
+                {"graph_edges", s.graph_edges},
+                {"refine_rounds", s.refine_rounds},
+                {"ambiguous_cells_left", s.ambiguous_at_limit},
+                {"thin_regions_left", s.unseen_left},
+                {"touching_leaves", s.touching_leaves},
+                {"certified_leaves", s.certified_leaves},
+                {"total_seconds", s.total_seconds},
+                {"peak_rss_bytes", s.peak_rss_bytes},
+                {"start_rss_bytes", s.start_rss_bytes}};
+  if (!s.job.empty()) value["job"] = s.job;  // files of the CLI keep their bytes
+  return value;
 }
 
 size_t expected_size(const GvdResult& r) {
@@ -845,6 +847,7 @@ ResultStats stats_from_json(std::string_view text) {
     s.total_seconds = j.value("total_seconds", s.total_seconds);
     s.peak_rss_bytes = j.value("peak_rss_bytes", s.peak_rss_bytes);
     s.start_rss_bytes = j.value("start_rss_bytes", s.start_rss_bytes);
+    s.job = j.value("job", s.job);
     if (const auto it = j.find("stages"); it != j.end()) {
       for (const Json& st : it->get_ref<const Json::array_t&>()) {
         s.stages.push_back({st.at("name").get<std::string>(), st.at("seconds").get<double>(),

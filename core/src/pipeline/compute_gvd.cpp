@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/peak_memory.h"
@@ -141,10 +142,16 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   progress("scene", 0);
   Stopwatch sw;
   SceneFrame frame;
-  r.domain = make_domain(scene, options.domain, &frame);
+  DomainOptions domain_options = options.domain;
+  domain_options.threads = options.threads;
+  domain_options.cancel = options.cancel;
+  r.domain = make_domain(scene, domain_options, &frame);
   const std::vector<PairCertifier::RoofApex> apexes = roof_apexes(frame, r.domain);
+  throw_if_cancelled(options.cancel, "the scene stage");
   r.geometry = make_unit_geometry(scene, r.domain);
-  const SimplexBvh bvh(dim, r.geometry.points, r.geometry.simplices, r.geometry.object_of);
+  throw_if_cancelled(options.cancel, "the scene stage");
+  const SimplexBvh bvh(dim, r.geometry.points, r.geometry.simplices, r.geometry.object_of,
+                       options.cancel);
   r.stats.stages.push_back({"scene", sw.seconds(),
                             r.geometry.points.size() * sizeof(Vec3) +
                                 r.geometry.simplices.size() * sizeof(Simplex) + bvh.memory_bytes(),
@@ -173,7 +180,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     if (!cones) sw = Stopwatch();  // the first attempt's octree stage counts the contacts too
     certifier.reset();
     if (options.refine == RefineRule::kCertified) {
-      certifier.emplace(r.geometry, bvh, &contacts, true, cones);
+      certifier.emplace(r.geometry, bvh, &contacts, true, cones, options.cancel);
       certifier->set_roof_apexes(apexes);
     } else if (!cones) {
       break;

@@ -51,6 +51,9 @@ std::string header_value(std::string_view header, std::string_view key, const st
   return v;
 }
 
+/// Voxels decoded between two reads of the cancel flag (well under a millisecond).
+constexpr uint64_t kCancelVoxels = uint64_t{1} << 16;
+
 template <class T>
 uint64_t load_label(const uint8_t* p, size_t index, const std::string& name) {
   T v;
@@ -66,7 +69,8 @@ uint64_t load_label(const uint8_t* p, size_t index, const std::string& name) {
 
 }  // namespace
 
-LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::string& name) {
+LabelVolumeHeader read_label_volume_header(std::span<const uint8_t> bytes,
+                                           const std::string& name) {
   static const uint8_t kMagic[6] = {0x93, 'N', 'U', 'M', 'P', 'Y'};
   if (bytes.size() < 10 || std::memcmp(bytes.data(), kMagic, 6) != 0) {
     malformed(name, "no numpy magic (\\x93NUMPY)");
@@ -136,31 +140,53 @@ LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::str
                       "uint8 .. uint64)");
   }
 
-  LabelVolume v;
-  v.dimension = static_cast<int>(shape.size());
+  LabelVolumeHeader h;
+  h.dimension = static_cast<int>(shape.size());
   // numpy's C order: (ny, nx) or (nz, ny, nx) with x fastest.
-  v.size = {shape.back(), shape[shape.size() - 2], shape.size() == 3 ? shape[0] : 1};
-  const uint64_t count = v.size[0] * v.size[1] * v.size[2];
-  const size_t data_at = header_at + header_len;
-  if (count > (bytes.size() - data_at) / width) {
+  h.size = {shape.back(), shape[shape.size() - 2], shape.size() == 3 ? shape[0] : 1};
+  h.width = static_cast<int>(width);
+  h.is_signed = kind[0] == 'i';
+  h.fortran_order = fortran == "True";
+  h.data_offset = header_at + header_len;
+  // The product of the axes checked against the data's size one factor at a time: a shape
+  // whose product overflows 64 bits must not wrap around to a small count.
+  const uint64_t room = (bytes.size() - h.data_offset) / width;
+  uint64_t count = 1;
+  bool fits = true;
+  for (const uint64_t n : h.size) {
+    if (n > room / count) fits = false;
+    if (!fits) break;
+    count *= n;
+  }
+  if (!fits) {
     invalid(name, "truncated: the data holds fewer than the " + std::to_string(count) +
                       " values of shape " + shape_text);
   }
-  const uint8_t* data = bytes.data() + data_at;
+  return h;
+}
+
+LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::string& name,
+                                  const std::atomic<bool>* cancel) {
+  const LabelVolumeHeader h = read_label_volume_header(bytes, name);
+  LabelVolume v;
+  v.dimension = h.dimension;
+  v.size = h.size;
+  const uint64_t count = h.voxel_count();
+  const uint8_t* data = bytes.data() + h.data_offset;
   v.labels.resize(count);
-  const bool signed_kind = kind[0] == 'i';
-  const bool fortran_order = fortran == "True";
+  const bool signed_kind = h.is_signed;
   for (uint64_t n = 0; n < count; ++n) {
+    if (n % kCancelVoxels == 0) throw_if_cancelled(cancel, "reading the label volume");
     // The voxel n of x-fastest order is stored at `at` (Fortran order: the first axis fastest).
     uint64_t at = n;
-    if (fortran_order) {
+    if (h.fortran_order) {
       const uint64_t i = n % v.size[0], j = (n / v.size[0]) % v.size[1],
                      k = n / (v.size[0] * v.size[1]);
       // Fortran order over the numpy shape: the numpy axis 0 (z in 3D, y in 2D) fastest.
       at = v.dimension == 3 ? k + v.size[2] * (j + v.size[1] * i) : j + v.size[1] * i;
     }
     uint64_t label = 0;
-    switch (width) {
+    switch (h.width) {
       case 1:
         label =
             signed_kind ? load_label<int8_t>(data, at, name) : load_label<uint8_t>(data, at, name);
@@ -225,9 +251,15 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
     }
     return it->second;
   };
+  const uint64_t rows = ny * nz;
+  uint64_t next_report = 0;  // the row at which the next percent is reported
   for (uint64_t k = 0; k < nz; ++k) {
     for (uint64_t j = 0; j < ny; ++j) {
       throw_if_cancelled(options.cancel, "reading the label volume");
+      if (const uint64_t row = k * ny + j; options.progress && row >= next_report) {
+        options.progress(static_cast<double>(row) / static_cast<double>(rows));
+        next_report = row + std::max<uint64_t>(1, rows / 100);
+      }
       for (uint64_t i = 0; i < nx; ++i) {
         const uint64_t label = volume.labels[(k * ny + j) * nx + i];
         if (options.background && label == *options.background) continue;
@@ -287,7 +319,7 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
     throw Error(ErrorCode::kInvalidScene,
                 "the label volume has no label other than the background: nothing to compute");
   }
-  validate_scene(scene, limits);
+  validate_scene(scene, limits, options.cancel);
   if (!touching.empty()) {
     // True to what the pipeline does with them (docs/FORMATS.md): where two labels touch
     // their boundary surfaces coincide, and exact ties between the two copies of a face go to

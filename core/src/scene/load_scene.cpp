@@ -19,7 +19,8 @@ namespace gvd {
 
 // The readers, one definition each in scene_json.cpp, mesh_formats.cpp and gltf_scene.cpp.
 // They return unvalidated scenes (except scene_from_json_value, which validates).
-Scene scene_from_json_value(const nlohmann::json& doc, const SceneLimits& limits);
+Scene scene_from_json_value(const nlohmann::json& doc, const SceneLimits& limits,
+                            const std::atomic<bool>* cancel = nullptr);
 /// The JSON text parsed once its nesting, objects, vertices, simplices and values are counted
 /// within `limits` (a pass that builds nothing, so an oversized scene is refused early).
 nlohmann::json parse_scene_json_value(std::string_view text, const SceneLimits& limits);

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 
 namespace gvd {
@@ -26,6 +27,11 @@ constexpr std::pair<WarningKind, const char*> kWarningNames[] = {
     {WarningKind::kConesDropped, "cones_dropped"},
     {WarningKind::kReorientedTriangles, "reoriented_triangles"},
 };
+
+/// Vertices or simplices validate_scene handles between two reads of the cancel flag (about a
+/// millisecond of its slowest loop, the orientation's walk).
+constexpr size_t kCancelGrain = size_t{1} << 15;
+constexpr const char* kValidating = "validating the scene";
 
 [[noreturn]] void invalid(std::string detail, ErrorLocation where = {}) {
   throw Error(ErrorCode::kInvalidScene, std::move(detail), std::move(where));
@@ -123,8 +129,9 @@ namespace {
 /// triangles that share an edge used by exactly those two must run it in opposite directions
 /// (CAD and scan exports often flip some faces). In each part the orientation of the larger
 /// area is kept and the other triangles are reversed; a part that cannot be oriented (a Moebius
-/// strip) is left as it is. Returns the number of triangles reversed.
-uint64_t orient_consistently(SceneObject& object) {
+/// strip) is left as it is. Returns the number of triangles reversed. Reads `cancel` between
+/// its steps and every kCancelGrain triangles of the walk.
+uint64_t orient_consistently(SceneObject& object, const std::atomic<bool>* cancel) {
   const size_t n = object.simplices.size();
   // The triangles across each edge used by exactly two (sorted undirected edges; 16 bytes per
   // triangle side, as mesh_topology's pairs).
@@ -141,8 +148,10 @@ uint64_t orient_consistently(SceneObject& object) {
       sides.push_back({uint64_t{std::min(a, b)} << 32 | std::max(a, b), 3 * t + e});
     }
   }
+  throw_if_cancelled(cancel, kValidating);
   std::sort(sides.begin(), sides.end(),
             [](const Side& x, const Side& y) { return x.edge < y.edge; });
+  throw_if_cancelled(cancel, kValidating);
   std::vector<uint32_t> across(3 * n, 0xFFFFFFFFu);
   for (size_t i = 0; i < sides.size();) {
     size_t j = i;
@@ -171,6 +180,7 @@ uint64_t orient_consistently(SceneObject& object) {
   std::vector<int8_t> flip(n, -1);  // -1: not reached; 0 keep; 1 reverse (relative to seed)
   std::vector<uint32_t> part, stack;
   uint64_t reversed = 0;
+  size_t walked = 0;
   for (uint32_t seed = 0; seed < n; ++seed) {
     if (flip[seed] >= 0) continue;
     part.clear();
@@ -181,6 +191,7 @@ uint64_t orient_consistently(SceneObject& object) {
     while (!stack.empty()) {
       const uint32_t t = stack.back();
       stack.pop_back();
+      if (++walked % kCancelGrain == 0) throw_if_cancelled(cancel, kValidating);
       part.push_back(t);
       (flip[t] ? other : kept) += area(t);
       for (int e = 0; e < 3; ++e) {
@@ -282,7 +293,7 @@ std::optional<ObjectId> Scene::find(const std::string& label) const {
   return std::nullopt;
 }
 
-void validate_scene(Scene& scene, const SceneLimits& limits) {
+void validate_scene(Scene& scene, const SceneLimits& limits, const std::atomic<bool>* cancel) {
   if (scene.dimension != 2 && scene.dimension != 3) {
     invalid("dimension must be 2 or 3, got " + std::to_string(scene.dimension));
   }
@@ -325,10 +336,12 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
   const int arity = dim == 2 ? 2 : 3;
   std::erase_if(scene.warnings, is_topology_warning);
   for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    throw_if_cancelled(cancel, kValidating);
     SceneObject& object = scene.objects[oi];
     if (object.vertices.size() > 0xFFFFFFFFull)
       invalid(where(oi, object.label) + ": too many vertices", at(oi, object.label));
     for (size_t vi = 0; vi < object.vertices.size(); ++vi) {
+      if (vi % kCancelGrain == kCancelGrain - 1) throw_if_cancelled(cancel, kValidating);
       Vec3& p = object.vertices[vi];
       if (dim == 2) p.z = 0.0;
       for (int c = 0; c < dim; ++c) {
@@ -350,6 +363,7 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
               at(oi, object.label));
     }
     for (size_t si = 0; si < object.simplices.size(); ++si) {
+      if (si % kCancelGrain == kCancelGrain - 1) throw_if_cancelled(cancel, kValidating);
       Simplex& s = object.simplices[si];
       if (dim == 2) s.v[2] = 0;
       for (int k = 0; k < arity; ++k) {
@@ -378,7 +392,7 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
                                     (dim == 2 ? "segments" : "triangles")});
     }
     if (dim == 3) {
-      if (const uint64_t reversed = orient_consistently(object); reversed > 0) {
+      if (const uint64_t reversed = orient_consistently(object, cancel); reversed > 0) {
         scene.warnings.push_back(
             {WarningKind::kReorientedTriangles, object.label, reversed,
              "object \"" + object.label + "\": " + std::to_string(reversed) +
@@ -387,6 +401,7 @@ void validate_scene(Scene& scene, const SceneLimits& limits) {
                  "was)"});
       }
     }
+    throw_if_cancelled(cancel, kValidating);
     add_topology_warnings(object, dim, scene.warnings);
   }
 }
@@ -550,7 +565,7 @@ Domain make_domain(const Scene& scene, const DomainOptions& options, SceneFrame*
   } else {
     SceneFrame frame;
     if (dim == 3 && options.frame == DomainFrame::kAuto) {
-      frame = analyse_scene_frame(scene);
+      frame = analyse_scene_frame(scene, true, options.threads, options.cancel);
       std::copy(frame.axes.begin(), frame.axes.end(), domain.axis);
     }
     // The bounds in the frame's coordinates.

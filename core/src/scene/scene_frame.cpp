@@ -12,12 +12,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
-#include <thread>
 #include <tuple>
 #include <unordered_map>
 #include <utility>
 #include <vector>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/scene/scene.h"
@@ -77,6 +77,12 @@ constexpr double kFacingWeight = 1000;
 /// neighbours for every triangle (30 s for 288k triangles); a triangle whose partner is not
 /// among the first ones counts as not facing, which only weakens the hint.
 constexpr int kFacingCandidates = 64;
+/// Triangles (or facets, bins) handled between two reads of the cancel flag: a facing search
+/// costs up to kFacingCandidates exact tests, so 256 of them stay well under a millisecond;
+/// the plain loops over facets read it every 16k.
+constexpr size_t kCancelTriangles = 256;
+constexpr size_t kCancelFacets = size_t{1} << 14;
+constexpr const char* kCancelWhat = "the octree's frame";
 
 /// The scene's triangles in one flat array (scene order) with their BVH, in user coordinates.
 struct FlatScene {
@@ -85,11 +91,12 @@ struct FlatScene {
   std::vector<uint32_t> object_of;
   SimplexBvh bvh;
 
-  explicit FlatScene(const Scene& scene) {
+  FlatScene(const Scene& scene, const std::atomic<bool>* cancel) {
     points.reserve(scene.vertex_count());
     simplices.reserve(scene.simplex_count());
     object_of.reserve(scene.simplex_count());
     for (size_t o = 0; o < scene.objects.size(); ++o) {
+      throw_if_cancelled(cancel, kCancelWhat);
       const SceneObject& object = scene.objects[o];
       const auto base = static_cast<uint32_t>(points.size());
       points.insert(points.end(), object.vertices.begin(), object.vertices.end());
@@ -101,23 +108,24 @@ struct FlatScene {
       }
     }
     // Only objects facing each other need it (one object faces nothing).
-    if (scene.objects.size() >= 2) bvh = SimplexBvh(3, points, simplices, object_of);
+    if (scene.objects.size() >= 2) bvh = SimplexBvh(3, points, simplices, object_of, cancel);
   }
 };
 
 /// Whether each triangle, in scene order, faces another object (above); `normals` are the
 /// triangles' unit normals (zero for degenerate ones, which face nothing).
 std::vector<char> facing_triangles(const Scene& scene, const FlatScene& flat,
-                                   const std::vector<Vec3>& normals, double reach) {
+                                   const std::vector<Vec3>& normals, double reach, int threads,
+                                   const std::atomic<bool>* cancel) {
   const std::vector<Vec3>& points = flat.points;
   const std::vector<Simplex>& simplices = flat.simplices;
   const std::vector<uint32_t>& object_of = flat.object_of;
   const SimplexBvh& bvh = flat.bvh;
   std::vector<char> facing(simplices.size(), 0);
   if (scene.objects.size() < 2) return facing;
-  const int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  parallel_for(simplices.size(), threads, [&](size_t begin, size_t end, int) {
+  parallel_for(simplices.size(), resolve_threads(threads), [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
+      if ((i - begin) % kCancelTriangles == 0) throw_if_cancelled(cancel, kCancelWhat);
       const Vec3 n = normals[i];
       if (!(norm2(n) > 0)) continue;
       const Simplex& t = simplices[i];
@@ -157,12 +165,14 @@ std::vector<char> facing_triangles(const Scene& scene, const FlatScene& flat,
 /// The frame of faces (scene_frame) from the triangles' unit normals, areas and facing flags.
 std::array<Vec3, 3> frame_of_faces(const std::vector<Vec3>& normals,
                                    const std::vector<double>& areas,
-                                   const std::vector<char>& facing) {
+                                   const std::vector<char>& facing,
+                                   const std::atomic<bool>* cancel) {
   const std::array<Vec3, 3> world = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
   std::vector<Facet> facets;
   facets.reserve(normals.size());
   double total = 0;
   for (size_t i = 0; i < normals.size(); ++i) {
+    if (i % kCancelFacets == 0) throw_if_cancelled(cancel, kCancelWhat);
     if (!(areas[i] > 0)) continue;
     Vec3 n = normals[i];
     // Canonical sign: the largest component positive (a tie flips some; the exact recount
@@ -191,7 +201,9 @@ std::array<Vec3, 3> frame_of_faces(const std::vector<Vec3>& normals,
     return k;
   };
   std::unordered_map<uint64_t, Bin> bins;
-  for (const Facet& f : facets) {
+  for (size_t i = 0; i < facets.size(); ++i) {
+    if (i % kCancelFacets == 0) throw_if_cancelled(cancel, kCancelWhat);
+    const Facet& f = facets[i];
     Bin& b = bins[key(f.n)];
     b.sum = b.sum + f.n * (dot(b.sum, f.n) < 0 ? -f.area : f.area);
     b.area += f.area;
@@ -310,7 +322,7 @@ struct StraddledEdge {
 /// roof there: one extreme). Exact distances to the meshes. std::nullopt when there is no
 /// such roof within a few gaps of the edge (then the edge's own coordinate is used).
 std::optional<double> roof_apex(const FlatScene& flat, const std::array<Vec3, 3>& axes,
-                                const StraddledEdge& edge, int k) {
+                                const StraddledEdge& edge, int k, const std::atomic<bool>* cancel) {
   const SimplexBvh& bvh = flat.bvh;
   const Vec3 p = edge.middle;
   const ClosestHit other_hit = bvh.nearest_excluding(p, &edge.object, 1);
@@ -332,6 +344,7 @@ std::optional<double> roof_apex(const FlatScene& flat, const std::array<Vec3, 3>
   if (side == 0) return std::nullopt;
   // The root of f on the line p + m t + w side s, s in [-reach, reach], by bisection.
   auto root = [&](double t) -> std::optional<double> {
+    throw_if_cancelled(cancel, kCancelWhat);  // up to 400 exact distances per root
     double lo = -reach, hi = reach;
     const Vec3 base = p + m * t;
     if (!(f(base + w * (side * lo)) < 0) || !(f(base + w * (side * hi)) > 0)) return std::nullopt;
@@ -383,12 +396,14 @@ std::array<std::vector<StraddledRims>, 3> straddled_rims(const Scene& scene, con
                                                          const std::vector<Vec3>& normals,
                                                          const std::vector<char>& facing,
                                                          const std::array<Vec3, 3>& axes,
-                                                         double extent) {
+                                                         double extent,
+                                                         const std::atomic<bool>* cancel) {
   constexpr double kAlong = 1e-12;    // an edge along an axis: |sin| below this
   constexpr double kStraddle = 1e-9;  // a normal's component counts by its sign above this
   std::array<std::vector<StraddledEdge>, 3> found;
   size_t first = 0;  // the object's first triangle in scene order
   for (uint32_t oi = 0; oi < scene.objects.size(); ++oi) {
+    throw_if_cancelled(cancel, kCancelWhat);
     const SceneObject& object = scene.objects[oi];
     const auto own = facing.begin() + static_cast<std::ptrdiff_t>(first);
     if (std::none_of(own, own + static_cast<std::ptrdiff_t>(object.simplices.size()),
@@ -467,7 +482,7 @@ std::array<std::vector<StraddledRims>, 3> straddled_rims(const Scene& scene, con
       const StraddledEdge& longest = f[group.begin];
       StraddledRims rims;
       rims.axis = k;
-      rims.apex = roof_apex(flat, axes, longest, k).value_or(longest.coordinate);
+      rims.apex = roof_apex(flat, axes, longest, k, cancel).value_or(longest.coordinate);
       rims.length = group.length;
       for (size_t i = group.begin; i < group.end && rims.edges.size() < kMaxStraddledEdges; ++i)
         rims.edges.push_back({f[i].from, f[i].to});
@@ -479,7 +494,8 @@ std::array<std::vector<StraddledRims>, 3> straddled_rims(const Scene& scene, con
 
 }  // namespace
 
-SceneFrame analyse_scene_frame(const Scene& scene, bool turn) {
+SceneFrame analyse_scene_frame(const Scene& scene, bool turn, int threads,
+                               const std::atomic<bool>* cancel) {
   SceneFrame out;
   if (scene.dimension != 3) return out;
   Box bounds;
@@ -494,6 +510,7 @@ SceneFrame analyse_scene_frame(const Scene& scene, bool turn) {
   normals.reserve(scene.simplex_count());
   areas.reserve(scene.simplex_count());
   for (const SceneObject& o : scene.objects) {
+    throw_if_cancelled(cancel, kCancelWhat);
     for (const Simplex& s : o.simplices) {
       const Vec3 c =
           cross(o.vertices[s.v[1]] - o.vertices[s.v[0]], o.vertices[s.v[2]] - o.vertices[s.v[0]]);
@@ -503,10 +520,11 @@ SceneFrame analyse_scene_frame(const Scene& scene, bool turn) {
       areas.push_back(ok ? 0.5 * len : 0.0);
     }
   }
-  const FlatScene flat(scene);
-  const std::vector<char> facing = facing_triangles(scene, flat, normals, kFacing * extent);
-  if (turn) out.axes = frame_of_faces(normals, areas, facing);
-  out.straddled = straddled_rims(scene, flat, normals, facing, out.axes, extent);
+  const FlatScene flat(scene, cancel);
+  const std::vector<char> facing =
+      facing_triangles(scene, flat, normals, kFacing * extent, threads, cancel);
+  if (turn) out.axes = frame_of_faces(normals, areas, facing, cancel);
+  out.straddled = straddled_rims(scene, flat, normals, facing, out.axes, extent, cancel);
   return out;
 }
 

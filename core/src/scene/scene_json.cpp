@@ -6,6 +6,7 @@
 #include <string>
 #include <utility>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/common/json_depth.h"
 #include "gvd/common/json_input.h"
@@ -272,9 +273,11 @@ nlohmann::json parse_scene_json_value(std::string_view text, const SceneLimits& 
 
 /// Builds and validates a scene from an already parsed native scene JSON document (shared with
 /// the format sniffer of load_scene.cpp, which parses the text once).
-Scene scene_from_json_value(const Json& doc, const SceneLimits& limits);
+Scene scene_from_json_value(const Json& doc, const SceneLimits& limits,
+                            const std::atomic<bool>* cancel = nullptr);
 
-Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
+Scene scene_from_json_value(const Json& doc, const SceneLimits& limits,
+                            const std::atomic<bool>* cancel) {
   if (!doc.is_object())
     invalid(std::string("the scene must be a JSON object, got ") + type_name(doc));
   const auto dim_it = doc.find("dimension");
@@ -316,6 +319,7 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
 
   scene.objects.reserve(objects.size());
   for (size_t oi = 0; oi < objects.size(); ++oi) {
+    throw_if_cancelled(cancel, "reading the scene");
     const Json& o = objects[oi];
     if (!o.is_object()) {
       invalid(object_where(oi, "") + " must be a JSON object, got " + type_name(o), at(oi, ""));
@@ -419,12 +423,13 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits) {
     }
     scene.objects.push_back(std::move(object));
   }
-  validate_scene(scene, limits);
+  validate_scene(scene, limits, cancel);
   return scene;
 }
 
-Scene parse_scene_json(std::string_view text, const SceneLimits& limits) {
-  return scene_from_json_value(parse_scene_json_value(text, limits), limits);
+Scene parse_scene_json(std::string_view text, const SceneLimits& limits,
+                       const std::atomic<bool>* cancel) {
+  return scene_from_json_value(parse_scene_json_value(text, limits), limits, cancel);
 }
 
 std::string scene_to_json(const Scene& scene) {

@@ -14,6 +14,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/grid/compute_grid.h"
+#include "gvd/grid/grid_evaluator.h"
 #include "gvd/grid/grid_graph.h"
 #include "gvd/grid/sample_result_grid.h"
 #include "gvd/pipeline/pipeline.h"
@@ -139,12 +140,17 @@ TEST(Cancel, SetFlagStopsEveryGridStageAtOnce) {
   LabelVolumeOptions vo;
   vo.cancel = &cancel;
   expect_cancelled([&] { scene_from_label_volume(v, vo); }, "scene_from_label_volume");
+  expect_cancelled([&] { make_grid_geometry(scene, &cancel); }, "make_grid_geometry");
   // Unset, the same calls finish.
   cancel = false;
   o.cancel = &cancel;
   EXPECT_EQ(compute_grid(scene, o).label, grid.label);
   EXPECT_EQ(grid_dual_graph(grid, scene, go).edges.size(), 1u);
   EXPECT_EQ(scene_from_label_volume(v, vo).objects.size(), 1u);
+  const GridGeometry with = make_grid_geometry(scene, &cancel), without = make_grid_geometry(scene);
+  EXPECT_EQ(with.order, without.order);
+  EXPECT_EQ(with.roots, without.roots);
+  EXPECT_EQ(with.nodes.size(), without.nodes.size());
 }
 
 /// Records the fractions a progress callback gets.

@@ -114,16 +114,34 @@ TEST(LabelVolume, BadFilesSayWhatAndWhich) {
            Case{npy("<i4", "(4, 4)", false, negative, 8), ErrorCode::kInvalidScene, "truncated"},
            Case{std::vector<uint8_t>{'n', 'o', 't', ' ', 'n', 'p', 'y', 0, 0, 0},
                 ErrorCode::kUnsupportedFormat, "no numpy magic"},
+           // 2^22 x 2^21 x 2^21 voxels: 2^64, which wraps to 0 in 64 bits.
+           Case{npy("|u1", "(4194304, 2097152, 2097152)", false, bytes16, 16),
+                ErrorCode::kInvalidScene, "truncated"},
        }) {
-    try {
-      read_label_volume_npy(c.bytes, "seg.npy");
-      ADD_FAILURE() << c.says << ": malformed input must be an error";
-    } catch (const Error& e) {
-      EXPECT_EQ(e.code(), c.code) << e.detail();
-      EXPECT_NE(e.detail().find("seg.npy"), std::string::npos) << e.detail();
-      EXPECT_NE(e.detail().find(c.says), std::string::npos) << e.detail();
+    // The header alone (what the server checks before it queues a volume) finds each of
+    // these as the full reader does.
+    for (const bool header_only : {false, true}) {
+      try {
+        if (header_only) {
+          read_label_volume_header(c.bytes, "seg.npy");
+        } else {
+          read_label_volume_npy(c.bytes, "seg.npy");
+        }
+        ADD_FAILURE() << c.says << ": malformed input must be an error";
+      } catch (const Error& e) {
+        EXPECT_EQ(e.code(), c.code) << e.detail();
+        EXPECT_NE(e.detail().find("seg.npy"), std::string::npos) << e.detail();
+        EXPECT_NE(e.detail().find(c.says), std::string::npos) << e.detail();
+      }
     }
   }
+  // What the header alone cannot see: the labels' values.
+  const LabelVolumeHeader h =
+      read_label_volume_header(npy("<i4", "(1, 2)", false, negative, 8), "seg.npy");
+  EXPECT_EQ(h.dimension, 2);
+  EXPECT_EQ(h.size, (std::array<uint64_t, 3>{2, 1, 1}));
+  EXPECT_EQ(h.width, 4);
+  EXPECT_TRUE(h.is_signed);
 }
 
 // Random labels in a small block: every label's boundary is closed (or merely non-manifold

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -39,8 +40,10 @@ class SimplexBvh {
   /// simplices and kMaxObjects objects (gvd::Error{kLimitExceeded}).
   /// With `object_of` (the object of every simplex), nodes remember when all their simplices
   /// belong to one object, which lets nearest_in_object skip other objects' subtrees.
+  /// `cancel` (may be null) is read every few thousand simplices of the build: set, it stops
+  /// with gvd::Error{kCancelled} (a 327k-triangle scene takes a few hundred ms to index).
   SimplexBvh(int dimension, std::span<const Vec3> points, std::span<const Simplex> simplices,
-             std::span<const uint32_t> object_of = {});
+             std::span<const uint32_t> object_of = {}, const std::atomic<bool>* cancel = nullptr);
 
   /// The exact closest point on any simplex to `p`, searching only boxes nearer than the best
   /// hit so far and than `max_dist2` (pass a known upper bound to prune harder).

@@ -32,8 +32,9 @@ struct GridGeometry {
   uint32_t object_count() const { return static_cast<uint32_t>(roots.size()); }
 };
 
-/// The sites of a scene (user coordinates; 2D with z = 0). O(S log S).
-GridGeometry make_grid_geometry(const Scene& scene);
+/// The sites of a scene (user coordinates; 2D with z = 0). O(S log S). `cancel` (may be
+/// null) is read per object and every 16k simplices of a BVH: set, gvd::Error{kCancelled}.
+GridGeometry make_grid_geometry(const Scene& scene, const std::atomic<bool>* cancel = nullptr);
 
 /// Signs the distances of the cells whose centre lies inside their nearest object when that
 /// object is closed (`closed`, per object): ray parity along each row of cells (x), with the

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <span>
 #include <utility>
@@ -75,9 +76,12 @@ class PairCertifier final : public SplitOracle {
   /// cell and its children only; where 2:1 balance splits a child next to an apex that lies
   /// inside cells, the grandchildren fail it again, round after round, so the pipeline tries
   /// cones first and builds the octree again without them when the refinement does not settle
-  /// (RefineLoopOptions::cone_certifier).
+  /// (RefineLoopOptions::cone_certifier). `cancel` (may be null) is read between the steps of
+  /// the construction (sorts of the points and of the triangles' sides: a quarter second on
+  /// 327k triangles): set, it stops with gvd::Error{kCancelled}.
   PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
-                const ContactPairs* contacts = nullptr, bool extruded = false, bool cones = false);
+                const ContactPairs* contacts = nullptr, bool extruded = false, bool cones = false,
+                const std::atomic<bool>* cancel = nullptr);
 
   CellVerdict classify(const Box& box, std::span<const uint32_t> inside = {}) const override;
 

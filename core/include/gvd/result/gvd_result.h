@@ -51,6 +51,10 @@ struct ResultStats {
   /// read; 0: unknown). In a process that ran nothing bigger before, peak_rss_bytes minus this
   /// is at least what the computation itself added at its peak.
   uint64_t start_rss_bytes = 0;
+  /// The id of the server job that computed this result (empty when the CLI or the library
+  /// did). A stored result is served as a job only when it names that job (a file of another
+  /// job copied or restored under its name says so).
+  std::string job;
 };
 
 /// A finished GVD: everything later commands and the server need.

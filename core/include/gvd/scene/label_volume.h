@@ -6,7 +6,9 @@
 
 #include <array>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -23,14 +25,33 @@ struct LabelVolume {
   std::vector<uint64_t> labels;
 };
 
+/// What the header of a label volume .npy says (read_label_volume_header): enough to check a
+/// volume before its voxels are decoded.
+struct LabelVolumeHeader {
+  int dimension = 3;
+  std::array<uint64_t, 3> size{1, 1, 1};  ///< nx, ny, nz (nz = 1 in 2D)
+  int width = 1;                          ///< bytes per label
+  bool is_signed = false;
+  bool fortran_order = false;
+  size_t data_offset = 0;  ///< where the labels start in the file
+  uint64_t voxel_count() const { return size[0] * size[1] * size[2]; }
+};
+
+/// The header of a label volume .npy, with every check of read_label_volume_npy but the
+/// labels' values (negative labels): magic, version, dtype, shape, and that the data holds
+/// every voxel. O(header): what a server checks before it stores the bytes for a worker.
+LabelVolumeHeader read_label_volume_header(std::span<const uint8_t> bytes, const std::string& name);
+
 /// Reads a numpy .npy file of integer labels: descr '<i1'/'<i2'/'<i4'/'<i8', '|u1', '<u2',
 /// '<u4', '<u8' (and '|i1'), 2 or 3 dimensions in C order (shape (ny, nx) or (nz, ny, nx),
 /// x fastest, as gvd grid writes them) or Fortran order. Errors name the file: bytes that are
 /// not a .npy gvd reads (no magic, an unknown format version) are kUnsupportedFormat; a .npy
 /// whose content is no label volume is kInvalidScene naming the field (a dtype that is not a
 /// little-endian integer, a shape of other than 2 or 3 dimensions or without voxels, a
-/// truncated header or data), as is a negative label (naming the voxel).
-LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::string& name);
+/// truncated header or data), as is a negative label (naming the voxel). `cancel` (may be
+/// null) is read every 64k voxels: set, it stops with gvd::Error{kCancelled}.
+LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::string& name,
+                                  const std::atomic<bool>* cancel = nullptr);
 
 struct LabelVolumeOptions {
   /// Voxel size along x, y (, z) in user units: anisotropic voxels are honoured throughout.
@@ -40,8 +61,10 @@ struct LabelVolumeOptions {
   /// The label that is no object (background); none: every label is an object.
   std::optional<uint64_t> background = 0;
   /// Set to true by another thread to stop with gvd::Error{kCancelled}; read every row of
-  /// voxels.
+  /// voxels and while the scene is validated.
   const std::atomic<bool>* cancel = nullptr;
+  /// Called with the fraction of the volume's rows turned into faces (0..1, every percent).
+  std::function<void(double)> progress;
 };
 
 /// One object per label (in increasing order, labelled "label_<id>"): its boundary faces

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -16,7 +17,9 @@ enum class SceneFormat { kAuto, kJson, kObj, kGltf, kGlb, kPly, kStl, kOff };
 /// Parses the native scene JSON (docs/FORMATS.md) ({"dimension":..,"objects":[..]} and an
 /// optional "units": a length unit of units.h, kept canonical in Scene::units) and validates
 /// it. Errors name the JSON path, object label and index; an unknown unit names "units".
-Scene parse_scene_json(std::string_view text, const SceneLimits& limits = {});
+/// `cancel` (may be null) is read between objects and while validating (validate_scene).
+Scene parse_scene_json(std::string_view text, const SceneLimits& limits = {},
+                       const std::atomic<bool>* cancel = nullptr);
 
 /// Parses an in-memory file in the given format (kAuto sniffs the content). `name` is used
 /// for error messages and, for single-object formats (PLY/STL/OFF), as the label.

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -95,7 +96,11 @@ struct SceneLimits {
 /// same way as their only neighbour across it, so that each edge-connected part is oriented
 /// one way (the way of its larger area; a warning says how many); records warnings for open
 /// or non-manifold meshes and for objects with several connected components. O(V + S log S).
-void validate_scene(Scene& scene, const SceneLimits& limits = {});
+/// `cancel` (may be null) is read between objects and every few tens of thousands of vertices
+/// and simplices: set, it stops with gvd::Error{kCancelled} (the scene is then half
+/// normalised).
+void validate_scene(Scene& scene, const SceneLimits& limits = {},
+                    const std::atomic<bool>* cancel = nullptr);
 
 /// An object's boundary and non-manifold elements: in 2D vertices of degree 1 and > 2, in 3D
 /// edges used by one and by more than two triangles (vertices matched by index). Both 0: the
@@ -153,6 +158,12 @@ struct DomainOptions {
   /// Padding on every side as a fraction of the largest extent (default 5 %).
   double padding = 0.05;
   DomainFrame frame = DomainFrame::kAuto;
+  /// Threads of the frame's search (analyse_scene_frame); 0: all hardware threads.
+  /// compute_gvd sets it to PipelineOptions::threads.
+  int threads = 0;
+  /// Set by another thread to stop with gvd::Error{kCancelled}; read every few thousand
+  /// triangles of the frame's search. compute_gvd sets it to PipelineOptions::cancel.
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 /// The frame of a 3D scene's faces: three orthonormal right-handed axes such that the area
@@ -195,8 +206,11 @@ struct SceneFrame {
 };
 constexpr size_t kMaxStraddledGroups = 16;
 /// scene_frame (turned only when `turn`) and the straddled rims along its axes: one pass over
-/// the facing triangles.
-SceneFrame analyse_scene_frame(const Scene& scene, bool turn = true);
+/// the facing triangles, on `threads` threads (0: all hardware threads). `cancel` (may be
+/// null) is read every few thousand triangles and every root of a roof's apex: set, it stops
+/// with gvd::Error{kCancelled}.
+SceneFrame analyse_scene_frame(const Scene& scene, bool turn = true, int threads = 0,
+                               const std::atomic<bool>* cancel = nullptr);
 
 /// The default domain: bounding box of all vertices in the frame (options.frame) made a cube
 /// (side = largest extent, centred) and padded by `padding` of the side on every side. With
