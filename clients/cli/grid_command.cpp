@@ -49,7 +49,11 @@ GridOptions grid_options(const Args& args, const std::string& command) {
   GridOptions options;
   options.resolution = args.int_value("--resolution", 0);
   if (options.resolution < 1) throw UsageError{"--resolution must be a positive cell count"};
-  options.metric = parse_grid_metric(args.value("--metric").value_or("l2"));
+  try {
+    options.metric = parse_grid_metric(args.value("--metric").value_or("l2"));
+  } catch (const Error& e) {
+    throw UsageError{e.detail()};  // a bad flag value: exit 2, as for every other flag
+  }
   options.threads = args.int_value("--threads", 0);
   if (options.threads < 0) throw UsageError{"--threads must be positive"};
   options.max_cells = args.u64_value("--max-cells", options.max_cells);

@@ -349,9 +349,8 @@ PipelineParams params_from_flags(const Args& args) {
         params.set(p.name, *v, ParamSpelling::kCli);
       }
     } catch (const Error& e) {
-      // A malformed flag value is a command-line mistake (exit 2); an unknown unit is invalid
-      // input (exit 3), as the scene's own "units" are.
-      if (p.kind == ParamKind::kUnits) throw;
+      // A malformed flag value, an unknown unit among them, is a command-line mistake
+      // (exit 2); a scene file's own unknown "units" are invalid input (exit 3).
       throw UsageError{e.detail()};
     }
   }
@@ -407,7 +406,12 @@ void apply_units(const Args& args, Scene& scene) {
   if (!units) return;
   // The command line's word over the file's: a scene JSON's "units" are replaced (said on
   // stderr when they differ), meshes and volumes (which have none) get them.
-  const std::string name = parse_units(*units, "--units", ErrorCode::kInvalidArgument);
+  std::string name;
+  try {
+    name = parse_units(*units, "--units", ErrorCode::kInvalidArgument);
+  } catch (const Error& e) {
+    throw UsageError{e.detail()};  // a bad flag value: exit 2, as for every other flag
+  }
   if (!scene.units.empty() && scene.units != name && !(args.has("-q") || args.has("--quiet"))) {
     std::fprintf(stderr, "gvd: --units %s replaces the input's units \"%s\"\n", name.c_str(),
                  scene.units.c_str());

@@ -40,8 +40,12 @@ file(STRINGS ${prefix}_units.nrrd header LIMIT_COUNT 14)
 if(NOT header MATCHES "space units: \"mm\" \"mm\"")
   message(FATAL_ERROR "--units mm is not the NRRD's space units: ${header}")
 endif()
-run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 20 -o ${prefix}_x.nrrd
+# An unknown --units is a bad flag value (exit 2) naming the flag, as in compute.
+run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 20 -o ${prefix}_x.nrrd
        --units parsec -q)
+if(NOT LAST_ERR MATCHES "--units must name a length unit" OR NOT LAST_ERR MATCHES "parsec")
+  message(FATAL_ERROR "an unknown --units should be named:\n${LAST_ERR}")
+endif()
 
 execute_process(COMMAND /usr/bin/python3 -c "import numpy" RESULT_VARIABLE no_numpy
                 OUTPUT_QUIET ERROR_QUIET)
@@ -117,7 +121,10 @@ endif()
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 0 -o ${prefix}_x.npy)
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json -o ${prefix}_x.npy)
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.vtk)
-run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.npy --metric l3)
+run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.npy --metric l3)
+if(NOT LAST_ERR MATCHES "l3" OR NOT LAST_ERR MATCHES "linf")
+  message(FATAL_ERROR "a bad --metric should be named with the metrics:\n${LAST_ERR}")
+endif()
 run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.npy
        --domain 0,0,1,1)
 run_rc(4 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 5000 -o ${prefix}_x.npy
