@@ -17,9 +17,10 @@ namespace gvd::cli {
 /// the query commands when their input is a scene).
 const std::vector<std::string>& compute_value_flags();
 
-/// The parameters of the table (gvd/pipeline/parameters.h) given as flags, parsed by it: a
-/// malformed value (an unknown --units too) is a UsageError naming the flag (exit 2).
-PipelineParams params_from_flags(const Args& args);
+/// The parameters of the table (gvd/pipeline/parameters.h) given as the flags that `surface`
+/// takes (kCliFlag: gvd compute, kGridFlag: gvd grid), parsed by it: a malformed value (an
+/// unknown --units too) is a UsageError naming the flag (exit 2).
+PipelineParams params_from_flags(const Args& args, ParamSurface surface = kCliFlag);
 /// params.check for a scene of `dimension`, its errors as UsageError.
 void check_params(const PipelineParams& params, int dimension);
 

@@ -67,13 +67,9 @@ constexpr std::array<ProblemExit, 28> kProblemExits = {{
     {"/problems/adaptive-only", kExitBadInput},   // a grid job asked for the octree's outputs
 }};
 
-// Flags that set a job parameter (sent as query parameters): the table's job parameters
-// (gvd/pipeline/parameters.h) and the labelled volume's; flags that configure a computation
-// the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 2> kVolumeParams = {{
-    {"--spacing", "spacing"},
-    {"--background", "background"},
-}};
+// Flags that set a job parameter (sent as query parameters) are the table's job parameters
+// (gvd/pipeline/parameters.h), the labelled volume's among them; these configure a
+// computation the server does its own way (refused in remote mode rather than ignored).
 constexpr std::array<std::pair<std::string_view, std::string_view>, 6> kServerSide = {{
     {"--threads", "--job-threads"},
     {"--backend", "--backend"},
@@ -196,11 +192,6 @@ class Remote {
         if (args.has(flag)) query += (query.empty() ? "?" : "&") + std::string(p.name) + "=true";
       } else if (const auto v = args.value(flag)) {
         query += (query.empty() ? "?" : "&") + std::string(p.name) + "=" + url_encode(*v);
-      }
-    }
-    for (const auto& [flag, name] : kVolumeParams) {
-      if (const auto v = args.value(std::string(flag))) {
-        query += (query.empty() ? "?" : "&") + std::string(name) + "=" + url_encode(*v);
       }
     }
     for (const auto& [flag, server_flag] : kServerSide) {

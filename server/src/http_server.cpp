@@ -384,16 +384,15 @@ struct HttpServer::Impl {
     if (options.rate_limit > 0) admit(req, res);
     JobParams params;
     std::string label = "object";
-    VolumeParams volume;
+    bool volume = false;       // the body is a labelled volume
+    std::string volume_param;  // a volume's parameter given (a query's, even at its default)
     for (const auto& [key, value] : req.params) {
       if (key == "label") {
         label = value;
-      } else if (key == "spacing") {
-        volume.spacing = value;
-      } else if (key == "background") {
-        volume.background = value;
       } else {
         params.set(key, value);
+        if (const ParamSpec* p = find_parameter(key); p != nullptr && p->of_volume)
+          volume_param = key;
       }
     }
     SceneLimits limits;
@@ -413,19 +412,24 @@ struct HttpServer::Impl {
                       "not part \"" +
                           name + "\"");
       }
-      scene = scene_from_volume(req.get_file_value("volume").content, volume, limits);
+      volume = true;
+      scene = scene_from_volume(req.get_file_value("volume").content, params, limits);
     } else if (req.is_multipart_form_data()) {
       scene = scene_from_parts(req, limits, params);
     } else if (media_type(req) == "application/x-npy" || is_npy(req.body)) {
-      scene = scene_from_volume(req.body, volume, limits);
+      volume = true;
+      scene = scene_from_volume(req.body, params, limits);
     } else {
       if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
       const auto* data = reinterpret_cast<const uint8_t*>(req.body.data());
       scene = parse_scene_bytes({data, req.body.size()}, SceneFormat::kAuto, label, limits);
     }
-    if (!volume.used && (volume.spacing || volume.background)) {
+    for (const ParamSpec& p : pipeline_parameters()) {
+      if (p.of_volume && !params.is_default(p)) volume_param = p.name;
+    }
+    if (!volume && !volume_param.empty()) {
       throw Error(ErrorCode::kInvalidArgument,
-                  std::string("parameter \"") + (volume.spacing ? "spacing" : "background") +
+                  "parameter \"" + volume_param +
                       "\" goes with a labelled volume (an .npy body, application/x-npy, or a "
                       "multipart part named \"volume\")");
     }
@@ -454,69 +458,22 @@ struct HttpServer::Impl {
     res.set_content(outcome.status_json, "application/json");
   }
 
-  /// The query parameters of a labelled volume upload (docs/API.md, "Labelled volumes").
-  struct VolumeParams {
-    std::optional<std::string> spacing;     ///< x,y[,z]: required for a volume
-    std::optional<std::string> background;  ///< a label >= 0 or "none"; default 0
-    bool used = false;                      ///< the body was a volume
-  };
-
   /// A labelled .npy volume turned into a scene by the core (read_label_volume_npy,
-  /// scene_from_label_volume: one object per label, its voxel faces as its boundary).
-  static Scene scene_from_volume(const std::string& bytes, VolumeParams& volume,
+  /// scene_from_label_volume: one object per label, its voxel faces as its boundary), its
+  /// voxels as the job parameters spacing (required) and background say (docs/API.md,
+  /// "Labelled volumes").
+  static Scene scene_from_volume(const std::string& bytes, const JobParams& params,
                                  const SceneLimits& limits) {
-    volume.used = true;
     const LabelVolume labels = read_label_volume_npy(
         {reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "the volume");
-    const size_t dim = static_cast<size_t>(labels.dimension);
-    if (!volume.spacing) {
+    if (params.spacing.empty()) {
       throw Error(ErrorCode::kInvalidArgument,
                   "parameter \"spacing\" is required for a labelled volume: the voxel size on "
                   "each axis, " +
-                      std::string(dim == 2 ? "x,y" : "x,y,z") + " in scene units");
+                      std::string(labels.dimension == 2 ? "x,y" : "x,y,z") + " in scene units");
     }
-    LabelVolumeOptions vo;
-    std::vector<double> spacing;
-    {
-      size_t start = 0;
-      const std::string& text = *volume.spacing;
-      while (start <= text.size()) {
-        size_t comma = text.find(',', start);
-        if (comma == std::string::npos) comma = text.size();
-        const std::string item = text.substr(start, comma - start);
-        double v = 0;
-        const auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
-        if (item.empty() || ec != std::errc() || ptr != item.data() + item.size() ||
-            !std::isfinite(v) || v <= 0) {
-          throw Error(
-              ErrorCode::kInvalidArgument,
-              "parameter \"spacing\" must be positive numbers x,y[,z], got \"" + text + "\"");
-        }
-        spacing.push_back(v);
-        start = comma + 1;
-      }
-      if (spacing.size() != dim) {
-        throw Error(ErrorCode::kInvalidArgument,
-                    "parameter \"spacing\" needs " + std::to_string(dim) + " numbers for this " +
-                        std::to_string(dim) + "D volume, got " + std::to_string(spacing.size()));
-      }
-    }
-    for (size_t a = 0; a < dim; ++a) vo.spacing[a] = spacing[a];
-    if (volume.background) {
-      const std::string& b = *volume.background;
-      uint64_t v = 0;
-      const auto [ptr, ec] = std::from_chars(b.data(), b.data() + b.size(), v);
-      if (b == "none") {
-        vo.background.reset();
-      } else if (b.empty() || ec != std::errc() || ptr != b.data() + b.size()) {
-        throw Error(
-            ErrorCode::kInvalidArgument,
-            "parameter \"background\" is a label (an integer >= 0) or none, got \"" + b + "\"");
-      } else {
-        vo.background = v;
-      }
-    }
-    return scene_from_label_volume(labels, vo, limits);
+    return scene_from_label_volume(
+        labels, label_volume_options(params, labels.dimension, ParamSpelling::kServer), limits);
   }
 
   /// The per-client token bucket (--rate-limit): refused with 503 + Retry-After (the
