@@ -98,24 +98,6 @@ ObjectId checked_object(const GvdResult& r, Object object) {
   return static_cast<ObjectId>(object);
 }
 
-/// The box of a `domain` option (lo..., hi...: 2 x dimension numbers; corners in any order).
-Box domain_box(const std::vector<double>& domain, int dim) {
-  if (domain.size() != static_cast<size_t>(2 * dim)) {
-    throw Error(ErrorCode::kInvalidArgument,
-                "the domain needs " + std::to_string(2 * dim) + " numbers (lo..., hi...) for a " +
-                    std::to_string(dim) + "D scene, got " + std::to_string(domain.size()));
-  }
-  Box box;
-  Vec3 lo, hi;
-  for (int a = 0; a < dim; ++a) {
-    lo[a] = domain[static_cast<size_t>(a)];
-    hi[a] = domain[static_cast<size_t>(dim + a)];
-  }
-  box.extend(lo);
-  box.extend(hi);
-  return box;
-}
-
 /// The facade's grid of the core's (arrays moved, not copied).
 Grid grid_of(DistanceGrid&& g) {
   Grid out;
@@ -132,10 +114,24 @@ Grid grid_of(DistanceGrid&& g) {
   return out;
 }
 
-void check_grid_options(const GridOptions& options) {
-  if (options.threads < 0 || options.range_cells < 0) {
-    throw Error(ErrorCode::kInvalidArgument, "threads and range_cells must not be negative");
-  }
+/// The options of grid() and Result::grid() through the parameter table
+/// (gvd/pipeline/parameters.h), as compute() reads its own: its ranges, choices and checks
+/// across parameters for a scene of `dimension`, named as the keywords are.
+PipelineParams grid_params(const GridOptions& options, int dimension) {
+  PipelineParams params;
+  params.mode = ComputeMode::kGrid;
+  // As text, so that 0 is out of range here rather than "not given".
+  params.set("resolution", std::to_string(options.resolution), ParamSpelling::kApi,
+             kPythonGrid | kPythonResultGrid);
+  params.metric = parse_choice<GridMetric>(options.metric);
+  params.unsigned_distance = !options.signed_distance;
+  params.domain = options.domain;
+  params.range_cells = options.range_cells;
+  params.max_cells = options.max_cells;
+  params.threads = options.threads;
+  params.check_ranges(ParamSpelling::kApi);
+  params.check(dimension, ParamSpelling::kApi);
+  return params;
 }
 
 /// One backend per request ("auto", "opencl", "cpu") for the whole process: OpenCL is
@@ -304,15 +300,7 @@ Result compute(const Scene& scene, const ComputeOptions& options) {
 Grid grid(const Scene& scene, const GridOptions& options) {
   gvd::Scene s = Access::scene(scene);
   validate_scene(s, {}, options.cancel);
-  check_grid_options(options);
-  ::gvd::GridOptions go;
-  go.resolution = options.resolution;
-  go.metric = parse_grid_metric(options.metric);
-  go.signed_distance = options.signed_distance;
-  if (!options.domain.empty()) go.box = domain_box(options.domain, s.dimension);
-  go.range_cells = options.range_cells;
-  go.max_cells = options.max_cells;
-  go.threads = options.threads;
+  ::gvd::GridOptions go = ::gvd::grid_options(grid_params(options, s.dimension));
   (void)make_grid_spec(s, go);  // the limits, before the backend starts or memory is taken
   go.compute = backend_for(options.backend).compute;
   go.cancel = options.cancel;
@@ -336,15 +324,8 @@ Object Result::object(std::string_view label) const {
 }
 
 Grid Result::grid(const GridOptions& options) const {
-  check_grid_options(options);
   const GvdResult& r = internal();
-  ResultGridOptions ro;
-  ro.resolution = options.resolution;
-  ro.metric = parse_grid_metric(options.metric);
-  ro.signed_distance = options.signed_distance;
-  if (!options.domain.empty()) ro.box = domain_box(options.domain, r.scene.dimension);
-  ro.max_cells = options.max_cells;
-  ro.threads = options.threads;
+  ResultGridOptions ro = result_grid_options(grid_params(options, r.scene.dimension));
   ro.cancel = options.cancel;
   if (options.progress) ro.progress = [&options](double f) { options.progress("grid", f); };
   return grid_of(sample_result_grid(r, ro));

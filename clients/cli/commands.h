@@ -17,10 +17,10 @@ namespace gvd::cli {
 /// the query commands when their input is a scene).
 const std::vector<std::string>& compute_value_flags();
 
-/// The parameters of the table (gvd/pipeline/parameters.h) given as flags, parsed by it: a
-/// malformed value is a UsageError naming the flag (exit 2), an unknown --units a
-/// gvd::Error{kInvalidArgument} (exit 3).
-PipelineParams params_from_flags(const Args& args);
+/// The parameters of the table (gvd/pipeline/parameters.h) given as the flags that `surface`
+/// takes (kCliFlag: gvd compute, kGridFlag: gvd grid), parsed by it: a malformed value (an
+/// unknown --units too) is a UsageError naming the flag (exit 2).
+PipelineParams params_from_flags(const Args& args, ParamSurface surface = kCliFlag);
 /// params.check for a scene of `dimension`, its errors as UsageError.
 void check_params(const PipelineParams& params, int dimension);
 
@@ -35,7 +35,7 @@ ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& fil
 /// --max-objects / --max-simplices limits.
 Scene load_compute_scene(const Args& args, const std::vector<std::string>& files);
 /// --units: the length unit of a scene (or of a loaded result's scene), set over its own
-/// "units" (said on stderr, unless -q/--quiet, when they differ). gvd::Error{kInvalidArgument}
+/// "units" (said on stderr, unless -q/--quiet, when they differ). A UsageError (exit 2)
 /// naming --units for a unit gvd does not know (gvd/scene/units.h). Nothing without --units.
 void apply_units(const Args& args, Scene& scene);
 

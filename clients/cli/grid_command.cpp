@@ -25,38 +25,14 @@
 namespace gvd::cli {
 namespace {
 
-/// --domain for a scene or result of `dimension`.
-std::optional<Box> domain_arg(const Args& args, int dimension) {
-  const auto box = args.numbers("--domain");
-  if (!box) return std::nullopt;
-  const size_t d = static_cast<size_t>(dimension);
-  if (box->size() != 2 * d) {
-    throw UsageError{"--domain expects " + std::to_string(2 * d) + " numbers for a " +
-                     std::to_string(d) + "D input (x0,y0[,z0],x1,y1[,z1])"};
-  }
-  Box b;
-  for (size_t i = 0; i < d; ++i) {
-    b.lo[static_cast<int>(i)] = (*box)[i];
-    b.hi[static_cast<int>(i)] = (*box)[d + i];
-  }
-  if (d == 2) b.lo.z = b.hi.z = 0;
-  return b;
-}
-
-/// The grid options of the command line (`command` names it in errors).
-GridOptions grid_options(const Args& args, const std::string& command) {
+/// The grid's parameters from the flags `surface` takes (kCliFlag: gvd compute --mode grid;
+/// kGridFlag: gvd grid), through the parameter table: ranges, choices, defaults and errors
+/// (UsageError naming the flag) are the table's.
+PipelineParams grid_params(const Args& args, ParamSurface surface, const std::string& command) {
   if (!args.value("--resolution")) throw UsageError{command + " needs --resolution N"};
-  GridOptions options;
-  options.resolution = args.int_value("--resolution", 0);
-  if (options.resolution < 1) throw UsageError{"--resolution must be a positive cell count"};
-  options.metric = parse_grid_metric(args.value("--metric").value_or("l2"));
-  options.threads = args.int_value("--threads", 0);
-  if (options.threads < 0) throw UsageError{"--threads must be positive"};
-  options.max_cells = args.u64_value("--max-cells", options.max_cells);
-  options.range_cells = args.int_value("--range-cells", 0);
-  if (options.range_cells < 0) throw UsageError{"--range-cells must be positive"};
-  options.signed_distance = !args.has("--unsigned");
-  return options;
+  PipelineParams params = params_from_flags(args, surface);
+  params.mode = ComputeMode::kGrid;
+  return params;
 }
 
 /// A bad output name fails before any work.
@@ -90,13 +66,15 @@ std::vector<std::string> write_outputs(const DistanceGrid& grid,
   return written;
 }
 
-/// The box (--domain), the limits (cell count, domain: checked before the backend starts or
-/// any memory is taken) and the backend of a grid over `scene`, logged unless `quiet`.
-void prepare_grid(const Args& args, const Scene& scene, GridOptions& options, bool quiet) {
-  options.box = domain_arg(args, scene.dimension);
+/// The grid options of `params` over `scene` (checked against its dimension), their limits
+/// (cell count, box: checked before the backend starts or any memory is taken) and the
+/// backend, logged unless `quiet`.
+GridOptions prepare_grid(const PipelineParams& params, const Scene& scene, bool quiet) {
+  check_params(params, scene.dimension);
+  GridOptions options = grid_options(params);
   const GridSpec spec = make_grid_spec(scene, options);
   const kernels::BackendChoice choice =
-      kernels::choose_backend(args.value("--backend").value_or("auto"));
+      kernels::choose_backend(std::string(choice_name(params.backend)));
   options.compute = choice.compute;
   if (!quiet) {
     std::fprintf(stderr, "gvd: %zu objects, %llu simplices, %dD; %s; %d threads\n",
@@ -104,28 +82,24 @@ void prepare_grid(const Args& args, const Scene& scene, GridOptions& options, bo
                  scene.dimension, choice.log.c_str(), resolve_threads(options.threads));
     log_spec(spec, options.metric, scene.units);
   }
+  return options;
 }
 
 /// `gvd grid RESULT.gvd`: the grid sampled from a saved adaptive result.
-int grid_from_result(const Args& args, const GridOptions& scene_options, bool quiet,
+int grid_from_result(const Args& args, const PipelineParams& params, bool quiet,
                      const std::optional<std::string>& output,
                      const std::optional<std::string>& labels) {
-  for (const char* flag : {"--range-cells", "--backend", "--max-objects", "--max-simplices"}) {
-    if (args.value(flag)) {
-      throw UsageError{std::string(flag) +
+  for (const ParamSpec& p : pipeline_parameters()) {
+    if (p.on(kGridFlag) && !p.on(kResultGridFlag) && args.has(flag_name(p))) {
+      throw UsageError{flag_name(p) +
                        " applies to scenes; a saved result is sampled through its own octree "
                        "on the CPU"};
     }
   }
   GvdResult result = load_result(args.positional[0]);
   apply_units(args, result.scene);  // --units labels a result saved without (or with others)
-  ResultGridOptions options;
-  options.resolution = scene_options.resolution;
-  options.metric = scene_options.metric;
-  options.threads = scene_options.threads;
-  options.max_cells = scene_options.max_cells;
-  options.signed_distance = scene_options.signed_distance;
-  options.box = domain_arg(args, result.scene.dimension);
+  check_params(params, result.scene.dimension);
+  const ResultGridOptions options = result_grid_options(params);
   // The limits (cell count, box) before any work.
   const GridSpec spec = make_result_grid_spec(result, options);
   if (!quiet) {
@@ -140,8 +114,7 @@ int grid_from_result(const Args& args, const GridOptions& scene_options, bool qu
     log_spec(spec, options.metric, result.scene.units);
   }
   const DistanceGrid grid = sample_result_grid(result, options);
-  const std::vector<std::string> written =
-      write_outputs(grid, output, labels, args.has("--float64"));
+  const std::vector<std::string> written = write_outputs(grid, output, labels, params.float64);
   if (!quiet) {
     const GridStats& s = grid.stats;
     std::fprintf(stderr,
@@ -160,34 +133,36 @@ int grid_from_result(const Args& args, const GridOptions& scene_options, bool qu
 }  // namespace
 
 int cmd_grid(int argc, char** argv) {
-  const Args args = parse_args(
-      argc, argv, 2,
-      {"-o", "--output", "--labels", "--resolution", "--metric", "--domain", "--threads",
-       "--backend", "--max-cells", "--range-cells", "--max-objects", "--max-simplices", "--units"},
-      {"--float64", "--unsigned", "-q", "--quiet"});
+  // The flags: the outputs, and the table's parameters that gvd grid takes.
+  std::vector<std::string> value_flags = {"-o", "--output", "--labels"};
+  std::vector<std::string> boolean = {"-q", "--quiet"};
+  for (const ParamSpec& p : pipeline_parameters()) {
+    if (p.on(kGridFlag))
+      (p.kind == ParamKind::kFlag ? boolean : value_flags).push_back(flag_name(p));
+  }
+  const Args args = parse_args(argc, argv, 2, value_flags, boolean);
   if (args.positional.empty()) throw UsageError{"grid needs a scene file or a saved result"};
   const bool quiet = args.has("-q") || args.has("--quiet");
   const auto output = args.value("-o") ? args.value("-o") : args.value("--output");
   const auto labels = args.value("--labels");
   if (!output && !labels) throw UsageError{"grid needs -o FIELD.npy and/or --labels LABELS.npy"};
-  GridOptions options = grid_options(args, "grid");
+  const PipelineParams params = grid_params(args, kGridFlag, "grid");
   check_grid_outputs(output, labels);
 
   if (args.positional.size() == 1 && is_result_file(args.positional[0]))
-    return grid_from_result(args, options, quiet, output, labels);
+    return grid_from_result(args, params, quiet, output, labels);
 
   SceneLimits limits;
-  limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
-  limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
+  limits.max_objects = params.max_objects;
+  limits.max_simplices = params.max_simplices;
   Scene scene = load_scene(args.positional, limits);
   apply_units(args, scene);
-  prepare_grid(args, scene, options, quiet);
+  const GridOptions options = prepare_grid(params, scene, quiet);
   if (!quiet && scene.objects.size() == 1)
     std::fprintf(stderr, "gvd: one object: every cell's label is 0 (a distance field)\n");
   const DistanceGrid grid = compute_grid(scene, options);
 
-  const std::vector<std::string> written =
-      write_outputs(grid, output, labels, args.has("--float64"));
+  const std::vector<std::string> written = write_outputs(grid, output, labels, params.float64);
   if (!quiet) {
     const GridStats& s = grid.stats;
     std::fprintf(stderr,
@@ -257,17 +232,17 @@ int compute_grid_mode(const Args& args) {
     throw UsageError{
         "--mode grid needs an output: --graph FILE.json, -o FIELD.npy and/or --labels LABELS.npy"};
   }
-  GridOptions options = grid_options(args, "--mode grid");
+  const PipelineParams params = grid_params(args, kCliFlag, "--mode grid");
   check_grid_outputs(output, labels);
   const Scene scene = load_compute_scene(args, args.positional);
-  prepare_grid(args, scene, options, quiet);
+  const GridOptions options = prepare_grid(params, scene, quiet);
   const DistanceGrid grid = compute_grid(scene, options);
   Stopwatch sw;
   GridGraphOptions graph_options;
   graph_options.threads = options.threads;
   const DualGraph graph = grid_dual_graph(grid, scene, graph_options);
   const double graph_seconds = sw.seconds();
-  std::vector<std::string> written = write_outputs(grid, output, labels, args.has("--float64"));
+  std::vector<std::string> written = write_outputs(grid, output, labels, params.float64);
   if (graph_path) {
     write_file_atomic(*graph_path, graph_to_json(graph, scene));
     written.push_back(*graph_path + " (dual graph)");

@@ -87,10 +87,8 @@ constexpr const char* kUsageVolume =
                              (shape (ny, nx) or (nz, ny, nx), x fastest, as gvd grid writes);
                              each label becomes an object "label_<id>", its boundary the
                              voxel faces it shares with other labels or the background
-  --spacing X,Y[,Z]          --volume: the voxel size on each axis (default 1; anisotropic
-                             voxels are honoured throughout)
-  --background N|none        --volume: the label that is no object (default 0)
 )";
+// (the labelled volume's parameters, from the table)
 // (the parameters of the adaptive mode, from the table)
 constexpr const char* kUsageQuiet = R"(  -q, --quiet                no progress or summary on stderr
 
@@ -106,21 +104,15 @@ grid options (gvd grid, and gvd compute --mode grid):
   --labels FILE              index of the nearest object per cell (int32, -1 = none), same
                              formats. Arrays are [y, x] (2D) / [z, y, x] (3D), x fastest
 )";
-// (the parameters of the grid mode, from the table)
-constexpr const char* kUsageGrid = R"(  --domain x0,y0[,z0],x1,y1[,z1]
-                             domain box; it must hold every vertex (default: bounding box
-                             + 5 % of its longest side on every side)
-  --backend opencl|cpu|auto  where the per-range kernel runs (default auto, as for compute)
-  --threads N                CPU twin threads (default: all cores)
-  --units U                  gvd grid: the length unit of the coordinates (as for compute:
-                             over the scene's or result's own "units"); a NRRD output says
-                             it as "space units" (a .npy has no place for it)
-  From RESULT.gvd (compute --save): the box defaults to the result's domain (a cube: N^D
+// (the parameters of the grid mode, and of any mode that read otherwise there, from the table)
+constexpr const char* kUsageGrid =
+    R"(  From RESULT.gvd (compute --save): the box defaults to the result's domain (a cube: N^D
   cells); each cell's search is bounded by the closest points stored on its octree leaf's
   vertices, then decided by exact distances to the scene's simplices. Guaranteed: the labels
   are the exact nearest object at every cell centre (exact ties: the lower index) and the
   distances exact (float32 in the file), the same cells as `gvd grid SCENE` over that box,
-  bit for bit; not interpolated from the octree. --range-cells and --backend do not apply.
+  bit for bit; not interpolated from the octree. --range-cells, --backend and the scene
+  limits (--max-objects, --max-simplices) do not apply.
 
 query options:
   --points FILE.json         points as [[x,y,z],...] or {"points":[...]} ("-" = stdin)
@@ -167,9 +159,13 @@ not reachable: connection refused, reset or timed out).
 /// `gvd --help`: the compute and grid parameters' lines come from the parameter table
 /// (gvd/pipeline/parameters.h), the rest is written here.
 std::string usage() {
-  return std::string(kUsageHead) + parameter_help(ParamMode::kAny) + kUsageVolume +
-         parameter_help(ParamMode::kAdaptive) + kUsageQuiet + parameter_help(ParamMode::kGrid) +
-         kUsageGrid;
+  std::string volume;
+  for (const ParamSpec& p : pipeline_parameters()) {
+    if (p.of_volume && p.on(kCliFlag)) volume += flag_help(p);
+  }
+  return std::string(kUsageHead) + parameter_help(ParamMode::kAny) + kUsageVolume + volume +
+         parameter_help(ParamMode::kAdaptive) + kUsageQuiet +
+         parameter_help(ParamMode::kGrid, kGridFlag) + kUsageGrid;
 }
 
 int exit_code_for(ErrorCode code) {
@@ -322,36 +318,34 @@ std::function<void(const std::string&, double)> progress_display(bool enabled) {
 
 const std::vector<std::string>& compute_value_flags() {
   static const std::vector<std::string> flags = [] {
-    // The table's flags of the adaptive mode and of any mode (--mode is compute's own), and
-    // the labelled volume's.
-    std::vector<std::string> f;
+    // The table's flags of the adaptive mode and of any mode (--mode is compute's own; the
+    // labelled volume's among them), and the volume itself.
+    std::vector<std::string> f = {"--volume"};
     for (const ParamSpec& p : pipeline_parameters()) {
       if (p.on(kCliFlag) && p.kind != ParamKind::kFlag && p.mode != ParamMode::kGrid &&
           p.name != "mode") {
         f.push_back(flag_name(p));
       }
     }
-    for (const char* volume : {"--volume", "--spacing", "--background"}) f.push_back(volume);
     return f;
   }();
   return flags;
 }
 
-PipelineParams params_from_flags(const Args& args) {
+PipelineParams params_from_flags(const Args& args, ParamSurface surface) {
   PipelineParams params;
   for (const ParamSpec& p : pipeline_parameters()) {
-    if (!p.on(kCliFlag) || find_parameter(p.name) != &p) continue;  // "resolution" once
+    if (!p.on(surface) || find_parameter_on(p.name, surface) != &p) continue;  // "resolution" once
     const std::string flag = flag_name(p);
     try {
       if (p.kind == ParamKind::kFlag) {
-        if (args.has(flag)) params.set(p.name, "true", ParamSpelling::kCli);
+        if (args.has(flag)) params.set(p.name, "true", ParamSpelling::kCli, surface);
       } else if (const auto v = args.value(flag)) {
-        params.set(p.name, *v, ParamSpelling::kCli);
+        params.set(p.name, *v, ParamSpelling::kCli, surface);
       }
     } catch (const Error& e) {
-      // A malformed flag value is a command-line mistake (exit 2); an unknown unit is invalid
-      // input (exit 3), as the scene's own "units" are.
-      if (p.kind == ParamKind::kUnits) throw;
+      // A malformed flag value, an unknown unit among them, is a command-line mistake
+      // (exit 2); a scene file's own unknown "units" are invalid input (exit 3).
       throw UsageError{e.detail()};
     }
   }
@@ -367,29 +361,18 @@ void check_params(const PipelineParams& params, int dimension) {
 }
 
 Scene load_compute_scene(const Args& args, const std::vector<std::string>& files) {
+  const PipelineParams params = params_from_flags(args);  // the limits, the volume's voxels
   SceneLimits limits;
-  limits.max_objects = args.u64_value("--max-objects", limits.max_objects);
-  limits.max_simplices = args.u64_value("--max-simplices", limits.max_simplices);
+  limits.max_objects = params.max_objects;
+  limits.max_simplices = params.max_simplices;
   if (const auto volume = args.value("--volume")) {
     if (!files.empty()) throw UsageError{"--volume takes the place of the scene files"};
     const LabelVolume labels = read_label_volume_npy(read_file_bytes(*volume), *volume);
     LabelVolumeOptions vo;
-    if (const auto s = args.numbers("--spacing")) {
-      if (s->size() != static_cast<size_t>(labels.dimension)) {
-        throw UsageError{"--spacing needs " + std::to_string(labels.dimension) +
-                         " numbers (x,y[,z]) for this volume"};
-      }
-      for (size_t a = 0; a < s->size(); ++a) vo.spacing[a] = (*s)[a];
-    }
-    if (const auto b = args.value("--background")) {
-      if (*b == "none") {
-        vo.background.reset();
-      } else {
-        const auto n = args.numbers("--background");
-        if (!n || n->size() != 1 || (*n)[0] < 0 || (*n)[0] != std::floor((*n)[0]))
-          throw UsageError{"--background is a label (an integer >= 0) or none"};
-        vo.background = static_cast<uint64_t>((*n)[0]);
-      }
+    try {
+      vo = label_volume_options(params, labels.dimension, ParamSpelling::kCli);
+    } catch (const Error& e) {
+      throw UsageError{e.detail()};
     }
     Scene scene = scene_from_label_volume(labels, vo, limits);
     apply_units(args, scene);
@@ -407,7 +390,12 @@ void apply_units(const Args& args, Scene& scene) {
   if (!units) return;
   // The command line's word over the file's: a scene JSON's "units" are replaced (said on
   // stderr when they differ), meshes and volumes (which have none) get them.
-  const std::string name = parse_units(*units, "--units", ErrorCode::kInvalidArgument);
+  std::string name;
+  try {
+    name = parse_units(*units, "--units", ErrorCode::kInvalidArgument);
+  } catch (const Error& e) {
+    throw UsageError{e.detail()};  // a bad flag value: exit 2, as for every other flag
+  }
   if (!scene.units.empty() && scene.units != name && !(args.has("-q") || args.has("--quiet"))) {
     std::fprintf(stderr, "gvd: --units %s replaces the input's units \"%s\"\n", name.c_str(),
                  scene.units.c_str());

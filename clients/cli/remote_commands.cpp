@@ -67,13 +67,9 @@ constexpr std::array<ProblemExit, 28> kProblemExits = {{
     {"/problems/adaptive-only", kExitBadInput},   // a grid job asked for the octree's outputs
 }};
 
-// Flags that set a job parameter (sent as query parameters): the table's job parameters
-// (gvd/pipeline/parameters.h) and the labelled volume's; flags that configure a computation
-// the server does its own way (refused in remote mode rather than ignored).
-constexpr std::array<std::pair<std::string_view, std::string_view>, 2> kVolumeParams = {{
-    {"--spacing", "spacing"},
-    {"--background", "background"},
-}};
+// Flags that set a job parameter (sent as query parameters) are the table's job parameters
+// (gvd/pipeline/parameters.h), the labelled volume's among them; these configure a
+// computation the server does its own way (refused in remote mode rather than ignored).
 constexpr std::array<std::pair<std::string_view, std::string_view>, 6> kServerSide = {{
     {"--threads", "--job-threads"},
     {"--backend", "--backend"},
@@ -196,11 +192,6 @@ class Remote {
         if (args.has(flag)) query += (query.empty() ? "?" : "&") + std::string(p.name) + "=true";
       } else if (const auto v = args.value(flag)) {
         query += (query.empty() ? "?" : "&") + std::string(p.name) + "=" + url_encode(*v);
-      }
-    }
-    for (const auto& [flag, name] : kVolumeParams) {
-      if (const auto v = args.value(std::string(flag))) {
-        query += (query.empty() ? "?" : "&") + std::string(name) + "=" + url_encode(*v);
       }
     }
     for (const auto& [flag, server_flag] : kServerSide) {
@@ -446,10 +437,14 @@ void download(Remote& remote, const std::string& id, const std::string& what,
 }
 
 int remote_compute(const std::string& url, int argc, char** argv) {
-  const Args args = parse_remote(argc, argv,
-                                 {"-o", "--output", "--graph", "--json", "--save", "--mode",
-                                  "--labels", "--metric", "--max-cells", "--range-cells"},
-                                 {"--no-wait", "--float64", "--unsigned"});
+  // compute's flags, and those of its grid mode (the parameter table's, as locally).
+  std::vector<std::string> value_flags = {"-o",     "--output", "--graph",
+                                          "--json", "--save",   "--mode"};
+  value_flags.insert(value_flags.end(), grid_mode_value_flags().begin(),
+                     grid_mode_value_flags().end());
+  std::vector<std::string> boolean = {"--no-wait"};
+  boolean.insert(boolean.end(), grid_mode_boolean_flags().begin(), grid_mode_boolean_flags().end());
+  const Args args = parse_remote(argc, argv, value_flags, boolean);
   std::vector<std::string> files = args.positional;
   if (const auto volume = args.value("--volume")) {
     if (!files.empty()) throw UsageError{"--volume takes the place of the scene files"};
@@ -475,8 +470,14 @@ int remote_compute(const std::string& url, int argc, char** argv) {
                          "); gvd grid writes NRRD locally"};
     }
   } else {
-    for (const char* flag : {"--labels", "--metric", "--range-cells", "--float64", "--unsigned"}) {
-      if (args.has(flag)) throw UsageError{std::string(flag) + " goes with --mode grid"};
+    // The grid mode's flags; a server-side one (--max-cells) is refused as such by submit.
+    for (const std::vector<std::string>* flags :
+         {&grid_mode_value_flags(), &grid_mode_boolean_flags()}) {
+      for (const std::string& flag : *flags) {
+        const bool server_side = std::any_of(kServerSide.begin(), kServerSide.end(),
+                                             [&](const auto& s) { return s.first == flag; });
+        if (args.has(flag) && !server_side) throw UsageError{flag + " goes with --mode grid"};
+      }
     }
   }
   Remote remote(url, args);

@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 #include <span>
 #include <string>
@@ -776,33 +777,44 @@ gvd.InvalidScene, gvd.InvalidArgument, gvd.LimitExceeded, gvd.Cancelled.)doc");
 
   m.def(
       "_parameters",
-      [] {
+      [](const std::string& function) {
+        const unsigned surface = function == "compute"       ? unsigned{kPythonKeyword}
+                                 : function == "grid"        ? unsigned{kPythonGrid}
+                                 : function == "Result.grid" ? unsigned{kPythonResultGrid}
+                                                             : 0u;
+        if (surface == 0) {
+          throw Error(ErrorCode::kInvalidArgument,
+                      "_parameters takes compute, grid or Result.grid, not " + function);
+        }
         py::list out;
         for (const ParamSpec& p : pipeline_parameters()) {
-          if (!p.on(kPythonKeyword)) continue;
+          if ((p.surfaces & surface) == 0) continue;
           py::dict entry;
-          entry["name"] = std::string(p.name);
+          entry["name"] = std::string(p.keyword.empty() ? p.name : p.keyword);
           py::list choices;
           for (const std::string_view c : p.choices) choices.append(std::string(c));
           entry["choices"] = choices;
+          const double value = std::isnan(p.keyword_value) ? p.value : p.keyword_value;
           switch (p.kind) {
             case ParamKind::kInt:
-              entry["default"] = static_cast<int>(p.value);
+              entry["default"] = static_cast<int>(value);
               break;
             case ParamKind::kCount:
-              entry["default"] = static_cast<uint64_t>(p.value);
+            case ParamKind::kLabel:
+              entry["default"] = static_cast<uint64_t>(value);
               break;
             case ParamKind::kNumber:
-              entry["default"] = p.value;
+              entry["default"] = value;
               break;
             case ParamKind::kFlag:
-              entry["default"] = p.value != 0;
+              entry["default"] = (value != 0) != p.keyword_negated;
               break;
             case ParamKind::kChoice:
               entry["default"] = std::string(p.choices.front());
               break;
             case ParamKind::kBox:
             case ParamKind::kUnits:
+            case ParamKind::kSpacing:
               entry["default"] = py::none();
               break;
           }
@@ -810,8 +822,10 @@ gvd.InvalidScene, gvd.InvalidArgument, gvd.LimitExceeded, gvd.Cancelled.)doc");
         }
         return out;
       },
-      "The keywords of compute() in the parameter table (gvd/pipeline/parameters.h): a list of "
-      "{name, default, choices}; the tests check compute's signature against it.");
+      "function"_a = "compute",
+      "The keywords of compute(), grid() or Result.grid() (function='compute', 'grid', "
+      "'Result.grid') in the parameter table (gvd/pipeline/parameters.h): a list of {name, "
+      "default, choices}; the tests check the signatures against it.");
 
   m.def(
       "load",

@@ -384,16 +384,14 @@ struct HttpServer::Impl {
     if (options.rate_limit > 0) admit(req, res);
     JobParams params;
     std::string label = "object";
-    VolumeParams volume;
+    std::string volume_param;  // a volume's parameter given (a query's, even at its default)
     for (const auto& [key, value] : req.params) {
       if (key == "label") {
         label = value;
-      } else if (key == "spacing") {
-        volume.spacing = value;
-      } else if (key == "background") {
-        volume.background = value;
       } else {
         params.set(key, value);
+        if (const ParamSpec* p = find_parameter(key); p != nullptr && p->of_volume)
+          volume_param = key;
       }
     }
     SceneLimits limits;
@@ -428,24 +426,31 @@ struct HttpServer::Impl {
       scene = parse_scene_bytes({data, req.body.size()}, SceneFormat::kAuto, label, limits);
       if (req.body.find("\"params\"") != std::string::npos) params_from_json(req.body, params);
     }
-    JobRequest job;
-    if (volume_bytes != nullptr) {
-      volume.used = true;
-      const LabelVolumeHeader header = read_label_volume_header(
-          {reinterpret_cast<const uint8_t*>(volume_bytes->data()), volume_bytes->size()},
-          "the volume");
-      job.volume_json =
-          volume_options_json(volume_options(header.dimension, volume), header.dimension);
-      job.volume_npy = *volume_bytes;
-      job.dimension = header.dimension;
+    for (const ParamSpec& p : pipeline_parameters()) {
+      if (p.of_volume && !params.is_default(p)) volume_param = p.name;
     }
-    if (!volume.used && (volume.spacing || volume.background)) {
+    const bool volume = volume_bytes != nullptr;
+    if (!volume && !volume_param.empty()) {
       throw Error(ErrorCode::kInvalidArgument,
-                  std::string("parameter \"") + (volume.spacing ? "spacing" : "background") +
+                  "parameter \"" + volume_param +
                       "\" goes with a labelled volume (an .npy body, application/x-npy, or a "
                       "multipart part named \"volume\")");
     }
-    if (volume.used) {
+    JobRequest job;
+    if (volume) {
+      const LabelVolumeHeader header = read_label_volume_header(
+          {reinterpret_cast<const uint8_t*>(volume_bytes->data()), volume_bytes->size()},
+          "the volume");
+      if (params.spacing.empty()) {
+        throw Error(ErrorCode::kInvalidArgument,
+                    "parameter \"spacing\" is required for a labelled volume: the voxel size on "
+                    "each axis, " +
+                        std::string(header.dimension == 2 ? "x,y" : "x,y,z") + " in scene units");
+      }
+      job.volume_json = volume_options_json(
+          label_volume_options(params, header.dimension, ParamSpelling::kServer), header.dimension);
+      job.volume_npy = *volume_bytes;
+      job.dimension = header.dimension;
       // The scene's bounds, and with them the grid's cells and a user box's fit, are known
       // once the worker has the scene: those limits fail the job then (the same problem).
       params.check(job.dimension, options);
@@ -467,75 +472,13 @@ struct HttpServer::Impl {
       job.warnings_json = warnings_to_json(scene.warnings);
     }
     job.params_json = params.to_json();
-    job.id = volume.used ? volume_job_id(job.volume_json, job.volume_npy, job.params_json)
-                         : job_id(job.scene_json, job.params_json);
+    job.id = volume ? volume_job_id(job.volume_json, job.volume_npy, job.params_json)
+                    : job_id(job.scene_json, job.params_json);
     const SubmitOutcome outcome = jobs.submit(job);
     res.set_header("Location", "/v1/jobs/" + job.id);
     res.set_header("X-Gvd-Cache", outcome.created ? "miss" : "hit");
     res.status = outcome.status == JobStatus::kDone ? 200 : 202;
     res.set_content(outcome.status_json, "application/json");
-  }
-
-  /// The query parameters of a labelled volume upload (docs/API.md, "Labelled volumes").
-  struct VolumeParams {
-    std::optional<std::string> spacing;     ///< x,y[,z]: required for a volume
-    std::optional<std::string> background;  ///< a label >= 0 or "none"; default 0
-    bool used = false;                      ///< the body was a volume
-  };
-
-  /// The options of a `dimension`-D labelled volume from the query parameters (400 naming the
-  /// parameter): the worker converts the volume with them (read_label_volume_npy,
-  /// scene_from_label_volume: one object per label, its voxel faces as its boundary).
-  static LabelVolumeOptions volume_options(int dimension, const VolumeParams& volume) {
-    const size_t dim = static_cast<size_t>(dimension);
-    if (!volume.spacing) {
-      throw Error(ErrorCode::kInvalidArgument,
-                  "parameter \"spacing\" is required for a labelled volume: the voxel size on "
-                  "each axis, " +
-                      std::string(dim == 2 ? "x,y" : "x,y,z") + " in scene units");
-    }
-    LabelVolumeOptions vo;
-    std::vector<double> spacing;
-    {
-      size_t start = 0;
-      const std::string& text = *volume.spacing;
-      while (start <= text.size()) {
-        size_t comma = text.find(',', start);
-        if (comma == std::string::npos) comma = text.size();
-        const std::string item = text.substr(start, comma - start);
-        double v = 0;
-        const auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
-        if (item.empty() || ec != std::errc() || ptr != item.data() + item.size() ||
-            !std::isfinite(v) || v <= 0) {
-          throw Error(
-              ErrorCode::kInvalidArgument,
-              "parameter \"spacing\" must be positive numbers x,y[,z], got \"" + text + "\"");
-        }
-        spacing.push_back(v);
-        start = comma + 1;
-      }
-      if (spacing.size() != dim) {
-        throw Error(ErrorCode::kInvalidArgument,
-                    "parameter \"spacing\" needs " + std::to_string(dim) + " numbers for this " +
-                        std::to_string(dim) + "D volume, got " + std::to_string(spacing.size()));
-      }
-    }
-    for (size_t a = 0; a < dim; ++a) vo.spacing[a] = spacing[a];
-    if (volume.background) {
-      const std::string& b = *volume.background;
-      uint64_t v = 0;
-      const auto [ptr, ec] = std::from_chars(b.data(), b.data() + b.size(), v);
-      if (b == "none") {
-        vo.background.reset();
-      } else if (b.empty() || ec != std::errc() || ptr != b.data() + b.size()) {
-        throw Error(
-            ErrorCode::kInvalidArgument,
-            "parameter \"background\" is a label (an integer >= 0) or none, got \"" + b + "\"");
-      } else {
-        vo.background = v;
-      }
-    }
-    return vo;
   }
 
   /// The per-client token bucket (--rate-limit): refused with 503 + Retry-After (the

@@ -12,9 +12,10 @@ namespace gvd::server {
 namespace {
 
 // The job parameters of a job's normalized text: those of its mode (and of any mode); "units"
-// travels with the scene; an adaptive job's text has no "mode" (its ids predate mode=grid).
+// and a volume's "spacing" and "background" travel with the scene; an adaptive job's text has
+// no "mode" (its ids predate mode=grid).
 bool in_normalized_text(const ParamSpec& p, bool grid) {
-  if (!p.on(kJobParam) || p.kind == ParamKind::kUnits) return false;
+  if (!p.on(kJobParam) || p.of_scene()) return false;
   if (p.mode == (grid ? ParamMode::kAdaptive : ParamMode::kGrid)) return false;
   return grid || p.name != "mode";
 }
@@ -82,7 +83,9 @@ std::string JobParams::to_json() const {
         v = domain;
         break;
       case ParamKind::kUnits:
-        break;
+      case ParamKind::kSpacing:
+      case ParamKind::kLabel:
+        break;  // of the scene: not in the text (in_normalized_text)
     }
   }
   return j.dump();  // nlohmann::json sorts object keys: a stable text
@@ -128,24 +131,10 @@ PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
 }
 
 GridOptions JobParams::grid_options(const ServerOptions& server) const {
-  GridOptions o;
-  o.resolution = grid_resolution;
-  o.metric = metric;
-  o.signed_distance = !unsigned_distance;
-  o.range_cells = range_cells;
+  GridOptions o = gvd::grid_options(*this);
   o.max_cells = server.max_grid_cells;
   o.threads = server.job_threads;
   o.compute = server.compute;
-  if (!domain.empty()) {
-    const size_t d = domain.size() / 2;
-    Box b;
-    for (size_t i = 0; i < d; ++i) {
-      b.lo[static_cast<int>(i)] = domain[i];
-      b.hi[static_cast<int>(i)] = domain[d + i];
-    }
-    if (d == 2) b.lo.z = b.hi.z = 0;
-    o.box = b;
-  }
   return o;
 }
 

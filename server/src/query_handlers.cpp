@@ -97,14 +97,6 @@ void QueryHandlers::neighbors(const httplib::Request& req, httplib::Response& re
   send_json(res, neighbors_to_json(index, object, ring, found));
 }
 
-/// A boolean query parameter: absent = false; 1/true or 0/false.
-bool flag_param(const httplib::Request& req, const char* name) {
-  const std::string v = param(req, name, false);
-  if (v.empty() || v == "false" || v == "0") return false;
-  if (v == "true" || v == "1") return true;
-  bad(std::string("query parameter \"") + name + "\" is true or false (1 or 0), not \"" + v + "\"");
-}
-
 // `fast=true`: the paper's rule alone away from objects (GvdIndex::nearest, approximate).
 bool fast_mode(const httplib::Request& req) {
   const std::string fast = param(req, "fast", false);
@@ -272,9 +264,7 @@ void QueryHandlers::grid_job_file(const httplib::Request& req, httplib::Response
   const std::string dir = std::filesystem::path(jobs_.result_path(id)).parent_path().string();
   const std::string path = labels ? grid_labels_path(dir, id) : grid_field_path(dir, id);
   auto body = std::make_shared<std::vector<uint8_t>>(read_file_bytes(path));
-  GridOptions options;
-  options.resolution = params.grid_resolution;
-  options.box = params.grid_options({}).box;
+  GridOptions options = grid_options(params);
   options.max_cells = ~uint64_t{0} >> 32;
   const Scene& scene = result->result().scene;
   send_grid_npy(res, make_grid_spec(scene, options), grid_metric_name(params.metric), scene.units,
@@ -289,51 +279,29 @@ void QueryHandlers::grid(const httplib::Request& req, httplib::Response& res, bo
       return;
     }
   }
-  // Everything about the request is checked before the result is loaded or any cell is
-  // sampled: resolution, metric, flags, the box (its dimension against the job's), cells.
-  ResultGridOptions options;
-  const std::string r = param(req, "resolution", true);
-  {
-    const auto [ptr, ec] = std::from_chars(r.data(), r.data() + r.size(), options.resolution);
-    if (r.empty() || ec != std::errc() || ptr != r.data() + r.size() || options.resolution < 1)
-      bad("\"resolution\" must be a positive number of cells along the longest side, got \"" + r +
-          "\"");
+  // The query parameters through the parameter table (those it puts on kGridQuery): each is
+  // checked before the result is loaded or any cell is sampled, the box against the job's
+  // dimension once it is. An empty value is no value.
+  PipelineParams params;
+  params.mode = ComputeMode::kGrid;
+  for (const auto& [key, value] : req.params) {
+    if (!value.empty()) params.set(key, value, ParamSpelling::kServer, kGridQuery);
   }
-  if (const std::string m = param(req, "metric", false); !m.empty())
-    options.metric = parse_grid_metric(m);
-  const bool float64 = flag_param(req, "float64");
-  options.signed_distance = !flag_param(req, "unsigned");
-  options.max_cells = max_grid_cells_;
-  options.threads = grid_threads_;
+  if (params.grid_resolution == 0) {
+    bad("parameter \"resolution\" is required: the number of cells along the longest side of "
+        "the box");
+  }
   const auto result = jobs_.result(req.matches[1].str());
   const GvdResult& gvd = result->result();
-  if (const std::string d = param(req, "domain", false); !d.empty()) {
-    const int dim = gvd.scene.dimension;
-    std::vector<double> v;
-    size_t start = 0;
-    while (start <= d.size()) {
-      size_t comma = d.find(',', start);
-      if (comma == std::string::npos) comma = d.size();
-      v.push_back(parse_double("domain", d.substr(start, comma - start)));
-      start = comma + 1;
-    }
-    if (v.size() != static_cast<size_t>(2 * dim)) {
-      bad("\"domain\" needs " + std::to_string(2 * dim) + " numbers (x0,y0" +
-          (dim == 3 ? ",z0" : "") + ",x1,y1" + (dim == 3 ? ",z1" : "") + ") for a " +
-          std::to_string(dim) + "D result, got " + std::to_string(v.size()));
-    }
-    Box b;
-    for (int i = 0; i < dim; ++i) {
-      b.lo[i] = v[static_cast<size_t>(i)];
-      b.hi[i] = v[static_cast<size_t>(dim + i)];
-    }
-    if (dim == 2) b.lo.z = b.hi.z = 0;
-    options.box = b;
-  }
+  params.check(gvd.scene.dimension, ParamSpelling::kServer);
+  ResultGridOptions options = result_grid_options(params);
+  options.max_cells = max_grid_cells_;
+  options.threads = grid_threads_;
   (void)make_result_grid_spec(gvd, options);  // the limits, before any work
   const DistanceGrid grid = sample_result_grid(gvd, options);
-  send_grid_npy(res, grid.spec, grid_metric_name(grid.metric), grid.units, labels,
-                std::make_shared<std::vector<uint8_t>>(grid_npy_bytes(grid, labels, float64)));
+  send_grid_npy(
+      res, grid.spec, grid_metric_name(grid.metric), grid.units, labels,
+      std::make_shared<std::vector<uint8_t>>(grid_npy_bytes(grid, labels, params.float64)));
 }
 
 }  // namespace gvd::server

@@ -204,6 +204,15 @@ class RemoteCli(unittest.TestCase):
         # Outputs a grid job does not have are refused before submitting.
         rc, _, err = self.remote("compute", GEARS, *common, "--save", f"{d}/r.gvd")
         self.assertEqual(rc, USAGE, err)
+        # The grid mode's flags (the parameter table's) without it, and the server's own limit.
+        for flag in (["--metric", "l1"], ["--range-cells", "4"], ["--unsigned"],
+                     ["--labels", f"{d}/x.npy"]):
+            rc, _, err = self.remote("compute", GEARS, *flag)
+            self.assertEqual(rc, USAGE, err)
+            self.assertIn(f"{flag[0]} goes with --mode grid", err)
+        rc, _, err = self.remote("compute", GEARS, "--max-cells", "100")
+        self.assertEqual(rc, USAGE, err)
+        self.assertIn("--max-cells is not a job parameter", err)
         # A labelled volume (2D, labels 1 | 2 | 3 in columns), spacing required by the server.
         rows, cols = 6, 9
         data = bytes(1 + x // 3 for _ in range(rows) for x in range(cols))

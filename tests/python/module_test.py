@@ -771,24 +771,30 @@ class Progress(unittest.TestCase):
 
 
     def test_keywords_are_the_parameter_table(self):
-        # compute()'s keywords and defaults are the core's parameter table's Python keywords
-        # (gvd/pipeline/parameters.h), none missing and none besides (but scene, progress and
-        # cancel, which are no parameters).
+        # The keywords and defaults of compute(), grid() and Result.grid() are the core's
+        # parameter table's for each (gvd/pipeline/parameters.h), none missing and none
+        # besides (but scene, progress and cancel, which are no parameters).
         import ast
-        sig = gvd.compute.__doc__.splitlines()[0]
-        actual = {}
-        for part in sig[sig.index("*,") + 2:sig.rindex(")")].split(","):
-            name, _, default = part.partition("=")
-            actual[name.split(":")[0].strip()] = ast.literal_eval(default.strip())
-        for name in ("progress", "cancel"):
-            del actual[name]
-        table = {p["name"]: p for p in gvd._gvd._parameters()}
-        self.assertEqual(set(actual), set(table))
-        for name, p in table.items():
-            self.assertEqual(actual[name], p["default"], name)
-            self.assertEqual(type(actual[name]), type(p["default"]), name)
-            for choice in p["choices"]:  # every choice is accepted by name
-                self.assertIn(choice, gvd.compute.__doc__, name)
+        for function, fn in (("compute", gvd.compute), ("grid", gvd.grid),
+                             ("Result.grid", gvd.Result.grid)):
+            sig = fn.__doc__.splitlines()[0]  # pybind11's: name(a: type = default, ...)
+            actual = {}
+            for part in sig[sig.index("(") + 1:sig.rindex(")")].split(","):
+                name, _, default = part.partition("=")
+                if default:  # not scene, self or the "*"
+                    actual[name.split(":")[0].strip()] = ast.literal_eval(default.strip())
+            for name in ("progress", "cancel"):
+                del actual[name]
+            table = {p["name"]: p for p in gvd._gvd._parameters(function)}
+            self.assertEqual(set(actual), set(table), function)
+            for name, p in table.items():
+                self.assertEqual(actual[name], p["default"], (function, name))
+                self.assertEqual(type(actual[name]), type(p["default"]), (function, name))
+                for choice in p["choices"]:  # every choice is accepted by name
+                    self.assertIn(choice, fn.__doc__, (function, name))
+        self.assertEqual(gvd._gvd._parameters(), gvd._gvd._parameters("compute"))
+        with self.assertRaises(gvd.InvalidArgument):
+            gvd._gvd._parameters("explode")
 
 
 def lattice_scene(n, gap, subdivisions):

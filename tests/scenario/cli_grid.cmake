@@ -40,8 +40,12 @@ file(STRINGS ${prefix}_units.nrrd header LIMIT_COUNT 14)
 if(NOT header MATCHES "space units: \"mm\" \"mm\"")
   message(FATAL_ERROR "--units mm is not the NRRD's space units: ${header}")
 endif()
-run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 20 -o ${prefix}_x.nrrd
+# An unknown --units is a bad flag value (exit 2) naming the flag, as in compute.
+run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 20 -o ${prefix}_x.nrrd
        --units parsec -q)
+if(NOT LAST_ERR MATCHES "--units must name a length unit" OR NOT LAST_ERR MATCHES "parsec")
+  message(FATAL_ERROR "an unknown --units should be named:\n${LAST_ERR}")
+endif()
 
 execute_process(COMMAND /usr/bin/python3 -c "import numpy" RESULT_VARIABLE no_numpy
                 OUTPUT_QUIET ERROR_QUIET)
@@ -107,6 +111,17 @@ run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --metric l1 --graph ${prefix
 run_rc(2 ${GVD} compute ${DATA}/scenes/gears2d.json --mode voxels --graph ${prefix}_x.json)
 
 run_rc(2 ${GVD} compute --volume ${prefix}_gears_labels.npy --spacing 1,1,1 -q)
+if(NOT LAST_ERR MATCHES "--spacing needs 2 numbers for this 2D volume, got 3")
+  message(FATAL_ERROR "a wrong --spacing count is not named:\n${LAST_ERR}")
+endif()
+run_rc(2 ${GVD} compute --volume ${prefix}_gears_labels.npy --spacing 1,0 -q)
+if(NOT LAST_ERR MATCHES "--spacing must be positive numbers")
+  message(FATAL_ERROR "a zero --spacing is not named:\n${LAST_ERR}")
+endif()
+run_rc(2 ${GVD} compute --volume ${prefix}_gears_labels.npy --spacing 1,1 --background -2 -q)
+if(NOT LAST_ERR MATCHES "--background is a label")
+  message(FATAL_ERROR "a bad --background is not named:\n${LAST_ERR}")
+endif()
 run_rc(3 ${GVD} compute --volume ${DATA}/scenes/gears2d.json -q)
 # A .npy that is no label volume: invalid input (3) naming the field, as a bad scene is.
 run_rc(3 ${GVD} compute --volume ${prefix}_gears.npy --spacing 1,1 -q)
@@ -117,7 +132,10 @@ endif()
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 0 -o ${prefix}_x.npy)
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json -o ${prefix}_x.npy)
 run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.vtk)
-run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.npy --metric l3)
+run_rc(2 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.npy --metric l3)
+if(NOT LAST_ERR MATCHES "l3" OR NOT LAST_ERR MATCHES "linf")
+  message(FATAL_ERROR "a bad --metric should be named with the metrics:\n${LAST_ERR}")
+endif()
 run_rc(3 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 10 -o ${prefix}_x.npy
        --domain 0,0,1,1)
 run_rc(4 ${GVD} grid ${DATA}/scenes/gears2d.json --resolution 5000 -o ${prefix}_x.npy
@@ -150,6 +168,65 @@ endforeach()
 # cells (4), a truncated result file (3).
 run_rc(2 ${GVD} grid ${prefix}_gears.gvd --resolution 10 -o ${prefix}_x.npy --domain 0,0,0,1,1,1)
 run_rc(2 ${GVD} grid ${prefix}_gears.gvd --resolution 10 -o ${prefix}_x.npy --range-cells 4)
+if(NOT LAST_ERR MATCHES "--range-cells applies to scenes")
+  message(FATAL_ERROR "a scene-only flag on a result is not named:\n${LAST_ERR}")
+endif()
+# gvd grid reads its flags through the parameter table (core/pipeline/parameters.h): its
+# ranges and messages, naming the flag (usage, 2).
+foreach(bad "--resolution;full;--resolution must be an integer"
+            "--resolution;2000000;--resolution must be between 1 and 1048576"
+            "--domain;4,3,-2,-3;--domain: the lower corner must be below the upper corner"
+            "--threads;-1;--threads must be between 0 and"
+            "--max-cells;lots;--max-cells must be a non-negative integer")
+  list(GET bad 0 flag)
+  list(GET bad 1 value)
+  list(GET bad 2 says)
+  foreach(input ${DATA}/scenes/gears2d.json ${prefix}_gears.gvd)
+    if(NOT flag STREQUAL "--resolution")
+      set(resolution --resolution 10)
+    else()
+      set(resolution)
+    endif()
+    run_rc(2 ${GVD} grid ${input} ${resolution} ${flag} ${value} -o ${prefix}_x.npy -q)
+    if(NOT LAST_ERR MATCHES "${says}")
+      message(FATAL_ERROR "gvd grid ${flag} ${value} should say \"${says}\":\n${LAST_ERR}")
+    endif()
+  endforeach()
+endforeach()
+# --help: the grid options are the table's, with the grid's own text where it differs (its
+# box is not made a cube), and the volume's flags follow --volume.
+execute_process(COMMAND ${GVD} --help OUTPUT_VARIABLE help RESULT_VARIABLE rc)
+string(FIND "${help}" "grid options (gvd grid" grid_at)
+string(FIND "${help}" "query options:" query_at)
+if(NOT rc EQUAL 0 OR grid_at LESS 0 OR query_at LESS grid_at)
+  message(FATAL_ERROR "gvd --help has no grid options section:\n${help}")
+endif()
+math(EXPR grid_length "${query_at} - ${grid_at}")
+string(SUBSTRING "${help}" ${grid_at} ${grid_length} grid_help)
+string(REGEX REPLACE "[ \n]+" " " grid_help "${grid_help}")
+foreach(line "--resolution N cells along the longest side"
+             "--metric l2|l1|linf" "--float64 distances as float64" "--unsigned no signs"
+             "--range-cells N" "--max-cells N"
+             "--domain x0,y0[,z0],x1,y1[,z1] domain box; it must hold every vertex"
+             "--threads N threads of the CPU twin" "--backend auto|opencl|cpu where the per-range"
+             "--units U the length unit" "\"space units\"")
+  string(FIND "${grid_help}" "${line}" at)
+  if(at LESS 0)
+    message(FATAL_ERROR "gvd --help's grid options lack \"${line}\":\n${grid_help}")
+  endif()
+endforeach()
+string(FIND "${grid_help}" "made a cube" at)
+if(NOT at LESS 0)
+  message(FATAL_ERROR "gvd --help's grid options describe the octree's box:\n${grid_help}")
+endif()
+string(FIND "${help}" "--volume LABELS.npy" volume_at)
+string(FIND "${help}" "--spacing X,Y[,Z]" spacing_at)
+string(FIND "${help}" "--background N|none" background_at)
+string(FIND "${help}" "--max-depth N" depth_at)
+if(volume_at LESS 0 OR spacing_at LESS volume_at OR background_at LESS spacing_at
+   OR depth_at LESS background_at)
+  message(FATAL_ERROR "gvd --help: --spacing and --background should follow --volume:\n${help}")
+endif()
 run_rc(4 ${GVD} grid ${prefix}_gears.gvd --resolution 100000 -o ${prefix}_x.npy)
 execute_process(COMMAND /usr/bin/python3 -c
                 "open('${prefix}_cut.gvd','wb').write(open('${prefix}_gears.gvd','rb').read()[:200])")

@@ -2148,11 +2148,28 @@ TEST(ServiceQueries, GridFieldAndLabelsAreTheCliGrid) {
   // The advice of grid_advice is in the job's summary.
   EXPECT_TRUE(status["result"]["grid"].is_object());
   // Bad requests: a clear problem, checked before any work.
-  for (const char* q : {"", "?resolution=0", "?resolution=x", "?resolution=10&metric=l3",
-                        "?resolution=10&float64=maybe", "?resolution=10&domain=0,0,0,1,1,1"}) {
+  for (const char* q :
+       {"", "?resolution=0", "?resolution=x", "?resolution=10&metric=l3",
+        "?resolution=10&float64=maybe", "?resolution=10&domain=0,0,0,1,1,1", "?resolution=2000000",
+        "?resolution=full", "?resolution=10&max_depth=3", "?resolution=10&domain=1,1,0,0"}) {
     r = f.c->Get(f.url(std::string("/field.npy") + q).c_str());
     EXPECT_EQ(r->status, 400) << q << " " << r->body;
     EXPECT_EQ(r->get_header_value("Content-Type"), "application/problem+json");
+  }
+  // The query parameters are the parameter table's (kGridQuery): its messages, naming them.
+  for (const auto& [q, says] : std::vector<std::pair<std::string, std::string>>{
+           {"?resolution=10&max_depth=3",
+            "unknown parameter \"max_depth\" (known: domain, resolution, metric, float64, "
+            "unsigned)"},
+           {"?resolution=full", "parameter \"resolution\" must be an integer, got \"full\""},
+           {"?resolution=2000000", "parameter \"resolution\" must be between 1 and 1048576"},
+           {"?resolution=10&domain=0,0,0,1,1,1", "parameter \"domain\" needs 4 numbers"},
+           {"", "parameter \"resolution\" is required"}}) {
+    for (const char* file : {"/field.npy", "/labels.npy"}) {
+      r = f.c->Get(f.url(file + q).c_str());
+      EXPECT_NE(Json::parse(r->body).value("detail", "").find(says), std::string::npos)
+          << file << q << " " << r->body;
+    }
   }
   r = f.c->Get(f.url("/field.npy?resolution=100000").c_str());
   EXPECT_EQ(r->status, 422);
@@ -2599,11 +2616,28 @@ TEST(ServiceGrid, LabelledVolumeGraphIsTheVoxelAdjacency) {
   auto r = c->Post("/v1/jobs?spacing=1,1,2&mode=grid&resolution=24", items);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200) << r->body;  // the same scene and parameters: the same job
+  const std::string grid_job = Json::parse(r->body).value("id", "");
   // Its parameters may come in a "params" part, as for meshes.
   items.push_back({"params", R"({"mode":"grid","resolution":24})", "", "application/json"});
   r = c->Post("/v1/jobs?spacing=1,1,2", items);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200) << r->body;
+  // The volume's own parameters too (they are job parameters of the table): the same job.
+  items.back().content = R"({"mode":"grid","resolution":24,"spacing":[1,1,2],"background":0})";
+  r = c->Post("/v1/jobs", items);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Json::parse(r->body).value("id", ""), grid_job);
+  // Label 3 as the background: two objects, another scene, another job.
+  items.back().content = R"({"mode":"grid","resolution":24,"spacing":[1,1,2],"background":3})";
+  r = c->Post("/v1/jobs", items);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->get_header_value("X-Gvd-Cache"), "miss") << r->body;
+  const std::string other_job = Json::parse(r->body).value("id", "");
+  EXPECT_NE(other_job, grid_job);
+  // The worker converts the volume: its objects are known once it has.
+  const Json other_done = wait_for(*c, other_job, {"done", "failed"});
+  EXPECT_EQ(other_done["scene"]["objects"], 2) << other_done.dump();
   items.back().content = "{not json";
   r = c->Post("/v1/jobs?spacing=1,1,2", items);
   EXPECT_EQ(r->status, 400) << r->body;

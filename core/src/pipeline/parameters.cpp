@@ -25,6 +25,11 @@ constexpr std::string_view kMetrics[] = {"l2", "l1", "linf"};
 constexpr unsigned kAll = kCliFlag | kJobParam | kPythonKeyword;
 constexpr unsigned kLocal = kCliFlag | kPythonKeyword;  // the server sets these itself
 constexpr unsigned kJob = kCliFlag | kJobParam;
+// The grid's parameters: gvd compute --mode grid and gvd grid on a scene, a grid job,
+// gvd.grid; and, sampling a saved result, gvd grid RESULT.gvd, the field.npy query of an
+// adaptive job and Result.grid.
+constexpr unsigned kSceneGrid = kCliFlag | kGridFlag | kJobParam | kPythonGrid;
+constexpr unsigned kResultGrid = kResultGridFlag | kGridQuery | kPythonResultGrid;
 constexpr double kIntMax = std::numeric_limits<int>::max();
 
 // The table. Per-dimension defaults are {2D, 3D}; the engine applies them
@@ -56,9 +61,11 @@ const ParamSpec kParams[] = {
     {.name = "domain",
      .kind = ParamKind::kBox,
      .mode = ParamMode::kAny,
-     .surfaces = kAll,
+     .surfaces = kAll | kSceneGrid | kResultGrid,
      .metavar = "x0,y0[,z0],x1,y1[,z1]",
-     .help = "domain box (made a cube); default: bounding box + 5 % padding"},
+     .help = "domain box (made a cube); default: bounding box + 5 % padding",
+     .grid_help = "domain box; it must hold every vertex (default: bounding box + 5 % of its "
+                  "longest side on every side; from RESULT.gvd: the result's domain)"},
     {.name = "frame",
      .kind = ParamKind::kChoice,
      .mode = ParamMode::kAdaptive,
@@ -73,21 +80,23 @@ const ParamSpec kParams[] = {
     {.name = "threads",
      .kind = ParamKind::kInt,
      .mode = ParamMode::kAny,
-     .surfaces = kLocal,
+     .surfaces = kLocal | kGridFlag | kPythonGrid | kResultGridFlag | kPythonResultGrid,
      .min = 0,
      .max = kIntMax,
      .value = 0,
      .metavar = "N",
-     .help = "worker threads (default 0: all cores)"},
+     .help = "worker threads (default 0: all cores)",
+     .grid_help = "threads of the CPU twin, or of sampling a result (default 0: all cores)"},
     {.name = "backend",
      .kind = ParamKind::kChoice,
      .mode = ParamMode::kAny,
-     .surfaces = kLocal,
+     .surfaces = kLocal | kGridFlag | kPythonGrid,
      .choices = kBackends,
      .help = "where the data-parallel steps run (default auto: OpenCL when a device with fp64 "
              "exists, else the CPU twins, saying why; an explicit opencl without one is an "
              "error, exit 3). The device: GVD_OPENCL_DEVICE=\"P:D\" or a name part; kernel "
-             "binary cache: GVD_KERNEL_CACHE_DIR (default $XDG_CACHE_HOME/gvd/kernels)"},
+             "binary cache: GVD_KERNEL_CACHE_DIR (default $XDG_CACHE_HOME/gvd/kernels)",
+     .grid_help = "where the per-range kernel runs (default auto, as for compute)"},
     {.name = "octree_build",
      .kind = ParamKind::kChoice,
      .mode = ParamMode::kAdaptive,
@@ -180,7 +189,7 @@ const ParamSpec kParams[] = {
     {.name = "max_objects",
      .kind = ParamKind::kCount,
      .mode = ParamMode::kAny,
-     .surfaces = kLocal,
+     .surfaces = kLocal | kGridFlag,
      .min = 0,
      .value = 100'000,
      .metavar = "N",
@@ -188,7 +197,7 @@ const ParamSpec kParams[] = {
     {.name = "max_simplices",
      .kind = ParamKind::kCount,
      .mode = ParamMode::kAny,
-     .surfaces = kLocal,
+     .surfaces = kLocal | kGridFlag,
      .min = 0,
      .value = 20'000'000,
      .metavar = "N",
@@ -196,12 +205,31 @@ const ParamSpec kParams[] = {
     {.name = "units",
      .kind = ParamKind::kUnits,
      .mode = ParamMode::kAny,
-     .surfaces = kJob,
+     .surfaces = kJob | kGridFlag | kResultGridFlag,
      .metavar = "U",
      .help = "the length unit of the coordinates: nm, um (= µm), mm, cm, m, km, in, ft or Å; "
              "over a scene JSON's own \"units\" (meshes and volumes have none). A label only, "
              "nothing is scaled: every length reported says it (graph, queries, info, GLB "
-             "extras). Queries and export also take it for a saved result"},
+             "extras). Queries and export also take it for a saved result",
+     .grid_help = "the length unit of the coordinates (as for compute: over the scene's or "
+                  "result's own \"units\"); a NRRD output says it as \"space units\" (a .npy "
+                  "has no place for it)"},
+    {.name = "spacing",
+     .kind = ParamKind::kSpacing,
+     .mode = ParamMode::kAny,
+     .surfaces = kJob,
+     .metavar = "X,Y[,Z]",
+     .help = "--volume: the voxel size on each axis (default 1; anisotropic voxels are "
+             "honoured throughout)",
+     .of_volume = true},
+    {.name = "background",
+     .kind = ParamKind::kLabel,
+     .mode = ParamMode::kAny,
+     .surfaces = kJob,
+     .value = 0,
+     .metavar = "N|none",
+     .help = "--volume: the label that is no object (default 0; none: every label is one)",
+     .of_volume = true},
     {.name = "mode",
      .kind = ParamKind::kChoice,
      .mode = ParamMode::kAny,
@@ -212,35 +240,38 @@ const ParamSpec kParams[] = {
     {.name = "resolution",
      .kind = ParamKind::kInt,
      .mode = ParamMode::kGrid,
-     .surfaces = kJob,
+     .surfaces = kSceneGrid | kResultGrid,
      .min = 1,
      .max = 1 << 20,
      .value = 0,
      .metavar = "N",
      .help = "cells along the longest side of the domain (cells are cubes; the other sides "
-             "get as many as cover them)"},
+             "get as many as cover them)",
+     .keyword_value = 256},
     {.name = "metric",
      .kind = ParamKind::kChoice,
      .mode = ParamMode::kGrid,
-     .surfaces = kJob,
+     .surfaces = kSceneGrid | kResultGrid,
      .choices = kMetrics,
      .help = "the distance (default l2)"},
     {.name = "float64",
      .kind = ParamKind::kFlag,
      .mode = ParamMode::kGrid,
-     .surfaces = kJob,
+     .surfaces = kSceneGrid | kResultGrid,
      .value = 0,
      .help = "distances as float64"},
     {.name = "unsigned",
      .kind = ParamKind::kFlag,
      .mode = ParamMode::kGrid,
-     .surfaces = kJob,
+     .surfaces = kSceneGrid | kResultGrid,
      .value = 0,
-     .help = "no signs"},
+     .help = "no signs (by default distances are negative inside closed objects)",
+     .keyword = "signed",
+     .keyword_negated = true},
     {.name = "range_cells",
      .kind = ParamKind::kInt,
      .mode = ParamMode::kGrid,
-     .surfaces = kJob,
+     .surfaces = kSceneGrid,
      .min = 0,
      .max = 4096,
      .value = 0,
@@ -251,7 +282,7 @@ const ParamSpec kParams[] = {
     {.name = "max_cells",
      .kind = ParamKind::kCount,
      .mode = ParamMode::kGrid,
-     .surfaces = kCliFlag,
+     .surfaces = kCliFlag | kGridFlag | kPythonGrid | kResultGridFlag | kPythonResultGrid,
      .min = 0,
      .value = 134'217'728,
      .metavar = "N",
@@ -353,6 +384,52 @@ std::vector<double> parse_box(const ParamSpec& spec, std::string_view text,
   return box;
 }
 
+std::vector<double> parse_spacing(const ParamSpec& spec, std::string_view text,
+                                  ParamSpelling spelling) {
+  std::vector<double> spacing;
+  size_t start = 0;
+  while (start <= text.size()) {
+    size_t stop = text.find(',', start);
+    if (stop == std::string_view::npos) stop = text.size();
+    const std::string_view item = text.substr(start, stop - start);
+    double v = 0;
+    const char* end = item.data() + item.size();
+    const auto [ptr, ec] = std::from_chars(item.data(), end, v);
+    if (item.empty() || ec != std::errc() || ptr != end || !std::isfinite(v) || v <= 0) {
+      bad(spelled(spec, spelling) + " must be positive numbers x,y[,z], got " + quoted(text));
+    }
+    spacing.push_back(v);
+    start = stop + 1;
+  }
+  return spacing;  // one per axis of the volume: label_volume_options, once it is read
+}
+
+std::optional<uint64_t> parse_label(const ParamSpec& spec, std::string_view text,
+                                    ParamSpelling spelling) {
+  if (text == "none") return std::nullopt;
+  uint64_t v = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+  if (text.empty() || ec != std::errc() || ptr != end) {
+    bad(spelled(spec, spelling) + " is a label (an integer >= 0) or none, got " + quoted(text));
+  }
+  return v;
+}
+
+// The box of a domain (x0,y0[,z0],x1,y1[,z1]; check() has refused any other), z = 0 in 2D.
+Box box_of(const std::vector<double>& domain) {
+  const size_t d = domain.size() / 2;
+  Box b;
+  Vec3 lo, hi;
+  for (size_t i = 0; i < d; ++i) {
+    lo[static_cast<int>(i)] = domain[i];
+    hi[static_cast<int>(i)] = domain[d + i];
+  }
+  b.extend(lo);
+  b.extend(hi);
+  return b;
+}
+
 // Where each entry's value lives in PipelineParams: one function per kind, so that set() and
 // is_default() read the same slot.
 struct Slot {
@@ -360,7 +437,8 @@ struct Slot {
   uint64_t* count = nullptr;
   double* number = nullptr;
   bool* flag = nullptr;
-  std::vector<double>* box = nullptr;
+  std::vector<double>* numbers = nullptr;  // kBox, kSpacing
+  std::optional<uint64_t>* label = nullptr;
   std::string* text = nullptr;
   int choice = -1;  // the current choice (kChoice)
   void (*set_choice)(PipelineParams&, int) = nullptr;
@@ -382,7 +460,7 @@ Slot slot_of(PipelineParams& p, const ParamSpec& spec) {
   else if (n == "contact_depth")
     s.i = &p.contact_depth;
   else if (n == "domain")
-    s.box = &p.domain;
+    s.numbers = &p.domain;
   else if (n == "frame")
     s = choice_slot(p.frame, [](PipelineParams& q, int c) { q.frame = DomainFrame(c); });
   else if (n == "threads")
@@ -429,7 +507,11 @@ Slot slot_of(PipelineParams& p, const ParamSpec& spec) {
     s.i = &p.range_cells;
   else if (n == "max_cells")
     s.count = &p.max_cells;
-  GVD_CHECK(s.i || s.count || s.number || s.flag || s.box || s.text || s.set_choice,
+  else if (n == "spacing")
+    s.numbers = &p.spacing;
+  else if (n == "background")
+    s.label = &p.background;
+  GVD_CHECK(s.i || s.count || s.number || s.flag || s.numbers || s.label || s.text || s.set_choice,
             "every parameter of the table has a field in PipelineParams");
   return s;
 }
@@ -445,6 +527,13 @@ std::span<const ParamSpec> pipeline_parameters() { return kParams; }
 const ParamSpec* find_parameter(std::string_view name, ParamMode mode) {
   for (const ParamSpec& p : kParams) {
     if (p.name == name && (mode == ParamMode::kAny || p.mode == mode)) return &p;
+  }
+  return nullptr;
+}
+
+const ParamSpec* find_parameter_on(std::string_view name, ParamSurface surface) {
+  for (const ParamSpec& p : kParams) {
+    if (p.name == name && p.on(surface)) return &p;
   }
   return nullptr;
 }
@@ -492,8 +581,11 @@ std::string default_text(const ParamSpec& spec) {
       return spec.value != 0 ? "true" : "false";
     case ParamKind::kChoice:
       return std::string(spec.choices.front());
+    case ParamKind::kLabel:
+      return std::to_string(uint64_t(spec.value));
     case ParamKind::kBox:
     case ParamKind::kUnits:
+    case ParamKind::kSpacing:
       break;
   }
   return "";
@@ -509,23 +601,41 @@ int parse_choice_index(const ParamSpec& spec, std::string_view text, ParamSpelli
 void PipelineParams::set(std::string_view name, std::string_view text, ParamSpelling spelling) {
   // The surface that spells the name takes only its own parameters (the server sets threads,
   // backend and the limits itself); the API takes all.
-  const unsigned surface = spelling == ParamSpelling::kServer ? kJobParam
-                           : spelling == ParamSpelling::kCli
-                               ? kCliFlag
-                               : kCliFlag | kJobParam | kPythonKeyword;
-  const ParamSpec* spec = find_parameter(name);
-  if (spec == nullptr || (spec->surfaces & surface) == 0) {
+  const unsigned surfaces = spelling == ParamSpelling::kServer ? unsigned{kJobParam}
+                            : spelling == ParamSpelling::kCli  ? unsigned{kCliFlag}
+                                                               : ~0u;
+  set(name, text, spelling, surfaces);
+}
+
+void PipelineParams::set(std::string_view name, std::string_view text, ParamSpelling spelling,
+                         unsigned surfaces) {
+  // The entries of that name the surfaces take: one, or both "resolution"s.
+  const ParamSpec* spec = nullptr;
+  const ParamSpec* cells = nullptr;  // the grid's "resolution" when the adaptive one is taken too
+  for (const ParamSpec& p : kParams) {
+    if (p.name != name || (p.surfaces & surfaces) == 0) continue;
+    if (spec == nullptr) {
+      spec = &p;
+    } else {
+      cells = &p;
+    }
+  }
+  if (spec == nullptr) {
     std::string known;
+    std::vector<std::string_view> listed;  // "resolution" once
     for (const ParamSpec& p : kParams) {
-      if ((p.surfaces & surface) == 0 || find_parameter(p.name) != &p) continue;
+      if ((p.surfaces & surfaces) == 0 ||
+          std::find(listed.begin(), listed.end(), p.name) != listed.end())
+        continue;
+      listed.push_back(p.name);
       known += (known.empty() ? "" : ", ") +
                (spelling == ParamSpelling::kCli ? flag_name(p) : std::string(p.name));
     }
     bad("unknown parameter " + quoted(name) + " (known: " + known + ")");
   }
-  if (spec->name == "resolution" && all_digits(text)) {
-    spec = find_parameter(name, ParamMode::kGrid);  // a cell count: mode=grid (check())
-  } else if (spec->name == "resolution" &&
+  if (cells != nullptr && all_digits(text)) {
+    spec = cells;  // a cell count: mode=grid (check())
+  } else if (cells != nullptr &&
              std::find(spec->choices.begin(), spec->choices.end(), text) == spec->choices.end()) {
     bad(spelled(*spec, spelling) + " must be compact or full (" +
         mode_words(ComputeMode::kAdaptive, spelling) +
@@ -550,10 +660,16 @@ void PipelineParams::set(std::string_view name, std::string_view text, ParamSpel
       s.set_choice(*this, parse_choice_index(*spec, text, spelling));
       break;
     case ParamKind::kBox:
-      *s.box = parse_box(*spec, text, spelling);
+      *s.numbers = parse_box(*spec, text, spelling);
       break;
     case ParamKind::kUnits:
       *s.text = parse_units(text, spelled(*spec, spelling), ErrorCode::kInvalidArgument);
+      break;
+    case ParamKind::kSpacing:
+      *s.numbers = parse_spacing(*spec, text, spelling);
+      break;
+    case ParamKind::kLabel:
+      *s.label = parse_label(*spec, text, spelling);
       break;
   }
 }
@@ -588,9 +704,12 @@ bool PipelineParams::is_default(const ParamSpec& spec) const {
     case ParamKind::kChoice:
       return s.choice == 0;
     case ParamKind::kBox:
-      return s.box->empty();
+    case ParamKind::kSpacing:
+      return s.numbers->empty();
     case ParamKind::kUnits:
       return s.text->empty();
+    case ParamKind::kLabel:
+      return *s.label == uint64_t(spec.value);
   }
   return true;
 }
@@ -652,11 +771,20 @@ void PipelineParams::check(int dimension, ParamSpelling spelling) const {
   }
 }
 
-std::string parameter_help(ParamMode mode) {
-  constexpr size_t kColumn = 29, kWidth = 93;
+std::string parameter_help(ParamMode mode, ParamSurface surface) {
   std::string out;
   for (const ParamSpec& p : kParams) {
-    if (!p.on(kCliFlag) || p.mode != mode) continue;
+    if (!p.on(surface) || p.of_volume) continue;
+    const bool grid_text = surface == kGridFlag && mode == ParamMode::kGrid && !p.grid_help.empty();
+    if (p.mode == mode || grid_text) out += flag_help(p, surface);
+  }
+  return out;
+}
+
+std::string flag_help(const ParamSpec& p, ParamSurface surface) {
+  constexpr size_t kColumn = 29, kWidth = 93;
+  std::string out;
+  {
     std::string head = "  " + flag_name(p);
     if (p.kind == ParamKind::kChoice) {
       head += ' ';
@@ -665,7 +793,7 @@ std::string parameter_help(ParamMode mode) {
     } else if (p.kind != ParamKind::kFlag) {
       head += " " + std::string(p.metavar);
     }
-    std::string text(p.help);
+    std::string text(surface == kGridFlag && !p.grid_help.empty() ? p.grid_help : p.help);
     if (p.by_dimension) {
       text += " (default " + std::to_string(int(p.per_dimension[0])) + " in 2D, " +
               std::to_string(int(p.per_dimension[1])) + " in 3D)";
@@ -698,6 +826,43 @@ std::string parameter_help(ParamMode mode) {
   return out;
 }
 
+GridOptions grid_options(const PipelineParams& params) {
+  GridOptions o;
+  o.resolution = params.grid_resolution;
+  o.metric = params.metric;
+  o.signed_distance = !params.unsigned_distance;
+  o.range_cells = params.range_cells;
+  o.max_cells = params.max_cells;
+  o.threads = params.threads;
+  if (!params.domain.empty()) o.box = box_of(params.domain);
+  return o;
+}
+
+ResultGridOptions result_grid_options(const PipelineParams& params) {
+  ResultGridOptions o;
+  o.resolution = params.grid_resolution;
+  o.metric = params.metric;
+  o.signed_distance = !params.unsigned_distance;
+  o.max_cells = params.max_cells;
+  o.threads = params.threads;
+  if (!params.domain.empty()) o.box = box_of(params.domain);
+  return o;
+}
+
+LabelVolumeOptions label_volume_options(const PipelineParams& params, int dimension,
+                                        ParamSpelling spelling) {
+  LabelVolumeOptions o;
+  const size_t d = static_cast<size_t>(dimension);
+  if (!params.spacing.empty() && params.spacing.size() != d) {
+    bad(spelled(*find_parameter("spacing"), spelling) + " needs " + std::to_string(d) +
+        " numbers for this " + std::to_string(d) + "D volume, got " +
+        std::to_string(params.spacing.size()));
+  }
+  for (size_t a = 0; a < params.spacing.size(); ++a) o.spacing[a] = params.spacing[a];
+  o.background = params.background;
+  return o;
+}
+
 PipelineOptions pipeline_options(const PipelineParams& params) {
   PipelineOptions o;
   o.max_depth = params.max_depth;
@@ -713,18 +878,7 @@ PipelineOptions pipeline_options(const PipelineParams& params) {
   o.resolution = params.resolution;
   o.curved_tolerance = params.curved_tolerance;
   o.domain.frame = params.frame;
-  if (!params.domain.empty()) {
-    const int dimension = static_cast<int>(params.domain.size() / 2);
-    Vec3 lo, hi;
-    for (int i = 0; i < dimension; ++i) {
-      lo[i] = params.domain[static_cast<size_t>(i)];
-      hi[i] = params.domain[static_cast<size_t>(dimension + i)];
-    }
-    Box b;
-    b.extend(lo);
-    b.extend(hi);
-    o.domain.box = b;
-  }
+  if (!params.domain.empty()) o.domain.box = box_of(params.domain);
   return o;
 }
 

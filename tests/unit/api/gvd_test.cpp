@@ -8,6 +8,7 @@
 #include <cmath>
 #include <vector>
 
+#include "gvd/pipeline/parameters.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/query/gvd_index.h"
 #include "gvd/scene/scene.h"
@@ -209,6 +210,63 @@ TEST(GvdApi, ArgumentsAreChecked) {
             }),
             ErrorCode::kOutsideDomain);
   EXPECT_EQ(code_of([&] { r.neighbors("left", 0); }), ErrorCode::kInvalidArgument);
+}
+
+// grid() and Result::grid() read their options through the parameter table, as compute()
+// does: its defaults, ranges, choices and checks across parameters, named as the keywords.
+TEST(GvdApi, GridOptionsAreTheParameterTables) {
+  const GridOptions d;
+  const PipelineParams table;
+  EXPECT_EQ(d.resolution, find_parameter("resolution", ParamMode::kGrid)->keyword_value);
+  EXPECT_EQ(d.metric, choice_name(table.metric));
+  EXPECT_EQ(d.signed_distance, !table.unsigned_distance);
+  EXPECT_EQ(d.range_cells, table.range_cells);
+  EXPECT_EQ(d.max_cells, table.max_cells);
+  EXPECT_EQ(d.threads, table.threads);
+  EXPECT_EQ(d.backend, choice_name(table.backend));
+
+  auto detail_of = [](auto&& call) -> std::string {
+    try {
+      call();
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::kInvalidArgument) << e.detail();
+      return e.detail();
+    }
+    return "no error";
+  };
+  const Scene scene = two_squares(0.1);
+  GridOptions cpu_grid;
+  cpu_grid.backend = "cpu";
+  cpu_grid.resolution = 16;
+  const Result r = compute(scene, cpu());
+  const auto refused = [&](GridOptions o, const std::string& says) {
+    EXPECT_EQ(detail_of([&] { grid(scene, o); }), says);
+    EXPECT_EQ(detail_of([&] { r.grid(o); }), says);
+  };
+  GridOptions o = cpu_grid;
+  o.resolution = 0;
+  refused(o, "resolution must be between 1 and 1048576, got 0");
+  o = cpu_grid;
+  o.metric = "l3";
+  refused(o, "metric must be l2, l1 or linf, got \"l3\"");
+  o = cpu_grid;
+  o.domain = {2, 2, -1, -1};
+  refused(o, "domain: the lower corner must be below the upper corner");
+  o.domain = {-1, -1, 0, 2, 2, 1};
+  refused(o, "domain needs 4 numbers for a 2D scene");
+  o = cpu_grid;
+  o.range_cells = -1;
+  refused(o, "range_cells must be between 0 and 4096, got -1");
+  o = cpu_grid;
+  o.threads = -2;
+  refused(o, "threads must be between 0 and 2147483647, got -2");
+  // Within the table's ranges: the same grid from the scene and from the result over the
+  // result's box.
+  o = cpu_grid;
+  o.domain = {-1, -1, 4, 3};
+  const Grid g = grid(scene, o);
+  EXPECT_EQ(g.shape[0], 16);
+  EXPECT_EQ(r.grid(o).label, g.label);
 }
 
 }  // namespace

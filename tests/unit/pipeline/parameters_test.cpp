@@ -1,6 +1,7 @@
 // The parameter table (gvd/pipeline/parameters.h): its defaults are the engine's, its choices
 // the enums', its errors name the parameter as each surface spells it, and server/openapi.json
-// documents every job parameter with the table's type, range, default and choices.
+// documents every job parameter and every grid query parameter (field.npy, labels.npy) with
+// the table's type, range, default and choices.
 
 #include "gvd/pipeline/parameters.h"
 
@@ -18,6 +19,7 @@
 #include "gvd/grid/compute_grid.h"
 #include "gvd/octree/octree.h"
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/scene/label_volume.h"
 #include "gvd/scene/units.h"
 
 namespace gvd {
@@ -56,9 +58,109 @@ TEST(ParamTable, UnsetParametersHoldTheTablesDefaults) {
   const GridOptions g;
   EXPECT_EQ(g.max_cells, p.max_cells);
   EXPECT_EQ(g.metric, p.metric);
+  EXPECT_EQ(g.range_cells, p.range_cells);
+  EXPECT_EQ(g.signed_distance, !p.unsigned_distance);
+  EXPECT_EQ(g.threads, p.threads);
+  // The grid's resolution must be given (0 = not given), but gvd.grid's keyword defaults to
+  // the engine's.
+  EXPECT_EQ(find_parameter("resolution", ParamMode::kGrid)->keyword_value, g.resolution);
+  const ResultGridOptions r;
+  EXPECT_EQ(r.max_cells, p.max_cells);
+  EXPECT_EQ(r.metric, p.metric);
+  EXPECT_EQ(r.signed_distance, !p.unsigned_distance);
+  EXPECT_EQ(r.resolution, g.resolution);
   const SceneLimits limits;
   EXPECT_EQ(limits.max_objects, p.max_objects);
   EXPECT_EQ(limits.max_simplices, p.max_simplices);
+  const LabelVolumeOptions v;
+  EXPECT_EQ(v.background, p.background);
+  EXPECT_EQ(v.spacing, (std::array<double, 3>{1, 1, 1}));  // spacing empty: 1 on each axis
+}
+
+// grid_options, result_grid_options and label_volume_options carry every parameter they
+// take, and nothing else is left at a default that differs from the table's.
+TEST(ParamTable, GridAndVolumeOptionsAreMadeFromTheParameters) {
+  PipelineParams p;
+  p.set("mode", "grid", ParamSpelling::kServer);
+  p.set("resolution", "40", ParamSpelling::kServer);
+  p.set("metric", "linf", ParamSpelling::kServer);
+  p.set("unsigned", "true", ParamSpelling::kServer);
+  p.set("range_cells", "16", ParamSpelling::kServer);
+  p.set("domain", "-1,-2,3,4", ParamSpelling::kServer);
+  p.set("threads", "3", ParamSpelling::kCli);
+  p.set("max_cells", "5000", ParamSpelling::kCli);
+  ASSERT_NO_THROW(p.check(2, ParamSpelling::kCli));
+  const GridOptions g = grid_options(p);
+  EXPECT_EQ(g.resolution, 40);
+  EXPECT_EQ(g.metric, GridMetric::kLinf);
+  EXPECT_FALSE(g.signed_distance);
+  EXPECT_EQ(g.range_cells, 16);
+  EXPECT_EQ(g.threads, 3);
+  EXPECT_EQ(g.max_cells, 5000u);
+  ASSERT_TRUE(g.box.has_value());
+  EXPECT_EQ(g.box->lo.x, -1);
+  EXPECT_EQ(g.box->lo.y, -2);
+  EXPECT_EQ(g.box->lo.z, 0);
+  EXPECT_EQ(g.box->hi.x, 3);
+  EXPECT_EQ(g.box->hi.y, 4);
+  EXPECT_EQ(g.box->hi.z, 0);
+  const ResultGridOptions r = result_grid_options(p);
+  EXPECT_EQ(r.resolution, 40);
+  EXPECT_EQ(r.metric, GridMetric::kLinf);
+  EXPECT_FALSE(r.signed_distance);
+  EXPECT_EQ(r.threads, 3);
+  EXPECT_EQ(r.max_cells, 5000u);
+  ASSERT_TRUE(r.box.has_value());
+  EXPECT_EQ(r.box->hi.y, 4);
+  EXPECT_FALSE(grid_options(PipelineParams{}).box.has_value());
+
+  PipelineParams v;
+  v.set("spacing", "0.5,2,3", ParamSpelling::kServer);
+  v.set("background", "none", ParamSpelling::kServer);
+  const LabelVolumeOptions o = label_volume_options(v, 3, ParamSpelling::kServer);
+  EXPECT_EQ(o.spacing, (std::array<double, 3>{0.5, 2, 3}));
+  EXPECT_FALSE(o.background.has_value());
+  EXPECT_EQ(error_of([&] { (void)label_volume_options(v, 2, ParamSpelling::kCli); }),
+            "--spacing needs 2 numbers for this 2D volume, got 3");
+  v.set("background", "7", ParamSpelling::kCli);
+  EXPECT_EQ(label_volume_options(v, 3, ParamSpelling::kApi).background, 7u);
+  EXPECT_EQ(error_of([&] { v.set("spacing", "1,0", ParamSpelling::kCli); }),
+            "--spacing must be positive numbers x,y[,z], got \"1,0\"");
+  EXPECT_EQ(error_of([&] { v.set("background", "-1", ParamSpelling::kServer); }),
+            "parameter \"background\" is a label (an integer >= 0) or none, got \"-1\"");
+}
+
+// A surface takes its own names only: the grid query of an adaptive job takes the sampling
+// parameters (its resolution is a cell count, never compact|full), gvd grid no octree flag.
+TEST(ParamTable, EachSurfaceTakesItsOwnNames) {
+  PipelineParams p;
+  EXPECT_EQ(error_of([&] { p.set("max_depth", "5", ParamSpelling::kServer, kGridQuery); }),
+            "unknown parameter \"max_depth\" (known: domain, resolution, metric, float64, "
+            "unsigned)");
+  EXPECT_EQ(error_of([&] { p.set("resolution", "full", ParamSpelling::kServer, kGridQuery); }),
+            "parameter \"resolution\" must be an integer, got \"full\"");
+  p.set("resolution", "12", ParamSpelling::kServer, kGridQuery);
+  EXPECT_EQ(p.grid_resolution, 12);
+  EXPECT_NE(error_of([&] {
+              p.set("refine", "paper", ParamSpelling::kCli, kGridFlag);
+            }).find("unknown parameter \"refine\" (known: --domain, --threads, --backend"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              p.set("range_cells", "8", ParamSpelling::kCli, kResultGridFlag);
+            }).find("unknown parameter \"range_cells\""),
+            std::string::npos);
+  // Where a surface takes both resolutions, the value's form decides (as before).
+  p.set("resolution", "full", ParamSpelling::kCli, kCliFlag);
+  EXPECT_EQ(p.resolution, GvdResolution::kFull);
+  // Every entry is on some surface, and the flags of gvd grid are flags of gvd compute too
+  // (--mode grid), so that `gvd --help` describes each once.
+  for (const ParamSpec& spec : pipeline_parameters()) {
+    SCOPED_TRACE(spec.name);
+    EXPECT_NE(spec.surfaces, 0u);
+    EXPECT_TRUE(!(spec.on(kGridFlag) || spec.on(kResultGridFlag)) || spec.on(kCliFlag));
+    EXPECT_TRUE(!spec.on(kResultGridFlag) || spec.on(kGridFlag));
+    EXPECT_TRUE(!spec.on(kGridQuery) || spec.on(kJobParam));
+  }
 }
 
 TEST(ParamTable, PerDimensionDefaultsAreTheEngines) {
@@ -167,15 +269,27 @@ TEST(ParamTable, ResolutionIsAChoiceOrACellCountAndModesKeepTheirOwn) {
 }
 
 TEST(ParamTable, HelpListsEveryFlagWithItsChoicesAndDefaults) {
+  // The sections of `gvd --help`: compute's flags of any mode, the volume's, the adaptive
+  // mode's, and the grid options (gvd grid and --mode grid).
+  std::string volume;
+  for (const ParamSpec& p : pipeline_parameters()) {
+    if (p.of_volume) volume += flag_help(p);
+  }
+  const std::string grid = parameter_help(ParamMode::kGrid, kGridFlag);
   std::string help;  // the lines, runs of blanks and line breaks as one blank
-  for (const char c : parameter_help(ParamMode::kAny) + parameter_help(ParamMode::kAdaptive) +
-                          parameter_help(ParamMode::kGrid)) {
+  for (const char c :
+       parameter_help(ParamMode::kAny) + volume + parameter_help(ParamMode::kAdaptive) + grid) {
     const char b = c == '\n' ? ' ' : c;
     if (!(b == ' ' && !help.empty() && help.back() == ' ')) help += b;
   }
   for (const ParamSpec& p : pipeline_parameters()) {
     if (!p.on(kCliFlag)) continue;
     EXPECT_NE(help.find(" " + flag_name(p) + " "), std::string::npos) << p.name;
+    // gvd grid's flags are in the grid options, but those described under compute that
+    // read the same there (the limits).
+    if (p.on(kGridFlag) && (p.mode == ParamMode::kGrid || !p.grid_help.empty())) {
+      EXPECT_NE(grid.find("  " + flag_name(p) + " "), std::string::npos) << p.name;
+    }
     if (p.by_dimension) {
       const std::string d = "(default " + std::to_string(int(p.per_dimension[0])) + " in 2D, " +
                             std::to_string(int(p.per_dimension[1])) + " in 3D)";
@@ -184,24 +298,38 @@ TEST(ParamTable, HelpListsEveryFlagWithItsChoicesAndDefaults) {
   }
   EXPECT_NE(help.find(" --refine certified|paper "), std::string::npos) << help;
   EXPECT_NE(help.find(" --backend auto|opencl|cpu "), std::string::npos) << help;
+  // The grid's box is not made a cube: its own text there.
+  EXPECT_NE(grid.find("it must hold every vertex"), std::string::npos) << grid;
+  EXPECT_EQ(grid.find("made a cube"), std::string::npos) << grid;
+  EXPECT_EQ(grid.find("--refine"), std::string::npos) << grid;
 }
 
-// The OpenAPI document's job parameters (POST /v1/jobs) are the table's: same names, types,
-// ranges, defaults and choices, and none besides (but the labelled volume's and the label).
-TEST(ParamTable, OpenApiDocumentsEveryJobParameterAsTheTableSaysIt) {
+// The query parameters of `method` `path` in server/openapi.json, by name.
+std::map<std::string, nlohmann::json> documented_query(const std::string& path,
+                                                       const std::string& method) {
   std::ifstream in(std::string(GVD_TEST_DATA_DIR) + "/../../server/openapi.json");
-  ASSERT_TRUE(in.good());
+  EXPECT_TRUE(in.good());
   const nlohmann::json doc = nlohmann::json::parse(in);
   std::map<std::string, nlohmann::json> documented;
-  for (const nlohmann::json& p : doc.at("paths").at("/v1/jobs").at("post").at("parameters")) {
+  for (const nlohmann::json& p : doc.at("paths").at(path).at(method).at("parameters")) {
     if (p.value("in", "") == "query") documented[p.at("name").get<std::string>()] = p.at("schema");
   }
+  return documented;
+}
+
+// The table's parameters on `surface` are documented in `documented` with their type, range,
+// default and choices; returns their names.
+std::set<std::string> expect_documented(std::map<std::string, nlohmann::json>& documented,
+                                        ParamSurface surface, const std::string& where) {
   std::set<std::string> table;
   for (const ParamSpec& p : pipeline_parameters()) {
-    if (!p.on(kJobParam)) continue;
+    if (!p.on(surface)) continue;
     const std::string name(p.name);
     table.insert(name);
-    ASSERT_TRUE(documented.count(name)) << name << " is not in server/openapi.json";
+    if (!documented.count(name)) {
+      ADD_FAILURE() << name << " is not documented for " << where << " in server/openapi.json";
+      continue;
+    }
     nlohmann::json schema = documented[name];
     if (schema.contains("oneOf")) {  // "resolution": compact|full or a cell count
       nlohmann::json mine;
@@ -211,7 +339,7 @@ TEST(ParamTable, OpenApiDocumentsEveryJobParameterAsTheTableSaysIt) {
       }
       schema = mine;
     }
-    SCOPED_TRACE(name + ": " + schema.dump());
+    SCOPED_TRACE(where + " " + name + ": " + schema.dump());
     switch (p.kind) {
       case ParamKind::kInt:
         EXPECT_EQ(schema.value("type", ""), "integer");
@@ -250,14 +378,44 @@ TEST(ParamTable, OpenApiDocumentsEveryJobParameterAsTheTableSaysIt) {
         }
         break;
       }
+      case ParamKind::kSpacing:
+        EXPECT_EQ(schema.value("type", ""), "string");
+        break;
+      case ParamKind::kLabel:
+        EXPECT_EQ(schema.value("type", ""), "string");  // an integer or "none"
+        EXPECT_EQ(schema.value("default", ""), default_text(p));
+        break;
       case ParamKind::kCount:
-        ADD_FAILURE() << "no count is a job parameter";
+        ADD_FAILURE() << "no count is a job or query parameter";
         break;
     }
   }
+  return table;
+}
+
+// The OpenAPI document's job parameters (POST /v1/jobs) are the table's: same names, types,
+// ranges, defaults and choices, and none besides (but the label of a single-object upload).
+TEST(ParamTable, OpenApiDocumentsEveryJobParameterAsTheTableSaysIt) {
+  std::map<std::string, nlohmann::json> documented = documented_query("/v1/jobs", "post");
+  const std::set<std::string> table = expect_documented(documented, kJobParam, "POST /v1/jobs");
   for (const auto& [name, schema] : documented) {
-    if (name == "spacing" || name == "background" || name == "label") continue;
+    if (name == "label") continue;
     EXPECT_TRUE(table.count(name)) << name << " is documented but not a job parameter";
+  }
+}
+
+// The grid queries of an adaptive job (GET field.npy and labels.npy, which take one query
+// string) take the table's kGridQuery parameters: documented as the table says them, none
+// besides.
+TEST(ParamTable, OpenApiDocumentsEveryGridQueryParameterAsTheTableSaysIt) {
+  for (const std::string file : {"field.npy", "labels.npy"}) {
+    const std::string path = "/v1/jobs/{id}/" + file;
+    std::map<std::string, nlohmann::json> documented = documented_query(path, "get");
+    const std::set<std::string> table = expect_documented(documented, kGridQuery, "GET " + path);
+    for (const auto& [name, schema] : documented) {
+      EXPECT_TRUE(table.count(name))
+          << name << " is documented for " << path << " but not a grid query parameter";
+    }
   }
 }
 

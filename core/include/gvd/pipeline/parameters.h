@@ -2,13 +2,16 @@
 
 // The pipeline's parameters in one table: name, type, range, default (per dimension where the
 // engine picks one), choices and help text of every parameter a caller can set, and which
-// surfaces take it (the `gvd` flags, the server's job parameters, gvd.compute's keywords).
-// The CLI parses its flags and prints their --help lines from it, the server parses its job
-// parameters through it, and tests check server/openapi.json and the Python module's
-// keywords against it (docs/ARCHITECTURE.md, "One definition each").
+// surfaces take it (the flags of `gvd compute` and `gvd grid`, the server's job parameters and
+// grid queries, the keywords of gvd.compute, gvd.grid and Result.grid). The CLI parses its
+// flags and prints their --help lines from it, the server parses its job parameters and
+// field.npy/labels.npy queries through it, and tests check server/openapi.json and the Python
+// module's keywords against it (docs/ARCHITECTURE.md, "One definition each").
 
 #include <array>
 #include <cstdint>
+#include <limits>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -16,6 +19,8 @@
 
 #include "gvd/distance/distance_field.h"
 #include "gvd/grid/compute_grid.h"
+#include "gvd/grid/sample_result_grid.h"
+#include "gvd/scene/label_volume.h"
 #include "gvd/scene/scene.h"
 
 namespace gvd {
@@ -37,33 +42,43 @@ enum class ComputeMode { kAdaptive, kGrid };
 
 /// The type of a parameter's value, and so how its text is read.
 enum class ParamKind {
-  kInt,     ///< an integer in [min, max]
-  kCount,   ///< an unsigned 64-bit integer >= min
-  kNumber,  ///< a finite number in [min, max)
-  kFlag,    ///< true/false (1/0); a CLI flag without a value
-  kChoice,  ///< one of `choices`, an enum in that order
-  kBox,     ///< x0,y0[,z0],x1,y1[,z1]: 4 or 6 finite numbers
-  kUnits,   ///< a length unit (gvd/scene/units.h), kept by its canonical name
+  kInt,      ///< an integer in [min, max]
+  kCount,    ///< an unsigned 64-bit integer >= min
+  kNumber,   ///< a finite number in [min, max)
+  kFlag,     ///< true/false (1/0); a CLI flag without a value
+  kChoice,   ///< one of `choices`, an enum in that order
+  kBox,      ///< x0,y0[,z0],x1,y1[,z1]: 4 or 6 finite numbers
+  kUnits,    ///< a length unit (gvd/scene/units.h), kept by its canonical name
+  kSpacing,  ///< x,y[,z]: positive finite numbers, one per axis (of a volume read later)
+  kLabel,    ///< a label (an integer >= 0) or none
 };
 
 /// Which computation a parameter configures: a parameter of one mode given with the other is
 /// refused (PipelineParams::check).
 enum class ParamMode { kAny, kAdaptive, kGrid };
 
-/// The surfaces that take a parameter (bit mask).
+/// The surfaces that take a parameter (bit mask). Each is checked against the table by a test.
 enum ParamSurface : unsigned {
-  kCliFlag = 1u,        ///< `gvd compute --name-with-dashes`
-  kJobParam = 2u,       ///< gvd-server's job parameter `name` (query, "params"; OpenAPI)
-  kPythonKeyword = 4u,  ///< gvd.compute(..., name=)
+  kCliFlag = 1u,          ///< `gvd compute --name-with-dashes`
+  kJobParam = 2u,         ///< gvd-server's job parameter `name` (query, "params"; OpenAPI)
+  kPythonKeyword = 4u,    ///< gvd.compute(..., name=)
+  kGridFlag = 8u,         ///< `gvd grid SCENE --name-with-dashes`
+  kResultGridFlag = 16u,  ///< `gvd grid RESULT.gvd --name-with-dashes` (sampling a saved result)
+  /// GET /v1/jobs/{id}/field.npy and labels.npy `?name=` on an adaptive job (sampling its
+  /// result; OpenAPI)
+  kGridQuery = 32u,
+  kPythonGrid = 64u,         ///< gvd.grid(scene, ..., keyword=)
+  kPythonResultGrid = 128u,  ///< Result.grid(..., keyword=)
 };
 
 /// How a message names a parameter: `--max-depth` (CLI), `parameter "max_depth"` (server),
 /// `max_depth` (the C++ and Python API).
 enum class ParamSpelling { kCli, kServer, kApi };
 
-/// One parameter. Its name is the job parameter and the Python keyword; the CLI flag is the
-/// name with dashes (`flag_name`). Two entries share the name "resolution": compact|full in the
-/// adaptive mode, a cell count with mode=grid (the value's form tells them apart).
+/// One parameter. Its name is the job parameter and the Python keyword (but `keyword`); the
+/// CLI flag is the name with dashes (`flag_name`). Two entries share the name "resolution":
+/// compact|full in the adaptive mode, a cell count with mode=grid (the value's form tells them
+/// apart where a surface takes both).
 struct ParamSpec {
   std::string_view name;
   ParamKind kind = ParamKind::kInt;
@@ -78,14 +93,32 @@ struct ParamSpec {
   std::span<const std::string_view> choices;  ///< kChoice: names in enum order; first = default
   std::string_view metavar;                   ///< the CLI value's name in --help ("N", "F")
   std::string_view help;                      ///< the --help text, one paragraph
+  /// The --help text under "grid options" (gvd grid) where it reads otherwise there (the
+  /// grid's box is not made a cube); empty: the entry is listed there only if of mode kGrid.
+  std::string_view grid_help;
+  /// A labelled volume's (`gvd compute --volume`, a volume upload): how its voxels become
+  /// the scene.
+  bool of_volume = false;
+  /// The Python keyword where it is not `name`, and whether it is the flag's negation
+  /// (gvd.grid's `signed=True` is `unsigned` false).
+  std::string_view keyword;
+  bool keyword_negated = false;
+  /// The Python keyword's default where the flag and the job parameter have none (must be
+  /// given): gvd.grid's and Result.grid's resolution, GridOptions' 256. NaN: `value`.
+  double keyword_value = std::numeric_limits<double>::quiet_NaN();
 
   bool on(ParamSurface s) const { return (surfaces & s) != 0; }
+  /// A property of the scene (its units, a volume's voxels), not of the computation: it
+  /// reaches a job's id through the normalized scene, not through the parameters' text.
+  bool of_scene() const { return kind == ParamKind::kUnits || of_volume; }
 };
 
 /// The table, in the order `gvd --help` lists the flags.
 std::span<const ParamSpec> pipeline_parameters();
 /// The entry named `name` of `mode` (kAny: the first of that name), or null.
 const ParamSpec* find_parameter(std::string_view name, ParamMode mode = ParamMode::kAny);
+/// The first entry named `name` that `surface` takes, or null.
+const ParamSpec* find_parameter_on(std::string_view name, ParamSurface surface);
 /// "--max-depth" for "max_depth".
 std::string flag_name(const ParamSpec& spec);
 /// How `spelling` names the parameter in a message: `--max-depth`, `parameter "max_depth"`,
@@ -93,10 +126,14 @@ std::string flag_name(const ParamSpec& spec);
 std::string spelled(const ParamSpec& spec, ParamSpelling spelling);
 /// The value of an unset parameter as text ("0", "-1", "auto", "12000000", "false", "").
 std::string default_text(const ParamSpec& spec);
-/// The --help lines of the table's CLI flags of `mode` (kAny: those of every mode's...
-/// parameters that apply to any mode too): "  --flag VALUE" padded to column 29, the help
-/// wrapped at 93 columns, per-dimension defaults appended.
-std::string parameter_help(ParamMode mode);
+/// The --help lines of one flag: "  --flag VALUE" padded to column 29, the help (with
+/// kGridFlag: `grid_help` when there is one) wrapped at 93 columns, per-dimension defaults
+/// appended.
+std::string flag_help(const ParamSpec& spec, ParamSurface surface = kCliFlag);
+/// The flag_help of the table's entries on `surface` of `mode`, in the table's order, but a
+/// labelled volume's (`gvd --help` lists those after --volume); for kGridFlag and kGrid then
+/// the entries of other modes with a `grid_help`.
+std::string parameter_help(ParamMode mode, ParamSurface surface = kCliFlag);
 
 /// The name of a choice (`choice_name(RefineRule::kPaper)` = "paper") and back; parse_choice
 /// throws gvd::Error{kInvalidArgument} naming the parameter as `spelling` does and the choices.
@@ -175,14 +212,20 @@ struct PipelineParams {
   bool unsigned_distance = false;  ///< the parameter "unsigned"
   int range_cells = 0;             ///< 0 = default
   uint64_t max_cells = 134'217'728;
-  std::string units;  ///< canonical name, or empty
+  std::string units;            ///< canonical name, or empty
+  std::vector<double> spacing;  ///< a labelled volume's voxel size x,y[,z]; empty = 1 each
+  std::optional<uint64_t> background = 0;  ///< a labelled volume's non-object label; none
 
   bool is_grid() const { return mode == ComputeMode::kGrid; }
 
   /// Sets the parameter `name` from its text (for "resolution": a cell count when the text is
   /// digits, else compact|full). gvd::Error{kInvalidArgument} naming it as `spelling` does for
-  /// an unknown name, a malformed value or one out of the table's range.
+  /// an unknown name, a malformed value or one out of the table's range. The names taken are
+  /// those of the surface that spells them so (kCli: kCliFlag, kServer: kJobParam, kApi: all).
   void set(std::string_view name, std::string_view text, ParamSpelling spelling);
+  /// The same for the names `surfaces` (a mask of ParamSurface) take: the names of the
+  /// others are unknown, and "resolution" is a cell count where none takes compact|full.
+  void set(std::string_view name, std::string_view text, ParamSpelling spelling, unsigned surfaces);
   /// The table's range for every number held (for callers that set the fields directly, as
   /// the C++ API does): gvd::Error{kInvalidArgument} naming the first one out of it.
   void check_ranges(ParamSpelling spelling) const;
@@ -197,5 +240,18 @@ struct PipelineParams {
   /// within the lattice. gvd::Error{kInvalidArgument} naming the parameter as `spelling` does.
   void check(int dimension, ParamSpelling spelling) const;
 };
+
+/// The uniform grid's options of `params` (mode=grid): resolution, metric, signs, range
+/// cells, the box (`domain`), threads and max_cells. `compute` (the backend) and the progress
+/// are the caller's. Call params.check(dimension, ...) first.
+GridOptions grid_options(const PipelineParams& params);
+/// The options of sampling a saved result on a grid (sample_result_grid): resolution, metric,
+/// signs, the box, threads and max_cells. Call params.check(dimension, ...) first.
+ResultGridOptions result_grid_options(const PipelineParams& params);
+/// How a labelled volume of `dimension` becomes a scene (scene_from_label_volume): `spacing`
+/// (one number per axis; gvd::Error{kInvalidArgument} naming it as `spelling` does
+/// otherwise) and `background`.
+LabelVolumeOptions label_volume_options(const PipelineParams& params, int dimension,
+                                        ParamSpelling spelling);
 
 }  // namespace gvd
