@@ -276,6 +276,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     co.curved_tolerance = options.curved_tolerance;
     co.bvh = &bvh;
     co.domain = &r.domain;
+    co.cancel = options.cancel;
     const CompactStats compacted = compact_gvd(r.gvd, co);
     simplices = compacted.simplices_after;
     r.stats.stages.push_back({"compact", sw.seconds(), 0, compacted.simplices_after});

@@ -21,6 +21,7 @@
 #include "gvd/refine/pair_certificate.h"
 #include "gvd/scene/label_volume.h"
 #include "gvd/scene/load_scene.h"
+#include "gvd/surface/compact_gvd.h"
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"
 
@@ -209,6 +210,30 @@ TEST(Cancel, GraphMeasurementsStopAtOnce) {
   measure_gaps(graph, bvh, r.domain, {}, 2, &cancel);
   for (size_t i = 0; i < graph.edges.size(); ++i)
     EXPECT_DOUBLE_EQ(graph.edges[i].gap, r.graph.edges[i].gap) << "edge " << i;
+}
+
+// The compaction of the output (the last stage): with the flag set it stops; unset, it gives
+// the pipeline's compact GVD from the full-resolution one.
+TEST(Cancel, CompactionStopsAtOnce) {
+  const Scene scene = test::make_scene(3, {test::make_sphere("a", {0, 0, 0}, 1, 8, 16),
+                                           test::make_sphere("b", {2.5, 0, 0}, 1, 8, 16)});
+  PipelineOptions full;
+  full.resolution = GvdResolution::kFull;
+  const GvdResult r = compute_gvd(scene, full);
+  const GvdResult compacted = compute_gvd(scene);
+  std::atomic<bool> cancel{true};
+  CompactOptions co;
+  co.cancel = &cancel;
+  Gvd gvd = r.gvd;
+  expect_cancelled([&] { compact_gvd(gvd, co); }, "compact_gvd");
+  cancel = false;
+  gvd = r.gvd;
+  compact_gvd(gvd, co);
+  ASSERT_EQ(gvd.cells.size(), compacted.gvd.cells.size());
+  for (size_t c = 0; c < gvd.cells.size(); ++c) {
+    EXPECT_EQ(gvd.cells[c].indices, compacted.gvd.cells[c].indices) << "cell " << c;
+    EXPECT_EQ(gvd.cells[c].positions.size(), compacted.gvd.cells[c].positions.size());
+  }
 }
 
 // The latency asked of a release build. Sanitizer builds run 10-20 times slower.

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 
 #include "gvd/geometry/simplex_bvh.h"
@@ -36,6 +37,8 @@ struct CompactOptions {
   double curved_tolerance = 0;
   const SimplexBvh* bvh = nullptr;
   const Domain* domain = nullptr;
+  /// Set: stop with gvd::Error{kCancelled} (polled every 4096 vertices of a cell).
+  const std::atomic<bool>* cancel = nullptr;
 };
 CompactStats compact_gvd(Gvd& gvd, const CompactOptions& options = {});
 
