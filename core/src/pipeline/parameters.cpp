@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 
 #include "gvd/common/error.h"
 #include "gvd/pipeline/pipeline.h"
@@ -360,9 +361,10 @@ bool parse_flag(const ParamSpec& spec, std::string_view text, ParamSpelling spel
   bad(spelled(spec, spelling) + " is true or false (1 or 0), got " + quoted(text));
 }
 
-std::vector<double> parse_box(const ParamSpec& spec, std::string_view text,
-                              ParamSpelling spelling) {
-  std::vector<double> box;
+/// Comma-separated finite numbers (all > 0 when `positive`); nullopt at the first item that
+/// is not one.
+std::optional<std::vector<double>> parse_numbers(std::string_view text, bool positive) {
+  std::vector<double> numbers;
   size_t start = 0;
   while (start <= text.size()) {
     size_t stop = text.find(',', start);
@@ -371,37 +373,36 @@ std::vector<double> parse_box(const ParamSpec& spec, std::string_view text,
     double v = 0;
     const char* end = item.data() + item.size();
     const auto [ptr, ec] = std::from_chars(item.data(), end, v);
-    if (item.empty() || ec != std::errc() || ptr != end || !std::isfinite(v)) {
-      bad(spelled(spec, spelling) + " must be numbers x0,y0[,z0],x1,y1[,z1], got " + quoted(text));
+    if (item.empty() || ec != std::errc() || ptr != end || !std::isfinite(v) ||
+        (positive && v <= 0)) {
+      return std::nullopt;
     }
-    box.push_back(v);
+    numbers.push_back(v);
     start = stop + 1;
   }
-  if (box.size() != 4 && box.size() != 6) {
-    bad(spelled(spec, spelling) + " needs 4 (2D) or 6 (3D) numbers, got " +
-        std::to_string(box.size()));
+  return numbers;
+}
+
+std::vector<double> parse_box(const ParamSpec& spec, std::string_view text,
+                              ParamSpelling spelling) {
+  const std::optional<std::vector<double>> box = parse_numbers(text, false);
+  if (!box) {
+    bad(spelled(spec, spelling) + " must be numbers x0,y0[,z0],x1,y1[,z1], got " + quoted(text));
   }
-  return box;
+  if (box->size() != 4 && box->size() != 6) {
+    bad(spelled(spec, spelling) + " needs 4 (2D) or 6 (3D) numbers, got " +
+        std::to_string(box->size()));
+  }
+  return *box;
 }
 
 std::vector<double> parse_spacing(const ParamSpec& spec, std::string_view text,
                                   ParamSpelling spelling) {
-  std::vector<double> spacing;
-  size_t start = 0;
-  while (start <= text.size()) {
-    size_t stop = text.find(',', start);
-    if (stop == std::string_view::npos) stop = text.size();
-    const std::string_view item = text.substr(start, stop - start);
-    double v = 0;
-    const char* end = item.data() + item.size();
-    const auto [ptr, ec] = std::from_chars(item.data(), end, v);
-    if (item.empty() || ec != std::errc() || ptr != end || !std::isfinite(v) || v <= 0) {
-      bad(spelled(spec, spelling) + " must be positive numbers x,y[,z], got " + quoted(text));
-    }
-    spacing.push_back(v);
-    start = stop + 1;
+  const std::optional<std::vector<double>> spacing = parse_numbers(text, true);
+  if (!spacing) {
+    bad(spelled(spec, spelling) + " must be positive numbers x,y[,z], got " + quoted(text));
   }
-  return spacing;  // one per axis of the volume: label_volume_options, once it is read
+  return *spacing;  // one per axis of the volume: label_volume_options, once it is read
 }
 
 std::optional<uint64_t> parse_label(const ParamSpec& spec, std::string_view text,
