@@ -61,8 +61,8 @@ inline constexpr int kProblemKindCount = static_cast<int>(ProblemKind::kAdaptive
 /// An RFC 9457 problem document (application/problem+json):
 /// {"type","title","status","detail","instance","request_id"} plus, from the core error's
 /// location (gvd::ErrorLocation, never the detail's text), "object": {"index","label"},
-/// "element": {"kind","index"} and "pointer" (a JSON pointer into the scene) where it gives
-/// them, and any extra members given as a JSON object text in `extra_json`.
+/// "element": {"kind","index"} and "pointer" (a JSON pointer into the scene or glTF) where it
+/// gives them, and any extra members given as a JSON object text in `extra_json`.
 /// Seconds as a person writes them in a message: "5", "0.25", "1e+07" (not "5.000000").
 std::string seconds_text(double seconds);
 

@@ -324,6 +324,21 @@ TEST(Service, MalformedCorpusGetsDocumentedProblemsAndServerKeepsServing) {
   EXPECT_TRUE(doc.contains("object")) << r->body;
   EXPECT_EQ(doc["element"]["kind"], "triangle") << r->body;
   EXPECT_EQ(doc["element"]["index"], 2) << r->body;
+  // A GLB's container fault: its byte offset (the version field at byte 4).
+  r = c->Post("/v1/jobs", data("malformed/glb_bad_version.glb"), "model/gltf-binary");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422) << r->body;
+  const Json glb = Json::parse(r->body);
+  EXPECT_EQ(glb["offset"], 4) << r->body;
+  EXPECT_FALSE(glb.contains("pointer")) << r->body;
+  // A glTF's fault in a node's mesh: a pointer into the glTF and the object it becomes.
+  r = c->Post("/v1/jobs", data("malformed/gltf_accessor_overflow.gltf"), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422) << r->body;
+  const Json gltf = Json::parse(r->body);
+  EXPECT_EQ(gltf["pointer"], "/accessors/0") << r->body;
+  EXPECT_EQ(gltf["object"]["index"], 0) << r->body;
+  EXPECT_EQ(gltf["object"]["label"], "tet_child") << r->body;
 
   EXPECT_EQ(wait_for(*c, good.id, {"done", "failed"}).value("status", ""), "done");
   EXPECT_TRUE(server.running());

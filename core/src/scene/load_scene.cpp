@@ -78,6 +78,20 @@ SceneObject merge_objects(Scene& scene, const std::string& label) {
   return merged;
 }
 
+/// Where an error of part `part` (labelled `label`) lies in the scene of parts: the part is the
+/// object. The element keeps its index when it lay in the part's first object, which starts
+/// the merged one (merge_objects); elsewhere the index was its sub-object's, and the pointer,
+/// line or offset still says where.
+ErrorLocation in_part(ErrorLocation where, size_t part, const std::string& label) {
+  if (where.object > 0) {
+    where.element.clear();
+    where.index = -1;
+  }
+  where.object = static_cast<int64_t>(part);
+  where.label = label;
+  return where;
+}
+
 /// Parses and validates; `single_object` makes OBJ groups one object labelled `name`.
 Scene parse_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std::string& name,
                   const SceneLimits& limits, bool single_object) {
@@ -217,7 +231,13 @@ Scene parse_scene_parts(std::span<const ScenePart> parts, const SceneLimits& lim
                                                 " have the same label \"" + part.label +
                                                 "\" (labels must be unique)");
     }
-    Scene piece = parse_bytes(part.bytes, part.format, part.label, limits, true);
+    Scene piece;
+    try {
+      piece = parse_bytes(part.bytes, part.format, part.label, limits, true);
+    } catch (const Error& e) {
+      if (e.code() == ErrorCode::kInternal) throw;
+      throw Error(e.code(), e.detail(), in_part(e.where(), i, part.label));
+    }
     if (i == 0) {
       scene.dimension = piece.dimension;
     } else if (piece.dimension != scene.dimension) {

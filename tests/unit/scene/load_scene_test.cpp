@@ -315,6 +315,274 @@ TEST(GltfLoad, CorruptedJsonChunkIsAnError) {
                ErrorCode::kInvalidScene, "GLB \"bad\"");
 }
 
+// glTF/GLB errors say where (issue 15, structured errors): a JSON pointer into the glTF
+// document, the scene object (a node with a mesh) and its triangle, or the GLB's byte offset.
+// two_nodes: scene nodes [0, 2]; node 0 "parent" (no mesh) has child 1 "tet_child" (mesh 0,
+// object 0: POSITION accessor 0, 4 vertices; indices accessor 1, 12 uint16 at BIN byte 48);
+// node 2 is unnamed (mesh 1, object 1 "node_2": POSITION accessor 2, 12 vertices).
+
+nlohmann::json two_nodes_gltf() {
+  std::ifstream in(kData + "/formats/two_nodes.gltf");
+  return nlohmann::json::parse(in);
+}
+
+struct GlbParts {
+  nlohmann::json json;
+  std::vector<uint8_t> bin;
+};
+
+uint32_t u32_at(const std::vector<uint8_t>& b, size_t at) {
+  return static_cast<uint32_t>(b[at]) | static_cast<uint32_t>(b[at + 1]) << 8 |
+         static_cast<uint32_t>(b[at + 2]) << 16 | static_cast<uint32_t>(b[at + 3]) << 24;
+}
+
+void put_u32(std::vector<uint8_t>& b, uint32_t v) {
+  for (int k = 0; k < 4; ++k) b.push_back(static_cast<uint8_t>(v >> (8 * k)));
+}
+
+// two_nodes.glb taken apart (JSON chunk, BIN chunk), to change and put back together.
+GlbParts two_nodes_glb() {
+  const std::vector<uint8_t> b = read_bytes(kData + "/formats/two_nodes.glb");
+  const uint32_t json_length = u32_at(b, 12);
+  GlbParts parts;
+  parts.json = nlohmann::json::parse(b.begin() + 20, b.begin() + 20 + json_length);
+  const size_t bin = 20 + json_length;
+  parts.bin.assign(b.begin() + static_cast<std::ptrdiff_t>(bin + 8),
+                   b.begin() + static_cast<std::ptrdiff_t>(bin + 8 + u32_at(b, bin)));
+  return parts;
+}
+
+std::vector<uint8_t> glb_of(const GlbParts& parts) {
+  std::string json = parts.json.dump();
+  while (json.size() % 4 != 0) json += ' ';
+  std::vector<uint8_t> bin = parts.bin;
+  while (bin.size() % 4 != 0) bin.push_back(0);
+  std::vector<uint8_t> out = {'g', 'l', 'T', 'F'};
+  put_u32(out, 2);
+  put_u32(out, static_cast<uint32_t>(12 + 8 + json.size() + 8 + bin.size()));
+  put_u32(out, static_cast<uint32_t>(json.size()));
+  put_u32(out, 0x4E4F534Au);
+  out.insert(out.end(), json.begin(), json.end());
+  put_u32(out, static_cast<uint32_t>(bin.size()));
+  put_u32(out, 0x004E4942u);
+  out.insert(out.end(), bin.begin(), bin.end());
+  return out;
+}
+
+// The location of the error parsing `bytes` throws (code `code`); an empty one when none.
+ErrorLocation gltf_error_where(const std::vector<uint8_t>& bytes,
+                               ErrorCode code = ErrorCode::kInvalidScene,
+                               const SceneLimits& limits = {}) {
+  try {
+    parse_scene_bytes(bytes, SceneFormat::kAuto, "bad", limits);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    return e.where();
+  }
+  return {};
+}
+
+ErrorLocation gltf_error_where(const nlohmann::json& gltf) {
+  return gltf_error_where(bytes_of(gltf.dump()));
+}
+
+TEST(GltfErrorLocation, GlbContainerFaultsGiveTheirByteOffset) {
+  const std::vector<uint8_t> good = read_bytes(kData + "/formats/two_nodes.glb");
+  std::vector<uint8_t> magic = good;
+  magic[1] = 'X';  // "gXTF": read as glTF JSON (the magic decides), malformed at byte 0
+  try {
+    parse_scene_bytes(magic, SceneFormat::kGlb, "bad");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().offset, 0) << e.what();
+  }
+  EXPECT_EQ(gltf_error_where(read_bytes(kData + "/malformed/glb_bad_version.glb")).offset, 4);
+  // The JSON chunk's header (at byte 12) announces more bytes than the file holds.
+  EXPECT_EQ(gltf_error_where(read_bytes(kData + "/malformed/glb_chunk_overflow.glb")).offset, 12);
+  // Cut files: the offset is where the file ends.
+  const std::vector<uint8_t> truncated = read_bytes(kData + "/malformed/glb_truncated.glb");
+  EXPECT_EQ(gltf_error_where(truncated).offset, static_cast<int64_t>(truncated.size()));
+  for (const size_t cut : {size_t{5}, size_t{11}}) {
+    try {
+      parse_scene_bytes(std::span(good).first(cut), SceneFormat::kGlb, "cut");
+      ADD_FAILURE() << "no error at " << cut;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.where().offset, static_cast<int64_t>(cut)) << e.what();
+    }
+  }
+  // The BIN chunk's header lies about its length: the offset is that chunk's.
+  std::vector<uint8_t> bin_overflow = good;
+  const size_t bin_at = 20 + u32_at(good, 12);
+  bin_overflow[bin_at] = 0xFF;
+  bin_overflow[bin_at + 1] = 0xFF;
+  const ErrorLocation bin = gltf_error_where(bin_overflow);
+  EXPECT_EQ(bin.offset, static_cast<int64_t>(bin_at));
+  EXPECT_TRUE(bin.pointer.empty());
+  EXPECT_LT(bin.object, 0);
+  // Malformed JSON in the JSON chunk: the offset is the file's (the chunk starts at byte 20).
+  std::vector<uint8_t> bad_json = good;
+  bad_json[21] = '#';  // {#asset": ...
+  EXPECT_EQ(gltf_error_where(bad_json).offset, 21);
+}
+
+TEST(GltfErrorLocation, MalformedJsonTextGivesItsOffset) {
+  std::vector<uint8_t> bytes = read_bytes(kData + "/formats/two_nodes.gltf");
+  const std::string text(bytes.begin(), bytes.end());
+  const size_t at = text.find("\"nodes\"");
+  ASSERT_NE(at, std::string::npos);
+  bytes[at] = '#';
+  EXPECT_EQ(gltf_error_where(bytes).offset, static_cast<int64_t>(at));
+}
+
+TEST(GltfErrorLocation, IndexOutOfRangeNamesTheObjectAndTriangle) {
+  GlbParts parts = two_nodes_glb();
+  // Index entry 7 of accessor 1 (uint16 at BIN byte 48 + 2 * 7) -> 9: tet_child has 4 vertices.
+  parts.bin[48 + 14] = 9;
+  parts.bin[48 + 15] = 0;
+  const ErrorLocation where = gltf_error_where(glb_of(parts));
+  EXPECT_EQ(where.pointer, "/accessors/1");
+  EXPECT_EQ(where.object, 0);
+  EXPECT_EQ(where.label, "tet_child");
+  EXPECT_EQ(where.element, "triangle");
+  EXPECT_EQ(where.index, 2);  // entries 6, 7, 8
+  EXPECT_LT(where.offset, 0);
+
+  // As a strip, entry 7 is first read by triangle 5 (entries 5, 6, 7).
+  parts.json["meshes"][0]["primitives"][0]["mode"] = 5;
+  const ErrorLocation strip = gltf_error_where(glb_of(parts));
+  EXPECT_EQ(strip.element, "triangle");
+  EXPECT_EQ(strip.index, 5);
+}
+
+TEST(GltfErrorLocation, NodeFaultsPointIntoTheNode) {
+  nlohmann::json gltf = two_nodes_gltf();
+  gltf["nodes"][2]["matrix"].erase(15);
+  ErrorLocation where = gltf_error_where(gltf);
+  EXPECT_EQ(where.pointer, "/nodes/2/matrix");
+  EXPECT_EQ(where.object, 1);  // node 2 becomes the second object
+  EXPECT_EQ(where.label, "node_2");
+
+  // A node without a mesh is no object: the pointer alone.
+  gltf = two_nodes_gltf();
+  gltf["nodes"][0]["translation"] = nlohmann::json::array({1, 2});
+  where = gltf_error_where(gltf);
+  EXPECT_EQ(where.pointer, "/nodes/0/translation");
+  EXPECT_LT(where.object, 0);
+  EXPECT_TRUE(where.label.empty());
+
+  gltf = two_nodes_gltf();
+  gltf["nodes"][1]["mesh"] = 9;
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/nodes/1/mesh");
+
+  // Missing and repeated nodes: the member that names them.
+  gltf = two_nodes_gltf();
+  gltf["scenes"][0]["nodes"][1] = 7;
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/scenes/0/nodes/1");
+  gltf = two_nodes_gltf();
+  gltf["nodes"][1]["children"] = nlohmann::json::array({2});
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/scenes/0/nodes/1");  // node 2 reached again
+  gltf = two_nodes_gltf();
+  gltf["nodes"][0]["children"] = nlohmann::json::array({1, 1});
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/nodes/0/children/1");
+}
+
+TEST(GltfErrorLocation, AccessorAndBufferFaultsPointAtTheirMember) {
+  nlohmann::json gltf = two_nodes_gltf();
+  gltf["meshes"][1]["primitives"][0]["attributes"]["POSITION"] = 5;
+  ErrorLocation where = gltf_error_where(gltf);
+  EXPECT_EQ(where.pointer, "/meshes/1/primitives/0/attributes/POSITION");
+  EXPECT_EQ(where.object, 1);
+  EXPECT_EQ(where.label, "node_2");
+
+  // 400 positions in a bufferView of 48 bytes (the malformed corpus).
+  where = gltf_error_where(read_bytes(kData + "/malformed/gltf_accessor_overflow.gltf"));
+  EXPECT_EQ(where.pointer, "/accessors/0");
+  EXPECT_EQ(where.object, 0);
+  EXPECT_EQ(where.label, "tet_child");
+
+  gltf = two_nodes_gltf();
+  gltf["bufferViews"][2]["byteLength"] = 400;
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/bufferViews/2");
+
+  gltf = two_nodes_gltf();
+  gltf["bufferViews"][2]["byteStride"] = 4;
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/bufferViews/2/byteStride");
+
+  gltf = two_nodes_gltf();
+  gltf["accessors"][2]["type"] = "VEC2";
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/accessors/2/type");
+
+  gltf = two_nodes_gltf();
+  gltf["meshes"][0]["primitives"][0]["attributes"].erase("POSITION");
+  where = gltf_error_where(gltf);
+  EXPECT_EQ(where.pointer, "/meshes/0/primitives/0/attributes");
+  EXPECT_EQ(where.label, "tet_child");
+
+  EXPECT_EQ(gltf_error_where(read_bytes(kData + "/malformed/gltf_external_buffer.gltf")).pointer,
+            "/buffers/0/uri");
+  where = gltf_error_where(read_bytes(kData + "/malformed/gltf_lines_primitive.gltf"));
+  EXPECT_EQ(where.pointer, "/meshes/1/primitives/0/mode");
+  EXPECT_EQ(where.object, 1);
+}
+
+// Members tinygltf requires are checked before it runs: their pointers, not its words alone.
+TEST(GltfErrorLocation, MissingRequiredMembersPointAtThem) {
+  nlohmann::json gltf = two_nodes_gltf();
+  gltf["asset"].erase("version");
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/asset/version");
+  gltf = two_nodes_gltf();
+  gltf["accessors"][2].erase("count");
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/accessors/2/count");
+  gltf = two_nodes_gltf();
+  gltf["accessors"][1]["type"] = 3;
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/accessors/1/type");
+  gltf = two_nodes_gltf();
+  gltf["bufferViews"][1].erase("buffer");
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/bufferViews/1/buffer");
+  gltf = two_nodes_gltf();
+  gltf["buffers"][0].erase("byteLength");
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/buffers/0/byteLength");
+  gltf = two_nodes_gltf();
+  gltf["meshes"][1]["primitives"][0].erase("attributes");
+  EXPECT_EQ(gltf_error_where(gltf).pointer, "/meshes/1/primitives/0/attributes");
+  // The same JSON in a GLB: the same pointers.
+  GlbParts parts = two_nodes_glb();
+  parts.json["accessors"][0].erase("componentType");
+  EXPECT_EQ(gltf_error_where(glb_of(parts)).pointer, "/accessors/0/componentType");
+}
+
+TEST(GltfErrorLocation, TriangleLimitNamesThePrimitiveThatCrossedIt) {
+  SceneLimits limits;
+  limits.max_simplices = 5;  // tet_child has 4, node_2 4 more
+  const ErrorLocation where = gltf_error_where(read_bytes(kData + "/formats/two_nodes.glb"),
+                                               ErrorCode::kLimitExceeded, limits);
+  EXPECT_EQ(where.pointer, "/meshes/1/primitives/0");
+  EXPECT_EQ(where.object, 1);
+  EXPECT_EQ(where.label, "node_2");
+}
+
+// A glTF in a scene of parts is one object: its faults name that part, and keep their pointer.
+TEST(GltfErrorLocation, InAPartTheObjectIsThePart) {
+  GlbParts parts = two_nodes_glb();
+  parts.bin[48 + 14] = 9;
+  const std::vector<uint8_t> bad = glb_of(parts);
+  const std::vector<uint8_t> off = read_bytes(kData + "/formats/cube.off");
+  const std::vector<ScenePart> p = {{"cube", off, SceneFormat::kAuto, "part \"cube\""},
+                                    {"nodes", bad, SceneFormat::kAuto, "part \"nodes\""}};
+  try {
+    parse_scene_parts(p);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where().object, 1) << e.what();
+    EXPECT_EQ(e.where().label, "nodes");
+    EXPECT_EQ(e.where().pointer, "/accessors/1");
+    // tet_child comes first in the merged object: its triangle numbers stay the same.
+    EXPECT_EQ(e.where().element, "triangle");
+    EXPECT_EQ(e.where().index, 2);
+  }
+}
+
 // ------------------------------------------------------------------------ sniffing, files
 
 TEST(LoadSceneSniff, JsonAndUnknown) {

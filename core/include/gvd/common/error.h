@@ -33,12 +33,14 @@ struct ErrorLocation {
   /// The kind of element: "vertex", "triangle", "segment", "point" (a query point in a
   /// batch); "" when none.
   std::string element;
-  int64_t index = -1;   ///< that element's index (within the object, or the batch); -1: none
-  std::string pointer;  ///< a JSON pointer (RFC 6901) into the scene document; "" when none
+  int64_t index = -1;  ///< that element's index (within the object, or the batch); -1: none
+  /// A JSON pointer (RFC 6901) into the scene document or the glTF document; "" when none.
+  std::string pointer;
   int64_t line = -1;  ///< the line (1-based) of a text input (OBJ, PLY header, STL, OFF); -1: none
   /// A byte offset (0-based) into the JSON text that was parsed (a scene file, a request body,
-  /// a glTF's JSON) where it is malformed or nested too deep, or into a binary mesh file (PLY,
-  /// STL) where it is truncated; -1: none
+  /// a glTF; a GLB's JSON chunk counted from the file's start) where it is malformed or nested
+  /// too deep, into a binary mesh file (PLY, STL) where it is truncated, or into a GLB's
+  /// container where it is cut or at the header field or chunk header at fault; -1: none
   int64_t offset = -1;
   bool empty() const {
     return object < 0 && label.empty() && element.empty() && pointer.empty() && line < 0 &&
