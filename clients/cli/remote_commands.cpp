@@ -480,6 +480,9 @@ int remote_compute(const std::string& url, int argc, char** argv) {
       }
     }
   }
+  // The flags' values are read here as locally (a bad one is a usage error, exit 2); the
+  // server checks them again, with what only it knows (the scene's bounds, its limits).
+  (void)params_from_flags(args);
   Remote remote(url, args);
   const Json submitted = remote.submit(files, args);
   const std::string id = text(submitted, "id", "");

@@ -141,6 +141,8 @@ class RemoteCli(unittest.TestCase):
             (USAGE, ["nearest", "--job", self.id, "--point", "1,2,3"]),
             (USAGE, ["neighbors", "--object", "gear_a"]),
             (USAGE, ["compute", GEARS, "--threads", "2"]),
+            (USAGE, ["compute", GEARS, "--units", "furlong"]),  # a bad value: as locally
+            (USAGE, ["compute", GEARS, "--max-depth", "deep"]),
             (USAGE, ["compute", GEARS, "--distance", "wavefront"]),  # the server cannot
             (USAGE, ["compute", GEARS, "--octree-build", "data-parallel"]),
             (USAGE, ["neighbors", result, "--object", "gear_a"]),
