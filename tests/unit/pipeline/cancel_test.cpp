@@ -245,6 +245,24 @@ constexpr double kCancelLatency = 1.0;
 constexpr double kSceneLatency = 0.1;
 #endif
 
+// compute_gvd on a thread of its own, for a test to cancel it meanwhile: how it ended
+// (0: finished, 1: cancelled, 2: another error) and when.
+struct BackgroundCompute {
+  BackgroundCompute(const Scene& scene, const PipelineOptions& o)
+      : worker([this, &scene, &o] {
+          try {
+            compute_gvd(scene, o);
+            outcome = 0;
+          } catch (const Error& e) {
+            outcome = e.code() == ErrorCode::kCancelled ? 1 : 2;
+          }
+          ended = std::chrono::steady_clock::now();
+        }) {}
+  std::atomic<int> outcome{-1};
+  std::chrono::steady_clock::time_point ended;
+  std::thread worker;  // last: it starts once the members it writes exist
+};
+
 // 800 copies of one sphere (the attack run's coincident balls): the pair pass alone would
 // take minutes; cancelled 0.3 s in, compute_gvd ends with kCancelled within a second.
 TEST(Cancel, CoincidentObjectsStopWithinASecond) {
@@ -253,23 +271,13 @@ TEST(Cancel, CoincidentObjectsStopWithinASecond) {
   PipelineOptions o;
   o.threads = 2;
   o.cancel = &cancel;
-  std::atomic<int> outcome{-1};  // 0: finished, 1: cancelled, 2: another error
-  std::chrono::steady_clock::time_point ended;
-  std::thread worker([&] {
-    try {
-      compute_gvd(scene, o);
-      outcome = 0;
-    } catch (const Error& e) {
-      outcome = e.code() == ErrorCode::kCancelled ? 1 : 2;
-    }
-    ended = std::chrono::steady_clock::now();
-  });
+  BackgroundCompute run(scene, o);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const auto asked = std::chrono::steady_clock::now();
   cancel = true;
-  worker.join();
-  EXPECT_EQ(outcome.load(), 1);
-  EXPECT_LT(std::chrono::duration<double>(ended - asked).count(), kCancelLatency);
+  run.worker.join();
+  EXPECT_EQ(run.outcome.load(), 1);
+  EXPECT_LT(std::chrono::duration<double>(run.ended - asked).count(), kCancelLatency);
 }
 
 // The scene stage of those 800 spheres (the frame's facing search meets 800 copies of every
@@ -286,27 +294,17 @@ TEST(Cancel, SceneStageStopsWithinIt) {
   o.progress = [&](const std::string& stage, double) {
     (stage == "scene" ? in_scene : past_scene) = true;
   };
-  std::atomic<int> outcome{-1};  // 0: finished, 1: cancelled, 2: another error
-  std::chrono::steady_clock::time_point ended;
-  std::thread worker([&] {
-    try {
-      compute_gvd(scene, o);
-      outcome = 0;
-    } catch (const Error& e) {
-      outcome = e.code() == ErrorCode::kCancelled ? 1 : 2;
-    }
-    ended = std::chrono::steady_clock::now();
-  });
+  BackgroundCompute run(scene, o);
   while (!in_scene) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   const bool ended_early = past_scene;
   const auto asked = std::chrono::steady_clock::now();
   cancel = true;
-  worker.join();
+  run.worker.join();
   ASSERT_FALSE(ended_early) << "the scene stage took under 50 ms: the test needs a larger scene";
-  EXPECT_EQ(outcome.load(), 1);
+  EXPECT_EQ(run.outcome.load(), 1);
   EXPECT_FALSE(past_scene) << "the cancel waited for the scene stage to end";
-  EXPECT_LT(std::chrono::duration<double>(ended - asked).count(), kSceneLatency);
+  EXPECT_LT(std::chrono::duration<double>(run.ended - asked).count(), kSceneLatency);
 }
 
 }  // namespace
