@@ -31,6 +31,8 @@ uint64_t peak_rss_bytes() { return status_kb("VmHWM:"); }
 
 uint64_t rss_bytes() { return status_kb("VmRSS:"); }
 
+uint64_t file_rss_bytes() { return status_kb("RssFile:"); }
+
 void use_returning_heap() {
   // Setting the threshold also stops glibc from moving it (and the trim threshold with it).
   mallopt(M_MMAP_THRESHOLD, kReturnedBlockBytes);

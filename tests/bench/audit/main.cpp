@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/sphere_lattice.h"
 #include "gvd/common/peak_memory.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
@@ -104,11 +105,12 @@ gvd::test::ShaftInBoreOptions shaft(int sides, double gap) {
 int write_variants(const std::string& dir) {
   const Vec3 z{0, 0, 1};
   std::vector<std::pair<std::string, Scene>> out;
+  out.emplace_back("sphere_lattice", gvd::bench::make_sphere_lattice());
   for (double gap : {1e-4, 1e-5}) {
     char g[16];
     std::snprintf(g, sizeof g, "%.0e", gap);
     const std::string tag = std::string("_") + g;
-    for (int sides : {3, 7, 12, 30}) {
+    for (int sides : {3, 4, 7, 8, 12, 30}) {
       out.emplace_back("shaft" + std::to_string(sides) + tag,
                        gvd::test::make_shaft_in_bore(shaft(sides, gap)));
     }
