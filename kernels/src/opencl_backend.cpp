@@ -29,22 +29,18 @@ namespace {
 
 class OpenClClosestPointSolver final : public ClosestPointSolver {
  public:
-  OpenClClosestPointSolver(std::shared_ptr<OpenClBackend::Impl> impl, const UnitGeometry& geometry,
-                           const SimplexBvh& bvh)
+  // Uploads the BVH's own arrays as they are: SimplexBvh stores them in the layout the kernel
+  // reads (closest_point_item.h).
+  OpenClClosestPointSolver(std::shared_ptr<OpenClBackend::Impl> impl, const SimplexBvh& bvh)
       : impl_(std::move(impl)) {
-    const ClosestPointData d = make_closest_point_data(geometry, bvh);
-    dimension_ = d.dimension;
-    node_count_ = static_cast<cl_uint>(d.nodes.size());
+    dimension_ = bvh.dimension();
+    node_count_ = static_cast<cl_uint>(bvh.nodes().size());
     if (node_count_ == 0) return;  // no simplices: every query misses, nothing to upload
     const cl::Runtime& rt = impl_->rt;
-    nodes_ =
-        cl::make_buffer(rt, CL_MEM_READ_ONLY, d.nodes.size() * sizeof(d.nodes[0]), d.nodes.data());
-    order_ =
-        cl::make_buffer(rt, CL_MEM_READ_ONLY, d.order.size() * sizeof(uint32_t), d.order.data());
-    points_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, d.points.size() * sizeof(d.points[0]),
-                              d.points.data());
-    simplices_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, d.simplices.size() * sizeof(uint32_t),
-                                 d.simplices.data());
+    nodes_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, bvh.nodes().size_bytes(), bvh.nodes().data());
+    order_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, bvh.order().size_bytes(), bvh.order().data());
+    points_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, bvh.points().size_bytes(), bvh.points().data());
+    corner_ = cl::make_buffer(rt, CL_MEM_READ_ONLY, bvh.corner().size_bytes(), bvh.corner().data());
   }
 
   void solve(std::span<const Vec3> queries, std::span<const double> bound2,
@@ -72,7 +68,7 @@ class OpenClClosestPointSolver final : public ClosestPointSolver {
     cl::set_arg(k, 2, nodes_.get());
     cl::set_arg(k, 3, order_.get());
     cl::set_arg(k, 4, points_.get());
-    cl::set_arg(k, 5, simplices_.get());
+    cl::set_arg(k, 5, corner_.get());
     cl::set_arg(k, 6, q.get());
     cl::set_arg(k, 7, b.get());
     cl::set_arg(k, 8, count);
@@ -93,7 +89,7 @@ class OpenClClosestPointSolver final : public ClosestPointSolver {
   std::shared_ptr<OpenClBackend::Impl> impl_;
   int dimension_ = 3;
   cl_uint node_count_ = 0;
-  cl::Buffer nodes_, order_, points_, simplices_;
+  cl::Buffer nodes_, order_, points_, corner_;
 };
 
 // One triangle and a few queries: enough to make the driver finish compiling the kernel.
@@ -164,9 +160,9 @@ std::unique_ptr<GridEvaluator> OpenClBackend::grid_evaluator(const GridGeometry&
   return make_opencl_grid_evaluator(impl_, geometry, spec, metric);
 }
 
-std::unique_ptr<ClosestPointSolver> OpenClBackend::closest_points(const UnitGeometry& geometry,
+std::unique_ptr<ClosestPointSolver> OpenClBackend::closest_points(const UnitGeometry&,
                                                                   const SimplexBvh& bvh) {
-  return std::make_unique<OpenClClosestPointSolver>(impl_, geometry, bvh);
+  return std::make_unique<OpenClClosestPointSolver>(impl_, bvh);
 }
 
 std::shared_ptr<OpenClBackend> make_opencl_backend(const OpenClOptions& options) {

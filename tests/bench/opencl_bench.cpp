@@ -100,7 +100,7 @@ const Workload& workload(const std::string& name) {
   w->geometry = gvd::make_unit_geometry(scene, w->domain);
   const gvd::UnitGeometry& g = w->geometry;
   w->bvh = std::make_unique<gvd::SimplexBvh>(g.dimension, g.points, g.simplices);
-  w->data = gvd::make_closest_point_data(g, *w->bvh);
+  w->data = gvd::make_closest_point_data(*w->bvh);
   gvd::OctreeOptions oo;
   oo.threads = kThreads;
   const gvd::Octree octree = gvd::build_octree(g, oo);

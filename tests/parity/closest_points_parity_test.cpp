@@ -47,7 +47,7 @@ struct Batch {
 std::vector<ClosestHit> expect_parity(kernels::OpenClBackend& backend, const UnitGeometry& g,
                                       const Batch& batch) {
   const SimplexBvh bvh(g.dimension, g.points, g.simplices);
-  const ClosestPointData data = make_closest_point_data(g, bvh);
+  const ClosestPointData data = make_closest_point_data(bvh);
   const size_t n = batch.queries.size();
   std::vector<ClosestHit> twin(n), scalar(n), kernel(n), coherent(n);
   closest_points_cpu(data, batch.queries, batch.bound2, twin, 2);

@@ -9,8 +9,8 @@ namespace {
 
 class CpuClosestPointSolver final : public ClosestPointSolver {
  public:
-  CpuClosestPointSolver(const UnitGeometry& geometry, const SimplexBvh& bvh, int threads)
-      : data_(make_closest_point_data(geometry, bvh)), threads_(threads) {}
+  CpuClosestPointSolver(const SimplexBvh& bvh, int threads)
+      : data_(make_closest_point_data(bvh)), threads_(threads) {}
   void solve(std::span<const Vec3> queries, std::span<const double> bound2,
              std::span<ClosestHit> hits) override {
     closest_points_cpu_coherent(data_, queries, bound2, hits, threads_);
@@ -27,10 +27,10 @@ std::unique_ptr<OctreeBuildSteps> ComputeBackend::octree_build_steps(const UnitG
   return nullptr;
 }
 
-std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const UnitGeometry& geometry,
+std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const UnitGeometry&,
                                                                   const SimplexBvh& bvh,
                                                                   int threads) {
-  return std::make_unique<CpuClosestPointSolver>(geometry, bvh, threads);
+  return std::make_unique<CpuClosestPointSolver>(bvh, threads);
 }
 
 }  // namespace gvd

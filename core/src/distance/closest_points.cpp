@@ -13,32 +13,16 @@ static_assert(sizeof(item::GvdHit) == 40);
 
 size_t ClosestPointData::memory_bytes() const {
   return nodes.size() * sizeof(item::GvdBvhNode) + order.size() * sizeof(uint32_t) +
-         points.size() * sizeof(item::GvdPoint) + simplices.size() * sizeof(uint32_t);
+         corner.size() * sizeof(uint32_t) + points.size() * sizeof(item::GvdPoint);
 }
 
-ClosestPointData make_closest_point_data(const UnitGeometry& geometry, const SimplexBvh& bvh) {
+ClosestPointData make_closest_point_data(const SimplexBvh& bvh) {
   ClosestPointData d;
-  d.dimension = geometry.dimension;
-  const auto nodes = bvh.nodes();
-  d.nodes.resize(nodes.size());
-  for (size_t i = 0; i < nodes.size(); ++i) {
-    item::GvdBvhNode& n = d.nodes[i];
-    for (int a = 0; a < 3; ++a) {
-      n.lo[a] = nodes[i].box().lo[a];
-      n.hi[a] = nodes[i].box().hi[a];
-    }
-    n.first = nodes[i].first;
-    n.count = nodes[i].count();
-  }
+  d.dimension = bvh.dimension();
+  d.nodes.assign(bvh.nodes().begin(), bvh.nodes().end());
   d.order.assign(bvh.order().begin(), bvh.order().end());
-  d.points.resize(geometry.points.size());
-  for (size_t i = 0; i < geometry.points.size(); ++i) {
-    const Vec3 p = geometry.points[i];
-    d.points[i] = {p.x, p.y, p.z};
-  }
-  d.simplices.resize(3 * geometry.simplices.size());
-  for (size_t i = 0; i < geometry.simplices.size(); ++i)
-    for (int k = 0; k < 3; ++k) d.simplices[3 * i + k] = geometry.simplices[i].v[k];
+  d.corner.assign(bvh.corner().begin(), bvh.corner().end());
+  d.points.assign(bvh.points().begin(), bvh.points().end());
   return d;
 }
 
@@ -47,7 +31,7 @@ namespace {
 ClosestHit run_item(const ClosestPointData& data, Vec3 q, double bound2) {
   return to_closest_hit(item::gvd_nearest_item(
       data.dimension, static_cast<item::gvd_uint>(data.nodes.size()), data.nodes.data(),
-      data.order.data(), data.points.data(), data.simplices.data(), {q.x, q.y, q.z}, bound2));
+      data.order.data(), data.corner.data(), data.points.data(), {q.x, q.y, q.z}, bound2));
 }
 
 void run_items(const ClosestPointData& data, std::span<const Vec3> queries,

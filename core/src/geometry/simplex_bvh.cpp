@@ -12,7 +12,9 @@
 
 namespace gvd {
 
-static_assert(sizeof(SimplexBvh::Node) == 56);
+// The layouts the OpenCL kernel reads as they are (a mismatch would read garbage on the
+// device, not fail).
+static_assert(sizeof(SimplexBvh::Node) == 56 && sizeof(item::GvdPoint) == 24);
 
 Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const Simplex& s,
                               Vec3 p) {
@@ -63,15 +65,21 @@ void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxO
     const uint32_t self = static_cast<uint32_t>(nodes.size());
     if (f.parent != ~0u) nodes[f.parent].first = self;
     nodes.push_back({});
+    SimplexBvh::Node& node = nodes[self];
     Box box, cbox;
     for (uint32_t k = f.begin; k < f.end; ++k) {
       box.extend(box_of(items[k]));
       cbox.extend(center_of(items[k]));
     }
-    nodes[self].set_box(box);
-    if (f.end - f.begin <= kLeafSize) {
-      nodes[self].first = f.begin;
-      nodes[self].set_count(f.end - f.begin);
+    for (int a = 0; a < 3; ++a) {
+      node.lo[a] = box.lo[a];
+      node.hi[a] = box.hi[a];
+    }
+    // Objects are not known here: mixed until the constructor fills them in.
+    const bool leaf = f.end - f.begin <= kLeafSize;
+    node.tag = item::gvd_node_tag(leaf ? f.end - f.begin : 0, SimplexBvh::kMixed);
+    if (leaf) {
+      node.first = f.begin;
       continue;
     }
     const Vec3 ext = cbox.hi - cbox.lo;
@@ -87,6 +95,26 @@ void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxO
     stack.push_back({f.begin, mid, ~0u});
   }
 }
+
+// nearest_excluding's filter: simplices of the excluded objects are no candidates, and
+// subtrees whose simplices all belong to one of them are not entered (it is cheap where those
+// objects crowd the query point). Found by item::gvd_bvh_nearest through argument-dependent
+// lookup.
+struct ExcludeObjects {
+  const uint32_t* object_in_order;
+  const uint32_t* excluded;
+  int count;
+  bool is_excluded(uint32_t object) const {
+    return std::find(excluded, excluded + count, object) != excluded + count;
+  }
+  friend int gvd_walk_accepts(const ExcludeObjects& f, uint32_t k) {
+    return f.is_excluded(f.object_in_order[k]) ? 0 : 1;
+  }
+  friend int gvd_walk_skips(const ExcludeObjects& f, const item::GvdBvhNode* node) {
+    const uint32_t object = item::gvd_node_object(node);
+    return object != SimplexBvh::kMixed && f.is_excluded(object) ? 1 : 0;
+  }
+};
 
 }  // namespace
 
@@ -188,7 +216,8 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
     }
     points_.resize(used);
     for (size_t i = 0; i < points.size(); ++i)
-      if (renumber[i] != kUnused) points_[renumber[i]] = points[i];
+      if (renumber[i] != kUnused)
+        points_[renumber[i]] = item::gvd_pt(points[i].x, points[i].y, points[i].z);
   }
   if (object_of.size() == m) {
     object_in_order_.resize(m);
@@ -196,15 +225,17 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
     // Children follow their parents in the array: one backward pass fills every node.
     for (size_t i = nodes_.size(); i-- > 0;) {
       Node& n = nodes_[i];
-      if (n.count() > 0) {
-        uint32_t object = object_in_order_[n.first];
-        for (uint32_t k = n.first + 1; k < n.first + n.count(); ++k)
+      const uint32_t count = node_count(n);
+      uint32_t object;
+      if (count > 0) {
+        object = object_in_order_[n.first];
+        for (uint32_t k = n.first + 1; k < n.first + count; ++k)
           if (object_in_order_[k] != object) object = kMixed;
-        n.set_object(object);
       } else {
-        const uint32_t l = nodes_[i + 1].object(), r = nodes_[n.first].object();
-        n.set_object(l == r ? l : kMixed);
+        const uint32_t l = node_object(nodes_[i + 1]), r = node_object(nodes_[n.first]);
+        object = l == r ? l : kMixed;
       }
+      n.tag = item::gvd_node_tag(count, object);
     }
     if (object_builder.joinable()) object_builder.join();
     if (object_error) std::rethrow_exception(object_error);
@@ -218,25 +249,17 @@ ClosestHit SimplexBvh::nearest_in_object(Vec3 p, uint32_t object, double max_dis
   GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
             "nearest_in_object needs the objects of the simplices at construction");
   if (object >= object_root_.size() || object_root_[object] == kNoRoot) return ClosestHit{};
-  return nearest_in_tree(
-      p, object_nodes_, object_root_[object], object_items_.data(), [](uint32_t) { return true; },
-      [](uint32_t) { return false; }, max_dist2);
+  return to_closest_hit(item::gvd_bvh_nearest(
+      dimension_, static_cast<uint32_t>(object_nodes_.size()), object_nodes_.data(),
+      object_root_[object], object_items_.data(), order_.data(), corner_.data(), points_.data(),
+      item::gvd_pt(p.x, p.y, p.z), max_dist2, item::GvdAcceptAll{0}));
 }
 
 ClosestHit SimplexBvh::nearest_excluding(Vec3 p, const uint32_t* excluded, int count,
                                          double max_dist2) const {
   GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
             "nearest_excluding needs the objects of the simplices at construction");
-  auto is_excluded = [&](uint32_t object) {
-    return std::find(excluded, excluded + count, object) != excluded + count;
-  };
-  return nearest_impl(
-      p, [&](uint32_t k) { return !is_excluded(object_in_order_[k]); },
-      [&](uint32_t node) {
-        const uint32_t object = nodes_[node].object();
-        return object != kMixed && is_excluded(object);
-      },
-      max_dist2);
+  return nearest_filtered(p, ExcludeObjects{object_in_order_.data(), excluded, count}, max_dist2);
 }
 
 size_t SimplexBvh::memory_bytes() const {
@@ -251,8 +274,7 @@ size_t SimplexBvh::memory_bytes() const {
 namespace gvd {
 
 ClosestHit SimplexBvh::nearest(Vec3 p, double max_dist2) const {
-  return nearest_if(
-      p, [](uint32_t) { return true; }, max_dist2);
+  return nearest_filtered(p, item::GvdAcceptAll{0}, max_dist2);
 }
 
 double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
@@ -264,13 +286,13 @@ double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
   };
   Entry stack[128];
   int top = 0;
-  stack[top++] = {0, segment_box_distance2_bound(a, b, nodes_[0].box())};
+  stack[top++] = {0, segment_box_distance2_bound(a, b, node_box(nodes_[0]))};
   while (top > 0 && best > 0) {
     const Entry entry = stack[--top];
     if (entry.dist2 >= best) continue;
     const Node& n = nodes_[entry.node];
-    if (n.count() > 0) {
-      for (uint32_t k = n.first; k < n.first + n.count(); ++k) {
+    if (node_count(n) > 0) {
+      for (uint32_t k = n.first; k < n.first + node_count(n); ++k) {
         Vec3 c[3];
         load_corners(k, c);
         const double d2 = arity_ == 2 ? segment_segment_dist2_2d(a, b, c[0], c[1])
@@ -280,8 +302,8 @@ double SimplexBvh::segment_distance2(Vec3 a, Vec3 b, double max_dist2) const {
       continue;
     }
     const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = segment_box_distance2_bound(a, b, nodes_[l].box());
-    const double dr = segment_box_distance2_bound(a, b, nodes_[r].box());
+    const double dl = segment_box_distance2_bound(a, b, node_box(nodes_[l]));
+    const double dr = segment_box_distance2_bound(a, b, node_box(nodes_[r]));
     if (dl <= dr) {
       if (dr < best) stack[top++] = {r, dr};
       if (dl < best) stack[top++] = {l, dl};
@@ -333,14 +355,14 @@ ClosestHit SimplexBvh::closest_to_simplex_in_tree(const Vec3* q, const std::vect
   };
   Entry stack[128];
   int top = 0;
-  stack[top++] = {root, bound(nodes[root].box())};
+  stack[top++] = {root, bound(node_box(nodes[root]))};
   while (top > 0 && best.dist2 > 0) {
     const Entry entry = stack[--top];
     if (entry.dist2 >= best.dist2) continue;
     const Node& n = nodes[entry.node];
-    if (skip_object != kMixed && n.object() == skip_object) continue;
-    if (n.count() > 0) {
-      for (uint32_t i = n.first; i < n.first + n.count(); ++i) {
+    if (skip_object != kMixed && node_object(n) == skip_object) continue;
+    if (node_count(n) > 0) {
+      for (uint32_t i = n.first; i < n.first + node_count(n); ++i) {
         const uint32_t k = items != nullptr ? items[i] : i;
         if (skip_object != kMixed && object_in_order_[k] == skip_object) continue;
         Vec3 on, c[3];
@@ -355,7 +377,7 @@ ClosestHit SimplexBvh::closest_to_simplex_in_tree(const Vec3* q, const std::vect
       continue;
     }
     const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = bound(nodes[l].box()), dr = bound(nodes[r].box());
+    const double dl = bound(node_box(nodes[l])), dr = bound(node_box(nodes[r]));
     if (dl <= dr) {
       if (dr < best.dist2) stack[top++] = {r, dr};
       if (dl < best.dist2) stack[top++] = {l, dl};
@@ -409,7 +431,7 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
   };
   std::vector<Entry> stack;
   const uint32_t ra = object_root_[a], rb = object_root_[b];
-  stack.push_back({ra, rb, box_gap2(object_nodes_[ra].box(), object_nodes_[rb].box())});
+  stack.push_back({ra, rb, box_gap2(node_box(object_nodes_[ra]), node_box(object_nodes_[rb]))});
   while (!stack.empty() && best.dist2 > 0) {
     const Entry entry = stack.back();
     stack.pop_back();
@@ -418,14 +440,14 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
     if (best.found ? entry.dist2 >= best.dist2 : entry.dist2 > best.dist2) continue;
     const Node& x = object_nodes_[entry.na];
     const Node& y = object_nodes_[entry.nb];
-    if (x.count() > 0 && y.count() > 0) {
-      for (uint32_t i = x.first; i < x.first + x.count(); ++i) {
+    if (node_count(x) > 0 && node_count(y) > 0) {
+      for (uint32_t i = x.first; i < x.first + node_count(x); ++i) {
         const uint32_t ka = object_items_[i];
         Box ba;
         Vec3 c[3];
         load_corners(ka, c);
         for (int k = 0; k < arity_; ++k) ba.extend(c[k]);
-        for (uint32_t j = y.first; j < y.first + y.count(); ++j) {
+        for (uint32_t j = y.first; j < y.first + node_count(y); ++j) {
           // The simplices' own boxes first: no nearer than the best pair, no exact test.
           Box bb;
           load_corners(object_items_[j], c);
@@ -445,7 +467,8 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
     }
     // Open the inner node with the larger box (a leaf against an inner node: the inner one).
     auto extent = [](const Box& bx) { return norm2(bx.hi - bx.lo); };
-    const bool open_a = y.count() > 0 || (x.count() == 0 && extent(x.box()) >= extent(y.box()));
+    const bool open_a =
+        node_count(y) > 0 || (node_count(x) == 0 && extent(node_box(x)) >= extent(node_box(y)));
     Entry children[2];
     if (open_a) {
       children[0] = {entry.na + 1, entry.nb, 0};
@@ -455,7 +478,7 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
       children[1] = {entry.na, y.first, 0};
     }
     for (Entry& c : children)
-      c.dist2 = box_gap2(object_nodes_[c.na].box(), object_nodes_[c.nb].box());
+      c.dist2 = box_gap2(node_box(object_nodes_[c.na]), node_box(object_nodes_[c.nb]));
     if (children[0].dist2 < children[1].dist2) std::swap(children[0], children[1]);
     for (const Entry& c : children)  // the nearer one last: searched first
       if (best.found ? c.dist2 < best.dist2 : c.dist2 <= best.dist2) stack.push_back(c);

@@ -102,7 +102,7 @@ uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end,
   }
   if (end - begin <= 4) {
     g.nodes[node].first = begin;
-    g.nodes[node].count = end - begin;
+    g.nodes[node].tag = item::gvd_node_tag(end - begin, GVD_MIXED);
     return node;
   }
   int axis = 0;
@@ -114,7 +114,7 @@ uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end,
   build_bvh_node(g, begin, mid, cancel);
   const uint32_t right = build_bvh_node(g, mid, end, cancel);
   g.nodes[node].first = right;
-  g.nodes[node].count = 0;
+  g.nodes[node].tag = item::gvd_node_tag(0, GVD_MIXED);
   return node;
 }
 

@@ -20,7 +20,7 @@ bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; 
 void expect_same(const UnitGeometry& g, const std::vector<Vec3>& queries,
                  const std::vector<double>& bound2) {
   const SimplexBvh bvh(g.dimension, g.points, g.simplices);
-  const ClosestPointData data = make_closest_point_data(g, bvh);
+  const ClosestPointData data = make_closest_point_data(bvh);
   const size_t n = queries.size();
   std::vector<ClosestHit> plain(n), coherent(n);
   closest_points_cpu(data, queries, bound2, plain, 2);

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <random>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "gvd/geometry/primitives.h"
 #include "support/scenes.h"
@@ -219,6 +221,152 @@ TEST(SimplexBvh, OverlapQueriesCanSkipOneObject) {
     }
     // Every overlapping simplex is visited (leaf-mates of the same subtree may be too).
     for (uint32_t s : want) EXPECT_TRUE(got.count(s)) << "box " << i << " simplex " << s;
+  }
+}
+
+// item::gvd_bvh_nearest, the one nearest-simplex walk (behind nearest, nearest_if,
+// nearest_in_object, nearest_excluding and the closest-point kernel), against brute force
+// over all simplices, bit for bit: the answer is the lowest-indexed simplex among those whose
+// squared distance is within GVD_TIE of the least, with that simplex's own closest point and
+// squared distance. Random scenes built to tie: every simplex has a mirror image across the
+// plane x = 1/2 (dyadic coordinates, so the mirror is exact and so are the distances from
+// queries on the plane), some are repeated, the order is shuffled so a tie's lower index may
+// be either side, and half the queries lie on the plane.
+struct TieScene {
+  int dimension;
+  std::vector<Vec3> points;
+  std::vector<Simplex> simplices;
+  std::vector<uint32_t> object_of;
+  uint32_t objects = 5;
+
+  TieScene(int dim, uint64_t seed, int base) : dimension(dim) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(0, 1);
+    const int arity = dim == 2 ? 2 : 3;
+    // Snapped to multiples of 2^-20: 1 - x is then exact.
+    auto snap = [](double x) { return std::ldexp(std::round(std::ldexp(x, 20)), -20); };
+    std::vector<std::vector<Vec3>> shapes;
+    for (int i = 0; i < base; ++i) {
+      const Vec3 c{0.05 + 0.35 * u(rng), u(rng), dim == 2 ? 0.0 : u(rng)};
+      std::vector<Vec3> corners;
+      for (int k = 0; k < arity; ++k) {
+        // A few degenerate simplices (all corners on one point).
+        const double r = i % 97 == 0 ? 0.0 : 0.05;
+        corners.push_back({snap(c.x + r * (u(rng) - 0.5)), snap(c.y + r * (u(rng) - 0.5)),
+                           dim == 2 ? 0.0 : snap(c.z + r * (u(rng) - 0.5))});
+      }
+      shapes.push_back(corners);
+      for (Vec3& v : corners) v.x = 1 - v.x;
+      shapes.push_back(corners);
+      if (i % 7 == 0) shapes.push_back(corners);  // an exact repeat: ties at the same point
+    }
+    std::shuffle(shapes.begin(), shapes.end(), rng);
+    for (size_t i = 0; i < shapes.size(); ++i) {
+      Simplex s;
+      for (int k = 0; k < 3; ++k) {
+        s.v[k] = static_cast<uint32_t>(points.size()) + static_cast<uint32_t>(k < arity ? k : 0);
+      }
+      for (const Vec3& v : shapes[i]) points.push_back(v);
+      simplices.push_back(s);
+      // Numbered object by object, as scenes are.
+      object_of.push_back(static_cast<uint32_t>(i * objects / shapes.size()));
+    }
+  }
+
+  // The brute-force answer among the simplices `candidate` accepts; `ambiguous` when some
+  // squared distance lies just beyond the tie band, where the walk's pairwise rule and this
+  // global one could differ (then the query is skipped).
+  template <class Candidate>
+  ClosestHit brute(Vec3 p, Candidate&& candidate, double max_dist2, bool& ambiguous) const {
+    std::vector<double> d2(simplices.size(), 1e300);
+    std::vector<Vec3> q(simplices.size());
+    double least = 1e300;
+    for (uint32_t s = 0; s < simplices.size(); ++s) {
+      if (!candidate(s)) continue;
+      q[s] = closest_point_on_simplex(dimension, points, simplices[s], p);
+      d2[s] = dist2(p, q[s]);
+      least = std::min(least, d2[s]);
+    }
+    ambiguous = false;
+    ClosestHit best;
+    best.dist2 = max_dist2;
+    if (least > max_dist2) return best;
+    for (uint32_t s = 0; s < simplices.size(); ++s) {
+      if (d2[s] <= least * (1 + GVD_TIE)) {
+        if (!best.found()) best = {q[s], d2[s], s};
+      } else if (d2[s] <= least * (1 + 8 * GVD_TIE)) {
+        ambiguous = true;
+      }
+    }
+    return best;
+  }
+};
+
+void expect_same_hit(const ClosestHit& got, const ClosestHit& want, const std::string& where) {
+  EXPECT_EQ(got.simplex, want.simplex) << where;
+  EXPECT_EQ(got.dist2, want.dist2) << where;
+  EXPECT_TRUE(got.point.x == want.point.x && got.point.y == want.point.y &&
+              got.point.z == want.point.z)
+      << where;
+}
+
+TEST(SimplexBvh, NearestWalkMatchesBruteForceWithItsTieRule) {
+  for (const int dim : {2, 3}) {
+    const TieScene scene(dim, 40 + static_cast<uint64_t>(dim), 600);
+    const SimplexBvh bvh(dim, scene.points, scene.simplices, scene.object_of);
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(0, 1);
+    int ambiguous_queries = 0, ties = 0;
+    const int queries = 300;
+    for (int i = 0; i < queries; ++i) {
+      // Half the queries on the mirror plane, where every mirrored pair ties exactly.
+      const Vec3 p{i % 2 == 0 ? 0.5 : u(rng), u(rng), dim == 2 ? 0.0 : u(rng)};
+      const std::string where = std::to_string(dim) + "D query " + std::to_string(i);
+      bool ambiguous = false, any_ambiguous = false;
+      auto check = [&](const ClosestHit& got, const ClosestHit& want, const char* what) {
+        any_ambiguous |= ambiguous;
+        if (!ambiguous) expect_same_hit(got, want, where + " " + what);
+      };
+
+      const ClosestHit all = scene.brute(
+          p, [](uint32_t) { return true; }, 1e300, ambiguous);
+      ASSERT_TRUE(all.found()) << where;
+      check(bvh.nearest(p), all, "nearest");
+      // A bound at the answer keeps it; one below finds nothing.
+      check(bvh.nearest(p, all.dist2), all, "nearest, bound at the answer");
+      EXPECT_FALSE(bvh.nearest(p, 0.5 * all.dist2).found()) << where;
+      // Whether the tie rule chose: another simplex is as near.
+      for (uint32_t s = 0; s < scene.simplices.size() && !ambiguous; ++s) {
+        const Vec3 q = closest_point_on_simplex(dim, scene.points, scene.simplices[s], p);
+        if (s != all.simplex && dist2(p, q) <= all.dist2 * (1 + GVD_TIE)) {
+          ++ties;
+          break;
+        }
+      }
+
+      // A filter: every third simplex (by a hash of its index) is no candidate.
+      auto accept = [](uint32_t s) { return (s * 2654435761u >> 16) % 3 != 0; };
+      check(bvh.nearest_if(p, accept), scene.brute(p, accept, 1e300, ambiguous), "nearest_if");
+
+      for (uint32_t o = 0; o < scene.objects; ++o) {
+        auto in_object = [&](uint32_t s) { return scene.object_of[s] == o; };
+        check(bvh.nearest_in_object(p, o), scene.brute(p, in_object, 1e300, ambiguous),
+              "nearest_in_object");
+      }
+
+      for (const std::vector<uint32_t>& excluded :
+           {std::vector<uint32_t>{}, std::vector<uint32_t>{1}, std::vector<uint32_t>{0, 3, 4}}) {
+        auto kept = [&](uint32_t s) {
+          return std::find(excluded.begin(), excluded.end(), scene.object_of[s]) == excluded.end();
+        };
+        check(bvh.nearest_excluding(p, excluded.data(), static_cast<int>(excluded.size())),
+              scene.brute(p, kept, 1e300, ambiguous), "nearest_excluding");
+      }
+      ambiguous_queries += any_ambiguous;
+    }
+    // The scene does tie (else the test would not test the rule), and skips are rare.
+    EXPECT_GT(ties, queries / 4) << dim << "D";
+    EXPECT_LT(ambiguous_queries, queries / 20) << dim << "D";
   }
 }
 

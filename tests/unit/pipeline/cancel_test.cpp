@@ -114,8 +114,8 @@ TEST(Cancel, BvhBuildStopsAtOnce) {
   ASSERT_EQ(with.nodes().size(), without.nodes().size());
   for (size_t i = 0; i < with.nodes().size(); ++i) {
     const SimplexBvh::Node &a = with.nodes()[i], &b = without.nodes()[i];
-    EXPECT_TRUE(a.bounds.lo == b.bounds.lo && a.bounds.hi == b.bounds.hi && a.first == b.first &&
-                a.tag == b.tag)
+    EXPECT_TRUE(std::equal(a.lo, a.lo + 3, b.lo) && std::equal(a.hi, a.hi + 3, b.hi) &&
+                a.first == b.first && a.tag == b.tag)
         << "node " << i;
   }
   EXPECT_TRUE(std::equal(with.order().begin(), with.order().end(), without.order().begin(),

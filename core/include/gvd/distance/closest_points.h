@@ -10,22 +10,22 @@
 
 namespace gvd {
 
-/// The inputs of the per-item closest-point function (closest_point_item.h) as flat arrays
-/// of device-ready PODs: the BVH nodes and leaf order of a SimplexBvh, the unit-domain points
-/// and 3 vertex indices per simplex (2D: the third is unused). What the OpenCL backend uploads
-/// once per scene and the CPU twin reads directly.
+/// The inputs of the per-item closest-point function (closest_point_item.h): a copy of a
+/// SimplexBvh's flat arrays, in the layout it stores them (SimplexBvh::nodes, order, corner,
+/// points), which the OpenCL backend uploads as they are. The CPU twin reads this copy, so
+/// that it does not depend on the BVH's lifetime.
 struct ClosestPointData {
   int dimension = 3;
   std::vector<item::GvdBvhNode> nodes;
   std::vector<uint32_t> order;
+  std::vector<uint32_t> corner;  ///< `dimension` indices into `points` per position in `order`
   std::vector<item::GvdPoint> points;
-  std::vector<uint32_t> simplices;  ///< 3 per simplex
 
   size_t memory_bytes() const;
 };
 
-/// Flattens `bvh` (built over `geometry`) for the per-item function. O(M).
-ClosestPointData make_closest_point_data(const UnitGeometry& geometry, const SimplexBvh& bvh);
+/// Copies the arrays of `bvh` for the per-item function. O(M).
+ClosestPointData make_closest_point_data(const SimplexBvh& bvh);
 
 /// The CPU twin of the closest-point kernel (paper §4, initialisation of non-empty vertices):
 /// for every i, `hits[i]` = the exact closest point among all simplices to `queries[i]` whose
@@ -50,15 +50,6 @@ void closest_points_cpu_coherent(const ClosestPointData& data, std::span<const V
 /// benchmarks compare the kernel with.
 void closest_points_scalar(const ClosestPointData& data, std::span<const Vec3> queries,
                            std::span<const double> bound2, std::span<ClosestHit> hits);
-
-/// Converts the per-item answer to the core's ClosestHit.
-inline ClosestHit to_closest_hit(const item::GvdHit& h) {
-  ClosestHit r;
-  r.point = {h.x, h.y, h.z};
-  r.dist2 = h.dist2;
-  r.simplex = h.simplex;
-  return r;
-}
 
 /// A batch closest-point solver bound to one scene's geometry (see ComputeBackend). Same
 /// contract as closest_points_cpu. Not thread-safe: one compute_distances at a time.

@@ -1,17 +1,21 @@
-/* The per-item function of the closest-point initialisation (paper §4): the exact closest
- * point to one query among all simplices, by a depth-first walk of the flat simplex BVH.
+/* The flat simplex BVH and its nearest-simplex walk (paper §4: the exact closest point to
+ * one query among all simplices), with the closest-point primitives the walk runs.
  *
  * ONE source for both sides: this file is written in the common subset of OpenCL C 1.2 and
- * C++20. The CPU twin (closest_points.h) includes it, and the build embeds it in front of
- * kernels/cl/closest_points.cl (a shim around get_global_id). The arithmetic is a literal
- * transcription of closest_point_on_segment/_on_triangle (Ericson §5.1.5) and
- * SimplexBvh::nearest_if, in the same operation order, so that the CPU backend, the twin and
- * the kernel agree bit for bit; the kernel turns off FP contraction (fused multiply-add would
- * round differently) and is never built with relaxed math.
+ * C++20. It holds the only definition of the BVH's layout (GvdBvhNode, the leaf order, the
+ * corner lists, GvdPoint) and of the walk (gvd_bvh_nearest: stack, pruning, tie rule).
+ * SimplexBvh stores its arrays in this layout and answers nearest/nearest_if/
+ * nearest_in_object/nearest_excluding by calling the walk; the CPU twin (closest_points.h)
+ * runs gvd_nearest_item on a copy of those arrays; the build embeds this file in front of
+ * kernels/cl/closest_points.cl (a shim around get_global_id), which reads the same arrays
+ * uploaded as they are. So the CPU backend, the twin and the kernel agree bit for bit; the
+ * kernel turns off FP contraction (fused multiply-add would round differently) and is never
+ * built with relaxed math.
  *
  * Structs shared with the device hold no double3/size_t/bool (their size or alignment differs
- * between host and device); the host static_asserts their sizes (closest_points.cpp).
- * Include-guarded, not #pragma once, because OpenCL compilers need not know the pragma. */
+ * between host and device); the host static_asserts their sizes (simplex_bvh.cpp,
+ * closest_points.cpp). Include-guarded, not #pragma once, because OpenCL compilers need not
+ * know the pragma. */
 #ifndef GVD_GEOMETRY_CLOSEST_POINT_ITEM_H
 #define GVD_GEOMETRY_CLOSEST_POINT_ITEM_H
 
@@ -34,14 +38,27 @@ typedef struct GvdPoint {
   double x, y, z;
 } GvdPoint;
 
-/* A BVH node as SimplexBvh stores it: box, then leaf -> (first index into `order`, count),
- * inner -> (index of the right child; the left child follows the node, count 0). */
+/* A BVH node: the one layout SimplexBvh stores and the device reads (56 bytes on both).
+ * The box stays in doubles: float boxes rounded outward would save 24 bytes but no longer tie
+ * exactly with the faces of flat parts, and the searches prune ties (across a uniform gap
+ * every facing simplex ties): 10-30 % slower there. `first`: a leaf's first index into the
+ * leaf ranges (`order`, or a per-object tree's item list); an inner node's right child (the
+ * left child follows the node). `tag` packs the leaf's item count (low GVD_NODE_COUNT_BITS
+ * bits; 0 for an inner node) and the one object of all items below (the upper bits; all ones
+ * when they are mixed or unknown): gvd_node_count, gvd_node_object, gvd_node_tag. */
 typedef struct GvdBvhNode {
   double lo[3];
   double hi[3];
   gvd_uint first;
-  gvd_uint count;
+  gvd_uint tag;
 } GvdBvhNode;
+
+/* Leaves hold at most 7 items; 29 bits are left for the object. */
+#define GVD_NODE_COUNT_BITS 3
+#define GVD_NODE_COUNT_MASK 7u
+/* The object of a node whose items belong to more than one object (or whose objects are not
+ * known). */
+#define GVD_MIXED 0xFFFFFFFFu
 
 /* The answer for one query: closest point, squared distance, simplex (0xFFFFFFFF = none
  * within the bound). */
@@ -79,6 +96,20 @@ GVD_ITEM_FN GvdPoint gvd_cross(GvdPoint a, GvdPoint b) {
 GVD_ITEM_FN double gvd_dist2(GvdPoint a, GvdPoint b) {
   const GvdPoint d = gvd_sub(a, b);
   return gvd_dot(d, d);
+}
+
+/* A node's item count (0: inner node), its one object (GVD_MIXED when mixed) and the tag that
+ * packs both (`count` <= GVD_NODE_COUNT_MASK, `object` < 2^29 or GVD_MIXED). */
+GVD_ITEM_FN gvd_uint gvd_node_count(GVD_GLOBAL const GvdBvhNode* n) {
+  return n->tag & GVD_NODE_COUNT_MASK;
+}
+GVD_ITEM_FN gvd_uint gvd_node_object(GVD_GLOBAL const GvdBvhNode* n) {
+  const gvd_uint o = n->tag >> GVD_NODE_COUNT_BITS;
+  return o == (GVD_MIXED >> GVD_NODE_COUNT_BITS) ? GVD_MIXED : o;
+}
+GVD_ITEM_FN gvd_uint gvd_node_tag(gvd_uint count, gvd_uint object) {
+  return (object == GVD_MIXED ? GVD_MIXED << GVD_NODE_COUNT_BITS : object << GVD_NODE_COUNT_BITS) |
+         count;
 }
 
 /* Closest point to p on the closed segment [a, b]; a degenerate segment gives a. */
@@ -145,13 +176,9 @@ GVD_ITEM_FN double gvd_box_distance2(GvdPoint p, GVD_GLOBAL const GvdBvhNode* n)
   return d2;
 }
 
-/* Squared distance from p to the bounding box of simplex s (0 inside). */
-GVD_ITEM_FN double gvd_simplex_box_distance2(int dimension, GVD_GLOBAL const GvdPoint* points,
-                                             GVD_GLOBAL const gvd_uint* simplices, gvd_uint s,
-                                             GvdPoint p) {
-  const GvdPoint a = points[simplices[3 * s]];
-  const GvdPoint b = points[simplices[3 * s + 1]];
-  const GvdPoint c = dimension == 2 ? a : points[simplices[3 * s + 2]];
+/* Squared distance from p to the bounding box of the simplex with corners a, b, c (a segment
+ * passes c = b). */
+GVD_ITEM_FN double gvd_simplex_box_distance2(GvdPoint a, GvdPoint b, GvdPoint c, GvdPoint p) {
   const double q[3] = {p.x, p.y, p.z};
   const double pa[3] = {a.x, a.y, a.z}, pb[3] = {b.x, b.y, b.z}, pc[3] = {c.x, c.y, c.z};
   double d2 = 0;
@@ -166,16 +193,6 @@ GVD_ITEM_FN double gvd_simplex_box_distance2(int dimension, GVD_GLOBAL const Gvd
     d2 += d * d;
   }
   return d2;
-}
-
-/* Closest point on simplex s: a segment (v[0], v[1]) in 2D, a triangle in 3D. */
-GVD_ITEM_FN GvdPoint gvd_closest_on_simplex(int dimension, GVD_GLOBAL const GvdPoint* points,
-                                            GVD_GLOBAL const gvd_uint* simplices, gvd_uint s,
-                                            GvdPoint p) {
-  const GvdPoint a = points[simplices[3 * s]];
-  const GvdPoint b = points[simplices[3 * s + 1]];
-  if (dimension == 2) return gvd_closest_on_segment(p, a, b);
-  return gvd_closest_on_triangle(p, a, b, points[simplices[3 * s + 2]]);
 }
 
 /* Near ties: squared distances within a relative GVD_TIE of each other count as equal, and
@@ -220,18 +237,54 @@ GVD_ITEM_FN double gvd_search_limit(double best_dist2, gvd_uint best_simplex) {
   return best_simplex == GVD_NO_SIMPLEX ? best_dist2 : best_dist2 * (1.0 + GVD_TIE);
 }
 
-/* The exact closest point to p among all simplices whose squared distance is <= max_dist2
- * (near ties go to the lower simplex index, GVD_TIE, except between coincident faces:
- * gvd_better_hit_sided); simplex = GVD_NO_SIMPLEX when there is
- * none. Nearer
- * child first; a subtree is skipped when its box is farther than the best hit so far.
- * O(log M) typical, O(M) worst case; no allocation (a fixed stack). */
-GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
-                                    GVD_GLOBAL const GvdBvhNode* nodes,
-                                    GVD_GLOBAL const gvd_uint* order,
-                                    GVD_GLOBAL const GvdPoint* points,
-                                    GVD_GLOBAL const gvd_uint* simplices, GvdPoint p,
-                                    double max_dist2) {
+/* The filter of a walk: gvd_walk_accepts(filter, k) says whether the simplex at position k
+ * of the leaf order may be the answer, gvd_walk_skips(filter, node) whether a whole subtree
+ * holds no simplex it accepts. The device needs no filter and walks with GvdAcceptAll; the
+ * C++ side passes its own filter type (a template parameter, found by argument-dependent
+ * lookup: SimplexBvh::nearest_if, nearest_excluding), so a filter costs the unfiltered walk
+ * nothing. */
+typedef struct GvdAcceptAll {
+  int unused; /* C needs a member */
+} GvdAcceptAll;
+GVD_ITEM_FN int gvd_walk_accepts(GvdAcceptAll filter, gvd_uint k) {
+  (void)filter;
+  (void)k;
+  return 1;
+}
+GVD_ITEM_FN int gvd_walk_skips(GvdAcceptAll filter, GVD_GLOBAL const GvdBvhNode* node) {
+  (void)filter;
+  (void)node;
+  return 0;
+}
+
+#ifdef __OPENCL_VERSION__
+/* OpenCL C has no templates: the device's one filter. */
+typedef GvdAcceptAll GvdWalkFilter;
+#define GVD_WALK_FN GVD_ITEM_FN
+#else
+#define GVD_WALK_FN              \
+  template <class GvdWalkFilter> \
+  inline
+#endif
+
+/* The nearest-simplex walk of the flat simplex BVH (paper §4), the one definition behind
+ * SimplexBvh::nearest* and the closest-point kernel. Takes the tree `nodes[0 .. node_count)`
+ * walked from `root`; its leaf ranges index `items` (positions in the leaf order), or are
+ * those positions themselves when `items` is null; the simplex at position k has the
+ * `dimension` corners points[corner[dimension * k + j]] (2D: a segment, 3D: a triangle) and
+ * the index order[k]. Gives the exact closest point to p among the simplices `filter` accepts
+ * whose squared distance is <= max_dist2; simplex = GVD_NO_SIMPLEX when there is none. Near
+ * ties go to the lower simplex index (GVD_TIE), except between coincident faces
+ * (gvd_better_hit_sided). Nearer child first; a subtree is skipped when its box is farther
+ * than the best hit so far (gvd_search_limit). O(log M) typical, O(M) worst case; no
+ * allocation (a fixed stack of GVD_BVH_STACK entries). */
+GVD_WALK_FN GvdHit gvd_bvh_nearest(int dimension, gvd_uint node_count,
+                                   GVD_GLOBAL const GvdBvhNode* nodes, gvd_uint root,
+                                   GVD_GLOBAL const gvd_uint* items,
+                                   GVD_GLOBAL const gvd_uint* order,
+                                   GVD_GLOBAL const gvd_uint* corner,
+                                   GVD_GLOBAL const GvdPoint* points, GvdPoint p, double max_dist2,
+                                   GvdWalkFilter filter) {
   GvdHit best;
   best.x = 0;
   best.y = 0;
@@ -239,12 +292,16 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
   best.dist2 = max_dist2;
   best.simplex = GVD_NO_SIMPLEX;
   best.pad = 0;
-  int best_behind = 0;
-  if (node_count == 0 || gvd_box_distance2(p, nodes) > best.dist2) return best;
+  int best_behind = 0; /* whether p is behind best's simplex (gvd_better_hit_sided) */
+  if (node_count == 0 || gvd_walk_skips(filter, nodes + root) ||
+      gvd_box_distance2(p, nodes + root) > best.dist2) {
+    return best;
+  }
+  /* Each entry carries its box distance, computed once when the parent was visited. */
   gvd_uint stack_node[GVD_BVH_STACK];
   double stack_dist2[GVD_BVH_STACK];
   int top = 0;
-  stack_node[top] = 0;
+  stack_node[top] = root;
   stack_dist2[top] = 0.0;
   ++top;
   while (top > 0) {
@@ -252,20 +309,26 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
     const gvd_uint node = stack_node[top];
     if (stack_dist2[top] > gvd_search_limit(best.dist2, best.simplex)) continue;
     GVD_GLOBAL const GvdBvhNode* n = nodes + node;
-    if (n->count > 0) {
-      for (gvd_uint k = n->first; k < n->first + n->count; ++k) {
-        const gvd_uint s = order[k];
+    const gvd_uint count = gvd_node_count(n);
+    if (count > 0) {
+      for (gvd_uint i = n->first; i < n->first + count; ++i) {
+        const gvd_uint k = items != 0 ? items[i] : i;
+        if (!gvd_walk_accepts(filter, k)) continue;
+        GVD_GLOBAL const gvd_uint* v = corner + (gvd_uint)dimension * k;
+        const GvdPoint a = points[v[0]];
+        const GvdPoint b = points[v[1]];
+        const GvdPoint c = points[v[dimension - 1]];
         /* The simplex's own box first: farther than the search limit (with a margin far
          * above rounding), it cannot be accepted, and the exact test is skipped. */
-        if (gvd_simplex_box_distance2(dimension, points, simplices, s, p) >
+        if (gvd_simplex_box_distance2(a, b, c, p) >
             gvd_search_limit(best.dist2, best.simplex) * (1.0 + 1e-9)) {
           continue;
         }
-        const GvdPoint q = gvd_closest_on_simplex(dimension, points, simplices, s, p);
+        const gvd_uint s = order[k];
+        const GvdPoint q =
+            dimension == 2 ? gvd_closest_on_segment(p, a, b) : gvd_closest_on_triangle(p, a, b, c);
         const double d2 = gvd_dist2(p, q);
-        const int behind =
-            gvd_behind(dimension, points[simplices[3 * s]], points[simplices[3 * s + 1]],
-                       points[simplices[3 * s + (dimension == 2 ? 1 : 2)]], p);
+        const int behind = gvd_behind(dimension, a, b, c, p);
         if (gvd_better_hit_sided(d2, s, behind, q, best.dist2, best.simplex, best_behind,
                                  gvd_pt(best.x, best.y, best.z))) {
           best.x = q.x;
@@ -279,8 +342,9 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
       continue;
     }
     const gvd_uint l = node + 1, r = n->first;
-    const double dl = gvd_box_distance2(p, nodes + l);
-    const double dr = gvd_box_distance2(p, nodes + r);
+    /* A skipped subtree is farther than any limit. */
+    const double dl = gvd_walk_skips(filter, nodes + l) ? 1e308 : gvd_box_distance2(p, nodes + l);
+    const double dr = gvd_walk_skips(filter, nodes + r) ? 1e308 : gvd_box_distance2(p, nodes + r);
     const double limit = gvd_search_limit(best.dist2, best.simplex);
     /* Push the farther child first so the nearer one is searched first. */
     if (dl <= dr) {
@@ -308,6 +372,20 @@ GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
     }
   }
   return best;
+}
+
+/* The closest-point kernel's item: gvd_bvh_nearest over the whole tree (root 0, leaf ranges
+ * are positions in the leaf order), every simplex a candidate. */
+GVD_ITEM_FN GvdHit gvd_nearest_item(int dimension, gvd_uint node_count,
+                                    GVD_GLOBAL const GvdBvhNode* nodes,
+                                    GVD_GLOBAL const gvd_uint* order,
+                                    GVD_GLOBAL const gvd_uint* corner,
+                                    GVD_GLOBAL const GvdPoint* points, GvdPoint p,
+                                    double max_dist2) {
+  GvdAcceptAll all;
+  all.unused = 0;
+  return gvd_bvh_nearest(dimension, node_count, nodes, 0, 0, order, corner, points, p, max_dist2,
+                         all);
 }
 
 #ifndef __OPENCL_VERSION__

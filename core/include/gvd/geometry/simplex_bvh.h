@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cstdint>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 #include "gvd/geometry/closest_point_item.h"
@@ -20,6 +21,15 @@ struct ClosestHit {
   uint32_t simplex = 0xFFFFFFFFu;
   bool found() const { return simplex != 0xFFFFFFFFu; }
 };
+
+/// Converts the per-item answer (closest_point_item.h) to a ClosestHit.
+inline ClosestHit to_closest_hit(const item::GvdHit& h) {
+  ClosestHit r;
+  r.point = {h.x, h.y, h.z};
+  r.dist2 = h.dist2;
+  r.simplex = h.simplex;
+  return r;
+}
 
 /// Closest point on simplex `s` (segment in 2D, triangle in 3D) to `p`.
 Vec3 closest_point_on_simplex(int dimension, std::span<const Vec3> points, const Simplex& s,
@@ -106,31 +116,28 @@ class SimplexBvh {
 
   size_t memory_bytes() const;
 
-  static constexpr uint32_t kMixed = 0xFFFFFFFFu;
-  /// 56 bytes: the box, the first index, and `tag`, which packs the leaf's simplex count (low
-  /// 3 bits; 0 for an inner node) and the one object of all simplices below (the upper 29
-  /// bits; all ones when mixed). The box stays in doubles: float boxes rounded outward would
-  /// save 24 bytes but no longer tie exactly with the faces of flat parts, and the searches
-  /// prune ties (across a uniform gap every facing simplex ties): 10-30 % slower there.
-  struct Node {
-    Box bounds;
-    uint32_t first = 0;  // leaf: first index into order_; inner: right child (left = this+1)
-    uint32_t tag = ~0u << 3;
-
-    const Box& box() const { return bounds; }
-    uint32_t count() const { return tag & 7u; }
-    uint32_t object() const { return tag >> 3 == kMixed >> 3 ? kMixed : tag >> 3; }
-    void set_box(const Box& b) { bounds = b; }
-    void set_count(uint32_t n) { tag = (tag & ~7u) | n; }
-    void set_object(uint32_t o) { tag = (o == kMixed ? ~0u << 3 : o << 3) | count(); }
-  };
+  static constexpr uint32_t kMixed = GVD_MIXED;
+  /// The node layout the walk and the OpenCL kernel read (closest_point_item.h: box, first
+  /// index, `tag` packing the leaf's simplex count and the one object below).
+  using Node = item::GvdBvhNode;
+  /// A node's box, its simplex count (0: inner node) and the one object of its simplices
+  /// (kMixed when they are several or the objects were not given).
+  static Box node_box(const Node& n) {
+    return {{n.lo[0], n.lo[1], n.lo[2]}, {n.hi[0], n.hi[1], n.hi[2]}};
+  }
+  static uint32_t node_count(const Node& n) { return item::gvd_node_count(&n); }
+  static uint32_t node_object(const Node& n) { return item::gvd_node_object(&n); }
   /// Objects and simplices a BVH can index (the node's packed fields).
   static constexpr uint32_t kMaxObjects = (1u << 29) - 1;
   static constexpr uint32_t kMaxSimplices = 1u << 28;
-  /// The flat arrays (depth-first nodes; leaf ranges index `order`), for the data-parallel
-  /// closest-point twin and the OpenCL kernel (closest_point_item.h walks them the same way).
+  /// The flat arrays item::gvd_bvh_nearest walks, for the data-parallel closest-point twin
+  /// and the OpenCL kernel (uploaded as they are): depth-first nodes whose leaf ranges index
+  /// `order` (position k -> simplex index), `dimension` corner indices per position into
+  /// `points`.
   std::span<const Node> nodes() const { return nodes_; }
   std::span<const uint32_t> order() const { return order_; }
+  std::span<const uint32_t> corner() const { return corner_; }
+  std::span<const item::GvdPoint> points() const { return points_; }
   int dimension() const { return dimension_; }
 
  private:
@@ -142,11 +149,11 @@ class SimplexBvh {
   /// leaf's simplices and their shared vertices lie together in memory (36 B per triangle
   /// instead of 72 for a copy of every corner).
   std::vector<uint32_t> corner_;
-  std::vector<Vec3> points_;
+  std::vector<item::GvdPoint> points_;
   /// The corners of the simplex at position k of `order_`.
   void load_corners(uint32_t k, Vec3* c) const {
     const uint32_t* v = &corner_[static_cast<size_t>(k) * arity_];
-    for (int j = 0; j < arity_; ++j) c[j] = points_[v[j]];
+    for (int j = 0; j < arity_; ++j) c[j] = {points_[v[j]].x, points_[v[j]].y, points_[v[j]].z};
   }
   std::vector<uint32_t> object_in_order_;  ///< per simplex in `order_` sequence (if given)
   /// Per-object trees (with object_of): nodes of all of them, each object's root, and their
@@ -157,110 +164,40 @@ class SimplexBvh {
   static constexpr uint32_t kNoRoot = 0xFFFFFFFFu;
   int arity_ = 3;
 
-  /// The nearest-simplex search: `accept_item(k)` filters simplices by their position k in
-  /// `order_`, `skip_node(i)` prunes whole subtrees.
-  template <class AcceptItem, class SkipNode>
-  ClosestHit nearest_impl(Vec3 p, AcceptItem&& accept_item, SkipNode&& skip_node,
-                          double max_dist2) const {
-    return nearest_in_tree(p, nodes_, 0, nullptr, accept_item, skip_node, max_dist2);
+  /// item::gvd_bvh_nearest over the shared tree with `filter` (its gvd_walk_accepts and
+  /// gvd_walk_skips: see the filters in simplex_bvh.cpp and nearest_if).
+  template <class Filter>
+  ClosestHit nearest_filtered(Vec3 p, Filter filter, double max_dist2) const {
+    return to_closest_hit(item::gvd_bvh_nearest(
+        dimension_, static_cast<uint32_t>(nodes_.size()), nodes_.data(), 0, nullptr, order_.data(),
+        corner_.data(), points_.data(), item::gvd_pt(p.x, p.y, p.z), max_dist2, filter));
   }
-  /// The search in one tree (`nodes`, from `root`); leaf ranges index `items` (positions k in
-  /// `order_`), or are those positions themselves when `items` is null.
-  template <class AcceptItem, class SkipNode>
-  ClosestHit nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, uint32_t root,
-                             const uint32_t* items, AcceptItem&& accept_item, SkipNode&& skip_node,
-                             double max_dist2) const;
 
   /// closest_to_simplex's search in one tree (`nodes` from `root`; leaf ranges index `items`,
   /// positions in `order_`, or are those positions themselves when `items` is null).
   ClosestHit closest_to_simplex_in_tree(const Vec3* q, const std::vector<Node>& nodes,
                                         uint32_t root, const uint32_t* items, uint32_t skip_object,
                                         double max_dist2) const;
-
-  /// Squared distance from p to the bounding box of the simplex with corners a, b, c (a
-  /// segment passes c = b).
-  static double simplex_box_distance2(const Vec3& a, const Vec3& b, const Vec3& c, Vec3 p) {
-    double d2 = 0;
-    for (int i = 0; i < 3; ++i) {
-      const double lo = std::min({a[i], b[i], c[i]}), hi = std::max({a[i], b[i], c[i]});
-      const double d = p[i] < lo ? lo - p[i] : (p[i] > hi ? p[i] - hi : 0.0);
-      d2 += d * d;
-    }
-    return d2;
-  }
 };
+
+namespace bvh_detail {
+/// nearest_if's filter: the simplex at position k is a candidate when `accept(order[k])`;
+/// no subtree is skipped. Found by item::gvd_bvh_nearest through argument-dependent lookup.
+template <class Accept>
+struct AcceptSimplex {
+  const uint32_t* order;
+  Accept* accept;
+  friend int gvd_walk_accepts(const AcceptSimplex& f, uint32_t k) {
+    return (*f.accept)(f.order[k]) ? 1 : 0;
+  }
+  friend int gvd_walk_skips(const AcceptSimplex&, const item::GvdBvhNode*) { return 0; }
+};
+}  // namespace bvh_detail
 
 template <class Accept>
 ClosestHit SimplexBvh::nearest_if(Vec3 p, Accept&& accept, double max_dist2) const {
-  return nearest_impl(
-      p, [&](uint32_t k) { return accept(order_[k]); }, [](uint32_t) { return false; }, max_dist2);
-}
-
-template <class AcceptItem, class SkipNode>
-ClosestHit SimplexBvh::nearest_in_tree(Vec3 p, const std::vector<Node>& nodes, uint32_t root,
-                                       const uint32_t* items, AcceptItem&& accept_item,
-                                       SkipNode&& skip_node, double max_dist2) const {
-  ClosestHit best;
-  best.dist2 = max_dist2;
-  int best_behind = 0;  // whether p is behind best's simplex (item::gvd_better_hit_sided)
-  if (nodes.empty() || skip_node(root) || box_distance2(p, nodes[root].box()) > best.dist2)
-    return best;
-  // Each stack entry carries its box distance, computed once when the parent was visited.
-  struct Entry {
-    uint32_t node;
-    double dist2;
-  };
-  Entry stack[128];
-  int top = 0;
-  stack[top++] = {root, 0.0};
-  while (top > 0) {
-    const Entry entry = stack[--top];
-    if (entry.dist2 > item::gvd_search_limit(best.dist2, best.simplex)) continue;
-    const Node& n = nodes[entry.node];
-    if (n.count() > 0) {
-      for (uint32_t i = n.first; i < n.first + n.count(); ++i) {
-        const uint32_t k = items != nullptr ? items[i] : i;
-        if (!accept_item(k)) continue;
-        // The simplex's own box first: farther than the limit (with a margin far above
-        // rounding), it cannot be accepted, and the exact test is skipped.
-        const uint32_t* v = &corner_[static_cast<size_t>(k) * arity_];
-        const Vec3& a = points_[v[0]];
-        const Vec3& b = points_[v[1]];
-        const Vec3& c = points_[v[arity_ - 1]];
-        if (simplex_box_distance2(a, b, c, p) >
-            item::gvd_search_limit(best.dist2, best.simplex) * (1 + 1e-9)) {
-          continue;
-        }
-        const uint32_t s = order_[k];
-        const Vec3 q =
-            arity_ == 2 ? closest_point_on_segment(p, a, b) : closest_point_on_triangle(p, a, b, c);
-        const double d2 = dist2(p, q);
-        const int behind =
-            item::gvd_behind(dimension_, item::gvd_pt(a.x, a.y, a.z), item::gvd_pt(b.x, b.y, b.z),
-                             item::gvd_pt(c.x, c.y, c.z), item::gvd_pt(p.x, p.y, p.z));
-        if (item::gvd_better_hit_sided(d2, s, behind, item::gvd_pt(q.x, q.y, q.z), best.dist2,
-                                       best.simplex, best_behind,
-                                       item::gvd_pt(best.point.x, best.point.y, best.point.z))) {
-          best = {q, d2, s};
-          best_behind = behind;
-        }
-      }
-      continue;
-    }
-    const uint32_t l = entry.node + 1, r = n.first;
-    const double dl = skip_node(l) ? 1e308 : box_distance2(p, nodes[l].box());
-    const double dr = skip_node(r) ? 1e308 : box_distance2(p, nodes[r].box());
-    const double limit = item::gvd_search_limit(best.dist2, best.simplex);
-    // Push the farther child first so the nearer one is searched first.
-    if (dl <= dr) {
-      if (dr <= limit) stack[top++] = {r, dr};
-      if (dl <= limit) stack[top++] = {l, dl};
-    } else {
-      if (dl <= limit) stack[top++] = {l, dl};
-      if (dr <= limit) stack[top++] = {r, dr};
-    }
-  }
-  return best;
+  using A = std::remove_reference_t<Accept>;
+  return nearest_filtered(p, bvh_detail::AcceptSimplex<A>{order_.data(), &accept}, max_dist2);
 }
 
 template <class Visit>
@@ -271,13 +208,13 @@ void SimplexBvh::for_each_overlapping(const Box& box, Visit&& visit, uint32_t sk
   stack[top++] = 0;
   while (top > 0) {
     const Node& n = nodes_[stack[--top]];
-    if (skip_object != kMixed && n.object() == skip_object) continue;
+    if (skip_object != kMixed && node_object(n) == skip_object) continue;
     bool overlap = true;
     for (int i = 0; i < 3; ++i)
-      if (n.bounds.lo[i] > box.hi[i] || n.bounds.hi[i] < box.lo[i]) overlap = false;
+      if (n.lo[i] > box.hi[i] || n.hi[i] < box.lo[i]) overlap = false;
     if (!overlap) continue;
-    if (n.count() > 0) {
-      for (uint32_t k = n.first; k < n.first + n.count(); ++k) visit(order_[k]);
+    if (node_count(n) > 0) {
+      for (uint32_t k = n.first; k < n.first + node_count(n); ++k) visit(order_[k]);
       continue;
     }
     const uint32_t self = static_cast<uint32_t>(&n - nodes_.data());
@@ -294,13 +231,13 @@ bool SimplexBvh::visit_overlapping(const Box& box, Visit&& visit, uint32_t skip_
   stack[top++] = 0;
   while (top > 0) {
     const Node& n = nodes_[stack[--top]];
-    if (skip_object != kMixed && n.object() == skip_object) continue;
+    if (skip_object != kMixed && node_object(n) == skip_object) continue;
     bool overlap = true;
     for (int i = 0; i < 3; ++i)
-      if (n.bounds.lo[i] > box.hi[i] || n.bounds.hi[i] < box.lo[i]) overlap = false;
+      if (n.lo[i] > box.hi[i] || n.hi[i] < box.lo[i]) overlap = false;
     if (!overlap) continue;
-    if (n.count() > 0) {
-      for (uint32_t k = n.first; k < n.first + n.count(); ++k)
+    if (node_count(n) > 0) {
+      for (uint32_t k = n.first; k < n.first + node_count(n); ++k)
         if (!visit(order_[k])) return false;
       continue;
     }
@@ -323,10 +260,10 @@ void SimplexBvh::for_each_overlapping_in_object(uint32_t object, const Box& box,
     const Node& n = object_nodes_[self];
     bool overlap = true;
     for (int i = 0; i < 3; ++i)
-      if (n.bounds.lo[i] > box.hi[i] || n.bounds.hi[i] < box.lo[i]) overlap = false;
+      if (n.lo[i] > box.hi[i] || n.hi[i] < box.lo[i]) overlap = false;
     if (!overlap) continue;
-    if (n.count() > 0) {
-      for (uint32_t i = n.first; i < n.first + n.count(); ++i) visit(order_[object_items_[i]]);
+    if (node_count(n) > 0) {
+      for (uint32_t i = n.first; i < n.first + node_count(n); ++i) visit(order_[object_items_[i]]);
       continue;
     }
     stack[top++] = n.first;

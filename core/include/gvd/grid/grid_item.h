@@ -228,8 +228,9 @@ GVD_ITEM_FN double gvd_grid_object_key(
     GVD_GLOBAL const GvdBvhNode* n = nodes + node;
     const double limit = best < bound ? best : bound;
     if (gvd_box_key(p, n, metric) > limit) continue;
-    if (n->count > 0) {
-      for (gvd_uint k = n->first; k < n->first + n->count; ++k) {
+    const gvd_uint count = gvd_node_count(n);
+    if (count > 0) {
+      for (gvd_uint k = n->first; k < n->first + count; ++k) {
         /* The simplex's own box first (a lower bound, like the node's). */
         const gvd_uint s = order[k];
         const GvdPoint a = points[simplices[3 * s]], b = points[simplices[3 * s + 1]],
