@@ -215,10 +215,10 @@ namespace {
 /// A boundary face of a label (3D: a voxel face, 2D: a pixel edge) on the lattice plane
 /// `plane` square to axis `axis`, its lower corner at (u, w) on the plane's own axes u =
 /// axis + 1, w = axis + 2 (mod 3), so that e_u x e_w = e_axis (2D: u is the other axis, w = 0).
-/// `outward` says whether the label lies below the plane (the face looks up the axis).
+/// `up`: the label lies below the plane, so the (outward) face looks up the axis.
 struct BoundaryFace {
   uint64_t label;
-  uint32_t axis_side;  // 2 * axis + outward
+  uint32_t axis_side;  // 2 * axis + up
   uint32_t plane;
   uint32_t w, u;
   auto key() const { return std::tie(label, axis_side, plane, w, u); }
@@ -367,12 +367,12 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
     };
     for (const FaceRect& r : rects) {
       const int a = static_cast<int>(r.axis_side / 2);
-      const bool outward = (r.axis_side & 1) != 0;
+      const bool up = (r.axis_side & 1) != 0;  // the face looks up axis a
       if (dim == 2) {
         // A run of pixel edges along the other axis, split where another run ends on it.
         // Counter-clockwise around the region: +x goes up, -x down, +y left, -y right.
         const int u = 1 - a;
-        const bool forward = (a == 0) == outward;
+        const bool forward = (a == 0) == up;
         std::vector<uint32_t> cuts = inner(lattice(a, r.plane, r.u0, 0), u, r.u1);
         cuts.insert(cuts.begin(), r.u0);
         cuts.push_back(r.u1);
@@ -398,7 +398,7 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
       // Triangles counter-clockwise in (u, w), i.e. facing +e_a; reversed for the faces
       // that look down the axis (outward either way, as the voxel faces are).
       auto triangle = [&](uint32_t x, uint32_t y, uint32_t z) {
-        b.object.simplices.push_back(outward ? Simplex{{x, y, z}} : Simplex{{x, z, y}});
+        b.object.simplices.push_back(up ? Simplex{{x, y, z}} : Simplex{{x, z, y}});
       };
       auto at = [&](uint32_t pu, uint32_t pw) { return vertex(b, lattice(a, r.plane, pu, pw)); };
       // A strip between two opposite sides when the other two have no extra point: every
