@@ -378,8 +378,8 @@ Scene load_compute_scene(const Args& args, const std::vector<std::string>& files
     apply_units(args, scene);
     return scene;
   }
-  if (args.has("--spacing") || args.has("--background"))
-    throw UsageError{"--spacing and --background go with --volume LABELS.npy"};
+  if (args.has("--spacing") || args.has("--background") || args.has("--volume-faces"))
+    throw UsageError{"--spacing, --background and --volume-faces go with --volume LABELS.npy"};
   Scene scene = load_scene(files, limits);
   apply_units(args, scene);
   return scene;

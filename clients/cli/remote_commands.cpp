@@ -446,6 +446,10 @@ int remote_compute(const std::string& url, int argc, char** argv) {
   boolean.insert(boolean.end(), grid_mode_boolean_flags().begin(), grid_mode_boolean_flags().end());
   const Args args = parse_remote(argc, argv, value_flags, boolean);
   std::vector<std::string> files = args.positional;
+  if (args.has("--volume-faces")) {
+    throw UsageError{
+        "--volume-faces is not a job parameter: the server's volumes take merged faces"};
+  }
   if (const auto volume = args.value("--volume")) {
     if (!files.empty()) throw UsageError{"--volume takes the place of the scene files"};
     files = {*volume};

@@ -22,6 +22,7 @@ constexpr std::string_view kRefines[] = {"certified", "paper"};
 constexpr std::string_view kResolutions[] = {"compact", "full"};
 constexpr std::string_view kModes[] = {"adaptive", "grid"};
 constexpr std::string_view kMetrics[] = {"l2", "l1", "linf"};
+constexpr std::string_view kVolumeFaces[] = {"merged", "voxel"};
 
 constexpr unsigned kAll = kCliFlag | kJobParam | kPythonKeyword;
 constexpr unsigned kLocal = kCliFlag | kPythonKeyword;  // the server sets these itself
@@ -230,6 +231,17 @@ const ParamSpec kParams[] = {
      .value = 0,
      .metavar = "N|none",
      .help = "--volume: the label that is no object (default 0; none: every label is one)",
+     .of_volume = true},
+    // A local flag only: the server's volumes take the default, as the merged surface is the
+    // same surface in fewer triangles.
+    {.name = "volume_faces",
+     .kind = ParamKind::kChoice,
+     .mode = ParamMode::kAny,
+     .surfaces = kCliFlag,
+     .choices = kVolumeFaces,
+     .help = "--volume: a label's boundary as merged faces (default: coplanar voxel faces as "
+             "rectangles, collinear pixel edges as segments) or voxel (two triangles per "
+             "voxel face, one segment per pixel edge); the same surface",
      .of_volume = true},
     {.name = "mode",
      .kind = ParamKind::kChoice,
@@ -512,6 +524,9 @@ Slot slot_of(PipelineParams& p, const ParamSpec& spec) {
     s.numbers = &p.spacing;
   else if (n == "background")
     s.label = &p.background;
+  else if (n == "volume_faces")
+    s = choice_slot(p.volume_faces,
+                    [](PipelineParams& q, int c) { q.volume_faces = VolumeFaces(c); });
   GVD_CHECK(s.i || s.count || s.number || s.flag || s.numbers || s.label || s.text || s.set_choice,
             "every parameter of the table has a field in PipelineParams");
   return s;
@@ -861,6 +876,7 @@ LabelVolumeOptions label_volume_options(const PipelineParams& params, int dimens
   }
   for (size_t a = 0; a < params.spacing.size(); ++a) o.spacing[a] = params.spacing[a];
   o.background = params.background;
+  o.faces = params.volume_faces;
   return o;
 }
 

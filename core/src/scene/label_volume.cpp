@@ -7,6 +7,7 @@
 #include <map>
 #include <set>
 #include <string_view>
+#include <tuple>
 #include <unordered_map>
 
 #include "gvd/common/cancel.h"
@@ -209,6 +210,68 @@ LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::str
   return v;
 }
 
+namespace {
+
+/// A boundary face of a label (3D: a voxel face, 2D: a pixel edge) on the lattice plane
+/// `plane` square to axis `axis`, its lower corner at (u, w) on the plane's own axes u =
+/// axis + 1, w = axis + 2 (mod 3), so that e_u x e_w = e_axis (2D: u is the other axis, w = 0).
+/// `up`: the label lies below the plane, so the (outward) face looks up the axis.
+struct BoundaryFace {
+  uint64_t label;
+  uint32_t axis_side;  // 2 * axis + up
+  uint32_t plane;
+  uint32_t w, u;
+  auto key() const { return std::tie(label, axis_side, plane, w, u); }
+};
+
+/// A maximal run-stacked rectangle [u0, u1] x [w0, w1] of one label's faces on one plane and
+/// side (lattice coordinates of its corners; 2D: a run [u0, u1], w0 = 0, w1 = 1).
+struct FaceRect {
+  uint32_t axis_side, plane;
+  uint32_t u0, u1, w0, w1;
+};
+
+/// The rectangles covering one label's faces of one plane and side, `faces` sorted by (w, u):
+/// each row's maximal runs, a run stacked onto the rectangle below it when that one ends on
+/// the row beneath with the same extent. Not the fewest rectangles (that is a harder problem)
+/// but O(faces), and a box's side is one rectangle.
+void stack_runs(std::span<const BoundaryFace> faces, std::vector<FaceRect>& out) {
+  std::vector<FaceRect> open, next;  // rectangles that reach the previous row, by u0
+  size_t at = 0;
+  while (at < faces.size()) {
+    const uint32_t w = faces[at].w;
+    next.clear();
+    size_t o = 0;
+    while (at < faces.size() && faces[at].w == w) {
+      const uint32_t u0 = faces[at].u;
+      uint32_t u1 = u0 + 1;
+      ++at;
+      while (at < faces.size() && faces[at].w == w && faces[at].u == u1) {
+        ++u1;
+        ++at;
+      }
+      while (o < open.size() && open[o].u0 < u0) out.push_back(open[o++]);
+      if (o < open.size() && open[o].u0 == u0 && open[o].u1 == u1 && open[o].w1 == w) {
+        FaceRect r = open[o++];
+        r.w1 = w + 1;
+        next.push_back(r);
+      } else {
+        next.push_back({faces[at - 1].axis_side, faces[at - 1].plane, u0, u1, w, w + 1});
+      }
+    }
+    while (o < open.size()) out.push_back(open[o++]);
+    std::swap(open, next);
+  }
+  out.insert(out.end(), open.begin(), open.end());
+}
+
+/// A lattice point as (axis of a line through it, its coordinates on the two other axes
+/// (b + 1, b + 2 mod 3), its coordinate on b): sorted, the points on each axis-parallel line
+/// in order, so that those inside a rectangle's side are one binary search away.
+using LinePoint = std::array<uint32_t, 4>;
+
+}  // namespace
+
 Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOptions& options,
                               const SceneLimits& limits) {
   const int dim = volume.dimension;
@@ -251,6 +314,154 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
     }
     return it->second;
   };
+  // The lattice point on plane `plane` square to axis a at (u, w) of the plane's axes.
+  auto lattice = [&](int a, uint32_t plane, uint32_t u, uint32_t w) {
+    std::array<uint32_t, 3> p{0, 0, 0};
+    p[a] = plane;
+    if (dim == 3) {
+      p[(a + 1) % 3] = u;
+      p[(a + 2) % 3] = w;
+    } else {
+      p[1 - a] = u;
+    }
+    return p;
+  };
+  auto vertex = [&](Builder& b, const std::array<uint32_t, 3>& p) {
+    return corner(b, p[0], p[1], p[2]);
+  };
+  // One label's rectangles as simplices on the shared lattice points. A side of a rectangle
+  // takes as vertices the corners of the label's other rectangles that lie on it (in its
+  // plane or square to it): without them a side would meet several edges of its neighbours
+  // (a T-junction) and the surface would no longer be closed edge to edge. No other rectangle
+  // corner lies inside a rectangle: there the label fills one side of the plane and not the
+  // other, so no other face of the label can reach it.
+  auto emit_merged = [&](Builder& b, std::span<const FaceRect> rects,
+                         std::vector<LinePoint>& points) {
+    points.clear();
+    for (const FaceRect& r : rects) {
+      const int a = static_cast<int>(r.axis_side / 2);
+      const uint32_t ws[2] = {r.w0, r.w1};
+      for (const uint32_t u : {r.u0, r.u1}) {
+        for (int t = 0; t < (dim == 3 ? 2 : 1); ++t) {
+          const std::array<uint32_t, 3> p = lattice(a, r.plane, u, ws[t]);
+          for (int line = 0; line < dim; ++line)
+            points.push_back(
+                {static_cast<uint32_t>(line), p[(line + 1) % 3], p[(line + 2) % 3], p[line]});
+        }
+      }
+    }
+    std::sort(points.begin(), points.end());
+    points.erase(std::unique(points.begin(), points.end()), points.end());
+    // The corners strictly inside the side from p (along axis `line`) to coordinate `hi`.
+    std::vector<uint32_t> inside;
+    auto inner = [&](const std::array<uint32_t, 3>& p, int line, uint32_t hi) {
+      inside.clear();
+      const LinePoint lo{static_cast<uint32_t>(line), p[(line + 1) % 3], p[(line + 2) % 3],
+                         p[line] + 1};
+      for (auto it = std::lower_bound(points.begin(), points.end(), lo);
+           it != points.end() && (*it)[0] == lo[0] && (*it)[1] == lo[1] && (*it)[2] == lo[2] &&
+           (*it)[3] < hi;
+           ++it)
+        inside.push_back((*it)[3]);
+      return inside;
+    };
+    for (const FaceRect& r : rects) {
+      const int a = static_cast<int>(r.axis_side / 2);
+      const bool up = (r.axis_side & 1) != 0;  // the face looks up axis a
+      if (dim == 2) {
+        // A run of pixel edges along the other axis, split where another run ends on it.
+        // Counter-clockwise around the region: +x goes up, -x down, +y left, -y right.
+        const int u = 1 - a;
+        const bool forward = (a == 0) == up;
+        std::vector<uint32_t> cuts = inner(lattice(a, r.plane, r.u0, 0), u, r.u1);
+        cuts.insert(cuts.begin(), r.u0);
+        cuts.push_back(r.u1);
+        for (size_t t = 0; t + 1 < cuts.size(); ++t) {
+          const uint32_t s = vertex(b, lattice(a, r.plane, cuts[t], 0));
+          const uint32_t e = vertex(b, lattice(a, r.plane, cuts[t + 1], 0));
+          b.object.simplices.push_back(forward ? Simplex{{s, e, 0}} : Simplex{{e, s, 0}});
+        }
+        continue;
+      }
+      const int u = (a + 1) % 3, w = (a + 2) % 3;
+      // The sides' points in increasing coordinate, corners included: bottom (w = w0) and top
+      // (w = w1) along u, left (u = u0) and right (u = u1) along w.
+      auto side = [&](uint32_t u_at, uint32_t w_at, int along, uint32_t hi) {
+        std::vector<uint32_t> s = inner(lattice(a, r.plane, u_at, w_at), along, hi);
+        s.insert(s.begin(), along == u ? u_at : w_at);
+        s.push_back(hi);
+        return s;
+      };
+      const std::vector<uint32_t> bottom = side(r.u0, r.w0, u, r.u1),
+                                  top = side(r.u0, r.w1, u, r.u1), left = side(r.u0, r.w0, w, r.w1),
+                                  right = side(r.u1, r.w0, w, r.w1);
+      // Triangles counter-clockwise in (u, w), i.e. facing +e_a; reversed for the faces
+      // that look down the axis (outward either way, as the voxel faces are).
+      auto triangle = [&](uint32_t x, uint32_t y, uint32_t z) {
+        b.object.simplices.push_back(up ? Simplex{{x, y, z}} : Simplex{{x, z, y}});
+      };
+      auto at = [&](uint32_t pu, uint32_t pw) { return vertex(b, lattice(a, r.plane, pu, pw)); };
+      // A strip between two opposite sides when the other two have no extra point: every
+      // triangle has vertices on both sides, so none is degenerate, and there is no added
+      // vertex. Chain `A` runs along the side at its lower end, `B` along the opposite one.
+      auto strip = [&](const std::vector<uint32_t>& pa, const std::vector<uint32_t>& pb,
+                       auto&& point_a, auto&& point_b) {
+        size_t i = 0, j = 0;
+        while (i + 1 < pa.size() || j + 1 < pb.size()) {
+          if (j + 1 == pb.size() || (i + 1 < pa.size() && pa[i + 1] <= pb[j + 1])) {
+            triangle(point_a(pa[i]), point_a(pa[i + 1]), point_b(pb[j]));
+            ++i;
+          } else {
+            triangle(point_a(pa[i]), point_b(pb[j + 1]), point_b(pb[j]));
+            ++j;
+          }
+        }
+      };
+      if (left.size() == 2 && right.size() == 2) {
+        strip(
+            bottom, top, [&](uint32_t x) { return at(x, r.w0); },
+            [&](uint32_t x) { return at(x, r.w1); });
+      } else if (bottom.size() == 2 && top.size() == 2) {
+        // Turned a quarter counter-clockwise: the right side is the lower one.
+        strip(
+            right, left, [&](uint32_t x) { return at(r.u1, x); },
+            [&](uint32_t x) { return at(r.u0, x); });
+      } else {
+        // Extra points on adjacent sides: any triangulation without an inner vertex would
+        // need a diagonal from one of them, so fan from the centre, which is no side's.
+        std::vector<uint32_t> loop;
+        for (const uint32_t x : bottom) loop.push_back(at(x, r.w0));
+        loop.pop_back();
+        for (const uint32_t x : right) loop.push_back(at(r.u1, x));
+        loop.pop_back();
+        for (auto x = top.rbegin(); x != top.rend(); ++x) loop.push_back(at(*x, r.w1));
+        loop.pop_back();
+        for (auto x = left.rbegin(); x != left.rend(); ++x) loop.push_back(at(r.u0, *x));
+        loop.pop_back();
+        std::array<double, 3> c{};
+        for (int t = 0; t < 3; ++t) c[t] = static_cast<double>(lattice(a, r.plane, 0, 0)[t]);
+        c[u] = (static_cast<double>(r.u0) + static_cast<double>(r.u1)) / 2;
+        c[w] = (static_cast<double>(r.w0) + static_cast<double>(r.w1)) / 2;
+        const auto centre = static_cast<uint32_t>(b.object.vertices.size());
+        b.object.vertices.push_back({options.origin[0] + c[0] * options.spacing[0],
+                                     options.origin[1] + c[1] * options.spacing[1],
+                                     options.origin[2] + c[2] * options.spacing[2]});
+        for (size_t t = 0; t < loop.size(); ++t)
+          triangle(centre, loop[t], loop[(t + 1) % loop.size()]);
+      }
+    }
+  };
+  const bool merge = options.faces == VolumeFaces::kMerged;
+  if (merge) {
+    // The faces are kept as 32-bit lattice coordinates until they are merged.
+    for (int a = 0; a < dim; ++a) {
+      if (volume.size[a] >= (uint64_t{1} << 31)) {
+        throw Error(ErrorCode::kInvalidArgument,
+                    "a label volume has at most 2^31 - 1 voxels along an axis");
+      }
+    }
+  }
+  std::vector<BoundaryFace> faces;  // merge: every boundary face, merged below
   const uint64_t rows = ny * nz;
   uint64_t next_report = 0;  // the row at which the next percent is reported
   for (uint64_t k = 0; k < nz; ++k) {
@@ -278,6 +489,14 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
             // outward: corners base, base + u, base + u + w, base + w with e_u x e_w = e_a.
             uint64_t base[3] = {at[0], at[1], at[2]};
             if (side > 0) base[a] += 1;
+            if (merge) {
+              const int u = dim == 3 ? (a + 1) % 3 : 1 - a;
+              const uint64_t w = dim == 3 ? base[(a + 2) % 3] : 0;
+              faces.push_back({label, static_cast<uint32_t>(2 * a + (side > 0)),
+                               static_cast<uint32_t>(base[a]), static_cast<uint32_t>(w),
+                               static_cast<uint32_t>(base[u])});
+              continue;
+            }
             if (dim == 2) {
               const int u = 1 - a;  // the other axis
               uint64_t p[3] = {base[0], base[1], 0}, q[3] = {base[0], base[1], 0};
@@ -307,6 +526,29 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
           }
         }
       }
+    }
+  }
+  if (merge) {
+    std::sort(faces.begin(), faces.end(),
+              [](const BoundaryFace& x, const BoundaryFace& y) { return x.key() < y.key(); });
+    std::vector<FaceRect> rects;
+    std::vector<LinePoint> points;
+    for (size_t first = 0; first < faces.size();) {
+      throw_if_cancelled(options.cancel, "merging the label volume's faces");
+      const uint64_t label = faces[first].label;
+      size_t last = first;
+      while (last < faces.size() && faces[last].label == label) ++last;
+      rects.clear();
+      for (size_t g = first; g < last;) {
+        size_t h = g;
+        while (h < last && faces[h].axis_side == faces[g].axis_side &&
+               faces[h].plane == faces[g].plane)
+          ++h;
+        stack_runs(std::span<const BoundaryFace>(faces).subspan(g, h - g), rects);
+        g = h;
+      }
+      emit_merged(objects.at(label), rects, points);
+      first = last;
     }
   }
   Scene scene;

@@ -214,7 +214,8 @@ struct PipelineParams {
   uint64_t max_cells = 134'217'728;
   std::string units;            ///< canonical name, or empty
   std::vector<double> spacing;  ///< a labelled volume's voxel size x,y[,z]; empty = 1 each
-  std::optional<uint64_t> background = 0;  ///< a labelled volume's non-object label; none
+  std::optional<uint64_t> background = 0;           ///< a labelled volume's non-object label; none
+  VolumeFaces volume_faces = VolumeFaces::kMerged;  ///< a labelled volume's boundary simplices
 
   bool is_grid() const { return mode == ComputeMode::kGrid; }
 
@@ -250,7 +251,7 @@ GridOptions grid_options(const PipelineParams& params);
 ResultGridOptions result_grid_options(const PipelineParams& params);
 /// How a labelled volume of `dimension` becomes a scene (scene_from_label_volume): `spacing`
 /// (one number per axis; gvd::Error{kInvalidArgument} naming it as `spelling` does
-/// otherwise) and `background`.
+/// otherwise), `background` and `volume_faces`.
 LabelVolumeOptions label_volume_options(const PipelineParams& params, int dimension,
                                         ParamSpelling spelling);
 

@@ -53,6 +53,17 @@ LabelVolumeHeader read_label_volume_header(std::span<const uint8_t> bytes, const
 LabelVolume read_label_volume_npy(std::span<const uint8_t> bytes, const std::string& name,
                                   const std::atomic<bool>* cancel = nullptr);
 
+/// How a label's boundary is cut into simplices (LabelVolumeOptions::faces).
+enum class VolumeFaces : int {
+  /// Coplanar faces merged (3D: into rectangles stacked from maximal runs, each split into
+  /// triangles on every corner of the label's other rectangles on its sides; 2D: collinear
+  /// edges into segments between the points where the boundary turns or branches): as many
+  /// simplices as the surface's shape needs, not its voxel count.
+  kMerged,
+  /// Two triangles per voxel face, one segment per pixel edge.
+  kVoxel,
+};
+
 struct LabelVolumeOptions {
   /// Voxel size along x, y (, z) in user units: anisotropic voxels are honoured throughout.
   std::array<double, 3> spacing{1, 1, 1};
@@ -60,6 +71,8 @@ struct LabelVolumeOptions {
   std::array<double, 3> origin{0, 0, 0};
   /// The label that is no object (background); none: every label is an object.
   std::optional<uint64_t> background = 0;
+  /// Merged faces (default) or the voxel faces themselves: the same surface either way.
+  VolumeFaces faces = VolumeFaces::kMerged;
   /// Set to true by another thread to stop with gvd::Error{kCancelled}; read every row of
   /// voxels and while the scene is validated.
   const std::atomic<bool>* cancel = nullptr;
@@ -68,10 +81,15 @@ struct LabelVolumeOptions {
 };
 
 /// One object per label (in increasing order, labelled "label_<id>"): its boundary faces
-/// (3D: two triangles per voxel face; 2D: one segment per pixel edge) between a voxel of the
-/// label and a voxel of another label, the background or the outside of the volume, oriented
-/// outward, on the shared voxel corners (closed; where voxels of a label touch along an edge
-/// only, non-manifold, with the scene's warning). The scene is validated.
+/// between a voxel of the label and a voxel of another label, the background or the outside
+/// of the volume, oriented outward, on the shared voxel corners (closed; where voxels of a
+/// label touch along an edge only, non-manifold, with the scene's warning), as
+/// `options.faces` says: merged (3D: rectangles of coplanar faces, each two triangles, a strip
+/// or a fan around an added centre vertex when other rectangles' corners lie on its sides;
+/// 2D: maximal segments) or per voxel (two triangles per voxel face, one segment per pixel
+/// edge). Either way each stretch of a voxel edge on the surface is run as often, in the same
+/// directions, so closedness and orientation are the voxel faces'. The scene is validated.
+/// O(boundary faces x log) time, O(boundary faces) memory.
 /// gvd::Error{kInvalidScene} when there is no object; {kInvalidArgument} for a spacing that
 /// is not positive and finite.
 Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOptions& options,
