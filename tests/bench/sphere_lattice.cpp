@@ -80,8 +80,8 @@ const Scene& lattice() {
 // Runs `work` (which fills items and seconds, or throws) in a child process and returns what
 // it measured there. Each side starts from the same resident state — the scene built, neither
 // the OpenCL runtime nor OpenVDB's caches touched — so neither carries the other's memory into
-// its peak: in one process, OpenVDB's peak was measured on top of the OpenCL runtime gvd had
-// loaded (~70 MiB), which flattered the ratio.
+// its peak: in one process, OpenVDB's peak was measured on top of what gvd's run had left
+// resident (172 MiB alone against 200-216 MiB after gvd), which flattered the ratio.
 template <class Work>
 Run run_alone(Work&& work) {
   int fd[2];
