@@ -27,8 +27,7 @@ std::unique_ptr<OctreeBuildSteps> ComputeBackend::octree_build_steps(const UnitG
   return nullptr;
 }
 
-std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const UnitGeometry&,
-                                                                  const SimplexBvh& bvh,
+std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const SimplexBvh& bvh,
                                                                   int threads) {
   return std::make_unique<CpuClosestPointSolver>(bvh, threads);
 }

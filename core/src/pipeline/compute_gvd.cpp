@@ -195,7 +195,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     sw = Stopwatch();
     if (!solver) {
       solver = options.compute ? options.compute->closest_points(r.geometry, bvh)
-                               : make_cpu_closest_point_solver(r.geometry, bvh, options.threads);
+                               : make_cpu_closest_point_solver(bvh, options.threads);
     }
     const DistanceOptions dopt = distance_options(options, solver.get(), progress);
     r.field = DistanceField();  // the failed attempt's goes first

@@ -40,8 +40,7 @@ class ComputeBackend {
 
 /// The CPU twin as a solver over a ClosestPointData copy of the scene: closest_points_cpu's
 /// answers, by closest_points_cpu_coherent (the pipeline's batches are in Z order).
-std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const UnitGeometry& geometry,
-                                                                  const SimplexBvh& bvh,
+std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const SimplexBvh& bvh,
                                                                   int threads = 0);
 
 }  // namespace gvd
