@@ -751,8 +751,12 @@ TEST(HeaderGate, ProbesHaveALaneOfTheirOwn) {
     blocked.push_back(connect_loopback(port));
     (void)!send(blocked.back(), block.data(), block.size(), MSG_NOSIGNAL);
   }
+  // Waits for the steady state: all four may be queued before the two threads take theirs,
+  // so "two queued" alone can be seen while a thread is still on its way (busy 1, queued 3
+  // falling to 2).
   const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (http.gate_counts().queued < 2 && std::chrono::steady_clock::now() < end) {
+  while ((http.gate_counts().busy < 2 || http.gate_counts().queued != 2) &&
+         std::chrono::steady_clock::now() < end) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   ASSERT_EQ(http.gate_counts().busy, 2u);

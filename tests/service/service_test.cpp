@@ -1194,6 +1194,23 @@ std::string read_for(int fd, int ms, bool& closed) {
   return out;
 }
 
+/// The kernel's count of connection attempts a listening socket dropped because its accept
+/// queue was full (TcpExt ListenDrops, this network namespace's), or -1 where it cannot be
+/// read. A dropped SYN is retried by the client after a second.
+long long listen_drops() {
+  std::ifstream in("/proc/net/netstat");
+  std::string names, values;
+  while (std::getline(in, names) && std::getline(in, values)) {
+    if (!names.starts_with("TcpExt:")) continue;
+    std::istringstream n(names), v(values);
+    std::string name, value;
+    while (n >> name && v >> value) {
+      if (name == "ListenDrops") return std::stoll(value);
+    }
+  }
+  return -1;
+}
+
 // The review's slowloris (D2): before the header gate, 129 connections sending a header byte a
 // second held all 128 HTTP threads and no other request was answered for as long as they
 // kept going. Here 200 attackers (a quarter of them after a fast first request on the same
@@ -1242,6 +1259,7 @@ TEST(Service, SlowHeadersDoNotStarveOtherClients) {
   });
 
   std::this_thread::sleep_for(std::chrono::seconds(1));  // every attacker is connected
+  const long long drops_before = listen_drops();
   std::vector<double> ms;
   int failed = 0;
   while (attacking) {
@@ -1257,21 +1275,27 @@ TEST(Service, SlowHeadersDoNotStarveOtherClients) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   attacker.join();
+  const long long drops = drops_before < 0 ? -1 : listen_drops() - drops_before;
   ASSERT_GT(ms.size(), 200u);
   std::sort(ms.begin(), ms.end());
   const double p99 = ms[ms.size() * 99 / 100];
   std::printf(
       "probes %zu, failed %d, median %.2f ms, p99 %.2f ms, max %.2f ms; attackers "
-      "reconnected %d times\n",
-      ms.size(), failed, ms[ms.size() / 2], p99, ms.back(), reconnects.load());
+      "reconnected %d times; connection attempts dropped by a full accept queue %lld\n",
+      ms.size(), failed, ms[ms.size() / 2], p99, ms.back(), reconnects.load(), drops);
   // Quiet machine: median ~1.5 ms, p99 6-8 ms in most runs, but 140-220 ms in about one run
   // in six (and with both cores busy compiling), not yet explained; so the bar is the median
-  // under 100 ms (the figure) and no probe waiting a second. Before the gate every
-  // probe timed out.
+  // under 100 ms (the figure), and every probe answered within its 2 s time-outs.
+  // Before the gate every probe timed out. The slowest probe once took 1.14 s on a loaded CI
+  // machine (median 9.9 ms there): whether the server dropped its connection attempt (the
+  // client retries after 1 s) is asked of the kernel instead of read off a stopwatch.
   EXPECT_EQ(failed, 0);
   EXPECT_LT(ms[ms.size() / 2], 100.0);
   EXPECT_LT(p99, 500.0);
-  EXPECT_LT(ms.back(), 1000.0);
+  EXPECT_LT(ms.back(), 2000.0);
+  if (drops >= 0) {
+    EXPECT_EQ(drops, 0) << "the accept queue overflowed: SYNs were dropped";
+  }
   // The attackers were closed: all from one address, all but 64 of them at once to make room
   // (the oldest first), and those that stayed when their 3 s were up (with a 408).
   EXPECT_GT(reconnects.load(), kAttackers);
