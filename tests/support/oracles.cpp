@@ -38,22 +38,48 @@ NearestAnswer brute_nearest(const Scene& scene, Vec3 p) {
   return a;
 }
 
+namespace {
+
+// Whether p, a point on the plane of triangle (t0, t1, t2) with unit normal n and doubled area
+// area2, lies in the triangle, its edges included to `slack` of the area.
+bool in_triangle(Vec3 p, Vec3 t0, Vec3 t1, Vec3 t2, Vec3 n, double area2, double slack) {
+  const double l0 = dot(cross(t2 - t1, p - t1), n), l1 = dot(cross(t0 - t2, p - t2), n),
+               l2 = dot(cross(t1 - t0, p - t0), n);
+  const double eps = -slack * area2;
+  return l0 >= eps && l1 >= eps && l2 >= eps;
+}
+
+}  // namespace
+
 bool segment_hits_triangle(Vec3 a, Vec3 b, Vec3 t0, Vec3 t1, Vec3 t2) {
-  const Vec3 d = b - a;
   const Vec3 e1 = t1 - t0, e2 = t2 - t0;
-  const Vec3 h = cross(d, e2);
-  const double det = dot(e1, h);
-  const double scale = norm(d) * norm(e1) * norm(e2);
-  if (std::fabs(det) <= 1e-14 * scale) return false;  // parallel: not a crossing
-  const double inv = 1.0 / det;
-  const Vec3 s = a - t0;
-  const double u = dot(s, h) * inv;
-  if (u < 0 || u > 1) return false;
-  const Vec3 q = cross(s, e1);
-  const double v = dot(d, q) * inv;
-  if (v < 0 || u + v > 1) return false;
-  const double t = dot(e2, q) * inv;
-  return t >= 0 && t <= 1;
+  const Vec3 m = cross(e1, e2);
+  const double area2 = norm(m);
+  if (!(area2 > 0)) return false;  // a degenerate triangle
+  const Vec3 n = m / area2;
+  // What counts as on the plane: the rounding of coordinates computed in double precision
+  // (a segment that lies in the triangle's plane has its ends ~1e-16 off it, either side).
+  const double size = std::max({norm(e1), norm(e2), norm(t2 - t1), norm(b - a)});
+  const double flat = 1e-12 * size;
+  const double slack = 1e-12;
+  const double da = dot(a - t0, n), db = dot(b - t0, n);
+  if ((da > flat && db > flat) || (da < -flat && db < -flat)) return false;
+  if (std::fabs(da) <= flat && std::fabs(db) <= flat) {
+    // In the plane: a 2D question (an end in the triangle, or the segment across a side).
+    // Möller–Trumbore divides by a determinant that is rounding noise here.
+    if (in_triangle(a, t0, t1, t2, n, area2, slack) || in_triangle(b, t0, t1, t2, n, area2, slack))
+      return true;
+    const Vec3 u = e1 / norm(e1), w = cross(n, u);
+    auto flat2 = [&](Vec3 p) { return Vec3{dot(p - t0, u), dot(p - t0, w), 0}; };
+    const Vec3 pa = flat2(a), pb = flat2(b), q[3] = {flat2(t0), flat2(t1), flat2(t2)};
+    for (int k = 0; k < 3; ++k) {
+      if (segments_intersect_2d(pa, pb, q[k], q[(k + 1) % 3])) return true;
+    }
+    return false;
+  }
+  // Across the plane, or an end on it: the point where the segment meets the plane.
+  const double s = std::fabs(da) <= flat ? 0.0 : std::fabs(db) <= flat ? 1.0 : da / (da - db);
+  return in_triangle(a + (b - a) * s, t0, t1, t2, n, area2, slack);
 }
 
 bool segments_intersect_2d(Vec3 a, Vec3 b, Vec3 c, Vec3 d) {

@@ -22,8 +22,9 @@ NearestAnswer brute_nearest(const Scene& scene, Vec3 p);
 /// Distance from p to object o by brute force.
 double brute_distance(const Scene& scene, ObjectId o, Vec3 p);
 
-/// True when segment [a, b] crosses or touches triangle (t0, t1, t2) (3D, Möller–Trumbore
-/// with the segment parameter restricted to [0, 1]).
+/// True when segment [a, b] crosses or touches triangle (t0, t1, t2) (3D): the ends' signed
+/// distances to the triangle's plane, then the point where the segment meets it tested in the
+/// triangle; a segment in the plane (to 1e-12 of the sizes: rounding) is a 2D question.
 bool segment_hits_triangle(Vec3 a, Vec3 b, Vec3 t0, Vec3 t1, Vec3 t2);
 
 /// True when 2D segments [a, b] and [c, d] intersect (proper or touching).

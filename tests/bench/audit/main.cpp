@@ -4,13 +4,16 @@
 // of vertices whose two nearest objects are the claimed pair — beside leaves, depth, time,
 // peak memory and warnings. One line per scene; exit 1 when a check fails.
 //
-// Usage: gvd_audit [--refine paper] [--budget N] SCENE.json...
+// Usage: gvd_audit [--refine paper] [--full] [--budget N] [--explain] SCENE.json...
+//        (--full: the GVD as surfaced, one piece per leaf, not compacted)
+//        (--explain prints every GVD triangle that crosses an object, when one does)
 //        gvd_audit --write-variants DIR     scenes of the thin-gap kinds that make_bench's
 //                                           sweeps do not hold (turned, other polygons)
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -76,6 +79,75 @@ Audit audit(const GvdResult& r, size_t budget) {
     a.right_pair = static_cast<double>(right) / gaps.size();
   }
   return a;
+}
+
+/// Prints each GVD triangle that crosses an object triangle: its cell, its vertices with their
+/// claimed other object and brute-force distances to the cell's object and to the crossed one.
+void explain_crossings(const GvdResult& r) {
+  const Scene& scene = r.scene;
+  if (scene.dimension != 3) return;
+  for (const GvdCell& cell : r.gvd.cells) {
+    for (size_t s = 0; s + 3 <= cell.indices.size(); s += 3) {
+      const Vec3 g[3] = {cell.positions[cell.indices[s]], cell.positions[cell.indices[s + 1]],
+                         cell.positions[cell.indices[s + 2]]};
+      for (const gvd::SceneObject& o : scene.objects) {
+        for (size_t t = 0; t < o.simplices.size(); ++t) {
+          const Vec3 a = o.vertices[o.simplices[t].v[0]], b = o.vertices[o.simplices[t].v[1]],
+                     c = o.vertices[o.simplices[t].v[2]];
+          bool apart = false;  // bounding boxes apart: no crossing
+          for (int i = 0; i < 3; ++i) {
+            apart = apart || std::max({a[i], b[i], c[i]}) < std::min({g[0][i], g[1][i], g[2][i]}) ||
+                    std::min({a[i], b[i], c[i]}) > std::max({g[0][i], g[1][i], g[2][i]});
+          }
+          if (apart) continue;
+          bool hit = false;
+          for (int e = 0; e < 3 && !hit; ++e) {
+            hit = gvd::test::segment_hits_triangle(g[e], g[(e + 1) % 3], a, b, c);
+          }
+          hit = hit || gvd::test::segment_hits_triangle(a, b, g[0], g[1], g[2]) ||
+                gvd::test::segment_hits_triangle(b, c, g[0], g[1], g[2]) ||
+                gvd::test::segment_hits_triangle(c, a, g[0], g[1], g[2]);
+          if (!hit) continue;
+          const ObjectId crossed = static_cast<ObjectId>(&o - scene.objects.data());
+          std::printf("crossing: cell %s simplex %zu crosses %s triangle %zu\n",
+                      scene.objects[cell.object].label.c_str(), s / 3, o.label.c_str(), t);
+          std::printf(
+              "  object triangle (%.17g %.17g %.17g) (%.17g %.17g %.17g) (%.17g %.17g %.17g)\n",
+              a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z);
+          for (int k = 0; k < 3; ++k) {
+            const uint32_t v = cell.indices[s + k];
+            const ObjectId other = cell.other[v];
+            std::printf(
+                "  vertex (%.17g %.17g %.17g) other %s d(cell) %.3e d(other) %.3e d(crossed) "
+                "%.3e\n",
+                g[k].x, g[k].y, g[k].z,
+                other == gvd::kNoObject ? "-" : scene.objects[other].label.c_str(),
+                gvd::test::brute_distance(scene, cell.object, g[k]),
+                other == gvd::kNoObject ? -1.0 : gvd::test::brute_distance(scene, other, g[k]),
+                gvd::test::brute_distance(scene, crossed, g[k]));
+          }
+          // The leaves that hold the triangle's vertices (unit domain), with their marks.
+          for (int k = 0; k < 3; ++k) {
+            const Vec3 u = r.domain.to_unit(g[k]);
+            for (uint32_t leaf = 0; leaf < r.octree.leaf_count(); ++leaf) {
+              const gvd::Box box = r.octree.box(leaf);
+              bool in = true;
+              for (int i = 0; i < 3; ++i)
+                in = in && u[i] >= box.lo[i] - 1e-12 && u[i] <= box.hi[i] + 1e-12;
+              if (!in) continue;
+              std::printf(
+                  "  vertex %d unit (%.9g %.9g %.9g) leaf %u level %d lo (%.9g %.9g %.9g) "
+                  "hi (%.9g %.9g %.9g) certified %d object %d\n",
+                  k, u.x, u.y, u.z, leaf, r.octree.level[leaf], box.lo.x, box.lo.y, box.lo.z,
+                  box.hi.x, box.hi.y, box.hi.z,
+                  r.octree.certified.empty() ? -1 : r.octree.certified[leaf],
+                  static_cast<int>(r.octree.object[leaf]));
+            }
+          }
+        }
+      }
+    }
+  }
 }
 
 /// Every vertex of the scene moved by `f`.
@@ -151,11 +223,17 @@ int main(int argc, char** argv) {
   std::vector<std::string> files;
   std::string refine = "certified";
   size_t budget = 3000;
+  bool explain = false;
+  bool full = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--write-variants" && i + 1 < argc) return write_variants(argv[++i]);
     if (a == "--refine" && i + 1 < argc) {
       refine = argv[++i];
+    } else if (a == "--full") {
+      full = true;
+    } else if (a == "--explain") {
+      explain = true;
     } else if (a == "--budget" && i + 1 < argc) {
       budget = std::strtoull(argv[++i], nullptr, 10);
     } else {
@@ -168,12 +246,14 @@ int main(int argc, char** argv) {
       gvd::PipelineOptions o;
       o.threads = 2;
       o.refine = gvd::parse_choice<gvd::RefineRule>(refine);
+      if (full) o.resolution = gvd::GvdResolution::kFull;
       std::ofstream("/proc/self/clear_refs") << "5";  // resets the peak (VmHWM)
       const auto t0 = std::chrono::steady_clock::now();
       GvdResult r = gvd::compute_gvd(gvd::load_scene(std::span(&file, 1)), o);
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const Audit a = audit(r, budget);
+      if (explain) explain_crossings(r);
       const bool bad = a.open_edges || a.crossings || a.median_gap > 0.05 || a.right_pair < 0.95;
       failed += bad;
       std::printf(
