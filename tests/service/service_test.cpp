@@ -1287,15 +1287,13 @@ TEST(Service, SlowHeadersDoNotStarveOtherClients) {
   // in six (and with both cores busy compiling), not yet explained; so the bar is the median
   // under 100 ms (the figure), and every probe answered within its 2 s time-outs.
   // Before the gate every probe timed out. The slowest probe once took 1.14 s on a loaded CI
-  // machine (median 9.9 ms there): whether the server dropped its connection attempt (the
-  // client retries after 1 s) is asked of the kernel instead of read off a stopwatch.
+  // machine (median 9.9 ms there), so the worst probe may take 2 s; the kernel's count of
+  // dropped connection attempts (a client retries after 1 s) is printed beside it. It is not
+  // asserted: it counts every socket of the namespace, and other tests run beside this one.
   EXPECT_EQ(failed, 0);
   EXPECT_LT(ms[ms.size() / 2], 100.0);
   EXPECT_LT(p99, 500.0);
-  EXPECT_LT(ms.back(), 2000.0);
-  if (drops >= 0) {
-    EXPECT_EQ(drops, 0) << "the accept queue overflowed: SYNs were dropped";
-  }
+  EXPECT_LT(ms.back(), 2000.0) << drops << " connection attempts dropped in the namespace";
   // The attackers were closed: all from one address, all but 64 of them at once to make room
   // (the oldest first), and those that stayed when their 3 s were up (with a 408).
   EXPECT_GT(reconnects.load(), kAttackers);
