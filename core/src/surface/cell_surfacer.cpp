@@ -43,6 +43,10 @@ struct PolygonGvd {
 
 class CellSurfacer {
  public:
+  /// Junction points (face and cell) are moved toward equidistance from at most this many
+  /// objects (a regular array of equal parts ties eight at a corner); more keep the centroid.
+  static constexpr int kMaxJunction = 8;
+
   CellSurfacer(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
                const SimplexBvh& bvh)
       : octree_(octree), field_(field), geometry_(geometry), bvh_(bvh), dim_(octree.dimension) {
@@ -258,14 +262,16 @@ class CellSurfacer {
     }
   }
 
-  // Adds the distinct objects a polygon's spokes separate to labels[0..nl); nl becomes 4 (and
-  // stays) once a fourth one is seen, which callers treat as "not a three-object junction".
-  static void add_spoke_labels(const PolygonGvd& g, ObjectId (&labels)[3], int& nl) {
-    for (int i = 0; i < g.n && nl <= 3; ++i) {
+  // Adds the distinct objects a polygon's spokes separate to labels[0..nl); nl becomes
+  // kMaxJunction + 1 (and stays) once more than kMaxJunction are seen, which callers treat as
+  // "keep the centroid".
+  static void add_spoke_labels(const PolygonGvd& g, ObjectId (&labels)[kMaxJunction], int& nl) {
+    for (int i = 0; i < g.n && nl <= kMaxJunction; ++i) {
       for (ObjectId l : {g.spokes[i].label_a, g.spokes[i].label_b}) {
-        if (std::find(labels, labels + std::min(nl, 3), l) != labels + std::min(nl, 3)) continue;
-        if (nl >= 3) {
-          nl = 4;
+        const int known = std::min(nl, kMaxJunction);
+        if (std::find(labels, labels + known, l) != labels + known) continue;
+        if (nl >= kMaxJunction) {
+          nl = kMaxJunction + 1;
           return;
         }
         labels[nl++] = l;
@@ -275,14 +281,15 @@ class CellSurfacer {
 
   // The cone apex of one spoke curve of a 3D cell: the bisector centroid (the paper's rule)
   // moved toward the points equidistant from the objects the curve separates (two: the
-  // bisector surface; three: the junction line), staying inside the cell.
+  // bisector surface; three: the junction line; four or more: a Voronoi vertex, or the line
+  // where they tie, as in a regular array of equal parts), staying inside the cell.
   Vec3 cell_junction_point(uint32_t leaf, const PolygonGvd* gvds, int np, const int* comp_of,
                            int component, Vec3 centroid) const {
-    ObjectId labels[3];
+    ObjectId labels[kMaxJunction];
     int nl = 0;
     for (int f = 0; f < np; ++f)
       if (comp_of[f] == component) add_spoke_labels(gvds[f], labels, nl);
-    if (nl != 2 && nl != 3) return centroid;
+    if (nl < 2 || nl > kMaxJunction) return centroid;
     double near2 = 1e300;
     for (int f = 0; f < np; ++f) {
       if (comp_of[f] != component) continue;
@@ -291,8 +298,8 @@ class CellSurfacer {
     }
     const Box box = octree_.box(leaf);
     if (nl == 2 && !coarse_region(box, near2)) return centroid;
-    Vec3 hints[3];
-    bool found[3] = {};
+    Vec3 hints[kMaxJunction];
+    bool found[kMaxJunction] = {};
     for (int f = 0; f < np; ++f)
       if (comp_of[f] == component) spoke_hints(gvds[f], labels, nl, hints, found);
     for (int k = 0; k < nl; ++k)
@@ -300,14 +307,16 @@ class CellSurfacer {
     return toward_equidistant(centroid, labels, hints, nl, box, -1);
   }
 
-  // Newton steps from x toward the points equidistant from `nl` (2 or 3) objects: with the
-  // exact closest points p_k of x on each, the least change of x that satisfies the linearised
-  // conditions |x - p_0| = |x - p_k|, i.e. 2 x.(p_k - p_0) = |p_k|^2 - |p_0|^2. With
+  // Newton steps from x toward the points equidistant from `nl` (2 ... kMaxJunction)
+  // objects: with the exact closest points p_k of x on each, the least change of x that
+  // satisfies the linearised conditions |x - p_0| = |x - p_k|, i.e.
+  // 2 x.(p_k - p_0) = |p_k|^2 - |p_0|^2 (two or three objects: exactly; more: in the least
+  // squares sense, the least such change, as where four objects tie along a line). With
   // fixed_axis >= 0 x moves only in that axis' plane (a face). hints[k] is a point on object
-  // labels[k] (it bounds the first search). A step that would leave `box`
-  // (shrunk by a hair, so that the point stays off the faces and edges where other pieces
-  // end) is shortened at its boundary. Two rounds (one when the first step is below 1e-6 of
-  // the distance); deterministic in its inputs.
+  // labels[k] (it bounds the first search). A step that would leave `box` (shrunk by a hair,
+  // so that the point stays off the faces and edges where other pieces end) is shortened at
+  // its boundary. Two rounds (one when the first step is below 1e-6 of the distance);
+  // deterministic in its inputs.
   Vec3 toward_equidistant(Vec3 x, const ObjectId* labels, const Vec3* hints, int nl,
                           const Box& cell_box, int fixed_axis) const {
     Box box = cell_box;
@@ -317,7 +326,7 @@ class CellSurfacer {
       box.lo[i] += hair;
       box.hi[i] -= hair;
     }
-    Vec3 p[3];
+    Vec3 p[kMaxJunction];
     for (int k = 0; k < nl; ++k) p[k] = hints[k];
     for (int round = 0; round < 2; ++round) {
       for (int k = 0; k < nl; ++k) {
@@ -325,8 +334,8 @@ class CellSurfacer {
         const ClosestHit hit = bvh_.nearest_in_object(x, labels[k], dist2(x, p[k]));
         if (hit.found()) p[k] = hit.point;
       }
-      Vec3 n[2];
-      double r[2];
+      Vec3 n[kMaxJunction - 1];
+      double r[kMaxJunction - 1];
       for (int k = 1; k < nl; ++k) {
         n[k - 1] = p[k] - p[0];
         r[k - 1] = 0.5 * (norm2(p[k]) - norm2(p[0])) - dot(x, n[k - 1]);
@@ -337,11 +346,13 @@ class CellSurfacer {
       if (nl == 2) {
         if (!(a11 > 0)) return x;
         step = n[0] * (r[0] / a11);
-      } else {
+      } else if (nl == 3) {
         const double a12 = dot(n[0], n[1]), a22 = dot(n[1], n[1]);
         const double det = a11 * a22 - a12 * a12;
         if (!(det > 1e-12 * a11 * a22)) return x;
         step = n[0] * ((r[0] * a22 - r[1] * a12) / det) + n[1] * ((a11 * r[1] - a12 * r[0]) / det);
+      } else if (!least_change(n, r, nl - 1, step)) {
+        return x;
       }
       double t = 1;
       for (int i = 0; i < 3; ++i) {
@@ -362,23 +373,78 @@ class CellSurfacer {
     return x;
   }
 
+  // The least `step` that minimises sum_k (n_k . step - r_k)^2 over m conditions (the
+  // pseudo-inverse solution): the normal equations' 3 x 3 matrix split into its eigenvectors
+  // (Jacobi rotations), directions whose eigenvalue is below 1e-4 of the largest left out: a
+  // face's fixed axis, and the line along which four or more objects (nearly) tie, where the
+  // meshes' small asymmetries would otherwise send the step along the line, out of the cell,
+  // and the shortened step would stop short of the line. False when all are.
+  static bool least_change(const Vec3* n, const double* r, int m, Vec3& step) {
+    double a[3][3] = {}, b[3] = {};
+    for (int k = 0; k < m; ++k) {
+      for (int i = 0; i < 3; ++i) {
+        b[i] += n[k][i] * r[k];
+        for (int j = 0; j < 3; ++j) a[i][j] += n[k][i] * n[k][j];
+      }
+    }
+    double v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};  // columns: the eigenvectors
+    for (int sweep = 0; sweep < 32; ++sweep) {
+      const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+      const double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+      if (!(off > 1e-30 * diag)) break;
+      for (int pi = 0; pi < 2; ++pi) {
+        for (int qi = pi + 1; qi < 3; ++qi) {
+          if (a[pi][qi] == 0) continue;
+          const double theta = (a[qi][qi] - a[pi][pi]) / (2 * a[pi][qi]);
+          const double t =
+              (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1));
+          const double c = 1 / std::sqrt(t * t + 1), sn = t * c;
+          for (int k = 0; k < 3; ++k) {  // a <- a J (columns pi, qi)
+            const double akp = a[k][pi], akq = a[k][qi];
+            a[k][pi] = c * akp - sn * akq;
+            a[k][qi] = sn * akp + c * akq;
+          }
+          for (int k = 0; k < 3; ++k) {  // a <- J^T a (rows pi, qi)
+            const double apk = a[pi][k], aqk = a[qi][k];
+            a[pi][k] = c * apk - sn * aqk;
+            a[qi][k] = sn * apk + c * aqk;
+          }
+          for (int k = 0; k < 3; ++k) {
+            const double vkp = v[k][pi], vkq = v[k][qi];
+            v[k][pi] = c * vkp - sn * vkq;
+            v[k][qi] = sn * vkp + c * vkq;
+          }
+        }
+      }
+    }
+    const double largest = std::max({a[0][0], a[1][1], a[2][2]});
+    if (!(largest > 0)) return false;
+    step = Vec3{};
+    for (int e = 0; e < 3; ++e) {
+      if (!(a[e][e] > 1e-4 * largest)) continue;
+      const Vec3 u{v[0][e], v[1][e], v[2][e]};
+      step = step + u * ((u.x * b[0] + u.y * b[1] + u.z * b[2]) / a[e][e]);
+    }
+    return true;
+  }
+
   // Where three or more spokes meet on a face, the paper joins them at the centroid of the
   // bisectors, which can sit a good part of the cell away from the true junction (three
   // objects) or off a curved bisector (two). Instead the centroid is moved, within the face,
   // toward the points equidistant from the objects (toward_equidistant). Computed from the
   // face's own data, so both cells of a face get the same point.
   Vec3 junction_point(const detail::FacePolygon& poly, const PolygonGvd& g) const {
-    ObjectId labels[3];
+    ObjectId labels[kMaxJunction];
     int nl = 0;
     add_spoke_labels(g, labels, nl);
-    if (nl != 2 && nl != 3) return g.centroid;  // four or more objects: keep the centroid
+    if (nl < 2 || nl > kMaxJunction) return g.centroid;  // more objects: keep the centroid
     Box face;
     for (int i = 0; i < poly.n; ++i) face.extend(field_.vertices.position(poly.v[i]));
     double near2 = 1e300;
     for (int i = 0; i < g.n; ++i) near2 = std::min(near2, dist2(g.centroid, witness(g.spokes[i])));
     if (nl == 2 && !coarse_region(face, near2)) return g.centroid;
-    Vec3 hints[3];
-    bool found[3] = {};
+    Vec3 hints[kMaxJunction];
+    bool found[kMaxJunction] = {};
     spoke_hints(g, labels, nl, hints, found);
     for (int k = 0; k < nl; ++k)
       if (!found[k]) return g.centroid;

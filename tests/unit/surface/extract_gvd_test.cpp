@@ -154,6 +154,44 @@ TEST(ExtractGvdScenario, JunctionsAreEquidistantFromTheirThreeObjects) {
   }
 }
 
+// A regular array of equal parts (2 x 2 x 2 spheres on a unit lattice) ties four objects
+// along each edge of the lattice's cells and eight at its centre: the vertices where four or
+// more cells meet must be near-equidistant from their objects too, not left at the paper's
+// centroid (the four-object junctions were: spreads up to 0.64 cell).
+TEST(ExtractGvdScenario, JunctionsOfFourAndEightEqualSpheresAreEquidistant) {
+  std::vector<SceneObject> spheres;
+  for (int i = 0; i < 8; ++i) {
+    spheres.push_back(test::make_sphere("s" + std::to_string(i),
+                                        {double(i & 1), double((i >> 1) & 1), double(i >> 2)}, 0.4,
+                                        12, 24));
+  }
+  PipelineOptions o;
+  o.threads = 2;
+  const GvdResult r = compute_gvd(test::make_scene(3, spheres), o);
+  std::map<std::tuple<double, double, double>, std::set<ObjectId>> cells_at;
+  for (const GvdCell& c : r.gvd.cells)
+    for (const Vec3& p : c.positions) cells_at[{p.x, p.y, p.z}].insert(c.object);
+  size_t junctions = 0;
+  double worst = 0;
+  for (const auto& [key, objects] : cells_at) {
+    if (objects.size() < 4) continue;
+    const Vec3 p{std::get<0>(key), std::get<1>(key), std::get<2>(key)};
+    double lo = 1e300, hi = 0;
+    for (ObjectId q : objects) {
+      const double d = test::brute_distance(r.scene, q, p);
+      lo = std::min(lo, d);
+      hi = std::max(hi, d);
+    }
+    const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
+    const double h = std::ldexp(r.domain.side, -r.octree.level[leaf]);
+    worst = std::max(worst, (hi - lo) / h);
+    ++junctions;
+  }
+  std::printf("%zu junctions of four or more cells, worst spread %.4f cell\n", junctions, worst);
+  EXPECT_GT(junctions, 0u);
+  EXPECT_LT(worst, 0.02) << "distance spread at a junction of four or more, in cell sizes";
+}
+
 TEST(ExtractGvdScenario, NestedAndMultiComponentObjects2D) {
   // A ring (two concentric circles = one object with two components) around a disc, and a
   // second disc outside: the inner disc's cell is enclosed by the ring's.
