@@ -101,32 +101,77 @@ bool segments_intersect_2d(Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
 }
 
 size_t count_gvd_object_crossings(const Scene& scene, const Gvd& gvd, size_t budget) {
-  size_t crossings = 0;
   const int dim = scene.dimension;
   const int arity = dim == 2 ? 2 : 3;
+  // Bounding boxes only skip what cannot meet (an object's, a simplex's): every simplex whose
+  // box meets the GVD simplex's box is tested.
+  struct Bounds {
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    void add(Vec3 p) {
+      for (int i = 0; i < 3; ++i) {
+        lo[i] = std::min(lo[i], p[i]);
+        hi[i] = std::max(hi[i], p[i]);
+      }
+    }
+    void add(const Bounds& b) {
+      add(Vec3{b.lo[0], b.lo[1], b.lo[2]});
+      add(Vec3{b.hi[0], b.hi[1], b.hi[2]});
+    }
+    bool meets(const Bounds& o) const {
+      for (int i = 0; i < 3; ++i) {
+        if (hi[i] < o.lo[i] || o.hi[i] < lo[i]) return false;
+      }
+      return true;
+    }
+  };
+  std::vector<Bounds> object_bounds(scene.objects.size());
+  std::vector<std::vector<Bounds>> simplex_bounds(scene.objects.size());
+  for (size_t o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& obj = scene.objects[o];
+    for (const Simplex& t : obj.simplices) {
+      Bounds b;
+      for (int k = 0; k < arity; ++k) b.add(obj.vertices[t.v[k]]);
+      simplex_bounds[o].push_back(b);
+      object_bounds[o].add(b);
+    }
+  }
+  size_t crossings = 0;
   for (const GvdCell& cell : gvd.cells) {
     const size_t count = cell.indices.size() / arity;
     const size_t stride = budget == 0 || count <= budget ? 1 : count / budget;
     for (size_t s = 0; s + arity <= cell.indices.size(); s += arity * stride) {
       const Vec3 g0 = cell.positions[cell.indices[s]];
       const Vec3 g1 = cell.positions[cell.indices[s + 1]];
-      const Vec3 g2 = arity == 3 ? cell.positions[cell.indices[s + 2]] : Vec3{};
+      const Vec3 g2 = arity == 3 ? cell.positions[cell.indices[s + 2]] : g1;
+      Bounds gb;
+      gb.add(g0);
+      gb.add(g1);
+      gb.add(g2);
+      double scale = 0;  // what a touch within rounding may need: a hair around the box
+      for (int i = 0; i < 3; ++i)
+        scale = std::max({scale, std::fabs(gb.lo[i]), std::fabs(gb.hi[i])});
+      for (int i = 0; i < 3; ++i) {
+        gb.lo[i] -= 1e-9 * scale;
+        gb.hi[i] += 1e-9 * scale;
+      }
       bool hit = false;
-      for (const SceneObject& o : scene.objects) {
-        for (const Simplex& t : o.simplices) {
-          const Vec3 a = o.vertices[t.v[0]], b = o.vertices[t.v[1]];
+      for (size_t o = 0; o < scene.objects.size() && !hit; ++o) {
+        if (!object_bounds[o].meets(gb)) continue;
+        const SceneObject& obj = scene.objects[o];
+        for (size_t i = 0; i < obj.simplices.size() && !hit; ++i) {
+          if (!simplex_bounds[o][i].meets(gb)) continue;
+          const Simplex& t = obj.simplices[i];
+          const Vec3 a = obj.vertices[t.v[0]], b = obj.vertices[t.v[1]];
           if (dim == 2) {
             hit = segments_intersect_2d(g0, g1, a, b);
           } else {
-            const Vec3 c = o.vertices[t.v[2]];
+            const Vec3 c = obj.vertices[t.v[2]];
             hit =
                 segment_hits_triangle(g0, g1, a, b, c) || segment_hits_triangle(g1, g2, a, b, c) ||
                 segment_hits_triangle(g2, g0, a, b, c) || segment_hits_triangle(a, b, g0, g1, g2) ||
                 segment_hits_triangle(b, c, g0, g1, g2) || segment_hits_triangle(c, a, g0, g1, g2);
           }
-          if (hit) break;
         }
-        if (hit) break;
       }
       crossings += hit;
     }
