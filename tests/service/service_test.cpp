@@ -1135,6 +1135,8 @@ TEST(Service, ConcurrentClients) {
   const Submitted s = submit(*c, data("scenes/gears2d.json"));
   ASSERT_EQ(wait_for(*c, s.id, {"done"}).value("status", ""), "done");
   std::atomic<int> ok{0}, bad{0};
+  std::mutex failures_mutex;
+  std::string failures;  // what each failed request got, for the report
   std::vector<std::thread> threads;
   const std::string scene = data("scenes/gears2d.json");
   for (int t = 0; t < 8; ++t) {
@@ -1146,13 +1148,21 @@ TEST(Service, ConcurrentClients) {
                             : (i % 5 == 2) ? tc->Get(("/v1/jobs/" + s.id + "/graph").c_str())
                             : (i % 5 == 3) ? tc->Get("/metrics")
                                            : tc->Get(("/v1/jobs/" + s.id).c_str());
-        (r && r->status == 200 ? ok : bad)++;
-        (void)t;
+        if (r && r->status == 200) {
+          ++ok;
+        } else {
+          ++bad;
+          std::lock_guard lock(failures_mutex);
+          failures += "request " + std::to_string(i) + " of client " + std::to_string(t) + ": " +
+                      (r ? std::to_string(r->status) + " " + r->body.substr(0, 300)
+                         : "transport error " + httplib::to_string(r.error())) +
+                      "\n";
+        }
       }
     });
   }
   for (auto& th : threads) th.join();
-  EXPECT_EQ(bad, 0);
+  EXPECT_EQ(bad, 0) << failures;
   EXPECT_EQ(ok, 200);
 
   // The same new scene submitted by 8 clients at once: one job, one computation.
