@@ -44,7 +44,8 @@ DualGraph build_dual_graph(const Gvd& gvd) {
 }
 
 void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
-                        const Domain& domain, int threads, const std::atomic<bool>* cancel) {
+                        const Domain& domain, int threads, const std::atomic<bool>* cancel,
+                        const std::vector<std::pair<ObjectId, ObjectId>>& touching) {
   const int arity = gvd.dimension == 2 ? 2 : 3;
   struct Piece {
     uint32_t cell, first;  // the simplex's first index in cell.indices
@@ -52,8 +53,10 @@ void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
     double clearance;      // least vertex clearance (user units)
   };
   std::map<std::pair<ObjectId, ObjectId>, uint32_t> edge_of;
-  for (uint32_t e = 0; e < graph.edges.size(); ++e)
-    edge_of[{graph.edges[e].a, graph.edges[e].b}] = e;
+  for (uint32_t e = 0; e < graph.edges.size(); ++e) {
+    const std::pair<ObjectId, ObjectId> pair{graph.edges[e].a, graph.edges[e].b};
+    if (!std::binary_search(touching.begin(), touching.end(), pair)) edge_of[pair] = e;
+  }
   std::vector<Piece> pieces;
   for (uint32_t c = 0; c < gvd.cells.size(); ++c) {
     const GvdCell& cell = gvd.cells[c];

@@ -263,7 +263,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   progress("graph", 0);
   sw = Stopwatch();
   r.graph = build_dual_graph(r.gvd);
-  tighten_clearances(r.graph, r.gvd, bvh, r.domain, options.threads, options.cancel);
+  tighten_clearances(r.graph, r.gvd, bvh, r.domain, options.threads, options.cancel,
+                     contacts.pairs());
   measure_gaps(r.graph, bvh, r.domain, contacts.pairs(), options.threads, options.cancel);
   r.stats.stages.push_back(
       {"graph", sw.seconds(), r.graph.edges.size() * sizeof(DualEdge), r.graph.edges.size()});

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <atomic>
+#include <utility>
 #include <vector>
 
 #include "gvd/geometry/simplex_bvh.h"
@@ -56,8 +57,12 @@ void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
                   const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads,
                   const std::atomic<bool>* cancel = nullptr);
 
+/// `touching` (sorted pairs a < b, as measure_gaps' `contacts`): pairs whose clearance
+/// measure_gaps sets to 0 anyway; their pieces are not searched (a labelled volume's
+/// neighbours all touch: millions of pieces).
 void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
                         const Domain& domain, int threads,
-                        const std::atomic<bool>* cancel = nullptr);
+                        const std::atomic<bool>* cancel = nullptr,
+                        const std::vector<std::pair<ObjectId, ObjectId>>& touching = {});
 
 }  // namespace gvd
