@@ -315,8 +315,8 @@ class CellSurfacer {
   // fixed_axis >= 0 x moves only in that axis' plane (a face). hints[k] is a point on object
   // labels[k] (it bounds the first search). A step that would leave `box` (shrunk by a hair,
   // so that the point stays off the faces and edges where other pieces end) is shortened at
-  // its boundary. Two rounds (one when the first step is below 1e-6 of the distance);
-  // deterministic in its inputs.
+  // its boundary, and a coordinate left on it is held there in the next step. Two rounds (one
+  // when the first step is below 1e-6 of the distance); deterministic in its inputs.
   Vec3 toward_equidistant(Vec3 x, const ObjectId* labels, const Vec3* hints, int nl,
                           const Box& cell_box, int fixed_axis) const {
     Box box = cell_box;
@@ -334,25 +334,55 @@ class CellSurfacer {
         const ClosestHit hit = bvh_.nearest_in_object(x, labels[k], dist2(x, p[k]));
         if (hit.found()) p[k] = hit.point;
       }
-      Vec3 n[kMaxJunction - 1];
+      Vec3 n0[kMaxJunction - 1];
       double r[kMaxJunction - 1];
       for (int k = 1; k < nl; ++k) {
-        n[k - 1] = p[k] - p[0];
-        r[k - 1] = 0.5 * (norm2(p[k]) - norm2(p[0])) - dot(x, n[k - 1]);
-        if (fixed_axis >= 0) n[k - 1][fixed_axis] = 0;
+        n0[k - 1] = p[k] - p[0];
+        r[k - 1] = 0.5 * (norm2(p[k]) - norm2(p[0])) - dot(x, n0[k - 1]);
       }
+      // The step with the axes in `held` (bits) kept still.
+      auto solve = [&](int held, Vec3& step) {
+        Vec3 n[kMaxJunction - 1];
+        for (int k = 0; k + 1 < nl; ++k) {
+          n[k] = n0[k];
+          for (int i = 0; i < 3; ++i)
+            if (held >> i & 1) n[k][i] = 0;
+        }
+        const double a11 = dot(n[0], n[0]);
+        if (nl == 2) {
+          if (!(a11 > 0)) return false;
+          step = n[0] * (r[0] / a11);
+        } else if (nl == 3) {
+          const double a12 = dot(n[0], n[1]), a22 = dot(n[1], n[1]);
+          const double det = a11 * a22 - a12 * a12;
+          if (!(det > 1e-12 * a11 * a22)) return false;
+          step =
+              n[0] * ((r[0] * a22 - r[1] * a12) / det) + n[1] * ((a11 * r[1] - a12 * r[0]) / det);
+        } else if (!least_change(n, r, nl - 1, step)) {
+          return false;
+        }
+        return true;
+      };
+      int held = fixed_axis >= 0 ? 1 << fixed_axis : 0;
       Vec3 step;
-      const double a11 = dot(n[0], n[0]);
-      if (nl == 2) {
-        if (!(a11 > 0)) return x;
-        step = n[0] * (r[0] / a11);
-      } else if (nl == 3) {
-        const double a12 = dot(n[0], n[1]), a22 = dot(n[1], n[1]);
-        const double det = a11 * a22 - a12 * a12;
-        if (!(det > 1e-12 * a11 * a22)) return x;
-        step = n[0] * ((r[0] * a22 - r[1] * a12) / det) + n[1] * ((a11 * r[1] - a12 * r[0]) / det);
-      } else if (!least_change(n, r, nl - 1, step)) {
-        return x;
+      if (!solve(held, step)) return x;
+      // A coordinate already on the box's boundary (a step before was shortened there) that
+      // the step would push out is held on it, and the step is solved again in the others:
+      // else the next step would be shortened to nothing, and a point one hair from a face
+      // whose other coordinates are still a good part of the cell off the junction (four
+      // objects tying along a line on the cell's face) would stay there.
+      for (int pass = 0; pass < 2; ++pass) {
+        int pushed = 0;
+        for (int i = 0; i < 3; ++i) {
+          if (held >> i & 1) continue;
+          const double near = 1e-9 * (cell_box.hi[i] - cell_box.lo[i]);
+          if ((step[i] > 0 && x[i] >= box.hi[i] - near) ||
+              (step[i] < 0 && x[i] <= box.lo[i] + near))
+            pushed |= 1 << i;
+        }
+        if (pushed == 0) break;
+        held |= pushed;
+        if (held == 7 || !solve(held, step)) return x;
       }
       double t = 1;
       for (int i = 0; i < 3; ++i) {
