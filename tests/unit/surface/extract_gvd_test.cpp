@@ -114,6 +114,35 @@ TEST(ExtractGvdScenario, GlbOfRealResultsPassesTheValidator) {
   }
 }
 
+// Over the GVD vertices shared by at least `min_cells` cells (where that many objects meet):
+// how many there are, and the largest spread of their brute-force distances to those
+// objects, in sizes of the leaf that holds the vertex.
+struct JunctionSpread {
+  size_t junctions = 0;
+  double worst = 0;
+};
+JunctionSpread junction_spread(const GvdResult& r, size_t min_cells) {
+  std::map<std::tuple<double, double, double>, std::set<ObjectId>> cells_at;
+  for (const GvdCell& c : r.gvd.cells)
+    for (const Vec3& p : c.positions) cells_at[{p.x, p.y, p.z}].insert(c.object);
+  JunctionSpread out;
+  for (const auto& [key, objects] : cells_at) {
+    if (objects.size() < min_cells) continue;
+    const Vec3 p{std::get<0>(key), std::get<1>(key), std::get<2>(key)};
+    double lo = 1e300, hi = 0;
+    for (ObjectId q : objects) {
+      const double d = test::brute_distance(r.scene, q, p);
+      lo = std::min(lo, d);
+      hi = std::max(hi, d);
+    }
+    const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
+    const double h = std::ldexp(r.domain.side, -r.octree.level[leaf]);
+    out.worst = std::max(out.worst, (hi - lo) / h);
+    ++out.junctions;
+  }
+  return out;
+}
+
 TEST(ExtractGvdScenario, JunctionsAreEquidistantFromTheirThreeObjects) {
   // Three circles around a common junction (2D) and three spheres (3D): the GVD vertices
   // shared by all three cells are where the cells meet; they must be (nearly) equidistant
@@ -128,29 +157,10 @@ TEST(ExtractGvdScenario, JunctionsAreEquidistantFromTheirThreeObjects) {
                                         test::make_sphere("c", {1.0, 2.1, 0}, 1, 16, 32)});
     PipelineOptions o;
     o.threads = 2;
-    const GvdResult r = compute_gvd(scene, o);
-    std::map<std::tuple<double, double, double>, std::set<ObjectId>> cells_at;
-    for (const GvdCell& c : r.gvd.cells)
-      for (const Vec3& p : c.positions) cells_at[{p.x, p.y, p.z}].insert(c.object);
-    size_t junctions = 0;
-    double worst = 0;
-    for (const auto& [key, objects] : cells_at) {
-      if (objects.size() < 3) continue;
-      const Vec3 p{std::get<0>(key), std::get<1>(key), std::get<2>(key)};
-      double lo = 1e300, hi = 0;
-      for (ObjectId q : objects) {
-        const double d = test::brute_distance(r.scene, q, p);
-        lo = std::min(lo, d);
-        hi = std::max(hi, d);
-      }
-      const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
-      const double h = std::ldexp(r.domain.side, -r.octree.level[leaf]);
-      worst = std::max(worst, (hi - lo) / h);
-      ++junctions;
-    }
-    EXPECT_GT(junctions, 0u) << dim << "D";
+    const JunctionSpread spread = junction_spread(compute_gvd(scene, o), 3);
+    EXPECT_GT(spread.junctions, 0u) << dim << "D";
     // The centroid rule of the paper leaves spreads of a good fraction of the cell here.
-    EXPECT_LT(worst, 0.02) << dim << "D: distance spread at a junction, in cell sizes";
+    EXPECT_LT(spread.worst, 0.02) << dim << "D: distance spread at a junction, in cell sizes";
   }
 }
 
@@ -168,29 +178,11 @@ TEST(ExtractGvdScenario, JunctionsOfFourAndEightEqualSpheresAreEquidistant) {
   }
   PipelineOptions o;
   o.threads = 2;
-  const GvdResult r = compute_gvd(test::make_scene(3, spheres), o);
-  std::map<std::tuple<double, double, double>, std::set<ObjectId>> cells_at;
-  for (const GvdCell& c : r.gvd.cells)
-    for (const Vec3& p : c.positions) cells_at[{p.x, p.y, p.z}].insert(c.object);
-  size_t junctions = 0;
-  double worst = 0;
-  for (const auto& [key, objects] : cells_at) {
-    if (objects.size() < 4) continue;
-    const Vec3 p{std::get<0>(key), std::get<1>(key), std::get<2>(key)};
-    double lo = 1e300, hi = 0;
-    for (ObjectId q : objects) {
-      const double d = test::brute_distance(r.scene, q, p);
-      lo = std::min(lo, d);
-      hi = std::max(hi, d);
-    }
-    const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
-    const double h = std::ldexp(r.domain.side, -r.octree.level[leaf]);
-    worst = std::max(worst, (hi - lo) / h);
-    ++junctions;
-  }
-  std::printf("%zu junctions of four or more cells, worst spread %.4f cell\n", junctions, worst);
-  EXPECT_GT(junctions, 0u);
-  EXPECT_LT(worst, 0.002) << "distance spread at a junction of four or more, in cell sizes";
+  const JunctionSpread spread = junction_spread(compute_gvd(test::make_scene(3, spheres), o), 4);
+  std::printf("%zu junctions of four or more cells, worst spread %.4f cell\n", spread.junctions,
+              spread.worst);
+  EXPECT_GT(spread.junctions, 0u);
+  EXPECT_LT(spread.worst, 0.002) << "distance spread at a junction of four or more, in cell sizes";
 }
 
 TEST(ExtractGvdScenario, NestedAndMultiComponentObjects2D) {
