@@ -17,7 +17,7 @@ class CpuClosestPointSolver final : public ClosestPointSolver {
   }
 
  private:
-  ClosestPointData data_;
+  ClosestPointData data_;  // a view of the BVH, which the pipeline keeps beside the solver
   int threads_;
 };
 

@@ -11,19 +11,8 @@ static_assert(sizeof(item::GvdPoint) == 24 && sizeof(Vec3) == 24);
 static_assert(sizeof(item::GvdBvhNode) == 56);
 static_assert(sizeof(item::GvdHit) == 40);
 
-size_t ClosestPointData::memory_bytes() const {
-  return nodes.size() * sizeof(item::GvdBvhNode) + order.size() * sizeof(uint32_t) +
-         corner.size() * sizeof(uint32_t) + points.size() * sizeof(item::GvdPoint);
-}
-
 ClosestPointData make_closest_point_data(const SimplexBvh& bvh) {
-  ClosestPointData d;
-  d.dimension = bvh.dimension();
-  d.nodes.assign(bvh.nodes().begin(), bvh.nodes().end());
-  d.order.assign(bvh.order().begin(), bvh.order().end());
-  d.corner.assign(bvh.corner().begin(), bvh.corner().end());
-  d.points.assign(bvh.points().begin(), bvh.points().end());
-  return d;
+  return ClosestPointData{bvh.dimension(), bvh.nodes(), bvh.order(), bvh.corner(), bvh.points()};
 }
 
 namespace {

@@ -224,8 +224,8 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   r.stats.touching_leaves = refined.touching_leaves;
   for (uint8_t c : r.octree.certified) r.stats.certified_leaves += c != 0;
   r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(refined.rounds)});
-  // Refinement is over: the closest-point solver's copy of the tree and geometry (its device
-  // layout) and the certifier's adjacency go before surfacing, where memory peaks.
+  // Refinement is over: the closest-point solver (the OpenCL backend's device copy of the tree
+  // and geometry) and the certifier's adjacency go before surfacing, where memory peaks.
   solver.reset();
   certifier.reset();
   // Surfacing reads each leaf's vertices from the field's per-leaf lists, never by key: the

@@ -38,8 +38,9 @@ class ComputeBackend {
                                                         const GridSpec& spec, GridMetric metric);
 };
 
-/// The CPU twin as a solver over a ClosestPointData copy of the scene: closest_points_cpu's
-/// answers, by closest_points_cpu_coherent (the pipeline's batches are in Z order).
+/// The CPU twin as a solver over `bvh`'s arrays (viewed, not copied: `bvh` must outlive the
+/// solver): closest_points_cpu's answers, by closest_points_cpu_coherent (the pipeline's
+/// batches are in Z order).
 std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const SimplexBvh& bvh,
                                                                   int threads = 0);
 

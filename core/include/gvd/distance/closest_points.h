@@ -2,7 +2,6 @@
 
 #include <cstdint>
 #include <span>
-#include <vector>
 
 #include "gvd/geometry/closest_point_item.h"
 #include "gvd/geometry/simplex_bvh.h"
@@ -10,21 +9,19 @@
 
 namespace gvd {
 
-/// The inputs of the per-item closest-point function (closest_point_item.h): a copy of a
-/// SimplexBvh's flat arrays, in the layout it stores them (SimplexBvh::nodes, order, corner,
-/// points), which the OpenCL backend uploads as they are. The CPU twin reads this copy, so
-/// that it does not depend on the BVH's lifetime.
+/// The inputs of the per-item closest-point function (closest_point_item.h): a SimplexBvh's
+/// flat arrays, in the layout it stores them (SimplexBvh::nodes, order, corner, points), which
+/// the OpenCL backend uploads as they are. A view, not a copy: the BVH must outlive it (a copy
+/// held beside the BVH was 24 MB of the 64-sphere lattice's peak).
 struct ClosestPointData {
   int dimension = 3;
-  std::vector<item::GvdBvhNode> nodes;
-  std::vector<uint32_t> order;
-  std::vector<uint32_t> corner;  ///< `dimension` indices into `points` per position in `order`
-  std::vector<item::GvdPoint> points;
-
-  size_t memory_bytes() const;
+  std::span<const item::GvdBvhNode> nodes;
+  std::span<const uint32_t> order;
+  std::span<const uint32_t> corner;  ///< `dimension` indices into `points` per position in `order`
+  std::span<const item::GvdPoint> points;
 };
 
-/// Copies the arrays of `bvh` for the per-item function. O(M).
+/// The arrays of `bvh` for the per-item function, viewed in place. O(1).
 ClosestPointData make_closest_point_data(const SimplexBvh& bvh);
 
 /// The CPU twin of the closest-point kernel (paper §4, initialisation of non-empty vertices):
