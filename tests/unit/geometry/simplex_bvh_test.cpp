@@ -16,8 +16,8 @@
 namespace gvd {
 namespace {
 
-// Three finely tessellated spheres: more than 4096 triangles, so the per-object trees are
-// built on their own thread.
+// Three finely tessellated spheres apart from each other: each gets a subtree of the shared
+// tree of its own, which the in-object queries walk.
 struct Fixture {
   Scene scene;
   Domain domain;
@@ -367,6 +367,100 @@ TEST(SimplexBvh, NearestWalkMatchesBruteForceWithItsTieRule) {
     // The scene does tie (else the test would not test the rule), and skips are rare.
     EXPECT_GT(ties, queries / 4) << dim << "D";
     EXPECT_LT(ambiguous_queries, queries / 20) << dim << "D";
+  }
+}
+
+// The in-object queries on both kinds of object tree: three concentric spheres (no subtree of
+// the shared tree holds one alone, so each gets a tree of its own; more than 4096 triangles
+// between them, so those are built on two threads) beside two spheres apart from everything
+// (subtrees of the shared tree). Each query against brute force over the object's triangles.
+TEST(SimplexBvh, InObjectQueriesMatchBruteForceOnSharedAndOwnTrees) {
+  const Scene scene = test::make_scene(3, {test::make_sphere("inner", {0, 0, 0}, 1, 24, 48),
+                                           test::make_sphere("middle", {0, 0, 0}, 1.2, 24, 48),
+                                           test::make_sphere("outer", {0, 0, 0}, 1.4, 24, 48),
+                                           test::make_sphere("far", {4, 0, 0}, 1, 12, 24),
+                                           test::make_sphere("farther", {4, 3, 0}, 1, 12, 24)});
+  const Domain domain = make_domain(scene);
+  const UnitGeometry g = make_unit_geometry(scene, domain);
+  const SimplexBvh bvh(3, g.points, g.simplices, g.object_of);
+  ASSERT_EQ(bvh.objects_with_own_tree(), 3u);
+  uint32_t nested = 0;
+  for (uint32_t o : g.object_of) nested += o < 3;
+  ASSERT_GT(nested, 4096u);
+  const uint32_t objects = 5;
+  auto corners = [&](uint32_t s, Vec3* c) {
+    for (int j = 0; j < 3; ++j) c[j] = g.points[g.simplices[s].v[j]];
+  };
+
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 60; ++i) {
+    const Vec3 p{u(rng), u(rng), u(rng)};
+    for (uint32_t o = 0; o < objects; ++o) {
+      double truth = 1e300;
+      for (uint32_t s = 0; s < g.simplices.size(); ++s)
+        if (g.object_of[s] == o)
+          truth =
+              std::min(truth, dist2(p, closest_point_on_simplex(3, g.points, g.simplices[s], p)));
+      const ClosestHit hit = bvh.nearest_in_object(p, o);
+      ASSERT_TRUE(hit.found());
+      EXPECT_EQ(g.object_of[hit.simplex], o);
+      EXPECT_NEAR(hit.dist2, truth, 1e-11 * truth) << "point " << i << " object " << o;
+    }
+  }
+  // closest_to_simplex_in_object, from a sample of every object's triangles to every object.
+  for (uint32_t s = 0; s < g.simplices.size(); s += 331) {
+    Vec3 q[3];
+    corners(s, q);
+    for (uint32_t o = 0; o < objects; ++o) {
+      double truth = 1e300;
+      for (uint32_t t = 0; t < g.simplices.size(); ++t) {
+        if (g.object_of[t] != o) continue;
+        Vec3 c[3];
+        corners(t, c);
+        truth = std::min(truth, triangle_triangle_dist2(q, c));
+      }
+      const ClosestHit hit = bvh.closest_to_simplex_in_object(q, o);
+      ASSERT_TRUE(hit.found());
+      EXPECT_EQ(g.object_of[hit.simplex], o);
+      EXPECT_NEAR(hit.dist2, truth, 1e-12 + 1e-9 * truth) << "triangle " << s << " object " << o;
+    }
+  }
+  // for_each_overlapping_in_object: every triangle of the object whose box overlaps, and no
+  // other object's.
+  for (int i = 0; i < 40; ++i) {
+    Box box;
+    box.extend(Vec3{u(rng), u(rng), u(rng)});
+    box.extend(box.lo + Vec3{0.15, 0.15, 0.15});
+    for (uint32_t o = 0; o < objects; ++o) {
+      std::set<uint32_t> got;
+      bvh.for_each_overlapping_in_object(o, box, [&](uint32_t s) { got.insert(s); });
+      for (uint32_t s : got) EXPECT_EQ(g.object_of[s], o) << "box " << i;
+      for (uint32_t s = 0; s < g.simplices.size(); ++s) {
+        if (g.object_of[s] != o) continue;
+        Vec3 c[3];
+        corners(s, c);
+        Box b;
+        for (const Vec3& v : c) b.extend(v);
+        bool overlap = true;
+        for (int a = 0; a < 3; ++a) overlap &= b.lo[a] <= box.hi[a] && b.hi[a] >= box.lo[a];
+        if (overlap) {
+          EXPECT_TRUE(got.count(s)) << "box " << i << " simplex " << s;
+        }
+      }
+    }
+  }
+  // object_distance between trees of both kinds: analytic for the concentric spheres (the
+  // radii's difference, less the tessellation's sag), brute force for the far ones.
+  const double inner_middle = bvh.object_distance(0, 1).dist2;
+  EXPECT_NEAR(std::sqrt(inner_middle) * domain.side, 0.2, 0.2 * 0.05);
+  for (const auto& [a, b] : {std::pair<uint32_t, uint32_t>{2, 3}, {3, 4}, {1, 4}}) {
+    const double truth = test::min_distance_3d(scene.objects[a], scene.objects[b]);
+    const SimplexBvh::ObjectPair pair = bvh.object_distance(a, b);
+    ASSERT_TRUE(pair.found);
+    EXPECT_NEAR(std::sqrt(pair.dist2) * domain.side, truth, 1e-9 * truth) << a << "/" << b;
+    EXPECT_NEAR(bvh.nearest_in_object(pair.on_a, a).dist2, 0, 1e-24);
+    EXPECT_NEAR(bvh.nearest_in_object(pair.on_b, b).dist2, 0, 1e-24);
   }
 }
 

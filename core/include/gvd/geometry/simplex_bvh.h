@@ -49,7 +49,10 @@ class SimplexBvh {
   /// simplices' indices into them, so the inputs need not outlive it. At most kMaxSimplices
   /// simplices and kMaxObjects objects (gvd::Error{kLimitExceeded}).
   /// With `object_of` (the object of every simplex), nodes remember when all their simplices
-  /// belong to one object, which lets nearest_in_object skip other objects' subtrees.
+  /// belong to one object, which lets nearest_excluding skip those objects' subtrees, and the
+  /// tree's top is built over whole objects where they lie apart, so that each such object's
+  /// simplices fill one subtree, which the in-object queries walk (the others, nested in or
+  /// interleaved with another, get a tree of their own).
   /// `cancel` (may be null) is read every few thousand simplices of the build: set, it stops
   /// with gvd::Error{kCancelled} (a 327k-triangle scene takes a few hundred ms to index).
   SimplexBvh(int dimension, std::span<const Vec3> points, std::span<const Simplex> simplices,
@@ -115,6 +118,9 @@ class SimplexBvh {
   void for_each_overlapping_in_object(uint32_t object, const Box& box, Visit&& visit) const;
 
   size_t memory_bytes() const;
+  /// The objects the in-object queries walk a tree of their own for (the others walk the one
+  /// subtree of the shared tree that holds exactly their simplices).
+  uint32_t objects_with_own_tree() const;
 
   static constexpr uint32_t kMixed = GVD_MIXED;
   /// The node layout the walk and the OpenCL kernel read (closest_point_item.h: box, first
@@ -156,12 +162,26 @@ class SimplexBvh {
     for (int j = 0; j < arity_; ++j) c[j] = {points_[v[j]].x, points_[v[j]].y, points_[v[j]].z};
   }
   std::vector<uint32_t> object_in_order_;  ///< per simplex in `order_` sequence (if given)
-  /// Per-object trees (with object_of): nodes of all of them, each object's root, and their
-  /// leaf items (positions k in `order_`).
+  /// Per object (with object_of), the root of the tree the in-object queries walk: a node of
+  /// the shared tree (flag kInShared) that holds exactly the object's simplices, or else of the
+  /// object's own tree in `object_nodes_`, whose leaf ranges index `object_items_` (positions
+  /// k in `order_`).
   std::vector<Node> object_nodes_;
   std::vector<uint32_t> object_root_;
   std::vector<uint32_t> object_items_;
   static constexpr uint32_t kNoRoot = 0xFFFFFFFFu;
+  static constexpr uint32_t kInShared = 1u << 31;
+  /// One object's tree: `nodes` from `root`; leaf ranges index `items`, or are positions in
+  /// `order_` themselves when `items` is null. `exists` is false for an object without
+  /// simplices (or with no objects given).
+  struct ObjectTree {
+    const Node* nodes = nullptr;
+    uint32_t node_count = 0;
+    uint32_t root = 0;
+    const uint32_t* items = nullptr;
+    bool exists = false;
+  };
+  ObjectTree object_tree(uint32_t object) const;
   int arity_ = 3;
 
   /// item::gvd_bvh_nearest over the shared tree with `filter` (its gvd_walk_accepts and
@@ -173,10 +193,8 @@ class SimplexBvh {
         corner_.data(), points_.data(), item::gvd_pt(p.x, p.y, p.z), max_dist2, filter));
   }
 
-  /// closest_to_simplex's search in one tree (`nodes` from `root`; leaf ranges index `items`,
-  /// positions in `order_`, or are those positions themselves when `items` is null).
-  ClosestHit closest_to_simplex_in_tree(const Vec3* q, const std::vector<Node>& nodes,
-                                        uint32_t root, const uint32_t* items, uint32_t skip_object,
+  /// closest_to_simplex's search in one tree.
+  ClosestHit closest_to_simplex_in_tree(const Vec3* q, const ObjectTree& tree, uint32_t skip_object,
                                         double max_dist2) const;
 };
 
@@ -251,19 +269,21 @@ bool SimplexBvh::visit_overlapping(const Box& box, Visit&& visit, uint32_t skip_
 template <class Visit>
 void SimplexBvh::for_each_overlapping_in_object(uint32_t object, const Box& box,
                                                 Visit&& visit) const {
-  if (object >= object_root_.size() || object_root_[object] == kNoRoot) return;
+  const ObjectTree tree = object_tree(object);
+  if (!tree.exists) return;
   uint32_t stack[128];
   int top = 0;
-  stack[top++] = object_root_[object];
+  stack[top++] = tree.root;
   while (top > 0) {
     const uint32_t self = stack[--top];
-    const Node& n = object_nodes_[self];
+    const Node& n = tree.nodes[self];
     bool overlap = true;
     for (int i = 0; i < 3; ++i)
       if (n.lo[i] > box.hi[i] || n.hi[i] < box.lo[i]) overlap = false;
     if (!overlap) continue;
     if (node_count(n) > 0) {
-      for (uint32_t i = n.first; i < n.first + node_count(n); ++i) visit(order_[object_items_[i]]);
+      for (uint32_t i = n.first; i < n.first + node_count(n); ++i)
+        visit(order_[tree.items != nullptr ? tree.items[i] : i]);
       continue;
     }
     stack[top++] = n.first;
