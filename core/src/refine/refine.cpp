@@ -68,7 +68,7 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     // is built again once the old octree has given up its simplex lists. A small one (a few
     // MB) stays: rebuilding it cost ~3 ms a round on the maze, about a tenth of its time.
     constexpr size_t kKeepIndexBelow = size_t{1} << 19;  // vertices
-    const bool keep_index = field.vertices.size() < kKeepIndexBelow;
+    const bool keep_index = field.vertices.indexed() && field.vertices.size() < kKeepIndexBelow;
     if (!keep_index) field.vertices.drop_index();
     octree = refine_octree(previous, geometry, splits, options.octree, plan.certified);
     // The replaced octree is only looked up from now on (the distance update matches its
