@@ -444,16 +444,16 @@ SimplexBvh::ObjectTree SimplexBvh::object_tree(uint32_t object) const {
   if (object >= object_root_.size() || object_root_[object] == kNoRoot) return {};
   const uint32_t root = object_root_[object];
   if ((root & kInShared) != 0)
-    return {nodes_.data(), static_cast<uint32_t>(nodes_.size()), root & ~kInShared, nullptr, true};
+    return {nodes_.data(), static_cast<uint32_t>(nodes_.size()), root & ~kInShared, nullptr};
   return {object_nodes_.data(), static_cast<uint32_t>(object_nodes_.size()), root,
-          object_items_.data(), true};
+          object_items_.data()};
 }
 
 ClosestHit SimplexBvh::nearest_in_object(Vec3 p, uint32_t object, double max_dist2) const {
   GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
             "nearest_in_object needs the objects of the simplices at construction");
   const ObjectTree tree = object_tree(object);
-  if (!tree.exists) return ClosestHit{};
+  if (!tree.exists()) return ClosestHit{};
   return to_closest_hit(item::gvd_bvh_nearest(
       dimension_, tree.node_count, tree.nodes, tree.root, tree.items, order_.data(), corner_.data(),
       points_.data(), item::gvd_pt(p.x, p.y, p.z), max_dist2, item::GvdAcceptAll{0}));
@@ -528,7 +528,7 @@ ClosestHit SimplexBvh::closest_to_simplex(const Vec3* q, double max_dist2,
     none.dist2 = max_dist2;
     return none;
   }
-  const ObjectTree whole{nodes_.data(), static_cast<uint32_t>(nodes_.size()), 0, nullptr, true};
+  const ObjectTree whole{nodes_.data(), static_cast<uint32_t>(nodes_.size()), 0, nullptr};
   return closest_to_simplex_in_tree(q, whole, skip_object, max_dist2);
 }
 
@@ -539,7 +539,7 @@ ClosestHit SimplexBvh::closest_to_simplex_in_object(const Vec3* q, uint32_t obje
   ClosestHit none;
   none.dist2 = max_dist2;
   const ObjectTree tree = object_tree(object);
-  if (!tree.exists) return none;
+  if (!tree.exists()) return none;
   return closest_to_simplex_in_tree(q, tree, kMixed, max_dist2);
 }
 
@@ -606,7 +606,7 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
   ObjectPair best;
   best.dist2 = max_dist2;
   const ObjectTree ta = object_tree(a), tb = object_tree(b);
-  if (!ta.exists || !tb.exists) return best;
+  if (!ta.exists() || !tb.exists()) return best;
   auto item_a = [&](uint32_t i) { return ta.items != nullptr ? ta.items[i] : i; };
   auto item_b = [&](uint32_t i) { return tb.items != nullptr ? tb.items[i] : i; };
   auto box_gap2 = [](const Box& x, const Box& y) {

@@ -47,7 +47,7 @@ class WorkerPool {
     task_ = &task;
     workers_ = workers;
     running_.store(workers);
-    generation_.store(generation_.load() + 1);
+    generation_.fetch_add(1);
     lock.unlock();
     wake_.notify_all();
     return true;

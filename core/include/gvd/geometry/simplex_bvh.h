@@ -172,14 +172,14 @@ class SimplexBvh {
   static constexpr uint32_t kNoRoot = 0xFFFFFFFFu;
   static constexpr uint32_t kInShared = 1u << 31;
   /// One object's tree: `nodes` from `root`; leaf ranges index `items`, or are positions in
-  /// `order_` themselves when `items` is null. `exists` is false for an object without
+  /// `order_` themselves when `items` is null. No nodes (exists() false) for an object without
   /// simplices (or with no objects given).
   struct ObjectTree {
     const Node* nodes = nullptr;
     uint32_t node_count = 0;
     uint32_t root = 0;
     const uint32_t* items = nullptr;
-    bool exists = false;
+    bool exists() const { return nodes != nullptr; }
   };
   ObjectTree object_tree(uint32_t object) const;
   int arity_ = 3;
@@ -270,7 +270,7 @@ template <class Visit>
 void SimplexBvh::for_each_overlapping_in_object(uint32_t object, const Box& box,
                                                 Visit&& visit) const {
   const ObjectTree tree = object_tree(object);
-  if (!tree.exists) return;
+  if (!tree.exists()) return;
   uint32_t stack[128];
   int top = 0;
   stack[top++] = tree.root;
