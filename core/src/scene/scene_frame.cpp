@@ -316,11 +316,19 @@ struct StraddledEdge {
 /// Where the bisector's roof over a straddled rim has its apex: the coordinate along
 /// axes[k] of the point of the curve C = {d_own = d_other} in the cross-section through the
 /// edge's middle where C is extreme along the third axis w (lines along axes[k] meet C twice
-/// on one side of it and at most once on each side). C is found on lines along w through the
-/// edge's middle and points beside it (d_own - d_other changes sign once across the gap:
-/// negative in the own object, positive in the other), its extreme by golden section (C is a
-/// roof there: one extreme). Exact distances to the meshes. std::nullopt when there is no
-/// such roof within a few gaps of the edge (then the edge's own coordinate is used).
+/// on one side of it and at most once on each side). C is found on lines along w beside the
+/// edge's middle (d_own - d_other changes sign across the gap: negative in the own object,
+/// positive in the other; a root counts only where it lies between its two closest points, so
+/// that the unsigned distances' equal points inside an object's material do not). The apex
+/// need not lie over the edge: where a shaft's corner of 60 degrees faces its bore's, the apex
+/// lies between the two corners, a fraction of the gap from each, and lines along w through the
+/// bore's corner itself run along the bore's face and meet no C. So the lines are sampled over
+/// a few gaps on both sides; each run of lines that meet C is found to its ends (by bisection)
+/// and sampled again densely; the sample nearest the edge whose root lies beyond both
+/// neighbours' is the roof's extreme to within a sample, and golden section finds it between
+/// those neighbours (C is a roof there: one extreme). Exact distances to the meshes.
+/// std::nullopt when there is no such roof within a few gaps of the edge (then the edge's own
+/// coordinate is used).
 std::optional<double> roof_apex(const FlatScene& flat, const std::array<Vec3, 3>& axes,
                                 const StraddledEdge& edge, int k, const std::atomic<bool>* cancel) {
   const SimplexBvh& bvh = flat.bvh;
@@ -335,38 +343,88 @@ std::optional<double> roof_apex(const FlatScene& flat, const std::array<Vec3, 3>
     return std::sqrt(bvh.nearest_in_object(x, edge.object).dist2) -
            std::sqrt(bvh.nearest_in_object(x, other).dist2);
   };
-  // The side of w on which the other object lies: the root lies within `reach` there.
-  const double reach = 8 * gap, span = 2 * gap;
-  double side = 0;
-  for (const double sign : {1.0, -1.0}) {
-    if (f(p + w * (sign * reach)) > 0 && f(p - w * (sign * reach)) < 0) side = sign;
-  }
-  if (side == 0) return std::nullopt;
-  // The root of f on the line p + m t + w side s, s in [-reach, reach], by bisection.
+  const double reach = 8 * gap, span = 4 * gap;
+  // The root of f on the line p + m t + w s, s in [-reach, reach], by bisection (sign: the
+  // side of w on which the other object lies there).
   auto root = [&](double t) -> std::optional<double> {
-    throw_if_cancelled(cancel, kCancelWhat);  // up to 400 exact distances per root
-    double lo = -reach, hi = reach;
+    throw_if_cancelled(cancel, kCancelWhat);  // about 110 exact distances per root
     const Vec3 base = p + m * t;
-    if (!(f(base + w * (side * lo)) < 0) || !(f(base + w * (side * hi)) > 0)) return std::nullopt;
+    double side = 0;
+    for (const double sign : {1.0, -1.0})
+      if (f(base - w * (sign * reach)) < 0 && f(base + w * (sign * reach)) > 0) side = sign;
+    if (side == 0) return std::nullopt;
+    double lo = -reach, hi = reach;
     for (int i = 0; i < 200 && hi - lo > 1e-16 * reach; ++i) {
       const double mid = 0.5 * (lo + hi);
       if (mid <= lo || mid >= hi) break;
       (f(base + w * (side * mid)) < 0 ? lo : hi) = mid;
     }
-    return 0.5 * (lo + hi);
+    const double s = 0.5 * (lo + hi);
+    const Vec3 x = base + w * (side * s);
+    const Vec3 a = bvh.nearest_in_object(x, edge.object).point;
+    const Vec3 b = bvh.nearest_in_object(x, other).point;
+    if (!(dot(x - a, x - b) < 0)) return std::nullopt;  // not between the objects
+    return s * side;
   };
-  const std::optional<double> left = root(-span), centre = root(0), right = root(span);
-  if (!left || !centre || !right) return std::nullopt;
-  // A roof: the middle beyond both ends, one way or the other.
-  double sense = 0;
-  if (*centre > *left && *centre > *right) sense = 1;
-  if (*centre < *left && *centre < *right) sense = -1;
-  if (sense == 0) return std::nullopt;
+  struct Sample {
+    double t;
+    std::optional<double> h;
+  };
+  auto sample = [&](double lo, double hi, int n) {
+    std::vector<Sample> out(static_cast<size_t>(n) + 1);
+    for (int i = 0; i <= n; ++i) {
+      out[i].t = lo + (hi - lo) * i / n;
+      out[i].h = root(out[i].t);
+    }
+    return out;
+  };
+  constexpr int kSamples = 32;  // on 8 gaps: a quarter gap apart
+  const std::vector<Sample> coarse = sample(-span, span, kSamples);
+  // Each run of lines that meet C, to its ends, sampled again.
+  auto end_of_run = [&](double in, double out) {
+    for (int i = 0; i < 30; ++i) {
+      const double mid = 0.5 * (in + out);
+      (root(mid) ? in : out) = mid;
+    }
+    return in;
+  };
+  double best_t = 0, best_lo = 0, best_hi = 0, sense = 0;
+  bool found = false;
+  for (size_t i = 0; i < coarse.size();) {
+    if (!coarse[i].h) {
+      ++i;
+      continue;
+    }
+    size_t j = i;
+    while (j + 1 < coarse.size() && coarse[j + 1].h) ++j;
+    const double lo = i > 0 ? end_of_run(coarse[i].t, coarse[i - 1].t) : coarse[i].t;
+    const double hi =
+        j + 1 < coarse.size() ? end_of_run(coarse[j].t, coarse[j + 1].t) : coarse[j].t;
+    i = j + 1;
+    if (!(hi > lo)) continue;
+    const std::vector<Sample> fine = sample(lo, hi, kSamples);
+    for (size_t n = 1; n + 1 < fine.size(); ++n) {
+      if (!fine[n - 1].h || !fine[n].h || !fine[n + 1].h) continue;
+      const double h = *fine[n].h, l = *fine[n - 1].h, r = *fine[n + 1].h;
+      double s = 0;
+      if (h > l && h > r) s = 1;
+      if (h < l && h < r) s = -1;
+      if (s != 0 && (!found || std::abs(fine[n].t) < std::abs(best_t))) {
+        found = true;
+        best_t = fine[n].t;
+        best_lo = fine[n - 1].t;
+        best_hi = fine[n + 1].t;
+        sense = s;
+      }
+    }
+  }
+  if (!found) return std::nullopt;
   constexpr double kGolden = 0.6180339887498949;
-  double lo = -span, hi = span;
+  double lo = best_lo, hi = best_hi;
+  const double width = hi - lo;
   double x1 = hi - kGolden * (hi - lo), x2 = lo + kGolden * (hi - lo);
   std::optional<double> h1 = root(x1), h2 = root(x2);
-  for (int i = 0; i < 200 && hi - lo > 1e-15 * span; ++i) {
+  for (int i = 0; i < 200 && hi - lo > 1e-15 * width; ++i) {
     if (!h1 || !h2) return std::nullopt;
     if (sense * *h1 >= sense * *h2) {
       hi = x2;

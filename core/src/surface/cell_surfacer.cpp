@@ -570,11 +570,17 @@ class CellSurfacer {
   }
 
   // The bisector curve of objects a and b on a face (axis `axis`, bounds `face`) between two of
-  // its points p and q, as the points strictly between them: each chord is split where the
-  // line through its midpoint, perpendicular to it in the face, meets the bisector (an
-  // extruded pair cell's curve meets every such line once, pair_certificate.h), until the
-  // curve stays within kCurveTolerance of the local clearance of the chord. A function of the
-  // face and the two points alone, so both cells of the face get the same curve.
+  // its points p and q, as the points strictly between them: each chord is split where a line
+  // through its midpoint meets the bisector, until the curve stays within kCurveTolerance of
+  // the local clearance of the chord. The line runs along the middle of the gradients of
+  // d_a - d_b at the chord's ends (in the face): where the curve turns one way between them, as
+  // over a shaft's corner, every gradient on it lies within half its turn of that direction,
+  // so the curve is a graph across it and the line meets it once, between p and q, for any
+  // turn below a half turn (an extruded pair cell's cone, pair_certificate.h). The chord's own
+  // normal, used where the ends' gradients are nearly opposite, is one of those gradients and
+  // can be as far as the whole turn from another: beyond a quarter turn its line may meet the
+  // curve twice. A function of the face and the two points alone, so both cells of the face
+  // get the same curve.
   static constexpr double kCurveTolerance = 1e-3;
   static constexpr int kCurveDepth = 48;
   std::vector<Vec3> trace_curve(const detail::FacePolygon& poly, const Spoke& s0,
@@ -590,23 +596,48 @@ class CellSurfacer {
     double cp = 0, cq = 0;
     Probe last;
     bisector_gap(from.p, a, b, last, &cp);
+    const Vec3 gp = last.grad;
     bisector_gap(to.p, a, b, last, &cq);
-    subdivide_curve(from.p, to.p, cp, cq, a, b, poly.axis, face, 0, last, out);
+    const Vec3 gq = last.grad;
+    subdivide_curve({from.p, cp, gp}, {to.p, cq, gq}, a, b, poly.axis, face, 0, last, out);
     if (flip) std::reverse(out.begin(), out.end());
     return out;
   }
 
-  void subdivide_curve(Vec3 p, Vec3 q, double cp, double cq, ObjectId a, ObjectId b, int axis,
+  // A point of a traced curve: its position, d_a there and the gradient of d_a - d_b.
+  struct CurvePoint {
+    Vec3 x;
+    double clearance = 0;
+    Vec3 grad;
+  };
+
+  void subdivide_curve(const CurvePoint& p, const CurvePoint& q, ObjectId a, ObjectId b, int axis,
                        const Box& face, int depth, Probe& last, std::vector<Vec3>& out) const {
     if (depth >= kCurveDepth) return;
-    const Vec3 m = (p + q) * 0.5;
-    Vec3 nu = q - p;
+    const Vec3 m = (p.x + q.x) * 0.5;
+    Vec3 nu = q.x - p.x;
     nu[axis] = 0;
     std::swap(nu[(axis + 1) % 3], nu[(axis + 2) % 3]);
     nu[(axis + 1) % 3] = -nu[(axis + 1) % 3];
     const double len = norm(nu);
     if (!(len > 0)) return;
     nu = nu / len;
+    // The middle of the ends' gradients in the face, turned to the chord normal's side; the
+    // chord normal where they nearly cancel (a turn near half a turn) or the middle would run
+    // within 20 degrees of the chord.
+    Vec3 mid_grad;
+    for (const Vec3& g : {p.grad, q.grad}) {
+      Vec3 in = g;
+      in[axis] = 0;
+      const double n = norm(in);
+      if (n > 0) mid_grad = mid_grad + in / n;
+    }
+    const double mid_len = norm(mid_grad);
+    if (mid_len > 0.1) {
+      Vec3 dir = mid_grad / mid_len;
+      if (dot(dir, nu) < 0) dir = dir * -1.0;
+      if (dot(dir, nu) > std::sin(20 * 3.14159265358979323846 / 180)) nu = dir;
+    }
     // The line m + t nu inside the face.
     double t_lo = -1e300, t_hi = 1e300;
     for (int i = 0; i < 3; ++i) {
@@ -669,13 +700,15 @@ class CellSurfacer {
           });
     }
     const Vec3 x = m + nu * t;
-    const double clearance = std::min({cp, cq, da});
+    const double clearance = std::min({p.clearance, q.clearance, da});
     if (std::abs(t) <= kCurveTolerance * clearance &&
         (depth > 0 || std::abs(t) <= 1e-9 * clearance))
       return;
-    subdivide_curve(p, x, cp, da, a, b, axis, face, depth + 1, last, out);
+    if (!(last.valid && last.x == x)) bisector_gap(x, a, b, last);
+    const CurvePoint at{x, da, last.grad};
+    subdivide_curve(p, at, a, b, axis, face, depth + 1, last, out);
     out.push_back(x);
-    subdivide_curve(x, q, da, cq, a, b, axis, face, depth + 1, last, out);
+    subdivide_curve(at, q, a, b, axis, face, depth + 1, last, out);
   }
 
   static void emit(Sink& out, Vec3 a, Vec3 b, Vec3 c, ObjectId obj, ObjectId other) {

@@ -446,14 +446,16 @@ TEST(ComputeGvd, LeavesHoldingTwoObjectsAreCertifiedOrAtTheLimit3D) {
 }
 
 // Shafts whose corners have face normals on both sides of an octree axis (a pentagon; a
-// hexagon with a vertex on x), in a domain made lopsided by a far block so that no corner lies
-// on a lattice plane by chance: make_domain puts the apex of the bisector's roof over those
-// corners on a lattice plane, the cells on either side are certified (cones), and 100 times
-// thinner costs at most 3 times the leaves (what grows is the corners at the bore's ends). Valid
+// hexagon with a vertex on x; a triangle, whose corners' normals span 120 degrees), in a domain
+// made lopsided by a far block so that no corner lies on a lattice plane by chance:
+// make_domain puts the apex of the bisector's roof over those corners on a lattice plane, the
+// cells on either side are certified (cones), and 100 times
+// thinner costs at most 3 times the leaves (what grows is the corners at the bore's ends; 10
+// for the triangle, below). Valid
 // (closed, oriented, brute-force oracles), no piece crosses an object, no uncertified leaf holds
 // both, the exact gap, the mid surface.
 TEST(ComputeGvd, ShaftsWhoseCornersStraddleAnAxisCostTheSameAtAnyGap3D) {
-  for (int sides : {5, 6}) {
+  for (int sides : {3, 5, 6}) {
     uint64_t leaves[2] = {0, 0};
     const double gaps[2] = {1e-3, 1e-5};
     for (int k = 0; k < 2; ++k) {
@@ -483,7 +485,10 @@ TEST(ComputeGvd, ShaftsWhoseCornersStraddleAnAxisCostTheSameAtAnyGap3D) {
       EXPECT_NEAR(pair->gap, g, 1e-9 * g) << what;
       EXPECT_GT(expect_shaft_mid_surface(r, so, g), 100u) << what;
     }
-    EXPECT_LE(leaves[1], 3 * leaves[0])
+    // The triangle's corners meet the bore's ends in cells that refine below the gap until
+    // about 1e-4 (75k leaves at 1e-4 and at 1e-5 with default cells): at most g^-0.5 over the
+    // sweep, half the exponent the issue allows in 3D.
+    EXPECT_LE(leaves[1], (sides == 3 ? 10 : 3) * leaves[0])
         << sides << " sides: " << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
   }
 }

@@ -492,6 +492,44 @@ TEST(Domain, StraddledRimsPutTheRoofsApexOnALatticePlane) {
   }
 }
 
+// A triangular shaft in its bore (a vertex on +x): at its corners at 120 and 240 degrees the
+// faces' normals (180 and +-60 degrees) lie on both sides of the y axis and span 120 degrees.
+// The roof's apex lies a third of the gap beside the shaft's corner, between it and the
+// bore's, and the lines along y through the bore's corner run along the bore's face and meet
+// no bisector: both the shaft's rims and the bore's find the same apex, and make_domain puts it
+// on a lattice plane x = k / 32. Brute force as above: at most one crossing on each side of
+// the plane, two for a plane 0.1 g off (to one side or the other: the roof is lopsided).
+TEST(Domain, TheRoofsApexBesideATriangularShaftsCornerIsOnALatticePlane) {
+  const double pi = std::acos(-1.0);
+  test::ShaftInBoreOptions so;
+  so.sides = 3;
+  so.gap = 1e-3;
+  so.cell = 0.1;
+  Scene scene = test::make_shaft_in_bore(so);
+  const double g = so.gap * make_domain(scene, DomainOptions{{}, 0.05, DomainFrame::kWorld}).side;
+  scene.objects.push_back(test::make_box("far", {0.3, 0.55, 0.3}, {0.35, 0.6291, 0.35}));
+  SceneFrame frame;
+  const Domain d = make_domain(scene, {}, &frame);
+  ASSERT_TRUE(d.aligned());
+  // The shaft's and the bore's rims at the corners: two groups on x, one apex.
+  std::vector<double> apexes;
+  for (const StraddledRims& r : frame.straddled[0])
+    if (std::abs(r.apex - so.radius * std::cos(2 * pi / 3)) < 2 * g) apexes.push_back(r.apex);
+  ASSERT_EQ(apexes.size(), 2u);
+  EXPECT_NEAR(apexes[0], apexes[1], 1e-6 * g);
+  for (const double angle : {2 * pi / 3, 4 * pi / 3}) {
+    const Vec3 corner{so.radius * std::cos(angle), so.radius * std::sin(angle), 0.3};
+    const double unit = d.to_unit(corner).x;
+    const double plane = d.origin.x + std::round(unit * 32) / 32 * d.side;
+    ASSERT_LT(std::abs(plane - corner.x), 3 * g) << "no lattice plane near the corner";
+    const auto [worst, worst_off] = crossings_beside_plane(scene, corner, plane, g, 0, 1);
+    const int worst_other_off =
+        crossings_beside_plane(scene, corner, plane - 0.1 * g, g, 0, 1).first;
+    EXPECT_LE(worst, 1) << "corner at " << angle;
+    EXPECT_EQ(std::max(worst_off, worst_other_off), 2) << "corner at " << angle;
+  }
+}
+
 // Two pentagonal shafts side by side, the second 1.3 along x and 0.1234 along y: the roofs'
 // apexes over their corners at 72 and 288 degrees lie at two x coordinates (and the ones at 0
 // degrees at two y coordinates). make_domain puts the first apex on x on a plane of level 5

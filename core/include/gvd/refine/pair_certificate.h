@@ -147,9 +147,11 @@ class PairCertifier final : public SplitOracle {
   /// that the bisector's tilt from kMirrorRound stays within this part of the gap.
   static constexpr double kMirrorTolerance = 1e-4;
   /// Extruded pairs whose gradient directions straddle a cross-section axis: they must lie
-  /// within this angle of their mean (so that the traced curve's chords keep a normal along
-  /// which d_a - d_b is monotone: 2 kMaxCone <= 90 degrees, as in a quadrant).
-  static constexpr double kMaxCone = 45.0 * 3.14159265358979323846 / 180.0;
+  /// within this angle of the middle of their span, so that d_a - d_b grows along the middle
+  /// at a rate of at least cos(kMaxCone) (C is a graph across it). 140 degrees in all holds a
+  /// triangle's corners (120); the tracer's lines run along the middle of the gradients at a
+  /// chord's ends, which meets a curve that turns one way once for any turn below 180.
+  static constexpr double kMaxCone = 70.0 * 3.14159265358979323846 / 180.0;
 
  private:
   Certificate certify_mirror(const Box& box, const ObjectId pair[2], const double dist[2], double r,
