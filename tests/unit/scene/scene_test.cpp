@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <map>
 #include <string>
 #include <utility>
@@ -469,27 +470,51 @@ std::pair<int, int> crossings_beside_plane(const Scene& scene, Vec3 corner, doub
 // octree's cells lie on one side or the other). The apex is not at a vertex's coordinate
 // (the corner's bisecting ray is not along an axis): a plane 0.1 g off fails, as does one
 // through the shaft's or the bore's corner.
-TEST(Domain, StraddledRimsPutTheRoofsApexOnALatticePlane) {
-  const double pi = std::acos(-1.0);
+// A shaft of `sides` in its bore at a gap of 1e-3 of the plain domain's side (g, scene
+// units), with a far block that makes the domain lopsided.
+struct LopsidedShaft {
   test::ShaftInBoreOptions so;
-  so.sides = 5;
-  so.gap = 1e-3;
-  so.cell = 0.1;
-  Scene scene = test::make_shaft_in_bore(so);
-  const double g = so.gap * make_domain(scene, DomainOptions{{}, 0.05, DomainFrame::kWorld}).side;
-  scene.objects.push_back(test::make_box("far", {0.3, 0.55, 0.3}, {0.35, 0.6291, 0.35}));
-  const Domain d = make_domain(scene);
-  ASSERT_TRUE(d.aligned());
-  for (const double angle : {0.4 * pi, 1.6 * pi}) {
-    const Vec3 corner{so.radius * std::cos(angle), so.radius * std::sin(angle), 0.3};
-    // The plane of level 5 nearest the corner: the shift put one within a few gaps of it.
+  Scene scene;
+  double g = 0;
+};
+LopsidedShaft lopsided_shaft(int sides) {
+  LopsidedShaft out;
+  out.so.sides = sides;
+  out.so.gap = 1e-3;
+  out.so.cell = 0.1;
+  out.scene = test::make_shaft_in_bore(out.so);
+  out.g = out.so.gap * make_domain(out.scene, DomainOptions{{}, 0.05, DomainFrame::kWorld}).side;
+  out.scene.objects.push_back(test::make_box("far", {0.3, 0.55, 0.3}, {0.35, 0.6291, 0.35}));
+  return out;
+}
+
+// The corners of shaft `s` at `angles` (radians; z = 0.3) in domain d: the plane x = k / 32
+// nearest each (the shift put one within a few gaps of it) has at most one crossing on each
+// side (crossings_beside_plane), and a plane 0.1 g off, beyond it or (`either_side`) before it
+// too, has two.
+void expect_corners_beside_a_plane(const LopsidedShaft& s, const Domain& d,
+                                   std::initializer_list<double> angles, bool either_side) {
+  for (const double angle : angles) {
+    const Vec3 corner{s.so.radius * std::cos(angle), s.so.radius * std::sin(angle), 0.3};
     const double unit = d.to_unit(corner).x;
     const double plane = d.origin.x + std::round(unit * 32) / 32 * d.side;
-    ASSERT_LT(std::abs(plane - corner.x), 3 * g) << "no lattice plane near the corner";
-    const auto [worst, worst_off] = crossings_beside_plane(scene, corner, plane, g, 0, 1);
+    ASSERT_LT(std::abs(plane - corner.x), 3 * s.g) << "no lattice plane near the corner";
+    auto [worst, worst_off] = crossings_beside_plane(s.scene, corner, plane, s.g, 0, 1);
+    if (either_side) {
+      worst_off = std::max(
+          worst_off, crossings_beside_plane(s.scene, corner, plane - 0.1 * s.g, s.g, 0, 1).first);
+    }
     EXPECT_LE(worst, 1) << "corner at " << angle;
     EXPECT_EQ(worst_off, 2) << "corner at " << angle;
   }
+}
+
+TEST(Domain, StraddledRimsPutTheRoofsApexOnALatticePlane) {
+  const double pi = std::acos(-1.0);
+  const LopsidedShaft s = lopsided_shaft(5);
+  const Domain d = make_domain(s.scene);
+  ASSERT_TRUE(d.aligned());
+  expect_corners_beside_a_plane(s, d, {0.4 * pi, 1.6 * pi}, false);
 }
 
 // A triangular shaft in its bore (a vertex on +x): at its corners at 120 and 240 degrees the
@@ -501,33 +526,17 @@ TEST(Domain, StraddledRimsPutTheRoofsApexOnALatticePlane) {
 // the plane, two for a plane 0.1 g off (to one side or the other: the roof is lopsided).
 TEST(Domain, TheRoofsApexBesideATriangularShaftsCornerIsOnALatticePlane) {
   const double pi = std::acos(-1.0);
-  test::ShaftInBoreOptions so;
-  so.sides = 3;
-  so.gap = 1e-3;
-  so.cell = 0.1;
-  Scene scene = test::make_shaft_in_bore(so);
-  const double g = so.gap * make_domain(scene, DomainOptions{{}, 0.05, DomainFrame::kWorld}).side;
-  scene.objects.push_back(test::make_box("far", {0.3, 0.55, 0.3}, {0.35, 0.6291, 0.35}));
+  const LopsidedShaft s = lopsided_shaft(3);
   SceneFrame frame;
-  const Domain d = make_domain(scene, {}, &frame);
+  const Domain d = make_domain(s.scene, {}, &frame);
   ASSERT_TRUE(d.aligned());
   // The shaft's and the bore's rims at the corners: two groups on x, one apex.
   std::vector<double> apexes;
   for (const StraddledRims& r : frame.straddled[0])
-    if (std::abs(r.apex - so.radius * std::cos(2 * pi / 3)) < 2 * g) apexes.push_back(r.apex);
+    if (std::abs(r.apex - s.so.radius * std::cos(2 * pi / 3)) < 2 * s.g) apexes.push_back(r.apex);
   ASSERT_EQ(apexes.size(), 2u);
-  EXPECT_NEAR(apexes[0], apexes[1], 1e-6 * g);
-  for (const double angle : {2 * pi / 3, 4 * pi / 3}) {
-    const Vec3 corner{so.radius * std::cos(angle), so.radius * std::sin(angle), 0.3};
-    const double unit = d.to_unit(corner).x;
-    const double plane = d.origin.x + std::round(unit * 32) / 32 * d.side;
-    ASSERT_LT(std::abs(plane - corner.x), 3 * g) << "no lattice plane near the corner";
-    const auto [worst, worst_off] = crossings_beside_plane(scene, corner, plane, g, 0, 1);
-    const int worst_other_off =
-        crossings_beside_plane(scene, corner, plane - 0.1 * g, g, 0, 1).first;
-    EXPECT_LE(worst, 1) << "corner at " << angle;
-    EXPECT_EQ(std::max(worst_off, worst_other_off), 2) << "corner at " << angle;
-  }
+  EXPECT_NEAR(apexes[0], apexes[1], 1e-6 * s.g);
+  expect_corners_beside_a_plane(s, d, {2 * pi / 3, 4 * pi / 3}, true);
 }
 
 // Two pentagonal shafts side by side, the second 1.3 along x and 0.1234 along y: the roofs'
