@@ -347,7 +347,7 @@ std::optional<double> roof_apex(const FlatScene& flat, const std::array<Vec3, 3>
   // The root of f on the line p + m t + w s, s in [-reach, reach], by bisection (sign: the
   // side of w on which the other object lies there).
   auto root = [&](double t) -> std::optional<double> {
-    throw_if_cancelled(cancel, kCancelWhat);  // about 110 exact distances per root
+    throw_if_cancelled(cancel, kCancelWhat);  // ~110 evaluations of f (2 distances each)
     const Vec3 base = p + m * t;
     double side = 0;
     for (const double sign : {1.0, -1.0})

@@ -449,9 +449,8 @@ TEST(ComputeGvd, LeavesHoldingTwoObjectsAreCertifiedOrAtTheLimit3D) {
 // hexagon with a vertex on x; a triangle, whose corners' normals span 120 degrees), in a domain
 // made lopsided by a far block so that no corner lies on a lattice plane by chance:
 // make_domain puts the apex of the bisector's roof over those corners on a lattice plane, the
-// cells on either side are certified (cones), and 100 times
-// thinner costs at most 3 times the leaves (what grows is the corners at the bore's ends; 10
-// for the triangle, below). Valid
+// cells on either side are certified (cones), and 100 times thinner costs at most 3 times the
+// leaves (what grows is the corners at the bore's ends; 10 for the triangle, below). Valid
 // (closed, oriented, brute-force oracles), no piece crosses an object, no uncertified leaf holds
 // both, the exact gap, the mid surface.
 TEST(ComputeGvd, ShaftsWhoseCornersStraddleAnAxisCostTheSameAtAnyGap3D) {
@@ -486,8 +485,8 @@ TEST(ComputeGvd, ShaftsWhoseCornersStraddleAnAxisCostTheSameAtAnyGap3D) {
       EXPECT_GT(expect_shaft_mid_surface(r, so, g), 100u) << what;
     }
     // The triangle's corners meet the bore's ends in cells that refine below the gap until
-    // about 1e-4 (75k leaves at 1e-4 and at 1e-5 with default cells): at most g^-0.5 over the
-    // sweep, half the exponent the issue allows in 3D.
+    // about 1e-4 (in this lopsided domain with 0.05 cells: 74k leaves at 1e-4, 75k at 1e-5):
+    // the bound is g^-0.5 over the sweep, half the exponent the issue allows in 3D.
     EXPECT_LE(leaves[1], (sides == 3 ? 10 : 3) * leaves[0])
         << sides << " sides: " << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
   }
