@@ -98,26 +98,6 @@ RefineLoopOptions refine_options(const PipelineOptions& options, int dim, int ma
   return lo;
 }
 
-// The roofs' apexes over straddled rims (SceneFrame::straddled) in the unit domain, whose
-// axes are the frame's.
-std::vector<PairCertifier::RoofApex> roof_apexes(const SceneFrame& frame, const Domain& domain) {
-  std::vector<PairCertifier::RoofApex> out;
-  for (const std::vector<StraddledRims>& axis : frame.straddled) {
-    for (const StraddledRims& rims : axis) {
-      if (rims.edges.empty()) continue;
-      PairCertifier::RoofApex apex;
-      apex.axis = rims.axis;
-      const Vec3 p = rims.edges.front()[0];
-      const Vec3 n = frame.axes[rims.axis];
-      apex.at = domain.to_unit(p + n * (rims.apex - dot(p, n)))[rims.axis];
-      for (const auto& [a, b] : rims.edges)
-        apex.edges.push_back({domain.to_unit(a), domain.to_unit(b)});
-      out.push_back(std::move(apex));
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
@@ -141,12 +121,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
 
   progress("scene", 0);
   Stopwatch sw;
-  SceneFrame frame;
   DomainOptions domain_options = options.domain;
   domain_options.threads = options.threads;
   domain_options.cancel = options.cancel;
-  r.domain = make_domain(scene, domain_options, &frame);
-  const std::vector<PairCertifier::RoofApex> apexes = roof_apexes(frame, r.domain);
+  r.domain = make_domain(scene, domain_options);
   throw_if_cancelled(options.cancel, "the scene stage");
   r.geometry = make_unit_geometry(scene, r.domain);
   throw_if_cancelled(options.cancel, "the scene stage");
@@ -181,7 +159,6 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     certifier.reset();
     if (options.refine == RefineRule::kCertified) {
       certifier.emplace(r.geometry, bvh, &contacts, true, cones, options.cancel);
-      certifier->set_roof_apexes(apexes);
     } else if (!cones) {
       break;
     }
@@ -310,10 +287,10 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     scene.warnings.push_back(
         {WarningKind::kConesDropped, "", 1,
          "the refinement did not settle with cones across an octree axis (straight rims whose "
-         "faces' normals straddle an axis, and whose bisector's apex the domain could not put "
-         "on a lattice plane: see --frame); the octree was built again without them: as "
-         "exact, but such rims cost cells down to the gap along their length (more leaves, "
-         "time and memory)"});
+         "faces' normals straddle an axis, where lines along it meet the bisector more than "
+         "twice or run too close along it to count the crossings); the octree was built again "
+         "without them: as exact, but such rims cost cells down to the gap along their length "
+         "(more leaves, time and memory)"});
   }
   if (r.stats.ambiguous_at_limit > 0) {
     scene.warnings.push_back({WarningKind::kAmbiguousCellsLeft, "", r.stats.ambiguous_at_limit,

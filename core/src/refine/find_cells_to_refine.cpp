@@ -377,7 +377,7 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
               // Only certificates that hold for every sub-cell: a cone's (kExtrudedOnly...)
               // is checked on the lines of its children, and 2:1 balance after this round can
               // split its grandchildren, which then need this plan again, round after round.
-              const bool whole = v < CellVerdict::kExtrudedOnlyX || v > CellVerdict::kExtrudedOnlyZ;
+              const bool whole = !is_cone(v);
               if (whole && certified_mark(v) != 0) {
                 cell.mark = certified_mark(v);
                 certified[i].push_back(cell);

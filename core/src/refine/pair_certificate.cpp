@@ -574,35 +574,6 @@ PairCertifier::Certificate PairCertifier::certify_mirror(
   return out;
 }
 
-bool PairCertifier::holds_roof_apex(const Box& box, int axis) const {
-  const double size = std::max({box.hi.x - box.lo.x, box.hi.y - box.lo.y, box.hi.z - box.lo.z});
-  // Strictly inside: beyond the 2^-30 of the cell below which line_crossings counts by ends,
-  // and beyond kApexPrecision (the apex is found numerically: the roof over a shaft's corner
-  // and over the bore's, one curve, give apexes ~1e-10 apart).
-  const double inner = std::max(std::ldexp(box.hi[axis] - box.lo[axis], -30), kApexPrecision);
-  for (const RoofApex& apex : apexes_) {
-    if (apex.axis != axis || !(apex.at > box.lo[axis] + inner && apex.at < box.hi[axis] - inner))
-      continue;
-    for (const auto& [p, q] : apex.edges) {
-      // The segment clipped to the box grown by its size (slabs).
-      double t0 = 0, t1 = 1;
-      for (int i = 0; i < 3 && t0 <= t1; ++i) {
-        const double lo = box.lo[i] - size, hi = box.hi[i] + size, d = q[i] - p[i];
-        if (d == 0) {
-          if (p[i] < lo || p[i] > hi) t0 = 2;
-          continue;
-        }
-        double a = (lo - p[i]) / d, b = (hi - p[i]) / d;
-        if (a > b) std::swap(a, b);
-        t0 = std::max(t0, a);
-        t1 = std::min(t1, b);
-      }
-      if (t0 <= t1) return true;
-    }
-  }
-  return false;
-}
-
 PairCertifier::Certificate PairCertifier::certify_extruded(
     const Box& box, const ObjectId pair[2], const double dist[2], double r,
     const std::vector<uint32_t> patch[2]) const {
@@ -692,7 +663,6 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     }
     rise = rise + b[k] * (up ? 1.0 : -1.0);
   }
-  if (mixed >= 0 && holds_roof_apex(box, mixed)) return out;
   if (mixed >= 0) {
     // The middle of the normals' angular span in the cross-section (not their sum, which
     // leans to the face with more triangles in reach): every normal within kMaxCone of it.
@@ -779,13 +749,15 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       p1 = p0;
       p0[mixed] = box.lo[mixed];
       p1[mixed] = box.hi[mixed];
-      if (line_crossings(pair, p0, p1, mixed, patch) > 1) return out;
+      const int crossings = line_crossings(pair, p0, p1, mixed, patch);
+      if (crossings > 2) return out;
+      out.twice |= crossings == 2;
     }
     out.inherited = false;
     out.mixed = mixed;
   }
   if (axis >= 0) {
-    out.verdict = extruded_verdict(axis, mixed < 0);
+    out.verdict = mixed < 0 ? extruded_verdict(axis) : cone_verdict(axis, mixed, out.twice);
   } else {
     const int i = (slanted + 1) % 3, j = (slanted + 2) % 3;
     out.verdict = slanted_verdict(slanted, along[i] * along[j] < 0);
@@ -863,7 +835,7 @@ int PairCertifier::line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int 
     return right < 0 ? -1 : left + right;
   };
   const int n = count(count, p0, p1, gap_at(p0), gap_at(p1), 0);
-  return n < 0 ? 2 : n;
+  return n < 0 ? 3 : n;
 }
 
 }  // namespace gvd

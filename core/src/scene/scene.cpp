@@ -466,7 +466,7 @@ namespace {
 constexpr double kMaxApexGrowth = 0.1;
 constexpr int kMaxApexLevel = 12;
 /// Coordinates within this of a lattice plane (unit domain) count as on it (the apexes are
-/// found numerically; PairCertifier::kApexPrecision).
+/// found numerically).
 constexpr double kOnPlane = 1e-9;
 
 /// The side and lower corner (frame coordinates) of the cube around `bounds`: side0, centred,

@@ -1,6 +1,8 @@
 // Surfacing (paper §6): each leaf's pieces of the cell boundaries, from the field alone.
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 
 #include "cell_faces.h"
@@ -28,17 +30,34 @@ struct Spoke {
   Vec3 p;
   ObjectId label_a, label_b;
   uint64_t edge;  // the octree edge (smaller vertex index << 32 | larger)
+  /// The spoke's identity: `edge`, with the top bit set for the second of two crossings on
+  /// one edge (kSecondCrossing; vertex indices stay below 2^31).
+  uint64_t id;
   int ring_edge;  // index i of the polygon edge (v[i], v[i+1]) it lies on
+};
+constexpr uint64_t kSecondCrossing = uint64_t{1} << 63;
+
+// Where an octree edge whose ends carry one label crosses a bisector twice.
+struct DoubleCrossing {
+  Vec3 p[2];       // from the edge's smaller vertex index to the larger
+  ObjectId inner;  // the object nearer between them
 };
 
 struct PolygonGvd {
+  static constexpr int kMaxSpokes = 16;  // 8 polygon edges, at most two crossings each
   int n = 0;
-  Spoke spokes[8];
+  Spoke spokes[kMaxSpokes];
   Vec3 centroid;
   /// On a face perpendicular to the axis of an extruded pair cell (either side of it), with
   /// two spokes: the bisector curve traced between them, its points after spokes[0] and
   /// before spokes[1] (empty where the curve is straight).
   std::vector<Vec3> curve;
+  /// Four or more spokes of two objects whose bisector is a graph over one axis of the face
+  /// (a cone cell's roof, CellSurfacer::pair_spokes): the pieces of the bisector on the face,
+  /// each between two spokes (pairs[k][0] is where the ring passes from label_a to label_b),
+  /// with their traced curves on traced faces. Empty otherwise.
+  std::vector<std::array<int, 2>> pairs;
+  std::vector<std::vector<Vec3>> pair_curves;
 };
 
 class CellSurfacer {
@@ -50,8 +69,10 @@ class CellSurfacer {
   CellSurfacer(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
                const SimplexBvh& bvh)
       : octree_(octree), field_(field), geometry_(geometry), bvh_(bvh), dim_(octree.dimension) {
-    for (size_t i = 0; i < octree.certified.size() && !any_extruded_; ++i)
-      any_extruded_ = octree.certified[i] >= 2;
+    for (size_t i = 0; i < octree.certified.size(); ++i) {
+      any_extruded_ |= octree.certified[i] >= 2;
+      any_cone_ |= cone_leaf(static_cast<uint32_t>(i));
+    }
   }
 
   // Eq. (1) places the bisector between the closest points of the edge's two ends, as if those
@@ -71,6 +92,7 @@ class CellSurfacer {
   // GVD crosses, so that surfacing looks them up instead of refining each edge once per face
   // using it, and lists the leaves that will emit pieces (active_leaves).
   void prepare(int threads) {
+    if (any_cone_) find_double_crossings(threads);
     const size_t n = octree_.leaf_count();
     const size_t grain = 256;
     // One list per chunk, filled locally and moved in once (no shared vector written by
@@ -98,6 +120,9 @@ class CellSurfacer {
               for (uint32_t v : grid)
                 mixed |= v != kNoVertex && field_.label[v] != field_.label[grid[0]];
             }
+            if (!mixed && !doubles_.empty())
+              mixed = touches_double(static_cast<uint32_t>(leaf),
+                                     field_.grid(octree_, static_cast<uint32_t>(leaf)));
             bool on_domain = false;
             if (!mixed) {
               const lattice::Coord c = octree_.corner(static_cast<uint32_t>(leaf));
@@ -169,13 +194,17 @@ class CellSurfacer {
             const LeafGrid grid = field_.grid(octree_, leaf);
             detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
               if (!traces(leaf, p.axis)) return;
-              const PolygonGvd g = polygon(p);
-              if (g.n != 2) return;
+              const PolygonGvd g = paired_polygon(leaf, p);
+              if (g.n != 2 && g.pairs.empty()) return;
               if (p.side == 0 && !p.on_domain && leaf_across_traces(p)) return;
-              const bool forward = g.spokes[0].edge < g.spokes[1].edge;
-              const Spoke& lo = g.spokes[forward ? 0 : 1];
-              const Spoke& hi = g.spokes[forward ? 1 : 0];
-              mine.push_back({lo.edge, hi.edge, trace_curve(p, lo, hi)});
+              auto add = [&](const Spoke& s0, const Spoke& s1) {
+                const bool forward = s0.id < s1.id;
+                const Spoke& lo = forward ? s0 : s1;
+                const Spoke& hi = forward ? s1 : s0;
+                mine.push_back({lo.id, hi.id, trace_curve(p, lo, hi)});
+              };
+              if (g.n == 2) add(g.spokes[0], g.spokes[1]);
+              for (const auto& [k0, k1] : g.pairs) add(g.spokes[k0], g.spokes[k1]);
             });
           }
           found[b / grain] = std::move(mine);
@@ -190,6 +219,190 @@ class CellSurfacer {
         }
       }
   }
+  // A cone cell (pair_certificate.h: an extruded pair whose gradients straddle an axis m of
+  // the cross-section): its bisector C is a graph over m, and a line along m beside the apex
+  // of C's roof meets C twice. Where that line is an octree edge, its ends carry the same
+  // label and the labels alone show no crossing. Such edges of cone cells are found here,
+  // once and exactly, before surfacing; every cell with the edge (cone or not) then gets both
+  // spokes (polygon).
+  bool cone_leaf(uint32_t leaf) const { return octree_.cone_axis(leaf) >= 0; }
+
+  void find_double_crossings(int threads) {
+    const size_t n = octree_.leaf_count();
+    const size_t grain = 256;
+    // (edge, the object nearer between its crossings) from every cone leaf.
+    std::vector<std::vector<std::pair<uint64_t, ObjectId>>> found((n + grain - 1) / grain);
+    parallel_for(
+        n, threads,
+        [&](size_t b, size_t e, int) {
+          std::vector<std::pair<uint64_t, ObjectId>> mine;
+          for (size_t i = b; i < e; ++i) {
+            const uint32_t leaf = static_cast<uint32_t>(i);
+            bool twice = false;
+            const int m = octree_.cone_axis(leaf, &twice);
+            if (m < 0 || !twice) continue;
+            const LeafGrid grid = field_.grid(octree_, leaf);
+            ObjectId pair[2] = {kNoObject, kNoObject};
+            bool many = false;
+            for (uint32_t v : grid) {
+              if (v == kNoVertex) continue;
+              const ObjectId l = field_.label[v];
+              if (pair[0] == kNoObject || pair[0] == l) {
+                pair[0] = l;
+              } else if (pair[1] == kNoObject || pair[1] == l) {
+                pair[1] = l;
+              } else {
+                many = true;
+              }
+            }
+            if (many || pair[0] == kNoObject || pair[0] == kManyObjects) continue;
+            if (pair[1] == kNoObject) {
+              // One label at every vertex: the cell's other object is the nearest one besides.
+              const uint32_t excluded = pair[0];
+              const ClosestHit h = bvh_.nearest_excluding(octree_.box(leaf).center(), &excluded, 1);
+              if (!h.found()) continue;
+              pair[1] = geometry_.object_of[h.simplex];
+            }
+            detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
+              for (int k = 0; k < p.n; ++k) {
+                uint32_t v = p.v[k], w = p.v[(k + 1) % p.n];
+                if (field_.label[v] != field_.label[w]) continue;
+                // Only along m: along the cell's axis C x e meets an edge nowhere or all
+                // along, and along the third axis d_a - d_b is monotone (the cone).
+                if (field_.vertices.position(v)[m] == field_.vertices.position(w)[m]) continue;
+                if (v > w) std::swap(v, w);
+                mine.push_back(
+                    {uint64_t{v} << 32 | w, field_.label[v] == pair[0] ? pair[1] : pair[0]});
+              }
+            });
+          }
+          found[b / grain] = std::move(mine);
+        },
+        grain);
+    std::vector<std::pair<uint64_t, ObjectId>> edges;
+    for (auto& f : found) edges.insert(edges.end(), f.begin(), f.end());
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end(),
+                            [](const auto& x, const auto& y) { return x.first == y.first; }),
+                edges.end());
+    std::vector<DoubleCrossing> crossing(edges.size());
+    std::vector<uint8_t> twice(edges.size(), 0);
+    parallel_for(
+        edges.size(), threads,
+        [&](size_t b, size_t e, int) {
+          for (size_t i = b; i < e; ++i)
+            twice[i] = two_crossings(edges[i].first, edges[i].second, crossing[i]);
+        },
+        64);
+    doubles_.clear();
+    std::vector<uint64_t> keys;
+    for (size_t i = 0; i < edges.size(); ++i) {
+      if (!twice[i]) continue;
+      doubles_.push_back(crossing[i]);
+      keys.push_back(edges[i].first);
+    }
+    double_index_ = FlatMap64(keys.size());
+    for (size_t i = 0; i < keys.size(); ++i)
+      double_index_.insert(keys[i], static_cast<uint32_t>(i));
+  }
+
+  // Whether edge v0 < v1 (both labelled `outer`) meets the bisector of outer and `inner`
+  // twice; then the two points, from v0. f = d_inner - d_outer (exact, by the BVH) is positive
+  // at both ends; next to a roof's apex it falls and rises once along the edge (the cone's
+  // graph over m), so its minimum is bracketed where its slope changes sign, bisected there,
+  // and the crossings are the roots on either side of a negative value. Edges whose ends'
+  // slopes do not bracket a minimum, or where f stays positive (the 2-Lipschitz bound
+  // ends the search early away from the bisector), are left alone.
+  bool two_crossings(uint64_t edge, ObjectId inner, DoubleCrossing& out) const {
+    const auto v0 = static_cast<uint32_t>(edge >> 32), v1 = static_cast<uint32_t>(edge);
+    const ObjectId outer = field_.label[v0];
+    const Vec3 x0 = field_.vertices.position(v0), x1 = field_.vertices.position(v1);
+    const Vec3 d = x1 - x0;
+    const double length = norm(d);
+    double scale = 0;  // the larger distance seen, for the roots' tolerance
+    auto eval = [&](double t, double& slope) {
+      const Vec3 x = x0 + d * t;
+      const ClosestHit hi = bvh_.nearest_in_object(x, inner);
+      const ClosestHit ho = bvh_.nearest_in_object(x, outer);
+      slope = 0;
+      if (!hi.found() || !ho.found()) return std::numeric_limits<double>::quiet_NaN();
+      const double di = std::sqrt(hi.dist2), dout = std::sqrt(ho.dist2);
+      scale = std::max({scale, di, dout});
+      if (di > 0 && dout > 0) slope = dot((x - hi.point) / di - (x - ho.point) / dout, d);
+      return di - dout;
+    };
+    double s_lo = 0, s_hi = 0;
+    const double f0 = eval(0, s_lo), f1 = eval(1, s_hi);
+    if (!(f0 > 0 && f1 > 0)) return false;
+    // Slopes that keep one sign at both ends (f rises or falls all along, the cone's graph
+    // over m), or that show a peak, leave no dip below zero: only an edge whose ends' slopes
+    // fall then rise (or vanish, where f is flat along the edge) is searched.
+    const double flat = 1e-9 * length;
+    if ((s_lo > flat && s_hi > flat) || (s_lo < -flat && s_hi < -flat) ||
+        (s_lo > flat && s_hi < -flat))
+      return false;
+    // A negative value of f, branch and bound: f is 2-Lipschitz, so on a piece [a, b] it
+    // stays above (f_a + f_b) / 2 - (b - a) |d|; the piece with the lowest bound is split.
+    struct Span {
+      double a, b, fa, fb;
+      double bound(double len) const { return 0.5 * (fa + fb) - (b - a) * len; }
+    };
+    std::vector<Span> open{{0, 1, f0, f1}};
+    double t_neg = -1, f_neg = 0;
+    constexpr int kMaxEvaluations = 512;
+    for (int it = 0; it < kMaxEvaluations && !open.empty(); ++it) {
+      size_t lowest = 0;
+      for (size_t k = 1; k < open.size(); ++k)
+        if (open[k].bound(length) < open[lowest].bound(length)) lowest = k;
+      const Span piece = open[lowest];
+      open[lowest] = open.back();
+      open.pop_back();
+      if (piece.bound(length) > 0) break;  // the lowest bound: f > 0 all along
+      const double t = 0.5 * (piece.a + piece.b);
+      double slope = 0;
+      const double f = eval(t, slope);
+      if (!(f == f)) return false;
+      if (f < 0) {
+        t_neg = t;
+        f_neg = f;
+        break;
+      }
+      if (piece.b - piece.a < 1e-12) continue;  // a dip narrower than this: left alone
+      open.push_back({piece.a, t, piece.fa, f});
+      open.push_back({t, piece.b, f, piece.fb});
+    }
+    if (t_neg < 0) return false;
+    auto value = [&](double t) {
+      double slope = 0;
+      return eval(t, slope);
+    };
+    auto done = [&](double, double f, double width) {
+      return std::abs(f) <= 1e-12 * scale || width <= 1e-15;
+    };
+    constexpr double kHair = 1e-9;  // off the edge's ends, far below any clearance
+    const double r0 =
+        std::clamp(detail::bracketed_root(0, f0, t_neg, f_neg, 200, value, done), kHair, t_neg);
+    const double r1 =
+        std::clamp(detail::bracketed_root(t_neg, f_neg, 1, f1, 200, value, done), t_neg, 1 - kHair);
+    out.p[0] = x0 + d * r0;
+    out.p[1] = x0 + d * r1;
+    out.inner = inner;
+    return r0 < r1;
+  }
+
+  bool touches_double(uint32_t leaf, const LeafGrid& grid) const {
+    bool found = false;
+    detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
+      for (int k = 0; k < p.n && !found; ++k) {
+        const uint32_t v = p.v[k], w = p.v[(k + 1) % p.n];
+        if (field_.label[v] != field_.label[w]) continue;
+        const uint64_t key = v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v);
+        found = double_index_.find(key) != FlatMap64::kMissing;
+      }
+    });
+    return found;
+  }
+
   size_t refined_count() const { return refined_count_; }
   /// The leaves that emit pieces (listed by prepare): those the GVD crosses and those
   /// on the domain box, in leaf order.
@@ -204,45 +417,134 @@ class CellSurfacer {
   PolygonGvd polygon(const detail::FacePolygon& poly) const {
     PolygonGvd out;
     Vec3 sum;
+    bool twice = false;
     for (int i = 0; i < poly.n; ++i) {
       const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
       const ObjectId la = field_.label[v], lb = field_.label[w];
-      if (la == lb) continue;
+      const uint64_t edge = v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v);
+      if (la == lb) {
+        // Two crossings of an edge whose ends carry one label (find_double_crossings).
+        if (doubles_.empty()) continue;
+        const uint32_t k = double_index_.find(edge);
+        if (k == FlatMap64::kMissing) continue;
+        const DoubleCrossing& d = doubles_[k];
+        const bool from_lower = v < w;  // p[0] lies next to the smaller vertex index
+        for (int j = 0; j < 2; ++j) {
+          const int which = from_lower ? j : 1 - j;
+          Spoke& s = out.spokes[out.n++];
+          s.p = d.p[which];
+          s.label_a = j == 0 ? la : d.inner;
+          s.label_b = j == 0 ? d.inner : lb;
+          s.edge = edge;
+          s.id = which == 0 ? edge : edge | kSecondCrossing;
+          s.ring_edge = i;
+          sum = sum + s.p;
+        }
+        twice = true;
+        continue;
+      }
       Spoke& s = out.spokes[out.n++];
       s.p = bisector(v, w);
       s.label_a = la;
       s.label_b = lb;
-      s.edge = v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v);
+      s.edge = edge;
+      s.id = edge;
       s.ring_edge = i;
       sum = sum + s.p;
     }
     if (out.n > 0) out.centroid = sum / out.n;
-    if (out.n >= 3) out.centroid = junction_point(poly, out);
+    if (out.n >= 4 && twice) pair_spokes(poly, out);
+    if (out.n >= 3 && out.pairs.empty()) out.centroid = junction_point(poly, out);
     return out;
+  }
+
+  // The pieces of a face's bisector where some of its edges cross it twice (a cone cell's
+  // roof): the bisector of the two objects is a graph over one axis m of the face (the
+  // cone's gradients all point one way along the other axis), so its pieces on the face are
+  // intervals along m, and the spokes sorted along m pair up in turn. m is the face's axis
+  // along which the gradients of d_a - d_b at the spokes take both signs (along the other,
+  // and along an extruded cell's axis where they vanish, they keep one). A function of the
+  // face alone, so both cells of the face pair the same spokes; left unpaired (the junction
+  // point then) where the spokes do not show that structure.
+  void pair_spokes(const detail::FacePolygon& poly, PolygonGvd& g) const {
+    if (g.n % 2 != 0) return;
+    const ObjectId a = std::min(g.spokes[0].label_a, g.spokes[0].label_b);
+    const ObjectId b = std::max(g.spokes[0].label_a, g.spokes[0].label_b);
+    for (int i = 0; i < g.n; ++i)
+      if (std::min(g.spokes[i].label_a, g.spokes[i].label_b) != a ||
+          std::max(g.spokes[i].label_a, g.spokes[i].label_b) != b)
+        return;
+    const int u = (poly.axis + 1) % 3, w = (poly.axis + 2) % 3;
+    bool up[2] = {false, false}, down[2] = {false, false};
+    for (int i = 0; i < g.n; ++i) {
+      Probe last;
+      bisector_gap(g.spokes[i].p, a, b, last);
+      const double len = norm(last.grad);
+      if (!(len > 0)) return;
+      for (int k = 0; k < 2; ++k) {
+        const double c = last.grad[k == 0 ? u : w] / len;
+        up[k] |= c > 1e-9;
+        down[k] |= c < -1e-9;
+      }
+    }
+    const bool mixed_u = up[0] && down[0], mixed_w = up[1] && down[1];
+    if (mixed_u == mixed_w) return;
+    const int m = mixed_u ? u : w;
+    int order[PolygonGvd::kMaxSpokes];
+    for (int i = 0; i < g.n; ++i) order[i] = i;
+    std::sort(order, order + g.n,
+              [&](int i, int j) { return g.spokes[i].p[m] < g.spokes[j].p[m]; });
+    std::vector<std::array<int, 2>> pairs;
+    for (int i = 0; i < g.n; i += 2) {
+      const Spoke& s0 = g.spokes[order[i]];
+      const Spoke& s1 = g.spokes[order[i + 1]];
+      // A piece enters label_b's side at one end and leaves it at the other.
+      if (s0.label_a != s1.label_b || s0.label_b != s1.label_a) return;
+      pairs.push_back({order[i], order[i + 1]});
+    }
+    g.pairs = std::move(pairs);
+    g.pair_curves.assign(g.pairs.size(), {});
   }
 
   // A polygon's bisector with the curve traced where the face is perpendicular to the axis of
   // an extruded pair cell on either side of it (the same answer from both cells).
-  PolygonGvd polygon(uint32_t leaf, const detail::FacePolygon& poly) const {
+  // The polygon's spokes, paired (pair_spokes) also where four or more of them come from
+  // single crossings on a face of a cone leaf whose lines may cross C twice (a hanging vertex
+  // splits such an edge): decided from the leaves on both sides, so both pair alike.
+  PolygonGvd paired_polygon(uint32_t leaf, const detail::FacePolygon& poly) const {
     PolygonGvd out = polygon(poly);
-    if (out.n == 2 && any_extruded_ && traced_face(leaf, poly)) {
-      const uint64_t lo = std::min(out.spokes[0].edge, out.spokes[1].edge);
-      const uint64_t hi = std::max(out.spokes[0].edge, out.spokes[1].edge);
-      const auto it = curve_index_.find(curve_hash(lo, hi));
-      if (it != curve_index_.end() && curves_[it->second].lo == lo &&
-          curves_[it->second].hi == hi) {
-        const Curve& c = curves_[it->second];
-        // Stored from the smaller spoke edge to the larger one.
-        if (out.spokes[0].edge == lo) {
-          out.curve = c.points;
-        } else {
-          out.curve.assign(c.points.rbegin(), c.points.rend());
-        }
-      } else {
-        out.curve = trace_curve(poly, out.spokes[0], out.spokes[1]);
-      }
-    }
+    if (out.n >= 4 && out.pairs.empty() && any_cone_ &&
+        (crosses_twice(leaf) || (!poly.on_domain && crosses_twice(leaf_across(poly)))))
+      pair_spokes(poly, out);
     return out;
+  }
+
+  bool crosses_twice(uint32_t leaf) const {
+    bool twice = false;
+    return octree_.cone_axis(leaf, &twice) >= 0 && twice;
+  }
+
+  PolygonGvd polygon(uint32_t leaf, const detail::FacePolygon& poly) const {
+    PolygonGvd out = paired_polygon(leaf, poly);
+    if (!any_extruded_ || (out.n != 2 && out.pairs.empty()) || !traced_face(leaf, poly)) return out;
+    if (out.n == 2) out.curve = curve_between(poly, out.spokes[0], out.spokes[1]);
+    for (size_t k = 0; k < out.pairs.size(); ++k)
+      out.pair_curves[k] =
+          curve_between(poly, out.spokes[out.pairs[k][0]], out.spokes[out.pairs[k][1]]);
+    return out;
+  }
+
+  // The traced curve of a face from spoke s0 to spoke s1, its points strictly between them:
+  // as trace_curves stored it (from the smaller spoke id to the larger), or traced now.
+  std::vector<Vec3> curve_between(const detail::FacePolygon& poly, const Spoke& s0,
+                                  const Spoke& s1) const {
+    const uint64_t lo = std::min(s0.id, s1.id), hi = std::max(s0.id, s1.id);
+    const auto it = curve_index_.find(curve_hash(lo, hi));
+    if (it == curve_index_.end() || curves_[it->second].lo != lo || curves_[it->second].hi != hi)
+      return trace_curve(poly, s0, s1);
+    const Curve& c = curves_[it->second];
+    if (s0.id == lo) return c.points;
+    return {c.points.rbegin(), c.points.rend()};
   }
 
   // For each of labels[0..nl), the closest point of a spoke end carrying it (a point on that
@@ -488,6 +790,7 @@ class CellSurfacer {
     const ObjectId first = field_.label[grid[0]];
     for (uint32_t v : grid)
       if (v != kNoVertex && field_.label[v] != first) mixed = true;
+    if (!mixed && !doubles_.empty()) mixed = touches_double(leaf, grid);
     if (dim_ == 2) {
       cell_2d(leaf, grid, mixed, out);
     } else {
@@ -528,16 +831,20 @@ class CellSurfacer {
     return !poly.on_domain && leaf_across_traces(poly);
   }
 
-  // Whether the leaf across polygon `poly` (not on the domain box) traces it.
-  bool leaf_across_traces(const detail::FacePolygon& poly) const {
+  // The leaf across polygon `poly` (not on the domain box).
+  uint32_t leaf_across(const detail::FacePolygon& poly) const {
     lattice::Coord lo = lattice::vertex_coord(3, field_.vertices.key[poly.v[0]]);
     for (int i = 1; i < poly.n; ++i) {
       const lattice::Coord c = lattice::vertex_coord(3, field_.vertices.key[poly.v[i]]);
       for (int a = 0; a < 3; ++a) lo.c[a] = std::min(lo.c[a], c.c[a]);
     }
     if (poly.side == 0) lo.c[poly.axis] -= 1;  // the finest cell just below the face
-    const uint32_t across = octree_.locate_lattice(lo);
-    return traces(across, poly.axis);
+    return octree_.locate_lattice(lo);
+  }
+
+  // Whether the leaf across polygon `poly` (not on the domain box) traces it.
+  bool leaf_across_traces(const detail::FacePolygon& poly) const {
+    return traces(leaf_across(poly), poly.axis);
   }
 
   // The last point where the tracer measured both distances: distance is 1-Lipschitz, so
@@ -585,7 +892,7 @@ class CellSurfacer {
   static constexpr int kCurveDepth = 48;
   std::vector<Vec3> trace_curve(const detail::FacePolygon& poly, const Spoke& s0,
                                 const Spoke& s1) const {
-    const bool flip = s1.edge < s0.edge;  // canonical order: from the smaller octree edge
+    const bool flip = s1.id < s0.id;  // canonical order: from the smaller spoke id
     const Spoke& from = flip ? s1 : s0;
     const Spoke& to = flip ? s0 : s1;
     Box face;
@@ -794,7 +1101,7 @@ class CellSurfacer {
       for (int i = 0; i < gvds[f].n; ++i)
         for (int h = 0; h < f; ++h)
           for (int j = 0; j < gvds[h].n; ++j)
-            if (gvds[f].spokes[i].edge == gvds[h].spokes[j].edge) comp[find(f)] = find(h);
+            if (gvds[f].spokes[i].id == gvds[h].spokes[j].id) comp[find(f)] = find(h);
     Vec3 sum[24];
     int count[24] = {};
     Vec3 centre[24];
@@ -823,12 +1130,13 @@ class CellSurfacer {
         placed[c] = true;
       }
       const Vec3 rc = count[c] > 0 ? centre[c] : Vec3{};
-      if (g.n == 2 && !g.curve.empty()) {
-        // A traced curve: a fan from the apex over its chords.
-        const Spoke& s0 = g.spokes[0];
+      // A traced curve from s0 to s1: a fan from the apex over its chords. Either spoke may
+      // come first: the ring's arc from either one to the other lies on the side of its
+      // label_b, to the right of the curve seen from +axis.
+      auto fan = [&](const Spoke& s0, const Spoke& s1, const std::vector<Vec3>& curve) {
         Vec3 prev = s0.p;
-        for (size_t k = 0; k <= g.curve.size(); ++k) {
-          const Vec3 next = k < g.curve.size() ? g.curve[k] : g.spokes[1].p;
+        for (size_t k = 0; k <= curve.size(); ++k) {
+          const Vec3 next = k < curve.size() ? curve[k] : s1.p;
           if (outward_plus) {
             emit(out, prev, next, rc, s0.label_a, s0.label_b);
             emit(out, next, prev, rc, s0.label_b, s0.label_a);
@@ -838,6 +1146,16 @@ class CellSurfacer {
           }
           prev = next;
         }
+      };
+      if (g.n == 2 && !g.curve.empty()) {
+        fan(g.spokes[0], g.spokes[1], g.curve);
+        continue;
+      }
+      if (!g.pairs.empty()) {
+        // The pieces of a roof's bisector on the face (pair_spokes).
+        for (size_t k = 0; k < g.pairs.size(); ++k)
+          fan(g.spokes[g.pairs[k][0]], g.spokes[g.pairs[k][1]], g.pair_curves[k]);
+        if (polys[f].on_domain) domain_face(polys[f], g, out);
         continue;
       }
       if (g.n == 2) {
@@ -936,11 +1254,12 @@ class CellSurfacer {
     } else {
       dir = slanted_direction(leaf, slanted, opposite, x, y);
     }
-    // One oriented piece per polygon with two spokes: from the spoke where the ring passes
-    // from x to y. The rings run counter-clockwise seen from +axis, that is seen from outside
-    // on upper faces and from inside on lower ones; reversed on the lower entry faces' and the
-    // upper exit faces' opposites, the pieces on the entry faces and those on the exit faces
-    // follow C in the same sense (for an axis: as the rings of both faces across it do).
+    // One oriented piece per polygon with two spokes (per pair of spokes where an edge crosses
+    // C twice, next to a roof's apex): from the spoke where the ring passes from x to y. The
+    // rings run counter-clockwise seen from +axis, that is seen from outside on upper faces and
+    // from inside on lower ones; reversed on the lower entry faces' and the upper exit faces'
+    // opposites, the pieces on the entry faces and those on the exit faces follow C in the
+    // same sense (for an axis: as the rings of both faces across it do).
     struct Run {
       uint64_t from, to;
       std::vector<Vec3> points;  // from .. to, ends included
@@ -949,64 +1268,82 @@ class CellSurfacer {
     for (int f = 0; f < np; ++f) {
       const PolygonGvd& g = gvds[f];
       if (g.n == 0) continue;
-      if (g.n != 2) return false;
+      if (g.n != 2 && g.pairs.empty()) return false;
       // Where e crosses the face: -1 in (entry), +1 out (exit), 0 along it.
       const double across = dir[polys[f].axis] * (polys[f].side == 2 ? 1.0 : -1.0);
       const int end = across < 0 ? 0 : (across > 0 ? 1 : -1);
       const bool flip = (end == 0 && polys[f].side == 2) || (end == 1 && polys[f].side == 0);
-      const bool forward = (g.spokes[0].label_a == x) != flip;
-      const Spoke& s0 = g.spokes[forward ? 0 : 1];
-      const Spoke& s1 = g.spokes[forward ? 1 : 0];
-      Run r{s0.edge, s1.edge, {s0.p}};
-      if (forward) {
-        r.points.insert(r.points.end(), g.curve.begin(), g.curve.end());
+      auto add = [&](const Spoke& sa, const Spoke& sb, const std::vector<Vec3>& curve) {
+        const bool forward = (sa.label_a == x) != flip;
+        const Spoke& s0 = forward ? sa : sb;
+        const Spoke& s1 = forward ? sb : sa;
+        Run r{s0.id, s1.id, {s0.p}};
+        if (forward) {
+          r.points.insert(r.points.end(), curve.begin(), curve.end());
+        } else {
+          r.points.insert(r.points.end(), curve.rbegin(), curve.rend());
+        }
+        r.points.push_back(s1.p);
+        (end >= 0 ? ends[end] : sides).push_back(std::move(r));
+      };
+      if (g.n == 2) {
+        add(g.spokes[0], g.spokes[1], g.curve);
       } else {
-        r.points.insert(r.points.end(), g.curve.rbegin(), g.curve.rend());
-      }
-      r.points.push_back(s1.p);
-      if (end >= 0) {
-        ends[end].push_back(std::move(r));
-      } else {
-        sides.push_back(std::move(r));
+        for (size_t k = 0; k < g.pairs.size(); ++k)
+          add(g.spokes[g.pairs[k][0]], g.spokes[g.pairs[k][1]], g.pair_curves[k]);
       }
     }
-    // Each end face's pieces chained into one path.
-    std::vector<Vec3> path[2];
-    uint64_t first_key[2] = {0, 0}, last_key[2] = {0, 0};
+    // Each end face's pieces chained into paths: one per piece of C in the cell (two where C
+    // enters and leaves the cell twice beside a roof's apex).
+    struct Path {
+      uint64_t first = 0, last = 0;
+      std::vector<Vec3> points;
+    };
+    std::vector<Path> paths[2];
     for (int e = 0; e < 2; ++e) {
       std::vector<Run>& runs = ends[e];
       if (runs.empty()) return false;
-      size_t start = runs.size();
-      for (size_t i = 0; i < runs.size() && start == runs.size(); ++i) {
-        bool continues = false;
-        for (const Run& r : runs) continues |= r.to == runs[i].from;
-        if (!continues) start = i;
-      }
-      if (start == runs.size()) return false;  // a closed loop: not C
       std::vector<uint8_t> used(runs.size(), 0);
-      size_t at = start;
-      first_key[e] = runs[at].from;
-      path[e] = runs[at].points;
-      used[at] = 1;
-      for (size_t steps = 1; steps < runs.size(); ++steps) {
-        size_t next = runs.size();
-        for (size_t i = 0; i < runs.size(); ++i)
-          if (!used[i] && runs[i].from == runs[at].to) next = i;
-        if (next == runs.size()) return false;
-        path[e].insert(path[e].end(), runs[next].points.begin() + 1, runs[next].points.end());
-        used[next] = 1;
-        at = next;
+      size_t left = runs.size();
+      while (left > 0) {
+        size_t start = runs.size();
+        for (size_t i = 0; i < runs.size() && start == runs.size(); ++i) {
+          if (used[i]) continue;
+          bool continues = false;
+          for (size_t j = 0; j < runs.size(); ++j)
+            continues |= !used[j] && runs[j].to == runs[i].from;
+          if (!continues) start = i;
+        }
+        if (start == runs.size()) return false;  // a closed loop: not C
+        Path path;
+        size_t at = start;
+        path.first = runs[at].from;
+        path.points = runs[at].points;
+        used[at] = 1;
+        --left;
+        for (;;) {
+          size_t next = runs.size();
+          for (size_t i = 0; i < runs.size(); ++i)
+            if (!used[i] && runs[i].from == runs[at].to) next = i;
+          if (next == runs.size()) break;
+          path.points.insert(path.points.end(), runs[next].points.begin() + 1,
+                             runs[next].points.end());
+          used[next] = 1;
+          --left;
+          at = next;
+        }
+        path.last = runs[at].to;
+        paths[e].push_back(std::move(path));
       }
-      last_key[e] = runs[at].to;
     }
-    // The rungs: side-face pieces from an end of P to the same end of Q (either direction).
-    // Every side-face piece must belong to one of the two rungs (else C meets the side faces
-    // elsewhere, and the ladder would leave a hole).
+    if (paths[0].size() != paths[1].size()) return false;
+    // The rungs: side-face pieces from an end of an entry path to the same end of an exit
+    // path (either direction). Every side-face piece must belong to a rung (else C meets the
+    // side faces elsewhere, and the ladder would leave a hole).
     std::vector<uint8_t> used(sides.size(), 0);
-    auto rung = [&](uint64_t from, uint64_t to, std::vector<Vec3>& mid) {
+    auto rung = [&](uint64_t from, std::vector<Vec3>& mid) {
       uint64_t at = from;
       for (size_t steps = 0; steps <= sides.size(); ++steps) {
-        if (at == to) return true;
         bool moved = false;
         for (size_t i = 0; i < sides.size() && !moved; ++i) {
           if (used[i]) continue;
@@ -1021,27 +1358,49 @@ class CellSurfacer {
           at = fwd ? r.to : r.from;
           moved = true;
         }
-        if (!moved) return false;
+        if (!moved) break;
       }
-      return at == to;
+      return at;
     };
-    std::vector<Vec3> rung_first, rung_last;
-    if (!rung(first_key[0], first_key[1], rung_first) ||
-        !rung(last_key[0], last_key[1], rung_last) ||
-        std::count(used.begin(), used.end(), 1) != static_cast<std::ptrdiff_t>(sides.size()))
+    std::vector<Tri> final_tris;
+    std::vector<uint8_t> matched(paths[1].size(), 0);
+    for (const Path& entry : paths[0]) {
+      std::vector<Vec3> rung_first, rung_last;
+      const uint64_t first_end = rung(entry.first, rung_first);
+      size_t k = paths[1].size();
+      for (size_t i = 0; i < paths[1].size(); ++i)
+        if (!matched[i] && paths[1][i].first == first_end) k = i;
+      if (k == paths[1].size()) return false;
+      matched[k] = 1;
+      if (rung(entry.last, rung_last) != paths[1][k].last) return false;
+      if (!ladder(entry.points, paths[1][k].points, dir, rung_first, rung_last, final_tris))
+        return false;
+    }
+    if (std::count(used.begin(), used.end(), 1) != static_cast<std::ptrdiff_t>(sides.size()))
       return false;
-    // The ladder, by position along P's chord in the cross-section.
-    const std::vector<Vec3>& p = path[0];
-    const std::vector<Vec3>& q = path[1];
+    for (const Tri& t : final_tris) {
+      emit(out, t.v[0], t.v[1], t.v[2], x, y);
+      emit(out, t.v[1], t.v[0], t.v[2], y, x);
+    }
+    return true;
+  }
+
+  struct Tri {
+    Vec3 v[3];
+  };
+
+  // The ruled ladder between a path P on the entry faces and the path Q on the exit faces
+  // (the same piece of C), merged by position along P's chord in the cross-section; the
+  // rungs' midpoints split the first and last triangles. False where they do not fit.
+  static bool ladder(const std::vector<Vec3>& p, const std::vector<Vec3>& q, Vec3 dir,
+                     const std::vector<Vec3>& rung_first, const std::vector<Vec3>& rung_last,
+                     std::vector<Tri>& final_tris) {
     Vec3 chord = p.back() - p.front();
     chord = chord - dir * dot(chord, dir);
     const double chord_len = norm(chord);
     if (!(chord_len > 0)) return false;
     chord = chord / chord_len;
     auto along = [&](Vec3 v) { return dot(v - p.front(), chord); };
-    struct Tri {
-      Vec3 v[3];
-    };
     std::vector<Tri> tris;
     size_t i = 0, j = 0;
     const size_t m = p.size() - 1, n = q.size() - 1;
@@ -1078,7 +1437,6 @@ class CellSurfacer {
       }
       return false;
     };
-    std::vector<Tri> final_tris;
     for (size_t k = 0; k < tris.size(); ++k) {
       Tri t = tris[k];
       std::vector<Tri> parts{t};
@@ -1094,10 +1452,6 @@ class CellSurfacer {
         parts = std::move(again);
       }
       final_tris.insert(final_tris.end(), parts.begin(), parts.end());
-    }
-    for (const Tri& t : final_tris) {
-      emit(out, t.v[0], t.v[1], t.v[2], x, y);
-      emit(out, t.v[1], t.v[0], t.v[2], y, x);
     }
     return true;
   }
@@ -1177,6 +1531,9 @@ class CellSurfacer {
   size_t refined_count_ = 0;
   int dim_;
   bool any_extruded_ = false;
+  bool any_cone_ = false;
+  std::vector<DoubleCrossing> doubles_;
+  FlatMap64 double_index_;  // octree edge -> index in doubles_
 };
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <set>
 #include <tuple>
 
@@ -38,8 +39,10 @@ double local_cell(const GvdResult& r, Vec3 p) {
 size_t stride_for(size_t n, size_t budget = 3000) { return n <= budget ? 1 : n / budget; }
 
 // Properties every result must have (DESIGN.md "Correctness"). Closure is checked on every
-// simplex; the brute-force oracles on an evenly spread sample.
-void expect_valid(const GvdResult& r) {
+// simplex; the brute-force oracles on an evenly spread sample. `oriented` (when given) limits
+// the orientation count to the interfaces of the pairs it accepts.
+void expect_valid(const GvdResult& r,
+                  const std::function<bool(ObjectId, ObjectId)>& oriented = nullptr) {
   const int dim = r.scene.dimension;
   for (const GvdCell& cell : r.gvd.cells) {
     EXPECT_EQ(test::count_open_edges(cell, dim), 0u) << "cell " << cell.object << " is not closed";
@@ -78,6 +81,7 @@ void expect_valid(const GvdResult& r) {
       const size_t s = t * arity;
       const ObjectId other = cell.other[cell.indices[s]];
       if (other == kNoObject) continue;
+      if (oriented && !oriented(cell.object, other)) continue;
       const Vec3 a = cell.positions[cell.indices[s]];
       const Vec3 b = cell.positions[cell.indices[s + 1]];
       Vec3 n, c;
@@ -467,6 +471,7 @@ TEST(ComputeGvd, ShaftsWhoseCornersStraddleAnAxisCostTheSameAtAnyGap3D) {
       scene.objects.push_back(test::make_box("far", {0.3, 0.55, 0.3}, {0.35, 0.6291, 0.35}));
       const GvdResult r = run(scene, 0, "exact", "certified", "full");
       const std::string what = std::to_string(sides) + " sides at " + std::to_string(gaps[k]);
+      SCOPED_TRACE(what);
       expect_valid(r);
       EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 1000), 0u) << what;
       size_t bad = 0;
@@ -597,13 +602,14 @@ TEST(ComputeGvd, CadMeshedShaftInASleeveCostsTheSameAtAnyGap3D) {
 
 // Two pentagonal shafts in their bores side by side, the second 1.3 along x and 0.1234 along
 // y. With the default frame, make_domain puts both shafts' apexes on x on lattice planes (the
-// cube's side) and the first one's on y; cones are refused only in cells that hold the
-// second one's apex on y (PairCertifier::set_roof_apexes), which refine to the gap along those
-// rims. With --frame world nothing is aligned: near an apex inside cells 2:1 balance keeps
-// splitting cone cells' grandchildren, which fail their certificates, round after round, and
-// the pipeline builds the octree again without cones (warning cones_dropped). Both: no leaf
-// holding both objects uncertified, no piece crossing an object, closed cells; the default
-// costs less than half of the fallback.
+// cube's side) and the first one's on y; the second one's apex on y lies inside cells. With
+// --frame world nothing is aligned. Cells holding an apex are cones too: lines along the
+// straddled axis beside the apex meet the bisector twice, the certificate says so, and the
+// surfacer finds both crossings on those edges. Before, such cells were refused and refined to
+// the gap (default frame), or 2:1 balance split their grandchildren round after round until the
+// pipeline built the octree again without cones (world frame: warning cones_dropped, twice the
+// leaves). Both frames now keep the cones and cost about the same: no leaf holding both objects
+// uncertified, no piece crossing an object, closed cells.
 TEST(ComputeGvd, ShaftsWhoseApexesAreNotAllOnPlanesKeepTheOtherCones3D) {
   test::ShaftInBoreOptions so;
   so.sides = 5;
@@ -635,10 +641,11 @@ TEST(ComputeGvd, ShaftsWhoseApexesAreNotAllOnPlanesKeepTheOtherCones3D) {
     const bool dropped =
         std::any_of(r.scene.warnings.begin(), r.scene.warnings.end(),
                     [](const SceneWarning& w) { return w.kind == WarningKind::kConesDropped; });
-    EXPECT_EQ(dropped, world) << what;
+    EXPECT_FALSE(dropped) << what;
     leaves[world ? 1 : 0] = r.stats.leaves;
   }
-  EXPECT_LT(2 * leaves[0], leaves[1]) << leaves[0] << " leaves, without cones " << leaves[1];
+  EXPECT_LT(4 * leaves[1], 5 * leaves[0])
+      << leaves[0] << " leaves, with --frame world " << leaves[1];
 }
 
 // Whether p (the blade's own frame) lies in the gap between the blade and the slot's left wall,
@@ -687,6 +694,56 @@ TEST(ComputeGvd, BladeFullyInSlotCostsTheSameAtAnyGap3D) {
     ASSERT_FALSE(relative.empty());
     std::nth_element(relative.begin(), relative.begin() + relative.size() / 2, relative.end());
     EXPECT_LT(relative[relative.size() / 2], 1e-6) << "median relative gap at GVD vertices";
+  }
+  EXPECT_LE(leaves[1], 2 * leaves[0])
+      << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";
+}
+
+// Two blades in their slots, the second turned 30 degrees about y against the first: one
+// octree frame cannot serve both. The turned blade's rims along y have their normals on both
+// sides of x or z (cones), and the apexes of the bisector's roofs over its four rims lie at
+// coordinates that no lattice plane holds. Cells holding them are cones whose edges along the
+// straddled axis may cross the bisector twice (found exactly by the surfacer); before, they were
+// refused and the rims refined to the gap (3.2M leaves at 1e-4, the leaf limit at 1e-5). Valid,
+// both pairs' gaps exact, and 100 times thinner for at most twice the leaves. Orientation is
+// counted on each blade's interface with its own block: between the two blocks, junctions of
+// block, block_2 and blade_2 in cells of 0.05 to 0.37 at a clearance near 1 leave fans folded
+// over 0.25 % (1e-3) to 0.54 % (1e-5) of the sampled area, the paper's surfacing in coarse
+// cells far from any thin gap (docs/BENCHMARKS.md).
+
+TEST(ComputeGvd, BladesTurnedAgainstEachOtherCostTheSameAtAnyGap3D) {
+  uint64_t leaves[2] = {0, 0};
+  const double gaps[2] = {1e-3, 1e-5};
+  for (int k = 0; k < 2; ++k) {
+    test::BladeInSlotOptions o;
+    o.gap = gaps[k];
+    const Scene one = test::make_blade_in_slot(o);
+    const double g = o.gap * make_domain(one).side;
+    Scene scene = one;
+    for (SceneObject obj : one.objects) {
+      for (Vec3& v : obj.vertices)
+        v = test::rotate(v - Vec3{0.5, 0, 0.5}, {0, 1, 0}, std::acos(-1.0) / 6) + Vec3{2, 0, 0.5};
+      obj.label += "_2";
+      scene.objects.push_back(std::move(obj));
+    }
+    const GvdResult r = run(scene);
+    SCOPED_TRACE("gap " + std::to_string(gaps[k]));
+    expect_valid(r,
+                 [](ObjectId a, ObjectId b) { return std::min(a, b) / 2 == std::max(a, b) / 2; });
+    size_t bad = 0;
+    for (uint32_t i = 0; i < r.octree.leaf_count(); ++i)
+      bad += r.octree.object[i] == kManyObjects && !r.octree.is_certified(i) &&
+             r.octree.level[i] < r.octree.max_depth;
+    EXPECT_EQ(bad, 0u);
+    int pairs = 0;
+    for (const DualEdge& e : r.graph.edges) {
+      if (!((e.a == 0 && e.b == 1) || (e.a == 2 && e.b == 3))) continue;
+      ++pairs;
+      EXPECT_FALSE(e.touching);
+      EXPECT_NEAR(e.gap, g, 1e-9 * g) << e.a << "-" << e.b;
+    }
+    EXPECT_EQ(pairs, 2);
+    leaves[k] = r.stats.leaves;
   }
   EXPECT_LE(leaves[1], 2 * leaves[0])
       << leaves[0] << " leaves at 1e-3, " << leaves[1] << " at 1e-5";

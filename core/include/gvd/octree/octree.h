@@ -28,11 +28,12 @@ enum class CellVerdict : uint8_t {
   kExtrudedX,
   kExtrudedY,
   kExtrudedZ,
-  /// The same where the cell's lines along one cross-section axis were checked one by one
-  /// (pair_certificate.h): its children are certified too, its grandchildren must be asked.
-  kExtrudedOnlyX,
-  kExtrudedOnlyY,
-  kExtrudedOnlyZ,
+  /// The same where the gradients straddle one cross-section axis m, a cone (the cell's
+  /// lines along m were checked one by one, pair_certificate.h): its children are certified
+  /// too, its grandchildren must be asked. kCone + 4 axis + 2 k + twice (cone_verdict), for
+  /// m = (axis + 1 + k) % 3; twice: some of those lines cross the bisector twice.
+  kCone,
+  kConeLast = kCone + 11,
   /// Slanted extruded pair cells (3D): the same along a direction e perpendicular to axis 0, 1
   /// or 2 but along neither of the other two (a hexagonal bore's edge at 60 degrees in the
   /// plane of its end); ...Opposite: e's two non-zero components have opposite signs.
@@ -44,26 +45,30 @@ enum class CellVerdict : uint8_t {
   kSlantedZOpposite,
 };
 
+/// Whether a verdict is a cone's (kCone...): certified for the cell and its children.
+inline bool is_cone(CellVerdict v) {
+  return v >= CellVerdict::kCone && v <= CellVerdict::kConeLast;
+}
+
 /// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair), 2 + axis (the
-/// extruded pair cells) or 5 + axis (kExtrudedOnly...); children of a 5 + axis cell carry
-/// 8 + axis (certified; their own children must be asked again); 11 + 2 axis + opposite
-/// (kSlanted...).
+/// extruded pair cells) or 5 + (v - kCone) (the cones); children of a cone cell carry 12 more
+/// (certified; their own children must be asked again); 29 + 2 axis + opposite (kSlanted...).
 inline uint8_t certified_mark(CellVerdict v) {
   const int i = static_cast<int>(v);
   if (v == CellVerdict::kPair) return 1;
   if (i >= static_cast<int>(CellVerdict::kExtrudedX) &&
-      i <= static_cast<int>(CellVerdict::kExtrudedOnlyZ))
+      i <= static_cast<int>(CellVerdict::kConeLast))
     return static_cast<uint8_t>(2 + i - static_cast<int>(CellVerdict::kExtrudedX));
   if (i >= static_cast<int>(CellVerdict::kSlantedX) &&
       i <= static_cast<int>(CellVerdict::kSlantedZOpposite))
-    return static_cast<uint8_t>(11 + i - static_cast<int>(CellVerdict::kSlantedX));
+    return static_cast<uint8_t>(29 + i - static_cast<int>(CellVerdict::kSlantedX));
   return 0;
 }
 
 /// The mark the children of a cell with mark `mark` carry without asking again (0: ask).
 inline uint8_t inherited_mark(uint8_t mark) {
-  if (mark <= 4 || mark >= 11) return mark;
-  return mark <= 7 ? static_cast<uint8_t>(mark + 3) : uint8_t{0};
+  if (mark <= 4 || mark >= 29) return mark;
+  return mark <= 16 ? static_cast<uint8_t>(mark + 12) : uint8_t{0};
 }
 
 /// The slanted verdict for a direction perpendicular to `axis` whose other two components
@@ -73,10 +78,16 @@ inline CellVerdict slanted_verdict(int axis, bool opposite) {
                                   (opposite ? 1 : 0));
 }
 
-/// The extruded verdict along `axis` (0, 1, 2); `inherited`: its sub-cells are certified too.
-inline CellVerdict extruded_verdict(int axis, bool inherited = true) {
-  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kExtrudedX) + axis +
-                                  (inherited ? 0 : 3));
+/// The extruded verdict along `axis` (0, 1, 2), its sub-cells certified too.
+inline CellVerdict extruded_verdict(int axis) {
+  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kExtrudedX) + axis);
+}
+
+/// The cone's verdict along `axis` whose gradients straddle cross-section axis `mixed`;
+/// `twice`: some of its lines along `mixed` cross the bisector twice.
+inline CellVerdict cone_verdict(int axis, int mixed, bool twice) {
+  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kCone) + 4 * axis +
+                                  (mixed == (axis + 1) % 3 ? 0 : 2) + (twice ? 1 : 0));
 }
 
 /// Decides, for a cell the paper's rule would split, whether it must be split (the
@@ -139,8 +150,8 @@ struct Octree {
   std::vector<ObjectId> object;  ///< per leaf: kNoObject, an object, or kManyObjects
   /// Per leaf: the certified_mark of the certified pair cell it lies in (0: none): at most two
   /// objects are nearest anywhere in it, and their bisector there is one exact sheet (1: a
-  /// plane; 2 + a ... 10: a curve swept along axis a; 11 ... 16: along a direction
-  /// perpendicular to one axis), so it may hold both objects and the GVD
+  /// plane; 2 ... 28: a curve swept along an axis, 5 ... 28 the cones; 29 ... 34: along a
+  /// direction perpendicular to one axis), so it may hold both objects and the GVD
   /// (refinement checks skip it). Empty after loading from disk.
   std::vector<uint8_t> certified;
   /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries). Only the
@@ -152,15 +163,23 @@ struct Octree {
   bool is_certified(uint32_t leaf) const { return !certified.empty() && certified[leaf] != 0; }
   /// The axis of the extruded pair cell the leaf lies in, or -1.
   int extruded_axis(uint32_t leaf) const {
-    if (certified.empty() || certified[leaf] < 2 || certified[leaf] > 10) return -1;
-    return (certified[leaf] - 2) % 3;
+    if (certified.empty() || certified[leaf] < 2 || certified[leaf] > 28) return -1;
+    return certified[leaf] <= 4 ? certified[leaf] - 2 : (certified[leaf] - 5) % 12 / 4;
+  }
+  /// The cross-section axis whose lines may cross the bisector twice in the cone cell the leaf
+  /// lies in (CellVerdict::kCone...), or -1; `twice`: whether some of them do.
+  int cone_axis(uint32_t leaf, bool* twice = nullptr) const {
+    if (certified.empty() || certified[leaf] < 5 || certified[leaf] > 28) return -1;
+    const int k = (certified[leaf] - 5) % 12;
+    if (twice != nullptr) *twice = k % 2 == 1;
+    return (k / 4 + 1 + k / 2 % 2) % 3;
   }
   /// The axis perpendicular to the direction of the slanted extruded pair cell the leaf lies
   /// in, or -1; `opposite`: whether the direction's other two components differ in sign.
   int slanted_axis(uint32_t leaf, bool* opposite = nullptr) const {
-    if (certified.empty() || certified[leaf] < 11) return -1;
-    if (opposite != nullptr) *opposite = (certified[leaf] - 11) % 2 == 1;
-    return (certified[leaf] - 11) / 2;
+    if (certified.empty() || certified[leaf] < 29) return -1;
+    if (opposite != nullptr) *opposite = (certified[leaf] - 29) % 2 == 1;
+    return (certified[leaf] - 29) / 2;
   }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);

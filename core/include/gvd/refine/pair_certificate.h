@@ -87,26 +87,6 @@ class PairCertifier final : public SplitOracle {
 
   bool cones() const { return cones_; }
 
-  /// The apex of a roof over straddled rims (SceneFrame::straddled) in the unit domain: a
-  /// line along the rims whose coordinate along `axis` is `at`.
-  struct RoofApex {
-    int axis = 0;
-    double at = 0;
-    std::vector<std::array<Vec3, 2>> edges;  ///< the rims' edges (unit domain)
-  };
-  /// Cones across `axis` are refused in a cell that holds such an apex strictly inside its
-  /// span along `axis` and lies within its own size of one of the edges: there the roof's
-  /// two arms meet a line of some descendant each, the cone would be granted to the cell and
-  /// its children and fail below them, and 2:1 balance would split cone cells next to it
-  /// round after round. Refused, those cells follow the paper's rule (length/g along that
-  /// rim) and the cones elsewhere stay. make_domain puts one apex per axis on a plane of
-  /// level kRimAlignLevel (and may put a second one on one axis on a plane of level <= 12):
-  /// cells finer than that level never hold those inside, cells holding any other do. Call
-  /// before the first classify.
-  void set_roof_apexes(std::vector<RoofApex> apexes) { apexes_ = std::move(apexes); }
-  /// How near a lattice plane (unit domain) a roof's apex counts as on it.
-  static constexpr double kApexPrecision = 1e-9;
-
   /// A verdict with its witnesses (tests and audits use them).
   struct Certificate {
     CellVerdict verdict = CellVerdict::kSplit;
@@ -126,7 +106,8 @@ class PairCertifier final : public SplitOracle {
     /// straddles an axis is checked on the lines of the cell and its children only, so
     /// grandchildren are asked again.
     bool inherited = true;
-    int mixed = -1;  ///< then: the cross-section axis the cone straddles
+    int mixed = -1;      ///< then: the cross-section axis the cone straddles
+    bool twice = false;  ///< and whether some of its lines along it cross the bisector twice
     /// Slanted extruded pairs (kSlanted...): the axis perpendicular to e (axis is -1 then).
     int slanted = -1;
     Vec3 along;  ///< extruded pairs: e, a unit vector (the axis, or the slanted direction)
@@ -171,10 +152,6 @@ class PairCertifier final : public SplitOracle {
   const ContactPairs* contacts_;
   bool extruded_;
   bool cones_;
-  /// Whether a cone across `axis` must be refused in `box` (set_roof_apexes).
-  bool holds_roof_apex(const Box& box, int axis) const;
-
-  std::vector<RoofApex> apexes_;
   /// Per point: the lowest index of a point at the same position (soups share no indices).
   std::vector<uint32_t> canonical_;
   /// Per simplex side (3D: edge v[e] v[e+1]; 2D: end v[e]): the simplex of the same object
