@@ -38,6 +38,16 @@ double local_cell(const GvdResult& r, Vec3 p) {
 // Stride that visits about `budget` of `n` items (brute-force oracles are O(scene size)).
 size_t stride_for(size_t n, size_t budget = 3000) { return n <= budget ? 1 : n / budget; }
 
+// Leaves above the depth limit that hold two or more objects without a certificate (the
+// certified refinement leaves none: such a leaf is split or certified).
+size_t uncertified_leaves_holding_two(const GvdResult& r) {
+  size_t bad = 0;
+  for (uint32_t i = 0; i < r.octree.leaf_count(); ++i)
+    bad += r.octree.object[i] == kManyObjects && !r.octree.is_certified(i) &&
+           r.octree.level[i] < r.octree.max_depth;
+  return bad;
+}
+
 // Properties every result must have (DESIGN.md "Correctness"). Closure is checked on every
 // simplex; the brute-force oracles on an evenly spread sample. `oriented` (when given) limits
 // the orientation count to the interfaces of the pairs it accepts.
@@ -439,10 +449,7 @@ TEST(ComputeGvd, LeavesHoldingTwoObjectsAreCertifiedOrAtTheLimit3D) {
     o.threads = 2;
     o.domain.frame = DomainFrame::kWorld;
     const GvdResult r = compute_gvd(std::move(scene), o);
-    size_t bad = 0;
-    for (uint32_t i = 0; i < r.octree.leaf_count(); ++i)
-      bad += r.octree.object[i] == kManyObjects && !r.octree.is_certified(i) &&
-             r.octree.level[i] < r.octree.max_depth;
+    const size_t bad = uncertified_leaves_holding_two(r);
     EXPECT_EQ(bad, 0u) << (variant == 0 ? "pentagonal shaft" : "lopsided hexagonal shaft");
     for (const GvdCell& cell : r.gvd.cells) EXPECT_EQ(test::count_open_edges(cell, 3), 0u);
     EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 1000), 0u);
@@ -474,10 +481,7 @@ TEST(ComputeGvd, ShaftsWhoseCornersStraddleAnAxisCostTheSameAtAnyGap3D) {
       SCOPED_TRACE(what);
       expect_valid(r);
       EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 1000), 0u) << what;
-      size_t bad = 0;
-      for (uint32_t i = 0; i < r.octree.leaf_count(); ++i)
-        bad += r.octree.object[i] == kManyObjects && !r.octree.is_certified(i) &&
-               r.octree.level[i] < r.octree.max_depth;
+      const size_t bad = uncertified_leaves_holding_two(r);
       EXPECT_EQ(bad, 0u) << what;
       EXPECT_EQ(r.stats.refine_rounds, 1) << what;
       leaves[k] = r.stats.leaves;
@@ -630,10 +634,7 @@ TEST(ComputeGvd, ShaftsWhoseApexesAreNotAllOnPlanesKeepTheOtherCones3D) {
     const GvdResult r = compute_gvd(scene, o);
     const bool world = frame == DomainFrame::kWorld;
     const char* what = world ? "world" : "auto";
-    size_t bad = 0;
-    for (uint32_t i = 0; i < r.octree.leaf_count(); ++i)
-      bad += r.octree.object[i] == kManyObjects && !r.octree.is_certified(i) &&
-             r.octree.level[i] < r.octree.max_depth;
+    const size_t bad = uncertified_leaves_holding_two(r);
     EXPECT_EQ(bad, 0u) << what;
     for (const GvdCell& cell : r.gvd.cells) EXPECT_EQ(test::count_open_edges(cell, 3), 0u);
     EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 1000), 0u) << what;
@@ -730,10 +731,7 @@ TEST(ComputeGvd, BladesTurnedAgainstEachOtherCostTheSameAtAnyGap3D) {
     SCOPED_TRACE("gap " + std::to_string(gaps[k]));
     expect_valid(r,
                  [](ObjectId a, ObjectId b) { return std::min(a, b) / 2 == std::max(a, b) / 2; });
-    size_t bad = 0;
-    for (uint32_t i = 0; i < r.octree.leaf_count(); ++i)
-      bad += r.octree.object[i] == kManyObjects && !r.octree.is_certified(i) &&
-             r.octree.level[i] < r.octree.max_depth;
+    const size_t bad = uncertified_leaves_holding_two(r);
     EXPECT_EQ(bad, 0u);
     int pairs = 0;
     for (const DualEdge& e : r.graph.edges) {
