@@ -54,8 +54,9 @@ struct PolygonGvd {
   std::vector<Vec3> curve;
   /// Four or more spokes of two objects whose bisector is a graph over one axis of the face
   /// (a cone cell's roof, CellSurfacer::pair_spokes): the pieces of the bisector on the face,
-  /// each between two spokes (pairs[k][0] is where the ring passes from label_a to label_b),
-  /// with their traced curves on traced faces. Empty otherwise.
+  /// each between two spokes (in order along that axis; either end may come first, the
+  /// emitters orient each piece by its spokes' labels), with their traced curves on traced
+  /// faces. Empty otherwise.
   std::vector<std::array<int, 2>> pairs;
   std::vector<std::vector<Vec3>> pair_curves;
 };
@@ -309,10 +310,10 @@ class CellSurfacer {
   // Whether edge v0 < v1 (both labelled `outer`) meets the bisector of outer and `inner`
   // twice; then the two points, from v0. f = d_inner - d_outer (exact, by the BVH) is positive
   // at both ends; next to a roof's apex it falls and rises once along the edge (the cone's
-  // graph over m), so its minimum is bracketed where its slope changes sign, bisected there,
-  // and the crossings are the roots on either side of a negative value. Edges whose ends'
-  // slopes do not bracket a minimum, or where f stays positive (the 2-Lipschitz bound
-  // ends the search early away from the bisector), are left alone.
+  // graph over m). Unless the ends' slopes rule a dip out, a negative value is sought by
+  // branch and bound on the 2-Lipschitz bound, and the crossings are the roots on either side
+  // of it. Edges where f stays positive, or whose dip is narrower than 1e-12 of the edge or
+  // not found within 512 evaluations, are left alone (their labels stand).
   bool two_crossings(uint64_t edge, ObjectId inner, DoubleCrossing& out) const {
     const auto v0 = static_cast<uint32_t>(edge >> 32), v1 = static_cast<uint32_t>(edge);
     const ObjectId outer = field_.label[v0];
@@ -506,8 +507,6 @@ class CellSurfacer {
     g.pair_curves.assign(g.pairs.size(), {});
   }
 
-  // A polygon's bisector with the curve traced where the face is perpendicular to the axis of
-  // an extruded pair cell on either side of it (the same answer from both cells).
   // The polygon's spokes, paired (pair_spokes) also where four or more of them come from
   // single crossings on a face of a cone leaf whose lines may cross C twice (a hanging vertex
   // splits such an edge): decided from the leaves on both sides, so both pair alike.
@@ -524,6 +523,8 @@ class CellSurfacer {
     return octree_.cone_axis(leaf, &twice) >= 0 && twice;
   }
 
+  // A polygon's bisector with the curves traced where the face is perpendicular to the axis
+  // of an extruded pair cell on either side of it (the same answer from both cells).
   PolygonGvd polygon(uint32_t leaf, const detail::FacePolygon& poly) const {
     PolygonGvd out = paired_polygon(leaf, poly);
     if (!any_extruded_ || (out.n != 2 && out.pairs.empty()) || !traced_face(leaf, poly)) return out;
