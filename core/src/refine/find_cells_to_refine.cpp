@@ -374,7 +374,7 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
               const CellVerdict v = oracle->classify(
                   lattice::cell_box(dim, lattice::morton_decode(dim, cell.code), cell.level),
                   simplices);
-              // Only certificates that hold for every sub-cell: a cone's (kExtrudedOnly...)
+              // Only certificates that hold for every sub-cell: a cone's (kCone...)
               // is checked on the lines of its children, and 2:1 balance after this round can
               // split its grandchildren, which then need this plan again, round after round.
               const bool whole = !is_cone(v);

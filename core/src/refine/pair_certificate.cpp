@@ -741,7 +741,8 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   if (mixed >= 0) {
     // The lines of the cell along `mixed` where octree edges of it and of its children can
     // run: at 0, 1/4, ... 1 of the cell across the monotone axis, at any point along the axis
-    // (all alike). Then its children are certified with it (kExtrudedOnly...).
+    // (all alike), at most two crossings each (`twice` where some line has two: beside the
+    // roof's apex). Then its children are certified with it (kCone...).
     const int mono = 3 - axis - mixed;
     for (int k = 0; k <= 4; ++k) {
       Vec3 p0 = box.center(), p1;

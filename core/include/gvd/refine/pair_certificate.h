@@ -53,12 +53,12 @@ namespace gvd {
 ///   curve that meets every line along `rise` at most once and every side of a cross-section
 ///   square at most once (no saddles, no hidden arcs: the corners' labels show where it runs).
 ///   The surfacer traces C on the faces perpendicular to e and sweeps it along e. With `cones`,
-///   where the normals lie in a cone of at most 90 degrees that straddles a cross-section axis
+///   where the normals lie in a cone of at most 2 kMaxCone that straddles a cross-section axis
 ///   (a hexagonal shaft's corner on an axis), C stays a graph but a line along that axis can
-///   meet it twice: the lines along it where octree edges of the cell and its children can run
-///   (at quarters of the cell) are checked exactly (line_crossings), and the cell's
-///   grandchildren are asked again (kExtrudedOnly...). They pass on either side of the roof's
-///   apex, which make_domain puts on a lattice plane (SceneFrame::rim).
+///   meet it twice, beside the apex of C's roof: the lines along it where octree edges of the
+///   cell and its children can run (at quarters of the cell) are counted exactly
+///   (line_crossings), at most two each (`twice` when some has two: the surfacer then finds
+///   both crossings on such edges), and the cell's grandchildren are asked again (kCone...).
 /// - Slanted extruded pairs (kSlanted...): the same along a direction e square to one axis a
 ///   but along neither other one (a hexagonal bore's edge at 60 degrees in its end plane):
 ///   the quadrant is taken on a and on w, the unit vector square to e in the plane of the
@@ -72,11 +72,10 @@ namespace gvd {
 class PairCertifier final : public SplitOracle {
  public:
   /// `extruded`: also certify extruded pairs (the surfacer must then sweep their bisectors).
-  /// `cones`: also the cones across an axis (kExtrudedOnly...). Their certificate covers the
-  /// cell and its children only; where 2:1 balance splits a child next to an apex that lies
-  /// inside cells, the grandchildren fail it again, round after round, so the pipeline tries
-  /// cones first and builds the octree again without them when the refinement does not settle
-  /// (RefineLoopOptions::cone_certifier). `cancel` (may be null) is read between the steps of
+  /// `cones`: also the cones across an axis (kCone...). Their certificate covers the cell and
+  /// its children only; where grandchildren fail it again round after round (lines that meet
+  /// C more than twice, or whose count gives up), the pipeline builds the octree again without
+  /// cones (RefineLoopOptions::cone_certifier). `cancel` (may be null) is read between the steps of
   /// the construction (sorts of the points and of the triangles' sides: a quarter second on
   /// 327k triangles): set, it stops with gvd::Error{kCancelled}.
   PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
@@ -140,7 +139,7 @@ class PairCertifier final : public SplitOracle {
   Certificate certify_extruded(const Box& box, const ObjectId pair[2], const double dist[2],
                                double r, const std::vector<uint32_t> patch[2]) const;
   /// How often d_pair[0] - d_pair[1] changes sign on the segment [p0, p1] along axis `along`
-  /// inside the cell whose nearest simplices are `patch` (2: twice or more, or undecided).
+  /// inside the cell whose nearest simplices are `patch` (3: more than twice, or undecided).
   int line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int along,
                      const std::vector<uint32_t> patch[2]) const;
 
