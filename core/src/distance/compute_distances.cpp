@@ -17,8 +17,30 @@
 
 namespace gvd {
 
+void DistanceField::keep_leaf_lists_of(std::span<const uint32_t> leaves) {
+  if (leaf_begin.empty()) return;
+  const size_t n = leaf_slots.size();
+  uint32_t k = 0;
+  size_t next = 0;
+  for (size_t leaf = 0; leaf < n; ++leaf) {
+    const uint32_t lo = leaf_begin[leaf], hi = leaf_begin[leaf + 1];
+    leaf_begin[leaf] = k;
+    if (next < leaves.size() && leaves[next] == leaf) {
+      // k <= lo: rows only move down, so a forward copy never overwrites what it reads next.
+      std::memmove(leaf_vertex.data() + k, leaf_vertex.data() + lo, (hi - lo) * sizeof(uint32_t));
+      k += hi - lo;
+      ++next;
+    } else {
+      leaf_slots[leaf] = 0;
+    }
+  }
+  leaf_begin[n] = k;
+  leaf_vertex.resize(k);
+}
+
 LeafGrid DistanceField::grid(const Octree& octree, uint32_t leaf) const {
-  if (leaf_begin.empty()) return leaf_grid(octree, vertices, leaf);
+  // Every leaf's corners are vertices: an empty mask is a row that was not kept.
+  if (leaf_begin.empty() || leaf_slots[leaf] == 0) return leaf_grid(octree, vertices, leaf);
   LeafGrid g;
   g.fill(kNoVertex);
   uint32_t k = leaf_begin[leaf];

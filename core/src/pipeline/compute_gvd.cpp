@@ -223,10 +223,9 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   so.cancel = options.cancel;
   so.progress = [&](double f) { progress("surface", 0.9 * f); };  // the weld: the last tenth
   {
-    LeafPieces pieces = surface_leaves(r.octree, r.field, r.geometry, bvh, so);
-    // Only the leaves needed the per-leaf vertex lists (~50 B per leaf): they go before the
-    // weld, where memory peaks.
-    r.field.drop_leaf_lists();
+    // Only surfacing reads the per-leaf vertex lists (~50 B per leaf): they go as it stops
+    // needing them, the inactive leaves' first (memory peaks at its end and in the weld).
+    LeafPieces pieces = surface_leaves_releasing_lists(r.octree, r.field, r.geometry, bvh, so);
     r.gvd = weld_gvd(std::move(pieces), r.geometry, bvh, r.domain, so);
   }
   uint64_t simplices = 0, gvd_bytes = 0;

@@ -275,9 +275,8 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
             }
           }
           int limit = octree.max_depth;
-          if (f == 1 && options.base != nullptr) {
-            const uint32_t base_leaf = options.base->locate(octree.box(leaf).center());
-            limit = std::min(limit, options.base->level[base_leaf] + options.ambiguity_levels);
+          if (f == 1 && !options.base_level.empty()) {
+            limit = std::min(limit, options.base_level[leaf] + options.ambiguity_levels);
           }
           if (f != 0 && octree.level[leaf] >= limit) f |= 4;
           flag[i] = f;

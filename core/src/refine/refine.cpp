@@ -1,12 +1,31 @@
 #include "gvd/refine/refine.h"
 
 #include <algorithm>
+#include <cstdint>
+#include <span>
 #include <utility>
 #include <vector>
 
 #include "gvd/refine/find_cells_to_refine.h"
 
 namespace gvd {
+namespace {
+
+// Per leaf of `after` (a refinement of `before`: every leaf lies in one leaf of `before`),
+// the entry of `levels` of the leaf of `before` that holds it. Both leaf arrays are sorted by
+// Morton code, and each leaf of `before` covers a contiguous run of codes: one merge, O(N).
+std::vector<uint8_t> inherit_levels(const Octree& before, const Octree& after,
+                                    std::span<const uint8_t> levels) {
+  std::vector<uint8_t> out(after.leaf_count());
+  size_t j = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    while (j + 1 < before.leaf_count() && before.code[j + 1] <= after.code[i]) ++j;
+    out[i] = levels[j];
+  }
+  return out;
+}
+
+}  // namespace
 
 RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
                                        const UnitGeometry& geometry, const SimplexBvh& bvh,
@@ -15,12 +34,13 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
   const int threads = options.octree.threads;
   RefineLoopResult out;
   RefineReport report;
-  // The octree before any refinement (ambiguity limits count levels from it): the current one
-  // until the first round replaces it, then kept from that round (no copy).
-  Octree base;
+  // Ambiguity limits count levels from the octree before any refinement: per leaf, the level
+  // of the first octree's leaf that holds it (1 B per leaf; the first octree itself would be
+  // 9 B per leaf, held beside the replaced and the new one in every later round).
+  std::vector<uint8_t> base_level = octree.level;
   RefineOptions ro;
   ro.threads = threads;
-  ro.base = &octree;
+  ro.base_level = base_level;
   ro.ambiguity_levels = options.ambiguity_levels;
   ro.geometry = &geometry;
   ro.bvh = &bvh;
@@ -71,18 +91,16 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     const bool keep_index = field.vertices.indexed() && field.vertices.size() < kKeepIndexBelow;
     if (!keep_index) field.vertices.drop_index();
     octree = refine_octree(previous, geometry, splits, options.octree, plan.certified);
-    // The replaced octree is only looked up from now on (the distance update matches its
-    // leaves, the ambiguity limit locates in the first): its simplex lists go before the
-    // update, where the refinement's memory peaks.
+    // The replaced octree is only looked up from now on (its leaves pass their base levels
+    // on, and the distance update matches them): its simplex lists go before the update,
+    // where the refinement's memory peaks.
     previous.keep_cells_only();
+    base_level = inherit_levels(previous, octree, base_level);
+    ro.base_level = base_level;
     if (!keep_index) field.vertices.rebuild_index(threads);
     DistanceField next =
         compute_distances(octree, geometry, bvh, options.distance, std::move(field), previous);
     field = std::move(next);
-    if (rounds == 1) {
-      base = std::move(previous);
-      ro.base = &base;
-    }
   }
   sort_vertices(field, threads);  // incremental rounds appended vertices
   // The last report holds the thin regions no round resolved (earlier ones were split).

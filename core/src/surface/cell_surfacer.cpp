@@ -1544,9 +1544,14 @@ LeafPieces::~LeafPieces() = default;
 LeafPieces::LeafPieces(LeafPieces&&) noexcept = default;
 LeafPieces& LeafPieces::operator=(LeafPieces&&) noexcept = default;
 
-LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
-                          const UnitGeometry& geometry, const SimplexBvh& bvh,
-                          const SurfaceOptions& options) {
+namespace {
+
+// surface_leaves; with `lists` (the field itself), the field's per-leaf vertex lists go as soon
+// as they are no longer read: the inactive leaves' once the active ones are known, the rest at
+// the end.
+std::vector<SurfaceChunk> surface_chunks(const Octree& octree, const DistanceField& field,
+                                         DistanceField* lists, const UnitGeometry& geometry,
+                                         const SimplexBvh& bvh, const SurfaceOptions& options) {
   const int threads = resolve_threads(options.threads);
   const size_t grain = 512;
   const int arity = octree.dimension == 2 ? 2 : 3;
@@ -1557,9 +1562,9 @@ LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
   surfacer.prepare(threads);
   // Only the leaves that emit anything: those the GVD crosses and those on the domain box.
   const std::vector<uint32_t>& active = surfacer.active_leaves();
-  LeafPieces out;
-  out.impl_ = std::make_unique<LeafPieces::Impl>();
-  std::vector<SurfaceChunk>& chunks = out.impl_->chunks;
+  // From here on only the active leaves' grids are read (cell() is called on them alone).
+  if (lists != nullptr) lists->keep_leaf_lists_of(active);
+  std::vector<SurfaceChunk> chunks;
   chunks.resize((active.size() + grain - 1) / grain + 1);
   // In batches of whole grains when someone watches the progress (about a twentieth each).
   const size_t step =
@@ -1594,6 +1599,27 @@ LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
     if (options.progress)
       options.progress(static_cast<double>(std::min(start + step, active.size())) / active.size());
   }
+  if (lists != nullptr) lists->drop_leaf_lists();
+  return chunks;
+}
+
+}  // namespace
+
+LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
+                          const UnitGeometry& geometry, const SimplexBvh& bvh,
+                          const SurfaceOptions& options) {
+  LeafPieces out;
+  out.impl_ = std::make_unique<LeafPieces::Impl>();
+  out.impl_->chunks = surface_chunks(octree, field, nullptr, geometry, bvh, options);
+  return out;
+}
+
+LeafPieces surface_leaves_releasing_lists(const Octree& octree, DistanceField& field,
+                                          const UnitGeometry& geometry, const SimplexBvh& bvh,
+                                          const SurfaceOptions& options) {
+  LeafPieces out;
+  out.impl_ = std::make_unique<LeafPieces::Impl>();
+  out.impl_->chunks = surface_chunks(octree, field, &field, geometry, bvh, options);
   return out;
 }
 

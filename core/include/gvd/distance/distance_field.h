@@ -3,6 +3,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <vector>
 
 #include "gvd/common/growable_array.h"
@@ -49,7 +50,11 @@ struct DistanceField {
     leaf_vertex.release();
     std::vector<uint32_t>().swap(leaf_slots);
   }
-  /// The LeafGrid of a leaf, from the CSR when present, else by hash lookups.
+  /// Keeps the per-leaf lists of `leaves` (ascending) only: the other rows are emptied in
+  /// place and their slot masks set to 0, and the array shrinks to what is left. O(entries).
+  void keep_leaf_lists_of(std::span<const uint32_t> leaves);
+  /// The LeafGrid of a leaf, from its CSR row when it has one (a non-zero slot mask), else by
+  /// key lookups.
   LeafGrid grid(const Octree& octree, uint32_t leaf) const;
   /// Distance from vertex v to its assigned closest point (unit domain; inf if none).
   double distance(uint32_t v) const;

@@ -36,14 +36,16 @@ struct RefineReport {
 /// intersects object o but has a vertex labelled with another object is split, so that the GVD
 /// never passes through a non-empty leaf (and so never crosses an object) above the depth limit.
 /// Ambiguity is resolved at most `ambiguity_levels` levels below the level the leaf's region
-/// had in `base` (the octree of the rules of §3), so degenerate configurations (four or more
+/// had in the octree of the rules of §3 (`base_level`), so degenerate configurations (four or more
 /// cells meeting where three would be generic, e.g. symmetric arrays) do not refine to the
 /// depth limit; those cells count as `ambiguous_at_limit` and are surfaced by the centroid rule.
 /// Certified leaves (Octree::certified) are never flagged: their certificate proves that only
 /// their two objects are nearest in them and that the bisector there is one exact sheet.
 struct RefineOptions {
   int threads = 0;
-  const Octree* base = nullptr;  ///< null: ambiguity is resolved down to max_depth
+  /// Per leaf of the octree examined: the level of the leaf of the first octree (the rules of
+  /// §3) that holds it. Empty: ambiguity is resolved down to max_depth.
+  std::span<const uint8_t> base_level;
   int ambiguity_levels = 3;
   /// With both set, a leaf the GVD crosses is also split when one of its GVD points has an
   /// exact nearest object it does not claim — in 2D an edge bisector one other than the edge's

@@ -51,12 +51,23 @@ class LeafPieces {
   std::unique_ptr<Impl> impl_;
   friend LeafPieces surface_leaves(const Octree&, const DistanceField&, const UnitGeometry&,
                                    const SimplexBvh&, const SurfaceOptions&);
+  friend LeafPieces surface_leaves_releasing_lists(const Octree&, DistanceField&,
+                                                   const UnitGeometry&, const SimplexBvh&,
+                                                   const SurfaceOptions&);
   friend Gvd weld_gvd(LeafPieces&&, const UnitGeometry&, const SimplexBvh&, const Domain&,
                       const SurfaceOptions&);
 };
 LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
                           const UnitGeometry& geometry, const SimplexBvh& bvh,
                           const SurfaceOptions& options = {});
+/// surface_leaves, and `field` gives up its per-leaf vertex lists as soon as surfacing no longer
+/// reads them: those of the leaves that emit nothing (on the spheres, four in five) once the
+/// others are known, the rest at the end (the field then looks vertices up by key, as one
+/// loaded from disk does). The lists beside the pieces are what memory peaks on at the end
+/// of surfacing. The pieces are surface_leaves'.
+LeafPieces surface_leaves_releasing_lists(const Octree& octree, DistanceField& field,
+                                          const UnitGeometry& geometry, const SimplexBvh& bvh,
+                                          const SurfaceOptions& options = {});
 Gvd weld_gvd(LeafPieces&& pieces, const UnitGeometry& geometry, const SimplexBvh& bvh,
              const Domain& domain, const SurfaceOptions& options = {});
 
