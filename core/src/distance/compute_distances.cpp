@@ -225,7 +225,8 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
 // per-vertex arrays (exact_everywhere) and the per-leaf lists.
 DistanceField distances(const Octree& octree, const UnitGeometry& geometry, const SimplexBvh& bvh,
                         const DistanceOptions& options, const DistanceField* previous,
-                        const Octree* previous_octree, DistanceField* owned) {
+                        const Octree* previous_octree, DistanceField* owned,
+                        Octree* owned_octree = nullptr) {
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
   DistanceField field;
@@ -255,6 +256,9 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
         ++j;
       }
     }
+    // Nothing reads the replaced octree after this match: an owned one goes now, before the
+    // update's peak (9 B per leaf).
+    if (owned_octree != nullptr) *owned_octree = Octree();
     if (owned != nullptr) {
       field.vertices = std::move(owned->vertices);
     } else {
@@ -738,11 +742,12 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
 
 DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options,
-                                DistanceField&& previous, const Octree& previous_octree) {
+                                DistanceField&& previous, Octree&& previous_octree) {
   const bool incremental = !previous.leaf_begin.empty() &&
                            previous.leaf_begin.size() == previous_octree.leaf_count() + 1;
   if (!incremental) return distances(octree, geometry, bvh, options, &previous, nullptr, nullptr);
-  return distances(octree, geometry, bvh, options, &previous, &previous_octree, &previous);
+  return distances(octree, geometry, bvh, options, &previous, &previous_octree, &previous,
+                   &previous_octree);
 }
 
 }  // namespace gvd

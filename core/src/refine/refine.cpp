@@ -92,14 +92,15 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     if (!keep_index) field.vertices.drop_index();
     octree = refine_octree(previous, geometry, splits, options.octree, plan.certified);
     // The replaced octree is only looked up from now on (its leaves pass their base levels
-    // on, and the distance update matches them): its simplex lists go before the update,
+    // on, and the distance update matches them, then frees it): its simplex lists go before
+    // the update,
     // where the refinement's memory peaks.
     previous.keep_cells_only();
     base_level = inherit_levels(previous, octree, base_level);
     ro.base_level = base_level;
     if (!keep_index) field.vertices.rebuild_index(threads);
-    DistanceField next =
-        compute_distances(octree, geometry, bvh, options.distance, std::move(field), previous);
+    DistanceField next = compute_distances(octree, geometry, bvh, options.distance,
+                                           std::move(field), std::move(previous));
     field = std::move(next);
   }
   sort_vertices(field, threads);  // incremental rounds appended vertices

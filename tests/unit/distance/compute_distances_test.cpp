@@ -105,7 +105,7 @@ TEST_P(ComputeDistancesMethod, IncrementalRefinementEqualsAFullRecomputation) {
     const DistanceField full = compute_distances(refined, s->geometry, s->bvh, o, &first);
     // The overload that consumes the previous field gives the same field.
     const DistanceField consumed =
-        compute_distances(refined, s->geometry, s->bvh, o, DistanceField(first), s->octree);
+        compute_distances(refined, s->geometry, s->bvh, o, DistanceField(first), Octree(s->octree));
     EXPECT_EQ(consumed.vertices.key, incremental.vertices.key);
     EXPECT_EQ(consumed.label, incremental.label);
     EXPECT_EQ(consumed.point, incremental.point);

@@ -111,10 +111,11 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
                                 const DistanceField* previous = nullptr,
                                 const Octree* previous_octree = nullptr);
 /// The same update after a refinement, consuming `previous` (its vertex set moves into the new
-/// field instead of being copied); the result is the same.
+/// field instead of being copied) and `previous_octree` (freed once its leaves are matched);
+/// the result is the same.
 DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options,
-                                DistanceField&& previous, const Octree& previous_octree);
+                                DistanceField&& previous, Octree&& previous_octree);
 
 /// Puts the vertices in key order (as a fresh compute_distances has them), permuting every
 /// per-vertex array and the leaf CSR. O(V), parallel on `threads` (0 = all cores).
