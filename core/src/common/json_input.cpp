@@ -1,7 +1,9 @@
 #include "gvd/common/json_input.h"
 
+#include <cstdint>
 #include <string>
 
+#include "gvd/common/cancel.h"
 #include "gvd/common/json_depth.h"
 
 namespace gvd {
@@ -14,10 +16,20 @@ std::string_view plain_json_message(std::string_view what) {
   return what;
 }
 
-nlohmann::json parse_json_input(std::string_view text, std::string_view what, ErrorCode code) {
+nlohmann::json parse_json_input(std::string_view text, std::string_view what, ErrorCode code,
+                                const std::atomic<bool>* cancel) {
   check_json_depth(text, what, code);
   try {
-    return nlohmann::json::parse(text.begin(), text.end());
+    if (cancel == nullptr) return nlohmann::json::parse(text.begin(), text.end());
+    uint32_t events = 0;
+    const nlohmann::json::parser_callback_t poll = [&](int, nlohmann::json::parse_event_t,
+                                                       nlohmann::json&) {
+      if ((++events & 0xffff) == 0 && is_cancelled(cancel)) {
+        throw Error(ErrorCode::kCancelled, "parsing " + std::string(what) + " cancelled");
+      }
+      return true;
+    };
+    return nlohmann::json::parse(text.begin(), text.end(), poll);
   } catch (const nlohmann::json::parse_error& e) {
     ErrorLocation where;  // e.byte counts from 1: the character that failed
     where.offset = e.byte > 0 ? static_cast<int64_t>(e.byte) - 1 : 0;

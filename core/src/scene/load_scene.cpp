@@ -23,7 +23,8 @@ Scene scene_from_json_value(const nlohmann::json& doc, const SceneLimits& limits
                             const std::atomic<bool>* cancel = nullptr);
 /// The JSON text parsed once its nesting, objects, vertices, simplices and values are counted
 /// within `limits` (a pass that builds nothing, so an oversized scene is refused early).
-nlohmann::json parse_scene_json_value(std::string_view text, const SceneLimits& limits);
+nlohmann::json parse_scene_json_value(std::string_view text, const SceneLimits& limits,
+                                      const std::atomic<bool>* cancel);
 Scene parse_obj(std::string_view text, const std::string& name, bool single_object,
                 const SceneLimits& limits);
 Scene parse_ply(std::span<const uint8_t> bytes, const std::string& name, const SceneLimits& limits);
@@ -103,7 +104,7 @@ Scene parse_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std:
     } else if (lead.starts_with("{") || lead.starts_with("[") || lead.starts_with("null") ||
                lead.starts_with("true") || lead.starts_with("false")) {
       // JSON that is no object is no scene either: said as such (not "unrecognised format").
-      const nlohmann::json doc = parse_scene_json_value(text, limits);
+      const nlohmann::json doc = parse_scene_json_value(text, limits, nullptr);
       if (doc.is_object() && doc.contains("asset")) {
         format = SceneFormat::kGltf;
       } else {
@@ -128,7 +129,7 @@ Scene parse_bytes(std::span<const uint8_t> bytes, SceneFormat format, const std:
   Scene scene;
   switch (format) {
     case SceneFormat::kJson:
-      return scene_from_json_value(parse_scene_json_value(text, limits), limits);
+      return scene_from_json_value(parse_scene_json_value(text, limits, nullptr), limits);
     case SceneFormat::kObj:
       scene = parse_obj(text, name, single_object, limits);
       break;

@@ -265,10 +265,11 @@ void scan_json(std::string_view text, SceneCounter& counter) {
 
 }  // namespace
 
-nlohmann::json parse_scene_json_value(std::string_view text, const SceneLimits& limits) {
+nlohmann::json parse_scene_json_value(std::string_view text, const SceneLimits& limits,
+                                      const std::atomic<bool>* cancel) {
   SceneCounter counter(limits);
   scan_json(text, counter);
-  return parse_json_input(text, "the scene", ErrorCode::kInvalidScene);
+  return parse_json_input(text, "the scene", ErrorCode::kInvalidScene, cancel);
 }
 
 /// Builds and validates a scene from an already parsed native scene JSON document (shared with
@@ -429,7 +430,7 @@ Scene scene_from_json_value(const Json& doc, const SceneLimits& limits,
 
 Scene parse_scene_json(std::string_view text, const SceneLimits& limits,
                        const std::atomic<bool>* cancel) {
-  return scene_from_json_value(parse_scene_json_value(text, limits), limits, cancel);
+  return scene_from_json_value(parse_scene_json_value(text, limits, cancel), limits, cancel);
 }
 
 std::string scene_to_json(const Scene& scene) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "gvd/common/error.h"
+#include "gvd/common/json_input.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/graph/dual_graph.h"
 #include "gvd/io/write_grid.h"
@@ -60,6 +61,22 @@ TEST(Cancel, SceneValidationStopsAtOnce) {
   EXPECT_EQ(scene_to_json(with), scene_to_json(without));
   EXPECT_EQ(warnings_to_json(with.warnings), warnings_to_json(without.warnings));
   EXPECT_NE(scene_to_json(with), scene_to_json(raw)) << "the orientation pass mended nothing";
+}
+
+// The JSON parse itself reads the flag (a 64 MB scene takes about a second to parse, more
+// than the cancel latency allows): set, parse_json_input stops inside nlohmann's parse with
+// kCancelled; unset, the document is the one parsed without a flag.
+TEST(Cancel, JsonParseStopsWithinIt) {
+  std::vector<SceneObject> objects;
+  for (int i = 0; i < 40; ++i)  // ~180k values and keys: the flag is read a few times
+    objects.push_back(test::make_sphere("s" + std::to_string(i), {3.0 * i, 0, 0}, 1, 16, 32));
+  const std::string text = scene_to_json(test::make_scene(3, std::move(objects)));
+  std::atomic<bool> cancel{true};
+  expect_cancelled([&] { parse_json_input(text, "the scene", ErrorCode::kInvalidScene, &cancel); },
+                   "parse_json_input");
+  cancel = false;
+  EXPECT_EQ(parse_json_input(text, "the scene", ErrorCode::kInvalidScene, &cancel),
+            parse_json_input(text, "the scene", ErrorCode::kInvalidScene));
 }
 
 // The octree's frame (its BVH over the scene, the facing search, the roofs' apexes over
