@@ -89,7 +89,7 @@ const std::vector<Spec>& specs() {
       number("--max-depth", "deepest octree level a job may ask for (0 = lattice limit)",
              &ServerOptions::max_depth, 0, 31),
       number("--max-leaves",
-             "octree leaves per job (~1 KB of memory each; also 8 simplex references each)",
+             "octree leaves per job (up to ~1 KB of memory each; also 8 simplex references each)",
              &ServerOptions::max_leaves, uint64_t{1}, kU64),
       number("--max-grid-cells",
              "cells of a grid sampled from a finished job (field.npy, labels.npy)",

@@ -120,7 +120,7 @@ struct ComputeOptions {
   std::string resolution = "compact";   ///< --resolution compact|full (the GVD's pieces)
   double curved_tolerance = 0;          ///< --curved-tolerance in [0, 1)
   int contact_depth = 0;                ///< --contact-depth; 0 = default (2D 14, 3D 8)
-  uint64_t max_leaves = 12'000'000;     ///< --max-leaves (peak memory ~1 KB per leaf)
+  uint64_t max_leaves = 12'000'000;     ///< --max-leaves (peak memory up to ~1 KB per leaf)
   uint64_t max_objects = 100'000;       ///< --max-objects
   uint64_t max_simplices = 20'000'000;  ///< --max-simplices
   int ambiguity_levels = -1;            ///< --ambiguity-levels; < 0 = default

@@ -185,7 +185,8 @@ const ParamSpec kParams[] = {
      .min = 0,
      .value = 12'000'000,
      .metavar = "N",
-     .help = "octree leaf limit (default 12000000; peak memory is about 1 KB per leaf); it "
+     .help = "octree leaf limit (default 12000000; peak memory is up to about 1 KB per leaf, "
+             "200-700 B on large scenes); it "
              "also bounds the cells' simplex lists (8 references per leaf), which many objects "
              "sharing cells fill"},
     {.name = "max_objects",

@@ -20,7 +20,7 @@ struct PipelineOptions {
   /// Depth at which refinement between touching/intersecting objects stops (0 = default:
   /// 14 in 2D, 8 in 3D).
   int contact_depth = 0;
-  uint64_t max_leaves = 12'000'000;  ///< limit on octree leaves (~1 KB peak memory each)
+  uint64_t max_leaves = 12'000'000;  ///< limit on octree leaves (up to ~1 KB peak memory each)
   int max_refine_rounds = 48;        ///< refinement rounds for the separation guarantee
   /// Rounds that also split ambiguous cells (§5); < 0 picks the default: all rounds in 2D
   /// (junctions are points, cheap to resolve), 3 in 3D (junctions are lines).
