@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "cli_options.h"
@@ -579,6 +580,14 @@ int run(int argc, char** argv) {
   if (command == "--help" || command == "-h" || command == "help") {
     std::fputs(usage().c_str(), stdout);
     return kExitOk;
+  }
+  // `gvd COMMAND --help`: the same usage (it lists every command's options), not an error.
+  for (int i = 2; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      std::fputs(usage().c_str(), stdout);
+      return kExitOk;
+    }
   }
   if (command == "--version") {
     std::printf("gvd %s (algorithm %u, backends: opencl, cpu)\n", GVD_VERSION, kAlgorithmVersion);

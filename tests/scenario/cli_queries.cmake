@@ -89,3 +89,15 @@ run_expect(2 ${GVD} contacts ${result} --max-gap -1)
 
 # A scene instead of a result: computed first.
 run_expect(0 ${GVD} neighbors ${DATA}/scenes/gears2d.json --object gear_a -q)
+
+# `gvd COMMAND --help` (or -h) prints the usage to stdout and exits 0, whatever else is given,
+# as `gvd --help` does; not "unknown option --help".
+foreach(cmd compute info export nearest neighbors path explode tight contacts grid)
+  foreach(flag --help -h)
+    run_expect(0 ${GVD} ${cmd} ${flag})
+    if(NOT LAST_OUT MATCHES "gvd compute")
+      message(FATAL_ERROR "gvd ${cmd} ${flag} printed no usage: ${LAST_OUT}")
+    endif()
+  endforeach()
+endforeach()
+run_expect(0 ${GVD} compute ${DATA}/scenes/gears2d.json --help)
