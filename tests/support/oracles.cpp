@@ -245,4 +245,46 @@ size_t count_open_edges(const GvdCell& cell, int dimension) {
   return open;
 }
 
+Orientation measure_orientation(const Scene& scene, const Gvd& gvd,
+                                const std::function<double(Vec3)>& step_at, size_t budget,
+                                const std::function<bool(ObjectId, ObjectId)>& counted) {
+  const int dim = scene.dimension;
+  const int arity = dim == 2 ? 2 : 3;
+  Orientation out;
+  for (const GvdCell& cell : gvd.cells) {
+    const size_t count = cell.indices.size() / arity;
+    const size_t stride = count <= budget ? 1 : count / budget;
+    for (size_t t = 0; t < count; t += stride) {
+      const size_t s = t * arity;
+      const ObjectId other = cell.other[cell.indices[s]];
+      if (other == kNoObject) continue;
+      if (counted && !counted(cell.object, other)) continue;
+      const Vec3 a = cell.positions[cell.indices[s]];
+      const Vec3 b = cell.positions[cell.indices[s + 1]];
+      Vec3 n, c;
+      double size;
+      if (dim == 2) {
+        n = Vec3{-(b - a).y, (b - a).x, 0};
+        c = (a + b) * 0.5;
+        size = norm(b - a);
+      } else {
+        const Vec3 d = cell.positions[cell.indices[s + 2]];
+        n = cross(b - a, d - a);
+        c = (a + b + d) / 3.0;
+        size = 0.5 * norm(n);
+      }
+      if (norm(n) == 0) continue;
+      const double step = step_at(c);
+      const Vec3 in = c + n / norm(n) * step;
+      const Vec3 out_point = c - n / norm(n) * step;
+      const double din = brute_distance(scene, cell.object, in) - brute_distance(scene, other, in);
+      const double dout =
+          brute_distance(scene, cell.object, out_point) - brute_distance(scene, other, out_point);
+      out.tested += size;
+      if (!(din < dout)) out.flipped += size;
+    }
+  }
+  return out;
+}
+
 }  // namespace gvd::test

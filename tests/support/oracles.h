@@ -2,6 +2,7 @@
 
 // Independent oracles: brute force over every simplex of a scene, no octree involved.
 
+#include <functional>
 #include <vector>
 
 #include "gvd/scene/scene.h"
@@ -43,5 +44,21 @@ bool inside_cell(const GvdCell& cell, Vec3 p);
 /// opposite directed edge as often as it occurs. 2D: every position is entered as often as
 /// it is left. Returns the number of unmatched edges / vertices.
 size_t count_open_edges(const GvdCell& cell, int dimension);
+
+/// Orientation of the GVD's simplices by area (2D: length): from each sampled simplex's
+/// centroid c, a step of step_at(c) along its normal (3D: into the cell; 2D: to the left of
+/// the segment) must be nearer to the cell's object than to the object across, and the step
+/// the other way nearer to that one (brute force). Where the GVD runs (nearly) along an octree
+/// plane the marching construction leaves folded slivers whose own normals may point either
+/// way, though the surface stays closed and consistently oriented: hence a share, not a count.
+/// About `budget` simplices of each cell are sampled, evenly spread; `counted` (optional)
+/// limits the measure to the pairs (cell's object, other) it accepts.
+struct Orientation {
+  double tested = 0;   ///< area of the sampled simplices
+  double flipped = 0;  ///< of it, facing the wrong way
+};
+Orientation measure_orientation(const Scene& scene, const Gvd& gvd,
+                                const std::function<double(Vec3)>& step_at, size_t budget,
+                                const std::function<bool(ObjectId, ObjectId)>& counted = nullptr);
 
 }  // namespace gvd::test

@@ -2,7 +2,8 @@
 // checks each result with the brute-force oracles the judges use — GVD simplices
 // crossing objects, open cells, equidistance at GVD vertices (median relative gap), the share
 // of vertices whose two nearest objects are the claimed pair — beside leaves, depth, time,
-// peak memory and warnings. One line per scene; exit 1 when a check fails. A vertex where
+// peak memory and warnings, and the share of the GVD's area facing the wrong way (reported,
+// not judged). One line per scene; exit 1 when a check fails. A vertex where
 // three or more objects meet may claim any two of them (ties within kTie); the share with
 // no tie allowed and the vertices whose third object is nearer by over 1 % are printed too.
 //
@@ -50,6 +51,7 @@ struct Audit {
   double right_pair = 1;     ///< share whose two nearest objects are the claimed ones (kTie)
   double strict_pair = 1;    ///< the same with no tie allowed
   size_t off_junctions = 0;  ///< vertices with a third object nearer by more than 1 %
+  double flipped = 0;        ///< share of the sampled GVD area facing the wrong way
 };
 
 /// Where three or more objects meet (a junction: a Voronoi edge or vertex) they are equally
@@ -88,6 +90,16 @@ Audit audit(const GvdResult& r, size_t budget) {
       a.off_junctions += third < far * (1 - 0.01) ? 1 : 0;
     }
   }
+  // Orientation, stepping a quarter of the local leaf off each sampled simplex (as the
+  // suite's expect_valid does); reported, not judged.
+  const gvd::test::Orientation o = gvd::test::measure_orientation(
+      r.scene, r.gvd,
+      [&](Vec3 c) {
+        const uint32_t leaf = r.octree.locate(r.domain.to_unit(c));
+        return 0.25 * std::ldexp(r.domain.side, -r.octree.level[leaf]);
+      },
+      budget);
+  a.flipped = o.tested > 0 ? o.flipped / o.tested : 0;
   a.vertices = gaps.size();
   if (!gaps.empty()) {
     std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
@@ -280,11 +292,11 @@ int main(int argc, char** argv) {
       std::printf(
           "%-40s %s leaves %9llu depth %2d %7.2f s %6.0f MiB simplices %8llu | open %zu "
           "crossing %zu median gap %.2e right pair %.4f (no ties %.4f; %zu of %zu vertices "
-          "off by > 1 %%) | unseen %llu ambiguous %llu%s\n",
+          "off by > 1 %%) | flipped %.2f %% | unseen %llu ambiguous %llu%s\n",
           file.c_str(), bad ? "FAIL" : "ok  ", static_cast<unsigned long long>(r.stats.leaves),
           r.stats.depth, seconds, gvd::peak_rss_bytes() / 1048576.0,
           static_cast<unsigned long long>(r.stats.gvd_simplices), a.open_edges, a.crossings,
-          a.median_gap, a.right_pair, a.strict_pair, a.off_junctions, a.vertices,
+          a.median_gap, a.right_pair, a.strict_pair, a.off_junctions, a.vertices, 100 * a.flipped,
           static_cast<unsigned long long>(r.stats.unseen_left),
           static_cast<unsigned long long>(r.stats.ambiguous_at_limit),
           r.scene.warnings.empty() ? "" : " (scene warnings)");

@@ -78,48 +78,12 @@ void expect_valid(const GvdResult& r,
     }
   }
   EXPECT_EQ(wrong_pair, 0u) << "of " << checked;
-  // Orientation: a step along each triangle's normal (into the cell) is nearer to the cell's
-  // object than to the object across. 2D: a step to the left of each segment. Counted by
-  // area: where the GVD runs (nearly) along an octree plane the marching construction leaves
-  // folded slivers whose own normals may point either way, though the surface stays closed
-  // and consistently oriented.
-  double tested = 0, flipped = 0;
-  for (const GvdCell& cell : r.gvd.cells) {
-    const int arity = dim == 2 ? 2 : 3;
-    const size_t count = cell.indices.size() / arity;
-    for (size_t t = 0; t < count; t += stride_for(count)) {
-      const size_t s = t * arity;
-      const ObjectId other = cell.other[cell.indices[s]];
-      if (other == kNoObject) continue;
-      if (oriented && !oriented(cell.object, other)) continue;
-      const Vec3 a = cell.positions[cell.indices[s]];
-      const Vec3 b = cell.positions[cell.indices[s + 1]];
-      Vec3 n, c;
-      double size;
-      if (dim == 2) {
-        n = Vec3{-(b - a).y, (b - a).x, 0};
-        c = (a + b) * 0.5;
-        size = norm(b - a);
-      } else {
-        const Vec3 d = cell.positions[cell.indices[s + 2]];
-        n = cross(b - a, d - a);
-        c = (a + b + d) / 3.0;
-        size = 0.5 * norm(n);
-      }
-      if (norm(n) == 0) continue;
-      const double step = 0.25 * local_cell(r, c);
-      const Vec3 in = c + n / norm(n) * step;
-      const Vec3 out = c - n / norm(n) * step;
-      const double din =
-          test::brute_distance(r.scene, cell.object, in) - test::brute_distance(r.scene, other, in);
-      const double dout = test::brute_distance(r.scene, cell.object, out) -
-                          test::brute_distance(r.scene, other, out);
-      tested += size;
-      if (!(din < dout)) flipped += size;
-    }
-  }
-  EXPECT_LE(flipped, 0.005 * tested)
-      << "area facing the wrong way: " << flipped << " of " << tested;
+  // Orientation by area (test::measure_orientation): a step of a quarter of the local leaf
+  // along each sampled simplex's normal.
+  const test::Orientation o = test::measure_orientation(
+      r.scene, r.gvd, [&](Vec3 c) { return 0.25 * local_cell(r, c); }, 3000, oriented);
+  EXPECT_LE(o.flipped, 0.005 * o.tested)
+      << "area facing the wrong way: " << o.flipped << " of " << o.tested;
   // Distance field at octree vertices: never below the true distance, within the 3/2 factor.
   for (uint32_t v = 0; v < r.field.size(); v += stride_for(r.field.size())) {
     const Vec3 p = r.domain.from_unit(r.field.vertices.position(v));
