@@ -93,8 +93,7 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     octree = refine_octree(previous, geometry, splits, options.octree, plan.certified);
     // The replaced octree is only looked up from now on (its leaves pass their base levels
     // on, and the distance update matches them, then frees it): its simplex lists go before
-    // the update,
-    // where the refinement's memory peaks.
+    // the update, where the refinement's memory peaks.
     previous.keep_cells_only();
     base_level = inherit_levels(previous, octree, base_level);
     ro.base_level = base_level;
