@@ -9,6 +9,7 @@
 #include "bench/boost_voronoi.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
+#include "support/expect_valid.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"
@@ -17,6 +18,9 @@ namespace gvd {
 namespace {
 
 using test::brute_nearest;
+using test::expect_valid;
+using test::local_cell;
+using test::stride_for;
 
 GvdResult run(Scene scene, int max_depth = 0, const std::string& distance = "exact",
               const std::string& refine = "certified", const std::string& resolution = "compact") {
@@ -29,15 +33,6 @@ GvdResult run(Scene scene, int max_depth = 0, const std::string& distance = "exa
   return compute_gvd(std::move(scene), o);
 }
 
-// Size of the finest octree cell next to a point, in user units.
-double local_cell(const GvdResult& r, Vec3 p) {
-  const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
-  return std::ldexp(r.domain.side, -r.octree.level[leaf]);
-}
-
-// Stride that visits about `budget` of `n` items (brute-force oracles are O(scene size)).
-size_t stride_for(size_t n, size_t budget = 3000) { return n <= budget ? 1 : n / budget; }
-
 // Leaves above the depth limit that hold two or more objects without a certificate (the
 // certified refinement leaves none: such a leaf is split or certified).
 size_t uncertified_leaves_holding_two(const GvdResult& r) {
@@ -46,55 +41,6 @@ size_t uncertified_leaves_holding_two(const GvdResult& r) {
     bad += r.octree.object[i] == kManyObjects && !r.octree.is_certified(i) &&
            r.octree.level[i] < r.octree.max_depth;
   return bad;
-}
-
-// Properties every result must have (DESIGN.md "Correctness"). Closure is checked on every
-// simplex; the brute-force oracles on an evenly spread sample. `oriented` (when given) limits
-// the orientation count to the interfaces of the pairs it accepts.
-void expect_valid(const GvdResult& r,
-                  const std::function<bool(ObjectId, ObjectId)>& oriented = nullptr) {
-  const int dim = r.scene.dimension;
-  for (const GvdCell& cell : r.gvd.cells) {
-    EXPECT_EQ(test::count_open_edges(cell, dim), 0u) << "cell " << cell.object << " is not closed";
-  }
-  EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 3000), 0u);
-  // Equidistance at interface vertices, and the two nearest objects are the claimed ones.
-  size_t checked = 0, wrong_pair = 0;
-  for (const GvdCell& cell : r.gvd.cells) {
-    for (size_t v = 0; v < cell.positions.size(); v += stride_for(cell.positions.size())) {
-      if (cell.other[v] == kNoObject) continue;
-      const Vec3 p = cell.positions[v];
-      const double h = local_cell(r, p);
-      const double da = test::brute_distance(r.scene, cell.object, p);
-      const double db = test::brute_distance(r.scene, cell.other[v], p);
-      EXPECT_NEAR(da, db, 2.0 * h) << "vertex " << v << " of cell " << cell.object;
-      const auto nn = brute_nearest(r.scene, p);
-      const std::set<ObjectId> claimed{cell.object, cell.other[v]};
-      if (!claimed.count(nn.object)) {
-        // Allowed only where a third object is within the local resolution.
-        if (nn.distance < std::min(da, db) - 2.0 * h) ++wrong_pair;
-      }
-      ++checked;
-    }
-  }
-  EXPECT_EQ(wrong_pair, 0u) << "of " << checked;
-  // Orientation by area (test::measure_orientation): a step of a quarter of the local leaf
-  // along each sampled simplex's normal.
-  const test::Orientation o = test::measure_orientation(
-      r.scene, r.gvd, [&](Vec3 c) { return 0.25 * local_cell(r, c); }, 3000, oriented);
-  EXPECT_LE(o.flipped, 0.005 * o.tested)
-      << "area facing the wrong way: " << o.flipped << " of " << o.tested;
-  // Distance field at octree vertices: never below the true distance, within the 3/2 factor.
-  for (uint32_t v = 0; v < r.field.size(); v += stride_for(r.field.size())) {
-    const Vec3 p = r.domain.from_unit(r.field.vertices.position(v));
-    const double truth = brute_nearest(r.scene, p).distance;
-    const double got = r.field.distance(v) * r.domain.side;
-    ASSERT_GE(got, truth - 1e-9 * r.domain.side);
-    ASSERT_LE(got, 1.5 * truth + 1e-9 * r.domain.side) << "vertex " << v;
-    if (r.field.exact[v]) {
-      ASSERT_NEAR(got, truth, 1e-9 * r.domain.side);
-    }
-  }
 }
 
 std::set<std::pair<ObjectId, ObjectId>> graph_pairs(const DualGraph& g) {
