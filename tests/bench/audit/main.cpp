@@ -12,6 +12,8 @@
 //        (--explain prints every GVD triangle that crosses an object, when one does)
 //        gvd_audit --write-variants DIR     scenes of the thin-gap kinds that make_bench's
 //                                           sweeps do not hold (turned, other polygons)
+//        gvd_audit --write-real CORPUS DIR  scenes of real meshes from the corpus that
+//                                           tests/real_meshes/write_corpus.mjs writes
 
 #include <malloc.h>
 
@@ -32,6 +34,7 @@
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "support/oracles.h"
+#include "support/real_mesh_scenes.h"
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"
 
@@ -203,6 +206,9 @@ gvd::test::ShaftInBoreOptions shaft(int sides, double gap) {
   return o;
 }
 
+/// Writes each scene to DIR/NAME.json and prints the paths; 1 when one cannot be written.
+int write_scenes(const std::vector<std::pair<std::string, Scene>>& out, const std::string& dir);
+
 int write_variants(const std::string& dir) {
   const Vec3 z{0, 0, 1};
   std::vector<std::pair<std::string, Scene>> out;
@@ -233,6 +239,10 @@ int write_variants(const std::string& dir) {
     });
     out.emplace_back("two_blades_turned" + tag, joined(one, two, "_2"));
   }
+  return write_scenes(out, dir);
+}
+
+int write_scenes(const std::vector<std::pair<std::string, Scene>>& out, const std::string& dir) {
   for (const auto& [name, scene] : out) {
     const std::string path = dir + "/" + name + ".json";
     std::ofstream f(path);
@@ -246,6 +256,24 @@ int write_variants(const std::string& dir) {
   return 0;
 }
 
+// Real meshes with their gaps known by construction (support/real_mesh_scenes.h): the issue's
+// two bunnies 3e-5 apart and teapot in a box 1e-3 outside it (with 1e-2 and 1e-4 beside it),
+// and two Stanford dragons (the repository's second resolution) 1e-4 apart.
+int write_real(const std::string& corpus, const std::string& dir) {
+  std::vector<std::pair<std::string, Scene>> out;
+  const gvd::SceneObject bunny = gvd::test::load_corpus_object(corpus, "bunny.obj", "bunny");
+  out.emplace_back("two_bunnies_3e-5", gvd::test::mirrored_pair(bunny, "bunny_mirrored", 3e-5));
+  const gvd::SceneObject teapot = gvd::test::load_corpus_object(corpus, "teapot.obj", "teapot");
+  for (const auto& [tag, gap] : {std::pair{"1e-2", 1e-2}, {"1e-3", 1e-3}, {"1e-4", 1e-4}}) {
+    out.emplace_back(std::string("teapot_in_box_") + tag,
+                     gvd::test::boxed(teapot, "box", gap, 0.25));
+  }
+  const gvd::SceneObject dragon =
+      gvd::test::load_corpus_object(corpus, "dragon_res2.ply", "dragon");
+  out.emplace_back("two_dragons_1e-4", gvd::test::mirrored_pair(dragon, "dragon_mirrored", 1e-4));
+  return write_scenes(out, dir);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -257,6 +285,7 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--write-variants" && i + 1 < argc) return write_variants(argv[++i]);
+    if (a == "--write-real" && i + 2 < argc) return write_real(argv[i + 1], argv[i + 2]);
     if (a == "--refine" && i + 1 < argc) {
       refine = argv[++i];
     } else if (a == "--full") {
