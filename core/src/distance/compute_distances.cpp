@@ -10,7 +10,6 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
-#include "gvd/common/stopwatch.h"
 #include "gvd/distance/closest_points.h"
 #include "gvd/distance/distance_field.h"
 #include "gvd/octree/lattice.h"
@@ -230,7 +229,6 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
   DistanceField field;
-  Stopwatch part;
   const size_t nl = octree.leaf_count();
   const int grid_points = dim == 3 ? 27 : 9;
 
@@ -441,12 +439,10 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
   // The previous field's lists are copied where they still hold.
   if (owned != nullptr) owned->drop_leaf_lists();
   if (options.method == DistanceMethod::kExact) {
-    field.seconds_topology = part.lap();
     exact_everywhere(field, geometry, bvh, options, previous, incremental ? old_count : 0,
                      incremental ? owned : nullptr,
                      std::span<const uint32_t>(leaf_verts.items.data(), leaf_verts.items.size()),
                      threads);
-    field.seconds_init = part.lap();
     field.leaf_begin = std::move(leaf_verts.begin);
     field.leaf_vertex = std::move(leaf_verts.items);
     return field;
@@ -477,7 +473,6 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     if (field.exact[v]) nonempty.push_back(static_cast<uint32_t>(v));
   field.exact_count = nonempty.size();
 
-  field.seconds_topology = part.lap();
   // Initialisation: exact closest point of every non-empty vertex.
   field.label.assign(nv, kNoObject);
   field.point.assign(nv, kNoVertex);
@@ -579,7 +574,6 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     });
   }
 
-  field.seconds_init = part.lap();
   // Wavefront expansion (Algorithm 1): Dijkstra-like in the distance to the assigned point.
   check_cancel(options);
   std::vector<double> d2(nv, std::numeric_limits<double>::infinity());
@@ -650,7 +644,6 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
       }
     }
   }
-  field.seconds_wavefront = part.lap();
   const int exact_passes = options.exact_near_gvd ? 16 : 0;
 
   // Exact closest points on the vertices of leaves the GVD crosses (see DistanceOptions).
@@ -699,7 +692,6 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
       d2[v] = hits[i].dist2;
     }
   }
-  field.seconds_exact = part.lap();
 
   // Which vertices differ from the previous field (new, or another closest point), so that
   // later passes can skip untouched leaves; then drop closest points nobody references.

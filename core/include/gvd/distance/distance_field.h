@@ -28,9 +28,6 @@ struct DistanceField {
   uint64_t exact_count = 0;     ///< non-empty vertices initialised exactly
   uint64_t exact_reused = 0;    ///< of those, taken from the previous field (refinement)
   uint64_t exact_near_gvd = 0;  ///< empty vertices made exact because the GVD crosses their cell
-  /// Wall time of the parts (seconds): vertices + adjacency, exact initialisation, wavefront,
-  /// exact points near the GVD.
-  double seconds_topology = 0, seconds_init = 0, seconds_wavefront = 0, seconds_exact = 0;
 
   /// The boundary vertices of every leaf (CSR over leaves: vertex ids and their slots in
   /// the leaf's LeafGrid). Built by compute_distances and kept for the refinement checks and
