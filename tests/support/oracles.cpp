@@ -274,7 +274,13 @@ Orientation measure_orientation(const Scene& scene, const Gvd& gvd,
         size = 0.5 * norm(n);
       }
       if (norm(n) == 0) continue;
-      const double step = step_at(c);
+      // The probes stay within half the pair's clearance at c: a step across a thin gap would
+      // land both in the objects' material, where d_a - d_b is the same constant on both
+      // sides and says nothing about the simplex's facing.
+      const double clearance =
+          std::min(brute_distance(scene, cell.object, c), brute_distance(scene, other, c));
+      const double step = std::min(step_at(c), 0.5 * clearance);
+      if (!(step > 0)) continue;
       const Vec3 in = c + n / norm(n) * step;
       const Vec3 out_point = c - n / norm(n) * step;
       const double din = brute_distance(scene, cell.object, in) - brute_distance(scene, other, in);

@@ -47,12 +47,13 @@ size_t count_open_edges(const GvdCell& cell, int dimension);
 
 /// Orientation of the GVD's simplices by area (2D: length): from each sampled simplex's
 /// centroid c, a step of step_at(c) along its normal (3D: into the cell; 2D: to the left of
-/// the segment) must be nearer to the cell's object than to the object across, and the step
-/// the other way nearer to that one (brute force). Where the GVD runs (nearly) along an octree
-/// plane the marching construction leaves folded slivers whose own normals may point either
-/// way, though the surface stays closed and consistently oriented: hence a share, not a count.
-/// About `budget` simplices of each cell are sampled, evenly spread; `counted` (optional)
-/// limits the measure to the pairs (cell's object, other) it accepts.
+/// the segment), but at most half the pair's clearance at c (farther, across a thin gap, both
+/// probes would land in the objects' material), must be nearer to the cell's object than to
+/// the object across, and the step the other way nearer to that one (brute force). Where the GVD
+/// runs (nearly) along an octree plane the marching construction leaves folded slivers whose own
+/// normals may point either way, though the surface stays closed and consistently oriented: hence a
+/// share, not a count. About `budget` simplices of each cell are sampled, evenly spread; `counted`
+/// (optional) limits the measure to the pairs (cell's object, other) it accepts.
 struct Orientation {
   double tested = 0;   ///< area of the sampled simplices
   double flipped = 0;  ///< of it, facing the wrong way

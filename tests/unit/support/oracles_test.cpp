@@ -10,6 +10,8 @@
 #include <random>
 
 #include "gvd/geometry/primitives.h"
+#include "gvd/pipeline/pipeline.h"
+#include "support/scenes.h"
 
 namespace {
 
@@ -112,3 +114,29 @@ TEST(Oracles, AShaftEdgeInTheBisectorsPlaneDoesNotCrossIt) {
 }
 
 }  // namespace
+
+// measure_orientation on a real result: the GVD between two boxes across a thin gap faces the
+// right way (its probes stay in the gap however large the step asked for), and the same GVD
+// with every triangle turned around is counted as facing the wrong way throughout.
+TEST(Oracles, OrientationIsMeasuredInsideTheGapAndCatchesATurnedGvd) {
+  const gvd::Scene scene =
+      gvd::test::make_scene(3, {gvd::test::make_box("a", {0, 0, 0}, {1, 1, 1}),
+                                gvd::test::make_box("b", {1 + 1e-4, 0.2, 0.1}, {2, 0.9, 1.3})});
+  gvd::PipelineOptions o;
+  o.threads = 2;
+  gvd::GvdResult r = gvd::compute_gvd(scene, o);
+  const auto step = [](Vec3) { return 0.3; };  // far wider than the gap
+  const gvd::test::Orientation right =
+      gvd::test::measure_orientation(r.scene, r.gvd, step, 1000000);
+  ASSERT_GT(right.tested, 0);
+  EXPECT_LE(right.flipped, 1e-3 * right.tested);
+  for (gvd::GvdCell& cell : r.gvd.cells) {
+    for (size_t t = 0; t + 2 < cell.indices.size(); t += 3) {
+      std::swap(cell.indices[t + 1], cell.indices[t + 2]);
+    }
+  }
+  const gvd::test::Orientation turned =
+      gvd::test::measure_orientation(r.scene, r.gvd, step, 1000000);
+  EXPECT_NEAR(turned.tested, right.tested, 1e-9 * right.tested);
+  EXPECT_GE(turned.flipped, 0.999 * turned.tested);
+}
