@@ -4,15 +4,19 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "support/expect_valid.h"
+#include "support/oracles.h"
 #include "support/real_mesh_scenes.h"
+#include "support/scenes.h"
 
 namespace gvd {
 namespace {
@@ -69,6 +73,27 @@ TEST(RealMeshes, TwoBunniesThreeE5ApartKeepTheirGapWithDefaultOptions) {
   EXPECT_NEAR(e.gap, truth, 0.02 * truth);
   EXPECT_NEAR(e.min_clearance, 0.5 * truth, 0.02 * 0.5 * truth);
   test::expect_valid(r);
+}
+
+// The judged case again with a translated copy, whose nearest features are not a mirror pair
+// of vertices: the bunny at half size, so that the domain is about 11 units as in the issue,
+// and a copy moved along x by 4.38542262464, where the brute-force mesh distance is
+// 3.00000004e-5 (the offset was found by bisection on that distance; measured again here).
+TEST(RealMeshes, TwoTranslatedBunniesThreeE5ApartOnAnElevenUnitDomain) {
+  SceneObject a = test::load_corpus_object(kCorpus, "bunny.obj", "bunny");
+  for (Vec3& v : a.vertices) v = v * 0.5;
+  SceneObject b = a;
+  b.label = "bunny_2";
+  for (Vec3& v : b.vertices) v.x += 4.38542262464;
+  const double truth = test::brute_mesh_distance(a, b);
+  ASSERT_NEAR(truth, 3e-5, 1e-7);
+  const Scene scene = test::make_scene(3, {a, b});
+  EXPECT_LE(make_domain(scene, {}).side, 11.0);
+  const GvdResult r = run_defaults(scene);
+  const DualEdge& e = only_edge(r);
+  EXPECT_FALSE(e.touching);
+  EXPECT_NEAR(e.gap, truth, 0.02 * truth);
+  EXPECT_NEAR(e.min_clearance, 0.5 * truth, 0.02 * 0.5 * truth);
 }
 
 // Contact is decided by the lattice's resolution, one finest cell: a pair 1.1 cells apart is

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "gvd/geometry/primitives.h"
 
@@ -19,6 +21,52 @@ double brute_distance(const Scene& scene, ObjectId o, Vec3 p) {
     best = std::min(best, dist(p, q));
   }
   return best;
+}
+
+double brute_mesh_distance(const SceneObject& a, const SceneObject& b) {
+  auto edges = [](const SceneObject& o) {
+    std::vector<std::pair<uint32_t, uint32_t>> e;
+    for (const Simplex& t : o.simplices) {
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t i = t.v[k], j = t.v[(k + 1) % 3];
+        e.emplace_back(std::min(i, j), std::max(i, j));
+      }
+    }
+    std::sort(e.begin(), e.end());
+    e.erase(std::unique(e.begin(), e.end()), e.end());
+    return e;
+  };
+  const auto ea = edges(a), eb = edges(b);
+  // Whether an edge of `from` crosses or touches a triangle of `to`.
+  auto crosses = [](const SceneObject& from, const std::vector<std::pair<uint32_t, uint32_t>>& e,
+                    const SceneObject& to) {
+    for (const auto& [i, j] : e) {
+      for (const Simplex& t : to.simplices) {
+        if (segment_hits_triangle(from.vertices[i], from.vertices[j], to.vertices[t.v[0]],
+                                  to.vertices[t.v[1]], to.vertices[t.v[2]]))
+          return true;
+      }
+    }
+    return false;
+  };
+  if (crosses(a, ea, b) || crosses(b, eb, a)) return 0;
+  double best2 = 1e300;
+  for (const auto& [p, q] : {std::pair{&a, &b}, std::pair{&b, &a}}) {
+    for (const Vec3& v : p->vertices) {
+      for (const Simplex& t : q->simplices) {
+        const Vec3 c = closest_point_on_triangle(v, q->vertices[t.v[0]], q->vertices[t.v[1]],
+                                                 q->vertices[t.v[2]]);
+        best2 = std::min(best2, norm2(v - c));
+      }
+    }
+  }
+  for (const auto& [i, j] : ea) {
+    for (const auto& [k, l] : eb) {
+      best2 = std::min(
+          best2, segment_segment_dist2(a.vertices[i], a.vertices[j], b.vertices[k], b.vertices[l]));
+    }
+  }
+  return std::sqrt(best2);
 }
 
 NearestAnswer brute_nearest(const Scene& scene, Vec3 p) {

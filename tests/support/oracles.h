@@ -23,6 +23,11 @@ NearestAnswer brute_nearest(const Scene& scene, Vec3 p);
 /// Distance from p to object o by brute force.
 double brute_distance(const Scene& scene, ObjectId o, Vec3 p);
 
+/// The least distance between two 3D triangle meshes by brute force: 0 when an edge of one
+/// crosses or touches a triangle of the other, else the least of the vertex-to-triangle
+/// distances (both ways) and the edge-to-edge distances. O(V M + E^2).
+double brute_mesh_distance(const SceneObject& a, const SceneObject& b);
+
 /// True when segment [a, b] crosses or touches triangle (t0, t1, t2) (3D): the ends' signed
 /// distances to the triangle's plane, then the point where the segment meets it tested in the
 /// triangle; a segment in the plane (to 1e-12 of the sizes: rounding) is a 2D question.

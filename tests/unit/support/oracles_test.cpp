@@ -140,3 +140,15 @@ TEST(Oracles, OrientationIsMeasuredInsideTheGapAndCatchesATurnedGvd) {
   EXPECT_NEAR(turned.tested, right.tested, 1e-9 * right.tested);
   EXPECT_GE(turned.flipped, 0.999 * turned.tested);
 }
+
+// brute_mesh_distance on boxes: apart along x by 0.3 (the faces' distance), apart diagonally
+// (the corners' distance), and crossing (0).
+TEST(Oracles, MeshDistanceOfBoxes) {
+  using gvd::test::make_box;
+  const gvd::SceneObject a = make_box("a", {0, 0, 0}, {1, 1, 1});
+  EXPECT_NEAR(gvd::test::brute_mesh_distance(a, make_box("b", {1.3, 0.2, 0.2}, {2, 0.8, 0.8})), 0.3,
+              1e-12);
+  EXPECT_NEAR(gvd::test::brute_mesh_distance(a, make_box("c", {1.3, 1.4, 1.0}, {2, 2, 2})), 0.5,
+              1e-12);
+  EXPECT_EQ(gvd::test::brute_mesh_distance(a, make_box("d", {0.5, 0.5, -1}, {0.7, 0.7, 2})), 0);
+}
