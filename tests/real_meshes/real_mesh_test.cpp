@@ -4,7 +4,6 @@
 
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -42,15 +41,10 @@ bool warns(const GvdResult& r, WarningKind kind) {
   return false;
 }
 
-// The x extent of an object, for the mirrored pairs' gap (the largest x of the first object
-// and the least of its image).
-std::pair<double, double> x_range(const SceneObject& o) {
-  double lo = 1e300, hi = -1e300;
-  for (const Vec3& v : o.vertices) {
-    lo = std::min(lo, v.x);
-    hi = std::max(hi, v.x);
-  }
-  return {lo, hi};
+// A mirrored pair's gap from its vertices alone: the least x of the image less the largest x
+// of the object.
+double mirror_gap(const Scene& pair) {
+  return test::bounds(pair.objects[1]).lo.x - test::bounds(pair.objects[0]).hi.x;
 }
 
 // The finest cell of a scene's default domain, user units.
@@ -64,7 +58,7 @@ TEST(RealMeshes, TwoBunniesThreeE5ApartKeepTheirGapWithDefaultOptions) {
   const Scene scene = test::mirrored_pair(test::load_corpus_object(kCorpus, "bunny.obj", "bunny"),
                                           "mirrored", 3e-5);
   // The construction's gap, from the vertices alone.
-  const double truth = x_range(scene.objects[1]).first - x_range(scene.objects[0]).second;
+  const double truth = mirror_gap(scene);
   ASSERT_NEAR(truth, 3e-5, 1e-12);
   const GvdResult r = run_defaults(scene);
   const DualEdge& e = only_edge(r);
@@ -105,7 +99,7 @@ TEST(RealMeshes, BunniesAreTouchingOnlyBelowOneFinestCell) {
   for (const double cells : {1.1, 0.9}) {
     SCOPED_TRACE(cells);
     const Scene scene = test::mirrored_pair(bunny, "mirrored", cells * h);
-    const double truth = x_range(scene.objects[1]).first - x_range(scene.objects[0]).second;
+    const double truth = mirror_gap(scene);
     const GvdResult r = run_defaults(scene);
     const DualEdge& e = only_edge(r);
     EXPECT_NEAR(e.gap, truth, 0.02 * truth);

@@ -41,8 +41,8 @@ void expect_valid(const GvdResult& r, const std::function<bool(ObjectId, ObjectI
     }
   }
   EXPECT_EQ(wrong_pair, 0u) << "of " << checked;
-  // Orientation by area (measure_orientation): a step of a quarter of the local leaf
-  // along each sampled simplex's normal.
+  // Orientation by area (measure_orientation): a step of a quarter of the local leaf (at most
+  // half the local clearance) along each sampled simplex's normal.
   const Orientation o = measure_orientation(
       r.scene, r.gvd, [&](Vec3 c) { return 0.25 * local_cell(r, c); }, 3000, oriented);
   EXPECT_LE(o.flipped, 0.005 * o.tested)

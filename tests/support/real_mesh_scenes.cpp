@@ -1,6 +1,5 @@
 #include "support/real_mesh_scenes.h"
 
-#include <algorithm>
 #include <utility>
 
 #include "gvd/common/error.h"
@@ -22,9 +21,7 @@ SceneObject load_corpus_object(const std::string& dir, const std::string& file,
 }
 
 Scene mirrored_pair(const SceneObject& object, const std::string& mirror_label, double gap) {
-  double high = -1e300;
-  for (const Vec3& v : object.vertices) high = std::max(high, v.x);
-  const double c = high + 0.5 * gap;
+  const double c = bounds(object).hi.x + 0.5 * gap;
   SceneObject image = object;
   image.label = mirror_label;
   for (Vec3& v : image.vertices) v.x = 2 * c - v.x;
@@ -33,12 +30,8 @@ Scene mirrored_pair(const SceneObject& object, const std::string& mirror_label, 
 }
 
 Scene boxed(const SceneObject& object, const std::string& label, double gap, double wall) {
-  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-  for (const Vec3& v : object.vertices) {
-    lo = {std::min(lo.x, v.x), std::min(lo.y, v.y), std::min(lo.z, v.z)};
-    hi = {std::max(hi.x, v.x), std::max(hi.y, v.y), std::max(hi.z, v.z)};
-  }
-  const Vec3 inner_lo = lo - Vec3{gap, gap, gap}, inner_hi = hi + Vec3{gap, gap, gap};
+  const Box b = bounds(object);
+  const Vec3 inner_lo = b.lo - Vec3{gap, gap, gap}, inner_hi = b.hi + Vec3{gap, gap, gap};
   const Vec3 w{wall, wall, wall};
   SceneObject box = make_box(label, inner_lo - w, inner_hi + w);
   // The cavity: the inner cuboid's faces turned to face into it.

@@ -10,6 +10,12 @@ Vec3 rotate(Vec3 p, Vec3 axis, double angle) {
   return p * c + cross(axis, p) * s + axis * (dot(axis, p) * (1 - c));
 }
 
+Box bounds(const SceneObject& object) {
+  Box b;
+  for (const Vec3& v : object.vertices) b.extend(v);
+  return b;
+}
+
 SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi) {
   SceneObject o;
   o.label = label;

@@ -28,6 +28,9 @@ SceneObject make_segment(const std::string& label, Vec3 a, Vec3 b);
 SceneObject make_gear2d(const std::string& label, Vec3 centre, double r_in, double r_out, int teeth,
                         double phase, int samples_per_tooth = 8);
 
+/// The bounding box of an object's vertices.
+Box bounds(const SceneObject& object);
+
 /// Wraps objects into a validated scene.
 Scene make_scene(int dimension, std::vector<SceneObject> objects);
 

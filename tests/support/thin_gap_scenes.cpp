@@ -63,12 +63,6 @@ double cross2(Vec3 a, Vec3 b) { return a.x * b.y - a.y * b.x; }
 /// Rounds to the 2^-53 lattice (exact for |x| < 1: scaling by a power of two is exact).
 double snap(double x) { return std::round(x * 0x1p53) * kUnit; }
 
-Box bounds(const SceneObject& o) {
-  Box b;
-  for (const Vec3& v : o.vertices) b.extend(v);
-  return b;
-}
-
 double largest_extent(const std::vector<SceneObject>& objects) {
   Box b;
   for (const SceneObject& o : objects) b.extend(bounds(o));

@@ -209,10 +209,9 @@ DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene,
   std::sort(graph.edges.begin(), graph.edges.end(), [](const DualEdge& x, const DualEdge& y) {
     return std::pair{x.a, x.b} < std::pair{y.a, y.b};
   });
-  // Contacts as the adaptive pipeline finds them: closer than its finest cell.
-  const int max_depth = resolve_max_depth(dim, 0);
-  const double tolerance = std::ldexp(1.0, -max_depth);
-  const ContactPairs contacts = find_contact_pairs(geometry, bvh, tolerance, threads, cancel);
+  // Contacts as the adaptive pipeline finds them.
+  const ContactPairs contacts = find_contact_pairs(
+      geometry, bvh, contact_tolerance(resolve_max_depth(dim, 0)), threads, cancel);
   throw_if_cancelled(cancel, "the grid's dual graph");
   measure_gaps(graph, bvh, domain, contacts.pairs(), threads, cancel);
   if (options.progress) options.progress(1);

@@ -137,16 +137,14 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
 
   progress("octree", 0);
   sw = Stopwatch();
-  // Objects closer than the lattice's resolution, one finest cell, cannot be separated: find
-  // those pairs first, so that refinement between them stops at the contact depth. A pair
-  // further apart is separated, by finest cells or by certified pair cells, and keeps its
-  // true clearance (checked down to 1.1 cells on plates, spheres, crossed bars, the mirrored
-  // bunnies, and 2D squares and discs; the bound was 2*sqrt(dim) cells, which reported such
-  // resolvable gaps as touching).
+  // Objects closer than the lattice's resolution cannot be separated (contacts.h): find those
+  // pairs first, so that refinement between them stops at the contact depth. (Checked down to
+  // 1.1 cells on plates, spheres, crossed bars, the mirrored bunnies, and 2D squares and discs;
+  // the bound was 2*sqrt(dim) cells, which reported such resolvable gaps as touching.)
   const int max_depth = resolve_max_depth(dim, options.max_depth);
-  const double contact_tolerance = std::ldexp(1.0, -max_depth);
+  const double touch_tolerance = contact_tolerance(max_depth);
   const ContactPairs contacts =
-      find_contact_pairs(r.geometry, bvh, contact_tolerance, options.threads, options.cancel);
+      find_contact_pairs(r.geometry, bvh, touch_tolerance, options.threads, options.cancel);
   // Exact closest points: the backend's kernel, else the CPU twin (same per-item function);
   // made at the first distance stage.
   std::unique_ptr<ClosestPointSolver> solver;
@@ -267,7 +265,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   if (!contacts.empty()) {
     std::string detail =
         "objects that touch, intersect or come closer than the finest cell (" +
-        format_length(contact_tolerance * r.domain.side) +
+        format_length(touch_tolerance * r.domain.side) +
         "): reported as touching, with clearance 0 and their measured gap; their cells are "
         "separated only down to the contact depth:";
     int listed = 0;

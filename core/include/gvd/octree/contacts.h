@@ -1,6 +1,7 @@
 #pragma once
 
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -33,6 +34,11 @@ class ContactPairs {
   std::vector<std::pair<ObjectId, ObjectId>> pairs_;
   FlatMap64 set_;
 };
+
+/// The contact tolerance (unit domain) of an octree whose depth limit is `max_depth`: one
+/// finest cell, the lattice's resolution. Pairs further apart are separated, by finest cells or
+/// certified pair cells, and keep their true clearance; closer ones cannot be told from touching.
+inline double contact_tolerance(int max_depth) { return std::ldexp(1.0, -max_depth); }
 
 /// Finds the object pairs whose simplices come within `tolerance` (unit domain) of each other,
 /// intersecting included. BVH candidates (boxes within the tolerance), then exact
