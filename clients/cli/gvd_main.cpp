@@ -30,144 +30,10 @@
 #include "gvd/scene/units.h"
 #include "http_client.h"
 #include "remote_commands.h"
+#include "usage.h"
 
 namespace gvd::cli {
 namespace {
-
-constexpr const char* kUsageHead = R"(gvd — generalized Voronoi diagrams of closely spaced objects
-
-Usage:
-  gvd compute SCENE... [options]   compute the GVD of a scene
-  gvd compute SCENE... --mode grid --resolution N [--graph FILE.json] [grid options]
-                                   the discrete GVD on a uniform grid (CuRV) and its dual
-                                   graph: interface area from the cell faces, gap and
-                                   clearance exact (see "grid options")
-  gvd info RESULT.gvd [--json]     depth, leaves, bytes per leaf, stage timings, warnings
-  gvd export RESULT.gvd [-o FILE.glb] [--graph FILE.json] [--json FILE.json] [--units U]
-                                   the outputs of compute from a saved result, without
-                                   recomputing
-  gvd nearest INPUT (--points FILE.json | --point x,y[,z]...) [--fast]
-                                   nearest object, distance (signed, with inside, for
-                                   closed objects), one JSON line per point
-  gvd neighbors INPUT --object LABEL [--ring K]
-                                   objects within K rings of the dual graph (default 1)
-  gvd path INPUT --from x,y[,z] --to x,y[,z] [--min-clearance R] [--cost shortest|clearance]
-                                   a path on the GVD that crosses no object
-  gvd explode INPUT --anchor LABEL [-o FILE.glb] [--scale S] [--seconds T]
-                                   exploded view: displacement per object (+ animated GLB)
-  gvd tight INPUT --below B        object pairs whose interface comes closer than B
-  gvd contacts INPUT --max-gap G   object pairs closer than G (and every pair that touches or
-                                   intersects): exact gap, closest points, interface area,
-                                   contact sites
-  gvd grid SCENE --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]
-                                   uniform-grid discrete GVD: distance and nearest object
-                                   per cell (CuRV range culling, Sud et al. 2006)
-  gvd grid RESULT.gvd --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]
-                                   the same grid sampled from a saved adaptive result, exactly
-                                   (see "grid options")
-  gvd --server URL COMMAND ...     the same commands against gvd-server (see "remote mode")
-  gvd --help | --version
-
-INPUT is a result saved with `compute --save`, or a scene (computed first; the compute
-options below apply). Query answers are JSON on stdout (docs/FORMATS.md).
-
-SCENE is the scene JSON ({"dimension":2|3,"objects":[...]}), an OBJ whose o/g groups are
-the objects, a GLB/glTF with one node per object, or several PLY/STL/OFF/OBJ files, one
-object each, labelled by file stem (gvd compute a.stl b.stl c.stl).
-
-compute options:
-  -o, --output FILE.glb      the GVD as binary glTF (one node per object, EXT_mesh_features)
-  --graph FILE.json          the dual graph (neighbouring objects, interface area, clearance,
-                             gap between the objects, touching)
-  --json FILE.json           the GVD with float64 coordinates (for gaps below float32 resolution)
-  --save FILE.gvd            the whole result (octree, distance field, GVD, graph), reloadable
-)";
-// (the parameters of any mode, from the table)
-constexpr const char* kUsageVolume =
-    R"(  --volume LABELS.npy        a labelled voxel volume instead of scene files: an integer .npy
-                             (shape (ny, nx) or (nz, ny, nx), x fastest, as gvd grid writes);
-                             each label becomes an object "label_<id>", its boundary the
-                             voxel faces it shares with other labels or the background
-)";
-// (the labelled volume's parameters, from the table)
-// (the parameters of the adaptive mode, from the table)
-constexpr const char* kUsageQuiet = R"(  -q, --quiet                no progress or summary on stderr
-
-grid options (gvd grid, and gvd compute --mode grid):
-  --graph FILE.json          compute --mode grid: the dual graph of the labels (objects whose
-                             cells share a face; area = the shared faces; gap, touching and
-                             clearance measured exactly on the objects, as in the adaptive
-                             mode; Euclidean whatever --metric)
-  -o, --output FILE          distance per cell (negative inside closed objects: closed
-                             polygons in 2D, watertight meshes in 3D), float32 by default;
-                             FILE.npy (numpy), FILE.nrrd (NRRD, data attached) or FILE.nhdr
-                             (NRRD header + FILE.raw)
-  --labels FILE              index of the nearest object per cell (int32, -1 = none), same
-                             formats. Arrays are [y, x] (2D) / [z, y, x] (3D), x fastest
-)";
-// (the parameters of the grid mode, and of any mode that read otherwise there, from the table)
-constexpr const char* kUsageGrid =
-    R"(  From RESULT.gvd (compute --save): the box defaults to the result's domain (a cube: N^D
-  cells); each cell's search is bounded by the closest points stored on its octree leaf's
-  vertices, then decided by exact distances to the scene's simplices. Guaranteed: the labels
-  are the exact nearest object at every cell centre (exact ties: the lower index) and the
-  distances exact (float32 in the file), the same cells as `gvd grid SCENE` over that box,
-  bit for bit; not interpolated from the octree. --range-cells, --backend and the scene
-  limits (--max-objects, --max-simplices) do not apply.
-
-query options:
-  --points FILE.json         points as [[x,y,z],...] or {"points":[...]} ("-" = stdin)
-  --point x,y[,z]            one point (repeatable)
-  --fast                     nearest: the paper's rule alone away from objects (faster; the
-                             distance may exceed 3/2 of the true one, the object may flip
-                             near a Voronoi boundary)
-  --ring K                   rings around the object (default 1; large K = all reachable)
-  --min-clearance R          passages narrower than R are not used (default 0)
-  --cost shortest|clearance  path cost: length, or length / clearance (default shortest)
-  --scale S                  explode: displacement per ring (default: 1/4 of the mean object size)
-  --seconds T                explode: animation length of the GLB (default 2)
-
-remote mode (--server URL, or the environment variable GVD_SERVER; --local ignores it):
-  gvd --server http://host:8080 compute SCENE... [-o gvd.glb] [--graph g.json] [--json gvd.json]
-        [--save r.gvd] [--no-wait]
-                             submits the scene, prints the job id on stdout, shows the job's
-                             progress, downloads the outputs asked for; --no-wait: only submit.
-                             Job parameters: --max-depth, --contact-depth, --domain, --frame,
-                             --ambiguity-levels, --ambiguity-rounds, --unseen-rounds, --refine,
-                             --resolution, --curved-tolerance, --units (threads, backend and
-                             limits are the server's own settings). --mode grid --resolution N [--metric,
-                             --range-cells, --float64, --unsigned]: a grid job, whose outputs are
-                             --graph, -o FIELD.npy and --labels LABELS.npy. --volume LABELS.npy
-                             --spacing X,Y[,Z] [--background N|none]: a labelled volume (the
-                             server needs --spacing)
-  gvd --server URL neighbors|nearest|path|explode|tight|contacts --job ID [query options]
-                             a query on a finished job; the same JSON on stdout as locally.
-                             Scene files instead of --job ID: submitted and waited for first
-  gvd --server URL info --job ID [--json]
-                             the job's status, progress or result summary
-  --job ID                   a job on the server (the id `compute` printed)
-  --retries N                how often a busy server (503) is asked again, waiting what its
-                             Retry-After says (default 5)
-  --timeout S                seconds to connect and to wait for each answer (default 60)
-
-Exit codes: 0 ok, 1 internal error, 2 bad command line, 3 invalid input (scene, option,
-format, or a point outside the domain), 4 limit exceeded, 5 file not readable/writable or
-not found (also an unknown object label or job id), 6 cancelled, 7 no path joins the points,
-8 server busy (still 503 after the retries) or job not finished yet, 9 network error (server
-not reachable: connection refused, reset or timed out).
-)";
-
-/// `gvd --help`: the compute and grid parameters' lines come from the parameter table
-/// (gvd/pipeline/parameters.h), the rest is written here.
-std::string usage() {
-  std::string volume;
-  for (const ParamSpec& p : pipeline_parameters()) {
-    if (p.of_volume && p.on(kCliFlag)) volume += flag_help(p);
-  }
-  return std::string(kUsageHead) + parameter_help(ParamMode::kAny) + kUsageVolume + volume +
-         parameter_help(ParamMode::kAdaptive) + kUsageQuiet +
-         parameter_help(ParamMode::kGrid, kGridFlag) + kUsageGrid;
-}
 
 int exit_code_for(ErrorCode code) {
   switch (code) {
@@ -581,11 +447,13 @@ int run(int argc, char** argv) {
     std::fputs(usage().c_str(), stdout);
     return kExitOk;
   }
-  // `gvd COMMAND --help`: the same usage (it lists every command's options), not an error.
+  // `gvd COMMAND --help`: that command's usage, whatever else is given; not an error.
   for (int i = 2; i < argc; ++i) {
     const std::string_view arg = argv[i];
     if (arg == "--help" || arg == "-h") {
-      std::fputs(usage().c_str(), stdout);
+      const std::optional<std::string> text = command_usage(command);
+      if (!text) throw UsageError{"unknown command \"" + command + "\""};
+      std::fputs(text->c_str(), stdout);
       return kExitOk;
     }
   }
