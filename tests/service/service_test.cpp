@@ -1291,23 +1291,25 @@ TEST(Service, SlowHeadersDoNotStarveOtherClients) {
   }
   attacker.join();
   const long long drops = drops_before < 0 ? -1 : listen_drops() - drops_before;
-  ASSERT_GT(ms.size(), 200u);
+  ASSERT_FALSE(ms.empty());
   std::sort(ms.begin(), ms.end());
   const double p99 = ms[ms.size() * 99 / 100];
   std::printf(
       "probes %zu, failed %d, median %.2f ms, p99 %.2f ms, max %.2f ms; attackers "
       "reconnected %d times; connection attempts dropped by a full accept queue %lld\n",
       ms.size(), failed, ms[ms.size() / 2], p99, ms.back(), reconnects.load(), drops);
-  // Quiet machine: median ~1.5 ms, p99 6-8 ms in most runs, but 140-220 ms in about one run
-  // in six (and with both cores busy compiling), not yet explained; so the bar is the median
-  // under 100 ms (the figure), and every probe answered within its 2 s time-outs.
-  // Before the gate every probe timed out. The slowest probe once took 1.14 s on a loaded CI
-  // machine (median 9.9 ms there), so the worst probe may take 2 s; the kernel's count of
-  // dropped connection attempts (a client retries after 1 s) is printed beside it. It is not
-  // asserted: it counts every socket of the namespace, and other tests run beside this one.
+  EXPECT_GT(ms.size(), 200u);
+  // Every probe is answered within the 100 ms: median 0.5-0.8 ms, p99 2-6 ms, the
+  // slowest 6-10 ms, also beside a computation on both cores. Until the gate's events became
+  // edge-triggered, each connection with partial headers was reported again at once after
+  // every event (the gate peeks, so their bytes stay unread), the gate and the accept thread
+  // spun on both cores, and probes took 1-3 s on a machine with slow system calls (p99
+  // 140-220 ms in one run in six elsewhere). The kernel's count of dropped connection
+  // attempts (a client retries after 1 s) is printed, not asserted: it counts every socket of
+  // the namespace, and other tests run beside this one.
   EXPECT_EQ(failed, 0);
   EXPECT_LT(ms[ms.size() / 2], 100.0);
-  EXPECT_LT(p99, 500.0);
+  EXPECT_LT(p99, 100.0);
   EXPECT_LT(ms.back(), 2000.0) << drops << " connection attempts dropped in the namespace";
   // The attackers were closed: all from one address, all but 64 of them at once to make room
   // (the oldest first), and those that stayed when their 3 s were up (with a 408).
