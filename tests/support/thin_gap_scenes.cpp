@@ -889,6 +889,46 @@ Scene make_stacked_plates(const StackedPlatesOptions& options) {
   return checked_scene(where, 3, std::move(objects));
 }
 
+Scene make_ball_in_socket(const BallInSocketOptions& options) {
+  const std::string where = "make_ball_in_socket";
+  if (options.rings < 3 || options.segments < 3)
+    bad_option(where, "rings and segments must be >= 3");
+  if (!(options.gap > 0)) bad_option(where, "gap must be > 0");
+  if (!(options.radius > 0) || !(options.radius < 0.5))
+    bad_option(where, "radius must be in (0, 0.5)");
+  const double g = options.gap * kDomainPerExtent;  // the box spans 1: E = 1
+  SceneObject ball = make_sphere("ball", Vec3{}, options.radius, options.rings, options.segments);
+  // The ball is convex and inside the cavity, a convex polyhedron with the same face normals:
+  // its least distance to the cavity is the least over faces of (s - 1) times the face's
+  // plane distance d_f (the ball's support in direction n_f is its own face f).
+  double least_plane = kInf;
+  for (const Simplex& t : ball.simplices) {
+    const Vec3 a = ball.vertices[t.v[0]], b = ball.vertices[t.v[1]], c = ball.vertices[t.v[2]];
+    const Vec3 n = cross(b - a, c - a);
+    least_plane = std::min(least_plane, dot(n, a) / norm(n));
+  }
+  const double scale = 1 + g / least_plane;
+  if (!(options.radius * scale < 0.5)) bad_option(where, "the cavity does not fit in the box");
+  SceneObject socket = make_box("socket", Vec3{-0.5, -0.5, -0.5}, Vec3{0.5, 0.5, 0.5});
+  const uint32_t base = static_cast<uint32_t>(socket.vertices.size());
+  for (const Vec3& v : ball.vertices) socket.vertices.push_back(v * scale);
+  for (const Simplex& t : ball.simplices)  // turned inside out: the cavity's faces face the ball
+    socket.simplices.push_back({{base + t.v[0], base + t.v[2], base + t.v[1]}});
+  std::vector<SceneObject> objects;
+  objects.push_back(std::move(socket));
+  objects.push_back(std::move(ball));
+  verify_objects(where, objects, 3);
+  check_gap(where, objects[0], objects[1], 3, g);
+  Scene scene = make_scene(3, std::move(objects));
+  for (const SceneWarning& w : scene.warnings) {
+    if (w.kind != WarningKind::kMultipleComponents || w.object != "socket") {
+      fail(where, "scene warning " + std::string(warning_kind_name(w.kind)) + " on " +
+                      quoted(w.object) + ": " + w.detail);
+    }
+  }
+  return scene;
+}
+
 Scene make_shaft_in_bore(const ShaftInBoreOptions& options) {
   const std::string where = "make_shaft_in_bore";
   constexpr double kHalf = 0.5, kHousingZ0 = 0.0, kHousingZ1 = 0.6, kShaftZ0 = -0.2, kShaftZ1 = 0.8;

@@ -77,6 +77,23 @@ struct ShaftInBoreOptions {
 /// [0, 0.6] is exactly g from the housing.
 Scene make_shaft_in_bore(const ShaftInBoreOptions& options = {});
 
+/// make_ball_in_socket: a ball, the UV sphere of test::make_sphere (`rings` x `segments`,
+/// radius `radius`, centred at the origin), sealed in a socket: the box [-0.5,0.5]^3 with a
+/// cavity that is the same sphere scaled by 1 + g / d, d the least distance from the centre to
+/// a face's plane, and turned inside out. Every ball face is parallel to its cavity face at a
+/// gap between g (the faces nearest the centre) and g times the largest over the least plane
+/// distance (1.005 at 12 x 24): a spherical joint or a ball in a race, whose rims between
+/// facets run along no axis. The socket has two shells (box and cavity), so its scene carries
+/// a `multiple_components` warning and nothing else. E = 1. Defaults: 528 + 540 triangles.
+struct BallInSocketOptions {
+  int rings = 12;       ///< latitude bands, >= 3
+  int segments = 24;    ///< longitude segments, >= 3
+  double radius = 0.3;  ///< ball radius (scene units), < 0.5
+  double gap = 1e-3;    ///< least clearance, fraction of the domain side (g = gap * 1.1)
+};
+/// Objects "socket", "ball". Checks the gap.
+Scene make_ball_in_socket(const BallInSocketOptions& options = {});
+
 /// make_parallel_bars_2d: two rectangles, bar_a = [0,1] x [-0.1,0] and bar_b = [0,1] x
 /// [g, g + 0.1]: long edges parallel at g over their whole length. Each outline has its long
 /// edges split into `segments` equal segments and its short edges one segment (82 segments per
