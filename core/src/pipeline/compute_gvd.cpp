@@ -206,7 +206,11 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   // Refinement is over: the closest-point solver (the OpenCL backend's device copy of the tree
   // and geometry) and the certifier's adjacency go before surfacing, where memory peaks.
   solver.reset();
-  certifier.reset();
+  // Skew extruded cells get their direction from the certificate of their own box again
+  // (the mark does not hold it), so the certifier stays where there are some.
+  bool any_skew = false;
+  for (uint8_t c : r.octree.certified) any_skew |= c == kSkewMark;
+  if (!any_skew) certifier.reset();
   // Surfacing reads each leaf's vertices from the field's per-leaf lists, never by key: the
   // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks
   // there; lookups by key binary-search the sorted keys from now on (OctreeVertices::find).
@@ -224,12 +228,21 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   so.threads = options.threads;
   so.cancel = options.cancel;
   so.progress = [&](double f) { progress("surface", 0.9 * f); };  // the weld: the last tenth
+  if (any_skew) {
+    so.skew_direction = [&certifier](const Box& box, Vec3& along) {
+      const PairCertifier::Certificate c = certifier->certify(box);
+      if (c.verdict != CellVerdict::kSkew) return false;
+      along = c.along;
+      return true;
+    };
+  }
   {
     // Only surfacing reads the per-leaf vertex lists (~50 B per leaf): they go as it stops
     // needing them, the inactive leaves' first (memory peaks at its end and in the weld).
     LeafPieces pieces = surface_leaves_releasing_lists(r.octree, r.field, r.geometry, bvh, so);
     r.gvd = weld_gvd(std::move(pieces), r.geometry, bvh, r.domain, so);
   }
+  certifier.reset();
   uint64_t simplices = 0, gvd_bytes = 0;
   for (const GvdCell& c : r.gvd.cells) {
     simplices += c.indices.size() / (dim == 2 ? 2 : 3);

@@ -305,12 +305,10 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   // it the other way; then the sign of the enclosed volume says where the normals point.
   const uint32_t objects = geometry.object_count;
   std::vector<uint8_t> closed(objects, 1);
-  std::vector<double> volume(objects, 0.0);
   for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
     const Simplex& t = geometry.simplices[s];
     const ObjectId o = geometry.object_of[s];
     if (o >= objects) continue;
-    volume[o] += dot(pts[t.v[0]], cross(pts[t.v[1]], pts[t.v[2]]));
     for (int e = 0; e < 3; ++e) {
       const uint32_t u = across_[s * 3 + e];
       if (u == kOpen || u == kNonManifold) {
@@ -323,8 +321,11 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
         if (canonical_[w.v[i]] == from && canonical_[w.v[(i + 1) % 3]] == to) closed[o] = 0;
     }
   }
-  // One shell per object: with several, the enclosed volume's sign would not say which way
-  // each one's normals point (a cavity's shell faces inward, an inverted one too).
+  // The shells (edge-connected parts) of each object. With several, the sign of the whole
+  // enclosed volume does not say which way each one's normals point (a cavity's shell faces
+  // inward): each shell's own volume must have the sign its nesting asks — positive for a shell
+  // inside an even number of the object's other shells (an outer skin, an island in a
+  // cavity), negative inside an odd number (a cavity) — all of them, or all the opposite.
   poll();
   std::vector<uint32_t> parent(geometry.simplices.size());
   std::iota(parent.begin(), parent.end(), 0u);
@@ -338,20 +339,85 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
       if (u != kOpen && u != kNonManifold) parent[root(s)] = root(u);
     }
   }
-  std::vector<uint32_t> shell(objects, kOpen);
+  // Per object, its shells' roots and volumes (few per object: past kMaxShells, none is
+  // oriented, as a bound on the nesting tests below).
+  constexpr size_t kMaxShells = 16;
+  struct Shell {
+    uint32_t root;
+    double volume = 0;
+  };
+  std::vector<std::vector<Shell>> shells(objects);
   for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
     const ObjectId o = geometry.object_of[s];
-    if (o >= objects) continue;
+    if (o >= objects || !closed[o]) continue;
     const uint32_t r = root(s);
-    if (shell[o] == kOpen) {
-      shell[o] = r;
-    } else if (shell[o] != r) {
-      closed[o] = 0;
+    std::vector<Shell>& list = shells[o];
+    auto it = std::find_if(list.begin(), list.end(), [&](const Shell& h) { return h.root == r; });
+    if (it == list.end()) {
+      if (list.size() == kMaxShells) {
+        closed[o] = 0;
+        continue;
+      }
+      list.push_back({r});
+      it = list.end() - 1;
     }
+    const Simplex& t = geometry.simplices[s];
+    it->volume += dot(pts[t.v[0]], cross(pts[t.v[1]], pts[t.v[2]]));
   }
+  // The simplices of the objects with several shells, by object.
+  std::vector<std::vector<uint32_t>> of_object(objects);
+  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
+    const ObjectId o = geometry.object_of[s];
+    if (o < objects && closed[o] && shells[o].size() > 1) of_object[o].push_back(s);
+  }
+  // Whether shell `inner`'s first point lies inside shell `outer` (same object): crossings
+  // of a ray in a direction no input is aligned with, by parity.
+  auto inside = [&](ObjectId o, uint32_t inner, uint32_t outer) {
+    Vec3 p;
+    for (uint32_t s : of_object[o]) {
+      if (root(s) == inner) {
+        p = pts[geometry.simplices[s].v[0]];
+        break;
+      }
+    }
+    const Vec3 d =
+        Vec3{0.5773502691896258, 0.5773502691896257, 0.5773502691896259} + Vec3{1e-3, -2e-3, 7e-4};
+    int crossings = 0;
+    for (uint32_t s : of_object[o]) {
+      if (root(s) != outer) continue;
+      const Simplex& t = geometry.simplices[s];
+      const Vec3 a = pts[t.v[0]], e1 = pts[t.v[1]] - a, e2 = pts[t.v[2]] - a;
+      const Vec3 h = cross(d, e2);
+      const double det = dot(e1, h);
+      if (det == 0) continue;
+      const Vec3 q = p - a;
+      const double u = dot(q, h) / det;
+      if (u < 0 || u > 1) continue;
+      const Vec3 k = cross(q, e1);
+      const double v = dot(d, k) / det;
+      if (v < 0 || u + v > 1) continue;
+      if (dot(e2, k) / det > 0) ++crossings;
+    }
+    return crossings % 2 == 1;
+  };
   outward_.assign(objects, 0);
   for (uint32_t o = 0; o < objects; ++o) {
-    if (closed[o] && volume[o] != 0) outward_[o] = volume[o] > 0 ? 1 : -1;
+    if (!closed[o] || shells[o].empty()) continue;
+    int agree = 0, oppose = 0;
+    for (const Shell& h : shells[o]) {
+      int depth = 0;
+      if (shells[o].size() > 1) {
+        poll();
+        for (const Shell& other : shells[o])
+          if (other.root != h.root && inside(o, h.root, other.root)) ++depth;
+      }
+      const double expected = depth % 2 == 0 ? 1.0 : -1.0;
+      if (h.volume * expected > 0) ++agree;
+      if (h.volume * expected < 0) ++oppose;
+    }
+    const int n = static_cast<int>(shells[o].size());
+    if (agree == n) outward_[o] = 1;
+    if (oppose == n) outward_[o] = -1;
   }
 }
 
@@ -644,7 +710,46 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
         b[1] = w;
       }
     }
-    if (slanted < 0) return out;
+    if (slanted < 0) {
+      // Skew: e square to no axis (a faceted sphere's rims). e is the common perpendicular of
+      // the two normals farthest from parallel; every octree edge then runs across the
+      // cross-section, so it crosses the bisector at most once when the gradients keep one
+      // sign along each of the three axes (checked below, `octant`).
+      double best = 0;
+      for (size_t i = 0; i < normals.size(); ++i)
+        for (size_t j = i + 1; j < normals.size(); ++j) {
+          const Vec3 c = cross(normals[i], normals[j]);
+          if (norm2(c) > best) {
+            best = norm2(c);
+            along = c;
+          }
+        }
+      // Normals within ~0.6 degrees of each other leave e ill-defined (and the faces' own
+      // flat certificates serve there).
+      constexpr double kMinBend = 0.01;
+      if (!(best > kMinBend * kMinBend)) return out;
+      along = along / norm(along);
+      // Nearly square to an axis, the faces it crosses at a glancing angle would carry long,
+      // barely sloping curves (as for slanted cells): left to splitting.
+      constexpr double kMinSlant = 0.01;
+      for (int a = 0; a < 3; ++a)
+        if (std::abs(along[a]) < kMinSlant) return out;
+      if (!std::all_of(normals.begin(), normals.end(),
+                       [&](Vec3 n) { return std::abs(dot(n, along)) <= kPerpendicular; }))
+        return out;
+      for (int a = 0; a < 3; ++a) {
+        const bool up = std::all_of(normals.begin(), normals.end(),
+                                    [&](Vec3 n) { return n[a] >= -kPerpendicular; });
+        const bool down = std::all_of(normals.begin(), normals.end(),
+                                      [&](Vec3 n) { return n[a] <= kPerpendicular; });
+        if (!up && !down) return out;
+      }
+      out.skew = true;
+      // The cross-section's axes for `rise` below: any two orthonormal ones square to e.
+      b[0] = normals[0] - along * dot(normals[0], along);
+      b[0] = b[0] / norm(b[0]);
+      b[1] = cross(along, b[0]);
+    }
   }
   // One quadrant of the cross-section holds them all; or else (along an axis) one cone of at
   // most 2 kMaxCone around their mean, which can straddle one cross-section axis (`mixed`):
@@ -652,7 +757,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   // checked below.
   Vec3 rise;
   int mixed = -1;
-  for (int k = 0; k < 2; ++k) {
+  for (int k = 0; k < 2 && !out.skew; ++k) {
     const bool up = std::all_of(normals.begin(), normals.end(),
                                 [&](Vec3 n) { return dot(n, b[k]) >= -kPerpendicular; });
     const bool down = std::all_of(normals.begin(), normals.end(),
@@ -662,6 +767,12 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       mixed = (axis + 1 + k) % 3;
     }
     rise = rise + b[k] * (up ? 1.0 : -1.0);
+  }
+  if (out.skew) {
+    // The gradients' mean direction (they lie within the octant, so within a quarter turn of
+    // each other): d_a - d_b grows along it.
+    for (Vec3 n : normals) rise = rise + n;
+    rise = rise / norm(rise) * std::sqrt(2.0);  // scaled back by 1/sqrt(2) below
   }
   if (mixed >= 0) {
     // The middle of the normals' angular span in the cross-section (not their sum, which
@@ -759,6 +870,8 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   }
   if (axis >= 0) {
     out.verdict = mixed < 0 ? extruded_verdict(axis) : cone_verdict(axis, mixed, out.twice);
+  } else if (out.skew) {
+    out.verdict = CellVerdict::kSkew;
   } else {
     const int i = (slanted + 1) % 3, j = (slanted + 2) % 3;
     out.verdict = slanted_verdict(slanted, along[i] * along[j] < 0);

@@ -68,8 +68,13 @@ class CellSurfacer {
   static constexpr int kMaxJunction = 8;
 
   CellSurfacer(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
-               const SimplexBvh& bvh)
-      : octree_(octree), field_(field), geometry_(geometry), bvh_(bvh), dim_(octree.dimension) {
+               const SimplexBvh& bvh, const SurfaceOptions& options)
+      : octree_(octree),
+        field_(field),
+        geometry_(geometry),
+        bvh_(bvh),
+        dim_(octree.dimension),
+        skew_direction_(options.skew_direction) {
     for (size_t i = 0; i < octree.certified.size(); ++i) {
       any_extruded_ |= octree.certified[i] >= 2;
       any_cone_ |= cone_leaf(static_cast<uint32_t>(i));
@@ -191,7 +196,7 @@ class CellSurfacer {
           std::vector<Curve> mine;
           for (size_t i = b; i < e; ++i) {
             const uint32_t leaf = static_cast<uint32_t>(i);
-            if (octree_.extruded_axis(leaf) < 0 && octree_.slanted_axis(leaf) < 0) continue;
+            if (!extruded_leaf(leaf)) continue;
             const LeafGrid grid = field_.grid(octree_, leaf);
             detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
               if (!traces(leaf, p.axis)) return;
@@ -227,6 +232,13 @@ class CellSurfacer {
   // once and exactly, before surfacing; every cell with the edge (cone or not) then gets both
   // spokes (polygon).
   bool cone_leaf(uint32_t leaf) const { return octree_.cone_axis(leaf) >= 0; }
+  // An extruded pair cell of any kind (along an axis, slanted or skew; cones included), whose
+  // curves on its traced faces are traced and whose sheet is a ladder between them. Skew
+  // cells only when the caller can give their direction.
+  bool extruded_leaf(uint32_t leaf) const {
+    return octree_.extruded_axis(leaf) >= 0 || octree_.slanted_axis(leaf) >= 0 ||
+           (octree_.is_skew(leaf) && static_cast<bool>(skew_direction_));
+  }
 
   void find_double_crossings(int threads) {
     const size_t n = octree_.leaf_count();
@@ -819,6 +831,7 @@ class CellSurfacer {
   // `face_axis`: along an axis, its two faces across it; slanted, the four faces its
   // direction crosses (not the two it runs along, where the bisector is straight).
   bool traces(uint32_t leaf, int face_axis) const {
+    if (octree_.is_skew(leaf)) return static_cast<bool>(skew_direction_);  // every face
     const int axis = octree_.extruded_axis(leaf);
     if (axis >= 0) return face_axis == axis;
     const int slanted = octree_.slanted_axis(leaf);
@@ -1084,9 +1097,7 @@ class CellSurfacer {
       ++np;
     });
     if (!mixed && !any_domain) return;
-    if (mixed && !any_domain &&
-        (octree_.extruded_axis(leaf) >= 0 || octree_.slanted_axis(leaf) >= 0) &&
-        extruded_cell(leaf, polys, gvds, np, out))
+    if (mixed && !any_domain && extruded_leaf(leaf) && extruded_cell(leaf, polys, gvds, np, out))
       return;
     // The spokes form closed curves on the cell surface; faces sharing a bisector belong to
     // the same curve. Each connected curve is coned to the centroid of its own bisectors
@@ -1252,8 +1263,10 @@ class CellSurfacer {
     Vec3 dir;
     if (axis >= 0) {
       dir[axis] = 1;
-    } else {
+    } else if (slanted >= 0) {
       dir = slanted_direction(leaf, slanted, opposite, x, y);
+    } else if (!skew_direction_ || !skew_direction_(octree_.box(leaf), dir)) {
+      return false;
     }
     // One oriented piece per polygon with two spokes (per pair of spokes where an edge crosses
     // C twice, next to a roof's apex): from the spoke where the ring passes from x to y. The
@@ -1532,6 +1545,7 @@ class CellSurfacer {
   size_t refined_count_ = 0;
   int dim_;
   bool any_extruded_ = false;
+  std::function<bool(const Box&, Vec3&)> skew_direction_;
   bool any_cone_ = false;
   std::vector<DoubleCrossing> doubles_;
   FlatMap64 double_index_;  // octree edge -> index in doubles_
@@ -1558,7 +1572,7 @@ std::vector<SurfaceChunk> surface_chunks(const Octree& octree, const DistanceFie
   // Each leaf's pieces share most of their corners (the cone apex, the spokes): they are
   // deduplicated per leaf first, so the global pass in weld_gvd sorts distinct (point,
   // object, other) records of each leaf rather than every corner.
-  CellSurfacer surfacer(octree, field, geometry, bvh);
+  CellSurfacer surfacer(octree, field, geometry, bvh, options);
   surfacer.prepare(threads);
   // Only the leaves that emit anything: those the GVD crosses and those on the domain box.
   const std::vector<uint32_t>& active = surfacer.active_leaves();

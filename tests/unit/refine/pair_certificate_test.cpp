@@ -353,6 +353,78 @@ TEST(PairCertifier, SlantedCellsHoldUnderBruteForce3D) {
   EXPECT_GT(slanted - in_shaft, 0);
 }
 
+TEST(PairCertifier, SkewCellsHoldUnderBruteForce3D) {
+  // A UV sphere sealed in a cavity scaled from it: its meridian rims run along no axis nor
+  // square to one. Where the two faces' normals keep one sign on every axis (the meridians at
+  // 30, 45 and 60 degrees, off the equator), cells at the rim are skew extruded cells: d_a and
+  // d_b invariant along e, and at most one sign change of d_a - d_b along the rise and along
+  // every axis (so every octree edge meets the bisector at most once).
+  test::BallInSocketOptions o;
+  o.gap = 1e-3;
+  const World w(test::make_ball_in_socket(o));
+  // The socket has two shells (box and cavity), each oriented: extruded cells need that.
+  const PairCertifier certifier(w.geometry, w.bvh, nullptr, true);
+  const double g = o.gap * 1.1, pi = std::acos(-1.0);
+  // Midpoints of meridian edges (between rings i and i + 1 at longitude phi), pushed out into
+  // the gap by half of it.
+  std::vector<Vec3> rims;
+  for (double deg : {30.0, 45.0, 60.0, 210.0}) {
+    const double phi = deg * pi / 180;
+    for (int i : {2, 3, 7, 8}) {
+      const double t0 = pi * i / o.rings, t1 = pi * (i + 1) / o.rings;
+      auto at = [&](double th) {
+        return Vec3{std::sin(th) * std::cos(phi), std::sin(th) * std::sin(phi), std::cos(th)} *
+               o.radius;
+      };
+      const Vec3 mid = (at(t0) + at(t1)) * 0.5;
+      rims.push_back(mid * (1 + 0.5 * g / norm(mid)));
+    }
+  }
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int skew = 0, tried = 0;
+  for (int level = 8; level <= 11; ++level) {
+    const double cell = std::ldexp(1.0, -level);
+    for (const Vec3& rim : rims) {
+      for (int k = 0; k < 3; ++k) {
+        Vec3 unit = w.domain.to_unit(rim);
+        for (int a = 0; a < 3; ++a) unit[a] += 0.5 * u(rng) * cell;
+        const Box box = lattice_cell_at(unit, level);
+        const PairCertifier::Certificate cert = certifier.certify(box);
+        ++tried;
+        if (!cert.skew) continue;
+        ASSERT_EQ(cert.verdict, CellVerdict::kSkew);
+        ASSERT_EQ(certified_mark(cert.verdict), kSkewMark);
+        ASSERT_EQ(inherited_mark(kSkewMark), 0) << "children must be asked again";
+        ASSERT_LT(cert.axis, 0);
+        ASSERT_LT(cert.slanted, 0);
+        ASSERT_NEAR(norm(cert.along), 1, 1e-12);
+        for (int a = 0; a < 3; ++a) ASSERT_GE(std::abs(cert.along[a]), 0.01);
+        ++skew;
+        audit_extruded(w, cert, box, rng);
+        if (HasFatalFailure()) return;
+      }
+    }
+  }
+  EXPECT_GT(skew, tried / 4) << "of " << tried;
+  // The same socket with its cavity's faces turned to face into the material (a shell inside
+  // another whose normals point as an outer skin's): the signed distance's sign is unknown
+  // there, so no extruded certificate of any kind.
+  Scene inverted = w.scene;
+  SceneObject& socket = inverted.objects[0];
+  for (size_t t = 12; t < socket.simplices.size(); ++t)
+    std::swap(socket.simplices[t].v[1], socket.simplices[t].v[2]);
+  const World wi(std::move(inverted));
+  const PairCertifier inverted_certifier(wi.geometry, wi.bvh, nullptr, true);
+  for (int level = 8; level <= 11; ++level) {
+    for (const Vec3& rim : rims) {
+      const PairCertifier::Certificate cert =
+          inverted_certifier.certify(lattice_cell_at(wi.domain.to_unit(rim), level));
+      EXPECT_FALSE(cert.skew || cert.axis >= 0 || cert.slanted >= 0) << "level " << level;
+    }
+  }
+}
+
 TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {
   // A hexagonal shaft in its bore: at the corners on the x axis the normals of the two faces
   // (+-30 degrees) straddle the x axis, so only the cell's own lines along y are checked and
@@ -460,26 +532,35 @@ TEST(PairCertifier, ExtrudedCellsNeedClosedStraightQuadrantRims) {
   const PairCertifier open_certifier(open.geometry, open.bvh, nullptr, true);
   const Box edge = user_cube(open, {0.19, 0.5, 0.19}, 0.02);
   EXPECT_LT(open_certifier.certify(edge).axis, 0) << "an open sheet";
-  // A box over a slab, 1e-3 apart: its rim along y is extruded — but not when the box is one of
-  // two shells of one object (the volume's sign cannot say where each shell's normals point).
-  auto box_over_slab = [](bool second_shell) {
+  // A box over a slab, 1e-3 apart: its rim along y is extruded, also when the box is one of
+  // two shells of one object that both face out of their material (each shell's volume has
+  // the sign its nesting asks: neither is inside the other, both positive) — but not when the
+  // second shell is turned inside out (its normals point into its material, the first's do
+  // not: no sign of the signed distance holds for the object).
+  enum class Second { kNone, kOutward, kInverted };
+  auto box_over_slab = [](Second second) {
     SceneObject box = test::make_box("box", {0.2, 0.1001, 0.2}, {0.6, 0.3, 0.6});
-    if (second_shell) {
+    if (second != Second::kNone) {
       const SceneObject other = test::make_box("x", {0.7, 0.5, 0.7}, {0.9, 0.7, 0.9});
       const uint32_t base = static_cast<uint32_t>(box.vertices.size());
       box.vertices.insert(box.vertices.end(), other.vertices.begin(), other.vertices.end());
       for (Simplex tri : other.simplices) {
         for (uint32_t& v : tri.v) v += base;
+        if (second == Second::kInverted) std::swap(tri.v[1], tri.v[2]);
         box.simplices.push_back(tri);
       }
     }
-    return test::make_scene(3, {test::make_box("slab", {0, 0, 0}, {1, 0.1, 1}), box});
+    Scene scene;
+    scene.dimension = 3;
+    scene.objects = {test::make_box("slab", {0, 0, 0}, {1, 0.1, 1}), box};
+    return scene;  // not validated: validation would keep each shell's orientation anyway
   };
-  for (const bool second_shell : {false, true}) {
-    const World w(box_over_slab(second_shell));
+  for (const Second second : {Second::kNone, Second::kOutward, Second::kInverted}) {
+    const World w(box_over_slab(second));
     const PairCertifier c(w.geometry, w.bvh, nullptr, true);
     const Box rim = user_cube(w, {0.195, 0.0995, 0.4}, 0.01);
-    EXPECT_EQ(c.certify(rim).axis >= 0, !second_shell) << (second_shell ? "two shells" : "one");
+    EXPECT_EQ(c.certify(rim).axis >= 0, second != Second::kInverted)
+        << static_cast<int>(second) << ": none, two outward shells, the second inverted";
   }
 }
 

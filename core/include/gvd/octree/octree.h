@@ -43,6 +43,11 @@ enum class CellVerdict : uint8_t {
   kSlantedYOpposite,
   kSlantedZ,
   kSlantedZOpposite,
+  /// Skew extruded pair cells (3D): the same along a direction e square to no axis (a faceted
+  /// sphere's rims), every octree edge crossing the bisector at most once (the gradients in
+  /// one octant). e is not in the mark: the certificate of the cell's own box gives it again
+  /// (PairCertifier::certify), so its children are asked again rather than inheriting it.
+  kSkew,
 };
 
 /// Whether a verdict is a cone's (kCone...): certified for the cell and its children.
@@ -52,7 +57,9 @@ inline bool is_cone(CellVerdict v) {
 
 /// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair), 2 + axis (the
 /// extruded pair cells) or 5 + (v - kCone) (the cones); children of a cone cell carry 12 more
-/// (certified; their own children must be asked again); 29 + 2 axis + opposite (kSlanted...).
+/// (certified; their own children must be asked again); 29 + 2 axis + opposite (kSlanted...);
+/// kSkewMark (kSkew).
+inline constexpr uint8_t kSkewMark = 35;
 inline uint8_t certified_mark(CellVerdict v) {
   const int i = static_cast<int>(v);
   if (v == CellVerdict::kPair) return 1;
@@ -62,11 +69,13 @@ inline uint8_t certified_mark(CellVerdict v) {
   if (i >= static_cast<int>(CellVerdict::kSlantedX) &&
       i <= static_cast<int>(CellVerdict::kSlantedZOpposite))
     return static_cast<uint8_t>(29 + i - static_cast<int>(CellVerdict::kSlantedX));
+  if (v == CellVerdict::kSkew) return kSkewMark;
   return 0;
 }
 
 /// The mark the children of a cell with mark `mark` carry without asking again (0: ask).
 inline uint8_t inherited_mark(uint8_t mark) {
+  if (mark == kSkewMark) return 0;
   if (mark <= 4 || mark >= 29) return mark;
   return mark <= 16 ? static_cast<uint8_t>(mark + 12) : uint8_t{0};
 }
@@ -177,10 +186,12 @@ struct Octree {
   /// The axis perpendicular to the direction of the slanted extruded pair cell the leaf lies
   /// in, or -1; `opposite`: whether the direction's other two components differ in sign.
   int slanted_axis(uint32_t leaf, bool* opposite = nullptr) const {
-    if (certified.empty() || certified[leaf] < 29) return -1;
+    if (certified.empty() || certified[leaf] < 29 || certified[leaf] > 34) return -1;
     if (opposite != nullptr) *opposite = (certified[leaf] - 29) % 2 == 1;
     return (certified[leaf] - 29) / 2;
   }
+  /// Whether the leaf is a skew extruded pair cell (CellVerdict::kSkew).
+  bool is_skew(uint32_t leaf) const { return !certified.empty() && certified[leaf] == kSkewMark; }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);
   }

@@ -43,7 +43,8 @@ namespace gvd {
 ///   enough that rounding cannot tilt the bisector visibly (kMirrorTolerance). 2D needs no
 ///   mirrors: its rims are points, and flat cells already cost log(1/g) there.
 /// - Extruded pairs (3D; straight rims: an edge facing a face or a corner across g): both
-///   objects are single closed, consistently oriented shells, every simplex that can be nearest has
+///   objects are closed, consistently oriented, their normals out of the material (each of
+///   up to 16 shells by its nesting), every simplex that can be nearest has
 ///   its normal perpendicular to one axis e, and on each of their planes the object's triangles
 ///   cover, within the box Q, a full strip across Q along e. Then both distance functions are
 ///   invariant along e in the cell, and the bisector is C x e for a curve C of the cross-section
@@ -65,6 +66,14 @@ namespace gvd {
 ///   other two axes, onto which every octree edge not along a projects; so every octree edge
 ///   still meets the bisector at most once. The surfacer traces C on the four faces e
 ///   crosses and keeps the rungs on the two square to a. No cones here.
+/// - Skew extruded pairs (kSkew): the same along a direction e square to no axis (the rims of
+///   a faceted sphere, which run in every direction), e the common perpendicular of the
+///   normals. Every octree edge crosses the cross-section, so the gradients must keep one
+///   sign along each of the three axes (one octant): each edge then meets the bisector at
+///   most once, and f is monotone along both axes of every face, which the tracer needs. The
+///   surfacer traces C on all six faces and builds the ladder between the three faces e enters
+///   by and the three it leaves by; it gets e again from the certificate of the leaf's own box
+///   (the mark does not hold it), so children are asked again, never inherit. No cones here.
 ///
 /// Anything else (three objects, curved or folded patches, open edges, contact pairs, more
 /// than kMaxActive simplices in reach) is kSplit: the paper's rule applies. Thread-safe;
@@ -109,7 +118,9 @@ class PairCertifier final : public SplitOracle {
     bool twice = false;  ///< and whether some of its lines along it cross the bisector twice
     /// Slanted extruded pairs (kSlanted...): the axis perpendicular to e (axis is -1 then).
     int slanted = -1;
-    Vec3 along;  ///< extruded pairs: e, a unit vector (the axis, or the slanted direction)
+    /// Skew extruded pairs (kSkew): e square to no axis (axis and slanted are -1 then).
+    bool skew = false;
+    Vec3 along;  ///< extruded pairs: e, a unit vector (the axis, the slanted or skew direction)
   };
   Certificate certify(const Box& box) const;
 
@@ -156,8 +167,9 @@ class PairCertifier final : public SplitOracle {
   /// Per simplex side (3D: edge v[e] v[e+1]; 2D: end v[e]): the simplex of the same object
   /// across it, kOpen or kNonManifold.
   std::vector<uint32_t> across_;
-  /// Per object (3D): +1 when it is one closed, consistently oriented shell whose normals
-  /// (from the vertex order) point out of it, -1 when they point in, 0 otherwise.
+  /// Per object (3D): +1 when it is closed and consistently oriented and its normals (from
+  /// the vertex order) point out of its material — each of its shells (at most 16) with the
+  /// volume sign its nesting among the others asks — -1 when they all point in, 0 otherwise.
   std::vector<int8_t> outward_;
 };
 

@@ -22,6 +22,11 @@ struct SurfaceOptions {
   /// Optional: the fraction of the leaves surfaced, called from the calling thread between
   /// batches of them (for the progress display).
   std::function<void(double)> progress;
+  /// Skew extruded pair cells (CellVerdict::kSkew): the direction e of the cell `box`, from
+  /// its own certificate (the octree's mark does not hold it); false when it has none. Needed
+  /// when the octree has such cells (compute_gvd sets it from its PairCertifier); without it
+  /// they are surfaced as ordinary cells.
+  std::function<bool(const Box& box, Vec3& along)> skew_direction;
 };
 
 /// Paper §6: bisector points (eq. 1, clamped to the edge) on every octree edge whose ends
