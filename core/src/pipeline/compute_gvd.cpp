@@ -209,7 +209,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   // Skew extruded cells get their direction from the certificate of their own box again
   // (the mark does not hold it), so the certifier stays where there are some.
   bool any_skew = false;
-  for (uint8_t c : r.octree.certified) any_skew |= c == kSkewMark;
+  for (uint8_t c : r.octree.certified) any_skew |= c >= kSkewMark && c <= kSkewConeLastMark;
   if (!any_skew) certifier.reset();
   // Surfacing reads each leaf's vertices from the field's per-leaf lists, never by key: the
   // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks
@@ -231,7 +231,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   if (any_skew) {
     so.skew_direction = [&certifier](const Box& box, Vec3& along) {
       const PairCertifier::Certificate c = certifier->certify(box);
-      if (c.verdict != CellVerdict::kSkew) return false;
+      if (!c.skew) return false;
       along = c.along;
       return true;
     };

@@ -682,6 +682,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   // crossing the bisector at most once.
   Vec3 along, b[2];
   int slanted = -1;
+  int mixed = -1;  // a cross-section axis (skew: any axis) the gradients straddle, or -1
   if (axis >= 0) {
     along[axis] = 1;
     b[0][(axis + 1) % 3] = 1;
@@ -737,12 +738,17 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       if (!std::all_of(normals.begin(), normals.end(),
                        [&](Vec3 n) { return std::abs(dot(n, along)) <= kPerpendicular; }))
         return out;
+      // One axis may be straddled (the rims of a sphere across its great circles): a cone, as
+      // along an axis, whose lines along that axis are counted below.
       for (int a = 0; a < 3; ++a) {
         const bool up = std::all_of(normals.begin(), normals.end(),
                                     [&](Vec3 n) { return n[a] >= -kPerpendicular; });
         const bool down = std::all_of(normals.begin(), normals.end(),
                                       [&](Vec3 n) { return n[a] <= kPerpendicular; });
-        if (!up && !down) return out;
+        if (!up && !down) {
+          if (mixed >= 0 || !cones_) return out;
+          mixed = a;
+        }
       }
       out.skew = true;
       // The cross-section's axes for `rise` below: any two orthonormal ones square to e.
@@ -756,19 +762,31 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   // lines along it may then meet the curve twice, so the cell's own lines along it are
   // checked below.
   Vec3 rise;
-  int mixed = -1;
-  for (int k = 0; k < 2 && !out.skew; ++k) {
+  const bool skew = out.skew;  // a slanted cone becomes one below, after its quadrant test
+  for (int k = 0; k < 2 && !skew; ++k) {
     const bool up = std::all_of(normals.begin(), normals.end(),
                                 [&](Vec3 n) { return dot(n, b[k]) >= -kPerpendicular; });
     const bool down = std::all_of(normals.begin(), normals.end(),
                                   [&](Vec3 n) { return dot(n, b[k]) <= kPerpendicular; });
     if (!up && !down) {
-      if (mixed >= 0 || axis < 0 || !cones_) return out;
-      mixed = (axis + 1 + k) % 3;
+      if (mixed >= 0 || !cones_) return out;
+      if (axis >= 0) {
+        mixed = (axis + 1 + k) % 3;
+      } else if (k == 0) {
+        // Slanted, straddling its own axis a (a sphere's meridian rims across a coordinate
+        // plane, its equator's): a cone whose lines along a are counted as a skew cone's (e
+        // from the certificate again; the two faces square to a, parallel to e, carry
+        // straight pieces). Straddling w, no octree axis, is left to splitting.
+        mixed = slanted;
+        slanted = -1;
+        out.skew = true;
+      } else {
+        return out;
+      }
     }
     rise = rise + b[k] * (up ? 1.0 : -1.0);
   }
-  if (out.skew) {
+  if (out.skew && mixed < 0) {
     // The gradients' mean direction (they lie within the octant, so within a quarter turn of
     // each other): d_a - d_b grows along it.
     for (Vec3 n : normals) rise = rise + n;
@@ -851,19 +869,24 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   }
   if (mixed >= 0) {
     // The lines of the cell along `mixed` where octree edges of it and of its children can
-    // run: at 0, 1/4, ... 1 of the cell across the monotone axis, at any point along the axis
-    // (all alike), at most two crossings each (`twice` where some line has two: beside the
-    // roof's apex). Then its children are certified with it (kCone...).
-    const int mono = 3 - axis - mixed;
-    for (int k = 0; k <= 4; ++k) {
-      Vec3 p0 = box.center(), p1;
-      p0[mono] = box.lo[mono] + 0.25 * k * (box.hi[mono] - box.lo[mono]);
-      p1 = p0;
-      p0[mixed] = box.lo[mixed];
-      p1[mixed] = box.hi[mixed];
-      const int crossings = line_crossings(pair, p0, p1, mixed, patch);
-      if (crossings > 2) return out;
-      out.twice |= crossings == 2;
+    // run, at most two crossings each (`twice` where some line has two: beside the roof's
+    // apex): at 0, 1/4, ... 1 of the cell across the monotone axis, and along an extruded
+    // axis at any point (all alike); skew (no invariant axis), at the quarters across both
+    // other axes. Then its children are certified with it (kCone...), or, skew, asked again.
+    const int p = axis >= 0 ? 3 - axis - mixed : (mixed + 1) % 3;
+    const int q = axis >= 0 ? -1 : (mixed + 2) % 3;
+    for (int i = 0; i <= 4; ++i) {
+      for (int j = 0; j <= (q >= 0 ? 4 : 0); ++j) {
+        Vec3 p0 = box.center(), p1;
+        p0[p] = box.lo[p] + 0.25 * i * (box.hi[p] - box.lo[p]);
+        if (q >= 0) p0[q] = box.lo[q] + 0.25 * j * (box.hi[q] - box.lo[q]);
+        p1 = p0;
+        p0[mixed] = box.lo[mixed];
+        p1[mixed] = box.hi[mixed];
+        const int crossings = line_crossings(pair, p0, p1, mixed, patch);
+        if (crossings > 2) return out;
+        out.twice |= crossings == 2;
+      }
     }
     out.inherited = false;
     out.mixed = mixed;
@@ -871,7 +894,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   if (axis >= 0) {
     out.verdict = mixed < 0 ? extruded_verdict(axis) : cone_verdict(axis, mixed, out.twice);
   } else if (out.skew) {
-    out.verdict = CellVerdict::kSkew;
+    out.verdict = mixed < 0 ? CellVerdict::kSkew : skew_cone_verdict(mixed, out.twice);
   } else {
     const int i = (slanted + 1) % 3, j = (slanted + 2) % 3;
     out.verdict = slanted_verdict(slanted, along[i] * along[j] < 0);

@@ -200,10 +200,14 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
   // Along the straddled axis: the lines of the cell and its children (quarters), finely. Beside
   // a roof's apex one may meet the bisector twice; the certificate must say so (`twice`: the
   // surfacer then looks for both crossings on those edges), and never more.
-  const int mono = 3 - c.axis - c.mixed;
+  // Skew cones (no axis): at quarters across both other axes, one of them drawn at random.
+  const int mono = c.axis >= 0 ? 3 - c.axis - c.mixed : (c.mixed + 1) % 3;
+  const int other = c.axis >= 0 ? -1 : (c.mixed + 2) % 3;
+  std::uniform_int_distribution<int> quarter(0, 4);
   for (int k = 0; k <= 4; ++k) {
     Vec3 p = point();
     p[mono] = box.lo[mono] + 0.25 * k * side;
+    if (other >= 0) p[other] = box.lo[other] + 0.25 * quarter(rng) * side;
     int last = 0, changes = 0;
     for (int i = 0; i <= 128; ++i) {
       p[c.mixed] = box.lo[c.mixed] + side * i / 128.0;
@@ -358,17 +362,21 @@ TEST(PairCertifier, SkewCellsHoldUnderBruteForce3D) {
   // square to one. Where the two faces' normals keep one sign on every axis (the meridians at
   // 30, 45 and 60 degrees, off the equator), cells at the rim are skew extruded cells: d_a and
   // d_b invariant along e, and at most one sign change of d_a - d_b along the rise and along
-  // every axis (so every octree edge meets the bisector at most once).
+  // every axis (so every octree edge meets the bisector at most once). Where they straddle
+  // one axis, skew cones: at most two along that axis, and `twice` where there are two.
   test::BallInSocketOptions o;
   o.gap = 1e-3;
   const World w(test::make_ball_in_socket(o));
   // The socket has two shells (box and cavity), each oriented: extruded cells need that.
-  const PairCertifier certifier(w.geometry, w.bvh, nullptr, true);
+  const PairCertifier certifier(w.geometry, w.bvh, nullptr, true, true);
   const double g = o.gap * 1.1, pi = std::acos(-1.0);
   // Midpoints of meridian edges (between rings i and i + 1 at longitude phi), pushed out into
   // the gap by half of it.
   std::vector<Vec3> rims;
-  for (double deg : {30.0, 45.0, 60.0, 210.0}) {
+  // Meridians at 0 and 90 degrees lie in a coordinate plane, square to y and x, and their
+  // faces' normals straddle that axis (slanted rims across their own axis): skew cones, whose
+  // lines along it may meet the bisector twice (audit_extruded counts them finely).
+  for (double deg : {30.0, 45.0, 60.0, 210.0, 0.0, 90.0}) {
     const double phi = deg * pi / 180;
     for (int i : {2, 3, 7, 8}) {
       const double t0 = pi * i / o.rings, t1 = pi * (i + 1) / o.rings;
@@ -382,7 +390,7 @@ TEST(PairCertifier, SkewCellsHoldUnderBruteForce3D) {
   }
   std::mt19937_64 rng(17);
   std::uniform_real_distribution<double> u(-1, 1);
-  int skew = 0, tried = 0;
+  int skew = 0, cones = 0, tried = 0;
   for (int level = 8; level <= 11; ++level) {
     const double cell = std::ldexp(1.0, -level);
     for (const Vec3& rim : rims) {
@@ -393,20 +401,29 @@ TEST(PairCertifier, SkewCellsHoldUnderBruteForce3D) {
         const PairCertifier::Certificate cert = certifier.certify(box);
         ++tried;
         if (!cert.skew) continue;
-        ASSERT_EQ(cert.verdict, CellVerdict::kSkew);
-        ASSERT_EQ(certified_mark(cert.verdict), kSkewMark);
-        ASSERT_EQ(inherited_mark(kSkewMark), 0) << "children must be asked again";
+        const uint8_t mark = certified_mark(cert.verdict);
+        ASSERT_EQ(inherited_mark(mark), 0) << "children must be asked again";
         ASSERT_LT(cert.axis, 0);
         ASSERT_LT(cert.slanted, 0);
         ASSERT_NEAR(norm(cert.along), 1, 1e-12);
-        for (int a = 0; a < 3; ++a) ASSERT_GE(std::abs(cert.along[a]), 0.01);
-        ++skew;
+        if (cert.mixed < 0) {
+          ASSERT_EQ(cert.verdict, CellVerdict::kSkew);
+          ASSERT_EQ(mark, kSkewMark);
+          for (int a = 0; a < 3; ++a) ASSERT_GE(std::abs(cert.along[a]), 0.01);
+          ++skew;
+        } else {
+          ASSERT_TRUE(is_cone(cert.verdict));
+          ASSERT_EQ(mark, kSkewMark + 1 + 2 * cert.mixed + (cert.twice ? 1 : 0));
+          ASSERT_FALSE(cert.inherited);
+          ++cones;
+        }
         audit_extruded(w, cert, box, rng);
         if (HasFatalFailure()) return;
       }
     }
   }
-  EXPECT_GT(skew, tried / 4) << "of " << tried;
+  EXPECT_GT(skew, tried / 6) << "of " << tried;
+  EXPECT_GT(cones, 0) << "of " << tried;
   // The same socket with its cavity's faces turned to face into the material (a shell inside
   // another whose normals point as an outer skin's): the signed distance's sign is unknown
   // there, so no extruded certificate of any kind.
@@ -415,7 +432,7 @@ TEST(PairCertifier, SkewCellsHoldUnderBruteForce3D) {
   for (size_t t = 12; t < socket.simplices.size(); ++t)
     std::swap(socket.simplices[t].v[1], socket.simplices[t].v[2]);
   const World wi(std::move(inverted));
-  const PairCertifier inverted_certifier(wi.geometry, wi.bvh, nullptr, true);
+  const PairCertifier inverted_certifier(wi.geometry, wi.bvh, nullptr, true, true);
   for (int level = 8; level <= 11; ++level) {
     for (const Vec3& rim : rims) {
       const PairCertifier::Certificate cert =

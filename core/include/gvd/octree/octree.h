@@ -48,18 +48,25 @@ enum class CellVerdict : uint8_t {
   /// one octant). e is not in the mark: the certificate of the cell's own box gives it again
   /// (PairCertifier::certify), so its children are asked again rather than inheriting it.
   kSkew,
+  /// The same where the gradients straddle one axis m (a sphere's rims across its great
+  /// circles): a cone, whose lines along m at the quarters of the cell across both other axes
+  /// were counted. kSkewCone + 2 m + twice (skew_cone_verdict); children are asked again.
+  kSkewCone,
+  kSkewConeLast = kSkewCone + 5,
 };
 
 /// Whether a verdict is a cone's (kCone...): certified for the cell and its children.
 inline bool is_cone(CellVerdict v) {
-  return v >= CellVerdict::kCone && v <= CellVerdict::kConeLast;
+  return (v >= CellVerdict::kCone && v <= CellVerdict::kConeLast) ||
+         (v >= CellVerdict::kSkewCone && v <= CellVerdict::kSkewConeLast);
 }
 
 /// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair), 2 + axis (the
 /// extruded pair cells) or 5 + (v - kCone) (the cones); children of a cone cell carry 12 more
 /// (certified; their own children must be asked again); 29 + 2 axis + opposite (kSlanted...);
-/// kSkewMark (kSkew).
+/// kSkewMark (kSkew); kSkewMark + 1 + 2 m + twice (kSkewCone...).
 inline constexpr uint8_t kSkewMark = 35;
+inline constexpr uint8_t kSkewConeLastMark = kSkewMark + 6;
 inline uint8_t certified_mark(CellVerdict v) {
   const int i = static_cast<int>(v);
   if (v == CellVerdict::kPair) return 1;
@@ -69,13 +76,14 @@ inline uint8_t certified_mark(CellVerdict v) {
   if (i >= static_cast<int>(CellVerdict::kSlantedX) &&
       i <= static_cast<int>(CellVerdict::kSlantedZOpposite))
     return static_cast<uint8_t>(29 + i - static_cast<int>(CellVerdict::kSlantedX));
-  if (v == CellVerdict::kSkew) return kSkewMark;
+  if (v >= CellVerdict::kSkew && v <= CellVerdict::kSkewConeLast)
+    return static_cast<uint8_t>(kSkewMark + i - static_cast<int>(CellVerdict::kSkew));
   return 0;
 }
 
 /// The mark the children of a cell with mark `mark` carry without asking again (0: ask).
 inline uint8_t inherited_mark(uint8_t mark) {
-  if (mark == kSkewMark) return 0;
+  if (mark >= kSkewMark && mark <= kSkewConeLastMark) return 0;
   if (mark <= 4 || mark >= 29) return mark;
   return mark <= 16 ? static_cast<uint8_t>(mark + 12) : uint8_t{0};
 }
@@ -85,6 +93,13 @@ inline uint8_t inherited_mark(uint8_t mark) {
 inline CellVerdict slanted_verdict(int axis, bool opposite) {
   return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kSlantedX) + 2 * axis +
                                   (opposite ? 1 : 0));
+}
+
+/// The skew cone's verdict whose gradients straddle axis `mixed`; `twice`: some of its lines
+/// along `mixed` cross the bisector twice.
+inline CellVerdict skew_cone_verdict(int mixed, bool twice) {
+  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kSkewCone) + 2 * mixed +
+                                  (twice ? 1 : 0));
 }
 
 /// The extruded verdict along `axis` (0, 1, 2), its sub-cells certified too.
@@ -178,7 +193,12 @@ struct Octree {
   /// The cross-section axis whose lines may cross the bisector twice in the cone cell the leaf
   /// lies in (CellVerdict::kCone...), or -1; `twice`: whether some of them do.
   int cone_axis(uint32_t leaf, bool* twice = nullptr) const {
-    if (certified.empty() || certified[leaf] < 5 || certified[leaf] > 28) return -1;
+    if (certified.empty()) return -1;
+    if (certified[leaf] > kSkewMark && certified[leaf] <= kSkewConeLastMark) {
+      if (twice != nullptr) *twice = (certified[leaf] - kSkewMark - 1) % 2 == 1;
+      return (certified[leaf] - kSkewMark - 1) / 2;
+    }
+    if (certified[leaf] < 5 || certified[leaf] > 28) return -1;
     const int k = (certified[leaf] - 5) % 12;
     if (twice != nullptr) *twice = k % 2 == 1;
     return (k / 4 + 1 + k / 2 % 2) % 3;
@@ -190,8 +210,11 @@ struct Octree {
     if (opposite != nullptr) *opposite = (certified[leaf] - 29) % 2 == 1;
     return (certified[leaf] - 29) / 2;
   }
-  /// Whether the leaf is a skew extruded pair cell (CellVerdict::kSkew).
-  bool is_skew(uint32_t leaf) const { return !certified.empty() && certified[leaf] == kSkewMark; }
+  /// Whether the leaf is a skew extruded pair cell (CellVerdict::kSkew, kSkewCone...).
+  bool is_skew(uint32_t leaf) const {
+    return !certified.empty() && certified[leaf] >= kSkewMark &&
+           certified[leaf] <= kSkewConeLastMark;
+  }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);
   }

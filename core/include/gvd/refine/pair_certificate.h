@@ -73,7 +73,10 @@ namespace gvd {
 ///   most once, and f is monotone along both axes of every face, which the tracer needs. The
 ///   surfacer traces C on all six faces and builds the ladder between the three faces e enters
 ///   by and the three it leaves by; it gets e again from the certificate of the leaf's own box
-///   (the mark does not hold it), so children are asked again, never inherit. No cones here.
+///   (the mark does not hold it), so children are asked again, never inherit. Where the
+///   normals straddle one axis m (or a slanted rim straddles its own axis), a skew cone
+///   (kSkewCone...): the normals within kMaxCone of their middle, and the lines along m at the
+///   quarters of the cell across both other axes counted (at most two crossings, `twice`).
 ///
 /// Anything else (three objects, curved or folded patches, open edges, contact pairs, more
 /// than kMaxActive simplices in reach) is kSplit: the paper's rule applies. Thread-safe;
