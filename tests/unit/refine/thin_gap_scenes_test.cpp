@@ -22,7 +22,21 @@ TEST(ThinGapScenes, EveryGeneratorBuildsItsSceneAtWideAndThinGaps) {
     test::ShaftInBoreOptions shaft;
     shaft.gap = gap;
     EXPECT_EQ(test::make_shaft_in_bore(shaft).objects.size(), 2u);
+    // The ball in its socket: the least distance is g (the generator checks it by brute
+    // force; here against the default domain), and the socket's two shells are its only
+    // warning.
+    test::BallInSocketOptions ball;
+    ball.gap = gap;
+    const Scene b = test::make_ball_in_socket(ball);
+    ASSERT_EQ(b.objects.size(), 2u);
+    EXPECT_NEAR(test::min_distance_3d(b.objects[0], b.objects[1]), gap * make_domain(b).side,
+                1e-9 * gap);
+    ASSERT_EQ(b.warnings.size(), 1u);
+    EXPECT_EQ(b.warnings[0].kind, WarningKind::kMultipleComponents);
   }
+  test::BallInSocketOptions too_big;
+  too_big.radius = 0.5;
+  EXPECT_THROW(test::make_ball_in_socket(too_big), std::invalid_argument);
   test::StackedPlatesOptions bad;
   bad.inset = 0.5;
   EXPECT_THROW(test::make_stacked_plates(bad), std::exception);
