@@ -480,7 +480,7 @@ int run(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   using namespace gvd::cli;
-  gvd::use_returning_heap();
+  gvd::use_returning_heap(true);
   try {
     return run(argc, argv);
   } catch (const UsageError& e) {

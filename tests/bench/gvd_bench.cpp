@@ -718,8 +718,8 @@ void print_summary() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // The heap policy of the gvd command line and server.
-  gvd::use_returning_heap();
+  // The heap policy of the gvd command line (the server keeps the returning one alone).
+  gvd::use_returning_heap(true);
   // Our one flag, removed before Google Benchmark parses the rest.
   bool slow = false;
   std::string scene_dir;

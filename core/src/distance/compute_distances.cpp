@@ -290,13 +290,13 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     radix_sort(
         added, [](uint64_t k) { return k; }, threads);
     added.erase(std::unique(added.begin(), added.end()), added.end());
-    // Appended, and the index built again at the new size (inserting into it would need room
-    // kept free in every round, or a second table while it grows).
-    field.vertices.drop_index();
-    field.vertices.key.reserve(old_count + added.size());
-    field.vertices.key.insert(field.vertices.key.end(), added.begin(), added.end());
+    // Appended: inserted into the index where it has room, else the index is built again at
+    // the new size, a small one (as refine_until_resolved keeps across rounds) with room for
+    // half as many again, so that the later rounds, which add few vertices, insert in place.
+    const size_t total = old_count + added.size();
+    field.vertices.key.reserve(total);
+    field.vertices.append(added, threads, total < kSmallVertexIndex ? total / 2 : 0);
     std::vector<uint64_t>().swap(added);
-    field.vertices.rebuild_index(threads);
   } else {
     field.vertices = enumerate_vertices(octree, threads);
   }

@@ -72,6 +72,24 @@ void OctreeVertices::rebuild_index(int threads, size_t room) {
   });
 }
 
+void OctreeVertices::append(std::span<const uint64_t> added, int threads, size_t room) {
+  const size_t first = key.size();
+  key.insert(key.end(), added.begin(), added.end());
+  // In place when the table and the filter (8 bits per key) hold the new keys too: the later
+  // refinement rounds add few vertices, and building both again cost every round a table's
+  // worth of fresh pages.
+  if (index.size() == first && index.has_room(added.size()) && !filter.empty() &&
+      (size_t{1} << filter_bits_) >= 8 * key.size()) {
+    for (size_t i = first; i < key.size(); ++i) {
+      index.insert(key[i], static_cast<uint32_t>(i));
+      const uint64_t h = filter_hash(key[i]);
+      filter[h >> 6] |= uint64_t{1} << (h & 63);
+    }
+    return;
+  }
+  rebuild_index(threads, room);
+}
+
 LeafGrid leaf_grid(const Octree& octree, const OctreeVertices& vertices, uint32_t leaf) {
   const int dim = octree.dimension;
   LeafGrid g;

@@ -166,7 +166,9 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
     }
     const OctreeOptions oo =
         octree_options(options, contacts, certifier ? &*certifier : nullptr, progress);
+    heap_computation_starts();
     r.octree = first_octree(r.geometry, options, oo);
+    heap_checkpoint(r.octree.leaf_count());
     r.stats.stages.push_back(
         {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
 
@@ -223,6 +225,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   std::vector<uint32_t>().swap(r.octree.simplex_index);
 
   progress("surface", 0);
+  heap_checkpoint(r.octree.leaf_count());
   sw = Stopwatch();
   SurfaceOptions so;
   so.threads = options.threads;

@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "gvd/common/peak_memory.h"
 #include "gvd/refine/find_cells_to_refine.h"
 
 namespace gvd {
@@ -87,10 +88,10 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     // rebuilt, where the old and the new octree are held at once: a large one goes before and
     // is built again once the old octree has given up its simplex lists. A small one (a few
     // MB) stays: rebuilding it cost ~3 ms a round on the maze, about a tenth of its time.
-    constexpr size_t kKeepIndexBelow = size_t{1} << 19;  // vertices
-    const bool keep_index = field.vertices.indexed() && field.vertices.size() < kKeepIndexBelow;
+    const bool keep_index = field.vertices.indexed() && field.vertices.size() < kSmallVertexIndex;
     if (!keep_index) field.vertices.drop_index();
     octree = refine_octree(previous, geometry, splits, options.octree, plan.certified);
+    heap_checkpoint(octree.leaf_count());
     // The replaced octree is only looked up from now on (its leaves pass their base levels
     // on, and the distance update matches them, then frees it): its simplex lists go before
     // the update, where the refinement's memory peaks.

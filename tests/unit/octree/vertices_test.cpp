@@ -52,5 +52,43 @@ TEST(OctreeVertices, FindsTheSameWithoutTheHashIndex) {
   }
 }
 
+// append (the refinement's new vertices of a round): every key, old and new, is found at its
+// position, and keys that are no vertex are not, both where the index and the filter take the
+// new keys in place (the table keeps its size) and where they are built again.
+TEST(OctreeVertices, AppendFindsOldAndNewKeysInPlaceOrRebuilt) {
+  for (int dim : {2, 3}) {
+    const OctreeVertices all = enumerate_vertices(small_octree(dim), 2);
+    ASSERT_GT(all.size(), 100u);
+    // The even keys first, then a few odd ones (room for them), then the rest (no room).
+    OctreeVertices v;
+    v.dimension = dim;
+    std::vector<uint64_t> odd;
+    for (size_t i = 0; i < all.size(); ++i) (i % 2 == 0 ? v.key : odd).push_back(all.key[i]);
+    const size_t room = odd.size() / 8;
+    v.rebuild_index(2, room);
+    const size_t table = v.index.memory_bytes();
+    const std::span<const uint64_t> odd_keys(odd);
+    auto expect_found = [&](size_t appended) {
+      ASSERT_TRUE(v.indexed());
+      ASSERT_EQ(v.size(), all.size() - odd.size() + appended);
+      for (uint32_t i = 0; i < v.size(); ++i) ASSERT_EQ(v.find(v.key[i]), i) << "dim " << dim;
+      for (size_t i = appended; i < odd.size(); ++i)
+        ASSERT_EQ(v.find(odd[i]), kNoVertex) << "not appended yet";
+    };
+    v.append(odd_keys.first(room), 2);
+    EXPECT_EQ(v.index.memory_bytes(), table) << "in place";
+    expect_found(room);
+    v.append(odd_keys.subspan(room), 2);
+    EXPECT_GT(v.index.memory_bytes(), table) << "built again";
+    expect_found(odd.size());
+    // No key between two vertices is one.
+    for (size_t i = 0; i + 1 < all.size(); ++i) {
+      if (all.key[i] + 1 != all.key[i + 1]) {
+        ASSERT_EQ(v.find(all.key[i] + 1), kNoVertex);
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace gvd

@@ -89,6 +89,8 @@ class FlatMap64 {
     return map;
   }
 
+  /// Whether `n` more keys fit without a rehash.
+  bool has_room(size_t n) const { return (size_ + n) * 100 <= slots_.size() * max_load_; }
   /// Makes room for `n` keys in all (one rehash, if the table is too small for them).
   void reserve(size_t n) {
     if (capacity_for(n) > slots_.size()) rehash(capacity_for(n));

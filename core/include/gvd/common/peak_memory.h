@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 namespace gvd {
@@ -24,7 +25,28 @@ uint64_t file_rss_bytes();
 /// a stage's freed arrays stay resident under the next stage's; keeping every freed block
 /// (a threshold of 1 GiB, what gvd did before) put the spheres' peak 100 MB higher for 3-8 %
 /// of the CPU time (page faults of arrays mapped again). Call once, before any thread starts.
-void use_returning_heap();
+///
+/// `small_computations_keep_blocks` (the command line and the benchmarks, which run one
+/// computation at a time): heap_checkpoint then lets a small computation keep its freed
+/// blocks below kKeptBlockBytes in the heap. Each refinement round frees and allocates arrays
+/// of the same sizes; returning them made every round fault their pages in again, and a page
+/// fault costs ~10 us on a virtual machine with slow page-table updates (this one), a quarter
+/// of the paper's maze's time. What that keeps is a few MB; a large computation keeps the
+/// policy above (on the spheres, keeping blocks while the process was small still put the
+/// peak 4-10 MB higher).
+void use_returning_heap(bool small_computations_keep_blocks = false);
+/// Called by the pipeline when it knows the size of the computation it runs (the octree's
+/// leaves, after each build and refinement round and before surfacing): switches the policy
+/// of use_returning_heap to it. A computation that grew past small gives back at each later
+/// checkpoint the kept blocks it has freed since. Nothing unless use_returning_heap(true) was
+/// called.
+void heap_checkpoint(size_t leaves);
+/// Called by the pipeline as a computation starts (its size unknown while its first octree is
+/// built): the returning policy, and what the last computation kept given back.
+void heap_computation_starts();
 inline constexpr int kReturnedBlockBytes = 256 << 10;
+inline constexpr int kKeptBlockBytes = 2 << 20;
+/// Below this many leaves a computation is small (~25 MB at 200 B per leaf).
+inline constexpr size_t kSmallComputationLeaves = size_t{1} << 17;
 
 }  // namespace gvd

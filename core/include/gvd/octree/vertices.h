@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "gvd/common/error.h"
@@ -12,6 +13,9 @@
 namespace gvd {
 
 inline constexpr uint32_t kNoVertex = ~0u;
+/// Below this many vertices the vertex index is small (a few MB): the refinement keeps it
+/// across rounds, with room to grow in place, rather than freeing it near its memory peak.
+inline constexpr size_t kSmallVertexIndex = size_t{1} << 19;
 
 /// The vertices of an octree: every leaf corner (hanging vertices of coarser leaves are
 /// corners of finer ones), sorted by lattice key, with an O(1) key -> index map.
@@ -48,6 +52,9 @@ struct OctreeVertices {
   /// Builds `index` and `filter` from `key` (distinct keys), on `threads` threads, with room
   /// for `room` more keys before the index must grow (growing holds two tables at once).
   void rebuild_index(int threads = 1, size_t room = 0);
+  /// Appends keys that are not vertices yet (distinct): inserted into the index and the filter
+  /// where both have room for them, else both are built again with room for `room` more.
+  void append(std::span<const uint64_t> added, int threads = 1, size_t room = 0);
   /// Appends k unless present; returns its index.
   uint32_t insert(uint64_t k) {
     GVD_CHECK(indexed(), "OctreeVertices::insert after drop_index");
