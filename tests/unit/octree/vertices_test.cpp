@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "gvd/common/error.h"
 #include "support/scenes.h"
 
@@ -64,7 +66,11 @@ TEST(OctreeVertices, AppendFindsOldAndNewKeysInPlaceOrRebuilt) {
     v.dimension = dim;
     std::vector<uint64_t> odd;
     for (size_t i = 0; i < all.size(); ++i) (i % 2 == 0 ? v.key : odd).push_back(all.key[i]);
-    const size_t room = odd.size() / 8;
+    // As many as both the table (built with room for them) and the filter (8 bits a key, its
+    // size set by the keys alone) hold.
+    v.rebuild_index(2);
+    const size_t room = std::min(odd.size() / 8, v.filter.size() * 64 / 8 - v.key.size());
+    ASSERT_GT(room, 0u);
     v.rebuild_index(2, room);
     const size_t table = v.index.memory_bytes();
     const std::span<const uint64_t> odd_keys(odd);
@@ -75,7 +81,8 @@ TEST(OctreeVertices, AppendFindsOldAndNewKeysInPlaceOrRebuilt) {
       for (size_t i = appended; i < odd.size(); ++i)
         ASSERT_EQ(v.find(odd[i]), kNoVertex) << "not appended yet";
     };
-    v.append(odd_keys.first(room), 2);
+    // Built again, the table would have room for every odd key besides.
+    v.append(odd_keys.first(room), 2, odd.size());
     EXPECT_EQ(v.index.memory_bytes(), table) << "in place";
     expect_found(room);
     v.append(odd_keys.subspan(room), 2);

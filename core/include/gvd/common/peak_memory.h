@@ -32,8 +32,8 @@ uint64_t file_rss_bytes();
 /// of the same sizes; returning them made every round fault their pages in again, and a page
 /// fault costs ~10 us on a virtual machine with slow page-table updates (this one), a quarter
 /// of the paper's maze's time. What that keeps is a few MB; a large computation keeps the
-/// policy above (on the spheres, keeping blocks while the process was small still put the
-/// peak 4-10 MB higher).
+/// policy above (deciding by the process's resident size instead, keeping blocks until it
+/// passed 32-64 MB, put the spheres' peak 4-15 MB higher).
 void use_returning_heap(bool small_computations_keep_blocks = false);
 /// Called by the pipeline when it knows the size of the computation it runs (the octree's
 /// leaves, after each build and refinement round and before surfacing): switches the policy
