@@ -3,7 +3,8 @@
 # threads) holds the bundled balls_on_plate result, then
 #   1. wrk -c256 on the cached neighbour query, as fast as it goes (256 connections, twice
 #      the threads);
-#   2. the same query paced at ~5,000 requests/s over 256 connections;
+#   2. the same query at ~5,000 requests/s over 256 connections: (a) as independent clients
+#      (exponential gaps), (b) in step (fixed gaps: bursts);
 #   3. HOLD connections (default 500) each send the headers of a POST and then one body byte
 #      a second, which holds a thread per connection reading it (request bodies are read in
 #      the threads); meanwhile curl probes /healthz and /readyz and wrk -c8 asks for the
@@ -44,7 +45,19 @@ echo "gvd-server overload test: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loa
 echo "== 1. GET neighbors?ring=1, wrk -t2 -c256 -d${duration}s (as fast as possible)"
 wrk -t2 -c256 -d"${duration}s" --latency "$query" | sed -n '/Latency Distribution/,/Transfer/p'
 
-echo "== 2. the same at ~5,000 requests/s (256 connections, one request per 51 ms each)"
+echo "== 2a. the same at ~5,000 requests/s from 256 independent clients (each connection waits"
+echo "   an exponentially distributed time of mean 51 ms between requests: Poisson arrivals)"
+PACE_GAPS=exponential PACE_MS=51 wrk -t2 -c256 -d"${duration}s" --latency \
+  -s "$here/tests/service/pace.lua" "$query" | sed -n '/Latency Distribution/,/Transfer/p'
+
+for gap in 25 13; do
+  echo "== 2a'. independent clients beyond: mean gap $gap ms, ~$((256 * 1000 / gap)) requests/s offered"
+  PACE_GAPS=exponential PACE_MS=$gap wrk -t2 -c256 -d"${duration}s" --latency \
+    -s "$here/tests/service/pace.lua" "$query" | sed -n '/Latency Distribution/,/Transfer/p'
+done
+
+echo "== 2b. ~5,000 requests/s in bursts (each connection waits exactly 51 ms; wrk starts them"
+echo "   at once, so the 256 connections send in step: bursts of up to 256 requests)"
 PACE_MS=51 wrk -t2 -c256 -d"${duration}s" --latency -s "$here/tests/service/pace.lua" "$query" |
   sed -n '/Latency Distribution/,/Transfer/p'
 
