@@ -120,6 +120,10 @@ std::string job_document(const JobRecord& job, JobStatus shown,
   if (!job.units.empty()) s["units"] = job.units;
   if (shown == JobStatus::kQueued && queue_position) s["queue_position"] = *queue_position;
   if (job.recovered) s["recovered"] = true;
+  // The most the job held itself (what the limit per job is checked against): while it runs,
+  // so far; once it has finished, in all. Absent where it is not known (a recovered document).
+  if (job.memory_peak_bytes > 0 && shown != JobStatus::kQueued)
+    s["memory_peak_bytes"] = job.memory_peak_bytes;
   Json progress = {{"fraction", 0.0}, {"stage", nullptr}, {"stages", Json::array()}};
   if (shown == JobStatus::kRunning || shown == JobStatus::kCancelled ||
       shown == JobStatus::kFailed) {

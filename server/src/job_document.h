@@ -38,6 +38,7 @@ struct JobRecord {
   std::string error;              ///< failed/cancelled: problem document
   bool recovered = false;
   std::chrono::steady_clock::time_point stage_start;  ///< of the running stage
+  int64_t memory_peak_bytes = 0;  ///< the most the job held itself so far (0: not known)
 };
 
 /// The status document of `job` as if its status were `shown`; `queue_position` (1 = next)

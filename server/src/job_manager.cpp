@@ -17,6 +17,7 @@
 #include "gvd/scene/load_scene.h"
 #include "job_compute.h"
 #include "job_document.h"
+#include "job_memory.h"
 #include "job_params.h"
 #include "problem.h"
 
@@ -525,12 +526,17 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
   const std::string instance = "/v1/jobs/" + job->id;
   ProblemKind kind = ProblemKind::kInternal;
   std::string detail;
+  // Everything this thread and the threads working for it allocate from here is the job's;
+  // past its limit the allocator sets the cancel flag, which every stage reads.
+  job->memory.set_limit(static_cast<int64_t>(job_memory_limit_bytes(options_)), &job->cancel);
+  const ScopedMemoryAccount charge(&job->memory);
   try {
     SceneLimits limits;
     limits.max_objects = options_.max_objects;
     limits.max_simplices = options_.max_simplices;
     const ProgressFn progress = [this, job](const std::string& stage, double fraction) {
       std::lock_guard lock(mutex_);
+      job->memory_peak_bytes = job->memory.peak();
       if (!record_progress(*job, stage, fraction)) return;
       ++version_;
       changed_cv_.notify_all();
@@ -555,6 +561,7 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
     std::string doc;
     {
       std::lock_guard lock(mutex_);
+      job->memory_peak_bytes = job->memory.peak();
       job->result_info = info;
       job->finished_at = unix_now();
       doc = status_json_locked(*job, JobStatus::kDone);
@@ -581,6 +588,9 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
     detail = e.what();
   }
   std::unique_lock lock(mutex_);
+  job->memory_peak_bytes = job->memory.peak();
+  if (kind == ProblemKind::kCancelled && job->reason == StopReason::kNone && job->memory.over())
+    job->reason = StopReason::kJobMemory;
   if (kind == ProblemKind::kCancelled) {
     switch (job->reason) {
       case StopReason::kShutdown:
@@ -596,8 +606,11 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
         break;
       case StopReason::kMemory:
         kind = ProblemKind::kLimitExceeded;
-        detail = "the server's memory limit of " + std::to_string(options_.max_memory_mb) +
-                 " MB was reached while this job ran";
+        detail = server_memory_detail(job->memory, options_);
+        break;
+      case StopReason::kJobMemory:
+        kind = ProblemKind::kLimitExceeded;
+        detail = job_memory_detail(job->memory, options_);
         break;
       case StopReason::kUser:
       case StopReason::kNone:
@@ -632,26 +645,27 @@ void JobManager::watchdog_loop() {
     if (stopping_) return;
     const auto now = Clock::now();
     const auto limit = std::chrono::duration<double>(options_.job_seconds);
-    Job* newest = nullptr;
+    std::vector<Job*> running;
     for (auto& [id, job] : jobs_) {
       if (job->status != JobStatus::kRunning || job->cancel) continue;
       if (now - job->run_start > limit) {
         job->reason = StopReason::kTimeout;
         job->cancel = true;
-      } else if (newest == nullptr || job->run_start > newest->run_start) {
-        newest = job.get();
+      } else {
+        running.push_back(job.get());
       }
     }
-    if (newest != nullptr && options_.max_memory_mb > 0 &&
+    if (!running.empty() && options_.max_memory_mb > 0 &&
         resident_memory_bytes() > options_.max_memory_mb * (1ull << 20)) {
       if (cache_.size() > 0) {
         // Cached results can be loaded again: drop them first and look again next tick.
         cache_.clear();
         log_event("warn", "memory_limit_cache_cleared", "", 0);
-      } else {
-        // Still over: stop the job that started last (it has the least work to lose).
-        newest->reason = StopReason::kMemory;
-        newest->cancel = true;
+      } else if (Job* job = job_to_stop_for_memory(running)) {
+        // Still over: stop the job that holds the most itself (not the one that started
+        // last, which may hold little: each is charged for its own growth).
+        job->reason = StopReason::kMemory;
+        job->cancel = true;
       }
     }
   }

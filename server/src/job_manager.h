@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "gvd/common/memory_account.h"
 #include "job_document.h"
 #include "job_queue.h"
 #include "metrics.h"
@@ -77,10 +78,11 @@ class JobManager final : public JobQueue {
                     double burst) override;  ///< {"jobs":[{"id","status"}]}, newest first
 
  private:
-  enum class StopReason { kNone, kUser, kTimeout, kMemory, kShutdown };
+  enum class StopReason { kNone, kUser, kTimeout, kMemory, kJobMemory, kShutdown };
   struct Job : JobRecord {
     bool persisting = false;  ///< submitted, its request still being written to disk
     std::atomic<bool> cancel{false};
+    MemoryAccount memory;  ///< what the job holds itself (its limit sets `cancel`)
     StopReason reason = StopReason::kNone;
     std::chrono::steady_clock::time_point run_start;
   };

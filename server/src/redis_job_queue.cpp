@@ -13,6 +13,7 @@
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "job_compute.h"
+#include "job_memory.h"
 #include "job_params.h"
 #include "problem.h"
 
@@ -756,21 +757,16 @@ void RedisJobQueue::maintenance_loop() {
       const auto limit = std::chrono::duration<double>(options_.job_seconds);
       if (!jobs.empty() && options_.max_memory_mb > 0 &&
           resident_memory_bytes() > options_.max_memory_mb * (1ull << 20)) {
-        // Over the memory limit: cached results go first, then the job that started last
-        // (as in one process).
+        // Over the memory limit: cached results go first, then a job.
         if (cache_.size() > 0) {
           cache_.clear();
           log_event("warn", "memory_limit_cache_cleared", "");
         } else {
+          // The job that holds the most itself (as in one process).
           std::lock_guard lock(mutex_);
-          Running* newest = nullptr;
-          for (const auto& job : jobs) {
-            if (!job->cancel && (newest == nullptr || job->run_start > newest->run_start))
-              newest = job.get();
-          }
-          if (newest != nullptr) {
-            newest->reason = StopReason::kMemory;
-            newest->cancel = true;
+          if (Running* job = job_to_stop_for_memory(jobs)) {
+            job->reason = StopReason::kMemory;
+            job->cancel = true;
           }
         }
       }
@@ -1010,12 +1006,16 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
   const std::string instance = "/v1/jobs/" + job->id;
   ProblemKind kind = ProblemKind::kInternal;
   std::string detail;
+  // As in one process (JobManager::run): the job is charged for what it allocates.
+  job->memory.set_limit(static_cast<int64_t>(job_memory_limit_bytes(options_)), &job->cancel);
+  const ScopedMemoryAccount charge(&job->memory);
   try {
     SceneLimits limits;
     limits.max_objects = options_.max_objects;
     limits.max_simplices = options_.max_simplices;
     const ProgressFn progress = [this, job](const std::string& stage, double fraction) {
       std::lock_guard lock(mutex_);
+      job->memory_peak_bytes = job->memory.peak();
       if (record_progress(*job, stage, fraction)) job->dirty = true;
     };
     Scene scene = read_stored_scene(base, limits, &job->cancel, progress);
@@ -1037,6 +1037,7 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
     std::string doc;
     {
       std::lock_guard lock(mutex_);
+      job->memory_peak_bytes = job->memory.peak();
       job->result_info = result_info_json(*result);
       job->finished_at = unix_now();
       doc = job_document(*job, JobStatus::kDone, std::nullopt);
@@ -1068,6 +1069,9 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
   StopReason reason;
   {
     std::lock_guard lock(mutex_);
+    job->memory_peak_bytes = job->memory.peak();
+    if (kind == ProblemKind::kCancelled && job->reason == StopReason::kNone && job->memory.over())
+      job->reason = StopReason::kJobMemory;
     reason = job->reason;
   }
   if (kind == ProblemKind::kCancelled) {
@@ -1090,8 +1094,11 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
       }
       case StopReason::kMemory:
         kind = ProblemKind::kLimitExceeded;
-        detail = "the server's memory limit of " + std::to_string(options_.max_memory_mb) +
-                 " MB was reached while this job ran";
+        detail = server_memory_detail(job->memory, options_);
+        break;
+      case StopReason::kJobMemory:
+        kind = ProblemKind::kLimitExceeded;
+        detail = job_memory_detail(job->memory, options_);
         break;
       case StopReason::kTimeout:
         kind = ProblemKind::kLimitExceeded;

@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include "gvd/common/memory_account.h"
 #include "job_document.h"
 #include "job_queue.h"
 #include "metrics.h"
@@ -68,11 +69,12 @@ class RedisJobQueue final : public JobQueue {
   std::string readiness_json() const override;
 
  private:
-  enum class StopReason { kNone, kUser, kTimeout, kMemory, kShutdown };
+  enum class StopReason { kNone, kUser, kTimeout, kMemory, kJobMemory, kShutdown };
   struct Running : JobRecord {
     std::string entry;     ///< stream entry id
     std::string consumer;  ///< the worker's consumer name
     std::atomic<bool> cancel{false};
+    MemoryAccount memory;  ///< what the job holds itself (its limit sets `cancel`)
     StopReason reason = StopReason::kNone;
     bool dirty = false;  ///< progress not yet published
     std::chrono::steady_clock::time_point run_start;

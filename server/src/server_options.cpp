@@ -99,6 +99,10 @@ const std::vector<Spec>& specs() {
       number("--job-seconds", "wall time per job, seconds", &ServerOptions::job_seconds, 0.01, 1e7),
       number("--max-memory-mb", "resident memory of the process, MB (0 = unlimited)",
              &ServerOptions::max_memory_mb, uint64_t{0}, kU64),
+      number("--job-memory-mb",
+             "memory one job may hold itself, MB (0 = --max-memory-mb; a job is charged for "
+             "what it allocates, not for the process)",
+             &ServerOptions::job_memory_mb, uint64_t{0}, kU64),
       number("--cache-entries", "finished results kept in memory", &ServerOptions::cache_entries, 1,
              100000),
       text("--backend", "compute backend: cpu | opencl | auto (OpenCL when a device exists)",

@@ -36,6 +36,7 @@ struct ServerOptions {
   uint64_t max_batch_points = 100'000;
   double job_seconds = 300;       ///< wall time per job
   uint64_t max_memory_mb = 4096;  ///< resident memory of the process; 0 = unlimited
+  uint64_t job_memory_mb = 0;     ///< heap one job may hold itself; 0 = max_memory_mb
   int cache_entries = 16;         ///< finished results kept in memory
   std::string backend = "cpu";    ///< cpu | opencl | auto (as requested)
   /// Set at start-up from `backend` (gvd::kernels::choose_backend, once, before any job): the

@@ -21,6 +21,8 @@
 #include <thread>
 
 #include "gvd/common/error.h"
+#include "gvd/common/memory_account.h"
+#include "gvd/common/parallel.h"
 #include "gvd/io/write_outputs.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/label_volume.h"
@@ -28,6 +30,7 @@
 #include "header_gate.h"
 #include "job_document.h"
 #include "job_manager.h"
+#include "job_memory.h"
 #include "job_params.h"
 #include "metrics.h"
 #include "problem.h"
@@ -194,9 +197,11 @@ TEST(JobParams, NormalizedTextAndValidation) {
   EXPECT_NO_THROW(a.check(2, server));
   server.max_depth = 10;
   EXPECT_THROW(a.check(2, server), Error);  // above the server's cap
+  // The memory limit no longer caps the leaves (at 1 KB a leaf it refused jobs that fit): a
+  // job is charged for what it allocates (Service.AJobIsChargedForItsOwnMemory).
   server.max_memory_mb = 100;
   server.max_leaves = 1'000'000;
-  EXPECT_EQ(JobParams{}.pipeline_options(server).max_leaves, 102400u);
+  EXPECT_EQ(JobParams{}.pipeline_options(server).max_leaves, 1'000'000u);
   EXPECT_EQ(JobParams{}.pipeline_options(server).max_depth, 10);
 }
 
@@ -998,6 +1003,112 @@ TEST(HeaderGate, BodiesHaveAShareForEachAddressAndAByteBudget) {
   EXPECT_EQ(http.gate_counts().body_refused, 0u);
   http.stop();
   serving.join();
+}
+
+// The server's operator new (counted_new.cpp, linked into this test as into gvd-server)
+// charges the calling thread's account: what the thread and parallel_for's workers hold,
+// given back when freed on any thread; threads without an account are not counted.
+TEST(MemoryAccount, ChargesWhatAThreadAndItsWorkersHold) {
+  constexpr int64_t kMiB = int64_t{1} << 20;
+  MemoryAccount account;
+  std::vector<std::vector<char>> parts(8);
+  {
+    const ScopedMemoryAccount charge(&account);
+    auto block = std::make_unique<std::vector<char>>(8 * kMiB);
+    // Each thread passes its charges on in steps of up to kMemoryChargeStep.
+    EXPECT_GE(account.bytes(), 8 * kMiB - kMemoryChargeStep);
+    // Each of the two threads waits for the other before its first block, so a worker of
+    // the pool allocates some of them whatever the timing.
+    std::atomic<int> started{0};
+    std::atomic<bool> seen[2] = {false, false};
+    std::atomic<bool> worker_allocated{false};
+    parallel_for(
+        parts.size(), 2,
+        [&](size_t b, size_t e, int t) {
+          if (!seen[t].exchange(true)) {
+            ++started;
+            const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+            while (started.load() < 2 && std::chrono::steady_clock::now() < until)
+              std::this_thread::yield();
+          }
+          if (t != 0) worker_allocated = true;
+          for (size_t i = b; i < e; ++i) parts[i].resize(static_cast<size_t>(kMiB));
+        },
+        1);
+    ASSERT_TRUE(worker_allocated.load());
+    EXPECT_GE(account.bytes(), 16 * kMiB - kMemoryChargeStep);
+    // Another thread without an account: not charged to anyone.
+    std::thread([] { std::vector<char> elsewhere(static_cast<size_t>(32 * kMiB), 1); }).join();
+    EXPECT_LT(account.bytes(), 18 * kMiB);
+    block.reset();
+  }
+  // The scope passed on what it had gathered: 8 MiB freed, the workers' 8 MiB still held.
+  EXPECT_GE(account.bytes(), 8 * kMiB);
+  EXPECT_LT(account.bytes(), 9 * kMiB);
+  EXPECT_GE(account.peak(), 16 * kMiB);
+  EXPECT_LT(account.peak(), 18 * kMiB);
+  // Freed by a thread with this account: given back, whichever thread allocated them.
+  {
+    const ScopedMemoryAccount charge(&account);
+    parts.clear();
+    parts.shrink_to_fit();
+  }
+  EXPECT_LT(std::abs(account.bytes()), kMemoryChargeStep);
+  EXPECT_EQ(current_memory_account(), nullptr);
+}
+
+TEST(MemoryAccount, PassingItsLimitSetsTheFlagOnce) {
+  constexpr size_t kMiB = size_t{1} << 20;
+  MemoryAccount account;
+  std::atomic<bool> flag{false};
+  account.set_limit(int64_t{4} << 20, &flag);
+  const ScopedMemoryAccount charge(&account);
+  std::vector<char> first(3 * kMiB);
+  EXPECT_FALSE(flag.load());
+  EXPECT_FALSE(account.over());
+  std::vector<char> second(3 * kMiB);
+  EXPECT_TRUE(flag.load());
+  EXPECT_TRUE(account.over());
+  flag = false;
+  std::vector<char> third(3 * kMiB);
+  EXPECT_FALSE(flag.load());  // once: the job was told
+}
+
+// Over the process limit, the job that holds the most itself is stopped, not the newest.
+TEST(JobMemory, TheJobThatHoldsTheMostIsStopped) {
+  struct FakeJob {
+    std::atomic<bool> cancel{false};
+    MemoryAccount memory;
+    std::chrono::steady_clock::time_point run_start;
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  FakeJob big, small, newest_equal;
+  big.run_start = t0;
+  big.memory.add(int64_t{900} << 20);
+  small.run_start = t0 + std::chrono::seconds(5);
+  small.memory.add(int64_t{10} << 20);
+  std::vector<FakeJob*> jobs{&big, &small};
+  EXPECT_EQ(job_to_stop_for_memory(jobs), &big);
+  big.cancel = true;  // already asked to stop: the next one
+  EXPECT_EQ(job_to_stop_for_memory(jobs), &small);
+  big.cancel = false;
+  newest_equal.run_start = t0 + std::chrono::seconds(9);
+  newest_equal.memory.add(int64_t{900} << 20);
+  jobs.push_back(&newest_equal);
+  EXPECT_EQ(job_to_stop_for_memory(jobs), &newest_equal);  // equals: the least work lost
+  EXPECT_EQ(job_to_stop_for_memory(std::vector<FakeJob*>{}), nullptr);
+
+  ServerOptions options;
+  options.max_memory_mb = 512;
+  EXPECT_EQ(job_memory_limit_bytes(options), uint64_t{512} << 20);
+  options.job_memory_mb = 64;
+  EXPECT_EQ(job_memory_limit_bytes(options), uint64_t{64} << 20);
+  const std::string detail = job_memory_detail(small.memory, options);
+  EXPECT_NE(detail.find("10.0 MB"), std::string::npos) << detail;
+  EXPECT_NE(detail.find("--job-memory-mb"), std::string::npos) << detail;
+  options.job_memory_mb = 0;
+  options.max_memory_mb = 0;
+  EXPECT_EQ(job_memory_limit_bytes(options), 0u);
 }
 
 }  // namespace gvd::server

@@ -8,6 +8,7 @@
 
 #include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
+#include "gvd/common/memory_account.h"
 #include "gvd/geometry/primitives.h"
 
 namespace gvd {
@@ -402,7 +403,8 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
       }
     } joiner{second};
     if (threaded) {
-      second = std::thread([&] {
+      second = std::thread([&, account = current_memory_account()] {
+        const ScopedMemoryAccount charge(account);  // the caller's computation holds it
         try {
           build_objects(1, split, objects);
         } catch (...) {

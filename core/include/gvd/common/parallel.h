@@ -12,6 +12,8 @@
 #include <thread>
 #include <vector>
 
+#include "gvd/common/memory_account.h"
+
 namespace gvd {
 
 /// Number of worker threads to use: `requested` if > 0, else the hardware concurrency.
@@ -120,7 +122,9 @@ void parallel_for(size_t n, int threads, Body&& body, size_t grain = 1024) {
   std::atomic<size_t> next{0};
   std::exception_ptr error;
   std::mutex error_mutex;
+  MemoryAccount* const account = current_memory_account();
   auto worker = [&](int t) {
+    const ScopedMemoryAccount charge(account);  // what the workers allocate is the caller's
     try {
       for (;;) {
         const size_t b = next.fetch_add(grain);
