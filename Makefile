@@ -112,7 +112,7 @@ bench-scale: build
 # The container image (docker/Dockerfile), built offline with podman as root and smoke-tested
 # with buildah (docker/build-image.sh; minutes, so not part of `make test`).
 docker-build:
-	./docker/build-image.sh
+	GVD_OPENCL=$(GVD_OPENCL) ./docker/build-image.sh
 
 # What `make test` checks of the container files without building: dockerfilelint, COPY sources.
 docker-lint: deps

