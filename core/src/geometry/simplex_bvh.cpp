@@ -602,7 +602,8 @@ ClosestHit SimplexBvh::closest_to_simplex_in_tree(const Vec3* q, const ObjectTre
   return best;
 }
 
-SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, double max_dist2) const {
+SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, double max_dist2,
+                                                   Vec3 shift_a) const {
   GVD_CHECK(!object_in_order_.empty() || nodes_.empty(),
             "object_distance needs the objects of the simplices at construction");
   ObjectPair best;
@@ -619,33 +620,49 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
     }
     return d2;
   };
-  // The exact distance of two simplices (0 when they cross) and a closest pair.
-  auto pair_distance = [&](uint32_t ka, uint32_t kb, Vec3& pa, Vec3& pb) {
+  // Object a's boxes and corners, moved by shift_a.
+  auto box_a = [&](uint32_t node) {
+    Box bx = node_box(ta.nodes[node]);
+    bx.lo = bx.lo + shift_a;
+    bx.hi = bx.hi + shift_a;
+    return bx;
+  };
+  auto corners_a = [&](uint32_t k, Vec3* c) {
+    load_corners(k, c);
+    for (int i = 0; i < arity_; ++i) c[i] = c[i] + shift_a;
+  };
+  // The exact distance of two simplices (0 when they cross).
+  auto pair_distance = [&](uint32_t ka, uint32_t kb) {
     Vec3 p[3], q[3];
-    load_corners(ka, p);
+    corners_a(ka, p);
     load_corners(kb, q);
-    if (arity_ == 2) {
-      const double d2 = segment_segment_dist2_2d(p[0], p[1], q[0], q[1]);
-      segment_segment_closest(Vec3{p[0].x, p[0].y, 0}, Vec3{p[1].x, p[1].y, 0},
-                              Vec3{q[0].x, q[0].y, 0}, Vec3{q[1].x, q[1].y, 0}, pa, pb);
-      return d2;
-    }
+    if (arity_ == 2) return segment_segment_dist2_2d(p[0], p[1], q[0], q[1]);
     double d2 = 1e300;
     for (int e = 0; e < 3; ++e) {
       d2 = std::min(d2, segment_triangle_dist2(p[e], p[(e + 1) % 3], q[0], q[1], q[2]));
       d2 = std::min(d2, segment_triangle_dist2(q[e], q[(e + 1) % 3], p[0], p[1], p[2]));
     }
+    return d2;
+  };
+  // A closest pair of points of two simplices: only for a pair that is the best so far.
+  auto pair_witness = [&](uint32_t ka, uint32_t kb, Vec3& pa, Vec3& pb) {
+    Vec3 p[3], q[3];
+    corners_a(ka, p);
+    load_corners(kb, q);
+    if (arity_ == 2) {
+      segment_segment_closest(Vec3{p[0].x, p[0].y, 0}, Vec3{p[1].x, p[1].y, 0},
+                              Vec3{q[0].x, q[0].y, 0}, Vec3{q[1].x, q[1].y, 0}, pa, pb);
+      return;
+    }
     simplex_simplex_closest(3, p, q, pa);
     pb = closest_point_on_triangle(pa, q[0], q[1], q[2]);
-    return d2;
   };
   struct Entry {
     uint32_t na, nb;
     double dist2;
   };
   std::vector<Entry> stack;
-  stack.push_back(
-      {ta.root, tb.root, box_gap2(node_box(ta.nodes[ta.root]), node_box(tb.nodes[tb.root]))});
+  stack.push_back({ta.root, tb.root, box_gap2(box_a(ta.root), node_box(tb.nodes[tb.root]))});
   while (!stack.empty() && best.dist2 > 0) {
     const Entry entry = stack.back();
     stack.pop_back();
@@ -659,7 +676,7 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
         const uint32_t ka = item_a(i);
         Box ba;
         Vec3 c[3];
-        load_corners(ka, c);
+        corners_a(ka, c);
         for (int k = 0; k < arity_; ++k) ba.extend(c[k]);
         for (uint32_t j = y.first; j < y.first + node_count(y); ++j) {
           // The simplices' own boxes first: no nearer than the best pair, no exact test.
@@ -667,12 +684,10 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
           load_corners(item_b(j), c);
           for (int k = 0; k < arity_; ++k) bb.extend(c[k]);
           if (best.found && box_gap2(ba, bb) >= best.dist2) continue;
-          Vec3 pa, pb;
-          const double d2 = pair_distance(ka, item_b(j), pa, pb);
+          const double d2 = pair_distance(ka, item_b(j));
           if (d2 < best.dist2 || (!best.found && d2 <= best.dist2)) {
             best.dist2 = d2;
-            best.on_a = pa;
-            best.on_b = pb;
+            pair_witness(ka, item_b(j), best.on_a, best.on_b);
             best.found = true;
           }
         }
@@ -691,8 +706,7 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
       children[0] = {entry.na, entry.nb + 1, 0};
       children[1] = {entry.na, y.first, 0};
     }
-    for (Entry& c : children)
-      c.dist2 = box_gap2(node_box(ta.nodes[c.na]), node_box(tb.nodes[c.nb]));
+    for (Entry& c : children) c.dist2 = box_gap2(box_a(c.na), node_box(tb.nodes[c.nb]));
     if (children[0].dist2 < children[1].dist2) std::swap(children[0], children[1]);
     for (const Entry& c : children)  // the nearer one last: searched first
       if (best.found ? c.dist2 < best.dist2 : c.dist2 <= best.dist2) stack.push_back(c);

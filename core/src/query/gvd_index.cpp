@@ -12,13 +12,13 @@
 #include <unordered_map>
 #include <utility>
 
-#include "explode_motion.h"
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/lattice.h"
 #include "gvd/octree/vertices.h"
+#include "gvd/query/explode_motion.h"
 
 namespace gvd {
 namespace {

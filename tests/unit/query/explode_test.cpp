@@ -10,6 +10,7 @@
 #include <string>
 
 #include "gvd/pipeline/pipeline.h"
+#include "gvd/query/explode_motion.h"
 #include "gvd/query/gvd_index.h"
 #include "gvd/scene/load_scene.h"
 #include "support/scenes.h"
@@ -93,6 +94,37 @@ void expect_factors(const ExplodedView& view) {
     EXPECT_LE(norm(o.direction), 1 + 1e-9) << "object " << o.object;
     const Vec3 want = o.ring > 0 ? o.direction * (o.factor * view.scale * o.ring) : Vec3{};
     EXPECT_NEAR(dist(o.displacement, want), 0, 1e-12 * (1 + view.scale));
+  }
+}
+
+// ExplodeMotion on two unit cubes 1 apart along x (neighbours; margin 0.25, so each must keep
+// 0.125 from the other): the largest share of a displacement is certified by conservative
+// advancement on exact distances and, for a pair moving apart, by the gap along the closest
+// pair's direction, which changes linearly. Approaching, the share stops short of the bound
+// (0.875 of the gap may go); moving apart or sliding past, all of it is kept; against a
+// committed motion, what that motion took is taken into account.
+TEST(ExplodeMotion, SharesKeepTheBoundAgainstApproachingAndCommittedMotions) {
+  const GvdIndex index = index_of(test::make_scene(
+      3, {test::make_box("a", {0, 0, 0}, {1, 1, 1}), test::make_box("b", {2, 0, 0}, {3, 1, 1})}));
+  const GvdResult& r = index.result();
+  auto motion = [&] { return ExplodeMotion(r.geometry, index.bvh(), r.domain, r.graph, 0.25); };
+  const double room = 1 - 0.125;  // what a may close of the gap
+  {
+    ExplodeMotion m = motion();
+    const double share = m.largest_share(0, {3, 0, 0});  // straight at b
+    EXPECT_LE(3 * share, room * (1 + 1e-9));
+    EXPECT_GE(3 * share, 0.75 * room);                // the bisection gets near it
+    EXPECT_EQ(m.largest_share(0, {-3, 0, 0}), 1.0);   // away from b
+    EXPECT_EQ(m.largest_share(0, {0, 3, 0}), 1.0);    // past b at the same distance
+    EXPECT_EQ(m.largest_share(1, {3, 0.5, 0}), 1.0);  // b away from a
+  }
+  {
+    ExplodeMotion m = motion();
+    m.commit(1, {-0.5, 0, 0});  // b comes half the way
+    const double share = m.largest_share(0, {1, 0, 0});
+    EXPECT_LE(0.5 + share, room * (1 + 1e-9));
+    EXPECT_GE(0.5 + share, 0.5 + 0.75 * (room - 0.5));
+    EXPECT_EQ(m.largest_share(0, {-1, 0, 0}), 1.0);  // a gets out of its way
   }
 }
 

@@ -87,13 +87,16 @@ class SimplexBvh {
   /// `on_b`; where they intersect, points of the crossing simplices). Both objects' trees are
   /// walked together, pairs of boxes farther apart than the best pair so far pruned. Exact up
   /// to rounding (segment/triangle distances with crossing tests). Not found when an object
-  /// has no simplices or nothing is nearer than `max_dist2`.
+  /// has no simplices or nothing is nearer than `max_dist2`. With `shift_a`, object a is
+  /// taken as moved by it (its boxes and corners; `on_a` is then on the moved object): the
+  /// distances of an exploded view's moving objects.
   struct ObjectPair {
     double dist2 = 1e300;
     Vec3 on_a, on_b;
     bool found = false;
   };
-  ObjectPair object_distance(uint32_t a, uint32_t b, double max_dist2 = 1e300) const;
+  ObjectPair object_distance(uint32_t a, uint32_t b, double max_dist2 = 1e300,
+                             Vec3 shift_a = {}) const;
   /// The exact closest point on the simplices of objects other than excluded[0..count) (needs
   /// `object_of` at construction): subtrees holding only excluded objects are not entered,
   /// so it is cheap where those objects crowd the query point.
