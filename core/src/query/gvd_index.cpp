@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <mutex>
 #include <numeric>
 #include <queue>
 #include <tuple>
@@ -92,6 +93,16 @@ struct GvdIndex::Impl {
   void build_nearest();
   void build_dual();
   void build_roadmap();
+  // The nearest-point tables and the roadmap are built by the first query that needs them
+  // (once, whichever thread asks): neighbours, explode and tight need neither, and on a
+  // saved result of a million leaves building them took ~7 s of every such CLI query.
+  std::once_flag nearest_once, roadmap_once;
+  void need_nearest() {
+    std::call_once(nearest_once, [this] { build_nearest(); });
+  }
+  void need_roadmap() {
+    std::call_once(roadmap_once, [this] { build_roadmap(); });
+  }
 
   Vec3 to_unit(Vec3 p) const { return result->domain.to_unit(p); }
   /// Clearances up to this (user units) count as touching: rounding in the distance tests.
@@ -440,9 +451,7 @@ GvdIndex::GvdIndex(std::shared_ptr<const GvdResult> result) : impl_(std::make_un
   impl_->closed.resize(r.scene.objects.size());
   for (size_t o = 0; o < r.scene.objects.size(); ++o)
     impl_->closed[o] = is_closed_object(r.scene.objects[o], r.scene.dimension);
-  impl_->build_nearest();
   impl_->build_dual();
-  impl_->build_roadmap();
 }
 
 GvdIndex::~GvdIndex() = default;
@@ -474,6 +483,7 @@ int8_t GvdIndex::inside(Vec3 point, ObjectId object) const {
 const SimplexBvh& GvdIndex::bvh() const { return impl_->bvh; }
 
 NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
+  impl_->need_nearest();
   const Impl& m = *impl_;
   m.check_inside(point, "point");
   Vec3 p = point;
@@ -624,6 +634,7 @@ int GvdIndex::max_ring(ObjectId object) const {
 }
 
 PathAnswer GvdIndex::path(const PathQuery& query) const {
+  impl_->need_roadmap();
   const Impl& m = *impl_;
   m.check_inside(query.from, "start");
   m.check_inside(query.to, "goal");

@@ -111,8 +111,10 @@ struct TightSpot {
   bool touching = false;
 };
 
-/// Answers from a finished GVD. Built once (O(result size)); afterwards every method is const
-/// and thread-safe without locks, so one index serves many threads. Keeps a shared reference to
+/// Answers from a finished GVD. Built once (O(result size)): the BVH and the dual graph at
+/// construction, the nearest-point tables and the roadmap by the first nearest / path query
+/// (once, under std::call_once); every method is const and thread-safe, so one index serves
+/// many threads. Keeps a shared reference to
 /// the result. Methods throw gvd::Error: kOutsideDomain for points outside the domain box,
 /// kNotFound for unknown labels/objects, kInvalidArgument for bad parameters.
 class GvdIndex {
