@@ -20,9 +20,17 @@ void charge(void* p, int64_t sign) {
     gvd::charge_memory(sign * static_cast<int64_t>(malloc_usable_size(p)));
 }
 
-void* allocate(std::size_t size) {
+/// malloc (align 0) or posix_memalign, charged; the new handler's loop, then bad_alloc.
+void* allocate(std::size_t size, std::size_t align = 0) {
+  if (size == 0) size = 1;
   for (;;) {
-    if (void* p = std::malloc(size == 0 ? 1 : size)) {
+    void* p = nullptr;
+    if (align == 0) {
+      p = std::malloc(size);
+    } else if (posix_memalign(&p, std::max(align, sizeof(void*)), size) != 0) {
+      p = nullptr;
+    }
+    if (p != nullptr) {
       charge(p, +1);
       return p;
     }
@@ -32,17 +40,12 @@ void* allocate(std::size_t size) {
   }
 }
 
-void* allocate_aligned(std::size_t size, std::align_val_t align) {
-  const std::size_t a = std::max(static_cast<std::size_t>(align), sizeof(void*));
-  for (;;) {
-    void* p = nullptr;
-    if (posix_memalign(&p, a, size == 0 ? 1 : size) == 0) {
-      charge(p, +1);
-      return p;
-    }
-    std::new_handler handler = std::get_new_handler();
-    if (handler == nullptr) throw std::bad_alloc();
-    handler();
+/// The nothrow forms: null where the others throw.
+void* allocate_or_null(std::size_t size, std::size_t align = 0) noexcept {
+  try {
+    return allocate(size, align);
+  } catch (...) {
+    return nullptr;
   }
 }
 
@@ -56,38 +59,22 @@ void release(void* p) noexcept {
 void* operator new(std::size_t size) { return allocate(size); }
 void* operator new[](std::size_t size) { return allocate(size); }
 void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
+  return allocate_or_null(size);
 }
 void* operator new[](std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
+  return allocate_or_null(size);
 }
 void* operator new(std::size_t size, std::align_val_t align) {
-  return allocate_aligned(size, align);
+  return allocate(size, static_cast<std::size_t>(align));
 }
 void* operator new[](std::size_t size, std::align_val_t align) {
-  return allocate_aligned(size, align);
+  return allocate(size, static_cast<std::size_t>(align));
 }
 void* operator new(std::size_t size, std::align_val_t align, const std::nothrow_t&) noexcept {
-  try {
-    return allocate_aligned(size, align);
-  } catch (...) {
-    return nullptr;
-  }
+  return allocate_or_null(size, static_cast<std::size_t>(align));
 }
 void* operator new[](std::size_t size, std::align_val_t align, const std::nothrow_t&) noexcept {
-  try {
-    return allocate_aligned(size, align);
-  } catch (...) {
-    return nullptr;
-  }
+  return allocate_or_null(size, static_cast<std::size_t>(align));
 }
 
 void operator delete(void* p) noexcept { release(p); }

@@ -22,7 +22,7 @@ std::string job_memory_detail(const MemoryAccount& account, const ServerOptions&
 /// drop, and of the running jobs this one held the most.
 std::string server_memory_detail(const MemoryAccount& account, const ServerOptions& options);
 
-/// Of `jobs` (shared pointers to jobs with `cancel`, `memory` and `run_start`), the one to
+/// Of `jobs` (pointers, raw or shared, to jobs with `cancel`, `memory` and `run_start`), the one to
 /// stop when the process is over --max-memory-mb: of those not yet asked to stop, the one
 /// that holds the most memory of its own (the newest of equals: it has the least work to
 /// lose); null when there is none.

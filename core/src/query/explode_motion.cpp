@@ -66,12 +66,10 @@ Vec3 ExplodeMotion::to_unit_vector(Vec3 displacement) const {
   return domain_.to_unit(displacement) - domain_.to_unit(Vec3{});
 }
 
-/// Exact distance between object a moved by `shift` and object b, unit coordinates, or `cap`
-/// when they are no nearer than that: both objects' trees walked together (pairs of boxes
-/// farther apart than the best pair so far, or than `cap`, pruned).
-double ExplodeMotion::distance(uint32_t a, uint32_t b, Vec3 shift, double cap) const {
-  const SimplexBvh::ObjectPair pair = bvh_.object_distance(a, b, cap * cap, shift);
-  return pair.found ? std::sqrt(pair.dist2) : cap;
+/// Exact distance between object a moved by `shift` and object b, unit coordinates: both
+/// objects' trees walked together.
+double ExplodeMotion::distance(uint32_t a, uint32_t b, Vec3 shift) const {
+  return std::sqrt(bvh_.object_distance(a, b, 1e300, shift).dist2);
 }
 
 double ExplodeMotion::gap(uint32_t a, uint32_t b) {

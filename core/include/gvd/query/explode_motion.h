@@ -59,7 +59,7 @@ class ExplodeMotion {
   void commit(uint32_t object, Vec3 displacement);
 
  private:
-  double distance(uint32_t a, uint32_t b, Vec3 shift, double cap = 1e150) const;
+  double distance(uint32_t a, uint32_t b, Vec3 shift) const;
   /// min over a's vertices of x.n - max over b's of y.n (both unmoved): a lower bound of
   /// their distance for unit n.
   double support_gap(uint32_t a, uint32_t b, Vec3 n) const;
