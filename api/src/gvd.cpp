@@ -26,8 +26,18 @@
 
 namespace gvd::api {
 
+using namespace gvd::scene;
+using namespace gvd::distance;
+using namespace gvd::surface;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::grid;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 struct Scene::Impl {
-  gvd::Scene scene;
+  gvd::scene::Scene scene;
   std::unordered_set<std::string> labels;
 };
 
@@ -46,8 +56,8 @@ struct Result::Impl {
 /// Builds and opens the pimpls (friend of Scene and Result).
 class Access {
  public:
-  static const gvd::Scene& scene(const Scene& s) { return s.impl_->scene; }
-  static Scene make_scene(gvd::Scene scene) {
+  static const gvd::scene::Scene& scene(const Scene& s) { return s.impl_->scene; }
+  static Scene make_scene(gvd::scene::Scene scene) {
     Scene out(scene.dimension);
     for (const SceneObject& o : scene.objects) out.impl_->labels.insert(o.label);
     out.impl_->scene = std::move(scene);
@@ -260,7 +270,7 @@ const std::string& Scene::label(Object object) const {
 // ---- compute / load -------------------------------------------------------------------------
 
 Result compute(const Scene& scene, const ComputeOptions& options) {
-  gvd::Scene s = Access::scene(scene);
+  gvd::scene::Scene s = Access::scene(scene);
   SceneLimits limits;
   limits.max_objects = options.max_objects;
   limits.max_simplices = options.max_simplices;
@@ -298,9 +308,9 @@ Result compute(const Scene& scene, const ComputeOptions& options) {
 }
 
 Grid grid(const Scene& scene, const GridOptions& options) {
-  gvd::Scene s = Access::scene(scene);
+  gvd::scene::Scene s = Access::scene(scene);
   validate_scene(s, {}, options.cancel);
-  ::gvd::GridOptions go = ::gvd::grid_options(grid_params(options, s.dimension));
+  ::gvd::grid::GridOptions go = ::gvd::pipeline::grid_options(grid_params(options, s.dimension));
   (void)make_grid_spec(s, go);  // the limits, before the backend starts or memory is taken
   go.compute = backend_for(options.backend).compute;
   go.cancel = options.cancel;
@@ -334,7 +344,7 @@ Grid Result::grid(const GridOptions& options) const {
 std::vector<Contact> Result::contacts(double max_gap) const {
   auto array = [](Vec3 p) { return std::array<double, 3>{p.x, p.y, p.z}; };
   std::vector<Contact> out;
-  for (const gvd::Contact& c : find_contacts(impl_->index(), max_gap)) {
+  for (const gvd::query::Contact& c : find_contacts(impl_->index(), max_gap)) {
     Contact& o = out.emplace_back();
     o.a = object_of(c.a);
     o.b = object_of(c.b);
@@ -344,7 +354,7 @@ std::vector<Contact> Result::contacts(double max_gap) const {
     o.interference = c.interference;
     o.depth_lower_bound = c.depth_lower_bound;
     o.interface_area = c.interface_area;
-    for (const gvd::ContactSite& s : c.sites)
+    for (const gvd::query::ContactSite& s : c.sites)
       o.sites.push_back({s.area, array(s.centroid), s.min_gap, array(s.on_a), array(s.on_b)});
   }
   return out;

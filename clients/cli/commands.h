@@ -20,24 +20,25 @@ const std::vector<std::string>& compute_value_flags();
 /// The parameters of the table (gvd/pipeline/parameters.h) given as the flags that `surface`
 /// takes (kCliFlag: gvd compute, kGridFlag: gvd grid), parsed by it: a malformed value (an
 /// unknown --units too) is a UsageError naming the flag (exit 2).
-PipelineParams params_from_flags(const Args& args, ParamSurface surface = kCliFlag);
+pipeline::PipelineParams params_from_flags(const Args& args,
+                                           pipeline::ParamSurface surface = pipeline::kCliFlag);
 /// params.check for a scene of `dimension`, its errors as UsageError.
-void check_params(const PipelineParams& params, int dimension);
+void check_params(const pipeline::PipelineParams& params, int dimension);
 
 /// A loaded scene and the pipeline options from the command line (with a progress display on
 /// stderr unless -q/--quiet). Logs the scene size and the backend.
 struct ComputeSetup {
-  Scene scene;
-  PipelineOptions options;
+  scene::Scene scene;
+  pipeline::PipelineOptions options;
 };
 ComputeSetup compute_setup(const Args& args, const std::vector<std::string>& files);
 /// The scene of `compute`: the files, or --volume (with --spacing, --background), within the
 /// --max-objects / --max-simplices limits.
-Scene load_compute_scene(const Args& args, const std::vector<std::string>& files);
+scene::Scene load_compute_scene(const Args& args, const std::vector<std::string>& files);
 /// --units: the length unit of a scene (or of a loaded result's scene), set over its own
 /// "units" (said on stderr, unless -q/--quiet, when they differ). A UsageError (exit 2)
 /// naming --units for a unit gvd does not know (gvd/scene/units.h). Nothing without --units.
-void apply_units(const Args& args, Scene& scene);
+void apply_units(const Args& args, scene::Scene& scene);
 
 /// The progress display on stderr (a bar on a terminal, one line per stage otherwise;
 /// nothing when `enabled` is false): call with the stage name and the fraction done, 0..1.

@@ -23,6 +23,14 @@
 #include "gvd/scene/units.h"
 
 namespace gvd::cli {
+
+using namespace gvd::scene;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::grid;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 /// The grid's parameters from the flags `surface` takes (kCliFlag: gvd compute --mode grid;

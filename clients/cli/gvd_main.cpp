@@ -33,6 +33,13 @@
 #include "usage.h"
 
 namespace gvd::cli {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::grid;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 int exit_code_for(ErrorCode code) {

@@ -17,6 +17,12 @@
 
 namespace gvd::cli {
 
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 bool is_result_file(const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (f == nullptr) return false;

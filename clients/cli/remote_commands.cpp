@@ -27,6 +27,11 @@
 #include "http_client.h"
 
 namespace gvd::cli {
+
+using namespace gvd::scene;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 using Json = nlohmann::json;

@@ -5,6 +5,10 @@
 #include "gvd/pipeline/parameters.h"
 
 namespace gvd::cli {
+
+using namespace gvd::scene;
+using namespace gvd::pipeline;
+
 namespace {
 
 /// One command's synopsis in the usage's list: the command line, then what it does.

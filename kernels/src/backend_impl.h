@@ -29,12 +29,12 @@ struct OpenClBackend::Impl {
 inline size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
 
 /// The OpenCL implementation of the data-parallel octree build steps.
-std::unique_ptr<OctreeBuildSteps> make_opencl_octree_steps(
-    std::shared_ptr<OpenClBackend::Impl> impl, const UnitGeometry& geometry);
+std::unique_ptr<octree::OctreeBuildSteps> make_opencl_octree_steps(
+    std::shared_ptr<OpenClBackend::Impl> impl, const scene::UnitGeometry& geometry);
 
 /// The OpenCL implementation of the uniform grid's per-range evaluation.
-std::unique_ptr<GridEvaluator> make_opencl_grid_evaluator(std::shared_ptr<OpenClBackend::Impl> impl,
-                                                          const GridGeometry& geometry,
-                                                          const GridSpec& spec, GridMetric metric);
+std::unique_ptr<grid::GridEvaluator> make_opencl_grid_evaluator(
+    std::shared_ptr<OpenClBackend::Impl> impl, const grid::GridGeometry& geometry,
+    const grid::GridSpec& spec, grid::GridMetric metric);
 
 }  // namespace gvd::kernels

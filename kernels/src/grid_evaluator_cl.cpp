@@ -15,6 +15,8 @@
 
 namespace gvd::kernels {
 
+using namespace gvd::grid;
+
 namespace {
 
 class OpenClGridEvaluator final : public GridEvaluator {

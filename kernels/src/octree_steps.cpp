@@ -9,6 +9,10 @@
 #include "gvd/octree/build_octree_data_parallel.h"
 
 namespace gvd::kernels {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+
 namespace {
 
 class OpenClOctreeBuildSteps final : public OctreeBuildSteps {

@@ -17,6 +17,12 @@
 
 namespace gvd::kernels {
 
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+using namespace gvd::compute;
+using namespace gvd::grid;
+
 namespace {
 
 // OpenCL C 1.2 (PoCL 3.1 offers no more); never relaxed math: the kernels must round

@@ -23,6 +23,9 @@
 
 namespace gvd::python {
 
+using namespace gvd::scene;
+using namespace gvd::pipeline;
+
 namespace {
 
 using namespace pybind11::literals;

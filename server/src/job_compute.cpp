@@ -14,6 +14,15 @@
 #include "problem.h"
 
 namespace gvd::server {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::grid;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 void check_cancel(const std::atomic<bool>* cancel) {

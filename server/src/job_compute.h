@@ -23,14 +23,15 @@ namespace gvd::server {
 /// "scene", "grid" and "graph", each with fractions as it advances. Throws gvd::Error
 /// (kCancelled when `cancel` is set: every stage reads it at bounded intervals, the grid's
 /// too, so DELETE, --job-seconds and the memory watchdog stop a job within about a second).
-std::shared_ptr<const GvdResult> compute_job(Scene scene, const JobParams& params,
-                                             const ServerOptions& server,
-                                             const std::atomic<bool>* cancel,
-                                             const ProgressFn& progress,
-                                             const std::string& results_dir, const std::string& id);
+std::shared_ptr<const result::GvdResult> compute_job(scene::Scene scene, const JobParams& params,
+                                                     const ServerOptions& server,
+                                                     const std::atomic<bool>* cancel,
+                                                     const octree::ProgressFn& progress,
+                                                     const std::string& results_dir,
+                                                     const std::string& id);
 
 /// Whether `result` is a grid job's (it has a "grid" stage; adaptive results never do).
-bool is_grid_result(const GvdResult& result);
+bool is_grid_result(const result::GvdResult& result);
 
 /// The files of a grid job's grid beside its result file (empty names for none).
 std::string grid_field_path(const std::string& results_dir, const std::string& id);
@@ -38,6 +39,7 @@ std::string grid_labels_path(const std::string& results_dir, const std::string& 
 
 /// Throws ProblemError{kAdaptiveOnly} naming `what` when `result` is a grid job's: `what`
 /// needs the adaptive result (octree, distance field, GVD surface).
-void require_adaptive(const GvdResult& result, const std::string& id, const std::string& what);
+void require_adaptive(const result::GvdResult& result, const std::string& id,
+                      const std::string& what);
 
 }  // namespace gvd::server

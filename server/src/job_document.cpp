@@ -9,6 +9,10 @@
 #include "gvd/scene/load_scene.h"
 
 namespace gvd::server {
+
+using namespace gvd::scene;
+using namespace gvd::io;
+
 using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 

@@ -79,13 +79,14 @@ inline constexpr const char* kStoredInputSuffixes[] = {".scene.json", ".volume.n
 /// units), reporting stage "volume" to `progress` (may be empty). `cancel` (may be null) is
 /// read while the scene is validated and the volume converted: set, gvd::Error{kCancelled}.
 /// Errors of the conversion are those the upload would have met had it been converted there.
-Scene read_stored_scene(const std::string& base, const SceneLimits& limits,
-                        const std::atomic<bool>* cancel = nullptr,
-                        const std::function<void(const std::string&, double)>& progress = {});
+scene::Scene read_stored_scene(
+    const std::string& base, const scene::SceneLimits& limits,
+    const std::atomic<bool>* cancel = nullptr,
+    const std::function<void(const std::string&, double)>& progress = {});
 
 /// The options of a labelled volume as stored with its request (JobRequest::volume_json):
 /// {"spacing":[x,y(,z)],"background":label|null}, in a canonical text (part of the job id).
-std::string volume_options_json(const LabelVolumeOptions& options, int dimension);
-LabelVolumeOptions volume_options_from_json(const nlohmann::json& volume);
+std::string volume_options_json(const scene::LabelVolumeOptions& options, int dimension);
+scene::LabelVolumeOptions volume_options_from_json(const nlohmann::json& volume);
 
 }  // namespace gvd::server

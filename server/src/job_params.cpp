@@ -9,6 +9,10 @@
 #include "gvd/pipeline/pipeline.h"
 
 namespace gvd::server {
+
+using namespace gvd::grid;
+using namespace gvd::pipeline;
+
 namespace {
 
 // The job parameters of a job's normalized text: those of its mode (and of any mode); "units"
@@ -114,7 +118,7 @@ JobParams JobParams::from_json(const std::string& text) {
 }
 
 PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
-  PipelineOptions o = gvd::pipeline_options(*this);
+  PipelineOptions o = gvd::pipeline::pipeline_options(*this);
   if (server.max_depth > 0 && (o.max_depth == 0 || o.max_depth > server.max_depth)) {
     o.max_depth = server.max_depth;
   }
@@ -130,7 +134,7 @@ PipelineOptions JobParams::pipeline_options(const ServerOptions& server) const {
 }
 
 GridOptions JobParams::grid_options(const ServerOptions& server) const {
-  GridOptions o = gvd::grid_options(*this);
+  GridOptions o = gvd::pipeline::grid_options(*this);
   o.max_cells = server.max_grid_cells;
   o.threads = server.job_threads;
   o.compute = server.compute;

@@ -17,7 +17,7 @@ namespace gvd::server {
 /// form. `units` is not a compute parameter: submit sets it on the scene, over the scene's own
 /// "units", before the scene is normalized, so it reaches the job id through the scene;
 /// to_json leaves it out.
-struct JobParams : PipelineParams {
+struct JobParams : pipeline::PipelineParams {
   /// Sets one parameter from its text form; gvd::Error{kInvalidArgument} for an unknown name
   /// or a bad value (`parameter "max_depth" must be ...`).
   void set(const std::string& name, const std::string& value);
@@ -32,10 +32,10 @@ struct JobParams : PipelineParams {
   static JobParams from_json(const std::string& text);
 
   /// The engine options for this job under the server's limits.
-  PipelineOptions pipeline_options(const ServerOptions& server) const;
+  pipeline::PipelineOptions pipeline_options(const ServerOptions& server) const;
   /// mode=grid: the grid options under the server's limits (max_cells = --max-grid-cells,
   /// the job threads and backend).
-  GridOptions grid_options(const ServerOptions& server) const;
+  grid::GridOptions grid_options(const ServerOptions& server) const;
 };
 
 /// Query-string names that are compute parameters.

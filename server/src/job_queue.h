@@ -43,7 +43,7 @@ std::string job_id(std::string_view scene_json, std::string_view params_json);
 /// The job a stored result belongs to: the one it names (ResultStats::job, written by the
 /// server), else, for a file written before results named their job (when every job's id
 /// was its scene's), the job of its scene with `params_json`.
-std::string result_owner(const GvdResult& result, std::string_view params_json);
+std::string result_owner(const result::GvdResult& result, std::string_view params_json);
 /// The content address of a labelled volume's job: as job_id, over the volume's options and
 /// its .npy bytes as uploaded (so one volume with one set of parameters is one job; a volume
 /// and the same scene sent as meshes are two).

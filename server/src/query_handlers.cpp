@@ -21,6 +21,14 @@
 #include "problem.h"
 
 namespace gvd::server {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::grid;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 using Json = nlohmann::json;

@@ -18,6 +18,12 @@
 #include "problem.h"
 
 namespace gvd::server {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::result;
+using namespace gvd::io;
+
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;

@@ -12,6 +12,10 @@
 
 namespace gvd::server {
 
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::io;
+
 LoadedResult::Bytes LoadedResult::once(std::once_flag& flag, Bytes& slot,
                                        const std::function<std::string()>& make) const {
   std::call_once(flag, [&] { slot = std::make_shared<const std::string>(make()); });

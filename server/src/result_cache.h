@@ -18,10 +18,11 @@ namespace gvd::server {
 /// shared by every request (thread-safe). Immutable once built: a job id names one result.
 class LoadedResult {
  public:
-  explicit LoadedResult(std::shared_ptr<const GvdResult> result) : result_(std::move(result)) {}
+  explicit LoadedResult(std::shared_ptr<const result::GvdResult> result)
+      : result_(std::move(result)) {}
 
-  const GvdResult& result() const { return *result_; }
-  std::shared_ptr<const GvdResult> shared() const { return result_; }
+  const result::GvdResult& result() const { return *result_; }
+  std::shared_ptr<const result::GvdResult> shared() const { return result_; }
 
   using Bytes = std::shared_ptr<const std::string>;
   Bytes glb() const;    ///< gvd_to_glb
@@ -29,16 +30,16 @@ class LoadedResult {
   Bytes json() const;   ///< gvd_to_json (float64)
   Bytes graph() const;  ///< graph_to_json
   /// The query index (built on first use, O(result size); then shared, const, thread-safe).
-  const GvdIndex& index() const;
+  const query::GvdIndex& index() const;
 
  private:
   Bytes once(std::once_flag& flag, Bytes& slot, const std::function<std::string()>& make) const;
 
-  std::shared_ptr<const GvdResult> result_;
+  std::shared_ptr<const result::GvdResult> result_;
   mutable std::once_flag glb_once_, gltf_once_, json_once_, graph_once_;
   mutable Bytes glb_, gltf_, json_, graph_;
   mutable std::once_flag index_once_;
-  mutable std::unique_ptr<GvdIndex> index_;
+  mutable std::unique_ptr<query::GvdIndex> index_;
 };
 
 /// An in-memory LRU of finished results in front of the on-disk store: `get` returns the
@@ -60,7 +61,7 @@ class ResultCache {
   /// The cached result of `id`, or nullptr (never loads).
   std::shared_ptr<LoadedResult> cached(const std::string& id);
   /// Caches a result just computed (already saved by the caller).
-  void put(const std::string& id, std::shared_ptr<const GvdResult> result);
+  void put(const std::string& id, std::shared_ptr<const result::GvdResult> result);
   void erase(const std::string& id);
   /// Drops every cached result (those still in use by a request live on until it ends).
   void clear();

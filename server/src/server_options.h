@@ -41,7 +41,7 @@ struct ServerOptions {
   std::string backend = "cpu";    ///< cpu | opencl | auto (as requested)
   /// Set at start-up from `backend` (gvd::kernels::choose_backend, once, before any job): the
   /// OpenCL backend, or null for the CPU twins, and why the CPU runs when auto found no device.
-  std::shared_ptr<gvd::ComputeBackend> compute;
+  std::shared_ptr<gvd::compute::ComputeBackend> compute;
   std::string backend_note;
   int read_timeout = 10;       ///< seconds
   int write_timeout = 10;      ///< seconds

@@ -10,6 +10,9 @@
 #include <string>
 
 namespace gvd::bench {
+
+using namespace gvd::scene;
+
 namespace {
 
 namespace bp = boost::polygon;

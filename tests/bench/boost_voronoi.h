@@ -13,8 +13,8 @@ namespace gvd::bench {
 
 /// Two objects whose exact Voronoi regions share a boundary inside the box.
 struct BoostAdjacentPair {
-  ObjectId a = kNoObject;  ///< a < b
-  ObjectId b = kNoObject;
+  scene::ObjectId a = scene::kNoObject;  ///< a < b
+  scene::ObjectId b = scene::kNoObject;
   double length = 0;  ///< length of the shared boundary inside the box (user units; curved
                       ///< edges sampled with 32 chords)
 };
@@ -36,6 +36,6 @@ struct BoostAdjacency {
 /// otherwise — Boost requires it), builds the segment Voronoi diagram and reports every pair of
 /// objects separated by a primary Voronoi edge of positive length inside `box` (infinite edges
 /// are clipped to the box, curved edges sampled).
-BoostAdjacency boost_voronoi_adjacency(const Scene& scene, const Box& box);
+BoostAdjacency boost_voronoi_adjacency(const scene::Scene& scene, const Box& box);
 
 }  // namespace gvd::bench

@@ -23,9 +23,11 @@
 #include "gvd/pipeline/pipeline.h"
 #include "support/scenes.h"
 
+using namespace gvd::scene;
+
 namespace {
 
-using gvd::Scene;
+using gvd::scene::Scene;
 
 constexpr int kThreads = 2;
 
@@ -37,7 +39,7 @@ Scene make_segments20k() {
   std::uniform_real_distribution<double> u(0, 1);
   const int side = 142;
   const double w = 1.0 / side;
-  std::vector<gvd::SceneObject> objs;
+  std::vector<gvd::scene::SceneObject> objs;
   for (int c = 0; c < 20000; ++c) {
     const int cx = c % side, cy = c / side;
     const double len = w * (0.2 + 0.6 * u(rng));
@@ -58,7 +60,7 @@ Scene make_segments20k() {
 Scene make_spheres64() {
   std::mt19937 rng(64);
   std::uniform_real_distribution<double> u(0, 1);
-  std::vector<gvd::SceneObject> objs;
+  std::vector<gvd::scene::SceneObject> objs;
   for (int k = 0; k < 4; ++k)
     for (int j = 0; j < 4; ++j)
       for (int i = 0; i < 4; ++i) {
@@ -76,7 +78,7 @@ Scene make_spheres64() {
 Scene make_boxes5k() {
   std::mt19937 rng(5120);
   std::uniform_real_distribution<double> u(0, 1);
-  std::vector<gvd::SceneObject> objs;
+  std::vector<gvd::scene::SceneObject> objs;
   for (int k = 0; k < 20; ++k)
     for (int j = 0; j < 16; ++j)
       for (int i = 0; i < 16; ++i) {
@@ -139,7 +141,7 @@ void BM_Grid(benchmark::State& state, const std::string& scene_name, const std::
   row.scene = scene_name;
   row.impl = impl;
   row.sites = scene.simplex_count();
-  gvd::GridOptions o;
+  gvd::grid::GridOptions o;
   o.resolution = resolution_of(scene_name);
   o.threads = kThreads;
   if (impl == "curv_opencl") {
@@ -152,11 +154,11 @@ void BM_Grid(benchmark::State& state, const std::string& scene_name, const std::
   }
   for (auto _ : state) {
     if (impl == "octree") {
-      gvd::PipelineOptions p;
+      gvd::pipeline::PipelineOptions p;
       p.threads = kThreads;
       Scene copy = scene;
       const gvd::Stopwatch sw;
-      const gvd::GvdResult r = gvd::compute_gvd(std::move(copy), p);
+      const gvd::result::GvdResult r = gvd::pipeline::compute_gvd(std::move(copy), p);
       row.seconds = sw.seconds();
       row.cells = r.stats.leaves;
       row.backend = r.stats.backend;
@@ -166,14 +168,14 @@ void BM_Grid(benchmark::State& state, const std::string& scene_name, const std::
     if (impl == "from_result") {
       // gvd grid RESULT.gvd: the adaptive result is computed first (not timed), then the
       // grid is sampled from it (sample_result_grid) on its domain (a cube: N^3 cells).
-      gvd::PipelineOptions p;
+      gvd::pipeline::PipelineOptions p;
       p.threads = kThreads;
       Scene copy = scene;
-      const gvd::GvdResult r = gvd::compute_gvd(std::move(copy), p);
-      gvd::ResultGridOptions ro;
+      const gvd::result::GvdResult r = gvd::pipeline::compute_gvd(std::move(copy), p);
+      gvd::grid::ResultGridOptions ro;
       ro.resolution = o.resolution;
       ro.threads = kThreads;
-      const gvd::DistanceGrid g = gvd::sample_result_grid(r, ro);
+      const gvd::grid::DistanceGrid g = gvd::grid::sample_result_grid(r, ro);
       row.seconds = g.stats.seconds;
       row.cells = g.spec.cell_count();
       row.pairs = g.stats.pairs_evaluated;
@@ -191,11 +193,11 @@ void BM_Grid(benchmark::State& state, const std::string& scene_name, const std::
       // object's BVH walk still stops at the cell's best distance so far) costs in
       // proportion to cells x objects: measured on a grid with 1/100 of the cells (2D;
       // 1/512 in 3D) and scaled by the cell count.
-      gvd::GridOptions b = o;
+      gvd::grid::GridOptions b = o;
       b.cull = false;
       b.resolution = scene.dimension == 2 ? o.resolution / 10 : o.resolution / 8;
-      const gvd::DistanceGrid g = gvd::compute_grid(scene, b);
-      const gvd::GridSpec full = gvd::make_grid_spec(scene, o);
+      const gvd::grid::DistanceGrid g = gvd::grid::compute_grid(scene, b);
+      const gvd::grid::GridSpec full = gvd::grid::make_grid_spec(scene, o);
       const double scale =
           static_cast<double>(full.cell_count()) / static_cast<double>(g.spec.cell_count());
       row.seconds = g.stats.seconds * scale;
@@ -207,7 +209,7 @@ void BM_Grid(benchmark::State& state, const std::string& scene_name, const std::
                  std::to_string(g.stats.seconds) + " s), x" + std::to_string(scale);
       continue;
     }
-    const gvd::DistanceGrid g = gvd::compute_grid(scene, o);
+    const gvd::grid::DistanceGrid g = gvd::grid::compute_grid(scene, o);
     row.seconds = g.stats.seconds;
     row.cells = g.spec.cell_count();
     row.pairs = g.stats.pairs_evaluated;

@@ -28,9 +28,11 @@
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"
 
+using namespace gvd::scene;
+
 namespace {
 
-using gvd::Scene;
+using gvd::scene::Scene;
 
 constexpr int kThreads = 2;
 const char* const kStages[] = {"scene", "octree", "distance", "ambiguity", "surface", "graph"};
@@ -97,10 +99,10 @@ struct SceneRun {
   std::string name;
   PaperRow paper;
   uint64_t objects = 0, simplices = 0;
-  gvd::ResultStats stats;
+  gvd::result::ResultStats stats;
   double peak_rss_mib = 0;
   bool peak_is_per_run = false;
-  std::vector<gvd::SceneWarning> warnings;
+  std::vector<gvd::scene::SceneWarning> warnings;
   std::string error;
 };
 
@@ -108,8 +110,8 @@ std::vector<SceneRun>& runs() {
   static std::vector<SceneRun> all;
   return all;
 }
-std::vector<gvd::DualEdge>& polygons_graph() {
-  static std::vector<gvd::DualEdge> edges;
+std::vector<gvd::graph::DualEdge>& polygons_graph() {
+  static std::vector<gvd::graph::DualEdge> edges;
   return edges;
 }
 std::optional<gvd::Box>& polygons_domain() {
@@ -125,8 +127,8 @@ double& boost_seconds() {
   return s;
 }
 
-double stage_seconds(const gvd::ResultStats& s, const std::string& name) {
-  for (const gvd::StageStats& st : s.stages)
+double stage_seconds(const gvd::result::ResultStats& s, const std::string& name) {
+  for (const gvd::result::StageStats& st : s.stages)
     if (st.name == name) return st.seconds;
   return 0;
 }
@@ -135,9 +137,9 @@ double stage_seconds(const gvd::ResultStats& s, const std::string& name) {
 /// reported as "<scene>/wf" so that both appear side by side in one run).
 void BM_Gvd(benchmark::State& state, const SceneCase* c, const std::string& distance) {
   const Scene& scene = scene_of(*c);
-  gvd::PipelineOptions options;
+  gvd::pipeline::PipelineOptions options;
   options.threads = kThreads;
-  options.distance = gvd::parse_choice<gvd::DistanceMethod>(distance);
+  options.distance = gvd::pipeline::parse_choice<gvd::distance::DistanceMethod>(distance);
   SceneRun run;
   run.name = distance == "exact" ? std::string(c->name) : std::string(c->name) + "/wf";
   run.paper = c->paper;
@@ -149,7 +151,7 @@ void BM_Gvd(benchmark::State& state, const SceneCase* c, const std::string& dist
     Scene copy = scene;
     state.ResumeTiming();
     try {
-      gvd::GvdResult r = gvd::compute_gvd(std::move(copy), options);
+      gvd::result::GvdResult r = gvd::pipeline::compute_gvd(std::move(copy), options);
       state.PauseTiming();
       run.stats = r.stats;
       run.warnings = r.scene.warnings;
@@ -166,7 +168,7 @@ void BM_Gvd(benchmark::State& state, const SceneCase* c, const std::string& dist
   }
   run.peak_rss_mib = peak_rss_mib();
   if (run.error.empty()) {
-    const gvd::ResultStats& s = run.stats;
+    const gvd::result::ResultStats& s = run.stats;
     auto& k = state.counters;
     k["total_s"] = s.total_seconds;
     for (const char* st : kStages) k[std::string(st) + "_s"] = stage_seconds(s, st);
@@ -190,7 +192,8 @@ void BM_BoostVoronoi(benchmark::State& state) {
     if (std::string(sc.name) == "polygons2d") c = &sc;
   const Scene& scene = scene_of(*c);
   // The GVD's domain if that benchmark ran, else the same default domain.
-  const gvd::Box box = polygons_domain() ? *polygons_domain() : gvd::make_domain(scene).box();
+  const gvd::Box box =
+      polygons_domain() ? *polygons_domain() : gvd::scene::make_domain(scene).box();
   for (auto _ : state) {
     try {
       boost_result() = gvd::bench::boost_voronoi_adjacency(scene, box);
@@ -245,7 +248,7 @@ Scene make_thin_gap_scene(const std::string& name, double gap) {
     // The blade in its slot turned about a skew axis; _xyz keeps the octree on x, y, z.
     Scene s = with_gap(&gvd::test::make_blade_in_slot, gap);
     const gvd::Vec3 axis = gvd::Vec3{2, -1, 3} / std::sqrt(14.0);
-    for (gvd::SceneObject& o : s.objects)
+    for (gvd::scene::SceneObject& o : s.objects)
       for (gvd::Vec3& v : o.vertices) v = gvd::test::rotate(v, axis, 0.7);
     return s;
   }
@@ -271,7 +274,7 @@ Scene make_thin_gap_scene(const std::string& name, double gap) {
       s.objects.push_back(gvd::test::make_box("far", {0.3, 0.55, 0.3}, {0.35, 0.6291, 0.35}));
     } else {
       const Scene one = s;
-      for (gvd::SceneObject obj : one.objects) {
+      for (gvd::scene::SceneObject obj : one.objects) {
         for (gvd::Vec3& v : obj.vertices) v = v + gvd::Vec3{1.3, 0.1234, 0};
         obj.label += "_2";
         s.objects.push_back(std::move(obj));
@@ -288,7 +291,7 @@ Scene make_thin_gap_scene(const std::string& name, double gap) {
     int copy = 1;
     for (const gvd::Vec3 shift : {gvd::Vec3{1.3, 0.1234, 0}, gvd::Vec3{0.41, 1.1717, 0.05}}) {
       ++copy;
-      for (gvd::SceneObject obj : one.objects) {
+      for (gvd::scene::SceneObject obj : one.objects) {
         for (gvd::Vec3& v : obj.vertices) v = v + shift;
         obj.label += "_" + std::to_string(copy);
         s.objects.push_back(std::move(obj));
@@ -305,7 +308,7 @@ Scene make_thin_gap_scene(const std::string& name, double gap) {
 
 struct ThinGapRun {
   ThinGapCase c;
-  gvd::ResultStats stats;
+  gvd::result::ResultStats stats;
   double peak_rss_mib = 0;
   std::string error;
   // 2D: the dual graph against the exact segment Voronoi diagram of the same scene.
@@ -320,16 +323,16 @@ std::vector<ThinGapRun>& thin_gap_runs() {
 
 void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
   const Scene scene = make_thin_gap_scene(c.scene, c.gap);
-  gvd::PipelineOptions options;
+  gvd::pipeline::PipelineOptions options;
   options.threads = kThreads;
-  options.refine = gvd::parse_choice<gvd::RefineRule>(c.refine);
-  if (c.scene.ends_with("_xyz")) options.domain.frame = gvd::DomainFrame::kWorld;
+  options.refine = gvd::pipeline::parse_choice<gvd::pipeline::RefineRule>(c.refine);
+  if (c.scene.ends_with("_xyz")) options.domain.frame = gvd::scene::DomainFrame::kWorld;
   ThinGapRun run;
   run.c = c;
   reset_peak_rss();
   for (auto _ : state) {
     try {
-      gvd::GvdResult r = gvd::compute_gvd(scene, options);
+      gvd::result::GvdResult r = gvd::pipeline::compute_gvd(scene, options);
       state.PauseTiming();
       run.stats = r.stats;
       if (scene.dimension == 2) {
@@ -337,7 +340,7 @@ void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
             gvd::bench::boost_voronoi_adjacency(scene, r.domain.box());
         run.boost_seconds = b.input_seconds + b.voronoi_seconds + b.adjacency_seconds;
         std::set<std::pair<uint32_t, uint32_t>> mine, truth;
-        for (const gvd::DualEdge& e : r.graph.edges) mine.insert({e.a, e.b});
+        for (const gvd::graph::DualEdge& e : r.graph.edges) mine.insert({e.a, e.b});
         for (const auto& p : b.pairs) truth.insert({p.a, p.b});
         run.boost_pairs = truth.size();
         for (const auto& ab : mine) run.only_ours += truth.count(ab) == 0;
@@ -415,7 +418,7 @@ void print_thin_gap_summary() {
                   r.error.c_str());
       continue;
     }
-    const gvd::ResultStats& s = r.stats;
+    const gvd::result::ResultStats& s = r.stats;
     char boost[96] = "";
     if (r.boost_pairs > 0) {
       std::snprintf(boost, sizeof boost, "boost %zu, only ours %zu, only boost %zu, boost %.0f ms",
@@ -466,7 +469,7 @@ int write_scenes(const std::string& dir, bool slow) {
   for (const SceneCase* c : list) {
     const std::string path = dir + "/" + c->name + ".json";
     std::ofstream out(path);
-    out << gvd::scene_to_json(scene_of(*c));
+    out << gvd::scene::scene_to_json(scene_of(*c));
     if (!out) {
       std::fprintf(stderr, "gvd_bench: cannot write %s\n", path.c_str());
       return 1;
@@ -480,7 +483,7 @@ int write_scenes(const std::string& dir, bool slow) {
     char name[128];
     std::snprintf(name, sizeof name, "%s/%s_%.0e.json", dir.c_str(), c.scene.c_str(), c.gap);
     std::ofstream out(name);
-    out << gvd::scene_to_json(make_thin_gap_scene(c.scene, c.gap));
+    out << gvd::scene::scene_to_json(make_thin_gap_scene(c.scene, c.gap));
     if (!out) {
       std::fprintf(stderr, "gvd_bench: cannot write %s\n", name);
       return 1;
@@ -555,7 +558,7 @@ void print_summary() {
       std::printf("%-11s FAILED: %s\n", r.name.c_str(), r.error.c_str());
       continue;
     }
-    const gvd::ResultStats& s = r.stats;
+    const gvd::result::ResultStats& s = r.stats;
     char paper[32] = "-", speedup[32] = "-";
     if (r.paper.seconds > 0) {
       std::snprintf(paper, sizeof paper, "%.1f s", r.paper.seconds);
@@ -583,7 +586,7 @@ void print_summary() {
               "simplices_k", "depth", "leaves_k", "octree_MB", "GVD_s", "gvd_simplices_k");
   for (const SceneRun& r : all) {
     if (!r.error.empty()) continue;
-    const gvd::ResultStats& s = r.stats;
+    const gvd::result::ResultStats& s = r.stats;
     const PaperRow& p = r.paper;
     if (p.seconds <= 0) {
       std::printf(
@@ -603,9 +606,9 @@ void print_summary() {
   }
 
   for (const SceneRun& r : all) {
-    for (const gvd::SceneWarning& w : r.warnings) {
+    for (const gvd::scene::SceneWarning& w : r.warnings) {
       std::printf("warning [%s] %s (%llu): %.200s\n", r.name.c_str(),
-                  gvd::warning_kind_name(w.kind), static_cast<unsigned long long>(w.count),
+                  gvd::scene::warning_kind_name(w.kind), static_cast<unsigned long long>(w.count),
                   w.detail.c_str());
     }
     if (r.error.empty() && (r.stats.ambiguous_at_limit > 0 || r.stats.touching_leaves > 0)) {
@@ -635,11 +638,11 @@ void print_summary() {
   }
   std::printf("gvd:   total %.0f ms (%.1fx the Boost time)\n", 1e3 * ours->stats.total_seconds,
               ours->stats.total_seconds / std::max(1e-9, boost_seconds()));
-  std::map<std::pair<uint32_t, uint32_t>, const gvd::DualEdge*> mine;
-  for (const gvd::DualEdge& e : polygons_graph()) mine[{e.a, e.b}] = &e;
+  std::map<std::pair<uint32_t, uint32_t>, const gvd::graph::DualEdge*> mine;
+  for (const gvd::graph::DualEdge& e : polygons_graph()) mine[{e.a, e.b}] = &e;
   std::map<std::pair<uint32_t, uint32_t>, const gvd::bench::BoostAdjacentPair*> truth;
   for (const auto& p : b.pairs) truth[{p.a, p.b}] = &p;
-  std::vector<const gvd::DualEdge*> only_ours;
+  std::vector<const gvd::graph::DualEdge*> only_ours;
   std::vector<const gvd::bench::BoostAdjacentPair*> only_boost;
   size_t both = 0;
   for (const auto& [ab, e] : mine) {

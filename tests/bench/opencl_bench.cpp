@@ -50,40 +50,40 @@ std::shared_ptr<gvd::kernels::OpenClBackend> backend(std::string* why) {
   return b;
 }
 
-const gvd::Scene& scene_named(const std::string& name) {
-  static std::map<std::string, gvd::Scene> cache;
+const gvd::scene::Scene& scene_named(const std::string& name) {
+  static std::map<std::string, gvd::scene::Scene> cache;
   auto it = cache.find(name);
   if (it != cache.end()) return it->second;
-  gvd::Scene s = name == "blades"       ? gvd::bench::make_blades()
-                 : name == "polygons2d" ? gvd::bench::make_polygons2d()
-                 : name == "gears3d"    ? gvd::bench::make_gears3d()
-                                        : gvd::bench::make_spheres();
+  gvd::scene::Scene s = name == "blades"       ? gvd::bench::make_blades()
+                        : name == "polygons2d" ? gvd::bench::make_polygons2d()
+                        : name == "gears3d"    ? gvd::bench::make_gears3d()
+                                               : gvd::bench::make_spheres();
   return cache.emplace(name, std::move(s)).first->second;
 }
 
 // One scene's geometry, BVH and a batch of queries near its simplices.
 struct Workload {
-  gvd::Domain domain;
-  gvd::UnitGeometry geometry;
+  gvd::scene::Domain domain;
+  gvd::scene::UnitGeometry geometry;
   std::unique_ptr<gvd::SimplexBvh> bvh;
-  gvd::ClosestPointData data;
+  gvd::distance::ClosestPointData data;
   std::vector<gvd::Vec3> queries;
   std::vector<double> bound2;
 };
 
 // Records the batches compute_distances hands to its solver, answering with the CPU twin.
-class RecordingSolver final : public gvd::ClosestPointSolver {
+class RecordingSolver final : public gvd::distance::ClosestPointSolver {
  public:
-  RecordingSolver(const gvd::ClosestPointData& data, Workload& w) : data_(data), w_(w) {}
+  RecordingSolver(const gvd::distance::ClosestPointData& data, Workload& w) : data_(data), w_(w) {}
   void solve(std::span<const gvd::Vec3> q, std::span<const double> b,
              std::span<gvd::ClosestHit> hits) override {
     w_.queries.insert(w_.queries.end(), q.begin(), q.end());
     w_.bound2.insert(w_.bound2.end(), b.begin(), b.end());
-    gvd::closest_points_cpu(data_, q, b, hits, kThreads);
+    gvd::distance::closest_points_cpu(data_, q, b, hits, kThreads);
   }
 
  private:
-  const gvd::ClosestPointData& data_;
+  const gvd::distance::ClosestPointData& data_;
   Workload& w_;
 };
 
@@ -95,20 +95,20 @@ const Workload& workload(const std::string& name) {
   auto& w = cache[name];
   if (w) return *w;
   w = std::make_unique<Workload>();
-  const gvd::Scene& scene = scene_named(name);
-  w->domain = gvd::make_domain(scene);
-  w->geometry = gvd::make_unit_geometry(scene, w->domain);
-  const gvd::UnitGeometry& g = w->geometry;
+  const gvd::scene::Scene& scene = scene_named(name);
+  w->domain = gvd::scene::make_domain(scene);
+  w->geometry = gvd::scene::make_unit_geometry(scene, w->domain);
+  const gvd::scene::UnitGeometry& g = w->geometry;
   w->bvh = std::make_unique<gvd::SimplexBvh>(g.dimension, g.points, g.simplices);
-  w->data = gvd::make_closest_point_data(*w->bvh);
-  gvd::OctreeOptions oo;
+  w->data = gvd::distance::make_closest_point_data(*w->bvh);
+  gvd::octree::OctreeOptions oo;
   oo.threads = kThreads;
-  const gvd::Octree octree = gvd::build_octree(g, oo);
+  const gvd::octree::Octree octree = gvd::octree::build_octree(g, oo);
   RecordingSolver recorder(w->data, *w);
-  gvd::DistanceOptions dopt;
+  gvd::distance::DistanceOptions dopt;
   dopt.threads = kThreads;
   dopt.solver = &recorder;
-  gvd::compute_distances(octree, g, *w->bvh, dopt);
+  gvd::distance::compute_distances(octree, g, *w->bvh, dopt);
   return *w;
 }
 
@@ -121,15 +121,15 @@ void BM_ClosestPoints(benchmark::State& state, std::string scene, std::string im
   }
   const Workload& w = workload(scene);
   std::vector<gvd::ClosestHit> hits(w.queries.size());
-  std::unique_ptr<gvd::ClosestPointSolver> solver;
+  std::unique_ptr<gvd::distance::ClosestPointSolver> solver;
   if (impl == "opencl") solver = cl->closest_points(w.geometry, *w.bvh);
   for (auto _ : state) {
     if (impl == "opencl")
       solver->solve(w.queries, w.bound2, hits);
     else if (impl == "twin")
-      gvd::closest_points_cpu(w.data, w.queries, w.bound2, hits, kThreads);
+      gvd::distance::closest_points_cpu(w.data, w.queries, w.bound2, hits, kThreads);
     else
-      gvd::closest_points_scalar(w.data, w.queries, w.bound2, hits);
+      gvd::distance::closest_points_scalar(w.data, w.queries, w.bound2, hits);
     benchmark::DoNotOptimize(hits.data());
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * w.queries.size()));
@@ -181,27 +181,27 @@ void BM_OctreeBuild(benchmark::State& state, std::string scene, std::string impl
     state.SkipWithError(("no OpenCL: " + why).c_str());
     return;
   }
-  const gvd::Scene& sc = scene_named(scene);
-  const gvd::Domain domain = gvd::make_domain(sc);
-  const gvd::UnitGeometry g = gvd::make_unit_geometry(sc, domain);
+  const gvd::scene::Scene& sc = scene_named(scene);
+  const gvd::scene::Domain domain = gvd::scene::make_domain(sc);
+  const gvd::scene::UnitGeometry g = gvd::scene::make_unit_geometry(sc, domain);
   const gvd::SimplexBvh bvh(g.dimension, g.points, g.simplices);
-  const int max_depth = gvd::resolve_max_depth(g.dimension, 0);
-  const gvd::ContactPairs contacts = gvd::find_contact_pairs(
+  const int max_depth = gvd::octree::resolve_max_depth(g.dimension, 0);
+  const gvd::octree::ContactPairs contacts = gvd::octree::find_contact_pairs(
       g, bvh, 2.0 * std::sqrt(double(g.dimension)) * std::ldexp(1.0, -max_depth), kThreads);
-  gvd::OctreeOptions o;
+  gvd::octree::OctreeOptions o;
   o.threads = kThreads;
   o.contacts = &contacts;
-  const gvd::Octree reference = gvd::build_octree(g, o);
-  gvd::Octree t;
-  gvd::DataParallelBuildStats stats;
+  const gvd::octree::Octree reference = gvd::octree::build_octree(g, o);
+  gvd::octree::Octree t;
+  gvd::octree::DataParallelBuildStats stats;
   for (auto _ : state) {
     if (impl == "cpu") {
-      t = gvd::build_octree(g, o);
+      t = gvd::octree::build_octree(g, o);
     } else if (impl == "dp_twin") {
-      t = gvd::build_octree_data_parallel(g, o, nullptr, &stats);
+      t = gvd::octree::build_octree_data_parallel(g, o, nullptr, &stats);
     } else {
       const auto steps = cl->octree_build_steps(g);
-      t = gvd::build_octree_data_parallel(g, o, steps.get(), &stats);
+      t = gvd::octree::build_octree_data_parallel(g, o, steps.get(), &stats);
     }
   }
   state.counters["leaves"] = static_cast<double>(t.leaf_count());
@@ -226,20 +226,20 @@ void BM_PipelineBackend(benchmark::State& state, std::string scene, std::string 
     state.SkipWithError(("no OpenCL: " + why).c_str());
     return;
   }
-  gvd::PipelineOptions o;
+  gvd::pipeline::PipelineOptions o;
   o.threads = kThreads;
   if (impl == "opencl") {
-    o.backend = gvd::BackendRequest::kOpenCl;
+    o.backend = gvd::pipeline::BackendRequest::kOpenCl;
     o.compute = cl;
   }
-  gvd::ResultStats stats;
+  gvd::result::ResultStats stats;
   for (auto _ : state) {
     state.PauseTiming();
-    gvd::Scene copy = scene_named(scene);
+    gvd::scene::Scene copy = scene_named(scene);
     state.ResumeTiming();
-    stats = gvd::compute_gvd(std::move(copy), o).stats;
+    stats = gvd::pipeline::compute_gvd(std::move(copy), o).stats;
   }
-  for (const gvd::StageStats& s : stats.stages) state.counters[s.name + "_s"] = s.seconds;
+  for (const gvd::result::StageStats& s : stats.stages) state.counters[s.name + "_s"] = s.seconds;
   state.counters["total_s"] = stats.total_seconds;
   state.counters["leaves"] = static_cast<double>(stats.leaves);
 }

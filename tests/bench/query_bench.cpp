@@ -22,13 +22,15 @@
 #include "gvd/query/gvd_index.h"
 #include "support/oracles.h"
 
+using namespace gvd::octree;
+
 namespace {
 
 using gvd::Vec3;
 
 struct QueryFixture {
-  std::shared_ptr<const gvd::GvdResult> result;
-  std::unique_ptr<gvd::GvdIndex> index;
+  std::shared_ptr<const gvd::result::GvdResult> result;
+  std::unique_ptr<gvd::query::GvdIndex> index;
   gvd::SimplexBvh bvh;
   std::vector<Vec3> points;  // random points in the domain (user units)
   double compute_seconds = 0, index_seconds = 0;
@@ -37,17 +39,17 @@ struct QueryFixture {
 QueryFixture& fixture() {
   static QueryFixture* f = [] {
     auto* q = new QueryFixture;
-    gvd::PipelineOptions options;
+    gvd::pipeline::PipelineOptions options;
     options.threads = 2;
     auto t0 = std::chrono::steady_clock::now();
-    q->result = std::make_shared<const gvd::GvdResult>(
-        gvd::compute_gvd(gvd::bench::make_spheres(), options));
+    q->result = std::make_shared<const gvd::result::GvdResult>(
+        gvd::pipeline::compute_gvd(gvd::bench::make_spheres(), options));
     auto t1 = std::chrono::steady_clock::now();
-    q->index = std::make_unique<gvd::GvdIndex>(q->result);
+    q->index = std::make_unique<gvd::query::GvdIndex>(q->result);
     auto t2 = std::chrono::steady_clock::now();
     q->compute_seconds = std::chrono::duration<double>(t1 - t0).count();
     q->index_seconds = std::chrono::duration<double>(t2 - t1).count();
-    const gvd::UnitGeometry& g = q->result->geometry;
+    const gvd::scene::UnitGeometry& g = q->result->geometry;
     q->bvh = gvd::SimplexBvh(g.dimension, g.points, g.simplices);
     std::mt19937_64 rng(11);
     std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -66,7 +68,7 @@ void BM_NearestIndex(benchmark::State& state) {
   const QueryFixture& f = fixture();
   size_t i = 0, exact = 0, n = 0;
   for (auto _ : state) {
-    const gvd::NearestAnswer a = f.index->nearest(f.points[i]);
+    const gvd::query::NearestAnswer a = f.index->nearest(f.points[i]);
     benchmark::DoNotOptimize(a.distance);
     exact += a.exact ? 1 : 0;
     ++n;
@@ -142,11 +144,11 @@ void BM_NearestAccuracy(benchmark::State& state) {
   for (auto _ : state) {
     for (size_t i = 0; i < samples; ++i) {
       const Vec3 p = f.points[i];
-      const gvd::NearestAnswer a = f.index->nearest(p);
+      const gvd::query::NearestAnswer a = f.index->nearest(p);
       const gvd::ClosestHit h = f.bvh.nearest(f.result->domain.to_unit(p));
       const double truth = std::sqrt(h.dist2) * f.result->domain.side;
-      const gvd::ObjectId object = f.result->geometry.object_of[h.simplex];
-      const gvd::NearestAnswer fast = f.index->nearest(p, true);
+      const gvd::scene::ObjectId object = f.result->geometry.object_of[h.simplex];
+      const gvd::query::NearestAnswer fast = f.index->nearest(p, true);
       approx_worst = std::max(approx_worst, truth > 0 ? fast.distance / truth : 1);
       approx_differ += fast.object != object ? 1 : 0;
       const double ratio = truth > 0 ? a.distance / truth : 1;
@@ -155,7 +157,7 @@ void BM_NearestAccuracy(benchmark::State& state) {
       exact += a.exact ? 1 : 0;
       if (a.exact) {
         const uint32_t leaf = f.result->octree.locate(f.result->domain.to_unit(p));
-        exact_in_nonempty += f.result->octree.object[leaf] != gvd::kNoObject ? 1 : 0;
+        exact_in_nonempty += f.result->octree.object[leaf] != gvd::scene::kNoObject ? 1 : 0;
       }
       if (a.object != object) {
         ++differ;
@@ -208,7 +210,7 @@ void BM_NeighborsEdgeScan(benchmark::State& state) {
     std::fill(depth.begin(), depth.end(), -1);
     depth[o] = 0;
     for (int r = 1; r <= ring; ++r) {
-      for (const gvd::DualEdge& e : edges) {
+      for (const gvd::graph::DualEdge& e : edges) {
         if (depth[e.a] == r - 1 && depth[e.b] < 0) depth[e.b] = r;
         if (depth[e.b] == r - 1 && depth[e.a] < 0) depth[e.a] = r;
       }
@@ -242,11 +244,12 @@ void BM_Path(benchmark::State& state) {
   size_t i = 0, found = 0, n = 0;
   double clearance = 0;
   for (auto _ : state) {
-    gvd::PathQuery q;
+    gvd::query::PathQuery q;
     q.from = pairs[i].first;
     q.to = pairs[i].second;
-    q.cost = state.range(0) == 0 ? gvd::PathCost::kShortest : gvd::PathCost::kClearance;
-    const gvd::PathAnswer a = f.index->path(q);
+    q.cost =
+        state.range(0) == 0 ? gvd::query::PathCost::kShortest : gvd::query::PathCost::kClearance;
+    const gvd::query::PathAnswer a = f.index->path(q);
     found += a.found ? 1 : 0;
     if (a.found) clearance += a.min_clearance;
     ++n;

@@ -22,6 +22,10 @@
 #endif
 
 namespace gvd::bench {
+
+using namespace gvd::scene;
+using namespace gvd::pipeline;
+
 namespace {
 
 SceneObject icosphere(const std::string& label, Vec3 centre, double radius, int subdivisions) {

@@ -19,7 +19,7 @@ double peak_rss_mib();
 
 /// 4 x 4 x 4 icospheres of 4 subdivisions (5,120 triangles each), radius 0.45, centres on
 /// the unit lattice (gaps 0.1).
-Scene make_sphere_lattice();
+scene::Scene make_sphere_lattice();
 
 /// Registers BM_SphereLattice/gvd and, with OpenVDB, BM_SphereLattice/openvdb_mesh_to_volume.
 void register_sphere_lattice_benchmarks();

@@ -13,6 +13,9 @@
 #include "support/scenes.h"
 
 namespace gvd::bench {
+
+using namespace gvd::scene;
+
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -196,8 +199,8 @@ Scene checked_scene(int dimension, std::vector<SceneObject> objects) {
   if (!scene.warnings.empty()) {
     const SceneWarning& w = scene.warnings.front();
     throw std::runtime_error("generated scene has warning " +
-                             std::string(gvd::warning_kind_name(w.kind)) + " on '" + w.object +
-                             "': " + w.detail);
+                             std::string(gvd::scene::warning_kind_name(w.kind)) + " on '" +
+                             w.object + "': " + w.detail);
   }
   return scene;
 }

@@ -21,7 +21,7 @@ struct Gears3dOptions {
   double shaft_gap = 0.06;  ///< radial clearance between shaft and bore
   int samples_per_tooth = 20;
 };
-Scene make_gears3d(const Gears3dOptions& options = {});
+scene::Scene make_gears3d(const Gears3dOptions& options = {});
 
 /// A block with three slots along z, a thin blade (knife, a plate) standing in each. A slot is
 /// a narrow lip at the block's top (`lip_height` high, `clearance` on each side of the blade)
@@ -38,7 +38,7 @@ struct BladesOptions {
   double cavity_clearance = 0.25;
   double cell = 0.09;
 };
-Scene make_blades(const BladesOptions& options = {});
+scene::Scene make_blades(const BladesOptions& options = {});
 
 /// 2D: `grid` x `grid` cells of the unit square, one random convex or star polygon per cell,
 /// except `empty` cells left free (gaps up to ~1e-1) and `pairs` cells holding two polygons
@@ -56,7 +56,7 @@ struct Polygons2dOptions {
   int min_sides = 5;
   int max_sides = 16;
 };
-Scene make_polygons2d(const Polygons2dOptions& options = {});
+scene::Scene make_polygons2d(const Polygons2dOptions& options = {});
 
 /// 3D: UV spheres (`rings` x `segments`, 324 triangles by default) in vertical columns on a
 /// jittered square lattice of pitch 1. Within a column the spheres are pole to pole, so the
@@ -72,9 +72,9 @@ struct SpheresOptions {
   double min_gap = 7e-5;
   double max_gap = 5e-2;
 };
-Scene make_spheres(const SpheresOptions& options = {});
+scene::Scene make_spheres(const SpheresOptions& options = {});
 
 /// Least distance between two 2D objects (their segments). O(n m).
-double polyline_distance_2d(const SceneObject& a, const SceneObject& b);
+double polyline_distance_2d(const scene::SceneObject& a, const scene::SceneObject& b);
 
 }  // namespace gvd::bench

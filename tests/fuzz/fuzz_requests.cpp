@@ -54,12 +54,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 #elif defined(GVD_FUZZ_POINTS)
     for (const int dimension : {2, 3}) {
       try {
-        (void)gvd::parse_points_json(text, dimension);
+        (void)gvd::query::parse_points_json(text, dimension);
       } catch (const gvd::Error&) {
       }
     }
 #elif defined(GVD_FUZZ_RESULT)
-    (void)gvd::load_result_bytes(std::span<const uint8_t>(data, size));
+    (void)gvd::io::load_result_bytes(std::span<const uint8_t>(data, size));
 #else
 #error "GVD_FUZZ_JOB_PARAMS, GVD_FUZZ_POINTS or GVD_FUZZ_RESULT"
 #endif

@@ -16,8 +16,8 @@
 namespace {
 
 // Small limits keep each run fast: a limit refused is an answer like any other.
-gvd::SceneLimits fuzz_limits() {
-  gvd::SceneLimits limits;
+gvd::scene::SceneLimits fuzz_limits() {
+  gvd::scene::SceneLimits limits;
   limits.max_objects = 64;
   limits.max_simplices = 4096;
   return limits;
@@ -29,12 +29,12 @@ gvd::SceneLimits fuzz_limits() {
 void run_parts(std::span<const uint8_t> bytes) {
   const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   constexpr std::string_view kSeparator = "\n--part--\n";
-  std::vector<gvd::ScenePart> parts;
+  std::vector<gvd::scene::ScenePart> parts;
   size_t at = 0;
   while (parts.size() < 8) {
     const size_t end = text.find(kSeparator, at);
     const size_t stop = end == std::string_view::npos ? text.size() : end;
-    gvd::ScenePart part;
+    gvd::scene::ScenePart part;
     part.label = "p" + std::to_string(parts.size());
     part.bytes = bytes.subspan(at, stop - at);
     part.source = "part \"" + part.label + "\"";
@@ -42,7 +42,7 @@ void run_parts(std::span<const uint8_t> bytes) {
     if (end == std::string_view::npos) break;
     at = end + kSeparator.size();
   }
-  (void)gvd::parse_scene_parts(parts, fuzz_limits());
+  (void)gvd::scene::parse_scene_parts(parts, fuzz_limits());
 }
 #endif
 
@@ -54,7 +54,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 #if defined(GVD_FUZZ_PARTS)
     run_parts(bytes);
 #else
-    (void)gvd::parse_scene_bytes(bytes, gvd::SceneFormat::GVD_FUZZ_FORMAT, "fuzz", fuzz_limits());
+    (void)gvd::scene::parse_scene_bytes(bytes, gvd::scene::SceneFormat::GVD_FUZZ_FORMAT, "fuzz",
+                                        fuzz_limits());
 #endif
   } catch (const gvd::Error&) {
     // An answer: the input was refused with a message.

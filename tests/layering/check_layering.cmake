@@ -5,7 +5,9 @@
 # `| layer | module | folders | ... |`, the folders as `a/b` in backticks, comma separated.
 # Every source file under the folders the table covers must belong to one of its modules;
 # each `#include "..."` that resolves to a file of the tree (beside the including file, or
-# under an include root) must belong to the same module or to one on a lower layer.
+# under an include root) must belong to the same module or to one on a lower layer. A module
+# above `common` and `geometry` declares nothing in the root namespace `gvd` and uses (`using
+# namespace gvd::<m>;`) only the namespaces of lower layers.
 cmake_minimum_required(VERSION 3.20)
 if(NOT ROOT)
   message(FATAL_ERROR "usage: cmake -DROOT=<source tree> -P check_layering.cmake")
@@ -82,6 +84,28 @@ foreach(file IN LISTS files)
     math(EXPR errors "${errors} + 1")
     continue()
   endif()
+  # Namespaces (docs/ARCHITECTURE.md, "Namespaces"): a module above the root vocabulary
+  # (`common`, `geometry`) does not declare in `gvd` itself (forward declarations of the
+  # vocabulary's classes excepted), and its `using namespace gvd::<m>;` name lower layers only.
+  if(NOT own STREQUAL "common" AND NOT own STREQUAL "geometry" AND NOT file MATCHES "\\.cl$")
+    file(READ ${ROOT}/${file} text)
+    string(REGEX REPLACE "namespace gvd {\n((class|struct) [A-Za-z_]+;\n)+}" "" text "${text}")
+    if(text MATCHES "(^|\n)namespace gvd {")
+      message("${file}: module ${own} declares in the root namespace gvd (its namespace is "
+              "gvd::${own}; docs/ARCHITECTURE.md, \"Namespaces\")")
+      math(EXPR errors "${errors} + 1")
+    endif()
+    # (Matched without the `;`, which would split CMake's list.)
+    string(REGEX MATCHALL "\nusing namespace gvd::[a-z_]+" usings "${text}")
+    foreach(using IN LISTS usings)
+      string(REGEX REPLACE ".*gvd::" "" theirs "${using}")
+      if(DEFINED layer_of_${theirs} AND NOT layer_of_${theirs} LESS layer_of_${own})
+        message("${file}: module ${own} (layer ${layer_of_${own}}) uses the namespace of module "
+                "${theirs} (layer ${layer_of_${theirs}}): a module uses only lower layers")
+        math(EXPR errors "${errors} + 1")
+      endif()
+    endforeach()
+  endif()
   get_filename_component(dir ${file} DIRECTORY)
   file(STRINGS ${ROOT}/${file} lines REGEX "^[ \t]*#[ \t]*include[ \t]*\"")
   foreach(line IN LISTS lines)
@@ -117,4 +141,4 @@ if(errors GREATER 0)
   message(FATAL_ERROR "layering: ${errors} violation(s) in ${checked} files")
 endif()
 message("layering: ${checked} files, ${count} modules, ${edges} includes across modules, all "
-        "downward")
+        "downward; every module above the vocabulary in its own namespace")

@@ -13,7 +13,7 @@ int main(int argc, char** argv) {
     auto t0 = std::chrono::steady_clock::now();
     try {
       std::vector<std::string> p{argv[i]};
-      gvd::Scene s = gvd::load_scene(p);
+      gvd::scene::Scene s = gvd::scene::load_scene(p);
       double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       size_t v = 0, f = 0;
       for (auto& o : s.objects) {

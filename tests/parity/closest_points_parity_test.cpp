@@ -16,6 +16,10 @@
 #include "parity/opencl_env.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::distance;
+
 namespace {
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }

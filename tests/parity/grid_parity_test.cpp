@@ -19,6 +19,11 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::compute;
+using namespace gvd::grid;
+
 namespace {
 
 void expect_same_grid(const Scene& scene, GridOptions o,

@@ -17,6 +17,10 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+
 namespace {
 
 UnitGeometry geometry_of(const Scene& s) { return make_unit_geometry(s, make_domain(s)); }

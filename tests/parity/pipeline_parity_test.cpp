@@ -12,6 +12,14 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::compute;
+using namespace gvd::surface;
+using namespace gvd::result;
+using namespace gvd::pipeline;
+
 namespace {
 
 constexpr double kTolerance = 1e-12;  // unit domain

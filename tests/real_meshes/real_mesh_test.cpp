@@ -18,6 +18,13 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::pipeline;
+
 namespace {
 
 const std::string kCorpus = GVD_REAL_MESH_DIR;

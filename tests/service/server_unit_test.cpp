@@ -40,6 +40,13 @@
 #include "support/cancel.h"
 
 namespace gvd::server {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::grid;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 using Json = nlohmann::json;

@@ -32,6 +32,7 @@
 #include "support/gltf_validate.h"
 
 namespace gvd::test {
+
 namespace {
 
 using Json = nlohmann::json;

@@ -10,6 +10,10 @@
 
 namespace gvd::test {
 
+using namespace gvd::scene;
+using namespace gvd::surface;
+using namespace gvd::result;
+
 double local_cell(const GvdResult& r, Vec3 p) {
   const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
   return std::ldexp(r.domain.side, -r.octree.level[leaf]);

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 namespace gvd::test {
+
 namespace {
 
 constexpr const char* kInstallHint =

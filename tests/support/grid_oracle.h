@@ -16,13 +16,13 @@
 
 namespace gvd::test {
 
-inline double norm(Vec3 v, GridMetric m) {
+inline double norm(Vec3 v, grid::GridMetric m) {
   switch (m) {
-    case GridMetric::kL1:
+    case grid::GridMetric::kL1:
       return std::abs(v.x) + std::abs(v.y) + std::abs(v.z);
-    case GridMetric::kLinf:
+    case grid::GridMetric::kLinf:
       return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)});
-    case GridMetric::kL2:
+    case grid::GridMetric::kL2:
       break;
   }
   return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
@@ -48,8 +48,8 @@ inline double ternary_min(F f, double lo, double hi, int iterations = 90) {
   return std::min({f(0.5 * (a + b)), f(lo), f(hi)});
 }
 
-inline double oracle_segment(Vec3 p, Vec3 a, Vec3 b, GridMetric m) {
-  if (m == GridMetric::kL2) {
+inline double oracle_segment(Vec3 p, Vec3 a, Vec3 b, grid::GridMetric m) {
+  if (m == grid::GridMetric::kL2) {
     const Vec3 d = b - a;
     const double t = std::clamp(odot(p - a, d) / odot(d, d), 0.0, 1.0);
     return norm(p - (a + d * t), m);
@@ -57,8 +57,8 @@ inline double oracle_segment(Vec3 p, Vec3 a, Vec3 b, GridMetric m) {
   return ternary_min([&](double t) { return norm(p - (a + (b - a) * t), m); }, 0.0, 1.0);
 }
 
-inline double oracle_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c, GridMetric m) {
-  if (m == GridMetric::kL2) {
+inline double oracle_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c, grid::GridMetric m) {
+  if (m == grid::GridMetric::kL2) {
     // Inside the prism: distance to the plane; else the nearest edge.
     const Vec3 n = ocross(b - a, c - a);
     const double nn = odot(n, n);
@@ -83,10 +83,10 @@ struct OracleCell {
   double d1 = 1e300, d2 = 1e300;  // nearest and second-nearest object distances
 };
 
-inline OracleCell oracle_cell(const Scene& scene, Vec3 p, GridMetric m) {
+inline OracleCell oracle_cell(const scene::Scene& scene, Vec3 p, grid::GridMetric m) {
   OracleCell r;
   for (size_t o = 0; o < scene.objects.size(); ++o) {
-    const SceneObject& obj = scene.objects[o];
+    const scene::SceneObject& obj = scene.objects[o];
     double d = 1e300;
     for (const Simplex& s : obj.simplices) {
       const Vec3 a = obj.vertices[s.v[0]], b = obj.vertices[s.v[1]];
@@ -106,7 +106,7 @@ inline OracleCell oracle_cell(const Scene& scene, Vec3 p, GridMetric m) {
 
 // Inside tests of the oracle: total turning angle (2D), total solid angle (3D,
 // Van Oosterom-Strackee); |winding| > 1/2 = inside.
-inline bool oracle_inside(const SceneObject& obj, int dimension, Vec3 p) {
+inline bool oracle_inside(const scene::SceneObject& obj, int dimension, Vec3 p) {
   double total = 0;
   for (const Simplex& s : obj.simplices) {
     if (dimension == 2) {
@@ -115,8 +115,8 @@ inline bool oracle_inside(const SceneObject& obj, int dimension, Vec3 p) {
     } else {
       const Vec3 a = obj.vertices[s.v[0]] - p, b = obj.vertices[s.v[1]] - p,
                  c = obj.vertices[s.v[2]] - p;
-      const double la = norm(a, GridMetric::kL2), lb = norm(b, GridMetric::kL2),
-                   lc = norm(c, GridMetric::kL2);
+      const double la = norm(a, grid::GridMetric::kL2), lb = norm(b, grid::GridMetric::kL2),
+                   lc = norm(c, grid::GridMetric::kL2);
       const double num = odot(a, ocross(b, c));
       const double den = la * lb * lc + odot(a, b) * lc + odot(b, c) * la + odot(c, a) * lb;
       total += 2 * std::atan2(num, den);
@@ -126,10 +126,10 @@ inline bool oracle_inside(const SceneObject& obj, int dimension, Vec3 p) {
   return std::abs(total / turn) > 0.5;
 }
 
-inline double cell_diagonal(const GridSpec& spec, GridMetric m) {
+inline double cell_diagonal(const grid::GridSpec& spec, grid::GridMetric m) {
   const double d = spec.dimension;
-  return m == GridMetric::kL2 ? spec.h * std::sqrt(d)
-                              : (m == GridMetric::kL1 ? spec.h * d : spec.h);
+  return m == grid::GridMetric::kL2 ? spec.h * std::sqrt(d)
+                                    : (m == grid::GridMetric::kL1 ? spec.h * d : spec.h);
 }
 
 struct Checked {
@@ -140,10 +140,10 @@ struct Checked {
 // objects are within one cell diagonal of each other (the paper's one-cell bound); distances
 // must be within float32 precision of the exact ones; signs negative exactly inside closed
 // objects (the `closed` flags come from the test, not from the code).
-inline Checked check_against_oracle(const Scene& scene, const DistanceGrid& grid,
+inline Checked check_against_oracle(const scene::Scene& scene, const grid::DistanceGrid& grid,
                                     const std::vector<bool>& closed, int stride = 1) {
   Checked c;
-  const GridSpec& s = grid.spec;
+  const grid::GridSpec& s = grid.spec;
   const double diag = cell_diagonal(s, grid.metric);
   for (int k = 0; k < s.n[2]; k += stride) {
     for (int j = 0; j < s.n[1]; j += stride) {

@@ -10,6 +10,9 @@
 
 namespace gvd::test {
 
+using namespace gvd::scene;
+using namespace gvd::surface;
+
 double brute_distance(const Scene& scene, ObjectId o, Vec3 p) {
   const SceneObject& obj = scene.objects[o];
   double best = 1e300;

@@ -8,6 +8,8 @@
 
 namespace gvd::test {
 
+using namespace gvd::scene;
+
 SceneObject load_corpus_object(const std::string& dir, const std::string& file,
                                const std::string& label) {
   const std::string path = dir + "/" + file;

@@ -5,6 +5,8 @@
 
 namespace gvd::test {
 
+using namespace gvd::scene;
+
 Vec3 rotate(Vec3 p, Vec3 axis, double angle) {
   const double c = std::cos(angle), s = std::sin(angle);
   return p * c + cross(axis, p) * s + axis * (dot(axis, p) * (1 - c));

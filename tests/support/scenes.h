@@ -9,29 +9,30 @@
 namespace gvd::test {
 
 /// A closed box [lo, hi] as 12 outward triangles.
-SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi);
+scene::SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi);
 
 /// p rotated by `angle` (radians) about the unit axis `axis` through the origin (Rodrigues).
 Vec3 rotate(Vec3 p, Vec3 axis, double angle);
 /// A closed UV sphere with `rings` x `segments` quads split into triangles.
-SceneObject make_sphere(const std::string& label, Vec3 centre, double radius, int rings = 12,
-                        int segments = 24);
+scene::SceneObject make_sphere(const std::string& label, Vec3 centre, double radius, int rings = 12,
+                               int segments = 24);
 /// A tiny triangle standing in for a point object (3D), size `size` around `centre`.
-SceneObject make_point3(const std::string& label, Vec3 centre, double size = 1e-4);
+scene::SceneObject make_point3(const std::string& label, Vec3 centre, double size = 1e-4);
 /// A closed polygon approximating a circle (2D).
-SceneObject make_circle(const std::string& label, Vec3 centre, double radius, int segments = 32);
+scene::SceneObject make_circle(const std::string& label, Vec3 centre, double radius,
+                               int segments = 32);
 /// A closed axis-aligned rectangle (2D).
-SceneObject make_rect(const std::string& label, Vec3 lo, Vec3 hi);
+scene::SceneObject make_rect(const std::string& label, Vec3 lo, Vec3 hi);
 /// A single segment (2D).
-SceneObject make_segment(const std::string& label, Vec3 a, Vec3 b);
+scene::SceneObject make_segment(const std::string& label, Vec3 a, Vec3 b);
 /// A 2D gear outline (closed polygon) with `teeth` teeth.
-SceneObject make_gear2d(const std::string& label, Vec3 centre, double r_in, double r_out, int teeth,
-                        double phase, int samples_per_tooth = 8);
+scene::SceneObject make_gear2d(const std::string& label, Vec3 centre, double r_in, double r_out,
+                               int teeth, double phase, int samples_per_tooth = 8);
 
 /// The bounding box of an object's vertices.
-Box bounds(const SceneObject& object);
+Box bounds(const scene::SceneObject& object);
 
 /// Wraps objects into a validated scene.
-Scene make_scene(int dimension, std::vector<SceneObject> objects);
+scene::Scene make_scene(int dimension, std::vector<scene::SceneObject> objects);
 
 }  // namespace gvd::test

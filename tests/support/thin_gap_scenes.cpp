@@ -20,6 +20,9 @@
 #include "support/scenes.h"
 
 namespace gvd::test {
+
+using namespace gvd::scene;
+
 namespace {
 
 constexpr double kPi = std::numbers::pi;

@@ -10,11 +10,11 @@
 // 1e-9 relative (brute force over the simplex pairs whose boxes come within 2 g). Invalid
 // options throw std::invalid_argument.
 //
-// Gaps are FRACTIONS OF THE DEFAULT DOMAIN SIDE (gvd::make_domain without a box): the bounding
-// box of all vertices made a cube of its largest extent E and padded by 5 % of E on every side,
-// so the side is 1.1 E. A generator computes its scene's E first and builds the gap
-// g = gap * 1.1 * E in scene units; the option is then the gap as the octree sees it, whatever
-// the scene's size. Lengths other than gaps (widths, `cell`) are in scene units.
+// Gaps are FRACTIONS OF THE DEFAULT DOMAIN SIDE (gvd::scene::make_domain without a box): the
+// bounding box of all vertices made a cube of its largest extent E and padded by 5 % of E on every
+// side, so the side is 1.1 E. A generator computes its scene's E first and builds the gap g = gap
+// * 1.1 * E in scene units; the option is then the gap as the octree sees it, whatever the scene's
+// size. Lengths other than gaps (widths, `cell`) are in scene units.
 //
 // Large flat faces are grids of coplanar triangles about `cell` on a side, with the same
 // subdivision points on both faces of every shared edge, so the meshes stay watertight.
@@ -39,7 +39,7 @@ struct BladeInSlotOptions {
 };
 /// Objects "block", "blade". Checks the gap and that every blade vertex on the two side faces
 /// below the block top and on the bottom face is exactly g from the block.
-Scene make_blade_in_slot(const BladeInSlotOptions& options = {});
+scene::Scene make_blade_in_slot(const BladeInSlotOptions& options = {});
 
 /// make_stacked_plates: `count` boxes [0,1] x [y_i, y_i + thickness] x [0,1] along y, with
 /// y_i = i (thickness + g): consecutive plates face each other over their whole 1 x 1 faces at
@@ -58,7 +58,7 @@ struct StackedPlatesOptions {
 /// Objects "plate_0" .. "plate_<count-1>". Checks the gap of each consecutive pair (and that
 /// every vertex of each facing face — of the inset plate's, with an inset — is exactly g from
 /// the other plate), the others > 2 g apart.
-Scene make_stacked_plates(const StackedPlatesOptions& options = {});
+scene::Scene make_stacked_plates(const StackedPlatesOptions& options = {});
 
 /// make_shaft_in_bore: a housing block [-0.5,0.5] x [-0.5,0.5] x [0,0.6] with a bore along z,
 /// a regular `sides`-gon of circumradius `radius` centred on the z axis with a vertex on +x; and
@@ -75,7 +75,7 @@ struct ShaftInBoreOptions {
 /// Objects "housing", "shaft". The least distance is exactly g (faces; the shaft's corners are
 /// g / cos(pi / sides) from the bore's). Checks it, and that every shaft vertex with z in
 /// [0, 0.6] is exactly g from the housing.
-Scene make_shaft_in_bore(const ShaftInBoreOptions& options = {});
+scene::Scene make_shaft_in_bore(const ShaftInBoreOptions& options = {});
 
 /// make_ball_in_socket: a ball, the UV sphere of test::make_sphere (`rings` x `segments`,
 /// radius `radius`, centred at the origin), sealed in a socket: the box [-0.5,0.5]^3 with a
@@ -92,7 +92,7 @@ struct BallInSocketOptions {
   double gap = 1e-3;    ///< least clearance, fraction of the domain side (g = gap * 1.1)
 };
 /// Objects "socket", "ball". Checks the gap.
-Scene make_ball_in_socket(const BallInSocketOptions& options = {});
+scene::Scene make_ball_in_socket(const BallInSocketOptions& options = {});
 
 /// make_parallel_bars_2d: two rectangles, bar_a = [0,1] x [-0.1,0] and bar_b = [0,1] x
 /// [g, g + 0.1]: long edges parallel at g over their whole length. Each outline has its long
@@ -104,7 +104,7 @@ struct ParallelBarsOptions {
 };
 /// Objects "bar_a", "bar_b". Checks the gap and that every vertex of the facing edges is
 /// exactly g from the other bar.
-Scene make_parallel_bars_2d(const ParallelBarsOptions& options = {});
+scene::Scene make_parallel_bars_2d(const ParallelBarsOptions& options = {});
 
 /// make_polygon_pairs_2d: `pairs` pairs of convex polygons in distinct cells of a
 /// grid_x x grid_y grid over the unit square (cells drawn by a seeded shuffle, pairs numbered in
@@ -134,7 +134,7 @@ struct PolygonPairsOptions {
 };
 /// Checks each piece convex and CCW, each pair's least distance equal to its g, the cut edges
 /// facing each other fully, and objects of different pairs more than 1e-2 apart.
-Scene make_polygon_pairs_2d(const PolygonPairsOptions& options = {});
+scene::Scene make_polygon_pairs_2d(const PolygonPairsOptions& options = {});
 
 /// Least distance between two 3D objects (triangle soups; 0 when they touch or intersect),
 /// exact up to rounding: brute force over the triangle pairs whose bounding boxes come within a
@@ -142,22 +142,22 @@ Scene make_polygon_pairs_2d(const PolygonPairsOptions& options = {});
 /// the best distance found so far) until the answer is within it. Coordinates are taken relative
 /// to a vertex of each pair, so tiny gaps are measured to ~1e-18 rather than to the ulp of the
 /// coordinates. Cost ~ the number of triangle pairs within a few times the answer.
-double min_distance_3d(const SceneObject& a, const SceneObject& b);
+double min_distance_3d(const scene::SceneObject& a, const scene::SceneObject& b);
 
 /// Least distance between two 2D objects (segments, z ignored; 0 when two segments touch), as
 /// min_distance_3d.
-double min_distance_2d(const SceneObject& a, const SceneObject& b);
+double min_distance_2d(const scene::SceneObject& a, const scene::SceneObject& b);
 
 /// Throws std::runtime_error (naming the object, triangle, edge or vertex) unless `object` is a
 /// closed, welded (no two vertices at one position, every vertex used), edge-manifold, outward
 /// triangle mesh without degenerate triangles or T-junctions: every directed edge (a, b) used
 /// once and matched by exactly one (b, a), and a positive signed volume. O(n log n).
-void verify_closed_mesh(const SceneObject& object);
+void verify_closed_mesh(const scene::SceneObject& object);
 
 /// Throws std::runtime_error unless `object` is one closed, simple, counter-clockwise 2D
 /// polygon (z = 0): segments v[0] -> v[1] chained through shared indices, every vertex the end
 /// of exactly two segments (once as v[0], once as v[1]), no two vertices at one position,
 /// positive signed area, no two non-adjacent segments touching. O(n^2) for the simplicity test.
-void verify_closed_polygon(const SceneObject& object);
+void verify_closed_polygon(const scene::SceneObject& object);
 
 }  // namespace gvd::test

@@ -31,7 +31,7 @@
 
 #include "gvd/common/error.h"
 
-namespace gvd {
+namespace gvd::result {
 struct GvdResult;
 }
 
@@ -331,7 +331,7 @@ class Result {
   std::string info_json() const;
 
   /// The core's result (internal, unstable: gvd/pipeline/pipeline.h).
-  const GvdResult& internal() const;
+  const result::GvdResult& internal() const;
 
  private:
   friend class Access;

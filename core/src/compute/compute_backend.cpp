@@ -3,7 +3,11 @@
 #include "gvd/distance/closest_points.h"
 #include "gvd/octree/build_octree_data_parallel.h"
 
-namespace gvd {
+namespace gvd::compute {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
 
 namespace {
 
@@ -32,4 +36,4 @@ std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const SimplexB
   return std::make_unique<CpuClosestPointSolver>(bvh, threads);
 }
 
-}  // namespace gvd
+}  // namespace gvd::compute

@@ -3,7 +3,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 
-namespace gvd {
+namespace gvd::distance {
 
 // The layouts the device sees (sizes asserted on the host: a mismatch would
 // read garbage on the device, not fail).
@@ -75,4 +75,4 @@ void closest_points_scalar(const ClosestPointData& data, std::span<const Vec3> q
   run_items(data, queries, bound2, hits, 0, queries.size());
 }
 
-}  // namespace gvd
+}  // namespace gvd::distance

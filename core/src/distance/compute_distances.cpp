@@ -14,7 +14,10 @@
 #include "gvd/distance/distance_field.h"
 #include "gvd/octree/lattice.h"
 
-namespace gvd {
+namespace gvd::distance {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
 
 void DistanceField::keep_leaf_lists_of(std::span<const uint32_t> leaves) {
   if (leaf_begin.empty()) return;
@@ -742,9 +745,9 @@ DistanceField compute_distances(const Octree& octree, const UnitGeometry& geomet
                    &previous_octree);
 }
 
-}  // namespace gvd
+}  // namespace gvd::distance
 
-namespace gvd {
+namespace gvd::distance {
 
 void sort_vertices(DistanceField& field, int threads) {
   threads = resolve_threads(threads);
@@ -803,4 +806,4 @@ void sort_vertices(DistanceField& field, int threads) {
   });
 }
 
-}  // namespace gvd
+}  // namespace gvd::distance

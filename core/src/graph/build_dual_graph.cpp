@@ -6,7 +6,10 @@
 #include "gvd/common/parallel.h"
 #include "gvd/graph/dual_graph.h"
 
-namespace gvd {
+namespace gvd::graph {
+
+using namespace gvd::scene;
+using namespace gvd::surface;
 
 DualGraph build_dual_graph(const Gvd& gvd) {
   DualGraph graph;
@@ -138,4 +141,4 @@ void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
   }
 }
 
-}  // namespace gvd
+}  // namespace gvd::graph

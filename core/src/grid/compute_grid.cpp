@@ -25,7 +25,9 @@
 #include "gvd/geometry/primitives.h"
 #include "gvd/grid/grid_evaluator.h"
 
-namespace gvd {
+namespace gvd::grid {
+
+using namespace gvd::scene;
 
 GridMetric parse_grid_metric(const std::string& name) {
   if (name == "l2") return GridMetric::kL2;
@@ -622,4 +624,4 @@ DistanceGrid compute_grid(const Scene& scene, const GridOptions& options) {
   return out;
 }
 
-}  // namespace gvd
+}  // namespace gvd::grid

@@ -5,7 +5,10 @@
 
 #include "gvd/grid/compute_grid.h"
 
-namespace gvd {
+namespace gvd::grid {
+
+using namespace gvd::scene;
+using namespace gvd::graph;
 
 GridAdvice grid_advice(const Scene& scene, const DualGraph& graph) {
   GridAdvice advice;
@@ -47,4 +50,4 @@ GridAdvice grid_advice(const Scene& scene, const DualGraph& graph) {
   return advice;
 }
 
-}  // namespace gvd
+}  // namespace gvd::grid

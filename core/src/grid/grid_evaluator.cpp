@@ -9,7 +9,10 @@
 #include "gvd/common/parallel.h"
 #include "gvd/compute/compute_backend.h"
 
-namespace gvd {
+namespace gvd::grid {
+
+using namespace gvd::scene;
+using namespace gvd::compute;
 
 static_assert(sizeof(item::GvdGridSpec) == 64, "GvdGridSpec must match the device layout");
 static_assert(sizeof(item::GvdGridJob) == 40, "GvdGridJob must match the device layout");
@@ -181,11 +184,16 @@ std::unique_ptr<GridEvaluator> make_cpu_grid_evaluator(const GridGeometry& geome
   return std::make_unique<CpuGridEvaluator>(geometry, spec, threads);
 }
 
+}  // namespace gvd::grid
+
+namespace gvd::compute {
+
 // The default of ComputeBackend (no kernel: compute_grid runs the CPU twin). Defined here, with
 // the type it returns, so that the backend interface does not depend on the grid module.
-std::unique_ptr<GridEvaluator> ComputeBackend::grid_evaluator(const GridGeometry&, const GridSpec&,
-                                                              GridMetric) {
+std::unique_ptr<grid::GridEvaluator> ComputeBackend::grid_evaluator(const grid::GridGeometry&,
+                                                                    const grid::GridSpec&,
+                                                                    grid::GridMetric) {
   return nullptr;
 }
 
-}  // namespace gvd
+}  // namespace gvd::compute

@@ -17,7 +17,11 @@
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 
-namespace gvd {
+namespace gvd::grid {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::graph;
 
 namespace {
 
@@ -218,4 +222,4 @@ DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene,
   return graph;
 }
 
-}  // namespace gvd
+}  // namespace gvd::grid

@@ -17,7 +17,12 @@
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/grid/grid_evaluator.h"
 
-namespace gvd {
+namespace gvd::grid {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+using namespace gvd::result;
 
 GridSpec make_result_grid_spec(const GvdResult& result, const ResultGridOptions& options) {
   GridOptions o;
@@ -214,4 +219,4 @@ DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions
   return out;
 }
 
-}  // namespace gvd
+}  // namespace gvd::grid

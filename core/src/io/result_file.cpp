@@ -26,7 +26,15 @@
 #include "gvd/octree/lattice.h"
 #include "gvd/scene/load_scene.h"
 
-namespace gvd {
+namespace gvd::io {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+using namespace gvd::surface;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::grid;
 
 namespace {
 
@@ -902,4 +910,4 @@ std::string result_info_json(const GvdResult& r) {
   return doc.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
-}  // namespace gvd
+}  // namespace gvd::io

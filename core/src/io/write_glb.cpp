@@ -18,7 +18,11 @@
 #include "gvd/common/error.h"
 #include "gvd/io/write_outputs.h"
 
-namespace gvd {
+namespace gvd::io {
+
+using namespace gvd::scene;
+using namespace gvd::surface;
+
 namespace {
 
 /// The scene's length unit as asset.extras.units (glTF's own unit is the metre; ours is a
@@ -423,4 +427,4 @@ std::vector<uint8_t> GlbFile::bytes() && {
   return out;
 }
 
-}  // namespace gvd
+}  // namespace gvd::io

@@ -8,7 +8,10 @@
 #include "gvd/io/write_outputs.h"
 #include "gvd/scene/units.h"
 
-namespace gvd {
+namespace gvd::io {
+
+using namespace gvd::scene;
+using namespace gvd::grid;
 
 static_assert(std::endian::native == std::endian::little,
               "the grid files are written little endian from host memory");
@@ -190,4 +193,4 @@ std::vector<std::string> write_grid_labels(const DistanceGrid& grid, const std::
                       "gvd grid labels: index of the nearest object, -1 = none", grid.units);
 }
 
-}  // namespace gvd
+}  // namespace gvd::io

@@ -18,7 +18,12 @@
 #include "gvd/common/error.h"
 #include "gvd/io/write_outputs.h"
 
-namespace gvd {
+namespace gvd::io {
+
+using namespace gvd::scene;
+using namespace gvd::surface;
+using namespace gvd::graph;
+
 namespace {
 
 using nlohmann::json;
@@ -253,4 +258,4 @@ std::vector<uint8_t> read_file_bytes(const std::string& path) {
   return bytes;
 }
 
-}  // namespace gvd
+}  // namespace gvd::io

@@ -12,7 +12,10 @@
 #include "gvd/octree/octree.h"
 #include "gvd/octree/subdivision_rule.h"
 
-namespace gvd {
+namespace gvd::octree {
+
+using namespace gvd::scene;
+
 namespace {
 
 using lattice::Coord;
@@ -791,4 +794,4 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   return tree;
 }
 
-}  // namespace gvd
+}  // namespace gvd::octree

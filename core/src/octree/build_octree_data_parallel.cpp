@@ -11,7 +11,9 @@
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/subdivision_rule.h"
 
-namespace gvd {
+namespace gvd::octree {
+
+using namespace gvd::scene;
 
 static_assert(sizeof(item::GvdRadixNode) == 24);
 
@@ -475,4 +477,4 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
   return tree;
 }
 
-}  // namespace gvd
+}  // namespace gvd::octree

@@ -7,7 +7,9 @@
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
 
-namespace gvd {
+namespace gvd::octree {
+
+using namespace gvd::scene;
 
 ContactPairs::ContactPairs(const std::vector<std::pair<ObjectId, ObjectId>>& pairs)
     : pairs_(pairs), set_(pairs.size()) {
@@ -69,4 +71,4 @@ ContactPairs find_contact_pairs(const UnitGeometry& g, const SimplexBvh& bvh, do
   return ContactPairs(all);
 }
 
-}  // namespace gvd
+}  // namespace gvd::octree

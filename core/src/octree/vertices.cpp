@@ -6,7 +6,7 @@
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
 
-namespace gvd {
+namespace gvd::octree {
 
 namespace {
 constexpr uint32_t kVertexIndexMaxLoad = 75;  // percent
@@ -137,4 +137,4 @@ LeafGrid leaf_grid(const Octree& octree, const OctreeVertices& vertices, uint32_
   return g;
 }
 
-}  // namespace gvd
+}  // namespace gvd::octree

@@ -22,7 +22,17 @@
 #include "gvd/surface/compact_gvd.h"
 #include "gvd/surface/extract_gvd.h"
 
-namespace gvd {
+namespace gvd::pipeline {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+using namespace gvd::compute;
+using namespace gvd::surface;
+using namespace gvd::refine;
+using namespace gvd::graph;
+using namespace gvd::result;
+
 namespace {
 
 // A length for a message: 3 significant digits ("2.01e-05 units").
@@ -335,4 +345,4 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   return r;
 }
 
-}  // namespace gvd
+}  // namespace gvd::pipeline

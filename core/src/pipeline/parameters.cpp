@@ -11,7 +11,12 @@
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/units.h"
 
-namespace gvd {
+namespace gvd::pipeline {
+
+using namespace gvd::scene;
+using namespace gvd::distance;
+using namespace gvd::grid;
+
 namespace {
 
 constexpr std::string_view kFrames[] = {"auto", "world"};
@@ -900,4 +905,4 @@ PipelineOptions pipeline_options(const PipelineParams& params) {
   return o;
 }
 
-}  // namespace gvd
+}  // namespace gvd::pipeline

@@ -14,7 +14,13 @@
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
 
-namespace gvd {
+namespace gvd::query {
+
+using namespace gvd::scene;
+using namespace gvd::surface;
+using namespace gvd::graph;
+using namespace gvd::result;
+
 namespace {
 
 using nlohmann::json;
@@ -417,4 +423,4 @@ std::string contacts_to_json(const GvdIndex& index, double max_gap,
   return out.dump();
 }
 
-}  // namespace gvd
+}  // namespace gvd::query

@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <cmath>
 
-namespace gvd {
+namespace gvd::query {
+
+using namespace gvd::scene;
+using namespace gvd::graph;
 
 namespace {
 
@@ -170,4 +173,4 @@ void ExplodeMotion::commit(uint32_t object, Vec3 displacement) {
   if (object < move_.size()) move_[object] = to_unit_vector(displacement);
 }
 
-}  // namespace gvd
+}  // namespace gvd::query

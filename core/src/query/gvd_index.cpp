@@ -21,7 +21,15 @@
 #include "gvd/octree/vertices.h"
 #include "gvd/query/explode_motion.h"
 
-namespace gvd {
+namespace gvd::query {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+using namespace gvd::surface;
+using namespace gvd::graph;
+using namespace gvd::result;
+
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -918,4 +926,4 @@ std::vector<TightSpot> GvdIndex::tight(double below) const {
   return out;
 }
 
-}  // namespace gvd
+}  // namespace gvd::query

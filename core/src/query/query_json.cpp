@@ -6,7 +6,10 @@
 #include "gvd/common/json_depth.h"
 #include "gvd/query/gvd_index.h"
 
-namespace gvd {
+namespace gvd::query {
+
+using namespace gvd::scene;
+
 namespace {
 
 using nlohmann::json;
@@ -169,4 +172,4 @@ std::string tight_to_json(const GvdIndex& index, double below, std::span<const T
   return with_units({{"below", below}, {"pairs", std::move(pairs)}}, index);
 }
 
-}  // namespace gvd
+}  // namespace gvd::query

@@ -9,7 +9,12 @@
 #include "gvd/octree/subdivision_rule.h"
 #include "gvd/refine/find_cells_to_refine.h"
 
-namespace gvd {
+namespace gvd::refine {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+
 namespace {
 
 // Paper §5: collapse boundary-graph edges with equal labels; the cell is unambiguous when
@@ -33,10 +38,11 @@ bool is_ambiguous(const Octree& octree, const DistanceField& field, const LeafGr
   };
   Edge edges[96];
   int ne = 0;
-  detail::for_each_face_polygon(octree, grid, leaf, [&](const detail::FacePolygon& poly) {
-    for (int i = 0; i < poly.n && ne < 96; ++i)
-      edges[ne++] = {poly.slot[i], poly.slot[(i + 1) % poly.n]};
-  });
+  surface::detail::for_each_face_polygon(
+      octree, grid, leaf, [&](const surface::detail::FacePolygon& poly) {
+        for (int i = 0; i < poly.n && ne < 96; ++i)
+          edges[ne++] = {poly.slot[i], poly.slot[(i + 1) % poly.n]};
+      });
   for (int e = 0; e < ne; ++e) {
     if (field.label[grid[edges[e].a]] == field.label[grid[edges[e].b]]) {
       parent[find(edges[e].a)] = find(edges[e].b);
@@ -93,16 +99,16 @@ bool nearer_unclaimed(const UnitGeometry& geometry, const SimplexBvh& bvh, Vec3 
 
 double unseen_margin(int dimension, double size) { return (dimension == 2 ? 1e-9 : 0.05) * size; }
 
-// The bisector point of edge (v, w) that surfacing will use (detail::refine_bisector where
+// The bisector point of edge (v, w) that surfacing will use (surface::detail::refine_bisector where
 // Eq. (1) is coarse, as the surfacer does) and, in `claimed2`, the larger squared distance
 // from it to the edge's two objects, exact where it was refined.
 Vec3 edge_bisector(const DistanceField& field, const SimplexBvh& bvh, uint32_t v, uint32_t w,
                    double& claimed2) {
   if (v > w) std::swap(v, w);
   Vec3 a = field.closest[field.point[v]], b = field.closest[field.point[w]];
-  Vec3 p = detail::bisector_point(field, v, w);
-  if (detail::coarse_edge(field, v, w, p)) {
-    p = detail::refine_bisector(field, bvh, v, w, p, &a, &b);
+  Vec3 p = surface::detail::bisector_point(field, v, w);
+  if (surface::detail::coarse_edge(field, v, w, p)) {
+    p = surface::detail::refine_bisector(field, bvh, v, w, p, &a, &b);
     // The exact distances at the final point.
     const ClosestHit ha = bvh.nearest_in_object(p, field.label[v], dist2(p, a));
     const ClosestHit hb = bvh.nearest_in_object(p, field.label[w], dist2(p, b));
@@ -140,33 +146,34 @@ bool has_unseen_object(const Octree& octree, const DistanceField& field, const L
   bool found = false;
   Vec3 all;
   int count = 0;
-  detail::for_each_face_polygon(octree, grid, leaf, [&](const detail::FacePolygon& poly) {
-    if (found) return;
-    Vec3 sum;
-    int n = 0;
-    for (int i = 0; i < poly.n; ++i) {
-      const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
-      if (field.label[v] == field.label[w]) continue;
-      // Per-edge claims are checked in 2D only: there junctions are points and refining them
-      // converges, while along 3D junction lines a third object's wedge intrudes into a/b
-      // edges at every scale (the check would refine forever); the centroid checks below
-      // still catch regions that no vertex of the cell sees.
-      if (octree.dimension == 2) {
-        edges.push_back(v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v));
-      }
-      sum = sum + detail::bisector_point(field, v, w);
-      ++n;
-    }
-    // Face centroids in 2D (the cell is the face); in 3D one check at the cell centroid
-    // below is enough to see a region hidden inside, at a sixth of the cost.
-    if (n > 0) {
-      if (octree.dimension == 2) {
-        found = nearer_unclaimed(geometry, bvh, sum / n, bound_at(sum / n), labels, nl, margin);
-      }
-      all = all + sum;
-      count += n;
-    }
-  });
+  surface::detail::for_each_face_polygon(
+      octree, grid, leaf, [&](const surface::detail::FacePolygon& poly) {
+        if (found) return;
+        Vec3 sum;
+        int n = 0;
+        for (int i = 0; i < poly.n; ++i) {
+          const uint32_t v = poly.v[i], w = poly.v[(i + 1) % poly.n];
+          if (field.label[v] == field.label[w]) continue;
+          // Per-edge claims are checked in 2D only: there junctions are points and refining them
+          // converges, while along 3D junction lines a third object's wedge intrudes into a/b
+          // edges at every scale (the check would refine forever); the centroid checks below
+          // still catch regions that no vertex of the cell sees.
+          if (octree.dimension == 2) {
+            edges.push_back(v < w ? (uint64_t{v} << 32 | w) : (uint64_t{w} << 32 | v));
+          }
+          sum = sum + surface::detail::bisector_point(field, v, w);
+          ++n;
+        }
+        // Face centroids in 2D (the cell is the face); in 3D one check at the cell centroid
+        // below is enough to see a region hidden inside, at a sixth of the cost.
+        if (n > 0) {
+          if (octree.dimension == 2) {
+            found = nearer_unclaimed(geometry, bvh, sum / n, bound_at(sum / n), labels, nl, margin);
+          }
+          all = all + sum;
+          count += n;
+        }
+      });
   if (!found && octree.dimension == 3 && count > 0) {
     found = nearer_unclaimed(geometry, bvh, all / count, bound_at(all / count), labels, nl, margin);
   }
@@ -444,4 +451,4 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
   return out;
 }
 
-}  // namespace gvd
+}  // namespace gvd::refine

@@ -10,7 +10,11 @@
 #include "gvd/common/cancel.h"
 #include "gvd/geometry/primitives.h"
 
-namespace gvd {
+namespace gvd::refine {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+
 namespace {
 
 // A plane (2D: a line) n . x = offset with a unit normal.
@@ -975,4 +979,4 @@ int PairCertifier::line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int 
   return n < 0 ? 3 : n;
 }
 
-}  // namespace gvd
+}  // namespace gvd::refine

@@ -9,7 +9,12 @@
 #include "gvd/common/peak_memory.h"
 #include "gvd/refine/find_cells_to_refine.h"
 
-namespace gvd {
+namespace gvd::refine {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+
 namespace {
 
 // Per leaf of `after` (a refinement of `before`: every leaf lies in one leaf of `before`),
@@ -121,4 +126,4 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
   return out;
 }
 
-}  // namespace gvd
+}  // namespace gvd::refine

@@ -16,7 +16,7 @@
 #include "gvd/common/json_input.h"
 #include "gvd/scene/load_scene.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 // Entry point used by load_scene.cpp (declared there too).
 Scene parse_gltf(std::span<const uint8_t> bytes, bool binary, const std::string& name,
@@ -648,4 +648,4 @@ Scene parse_gltf(std::span<const uint8_t> bytes, bool binary, const std::string&
   return scene;
 }
 
-}  // namespace gvd
+}  // namespace gvd::scene

@@ -13,7 +13,8 @@
 #include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 
-namespace gvd {
+namespace gvd::scene {
+
 namespace {
 
 /// Not a .npy file gvd reads (no magic, an unknown version): the format is wrong.
@@ -577,4 +578,4 @@ Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOption
   return scene;
 }
 
-}  // namespace gvd
+}  // namespace gvd::scene

@@ -15,7 +15,7 @@
 
 #include "gvd/common/error.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 // The readers, one definition each in scene_json.cpp, mesh_formats.cpp and gltf_scene.cpp.
 // They return unvalidated scenes (except scene_from_json_value, which validates).
@@ -262,4 +262,4 @@ Scene parse_scene_parts(std::span<const ScenePart> parts, const SceneLimits& lim
   return scene;
 }
 
-}  // namespace gvd
+}  // namespace gvd::scene

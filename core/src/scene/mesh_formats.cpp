@@ -16,7 +16,7 @@
 #include "gvd/common/error.h"
 #include "gvd/scene/load_scene.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 // Entry points used by load_scene.cpp (declared there; one definition each, here).
 Scene parse_obj(std::string_view text, const std::string& name, bool single_object,
@@ -732,4 +732,4 @@ Scene parse_off(std::string_view text, const std::string& name, const SceneLimit
   return one_object_scene(name, std::move(vertices), std::move(simplices));
 }
 
-}  // namespace gvd
+}  // namespace gvd::scene

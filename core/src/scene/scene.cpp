@@ -11,7 +11,7 @@
 #include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 namespace {
 
@@ -638,4 +638,4 @@ UnitGeometry make_unit_geometry(const Scene& scene, const Domain& domain) {
   return g;
 }
 
-}  // namespace gvd
+}  // namespace gvd::scene

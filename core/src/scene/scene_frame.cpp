@@ -22,7 +22,7 @@
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 namespace {
 
@@ -588,4 +588,4 @@ SceneFrame analyse_scene_frame(const Scene& scene, bool turn, int threads,
 
 std::array<Vec3, 3> scene_frame(const Scene& scene) { return analyse_scene_frame(scene).axes; }
 
-}  // namespace gvd
+}  // namespace gvd::scene

@@ -13,7 +13,7 @@
 #include "gvd/scene/load_scene.h"
 #include "gvd/scene/units.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 namespace {
 
@@ -494,4 +494,4 @@ std::vector<SceneWarning> warnings_from_json(std::string_view text) {
   return out;
 }
 
-}  // namespace gvd
+}  // namespace gvd::scene

@@ -4,7 +4,7 @@
 #include <array>
 #include <utility>
 
-namespace gvd {
+namespace gvd::scene {
 
 std::optional<std::string> canonical_units(std::string_view text) {
   // {spelling, canonical name}: every canonical name spells itself.
@@ -51,4 +51,4 @@ std::string ascii_units(std::string_view units) {
   return std::string(units);
 }
 
-}  // namespace gvd
+}  // namespace gvd::scene

@@ -13,7 +13,7 @@
 #include "gvd/octree/octree.h"
 #include "gvd/octree/vertices.h"
 
-namespace gvd::detail {
+namespace gvd::surface::detail {
 
 /// A boundary polygon of a leaf: its vertices in a canonical cyclic order that depends only on
 /// the face's position in the lattice (so both cells of a face see the same order). In 3D the
@@ -50,7 +50,7 @@ inline Vec3 bisector_on_edge(Vec3 x0, Vec3 x1, Vec3 a, Vec3 b, double inside = 1
 }
 
 /// bisector_on_edge for octree edge (v0, v1) with the closest points of its ends.
-inline Vec3 bisector_point(const DistanceField& field, uint32_t v0, uint32_t v1) {
+inline Vec3 bisector_point(const distance::DistanceField& field, uint32_t v0, uint32_t v1) {
   if (v0 > v1) std::swap(v0, v1);
   return bisector_on_edge(field.vertices.position(v0), field.vertices.position(v1),
                           field.closest[field.point[v0]], field.closest[field.point[v1]]);
@@ -58,7 +58,7 @@ inline Vec3 bisector_point(const DistanceField& field, uint32_t v0, uint32_t v1)
 
 /// Whether Eq. (1) needs refining on edge (v0, v1) with first estimate p: the edge is longer
 /// than a twentieth of the distance from p to the ends' closest points.
-inline bool coarse_edge(const DistanceField& field, uint32_t v0, uint32_t v1, Vec3 p) {
+inline bool coarse_edge(const distance::DistanceField& field, uint32_t v0, uint32_t v1, Vec3 p) {
   constexpr double kCoarse = 0.05;
   const double h2 = dist2(field.vertices.position(v0), field.vertices.position(v1));
   const double d2 =
@@ -105,11 +105,12 @@ double bracketed_root(double t_lo, double f_lo, double t_hi, double f_hi, int st
 /// ends as a millionth of that distance: the exact bisector there is known to rounding, and
 /// a hair of the edge would be a good part of the gap. The surfacer's edge points, and the
 /// ones the unseen-region test checks. With `a`, `b`: the objects' last closest points.
-inline Vec3 refine_bisector(const DistanceField& field, const SimplexBvh& bvh, uint32_t v0,
-                            uint32_t v1, Vec3 p, Vec3* a_out = nullptr, Vec3* b_out = nullptr) {
+inline Vec3 refine_bisector(const distance::DistanceField& field, const SimplexBvh& bvh,
+                            uint32_t v0, uint32_t v1, Vec3 p, Vec3* a_out = nullptr,
+                            Vec3* b_out = nullptr) {
   const Vec3 x0 = field.vertices.position(v0), x1 = field.vertices.position(v1);
   Vec3 a = field.closest[field.point[v0]], b = field.closest[field.point[v1]];
-  const ObjectId la = field.label[v0], lb = field.label[v1];
+  const scene::ObjectId la = field.label[v0], lb = field.label[v1];
   const double h2 = dist2(x0, x1);
   bool long_edge = false;
   double inside = 1e-6;
@@ -176,22 +177,23 @@ inline constexpr int kRing[8][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1}, {2, 2}, {1, 
 /// Calls f(const FacePolygon&) for the polygons bounding `leaf`: in 2D the cell itself (4 to 8
 /// vertices); in 3D each face, or its four quarter faces when the neighbour across is finer.
 template <class F>
-void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t leaf, F&& f) {
+void for_each_face_polygon(const octree::Octree& octree, const octree::LeafGrid& grid,
+                           uint32_t leaf, F&& f) {
   const int dim = octree.dimension;
   if (dim == 2) {
     FacePolygon poly;
     for (const auto& r : kRing) {
       const int s = grid_index(r[0], r[1], 0);
-      if (grid[s] == kNoVertex) continue;
+      if (grid[s] == octree::kNoVertex) continue;
       poly.slot[poly.n] = static_cast<uint8_t>(s);
       poly.v[poly.n++] = grid[s];
     }
     f(poly);
     return;
   }
-  const lattice::Coord c = octree.corner(leaf);
-  const uint64_t size = lattice::cell_size(dim, octree.level[leaf]);
-  const uint64_t limit = lattice::side_units(dim);
+  const octree::lattice::Coord c = octree.corner(leaf);
+  const uint64_t size = octree::lattice::cell_size(dim, octree.level[leaf]);
+  const uint64_t limit = octree::lattice::side_units(dim);
   for (int axis = 0; axis < 3; ++axis) {
     const int au = (axis + 1) % 3, av = (axis + 2) % 3;
     for (int side = 0; side <= 2; side += 2) {
@@ -204,7 +206,7 @@ void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t 
       };
       auto at = [&](int iu, int iv) { return grid[slot_at(iu, iv)]; };
       const bool on_domain = side == 0 ? c.c[axis] == 0 : c.c[axis] + size == limit;
-      if (at(1, 1) != kNoVertex) {
+      if (at(1, 1) != octree::kNoVertex) {
         for (int qv = 0; qv <= 1; ++qv) {
           for (int qu = 0; qu <= 1; ++qu) {
             FacePolygon poly;
@@ -227,7 +229,7 @@ void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t 
         poly.on_domain = on_domain;
         for (const auto& r : kRing) {
           const int s = slot_at(r[0], r[1]);
-          if (grid[s] == kNoVertex) continue;
+          if (grid[s] == octree::kNoVertex) continue;
           poly.slot[poly.n] = static_cast<uint8_t>(s);
           poly.v[poly.n++] = grid[s];
         }
@@ -237,4 +239,4 @@ void for_each_face_polygon(const Octree& octree, const LeafGrid& grid, uint32_t 
   }
 }
 
-}  // namespace gvd::detail
+}  // namespace gvd::surface::detail

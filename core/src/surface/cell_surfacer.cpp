@@ -13,11 +13,16 @@
 #include "gvd/surface/extract_gvd.h"
 #include "leaf_pieces.h"
 
-namespace gvd {
+namespace gvd::surface {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+
 namespace {
 
-using surface_detail::Piece;
-using surface_detail::SurfaceChunk;
+using detail::Piece;
+using detail::SurfaceChunk;
 
 // Where a cell's pieces go.
 struct Sink {
@@ -1643,4 +1648,4 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
                   options);
 }
 
-}  // namespace gvd
+}  // namespace gvd::surface

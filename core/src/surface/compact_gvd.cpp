@@ -9,7 +9,10 @@
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
 
-namespace gvd {
+namespace gvd::surface {
+
+using namespace gvd::scene;
+
 namespace {
 
 constexpr double kFlat = 1e-12;  // relative to the local size: what counts as one plane
@@ -317,4 +320,4 @@ CompactStats compact_gvd(Gvd& gvd, const CompactOptions& options) {
   return stats;
 }
 
-}  // namespace gvd
+}  // namespace gvd::surface

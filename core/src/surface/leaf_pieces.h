@@ -9,13 +9,13 @@
 
 #include "gvd/surface/extract_gvd.h"
 
-namespace gvd::surface_detail {
+namespace gvd::surface::detail {
 
 // One oriented simplex of one object's cell boundary (2D uses p[0], p[1]).
 struct Piece {
   Vec3 p[3];
-  ObjectId object;
-  ObjectId other;
+  scene::ObjectId object;
+  scene::ObjectId other;
 };
 
 // A hash of a point's exact coordinates (-0 and +0 alike): equal points, equal hashes.
@@ -39,13 +39,13 @@ inline uint64_t position_hash(Vec3 p) {
 struct SurfaceChunk {
   // 32 bytes: these records are what memory peaks on at the end of surfacing and in the weld.
   struct Corner {
-    Vec3 p;           // the weld writes the record's vertices over it once p is used
-    ObjectId lo, hi;  // the pair, lo < hi (hi = kNoObject on the domain box)
+    Vec3 p;                  // the weld writes the record's vertices over it once p is used
+    scene::ObjectId lo, hi;  // the pair, lo < hi (hi = kNoObject on the domain box)
   };
   static_assert(sizeof(Corner) == 32);
   struct Simplex {
     uint32_t v[3];
-    ObjectId object;
+    scene::ObjectId object;
   };
   std::vector<Corner> corners;
   std::vector<uint8_t> sides;  // per corner
@@ -73,8 +73,8 @@ struct SurfaceChunk {
     table.assign(mask + 1, kEmpty);
     for (const Piece& piece : pieces) {
       Simplex t{{0, 0, 0}, piece.object};
-      const ObjectId lo = std::min(piece.object, piece.other);
-      const ObjectId hi = std::max(piece.object, piece.other);
+      const scene::ObjectId lo = std::min(piece.object, piece.other);
+      const scene::ObjectId hi = std::max(piece.object, piece.other);
       const uint8_t side = piece.object == lo ? 1 : 2;
       for (int k = 0; k < arity; ++k) {
         const Vec3& p = piece.p[k];
@@ -122,18 +122,18 @@ inline void set_vertices(SurfaceChunk::Corner& c, uint32_t lo_vertex, uint32_t h
   static_assert(sizeof v == sizeof c.p.x);
   std::memcpy(&c.p.x, v, sizeof v);
 }
-inline uint32_t vertex_of(const SurfaceChunk::Corner& c, ObjectId object) {
+inline uint32_t vertex_of(const SurfaceChunk::Corner& c, scene::ObjectId object) {
   uint32_t v[2];
   std::memcpy(v, &c.p.x, sizeof v);
   return v[object == c.lo ? 0 : 1];
 }
 
-}  // namespace gvd::surface_detail
+}  // namespace gvd::surface::detail
 
-namespace gvd {
+namespace gvd::surface {
 
 struct LeafPieces::Impl {
-  std::vector<surface_detail::SurfaceChunk> chunks;
+  std::vector<detail::SurfaceChunk> chunks;
 };
 
-}  // namespace gvd
+}  // namespace gvd::surface

@@ -11,11 +11,14 @@
 #include "gvd/surface/extract_gvd.h"
 #include "leaf_pieces.h"
 
-namespace gvd {
+namespace gvd::surface {
+
+using namespace gvd::scene;
+
 namespace {
 
-using surface_detail::position_hash;
-using surface_detail::SurfaceChunk;
+using detail::position_hash;
+using detail::SurfaceChunk;
 
 // Turns counts per [part][object] into each part's first index per object (the sum of the
 // parts before it) and returns the totals per object.
@@ -231,7 +234,7 @@ Gvd weld_gvd(LeafPieces&& pieces, const UnitGeometry& geometry, const SimplexBvh
                   cell.clearance[at[side]] = run_clearance[r];
                 }
               }
-              surface_detail::set_vertices(c, at[0], at[1]);
+              detail::set_vertices(c, at[0], at[1]);
             }
           }
         }
@@ -252,7 +255,7 @@ Gvd weld_gvd(LeafPieces&& pieces, const UnitGeometry& geometry, const SimplexBvh
           SurfaceChunk& chunk = chunks[c];
           auto welded = [&](SurfaceChunk::Simplex t) {
             for (int k = 0; k < arity; ++k)
-              t.v[k] = surface_detail::vertex_of(chunk.corners[t.v[k]], t.object);
+              t.v[k] = detail::vertex_of(chunk.corners[t.v[k]], t.object);
             return t;
           };
           std::vector<SurfaceChunk::Simplex> both;
@@ -302,4 +305,4 @@ Gvd weld_gvd(LeafPieces&& pieces, const UnitGeometry& geometry, const SimplexBvh
   return gvd;
 }
 
-}  // namespace gvd
+}  // namespace gvd::surface

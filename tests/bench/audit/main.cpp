@@ -38,13 +38,17 @@
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"
 
+using namespace gvd::scene;
+using namespace gvd::surface;
+using namespace gvd::result;
+
 namespace {
 
-using gvd::GvdCell;
-using gvd::GvdResult;
-using gvd::ObjectId;
-using gvd::Scene;
 using gvd::Vec3;
+using gvd::result::GvdResult;
+using gvd::scene::ObjectId;
+using gvd::scene::Scene;
+using gvd::surface::GvdCell;
 
 struct Audit {
   size_t open_edges = 0;
@@ -75,7 +79,7 @@ Audit audit(const GvdResult& r, size_t budget) {
   size_t index = 0;
   for (const GvdCell& cell : r.gvd.cells) {
     for (size_t v = 0; v < cell.positions.size(); ++v, ++index) {
-      if (index % stride != 0 || cell.other[v] == gvd::kNoObject) continue;
+      if (index % stride != 0 || cell.other[v] == gvd::scene::kNoObject) continue;
       const Vec3 p = cell.positions[v];
       const double da = gvd::test::brute_distance(r.scene, cell.object, p);
       const double db = gvd::test::brute_distance(r.scene, cell.other[v], p);
@@ -122,7 +126,7 @@ void explain_crossings(const GvdResult& r) {
     for (size_t s = 0; s + 3 <= cell.indices.size(); s += 3) {
       const Vec3 g[3] = {cell.positions[cell.indices[s]], cell.positions[cell.indices[s + 1]],
                          cell.positions[cell.indices[s + 2]]};
-      for (const gvd::SceneObject& o : scene.objects) {
+      for (const gvd::scene::SceneObject& o : scene.objects) {
         for (size_t t = 0; t < o.simplices.size(); ++t) {
           const Vec3 a = o.vertices[o.simplices[t].v[0]], b = o.vertices[o.simplices[t].v[1]],
                      c = o.vertices[o.simplices[t].v[2]];
@@ -153,9 +157,10 @@ void explain_crossings(const GvdResult& r) {
                 "  vertex (%.17g %.17g %.17g) other %s d(cell) %.3e d(other) %.3e d(crossed) "
                 "%.3e\n",
                 g[k].x, g[k].y, g[k].z,
-                other == gvd::kNoObject ? "-" : scene.objects[other].label.c_str(),
+                other == gvd::scene::kNoObject ? "-" : scene.objects[other].label.c_str(),
                 gvd::test::brute_distance(scene, cell.object, g[k]),
-                other == gvd::kNoObject ? -1.0 : gvd::test::brute_distance(scene, other, g[k]),
+                other == gvd::scene::kNoObject ? -1.0
+                                               : gvd::test::brute_distance(scene, other, g[k]),
                 gvd::test::brute_distance(scene, crossed, g[k]));
           }
           // The leaves that hold the triangle's vertices (unit domain), with their marks.
@@ -185,14 +190,14 @@ void explain_crossings(const GvdResult& r) {
 /// Every vertex of the scene moved by `f`.
 template <class F>
 Scene moved(Scene s, F f) {
-  for (gvd::SceneObject& o : s.objects)
+  for (gvd::scene::SceneObject& o : s.objects)
     for (Vec3& v : o.vertices) v = f(v);
   return s;
 }
 
 /// The objects of `b` added to `a`, labels suffixed.
 Scene joined(Scene a, const Scene& b, const std::string& suffix) {
-  for (gvd::SceneObject o : b.objects) {
+  for (gvd::scene::SceneObject o : b.objects) {
     o.label += suffix;
     a.objects.push_back(std::move(o));
   }
@@ -246,7 +251,7 @@ int write_scenes(const std::vector<std::pair<std::string, Scene>>& out, const st
   for (const auto& [name, scene] : out) {
     const std::string path = dir + "/" + name + ".json";
     std::ofstream f(path);
-    f << gvd::scene_to_json(scene);
+    f << gvd::scene::scene_to_json(scene);
     if (!f) {
       std::fprintf(stderr, "gvd_audit: cannot write %s\n", path.c_str());
       return 1;
@@ -261,14 +266,15 @@ int write_scenes(const std::vector<std::pair<std::string, Scene>>& out, const st
 // and two Stanford dragons (the repository's second resolution) 1e-4 apart.
 int write_real(const std::string& corpus, const std::string& dir) {
   std::vector<std::pair<std::string, Scene>> out;
-  const gvd::SceneObject bunny = gvd::test::load_corpus_object(corpus, "bunny.obj", "bunny");
+  const gvd::scene::SceneObject bunny = gvd::test::load_corpus_object(corpus, "bunny.obj", "bunny");
   out.emplace_back("two_bunnies_3e-5", gvd::test::mirrored_pair(bunny, "bunny_mirrored", 3e-5));
-  const gvd::SceneObject teapot = gvd::test::load_corpus_object(corpus, "teapot.obj", "teapot");
+  const gvd::scene::SceneObject teapot =
+      gvd::test::load_corpus_object(corpus, "teapot.obj", "teapot");
   for (const auto& [tag, gap] : {std::pair{"1e-2", 1e-2}, {"1e-3", 1e-3}, {"1e-4", 1e-4}}) {
     out.emplace_back(std::string("teapot_in_box_") + tag,
                      gvd::test::boxed(teapot, "box", gap, 0.25));
   }
-  const gvd::SceneObject dragon =
+  const gvd::scene::SceneObject dragon =
       gvd::test::load_corpus_object(corpus, "dragon_res2.ply", "dragon");
   out.emplace_back("two_dragons_1e-4", gvd::test::mirrored_pair(dragon, "dragon_mirrored", 1e-4));
   return write_scenes(out, dir);
@@ -301,17 +307,17 @@ int main(int argc, char** argv) {
   int failed = 0;
   for (const std::string& file : files) {
     try {
-      gvd::PipelineOptions o;
+      gvd::pipeline::PipelineOptions o;
       o.threads = 2;
-      o.refine = gvd::parse_choice<gvd::RefineRule>(refine);
-      if (full) o.resolution = gvd::GvdResolution::kFull;
+      o.refine = gvd::pipeline::parse_choice<gvd::pipeline::RefineRule>(refine);
+      if (full) o.resolution = gvd::pipeline::GvdResolution::kFull;
       // Resets the peak (VmHWM) to what is resident now, after handing what the last scene
       // left in malloc's free lists back to the system (else a failed big scene's memory
       // stays resident and counts in every later row's peak).
       malloc_trim(0);
       std::ofstream("/proc/self/clear_refs") << "5";
       const auto t0 = std::chrono::steady_clock::now();
-      GvdResult r = gvd::compute_gvd(gvd::load_scene(std::span(&file, 1)), o);
+      GvdResult r = gvd::pipeline::compute_gvd(gvd::scene::load_scene(std::span(&file, 1)), o);
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const Audit a = audit(r, budget);

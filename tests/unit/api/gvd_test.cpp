@@ -14,6 +14,13 @@
 #include "gvd/scene/scene.h"
 
 namespace gvd::api {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::grid;
+using namespace gvd::pipeline;
+
 namespace {
 
 // Two closed unit squares side by side, `gap` apart (2D): their GVD is the line x = 1 + gap/2.

@@ -8,6 +8,11 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+
 namespace {
 
 struct Setup {

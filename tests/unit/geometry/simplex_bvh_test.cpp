@@ -14,6 +14,9 @@
 #include "support/thin_gap_scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+
 namespace {
 
 // Three finely tessellated spheres apart from each other: each gets a subtree of the shared

@@ -19,6 +19,10 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::grid;
+
 namespace {
 
 using test::make_box;

@@ -12,6 +12,13 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::grid;
+using namespace gvd::pipeline;
+
 namespace {
 
 using test::make_box;

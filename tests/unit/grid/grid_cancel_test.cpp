@@ -23,6 +23,12 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::grid;
+using namespace gvd::pipeline;
+
 namespace {
 
 // The latency asked of a release build; sanitizer builds run 10-20 times slower (see

@@ -19,6 +19,13 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::grid;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 using test::make_box;

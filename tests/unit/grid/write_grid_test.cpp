@@ -18,6 +18,11 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::grid;
+using namespace gvd::io;
+
 namespace {
 
 std::string out_path(const std::string& name) {

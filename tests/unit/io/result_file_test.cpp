@@ -17,6 +17,17 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+using namespace gvd::surface;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 using nlohmann::json;

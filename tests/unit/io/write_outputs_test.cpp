@@ -20,6 +20,12 @@
 #include "support/gltf_validate.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::surface;
+using namespace gvd::graph;
+using namespace gvd::io;
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -384,7 +390,7 @@ TEST(WriteGlbTest, FileInTwoPartsIsTheGlb) {
   for (int dimension : {2, 3}) {
     const Gvd gvd = dimension == 3 ? make_gvd_3d() : make_gvd_2d();
     const Scene scene = make_scene(dimension);
-    const gvd::GlbFile parts = gvd_glb_file(gvd, scene);
+    const gvd::io::GlbFile parts = gvd_glb_file(gvd, scene);
     std::vector<uint8_t> joined = parts.head;
     joined.insert(joined.end(), parts.bin.begin(), parts.bin.end());
     EXPECT_EQ(joined, gvd_to_glb(gvd, scene));

@@ -16,6 +16,10 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+
 namespace {
 
 struct Case {

@@ -6,6 +6,10 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+
 namespace {
 
 TEST(Contacts, SegmentDistancesAreAnalytic) {

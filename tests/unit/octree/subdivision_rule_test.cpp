@@ -10,6 +10,10 @@
 #include <vector>
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+
 namespace {
 
 CellObjects set_of(const std::vector<ObjectId>& objects) {

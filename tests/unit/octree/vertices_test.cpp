@@ -9,6 +9,10 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+
 namespace {
 
 // The octree of a sphere beside a box (3D) or two squares (2D), max depth 6.

@@ -27,6 +27,16 @@
 #include "support/thin_gap_scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::surface;
+using namespace gvd::refine;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 Scene coincident_spheres(int count) {

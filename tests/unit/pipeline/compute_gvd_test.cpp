@@ -15,6 +15,14 @@
 #include "support/thin_gap_scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::distance;
+using namespace gvd::surface;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::pipeline;
+
 namespace {
 
 using test::brute_nearest;

@@ -23,6 +23,13 @@
 #include "gvd/scene/units.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::distance;
+using namespace gvd::grid;
+using namespace gvd::pipeline;
+
 namespace {
 
 std::string error_of(const std::function<void()>& f) {

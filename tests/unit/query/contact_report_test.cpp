@@ -18,6 +18,12 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::pipeline;
+
 namespace {
 
 std::shared_ptr<const GvdResult> run(Scene scene) {

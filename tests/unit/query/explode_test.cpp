@@ -17,6 +17,12 @@
 #include "support/thin_gap_scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::pipeline;
+
 namespace {
 
 GvdIndex index_of(Scene scene) {

@@ -19,6 +19,13 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::result;
+using namespace gvd::query;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 std::shared_ptr<const GvdResult> run(Scene scene) {

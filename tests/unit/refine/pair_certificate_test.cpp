@@ -15,6 +15,11 @@
 #include "support/thin_gap_scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::octree;
+using namespace gvd::refine;
+
 namespace {
 
 struct World {

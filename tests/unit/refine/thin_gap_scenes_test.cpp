@@ -6,6 +6,9 @@
 #include <gtest/gtest.h>
 
 namespace gvd {
+
+using namespace gvd::scene;
+
 namespace {
 
 TEST(ThinGapScenes, EveryGeneratorBuildsItsSceneAtWideAndThinGaps) {

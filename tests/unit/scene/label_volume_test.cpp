@@ -18,6 +18,13 @@
 #include "gvd/pipeline/pipeline.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 /// A hand-made .npy (format 1.0) of `descr` with the given header shape text and raw data.

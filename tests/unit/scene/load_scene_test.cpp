@@ -14,6 +14,9 @@
 #include "gvd/common/error.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+
 namespace {
 
 const std::string kData = GVD_TEST_DATA_DIR;

@@ -16,6 +16,9 @@
 #include "gvd/scene/units.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+
 namespace {
 
 template <class F>

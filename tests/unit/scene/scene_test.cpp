@@ -17,6 +17,9 @@
 #include "support/thin_gap_scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+
 namespace {
 
 /// Runs f and checks that it throws gvd::Error with `code` and a detail containing `part`.

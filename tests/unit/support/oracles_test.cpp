@@ -119,18 +119,18 @@ TEST(Oracles, AShaftEdgeInTheBisectorsPlaneDoesNotCrossIt) {
 // right way (its probes stay in the gap however large the step asked for), and the same GVD
 // with every triangle turned around is counted as facing the wrong way throughout.
 TEST(Oracles, OrientationIsMeasuredInsideTheGapAndCatchesATurnedGvd) {
-  const gvd::Scene scene =
+  const gvd::scene::Scene scene =
       gvd::test::make_scene(3, {gvd::test::make_box("a", {0, 0, 0}, {1, 1, 1}),
                                 gvd::test::make_box("b", {1 + 1e-4, 0.2, 0.1}, {2, 0.9, 1.3})});
-  gvd::PipelineOptions o;
+  gvd::pipeline::PipelineOptions o;
   o.threads = 2;
-  gvd::GvdResult r = gvd::compute_gvd(scene, o);
+  gvd::result::GvdResult r = gvd::pipeline::compute_gvd(scene, o);
   const auto step = [](Vec3) { return 0.3; };  // far wider than the gap
   const gvd::test::Orientation right =
       gvd::test::measure_orientation(r.scene, r.gvd, step, 1000000);
   ASSERT_GT(right.tested, 0);
   EXPECT_LE(right.flipped, 1e-3 * right.tested);
-  for (gvd::GvdCell& cell : r.gvd.cells) {
+  for (gvd::surface::GvdCell& cell : r.gvd.cells) {
     for (size_t t = 0; t + 2 < cell.indices.size(); t += 3) {
       std::swap(cell.indices[t + 1], cell.indices[t + 2]);
     }
@@ -145,7 +145,7 @@ TEST(Oracles, OrientationIsMeasuredInsideTheGapAndCatchesATurnedGvd) {
 // (the corners' distance), and crossing (0).
 TEST(Oracles, MeshDistanceOfBoxes) {
   using gvd::test::make_box;
-  const gvd::SceneObject a = make_box("a", {0, 0, 0}, {1, 1, 1});
+  const gvd::scene::SceneObject a = make_box("a", {0, 0, 0}, {1, 1, 1});
   EXPECT_NEAR(gvd::test::brute_mesh_distance(a, make_box("b", {1.3, 0.2, 0.2}, {2, 0.8, 0.8})), 0.3,
               1e-12);
   EXPECT_NEAR(gvd::test::brute_mesh_distance(a, make_box("c", {1.3, 1.4, 1.0}, {2, 2, 2})), 0.5,

@@ -19,6 +19,12 @@
 #include "support/thin_gap_scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::surface;
+using namespace gvd::result;
+using namespace gvd::pipeline;
+
 namespace {
 
 GvdResult run(const Scene& scene, const std::string& resolution) {

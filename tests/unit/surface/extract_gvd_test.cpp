@@ -18,6 +18,14 @@
 #include "support/scenes.h"
 
 namespace gvd {
+
+using namespace gvd::scene;
+using namespace gvd::surface;
+using namespace gvd::graph;
+using namespace gvd::result;
+using namespace gvd::io;
+using namespace gvd::pipeline;
+
 namespace {
 
 using Pairs = std::set<std::pair<ObjectId, ObjectId>>;

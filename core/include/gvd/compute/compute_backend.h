@@ -3,18 +3,29 @@
 #include <memory>
 #include <string>
 
+// Declared in gvd/distance/closest_points.h, gvd/octree/build_octree_data_parallel.h and
+// gvd/grid/grid_evaluator.h; forward declarations keep the device-shared headers out of
+// everything that includes pipeline.h.
 namespace gvd {
-
-// Declared in gvd/distance/closest_points.h and gvd/octree/build_octree_data_parallel.h; forward
-// declarations keep the device-shared headers out of everything that includes pipeline.h.
-class ClosestPointSolver;
-class GridEvaluator;
-class OctreeBuildSteps;
 class SimplexBvh;
+}
+namespace gvd::scene {
+struct UnitGeometry;
+}
+namespace gvd::distance {
+class ClosestPointSolver;
+}
+namespace gvd::octree {
+class OctreeBuildSteps;
+}
+namespace gvd::grid {
+class GridEvaluator;
 struct GridGeometry;
 struct GridSpec;
 enum class GridMetric;
-struct UnitGeometry;
+}  // namespace gvd::grid
+
+namespace gvd::compute {
 
 /// The data-parallel parts of the pipeline behind one interface, so that core stays free of
 /// OpenCL: `kernels/` implements it on OpenCL (PoCL on this machine), the CLI and the server
@@ -26,22 +37,24 @@ class ComputeBackend {
   virtual std::string name() const = 0;
   /// A closest-point solver bound to one scene (uploads it once). `geometry` and `bvh` must
   /// outlive the solver. Throws gvd::Error when the device fails.
-  virtual std::unique_ptr<ClosestPointSolver> closest_points(const UnitGeometry& geometry,
-                                                             const SimplexBvh& bvh) = 0;
+  virtual std::unique_ptr<distance::ClosestPointSolver> closest_points(
+      const scene::UnitGeometry& geometry, const SimplexBvh& bvh) = 0;
   /// The steps of the data-parallel octree build (build_octree_data_parallel.h) bound to one scene;
   /// null when the backend has none (the CPU twins then run).
-  virtual std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry);
+  virtual std::unique_ptr<octree::OctreeBuildSteps> octree_build_steps(
+      const scene::UnitGeometry& geometry);
   /// The per-range evaluation of the uniform-grid GVD (gvd/grid/grid_evaluator.h) bound to
   /// one grid and its sites; null when the backend has none (the CPU twin then runs).
   /// `geometry` must outlive the evaluator.
-  virtual std::unique_ptr<GridEvaluator> grid_evaluator(const GridGeometry& geometry,
-                                                        const GridSpec& spec, GridMetric metric);
+  virtual std::unique_ptr<grid::GridEvaluator> grid_evaluator(const grid::GridGeometry& geometry,
+                                                              const grid::GridSpec& spec,
+                                                              grid::GridMetric metric);
 };
 
 /// The CPU twin as a solver over `bvh`'s arrays (viewed, not copied: `bvh` must outlive the
 /// solver): closest_points_cpu's answers, by closest_points_cpu_coherent (the pipeline's
 /// batches are in Z order).
-std::unique_ptr<ClosestPointSolver> make_cpu_closest_point_solver(const SimplexBvh& bvh,
-                                                                  int threads = 0);
+std::unique_ptr<distance::ClosestPointSolver> make_cpu_closest_point_solver(const SimplexBvh& bvh,
+                                                                            int threads = 0);
 
-}  // namespace gvd
+}  // namespace gvd::compute

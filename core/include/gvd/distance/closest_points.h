@@ -7,7 +7,7 @@
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::distance {
 
 /// The inputs of the per-item closest-point function (closest_point_item.h): a SimplexBvh's
 /// flat arrays, in the layout it stores them (SimplexBvh::nodes, order, corner, points), which
@@ -57,4 +57,4 @@ class ClosestPointSolver {
                      std::span<ClosestHit> hits) = 0;
 };
 
-}  // namespace gvd
+}  // namespace gvd::distance

@@ -12,17 +12,17 @@
 #include "gvd/octree/vertices.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::distance {
 
 class ClosestPointSolver;
 
 /// Label and closest point of every octree vertex (paper §4), in unit-domain coordinates.
 struct DistanceField {
-  OctreeVertices vertices;
-  std::vector<ObjectId> label;  ///< per vertex; kNoObject when no object was reached
-  std::vector<uint32_t> point;  ///< per vertex: index into `closest`, kNoVertex if none
-  std::vector<Vec3> closest;    ///< closest points on objects (shared between vertices)
-  std::vector<uint8_t> exact;   ///< per vertex: 1 = exact closest point
+  octree::OctreeVertices vertices;
+  std::vector<scene::ObjectId> label;  ///< per vertex; kNoObject when no object was reached
+  std::vector<uint32_t> point;         ///< per vertex: index into `closest`, kNoVertex if none
+  std::vector<Vec3> closest;           ///< closest points on objects (shared between vertices)
+  std::vector<uint8_t> exact;          ///< per vertex: 1 = exact closest point
   /// Per vertex: 1 when new or changed since the `previous` field (all 1 without one).
   std::vector<uint8_t> changed;
   uint64_t exact_count = 0;     ///< non-empty vertices initialised exactly
@@ -52,7 +52,7 @@ struct DistanceField {
   void keep_leaf_lists_of(std::span<const uint32_t> leaves);
   /// The LeafGrid of a leaf, from its CSR row when it has one (a non-zero slot mask), else by
   /// key lookups.
-  LeafGrid grid(const Octree& octree, uint32_t leaf) const;
+  octree::LeafGrid grid(const octree::Octree& octree, uint32_t leaf) const;
   /// Distance from vertex v to its assigned closest point (unit domain; inf if none).
   double distance(uint32_t v) const;
   size_t memory_bytes() const;
@@ -103,19 +103,19 @@ ClosestHit closest_for_vertex(const SimplexBvh& bvh, Vec3 position, double upper
 /// With `previous_octree` (the octree `previous` was computed on, which `octree` refines), the
 /// topology is updated incrementally: vertices keep their indices (new ones are appended, so
 /// keys are no longer sorted — see sort_vertices) and only changed leaves are looked up again.
-DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
+DistanceField compute_distances(const octree::Octree& octree, const scene::UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options = {},
                                 const DistanceField* previous = nullptr,
-                                const Octree* previous_octree = nullptr);
+                                const octree::Octree* previous_octree = nullptr);
 /// The same update after a refinement, consuming `previous` (its vertex set moves into the new
 /// field instead of being copied) and `previous_octree` (freed once its leaves are matched);
 /// the result is the same.
-DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
+DistanceField compute_distances(const octree::Octree& octree, const scene::UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options,
-                                DistanceField&& previous, Octree&& previous_octree);
+                                DistanceField&& previous, octree::Octree&& previous_octree);
 
 /// Puts the vertices in key order (as a fresh compute_distances has them), permuting every
 /// per-vertex array and the leaf CSR. O(V), parallel on `threads` (0 = all cores).
 void sort_vertices(DistanceField& field, int threads = 0);
 
-}  // namespace gvd
+}  // namespace gvd::distance

@@ -9,12 +9,12 @@
 #include "gvd/scene/scene.h"
 #include "gvd/surface/gvd.h"
 
-namespace gvd {
+namespace gvd::graph {
 
 /// An edge of the dual graph: objects `a` < `b` whose cells share boundary.
 struct DualEdge {
-  ObjectId a = kNoObject;
-  ObjectId b = kNoObject;
+  scene::ObjectId a = scene::kNoObject;
+  scene::ObjectId b = scene::kNoObject;
   double area = 0;           ///< interface area (3D) or length (2D) inside the domain, user units
   double min_clearance = 0;  ///< least distance from the shared boundary to the objects
   Vec3 tightest_point;       ///< a boundary point where `min_clearance` is attained
@@ -37,7 +37,7 @@ struct DualGraph {
 /// Builds the dual graph from the cells of a GVD: an edge for every pair of objects whose
 /// cells share at least one simplex of positive measure; area summed over the shared simplices
 /// (each counted once), clearance = minimum over their vertices. O(GVD size). Paper §7.3.
-DualGraph build_dual_graph(const Gvd& gvd);
+DualGraph build_dual_graph(const surface::Gvd& gvd);
 
 /// The vertex minimum of build_dual_graph is the clearance only where the GVD's simplices are
 /// small next to it. Certified pair cells (refine/pair_certificate.h) span thin gaps and
@@ -53,16 +53,16 @@ DualGraph build_dual_graph(const Gvd& gvd);
 /// min_clearance becomes half the gap, exactly, and tightest_point that middle.
 /// Both read `cancel` (may be null) between edges or pieces and stop with
 /// gvd::Error{kCancelled}: an edge between two large objects is a long exact search.
-void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const Domain& domain,
-                  const std::vector<std::pair<ObjectId, ObjectId>>& contacts, int threads,
-                  const std::atomic<bool>* cancel = nullptr);
+void measure_gaps(DualGraph& graph, const SimplexBvh& bvh, const scene::Domain& domain,
+                  const std::vector<std::pair<scene::ObjectId, scene::ObjectId>>& contacts,
+                  int threads, const std::atomic<bool>* cancel = nullptr);
 
 /// `touching` (sorted pairs a < b, as measure_gaps' `contacts`): pairs whose clearance
 /// measure_gaps sets to 0 anyway; their pieces are not searched (a labelled volume's
 /// neighbours all touch: millions of pieces).
-void tighten_clearances(DualGraph& graph, const Gvd& gvd, const SimplexBvh& bvh,
-                        const Domain& domain, int threads,
-                        const std::atomic<bool>* cancel = nullptr,
-                        const std::vector<std::pair<ObjectId, ObjectId>>& touching = {});
+void tighten_clearances(
+    DualGraph& graph, const surface::Gvd& gvd, const SimplexBvh& bvh, const scene::Domain& domain,
+    int threads, const std::atomic<bool>* cancel = nullptr,
+    const std::vector<std::pair<scene::ObjectId, scene::ObjectId>>& touching = {});
 
-}  // namespace gvd
+}  // namespace gvd::graph

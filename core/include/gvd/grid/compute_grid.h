@@ -19,9 +19,11 @@
 #include "gvd/geometry/vec.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
-
+namespace gvd::compute {
 class ComputeBackend;
+}
+
+namespace gvd::grid {
 
 /// The distance of the grid: Euclidean, Manhattan or Chebyshev. All three are metrics, so
 /// every site's Voronoi region is connected (paper §3.3), which the culling relies on.
@@ -68,7 +70,7 @@ struct GridOptions {
   uint64_t max_cells = uint64_t{1} << 27;
   int threads = 0;  ///< 0 = all cores (CPU twin)
   /// Where the per-range evaluation runs (the OpenCL backend, or null for the CPU twin).
-  std::shared_ptr<ComputeBackend> compute;
+  std::shared_ptr<compute::ComputeBackend> compute;
   /// Set to true by another thread to stop with gvd::Error{kCancelled}. Read between the
   /// sweeps' wavefronts and batches, every few thousand sites while binning and signing, and
   /// inside a batch: every row of cells on the CPU twin, every slice of a kernel launch
@@ -132,7 +134,7 @@ struct DistanceGrid {
 /// The grid a scene and options give (validated: resolution >= 1, the box holds every
 /// vertex, the cell count within options.max_cells; gvd::Error{kInvalidArgument} /
 /// {kLimitExceeded} otherwise). Cheap: use it to check limits before work starts.
-GridSpec make_grid_spec(const Scene& scene, const GridOptions& options = {});
+GridSpec make_grid_spec(const scene::Scene& scene, const GridOptions& options = {});
 
 /// The discrete GVD of paper §4-5 on make_grid_spec's grid: the sites (the scene's objects,
 /// each searched through a BVH of its simplices) are binned into ranges; 2^D sweeps (3D: slice
@@ -144,6 +146,6 @@ GridSpec make_grid_spec(const Scene& scene, const GridOptions& options = {});
 /// each cell centre (no cell is lost to culling: docs/ALGORITHM.md), distances exact in
 /// double. Signs by ray parity along grid rows (symbolic perturbation for rows through
 /// vertices and edges). Cost O(cells x average PIS + sites); memory O(cells).
-DistanceGrid compute_grid(const Scene& scene, const GridOptions& options = {});
+DistanceGrid compute_grid(const scene::Scene& scene, const GridOptions& options = {});
 
-}  // namespace gvd
+}  // namespace gvd::grid

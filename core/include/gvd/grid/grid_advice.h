@@ -9,7 +9,7 @@
 #include "gvd/graph/dual_graph.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::grid {
 
 /// What a uniform L2 grid (compute_grid's default box: the vertices' bounding box padded by 5 %
 /// of its longest side) would need to separate the closest pair of different objects.
@@ -17,8 +17,8 @@ struct GridAdvice {
   /// false: no gap between two objects was measured (one object, no neighbours, or a result
   /// saved before gaps were measured); nothing else is set.
   bool measured = false;
-  ObjectId a = kNoObject;  ///< the closest pair of objects at a positive gap (a < b)
-  ObjectId b = kNoObject;
+  scene::ObjectId a = scene::kNoObject;  ///< the closest pair of objects at a positive gap (a < b)
+  scene::ObjectId b = scene::kNoObject;
   double gap = 0;  ///< their least distance (user units; DualEdge::gap); 0 when every pair touches
   uint64_t touching_pairs =
       0;  ///< neighbour pairs at gap 0 (touch or intersect): no grid separates them
@@ -35,6 +35,6 @@ struct GridAdvice {
 /// closest pair of two objects are Voronoi neighbours (no third object is nearer than half the
 /// gap to the middle of their closest points: it would be nearer than the gap to one of them),
 /// so the least positive edge gap of the dual graph is the scene's least gap. O(V + E).
-GridAdvice grid_advice(const Scene& scene, const DualGraph& graph);
+GridAdvice grid_advice(const scene::Scene& scene, const graph::DualGraph& graph);
 
-}  // namespace gvd
+}  // namespace gvd::grid

@@ -14,7 +14,7 @@
 #include "gvd/grid/compute_grid.h"
 #include "gvd/grid/grid_item.h"
 
-namespace gvd {
+namespace gvd::grid {
 
 /// The sites of a grid computation: the scene's objects. Every simplex in one flat list
 /// (three vertex indices each; segments repeat their first vertex), numbered object by
@@ -24,8 +24,8 @@ namespace gvd {
 struct GridGeometry {
   int dimension = 3;
   std::vector<Vec3> points;
-  std::vector<uint32_t> simplices;  ///< 3 per simplex
-  std::vector<ObjectId> object_of;  ///< per simplex
+  std::vector<uint32_t> simplices;         ///< 3 per simplex
+  std::vector<scene::ObjectId> object_of;  ///< per simplex
   std::vector<item::GvdBvhNode> nodes;
   std::vector<uint32_t> order;
   std::vector<uint32_t> roots;  ///< per object: its BVH's root in `nodes`
@@ -34,7 +34,8 @@ struct GridGeometry {
 
 /// The sites of a scene (user coordinates; 2D with z = 0). O(S log S). `cancel` (may be
 /// null) is read per object and every 16k simplices of a BVH: set, gvd::Error{kCancelled}.
-GridGeometry make_grid_geometry(const Scene& scene, const std::atomic<bool>* cancel = nullptr);
+GridGeometry make_grid_geometry(const scene::Scene& scene,
+                                const std::atomic<bool>* cancel = nullptr);
 
 /// Signs the distances of the cells whose centre lies inside their nearest object when that
 /// object is closed (`closed`, per object): ray parity along each row of cells (x), with the
@@ -44,14 +45,14 @@ GridGeometry make_grid_geometry(const Scene& scene, const std::atomic<bool>* can
 /// rows they cross + cells).
 /// `cancel` (may be null) is read every few thousand simplices and every row: set, it stops
 /// with gvd::Error{kCancelled}.
-void sign_grid_distances(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
-                         const std::vector<uint8_t>& closed, DistanceGrid& out, int threads,
-                         const std::atomic<bool>* cancel = nullptr);
+void sign_grid_distances(const scene::Scene& scene, const GridGeometry& geometry,
+                         const GridSpec& spec, const std::vector<uint8_t>& closed,
+                         DistanceGrid& out, int threads, const std::atomic<bool>* cancel = nullptr);
 /// Sets `out.closed` (is_closed_object per object; all 0 without `signed_distance`) and signs
 /// the distances of the closed ones (sign_grid_distances), with their count and time in
 /// `out.stats`. The last step of compute_grid and sample_result_grid.
-void sign_closed_objects(const Scene& scene, const GridGeometry& geometry, const GridSpec& spec,
-                         bool signed_distance, int threads, DistanceGrid& out,
+void sign_closed_objects(const scene::Scene& scene, const GridGeometry& geometry,
+                         const GridSpec& spec, bool signed_distance, int threads, DistanceGrid& out,
                          const std::atomic<bool>* cancel = nullptr);
 
 /// The device-side grid description of a spec and metric.
@@ -86,4 +87,4 @@ std::unique_ptr<GridEvaluator> make_cpu_grid_evaluator(const GridGeometry& geome
                                                        const item::GvdGridSpec& spec,
                                                        int threads = 0);
 
-}  // namespace gvd
+}  // namespace gvd::grid

@@ -11,7 +11,7 @@
 #include "gvd/grid/compute_grid.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::grid {
 
 /// Options of `grid_dual_graph`.
 struct GridGraphOptions {
@@ -33,7 +33,7 @@ struct GridGraphOptions {
 /// the gap at the middle of the pair's closest points where no third object is nearer to it
 /// (measure_gaps), else the least exact distance from a shared face's centre to the objects.
 /// Cells labelled -1 (no object) meet nothing. O(cells + interface faces · log M).
-DualGraph grid_dual_graph(const DistanceGrid& grid, const Scene& scene,
-                          const GridGraphOptions& options = {});
+graph::DualGraph grid_dual_graph(const DistanceGrid& grid, const scene::Scene& scene,
+                                 const GridGraphOptions& options = {});
 
-}  // namespace gvd
+}  // namespace gvd::grid

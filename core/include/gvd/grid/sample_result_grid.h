@@ -14,7 +14,7 @@
 #include "gvd/grid/compute_grid.h"
 #include "gvd/result/gvd_result.h"
 
-namespace gvd {
+namespace gvd::grid {
 
 /// Options of `sample_result_grid`.
 struct ResultGridOptions {
@@ -41,7 +41,8 @@ struct ResultGridOptions {
 /// The grid `sample_result_grid` samples (validated as make_grid_spec: resolution >= 1, a
 /// box that holds every vertex, at most max_cells cells; a result without objects is
 /// gvd::Error{kInvalidScene}). Cheap: check limits with it before work starts.
-GridSpec make_result_grid_spec(const GvdResult& result, const ResultGridOptions& options = {});
+GridSpec make_result_grid_spec(const result::GvdResult& result,
+                               const ResultGridOptions& options = {});
 
 /// The uniform-grid GVD of a finished result: for every cell centre q (GridSpec), the nearest
 /// object and its distance in the metric, and the sign of compute_grid (ray parity; negative
@@ -58,6 +59,7 @@ GridSpec make_result_grid_spec(const GvdResult& result, const ResultGridOptions&
 /// interpolated from the octree. Cost per cell: one leaf lookup and one or two bounded BVH
 /// searches (cheap away from objects, where the leaf's bound is tight); O(cells) memory.
 /// `stats.pairs_evaluated` counts the exact object evaluations.
-DistanceGrid sample_result_grid(const GvdResult& result, const ResultGridOptions& options = {});
+DistanceGrid sample_result_grid(const result::GvdResult& result,
+                                const ResultGridOptions& options = {});
 
-}  // namespace gvd
+}  // namespace gvd::grid

@@ -8,7 +8,7 @@
 
 #include "gvd/result/gvd_result.h"
 
-namespace gvd {
+namespace gvd::io {
 
 /// Version of the result file layout this build writes and reads.
 inline constexpr uint32_t kResultFormatVersion = 1;
@@ -46,14 +46,14 @@ struct ResultFileHeader {
 /// the bytes. Not stored (rebuilt by load_result): the unit geometry, the vertex key -> index
 /// map, and the octree's leaf -> simplex incidence (which is left empty). The whole file is
 /// assembled in memory first: O(size of the result) time and extra memory.
-void save_result(const GvdResult& result, const std::string& path);
+void save_result(const result::GvdResult& result, const std::string& path);
 
 /// The bytes save_result writes (for stores that are not plain files).
-std::vector<uint8_t> result_to_bytes(const GvdResult& result);
+std::vector<uint8_t> result_to_bytes(const result::GvdResult& result);
 
 /// Loads a result saved by save_result. gvd::Error{kIo} when the file cannot be read, else as
 /// load_result_bytes.
-GvdResult load_result(const std::string& path);
+result::GvdResult load_result(const std::string& path);
 
 /// Parses the bytes of a result file. Throws gvd::Error{kInvalidArgument} with a detail that
 /// says what is wrong and where: not a gvd result (bad magic), an unsupported format version,
@@ -64,7 +64,7 @@ GvdResult load_result(const std::string& path);
 /// read_result_header). Rebuilds the unit geometry (make_unit_geometry), the vertex index and
 /// an empty leaf -> simplex incidence: `octree.simplex_begin` is leaves + 1 zeros and
 /// `octree.simplex_index` is empty. O(size) plus the geometry mapping.
-GvdResult load_result_bytes(std::span<const uint8_t> bytes);
+result::GvdResult load_result_bytes(std::span<const uint8_t> bytes);
 
 /// Reads and checks only the fixed header (magic and format version), e.g. to tell which
 /// algorithm version computed a stored result. Throws like load_result_bytes.
@@ -77,14 +77,14 @@ ResultFileHeader read_result_header(std::span<const uint8_t> bytes);
 /// "total_seconds","stages":[{"name","seconds","bytes","items"}],
 /// "warnings":[{"kind","object","count","detail"}]}. Sizes in bytes, times in seconds, the
 /// domain in user units ("units": the scene's, only when it declares them).
-std::string result_info_json(const GvdResult& result);
+std::string result_info_json(const result::GvdResult& result);
 
 /// ResultStats as JSON (the "STAT" section): the fields of ResultStats by name, stages as an
 /// array of {"name","seconds","bytes","items"}.
-std::string stats_to_json(const ResultStats& stats);
+std::string stats_to_json(const result::ResultStats& stats);
 
 /// Inverse of stats_to_json; missing fields keep their defaults. gvd::Error{kInvalidArgument}
 /// when the text is not a JSON object or a field has the wrong type.
-ResultStats stats_from_json(std::string_view text);
+result::ResultStats stats_from_json(std::string_view text);
 
-}  // namespace gvd
+}  // namespace gvd::io

@@ -11,7 +11,7 @@
 
 #include "gvd/grid/compute_grid.h"
 
-namespace gvd {
+namespace gvd::io {
 
 /// What a grid file holds.
 enum class GridValueType { kFloat32, kFloat64, kInt32 };
@@ -25,11 +25,11 @@ std::vector<uint8_t> npy_bytes(GridValueType type, std::span<const uint64_t> sha
 
 /// A grid's distances (float32, or float64 when `float64`) or, with `labels`, its labels
 /// (int32, -1 = none) as the bytes of a .npy file (npy_bytes over grid_shape).
-std::vector<uint8_t> grid_npy_bytes(const DistanceGrid& grid, bool labels, bool float64);
+std::vector<uint8_t> grid_npy_bytes(const grid::DistanceGrid& grid, bool labels, bool float64);
 
 /// The shape numpy sees for a grid: (ny, nx) in 2D, (nz, ny, nx) in 3D (x fastest, so
 /// array[k, j, i] is cell (i, j, k)).
-std::vector<uint64_t> grid_shape(const GridSpec& spec);
+std::vector<uint64_t> grid_shape(const grid::GridSpec& spec);
 
 /// A NRRD (format NRRD0004) header for a grid of `type`: sizes nx ny [nz] (x fastest), space
 /// directions = the cell size on each axis, space origin = the centre of cell (0, 0, 0) (NRRD
@@ -38,8 +38,9 @@ std::vector<uint64_t> grid_shape(const GridSpec& spec);
 /// an attached file (it ends with the blank line after which the data follows). `comment`
 /// goes on a "#" line. `units` (a canonical unit name, gvd/scene/units.h; empty: none) gives
 /// "space units", the same on every axis, in ASCII ("µm" as "um", "Å" as "angstrom").
-std::string nrrd_header(const GridSpec& spec, GridValueType type, const std::string& data_file,
-                        const std::string& comment, const std::string& units = "");
+std::string nrrd_header(const grid::GridSpec& spec, GridValueType type,
+                        const std::string& data_file, const std::string& comment,
+                        const std::string& units = "");
 
 /// Writes a grid's distances (float32, or float64 when `float64`) to `path` by its
 /// extension: .npy, .nrrd (attached) or .nhdr (detached, data in <stem>.raw beside it); a
@@ -47,10 +48,10 @@ std::string nrrd_header(const GridSpec& spec, GridValueType type, const std::str
 /// (numpy refuses unknown keys).
 /// Returns the files written. gvd::Error{kInvalidArgument} for another extension, {kIo} when
 /// a file cannot be written.
-std::vector<std::string> write_grid_distance(const DistanceGrid& grid, const std::string& path,
-                                             bool float64);
+std::vector<std::string> write_grid_distance(const grid::DistanceGrid& grid,
+                                             const std::string& path, bool float64);
 
 /// Writes a grid's labels (int32, -1 = none) the same way.
-std::vector<std::string> write_grid_labels(const DistanceGrid& grid, const std::string& path);
+std::vector<std::string> write_grid_labels(const grid::DistanceGrid& grid, const std::string& path);
 
-}  // namespace gvd
+}  // namespace gvd::io

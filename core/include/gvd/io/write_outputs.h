@@ -11,7 +11,7 @@
 #include "gvd/scene/scene.h"
 #include "gvd/surface/gvd.h"
 
-namespace gvd {
+namespace gvd::io {
 
 /// The GVD as binary glTF (contract in docs/FORMATS.md): one node per object with a non-empty cell
 /// (name = label, extras = {"label", "object"}); 3D TRIANGLES oriented into the cell, 2D
@@ -19,7 +19,7 @@ namespace gvd {
 /// other side, nullFeatureId = object count for the domain box), `_CLEARANCE` (float) and
 /// `COLOR_0` (RGB float, red = tight, blue = wide clearance). The scene's units, when it
 /// declares them, are the asset's extras: {"units": "mm"}.
-std::vector<uint8_t> gvd_to_glb(const Gvd& gvd, const Scene& scene);
+std::vector<uint8_t> gvd_to_glb(const surface::Gvd& gvd, const scene::Scene& scene);
 
 /// A binary glTF file in two parts, so that a large one is written without being held twice:
 /// the file is `head` (the 12-byte header, the JSON chunk and the binary chunk's 8-byte
@@ -31,28 +31,28 @@ struct GlbFile {
   /// The whole file in one array (bin is freed).
   std::vector<uint8_t> bytes() &&;
 };
-GlbFile gvd_glb_file(const Gvd& gvd, const Scene& scene);
+GlbFile gvd_glb_file(const surface::Gvd& gvd, const scene::Scene& scene);
 
 /// An exploded view (paper §7.4) as binary glTF: one node per scene object (name = label,
 /// extras = {"label", "object", "displacement"}) showing the object's own geometry (3D
 /// TRIANGLES, 2D LINES at z = 0, a distinct colour each), and one animation "explode" that
 /// moves every node linearly from its place to place + displacement over `seconds`. Units as
 /// in gvd_to_glb.
-std::vector<uint8_t> exploded_to_glb(const Scene& scene, std::span<const Vec3> displacement,
+std::vector<uint8_t> exploded_to_glb(const scene::Scene& scene, std::span<const Vec3> displacement,
                                      double seconds = 2.0);
 
 /// The same GVD with float64 coordinates as JSON: {"dimension", "objects":[{"object","label",
 /// "positions":[[x,y(,z)]..], "other":[..], "clearance":[..], "simplices":[[i,j(,k)]..]}]}, and
 /// "units" (Scene::units) when the scene declares them.
-std::string gvd_to_json(const Gvd& gvd, const Scene& scene);
+std::string gvd_to_json(const surface::Gvd& gvd, const scene::Scene& scene);
 /// The same JSON handed to `sink` piece by piece (its bytes are gvd_to_json's), for writing a
 /// large GVD without holding its text.
-void write_gvd_json(const Gvd& gvd, const Scene& scene,
+void write_gvd_json(const surface::Gvd& gvd, const scene::Scene& scene,
                     const std::function<void(std::string_view)>& sink);
 
 /// The dual graph JSON of docs/FORMATS.md: {"nodes":[{"object","label"}],"edges":[{"a","b","area",
 /// "min_clearance"}]}, and "units" (Scene::units) when the scene declares them.
-std::string graph_to_json(const DualGraph& graph, const Scene& scene);
+std::string graph_to_json(const graph::DualGraph& graph, const scene::Scene& scene);
 
 /// Writes bytes to a file atomically (temporary file + rename); gvd::Error{kIo} on failure.
 void write_file_atomic(const std::string& path, const void* data, size_t size);
@@ -65,10 +65,10 @@ void write_file_atomic(
 
 /// gvd_to_glb and gvd_to_json written to a file atomically, without first holding the whole
 /// file in memory (the GLB's buffer once, the JSON in pieces).
-void write_glb_file(const std::string& path, const Gvd& gvd, const Scene& scene);
-void write_json_file(const std::string& path, const Gvd& gvd, const Scene& scene);
+void write_glb_file(const std::string& path, const surface::Gvd& gvd, const scene::Scene& scene);
+void write_json_file(const std::string& path, const surface::Gvd& gvd, const scene::Scene& scene);
 
 /// Reads a whole file; gvd::Error{kIo} when it cannot be read.
 std::vector<uint8_t> read_file_bytes(const std::string& path);
 
-}  // namespace gvd
+}  // namespace gvd::io

@@ -8,7 +8,7 @@
 #include "gvd/octree/octree.h"
 #include "gvd/octree/octree_build_item.h"
 
-namespace gvd {
+namespace gvd::octree {
 
 /// Rows of a compressed sparse table (begin has rows + 1 entries).
 struct CsrU32 {
@@ -57,7 +57,7 @@ class OctreeBuildSteps {
 };
 
 /// The CPU twins of the steps, over `threads` threads (0 = all cores).
-std::unique_ptr<OctreeBuildSteps> make_cpu_octree_build_steps(const UnitGeometry& geometry,
+std::unique_ptr<OctreeBuildSteps> make_cpu_octree_build_steps(const scene::UnitGeometry& geometry,
                                                               int threads = 0);
 
 /// Figures of one data-parallel build.
@@ -87,7 +87,8 @@ struct DataParallelBuildStats {
 /// (§3), the closure, the 2:1 balance and the leaf -> simplex incidence are the CPU build's (the
 /// draft gives no data-parallel form for them). Same leaves as build_octree. `steps` = null runs
 /// the CPU twins.
-Octree build_octree_data_parallel(const UnitGeometry& geometry, const OctreeOptions& options = {},
+Octree build_octree_data_parallel(const scene::UnitGeometry& geometry,
+                                  const OctreeOptions& options = {},
                                   OctreeBuildSteps* steps = nullptr,
                                   DataParallelBuildStats* stats = nullptr);
 
@@ -95,8 +96,8 @@ Octree build_octree_data_parallel(const UnitGeometry& geometry, const OctreeOpti
 /// the ancestors of every split cell, 2:1 balance over faces, edges and corners, and the
 /// leaves with their simplices; the leaves at or below a cell of `certified` are marked
 /// certified. Used by build_octree_data_parallel.
-Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,
+Octree octree_from_split_cells(const scene::UnitGeometry& geometry, std::span<const CellRef> split,
                                const OctreeOptions& options = {},
                                std::span<const CellRef> certified = {});
 
-}  // namespace gvd
+}  // namespace gvd::octree

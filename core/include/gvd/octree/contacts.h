@@ -10,7 +10,7 @@
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::octree {
 
 /// Pairs of objects that touch or intersect: their surfaces come closer than a tolerance
 /// (normally the finest cell, which could never separate them). Refinement that only serves
@@ -19,19 +19,19 @@ namespace gvd {
 class ContactPairs {
  public:
   ContactPairs() = default;
-  explicit ContactPairs(const std::vector<std::pair<ObjectId, ObjectId>>& pairs);
+  explicit ContactPairs(const std::vector<std::pair<scene::ObjectId, scene::ObjectId>>& pairs);
 
-  bool touching(ObjectId a, ObjectId b) const {
+  bool touching(scene::ObjectId a, scene::ObjectId b) const {
     if (a == b || set_.size() == 0) return false;
     if (a > b) std::swap(a, b);
     return set_.contains(uint64_t{a} << 32 | b);
   }
   /// The pairs, a < b, sorted.
-  const std::vector<std::pair<ObjectId, ObjectId>>& pairs() const { return pairs_; }
+  const std::vector<std::pair<scene::ObjectId, scene::ObjectId>>& pairs() const { return pairs_; }
   bool empty() const { return pairs_.empty(); }
 
  private:
-  std::vector<std::pair<ObjectId, ObjectId>> pairs_;
+  std::vector<std::pair<scene::ObjectId, scene::ObjectId>> pairs_;
   FlatMap64 set_;
 };
 
@@ -44,8 +44,8 @@ inline double contact_tolerance(int max_depth) { return std::ldexp(1.0, -max_dep
 /// intersecting included. BVH candidates (boxes within the tolerance), then exact
 /// segment/triangle distances; each pair is confirmed once. O(M log M + candidate pairs).
 /// With `cancel`, a set flag stops it within one simplex's walk (gvd::Error{kCancelled}).
-ContactPairs find_contact_pairs(const UnitGeometry& geometry, const SimplexBvh& bvh,
+ContactPairs find_contact_pairs(const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
                                 double tolerance, int threads = 0,
                                 const std::atomic<bool>* cancel = nullptr);
 
-}  // namespace gvd
+}  // namespace gvd::octree

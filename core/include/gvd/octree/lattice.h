@@ -5,7 +5,7 @@
 #include "gvd/geometry/vec.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd::lattice {
+namespace gvd::octree::lattice {
 
 /// Integer lattice of the octree: B = lattice_bits(D) bits per axis, so a cell at level l has
 /// side 2^(B-l) lattice units and the unit domain is [0, 2^B]^D. Cells are identified by the
@@ -63,10 +63,12 @@ inline Coord morton_decode(int dim, uint64_t code) {
   return {{compact3(code), compact3(code >> 1), compact3(code >> 2)}};
 }
 
-inline uint64_t side_units(int dim) { return uint64_t{1} << lattice_bits(dim); }
+inline uint64_t side_units(int dim) { return uint64_t{1} << scene::lattice_bits(dim); }
 
 /// Side of a cell of `level` in lattice units.
-inline uint64_t cell_size(int dim, int level) { return uint64_t{1} << (lattice_bits(dim) - level); }
+inline uint64_t cell_size(int dim, int level) {
+  return uint64_t{1} << (scene::lattice_bits(dim) - level);
+}
 
 /// Key of the lattice point p (coordinates in [0, 2^B]).
 inline uint64_t vertex_key(int dim, const Coord& p) {
@@ -78,13 +80,13 @@ inline Coord vertex_coord(int dim, uint64_t key) {
   // of a 64-bit division: positions are decoded from keys in every hot loop).
   Coord p;
   if (dim == 3) {
-    constexpr uint64_t r = (uint64_t{1} << lattice_bits(3)) + 1;
+    constexpr uint64_t r = (uint64_t{1} << scene::lattice_bits(3)) + 1;
     p.c[0] = static_cast<uint32_t>(key % r);
     key /= r;
     p.c[1] = static_cast<uint32_t>(key % r);
     p.c[2] = static_cast<uint32_t>(key / r);
   } else {
-    constexpr uint64_t r = (uint64_t{1} << lattice_bits(2)) + 1;
+    constexpr uint64_t r = (uint64_t{1} << scene::lattice_bits(2)) + 1;
     p.c[0] = static_cast<uint32_t>(key % r);
     p.c[1] = static_cast<uint32_t>(key / r);
   }
@@ -120,4 +122,4 @@ inline Box cell_box(int dim, const Coord& lo, int level) {
   return b;
 }
 
-}  // namespace gvd::lattice
+}  // namespace gvd::octree::lattice

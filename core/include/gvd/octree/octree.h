@@ -10,7 +10,7 @@
 #include "gvd/octree/lattice.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::octree {
 
 class ContactPairs;
 
@@ -167,11 +167,11 @@ int resolve_max_depth(int dimension, int requested);
 /// intersects (conservatively) and, for non-empty leaves, which simplices.
 struct Octree {
   int dimension = 3;
-  int max_depth = 0;             ///< the depth limit used
-  int depth = 0;                 ///< deepest leaf level
-  std::vector<uint64_t> code;    ///< per leaf: Morton code of the lower corner (lattice units)
-  std::vector<uint8_t> level;    ///< per leaf
-  std::vector<ObjectId> object;  ///< per leaf: kNoObject, an object, or kManyObjects
+  int max_depth = 0;           ///< the depth limit used
+  int depth = 0;               ///< deepest leaf level
+  std::vector<uint64_t> code;  ///< per leaf: Morton code of the lower corner (lattice units)
+  std::vector<uint8_t> level;  ///< per leaf
+  std::vector<scene::ObjectId> object;  ///< per leaf: kNoObject, an object, or kManyObjects
   /// Per leaf: the certified_mark of the certified pair cell it lies in (0: none): at most two
   /// objects are nearest anywhere in it, and their bisector there is one exact sheet (1: a
   /// plane; 2 ... 28: a curve swept along an axis, 5 ... 28 the cones; 29 ... 34: along a
@@ -229,7 +229,7 @@ struct Octree {
   /// Frees all but the leaves' codes and levels (what locate and the cells need): for an
   /// octree that is only looked up, such as the one a refinement round replaced.
   void keep_cells_only() {
-    std::vector<ObjectId>().swap(object);
+    std::vector<scene::ObjectId>().swap(object);
     std::vector<uint8_t>().swap(certified);
     std::vector<uint32_t>().swap(simplex_begin);
     std::vector<uint32_t>().swap(simplex_index);
@@ -259,7 +259,7 @@ class LeafLocator {
 /// at most one level (so that surfacing stays watertight across level changes). Cell–simplex
 /// tests are conservative. Level-synchronous and parallel over cells;
 /// O(sum over levels of non-empty cells x simplices per cell).
-Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options = {});
+Octree build_octree(const scene::UnitGeometry& geometry, const OctreeOptions& options = {});
 
 /// A cell of the lattice octree, by the Morton code of its lower corner and its level.
 struct CellRef {
@@ -273,7 +273,7 @@ struct CellRef {
 /// incidence. Leaves inside a certified leaf stay certified; the leaves that end up inside one
 /// of `cells_to_certify` (cells at or below an existing leaf) are marked certified too. Used
 /// for ambiguity resolution (§5) and the separation guarantee.
-Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
+Octree refine_octree(const Octree& octree, const scene::UnitGeometry& geometry,
                      std::span<const CellRef> cells_to_split, const OctreeOptions& options = {},
                      std::span<const CellRef> cells_to_certify = {});
 
@@ -284,4 +284,4 @@ inline CellRef cell_of(const Octree& octree, uint32_t leaf) {
 /// Child `child` (0 .. 2^D - 1, bit a = upper half along axis a) of a cell.
 CellRef child_cell(int dimension, CellRef cell, uint32_t child);
 
-}  // namespace gvd
+}  // namespace gvd::octree

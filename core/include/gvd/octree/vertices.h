@@ -10,7 +10,7 @@
 #include "gvd/common/flat_hash.h"
 #include "gvd/octree/octree.h"
 
-namespace gvd {
+namespace gvd::octree {
 
 inline constexpr uint32_t kNoVertex = ~0u;
 /// Below this many vertices the vertex index is small (a few MB): the refinement keeps it
@@ -107,4 +107,4 @@ OctreeVertices enumerate_vertices(const Octree& octree, int threads = 0);
 using LeafGrid = std::array<uint32_t, 27>;
 LeafGrid leaf_grid(const Octree& octree, const OctreeVertices& vertices, uint32_t leaf);
 
-}  // namespace gvd
+}  // namespace gvd::octree

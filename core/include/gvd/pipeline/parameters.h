@@ -23,7 +23,7 @@
 #include "gvd/scene/label_volume.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::pipeline {
 
 /// Where different objects come close (`refine`): certified pair cells, or the paper's rule
 /// of §3 alone.
@@ -160,15 +160,15 @@ struct ChoiceParameter<ComputeMode> {
   static constexpr std::string_view name = "mode";
 };
 template <>
-struct ChoiceParameter<DistanceMethod> {
+struct ChoiceParameter<distance::DistanceMethod> {
   static constexpr std::string_view name = "distance";
 };
 template <>
-struct ChoiceParameter<DomainFrame> {
+struct ChoiceParameter<scene::DomainFrame> {
   static constexpr std::string_view name = "frame";
 };
 template <>
-struct ChoiceParameter<GridMetric> {
+struct ChoiceParameter<grid::GridMetric> {
   static constexpr std::string_view name = "metric";
 };
 
@@ -191,11 +191,11 @@ struct PipelineParams {
   int max_depth = 0;           ///< 0 = default (table: per dimension)
   int contact_depth = 0;       ///< 0 = default
   std::vector<double> domain;  ///< empty, or x0,y0[,z0],x1,y1[,z1]
-  DomainFrame frame = DomainFrame::kAuto;
+  scene::DomainFrame frame = scene::DomainFrame::kAuto;
   int threads = 0;
   BackendRequest backend = BackendRequest::kAuto;
   OctreeBuild octree_build = OctreeBuild::kLevels;
-  DistanceMethod distance = DistanceMethod::kExact;
+  distance::DistanceMethod distance = distance::DistanceMethod::kExact;
   RefineRule refine = RefineRule::kCertified;
   GvdResolution resolution = GvdResolution::kCompact;
   double curved_tolerance = 0;
@@ -207,15 +207,16 @@ struct PipelineParams {
   uint64_t max_simplices = 20'000'000;
   ComputeMode mode = ComputeMode::kAdaptive;
   int grid_resolution = 0;  ///< mode=grid: cells along the longest side (0 = not given)
-  GridMetric metric = GridMetric::kL2;
+  grid::GridMetric metric = grid::GridMetric::kL2;
   bool float64 = false;
   bool unsigned_distance = false;  ///< the parameter "unsigned"
   int range_cells = 0;             ///< 0 = default
   uint64_t max_cells = 134'217'728;
   std::string units;            ///< canonical name, or empty
   std::vector<double> spacing;  ///< a labelled volume's voxel size x,y[,z]; empty = 1 each
-  std::optional<uint64_t> background = 0;           ///< a labelled volume's non-object label; none
-  VolumeFaces volume_faces = VolumeFaces::kMerged;  ///< a labelled volume's boundary simplices
+  std::optional<uint64_t> background = 0;  ///< a labelled volume's non-object label; none
+  scene::VolumeFaces volume_faces =
+      scene::VolumeFaces::kMerged;  ///< a labelled volume's boundary simplices
 
   bool is_grid() const { return mode == ComputeMode::kGrid; }
 
@@ -245,14 +246,14 @@ struct PipelineParams {
 /// The uniform grid's options of `params` (mode=grid): resolution, metric, signs, range
 /// cells, the box (`domain`), threads and max_cells. `compute` (the backend) and the progress
 /// are the caller's. Call params.check(dimension, ...) first.
-GridOptions grid_options(const PipelineParams& params);
+grid::GridOptions grid_options(const PipelineParams& params);
 /// The options of sampling a saved result on a grid (sample_result_grid): resolution, metric,
 /// signs, the box, threads and max_cells. Call params.check(dimension, ...) first.
-ResultGridOptions result_grid_options(const PipelineParams& params);
+grid::ResultGridOptions result_grid_options(const PipelineParams& params);
 /// How a labelled volume of `dimension` becomes a scene (scene_from_label_volume): `spacing`
 /// (one number per axis; gvd::Error{kInvalidArgument} naming it as `spelling` does
 /// otherwise), `background` and `volume_faces`.
-LabelVolumeOptions label_volume_options(const PipelineParams& params, int dimension,
-                                        ParamSpelling spelling);
+scene::LabelVolumeOptions label_volume_options(const PipelineParams& params, int dimension,
+                                               ParamSpelling spelling);
 
-}  // namespace gvd
+}  // namespace gvd::pipeline

@@ -11,11 +11,11 @@
 #include "gvd/result/gvd_result.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::pipeline {
 
 /// Options of the whole computation.
 struct PipelineOptions {
-  DomainOptions domain;
+  scene::DomainOptions domain;
   int max_depth = 0;  ///< 0 = default (2D 26, 3D 21)
   /// Depth at which refinement between touching/intersecting objects stops (0 = default:
   /// 14 in 2D, 8 in 3D).
@@ -36,14 +36,14 @@ struct PipelineOptions {
   /// caller makes one with gvd::kernels::choose_backend, which resolves kAuto).
   BackendRequest backend = BackendRequest::kCpu;
   /// The data-parallel backend (closest-point initialisation); null = the CPU twins.
-  std::shared_ptr<ComputeBackend> compute;
+  std::shared_ptr<compute::ComputeBackend> compute;
   /// How the first octree is built: kLevels (build_octree, level-synchronous; the faster on
   /// 2 cores) or kDataParallel (build_octree_data_parallel: the draft's Karras / conflict-
   /// cell construction, on the backend's kernels when it has them). Same leaves either way.
   OctreeBuild octree_build = OctreeBuild::kLevels;
   /// Closest points of the vertices of empty leaves: kExact (every vertex by the BVH or the
   /// backend's kernel; the default) or kWavefront (the paper's Algorithm 1).
-  DistanceMethod distance = DistanceMethod::kExact;
+  distance::DistanceMethod distance = distance::DistanceMethod::kExact;
   /// Where different objects come close: kCertified (the default: a cell is not split where
   /// exact distances certify that two objects' bisector in it is one plane, or a curve swept
   /// along a straight rim parallel to an axis, so cost follows the geometry, not 1/gap;
@@ -59,7 +59,7 @@ struct PipelineOptions {
   /// Why the CPU runs when OpenCL was wanted ("no OpenCL platform ..."); appended to
   /// ResultStats::backend so that `gvd info` says so.
   std::string backend_note;
-  ProgressFn progress;  ///< optional
+  octree::ProgressFn progress;  ///< optional
   const std::atomic<bool>* cancel = nullptr;
 };
 
@@ -74,6 +74,6 @@ PipelineOptions pipeline_options(const PipelineParams& params);
 /// DistanceField -> (find_cells_to_refine -> refine_octree -> compute_distances)* ->
 /// extract_gvd -> Gvd -> build_dual_graph -> DualGraph. Adds warnings for objects that touch
 /// (leaves at the depth limit holding several objects) and for ambiguity left at the limit.
-GvdResult compute_gvd(Scene scene, const PipelineOptions& options = {});
+result::GvdResult compute_gvd(scene::Scene scene, const PipelineOptions& options = {});
 
-}  // namespace gvd
+}  // namespace gvd::pipeline

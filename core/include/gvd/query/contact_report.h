@@ -11,7 +11,7 @@
 #include "gvd/geometry/vec.h"
 #include "gvd/query/gvd_index.h"
 
-namespace gvd {
+namespace gvd::query {
 
 /// A connected region of the interface between two objects where twice the clearance (the
 /// distance across the interface from one object to the other) is below the bound.
@@ -30,8 +30,8 @@ struct ContactSite {
 
 /// A pair of objects closer than the bound.
 struct Contact {
-  ObjectId a = kNoObject;  ///< a < b
-  ObjectId b = kNoObject;
+  scene::ObjectId a = scene::kNoObject;  ///< a < b
+  scene::ObjectId b = scene::kNoObject;
   /// The exact least distance between the two objects, from their simplices (not read off the
   /// GVD); 0 when they touch or intersect.
   double gap = 0;
@@ -66,4 +66,4 @@ std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap,
 std::string contacts_to_json(const GvdIndex& index, double max_gap,
                              const std::vector<Contact>& contacts);
 
-}  // namespace gvd
+}  // namespace gvd::query

@@ -13,7 +13,7 @@
 #include "gvd/graph/dual_graph.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::query {
 
 /// Shares of a displacement tried first, largest first; between the last safe one and the
 /// one before it, the share is refined by kExplodeRefinements bisection steps. Below the
@@ -46,8 +46,8 @@ class ExplodeMotion {
   /// `geometry` / `bvh`: the result's unit-domain scene (bvh built with the objects of the
   /// simplices); `graph` says which pairs are neighbours; `margin` in user units (the explode
   /// scale).
-  ExplodeMotion(const UnitGeometry& geometry, const SimplexBvh& bvh, const Domain& domain,
-                const DualGraph& graph, double margin);
+  ExplodeMotion(const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
+                const scene::Domain& domain, const graph::DualGraph& graph, double margin);
 
   /// The largest share s in [0, 1] found such that moving `object` by s * `displacement`
   /// (user units) is safe against the committed objects' motions and the others standing:
@@ -67,9 +67,9 @@ class ExplodeMotion {
   bool stays_apart(uint32_t a, uint32_t b, Vec3 move_a, Vec3 move_b);
   Vec3 to_unit_vector(Vec3 displacement) const;
 
-  const UnitGeometry& geometry_;
+  const scene::UnitGeometry& geometry_;
   const SimplexBvh& bvh_;
-  const Domain& domain_;
+  const scene::Domain& domain_;
   double unit_margin_;
   std::vector<std::vector<uint32_t>> simplices_;  ///< per object
   std::vector<std::vector<uint32_t>> vertices_;   ///< per object, each once
@@ -79,4 +79,4 @@ class ExplodeMotion {
   std::unordered_map<uint64_t, double> gaps_;     ///< unit gap at t = 0 by pair (lo << 32 | hi)
 };
 
-}  // namespace gvd
+}  // namespace gvd::query

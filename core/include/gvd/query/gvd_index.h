@@ -13,8 +13,10 @@
 #include "gvd/result/gvd_result.h"
 
 namespace gvd {
-
 class SimplexBvh;
+}
+
+namespace gvd::query {
 
 /// Nearest object at a point (paper §4, last paragraph): the closest of the closest points
 /// stored on the vertices of the leaf that contains the point. `distance` is the distance to
@@ -22,7 +24,7 @@ class SimplexBvh;
 /// factor of the distance transform).
 struct NearestAnswer {
   Vec3 point;  ///< the query point, user units, as given
-  ObjectId object = kNoObject;
+  scene::ObjectId object = scene::kNoObject;
   double distance = 0;  ///< user units
   Vec3 closest;         ///< the point on `object` the distance is measured to
   /// True when the leaf's vertices could not prove the 3/2 bound and the BVH answered
@@ -38,9 +40,10 @@ struct NearestAnswer {
 
 /// An object within k rings of another in the dual graph (paper §7.3).
 struct RingNeighbor {
-  ObjectId object = kNoObject;
-  int ring = 0;              ///< 1 = shares boundary with the query object
-  ObjectId via = kNoObject;  ///< a neighbour in ring - 1 it is reached from (ring 1: the query)
+  scene::ObjectId object = scene::kNoObject;
+  int ring = 0;  ///< 1 = shares boundary with the query object
+  scene::ObjectId via =
+      scene::kNoObject;      ///< a neighbour in ring - 1 it is reached from (ring 1: the query)
   double area = 0;           ///< interface area (length in 2D) between `via` and `object`
   double min_clearance = 0;  ///< least clearance on that interface
   Vec3 tightest_point;       ///< where it is attained
@@ -74,7 +77,7 @@ struct PathAnswer {
 
 /// Exploded view (paper §7.4) around an anchor object.
 struct ExplodedObject {
-  ObjectId object = kNoObject;
+  scene::ObjectId object = scene::kNoObject;
   int ring = -1;  ///< ring around the anchor (0 = anchor, -1 = not connected to it)
   /// The direction used, |.| <= 1: D_i of the paper (area-weighted mean interface normal) or,
   /// where that points at a ring-mate (GvdIndex::explode), a unit direction turned away from
@@ -96,15 +99,15 @@ struct ExplodeOptions {
 };
 
 struct ExplodedView {
-  ObjectId anchor = kNoObject;
+  scene::ObjectId anchor = scene::kNoObject;
   double scale = 0;                     ///< the scale used
   std::vector<ExplodedObject> objects;  ///< one per object, by index
 };
 
 /// An object pair whose interface comes closer to the objects than a bound.
 struct TightSpot {
-  ObjectId a = kNoObject;
-  ObjectId b = kNoObject;
+  scene::ObjectId a = scene::kNoObject;
+  scene::ObjectId b = scene::kNoObject;
   double min_clearance = 0;
   Vec3 point;       ///< tightest point of the interface
   double gap = -1;  ///< least distance between a and b (< 0: not measured)
@@ -119,16 +122,16 @@ struct TightSpot {
 /// kNotFound for unknown labels/objects, kInvalidArgument for bad parameters.
 class GvdIndex {
  public:
-  explicit GvdIndex(std::shared_ptr<const GvdResult> result);
+  explicit GvdIndex(std::shared_ptr<const result::GvdResult> result);
   ~GvdIndex();
   GvdIndex(GvdIndex&&) noexcept;
   GvdIndex& operator=(GvdIndex&&) noexcept;
 
-  const GvdResult& result() const;
+  const result::GvdResult& result() const;
   int dimension() const;
 
   /// The object with this label; throws kNotFound naming the label.
-  ObjectId object(std::string_view label) const;
+  scene::ObjectId object(std::string_view label) const;
 
   /// Nearest object at a point (user units). O(log leaves + vertices of the leaf), plus one
   /// bounded exact BVH query where the leaf's vertices cannot prove the answer within 3/2 of
@@ -141,20 +144,20 @@ class GvdIndex {
 
   /// Whether the object is closed (is_closed_object), so that nearest answers say whether a
   /// point is inside it.
-  bool is_closed(ObjectId object) const;
+  bool is_closed(scene::ObjectId object) const;
   /// Whether a point (user units) is inside the object: 1 inside, 0 outside, -1 when the
   /// object is not closed (NearestAnswer::inside's test, for any object).
-  int8_t inside(Vec3 point, ObjectId object) const;
+  int8_t inside(Vec3 point, scene::ObjectId object) const;
   /// The exact search structure over the scene's simplices (unit coordinates; with the object
   /// of every simplex), for queries built on this index (find_contacts).
   const SimplexBvh& bvh() const;
 
   /// Objects within `ring` rings of `object` (1 <= ring; rings beyond the graph's reach just
   /// return everything connected), sorted by (ring, object). Breadth-first on the dual graph.
-  std::vector<RingNeighbor> neighbors(ObjectId object, int ring) const;
+  std::vector<RingNeighbor> neighbors(scene::ObjectId object, int ring) const;
 
   /// Eccentricity of `object` in the dual graph (the largest useful ring).
-  int max_ring(ObjectId object) const;
+  int max_ring(scene::ObjectId object) const;
 
   /// A path on the GVD roadmap; never through an object. Not found (with a reason) when start
   /// or goal is inside an object or closer to one than min_clearance, or no roadmap path joins
@@ -175,7 +178,7 @@ class GvdIndex {
   /// proved safe (ExplodedObject::factor) by conservative advancement on exact mesh distances
   /// against the motions already fixed (certified for every t, not sampled). Cost: a few exact
   /// mesh-distance marches per candidate direction and nearby pair.
-  ExplodedView explode(ObjectId anchor, const ExplodeOptions& options = {}) const;
+  ExplodedView explode(scene::ObjectId anchor, const ExplodeOptions& options = {}) const;
 
   /// Dual-graph edges with min_clearance < below, sorted by clearance (tightest first).
   std::vector<TightSpot> tight(double below) const;
@@ -203,7 +206,7 @@ std::string nearest_to_json(const GvdIndex& index, const NearestAnswer& answer);
 std::string nearest_error_to_json(const GvdIndex& index, Vec3 point, const Error& error);
 /// {"object":i,"label":"...","ring":k,"neighbors":[{"object","label","ring","via","area",
 /// "min_clearance","tightest_point"}]}
-std::string neighbors_to_json(const GvdIndex& index, ObjectId object, int ring,
+std::string neighbors_to_json(const GvdIndex& index, scene::ObjectId object, int ring,
                               std::span<const RingNeighbor> neighbors);
 /// {"from":[...],"to":[...],"points":[[...],...],"length":L,"min_clearance":c} and, when not
 /// found, "points":[], "length":null, "min_clearance":null, "reason":"...".
@@ -214,4 +217,4 @@ std::string exploded_to_json(const GvdIndex& index, const ExplodedView& view);
 /// {"below":b,"pairs":[{"a","b","label_a","label_b","min_clearance","point"}]}
 std::string tight_to_json(const GvdIndex& index, double below, std::span<const TightSpot> spots);
 
-}  // namespace gvd
+}  // namespace gvd::query

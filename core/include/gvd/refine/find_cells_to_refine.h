@@ -14,7 +14,7 @@
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::refine {
 
 /// Why leaves must be split before surfacing (paper §5 and the separation guarantee).
 struct RefineReport {
@@ -52,17 +52,18 @@ struct RefineOptions {
   /// two labels; a face or cell centroid one that no vertex of the leaf carries — by more than
   /// a margin (2D: a hair; 3D: a twentieth of the leaf): a region hides between the vertices, and
   /// the dual graph would otherwise gain a false edge or miss one. Such leaves go to `unseen`.
-  const UnitGeometry* geometry = nullptr;
+  const scene::UnitGeometry* geometry = nullptr;
   const SimplexBvh* bvh = nullptr;
   /// Only examine leaves with a vertex whose `DistanceField::changed` flag is set (between
   /// refinement rounds: untouched leaves were already examined). Counts then cover only those.
   bool changed_only = false;
   /// Touching object pairs: a leaf of one of them is not split for a vertex labelled by the
   /// other below `contact_depth` (they cannot be separated there).
-  const ContactPairs* contacts = nullptr;
+  const octree::ContactPairs* contacts = nullptr;
   int contact_depth = 0;
 };
-RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& field,
+RefineReport find_cells_to_refine(const octree::Octree& octree,
+                                  const distance::DistanceField& field,
                                   const RefineOptions& options = {});
 
 /// For non-empty leaves with a vertex labelled by another object: the cells to split below
@@ -72,12 +73,14 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
 /// With `oracle`, a cell it certifies (a certified_mark verdict) or finds seen by one object only
 /// is not split: certified ones go to `certified`, for refine_octree to mark.
 struct SeparationPlan {
-  std::vector<CellRef> splits;
-  std::vector<CellRef> certified;
+  std::vector<octree::CellRef> splits;
+  std::vector<octree::CellRef> certified;
 };
-SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
-                                      const SimplexBvh& bvh, std::span<const uint32_t> leaves,
-                                      int threads = 0, const ContactPairs* contacts = nullptr,
-                                      int contact_depth = 0, const SplitOracle* oracle = nullptr);
+SeparationPlan plan_separation_splits(const octree::Octree& octree,
+                                      const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
+                                      std::span<const uint32_t> leaves, int threads = 0,
+                                      const octree::ContactPairs* contacts = nullptr,
+                                      int contact_depth = 0,
+                                      const octree::SplitOracle* oracle = nullptr);
 
-}  // namespace gvd
+}  // namespace gvd::refine

@@ -12,7 +12,7 @@
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::refine {
 
 /// The flat-pair certificate of the thin-gaps refinement (docs/ALGORITHM.md, "Certified pair
 /// cells"). The paper's rule (§3) splits every cell that holds or borders two objects, so
@@ -81,7 +81,7 @@ namespace gvd {
 /// Anything else (three objects, curved or folded patches, open edges, contact pairs, more
 /// than kMaxActive simplices in reach) is kSplit: the paper's rule applies. Thread-safe;
 /// the geometry and BVH must outlive it.
-class PairCertifier final : public SplitOracle {
+class PairCertifier final : public octree::SplitOracle {
  public:
   /// `extruded`: also certify extruded pairs (the surfacer must then sweep their bisectors).
   /// `cones`: also the cones across an axis (kCone...). Their certificate covers the cell and
@@ -90,19 +90,20 @@ class PairCertifier final : public SplitOracle {
   /// cones (RefineLoopOptions::cone_certifier). `cancel` (may be null) is read between the steps of
   /// the construction (sorts of the points and of the triangles' sides: a quarter second on
   /// 327k triangles): set, it stops with gvd::Error{kCancelled}.
-  PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
-                const ContactPairs* contacts = nullptr, bool extruded = false, bool cones = false,
-                const std::atomic<bool>* cancel = nullptr);
+  PairCertifier(const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
+                const octree::ContactPairs* contacts = nullptr, bool extruded = false,
+                bool cones = false, const std::atomic<bool>* cancel = nullptr);
 
-  CellVerdict classify(const Box& box, std::span<const uint32_t> inside = {}) const override;
+  octree::CellVerdict classify(const Box& box,
+                               std::span<const uint32_t> inside = {}) const override;
 
   bool cones() const { return cones_; }
 
   /// A verdict with its witnesses (tests and audits use them).
   struct Certificate {
-    CellVerdict verdict = CellVerdict::kSplit;
-    ObjectId a = kNoObject;  ///< kOneObject: the object; kPair: the lower of the two
-    ObjectId b = kNoObject;  ///< kPair: the higher one
+    octree::CellVerdict verdict = octree::CellVerdict::kSplit;
+    scene::ObjectId a = scene::kNoObject;  ///< kOneObject: the object; kPair: the lower of the two
+    scene::ObjectId b = scene::kNoObject;  ///< kPair: the higher one
     /// kPair: the plane (2D: line) of a and of b, as unit normal . x = offset (unit domain).
     Vec3 normal[2];
     double offset[2] = {0, 0};
@@ -148,21 +149,21 @@ class PairCertifier final : public SplitOracle {
   static constexpr double kMaxCone = 70.0 * 3.14159265358979323846 / 180.0;
 
  private:
-  Certificate certify_mirror(const Box& box, const ObjectId pair[2], const double dist[2], double r,
-                             const std::vector<uint32_t> patch[2]) const;
-  Certificate certify_extruded(const Box& box, const ObjectId pair[2], const double dist[2],
+  Certificate certify_mirror(const Box& box, const scene::ObjectId pair[2], const double dist[2],
+                             double r, const std::vector<uint32_t> patch[2]) const;
+  Certificate certify_extruded(const Box& box, const scene::ObjectId pair[2], const double dist[2],
                                double r, const std::vector<uint32_t> patch[2]) const;
   /// How often d_pair[0] - d_pair[1] changes sign on the segment [p0, p1] along axis `along`
   /// inside the cell whose nearest simplices are `patch` (3: more than twice, or undecided).
-  int line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int along,
+  int line_crossings(const scene::ObjectId pair[2], Vec3 p0, Vec3 p1, int along,
                      const std::vector<uint32_t> patch[2]) const;
 
   static constexpr uint32_t kOpen = 0xFFFFFFFFu;         ///< a side with no simplex across
   static constexpr uint32_t kNonManifold = 0xFFFFFFFEu;  ///< a side with several
 
-  const UnitGeometry& geometry_;
+  const scene::UnitGeometry& geometry_;
   const SimplexBvh& bvh_;
-  const ContactPairs* contacts_;
+  const octree::ContactPairs* contacts_;
   bool extruded_;
   bool cones_;
   /// Per point: the lowest index of a point at the same position (soups share no indices).
@@ -176,4 +177,4 @@ class PairCertifier final : public SplitOracle {
   std::vector<int8_t> outward_;
 };
 
-}  // namespace gvd
+}  // namespace gvd::refine

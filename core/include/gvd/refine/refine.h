@@ -16,7 +16,7 @@
 #include "gvd/refine/pair_certificate.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::refine {
 
 struct RefineLoopOptions {
   int max_rounds = 0;        ///< rounds of splitting in all
@@ -24,12 +24,12 @@ struct RefineLoopOptions {
   int unseen_rounds = 0;     ///< rounds that may split leaves hiding an unseen region
   /// Ambiguity is resolved at most this many levels below the octree the loop starts from.
   int ambiguity_levels = 0;
-  const ContactPairs* contacts = nullptr;
+  const octree::ContactPairs* contacts = nullptr;
   int contact_depth = 0;  ///< resolved (resolve_contact_depth)
   /// How splits rebuild the octree (its split_oracle keeps certified cells whole) and how
   /// the distance field is updated.
-  OctreeOptions octree;
-  DistanceOptions distance;
+  octree::OctreeOptions octree;
+  distance::DistanceOptions distance;
   /// With cones on in this certifier (the octree's split_oracle), the loop gives up after
   /// `cone_rounds` rounds (cones_unsettled). A cone certifies a cell and its children only
   /// (pair_certificate.h); where 2:1 balance splits its grandchildren next to a roof's apex
@@ -53,8 +53,8 @@ struct RefineLoopResult {
 
 /// Refines `octree` and `field` (its distance field, updated in place) until no leaf must be
 /// split or the round limits are reached; the field's vertices end in key order.
-RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
-                                       const UnitGeometry& geometry, const SimplexBvh& bvh,
+RefineLoopResult refine_until_resolved(octree::Octree& octree, distance::DistanceField& field,
+                                       const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
                                        const RefineLoopOptions& options);
 
-}  // namespace gvd
+}  // namespace gvd::refine

@@ -10,7 +10,7 @@
 #include "gvd/scene/scene.h"
 #include "gvd/surface/gvd.h"
 
-namespace gvd {
+namespace gvd::result {
 
 /// Version of the algorithm; part of job ids and of the saved result.
 inline constexpr uint32_t kAlgorithmVersion = 4;
@@ -59,14 +59,14 @@ struct ResultStats {
 
 /// A finished GVD: everything later commands and the server need.
 struct GvdResult {
-  Scene scene;
-  Domain domain;
-  UnitGeometry geometry;
-  Octree octree;  ///< without the leaf -> simplex incidence after loading from disk
-  DistanceField field;
-  Gvd gvd;
-  DualGraph graph;
+  scene::Scene scene;
+  scene::Domain domain;
+  scene::UnitGeometry geometry;
+  octree::Octree octree;  ///< without the leaf -> simplex incidence after loading from disk
+  distance::DistanceField field;
+  surface::Gvd gvd;
+  graph::DualGraph graph;
   ResultStats stats;
 };
 
-}  // namespace gvd
+}  // namespace gvd::result

@@ -16,7 +16,7 @@
 
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 /// A 2D or 3D array of labels, x fastest: label(i, j, k) = labels[(k * ny + j) * nx + i].
 struct LabelVolume {
@@ -95,4 +95,4 @@ struct LabelVolumeOptions {
 Scene scene_from_label_volume(const LabelVolume& volume, const LabelVolumeOptions& options,
                               const SceneLimits& limits = {});
 
-}  // namespace gvd
+}  // namespace gvd::scene

@@ -9,7 +9,7 @@
 
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 /// Input formats the scene loader understands.
 enum class SceneFormat { kAuto, kJson, kObj, kGltf, kGlb, kPly, kStl, kOff };
@@ -60,4 +60,4 @@ std::string warnings_to_json(const std::vector<SceneWarning>& warnings);
 /// not that form or its kind is no WarningKind's name.
 std::vector<SceneWarning> warnings_from_json(std::string_view text);
 
-}  // namespace gvd
+}  // namespace gvd::scene

@@ -11,7 +11,7 @@
 #include "gvd/geometry/simplex.h"
 #include "gvd/geometry/vec.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 /// Index of an object in its scene (its position in `Scene::objects`).
 using ObjectId = uint32_t;
@@ -244,4 +244,4 @@ struct UnitGeometry {
 /// error (gvd::Error{kInvalidArgument} naming object and vertex).
 UnitGeometry make_unit_geometry(const Scene& scene, const Domain& domain);
 
-}  // namespace gvd
+}  // namespace gvd::scene

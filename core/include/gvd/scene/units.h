@@ -6,7 +6,7 @@
 
 #include "gvd/common/error.h"
 
-namespace gvd {
+namespace gvd::scene {
 
 /// The length units a scene may declare (docs/FORMATS.md, "Units"). They are a label that
 /// travels with the scene to every reported length (the graph JSON, query answers, the saved
@@ -33,4 +33,4 @@ std::string units_suffix(std::string_view units);
 /// "Å" -> "angstrom", the others as they are.
 std::string ascii_units(std::string_view units);
 
-}  // namespace gvd
+}  // namespace gvd::scene

@@ -7,7 +7,7 @@
 #include "gvd/scene/scene.h"
 #include "gvd/surface/gvd.h"
 
-namespace gvd {
+namespace gvd::surface {
 
 struct CompactStats {
   uint64_t simplices_before = 0;  ///< over all cells (each interface simplex once per side)
@@ -36,10 +36,10 @@ struct CompactOptions {
   /// `domain`). 0, or no bvh: flat parts only (nothing moves).
   double curved_tolerance = 0;
   const SimplexBvh* bvh = nullptr;
-  const Domain* domain = nullptr;
+  const scene::Domain* domain = nullptr;
   /// Set: stop with gvd::Error{kCancelled} (polled every 4096 vertices of a cell).
   const std::atomic<bool>* cancel = nullptr;
 };
 CompactStats compact_gvd(Gvd& gvd, const CompactOptions& options = {});
 
-}  // namespace gvd
+}  // namespace gvd::surface

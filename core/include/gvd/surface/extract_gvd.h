@@ -13,7 +13,7 @@
 #include "gvd/scene/scene.h"
 #include "gvd/surface/gvd.h"
 
-namespace gvd {
+namespace gvd::surface {
 
 /// Options of the surfacing stage.
 struct SurfaceOptions {
@@ -36,8 +36,9 @@ struct SurfaceOptions {
 /// pieces (watertight across level changes). Cells are closed by the domain box. Every
 /// simplex is emitted once per side, oriented into that side's cell; vertices carry the
 /// exact clearance (distance to the nearest object, BVH). Output in user units.
-Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
-                const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options = {});
+Gvd extract_gvd(const octree::Octree& octree, const distance::DistanceField& field,
+                const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
+                const scene::Domain& domain, const SurfaceOptions& options = {});
 
 /// extract_gvd in two halves, so that a caller can free between them what only the first
 /// needs (the field's per-leaf vertex lists): memory peaks in the second, where the pieces
@@ -54,26 +55,29 @@ class LeafPieces {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
-  friend LeafPieces surface_leaves(const Octree&, const DistanceField&, const UnitGeometry&,
-                                   const SimplexBvh&, const SurfaceOptions&);
-  friend LeafPieces surface_leaves_releasing_lists(const Octree&, DistanceField&,
-                                                   const UnitGeometry&, const SimplexBvh&,
+  friend LeafPieces surface_leaves(const octree::Octree&, const distance::DistanceField&,
+                                   const scene::UnitGeometry&, const SimplexBvh&,
+                                   const SurfaceOptions&);
+  friend LeafPieces surface_leaves_releasing_lists(const octree::Octree&, distance::DistanceField&,
+                                                   const scene::UnitGeometry&, const SimplexBvh&,
                                                    const SurfaceOptions&);
-  friend Gvd weld_gvd(LeafPieces&&, const UnitGeometry&, const SimplexBvh&, const Domain&,
-                      const SurfaceOptions&);
+  friend Gvd weld_gvd(LeafPieces&&, const scene::UnitGeometry&, const SimplexBvh&,
+                      const scene::Domain&, const SurfaceOptions&);
 };
-LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
-                          const UnitGeometry& geometry, const SimplexBvh& bvh,
+LeafPieces surface_leaves(const octree::Octree& octree, const distance::DistanceField& field,
+                          const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
                           const SurfaceOptions& options = {});
 /// surface_leaves, and `field` gives up its per-leaf vertex lists as soon as surfacing no longer
 /// reads them: those of the leaves that emit nothing (on the spheres, four in five) once the
 /// others are known, the rest at the end (the field then looks vertices up by key, as one
 /// loaded from disk does). The lists beside the pieces are what memory peaks on at the end
 /// of surfacing. The pieces are surface_leaves'.
-LeafPieces surface_leaves_releasing_lists(const Octree& octree, DistanceField& field,
-                                          const UnitGeometry& geometry, const SimplexBvh& bvh,
+LeafPieces surface_leaves_releasing_lists(const octree::Octree& octree,
+                                          distance::DistanceField& field,
+                                          const scene::UnitGeometry& geometry,
+                                          const SimplexBvh& bvh,
                                           const SurfaceOptions& options = {});
-Gvd weld_gvd(LeafPieces&& pieces, const UnitGeometry& geometry, const SimplexBvh& bvh,
-             const Domain& domain, const SurfaceOptions& options = {});
+Gvd weld_gvd(LeafPieces&& pieces, const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
+             const scene::Domain& domain, const SurfaceOptions& options = {});
 
-}  // namespace gvd
+}  // namespace gvd::surface

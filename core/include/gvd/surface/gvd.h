@@ -6,16 +6,17 @@
 #include "gvd/geometry/vec.h"
 #include "gvd/scene/scene.h"
 
-namespace gvd {
+namespace gvd::surface {
 
 /// The boundary of one object's generalized Voronoi cell.
 /// 3D: triangles oriented so that their normal (right-hand rule, (b-a)x(c-a)) points into the
 /// cell; 2D: segments with the cell on their left. Vertices are duplicated per object on the
 /// other side, so a vertex's `other` is the other object of every simplex that uses it.
 struct GvdCell {
-  ObjectId object = kNoObject;
+  scene::ObjectId object = scene::kNoObject;
   std::vector<Vec3> positions;  ///< user units, double; z = 0 in 2D
-  std::vector<ObjectId> other;  ///< per vertex: object across the boundary, kNoObject = domain box
+  std::vector<scene::ObjectId>
+      other;  ///< per vertex: object across the boundary, kNoObject = domain box
   std::vector<double> clearance;  ///< per vertex: distance to the nearest object (user units)
   std::vector<uint32_t> indices;  ///< 3 per triangle (3D) or 2 per segment (2D)
 };
@@ -26,4 +27,4 @@ struct Gvd {
   std::vector<GvdCell> cells;  ///< cells[i].object == i; empty when the object has no cell
 };
 
-}  // namespace gvd
+}  // namespace gvd::surface

@@ -39,15 +39,17 @@ struct KernelBuildReport {
 /// The OpenCL implementation of ComputeBackend. Thread-safe: launches are serialised on one
 /// in-order queue. Create it once, at start-up, before any concurrent use (PoCL crashes when
 /// several threads make the first OpenCL calls at once).
-class OpenClBackend : public ComputeBackend {
+class OpenClBackend : public compute::ComputeBackend {
  public:
   ~OpenClBackend() override;
   std::string name() const override;
-  std::unique_ptr<ClosestPointSolver> closest_points(const UnitGeometry& geometry,
-                                                     const SimplexBvh& bvh) override;
-  std::unique_ptr<OctreeBuildSteps> octree_build_steps(const UnitGeometry& geometry) override;
-  std::unique_ptr<GridEvaluator> grid_evaluator(const GridGeometry& geometry, const GridSpec& spec,
-                                                GridMetric metric) override;
+  std::unique_ptr<distance::ClosestPointSolver> closest_points(const scene::UnitGeometry& geometry,
+                                                               const SimplexBvh& bvh) override;
+  std::unique_ptr<octree::OctreeBuildSteps> octree_build_steps(
+      const scene::UnitGeometry& geometry) override;
+  std::unique_ptr<grid::GridEvaluator> grid_evaluator(const grid::GridGeometry& geometry,
+                                                      const grid::GridSpec& spec,
+                                                      grid::GridMetric metric) override;
   const KernelBuildReport& build_report() const;
   struct Impl;
 
@@ -68,8 +70,8 @@ bool opencl_available(std::string* why = nullptr);
 
 /// The outcome of choosing a backend from `--backend`.
 struct BackendChoice {
-  std::string backend;                      ///< "opencl" or "cpu" (PipelineOptions::backend)
-  std::shared_ptr<ComputeBackend> compute;  ///< null for the CPU twins
+  std::string backend;  ///< "opencl" or "cpu" (PipelineOptions::backend)
+  std::shared_ptr<compute::ComputeBackend> compute;  ///< null for the CPU twins
   std::string note;  ///< why the CPU runs although OpenCL was allowed ("" otherwise)
   std::string log;   ///< one line for the log: what runs and why
 };

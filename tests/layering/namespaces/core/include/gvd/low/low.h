@@ -1,0 +1,4 @@
+#pragma once
+namespace gvd::low {
+inline int low() { return 1; }
+}  // namespace gvd::low
