@@ -530,8 +530,7 @@ void JobManager::worker_loop() {
 void JobManager::run(const std::shared_ptr<Job>& job) {
   const std::string base = dir("requests") + "/" + job->id;
   const std::string instance = "/v1/jobs/" + job->id;
-  ProblemKind kind = ProblemKind::kInternal;
-  std::string detail;
+  JobFailure failure;
   // Everything this thread and the threads working for it allocate from here is the job's;
   // past its limit the allocator sets the cancel flag, which every stage reads.
   job->memory.set_limit(static_cast<int64_t>(job_memory_limit_bytes(options_)), &job->cancel);
@@ -583,50 +582,25 @@ void JobManager::run(const std::shared_ptr<Job>& job) {
     std::lock_guard lock(mutex_);
     finish_locked(*job, JobStatus::kDone);
     return;
-  } catch (const Error& e) {
-    kind = problem_kind(e.code());
-    detail = e.detail();
-  } catch (const std::bad_alloc&) {
-    kind = ProblemKind::kLimitExceeded;
-    detail = "out of memory";
-  } catch (const std::exception& e) {
-    kind = ProblemKind::kInternal;
-    detail = e.what();
+  } catch (const std::exception&) {
+    failure = current_job_failure();
   }
   std::unique_lock lock(mutex_);
   job->memory_peak_bytes = job->memory.peak();
-  if (kind == ProblemKind::kCancelled && job->reason == StopReason::kNone && job->memory.over())
-    job->reason = StopReason::kJobMemory;
-  if (kind == ProblemKind::kCancelled) {
-    switch (job->reason) {
-      case StopReason::kShutdown:
-        // Stays on disk and runs again at the next start.
-        job->status = JobStatus::kQueued;
-        ++version_;
-        changed_cv_.notify_all();
-        return;
-      case StopReason::kTimeout:
-        kind = ProblemKind::kLimitExceeded;
-        detail = "the job ran longer than this server's limit of " +
-                 seconds_text(options_.job_seconds) + " s (--job-seconds)";
-        break;
-      case StopReason::kMemory:
-        kind = ProblemKind::kLimitExceeded;
-        detail = server_memory_detail(job->memory, options_);
-        break;
-      case StopReason::kJobMemory:
-        kind = ProblemKind::kLimitExceeded;
-        detail = job_memory_detail(job->memory, options_);
-        break;
-      case StopReason::kUser:
-      case StopReason::kNone:
-        detail = "cancelled by DELETE while running";
-        break;
+  if (failure.kind == ProblemKind::kCancelled) {
+    job->reason = stop_reason(job->reason, job->memory);
+    if (job->reason == StopReason::kShutdown) {
+      // Stays on disk and runs again at the next start.
+      job->status = JobStatus::kQueued;
+      ++version_;
+      changed_cv_.notify_all();
+      return;
     }
+    failure = explain_stop(std::move(failure), job->reason, job->memory, options_);
   }
   const JobStatus final =
-      kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed;
-  job->error = problem_json(kind, detail, instance, "");
+      failure.kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed;
+  job->error = problem_json(failure.kind, failure.detail, instance, "");
   job->finished_at = unix_now();
   const std::string doc = status_json_locked(*job, final);
   lock.unlock();

@@ -17,6 +17,7 @@
 #include "gvd/common/memory_account.h"
 #include "job_document.h"
 #include "job_queue.h"
+#include "job_stop.h"
 #include "metrics.h"
 #include "result_cache.h"
 #include "server_options.h"
@@ -78,7 +79,6 @@ class JobManager final : public JobQueue {
                     double burst) override;  ///< {"jobs":[{"id","status"}]}, newest first
 
  private:
-  enum class StopReason { kNone, kUser, kTimeout, kMemory, kJobMemory, kShutdown };
   struct Job : JobRecord {
     bool persisting = false;  ///< submitted, its request still being written to disk
     std::atomic<bool> cancel{false};

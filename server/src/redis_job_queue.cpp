@@ -1010,8 +1010,7 @@ void RedisJobQueue::process(RedisConnection& redis, const std::string& entry, co
 void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Running>& job) {
   const std::string base = dir("requests") + "/" + job->id;
   const std::string instance = "/v1/jobs/" + job->id;
-  ProblemKind kind = ProblemKind::kInternal;
-  std::string detail;
+  JobFailure failure;
   // As in one process (JobManager::run): the job is charged for what it allocates.
   job->memory.set_limit(static_cast<int64_t>(job_memory_limit_bytes(options_)), &job->cancel);
   const ScopedMemoryAccount charge(&job->memory);
@@ -1062,67 +1061,42 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
     return;
   } catch (const RedisUnavailable&) {
     throw;
-  } catch (const Error& e) {
-    kind = problem_kind(e.code());
-    detail = e.detail();
-  } catch (const std::bad_alloc&) {
-    kind = ProblemKind::kLimitExceeded;
-    detail = "out of memory";
-  } catch (const std::exception& e) {
-    kind = ProblemKind::kInternal;
-    detail = e.what();
+  } catch (const std::exception&) {
+    failure = current_job_failure();
   }
   StopReason reason;
   {
     std::lock_guard lock(mutex_);
     job->memory_peak_bytes = job->memory.peak();
-    if (kind == ProblemKind::kCancelled && job->reason == StopReason::kNone && job->memory.over())
-      job->reason = StopReason::kJobMemory;
+    if (failure.kind == ProblemKind::kCancelled)
+      job->reason = stop_reason(job->reason, job->memory);
     reason = job->reason;
   }
-  if (kind == ProblemKind::kCancelled) {
-    switch (reason) {
-      case StopReason::kShutdown: {
-        // Back to the queue for another replica now; if Redis is away the entry stays
-        // pending and is taken over after --reclaim-idle.
-        JobRecord queued = *job;
-        queued.stages.clear();
-        queued.started_at = 0;
-        queued.recovered = true;
-        try {
-          redis.command({"EVAL", kReleaseScript, "3", key(job->id), kStream, kChannel, job->id,
-                         job_document(queued, JobStatus::kQueued, std::nullopt), job->entry});
-        } catch (const RedisUnavailable&) {
-          // As said.
-        }
-        log_event("info", "job_released", job->id);
-        return;
+  if (failure.kind == ProblemKind::kCancelled) {
+    if (reason == StopReason::kShutdown) {
+      // Back to the queue for another replica now; if Redis is away the entry stays
+      // pending and is taken over after --reclaim-idle.
+      JobRecord queued = *job;
+      queued.stages.clear();
+      queued.started_at = 0;
+      queued.recovered = true;
+      try {
+        redis.command({"EVAL", kReleaseScript, "3", key(job->id), kStream, kChannel, job->id,
+                       job_document(queued, JobStatus::kQueued, std::nullopt), job->entry});
+      } catch (const RedisUnavailable&) {
+        // As said.
       }
-      case StopReason::kMemory:
-        kind = ProblemKind::kLimitExceeded;
-        detail = server_memory_detail(job->memory, options_);
-        break;
-      case StopReason::kJobMemory:
-        kind = ProblemKind::kLimitExceeded;
-        detail = job_memory_detail(job->memory, options_);
-        break;
-      case StopReason::kTimeout:
-        kind = ProblemKind::kLimitExceeded;
-        detail = "the job ran longer than this server's limit of " +
-                 seconds_text(options_.job_seconds) + " s (--job-seconds)";
-        break;
-      case StopReason::kUser:
-      case StopReason::kNone:
-        detail = "cancelled by DELETE while running";
-        break;
+      log_event("info", "job_released", job->id);
+      return;
     }
+    failure = explain_stop(std::move(failure), reason, job->memory, options_);
   }
   const JobStatus final =
-      kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed;
+      failure.kind == ProblemKind::kCancelled ? JobStatus::kCancelled : JobStatus::kFailed;
   std::string doc;
   {
     std::lock_guard lock(mutex_);
-    job->error = problem_json(kind, detail, instance, "");
+    job->error = problem_json(failure.kind, failure.detail, instance, "");
     job->finished_at = unix_now();
     doc = job_document(*job, final, std::nullopt);
   }
@@ -1136,7 +1110,8 @@ void RedisJobQueue::compute(RedisConnection& redis, const std::shared_ptr<Runnin
   remove_stored_request(base);
   metrics_.job_finished(std::string(job_status_name(final)), job->finished_at - job->started_at);
   finish(redis, job->id, job->entry, final, doc);
-  log_event("warn", final == JobStatus::kFailed ? "job_failed" : "job_cancelled", job->id, detail);
+  log_event("warn", final == JobStatus::kFailed ? "job_failed" : "job_cancelled", job->id,
+            failure.detail);
 }
 
 void RedisJobQueue::finish(RedisConnection& redis, const std::string& id, const std::string& entry,

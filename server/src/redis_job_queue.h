@@ -13,6 +13,7 @@
 #include "gvd/common/memory_account.h"
 #include "job_document.h"
 #include "job_queue.h"
+#include "job_stop.h"
 #include "metrics.h"
 #include "redis_client.h"
 #include "result_cache.h"
@@ -69,7 +70,6 @@ class RedisJobQueue final : public JobQueue {
   std::string readiness_json() const override;
 
  private:
-  enum class StopReason { kNone, kUser, kTimeout, kMemory, kJobMemory, kShutdown };
   struct Running : JobRecord {
     std::string entry;     ///< stream entry id
     std::string consumer;  ///< the worker's consumer name

@@ -32,6 +32,7 @@
 #include "job_manager.h"
 #include "job_memory.h"
 #include "job_params.h"
+#include "job_stop.h"
 #include "metrics.h"
 #include "problem.h"
 #include "result_cache.h"
@@ -1116,6 +1117,64 @@ TEST(JobMemory, TheJobThatHoldsTheMostIsStopped) {
   options.job_memory_mb = 0;
   options.max_memory_mb = 0;
   EXPECT_EQ(job_memory_limit_bytes(options), 0u);
+}
+
+// Both queues explain a job that did not finish with these (job_stop.h).
+TEST(JobStop, FailuresAndStopsReadTheSameInBothQueues) {
+  auto failure_of = [](auto&& thrower) {
+    try {
+      thrower();
+    } catch (const std::exception&) {
+      return current_job_failure();
+    }
+    return JobFailure{ProblemKind::kInternal, "nothing thrown"};
+  };
+  const JobFailure scene = failure_of(
+      [] { throw Error(ErrorCode::kInvalidScene, "object 'a': triangle 3 has index 9"); });
+  EXPECT_EQ(scene.kind, problem_kind(ErrorCode::kInvalidScene));
+  EXPECT_EQ(scene.detail, "object 'a': triangle 3 has index 9");
+  const JobFailure memory = failure_of([] { throw std::bad_alloc(); });
+  EXPECT_EQ(memory.kind, ProblemKind::kLimitExceeded);
+  EXPECT_EQ(memory.detail, "out of memory");
+  const JobFailure other = failure_of([] { throw std::runtime_error("disk gone"); });
+  EXPECT_EQ(other.kind, ProblemKind::kInternal);
+  EXPECT_EQ(other.detail, "disk gone");
+
+  // Nobody asked the job to stop, but its own account is over: its memory stopped it.
+  MemoryAccount account;
+  std::atomic<bool> cancel{false};
+  EXPECT_EQ(stop_reason(StopReason::kNone, account), StopReason::kNone);
+  account.set_limit(int64_t{4} << 20, &cancel);
+  account.add(int64_t{5} << 20);
+  ASSERT_TRUE(account.over());
+  EXPECT_TRUE(cancel);
+  EXPECT_EQ(stop_reason(StopReason::kNone, account), StopReason::kJobMemory);
+  EXPECT_EQ(stop_reason(StopReason::kUser, account), StopReason::kUser);
+
+  ServerOptions options;
+  options.job_seconds = 2.5;
+  options.max_memory_mb = 64;
+  options.job_memory_mb = 4;
+  const JobFailure cancelled{ProblemKind::kCancelled, "cancelled in the octree stage"};
+  const JobFailure timeout = explain_stop(cancelled, StopReason::kTimeout, account, options);
+  EXPECT_EQ(timeout.kind, ProblemKind::kLimitExceeded);
+  EXPECT_NE(timeout.detail.find("2.5 s (--job-seconds)"), std::string::npos) << timeout.detail;
+  const JobFailure own = explain_stop(cancelled, StopReason::kJobMemory, account, options);
+  EXPECT_EQ(own.kind, ProblemKind::kLimitExceeded);
+  EXPECT_EQ(own.detail, job_memory_detail(account, options));
+  const JobFailure server = explain_stop(cancelled, StopReason::kMemory, account, options);
+  EXPECT_EQ(server.kind, ProblemKind::kLimitExceeded);
+  EXPECT_EQ(server.detail, server_memory_detail(account, options));
+  for (const StopReason user : {StopReason::kUser, StopReason::kNone}) {
+    const JobFailure deleted = explain_stop(cancelled, user, account, options);
+    EXPECT_EQ(deleted.kind, ProblemKind::kCancelled);
+    EXPECT_EQ(deleted.detail, "cancelled by DELETE while running");
+  }
+  // A shutdown is not a failure (the caller queues the job again), and a failure that is no
+  // cancellation keeps its own words whatever the reason.
+  EXPECT_EQ(explain_stop(cancelled, StopReason::kShutdown, account, options).detail,
+            cancelled.detail);
+  EXPECT_EQ(explain_stop(scene, StopReason::kTimeout, account, options).detail, scene.detail);
 }
 
 }  // namespace gvd::server
