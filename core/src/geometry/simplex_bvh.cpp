@@ -9,6 +9,7 @@
 #include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
 #include "gvd/common/memory_account.h"
+#include "gvd/geometry/bvh_build.h"
 #include "gvd/geometry/primitives.h"
 
 namespace gvd {
@@ -31,71 +32,7 @@ bool simplex_overlaps_box(int dimension, std::span<const Vec3> points, const Sim
 
 namespace {
 
-constexpr uint32_t kLeafSize = 4;
-/// Items a build handles between two reads of the cancel flag (about 1 ms of work).
-constexpr uint32_t kCancelGrain = 1u << 14;
-
-// The number of nodes build_tree makes for n items (median splits down to kLeafSize), so the
-// arrays are allocated once at their size.
-size_t tree_nodes(uint32_t n) {
-  if (n <= kLeafSize) return 1;
-  return 1 + tree_nodes(n / 2) + tree_nodes(n - n / 2);
-}
-
-// Top-down median split along the largest axis of the centre bounds, in depth-first layout: a
-// left child directly follows its parent, the parent stores the index of its right child.
-// Leaf ranges index `items[begin, end)` (positions in that array). Appends to `nodes`. Reads
-// `cancel` after every kCancelGrain items partitioned (`work` carries the count between calls).
-template <class BoxOf, class CenterOf>
-void build_tree(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, BoxOf&& box_of,
-                CenterOf&& center_of, std::vector<SimplexBvh::Node>& nodes,
-                const std::atomic<bool>* cancel, uint32_t& work) {
-  struct Frame {
-    uint32_t begin, end, parent;  // parent: node whose `first` (right child) to set, or ~0
-  };
-  std::vector<Frame> stack;
-  stack.push_back({begin, end, ~0u});
-  while (!stack.empty()) {
-    const Frame f = stack.back();
-    stack.pop_back();
-    work += f.end - f.begin;
-    if (work >= kCancelGrain) {
-      work = 0;
-      throw_if_cancelled(cancel, "indexing the scene");
-    }
-    const uint32_t self = static_cast<uint32_t>(nodes.size());
-    if (f.parent != ~0u) nodes[f.parent].first = self;
-    nodes.push_back({});
-    SimplexBvh::Node& node = nodes[self];
-    Box box, cbox;
-    for (uint32_t k = f.begin; k < f.end; ++k) {
-      box.extend(box_of(items[k]));
-      cbox.extend(center_of(items[k]));
-    }
-    for (int a = 0; a < 3; ++a) {
-      node.lo[a] = box.lo[a];
-      node.hi[a] = box.hi[a];
-    }
-    // Objects are not known here: mixed until the constructor fills them in.
-    const bool leaf = f.end - f.begin <= kLeafSize;
-    node.tag = item::gvd_node_tag(leaf ? f.end - f.begin : 0, SimplexBvh::kMixed);
-    if (leaf) {
-      node.first = f.begin;
-      continue;
-    }
-    const Vec3 ext = cbox.hi - cbox.lo;
-    int axis = 0;
-    if (ext.y > ext[axis]) axis = 1;
-    if (ext.z > ext[axis]) axis = 2;
-    const uint32_t mid = f.begin + (f.end - f.begin) / 2;
-    std::nth_element(
-        items.begin() + f.begin, items.begin() + mid, items.begin() + f.end,
-        [&](uint32_t a, uint32_t b) { return center_of(a)[axis] < center_of(b)[axis]; });
-    // Right subtree is pushed first so the left one (popped next) directly follows `self`.
-    stack.push_back({mid, f.end, self});
-    stack.push_back({f.begin, mid, ~0u});
-  }
-}
+constexpr const char* kIndexing = "indexing the scene";
 
 // nearest_excluding's filter: simplices of the excluded objects are no candidates, and
 // subtrees whose simplices all belong to one of them are not entered (it is cheap where those
@@ -119,7 +56,7 @@ struct ExcludeObjects {
 
 // A node of the top of the shared tree, which is built over whole objects (plan_object_top):
 // its simplices are positions [item_begin, item_end) of the leaf order; a block is indexed
-// simplex by simplex below it (build_tree), an inner node splits into the next node (left) and
+// simplex by simplex below it (build_bvh_nodes), an inner node splits into the next node (left) and
 // `right`'s.
 struct TopNode {
   uint32_t item_begin, item_end;
@@ -256,7 +193,7 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
   std::vector<Box> boxes(m);
   std::vector<Vec3> centers(m);
   for (uint32_t i = 0; i < m; ++i) {
-    if (i % kCancelGrain == 0) throw_if_cancelled(cancel, "indexing the scene");
+    if (i % kBvhCancelGrain == 0) throw_if_cancelled(cancel, kIndexing);
     for (int k = 0; k < arity; ++k) boxes[i].extend(points[simplices[i].v[k]]);
     centers[i] = boxes[i].center();
   }
@@ -275,7 +212,7 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
   if (objects >= 2) {
     const std::vector<TopNode> top = plan_object_top(object_of, objects, boxes, centers, order_);
     size_t total = 0;
-    for (const TopNode& t : top) total += t.block ? tree_nodes(t.item_end - t.item_begin) : 1;
+    for (const TopNode& t : top) total += t.block ? bvh_node_count(t.item_end - t.item_begin) : 1;
     nodes_.reserve(total);
     std::vector<uint32_t> at(top.size());
     for (size_t i = 0; i < top.size(); ++i) {
@@ -283,7 +220,8 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
       at[i] = static_cast<uint32_t>(nodes_.size());
       if (t.right) nodes_[at[t.parent]].first = at[i];
       if (t.block) {
-        build_tree(order_, t.item_begin, t.item_end, box_of, center_of, nodes_, cancel, work);
+        build_bvh_nodes(order_, t.item_begin, t.item_end, box_of, center_of, nodes_, cancel, work,
+                        kIndexing);
         continue;
       }
       Node n{};
@@ -297,8 +235,8 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
   } else {
     order_.resize(m);
     std::iota(order_.begin(), order_.end(), 0u);
-    nodes_.reserve(tree_nodes(m));
-    build_tree(order_, 0, m, box_of, center_of, nodes_, cancel, work);
+    nodes_.reserve(bvh_node_count(m));
+    build_bvh_nodes(order_, 0, m, box_of, center_of, nodes_, cancel, work, kIndexing);
   }
   arity_ = arity;
   corner_.resize(static_cast<size_t>(m) * arity);
@@ -384,11 +322,11 @@ SimplexBvh::SimplexBvh(int dimension, std::span<const Vec3> points,
     for (uint32_t o = from; o < to; ++o) {
       if (start[o] == start[o + 1]) continue;
       root[which].push_back(static_cast<uint32_t>(part[which].size()));
-      build_tree(
+      build_bvh_nodes(
           object_items_, start[o], start[o + 1],
           [&](uint32_t k) -> const Box& { return boxes[order_[k]]; },
           [&](uint32_t k) -> const Vec3& { return centers[order_[k]]; }, part[which], cancel,
-          objects_work);
+          objects_work, kIndexing);
     }
   };
   const bool threaded = start[objects] >= 4096;

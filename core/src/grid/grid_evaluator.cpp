@@ -8,6 +8,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/compute/compute_backend.h"
+#include "gvd/geometry/bvh_build.h"
 
 namespace gvd::grid {
 
@@ -18,13 +19,10 @@ static_assert(sizeof(item::GvdGridSpec) == 64, "GvdGridSpec must match the devic
 static_assert(sizeof(item::GvdGridJob) == 40, "GvdGridJob must match the device layout");
 static_assert(sizeof(Vec3) == sizeof(item::GvdPoint));
 
-namespace {
-uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end,
-                        const std::atomic<bool>* cancel);
-}  // namespace
-
 GridGeometry make_grid_geometry(const Scene& scene, const std::atomic<bool>* cancel) {
   GridGeometry g;
+  std::vector<Box> boxes;  // per simplex
+  uint32_t work = 0;
   g.dimension = scene.dimension;
   for (ObjectId o = 0; o < scene.objects.size(); ++o) {
     throw_if_cancelled(cancel, "the grid");
@@ -45,7 +43,14 @@ GridGeometry make_grid_geometry(const Scene& scene, const std::atomic<bool>* can
     GVD_CHECK(count > 0, "make_grid_geometry: an object without simplices");
     const uint32_t begin = static_cast<uint32_t>(g.order.size());
     for (uint32_t s = 0; s < count; ++s) g.order.push_back(first + s);
-    g.roots.push_back(build_bvh_node(g, begin, begin + count, cancel));
+    boxes.resize(first + count);
+    for (uint32_t s = first; s < first + count; ++s) {
+      for (uint32_t k = 0; k < 3; ++k) boxes[s].extend(g.points[g.simplices[3 * s + k]]);
+    }
+    g.roots.push_back(static_cast<uint32_t>(g.nodes.size()));
+    build_bvh_nodes(
+        g.order, begin, begin + count, [&](uint32_t s) -> const Box& { return boxes[s]; },
+        [&](uint32_t s) { return boxes[s].center(); }, g.nodes, cancel, work, "the grid");
   }
   return g;
 }
@@ -74,52 +79,6 @@ item::GvdGridSpec make_item_spec(const GridSpec& spec, GridMetric metric) {
 }
 
 namespace {
-
-/// Lays out the BVH node of order[begin, end) at the end of g.nodes and its subtrees after
-/// it (depth-first: left child next, right child after the left subtree); median split on
-/// the longest axis of the simplices' centres, leaves of at most 4. Returns the node. Reads
-/// `cancel` at nodes of 16k simplices or more (below, a subtree is well under a millisecond).
-uint32_t build_bvh_node(GridGeometry& g, uint32_t begin, uint32_t end,
-                        const std::atomic<bool>* cancel) {
-  if (end - begin >= (1u << 14)) throw_if_cancelled(cancel, "the grid");
-  auto centre = [&](uint32_t s, int axis) {
-    double lo = 1e300, hi = -1e300;
-    for (uint32_t k = 0; k < 3; ++k) {
-      const double v = g.points[g.simplices[3 * s + k]][axis];
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
-    return 0.5 * (lo + hi);
-  };
-  Box box, cbox;
-  for (uint32_t i = begin; i < end; ++i) {
-    const uint32_t s = g.order[i];
-    for (uint32_t k = 0; k < 3; ++k) box.extend(g.points[g.simplices[3 * s + k]]);
-    cbox.extend(Vec3{centre(s, 0), centre(s, 1), centre(s, 2)});
-  }
-  const uint32_t node = static_cast<uint32_t>(g.nodes.size());
-  g.nodes.emplace_back();
-  for (int a = 0; a < 3; ++a) {
-    g.nodes[node].lo[a] = box.lo[a];
-    g.nodes[node].hi[a] = box.hi[a];
-  }
-  if (end - begin <= 4) {
-    g.nodes[node].first = begin;
-    g.nodes[node].tag = item::gvd_node_tag(end - begin, GVD_MIXED);
-    return node;
-  }
-  int axis = 0;
-  for (int a = 1; a < 3; ++a)
-    if (cbox.hi[a] - cbox.lo[a] > cbox.hi[axis] - cbox.lo[axis]) axis = a;
-  const uint32_t mid = begin + (end - begin) / 2;
-  std::nth_element(g.order.begin() + begin, g.order.begin() + mid, g.order.begin() + end,
-                   [&](uint32_t l, uint32_t r) { return centre(l, axis) < centre(r, axis); });
-  build_bvh_node(g, begin, mid, cancel);
-  const uint32_t right = build_bvh_node(g, mid, end, cancel);
-  g.nodes[node].first = right;
-  g.nodes[node].tag = item::gvd_node_tag(0, GVD_MIXED);
-  return node;
-}
 
 class CpuGridEvaluator final : public GridEvaluator {
  public:

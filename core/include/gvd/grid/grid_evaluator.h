@@ -18,9 +18,9 @@ namespace gvd::grid {
 
 /// The sites of a grid computation: the scene's objects. Every simplex in one flat list
 /// (three vertex indices each; segments repeat their first vertex), numbered object by
-/// object, and one BVH per object over its own simplices, all in `nodes` (depth-first; inner
-/// nodes: left child next, right child at `first`, count 0; leaves: order[first ..
-/// first + count) are simplex indices).
+/// object, and one BVH per object over its own simplices, built by build_bvh_nodes as
+/// SimplexBvh's are, all in `nodes` (depth-first; inner nodes: left child next, right child
+/// at `first`, count 0; leaves: order[first .. first + count) are simplex indices).
 struct GridGeometry {
   int dimension = 3;
   std::vector<Vec3> points;
