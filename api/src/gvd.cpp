@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "gvd/common/parallel.h"
+#include "gvd/distance/compute_distances.h"
 #include "gvd/grid/compute_grid.h"
 #include "gvd/grid/sample_result_grid.h"
 #include "gvd/io/result_file.h"

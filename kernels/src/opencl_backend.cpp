@@ -13,6 +13,7 @@
 #include "gvd/grid/compute_grid.h"
 #include "gvd/grid/grid_evaluator.h"
 #include "gvd/kernels/embedded_sources.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/build_octree_data_parallel.h"
 
 namespace gvd::kernels {

@@ -11,6 +11,7 @@
 #include "gvd/grid/grid_graph.h"
 #include "gvd/io/write_grid.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/octree/build_octree.h"
 #include "problem.h"
 
 namespace gvd::server {

@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "gvd/octree/build_octree.h"
 #include "gvd/pipeline/pipeline.h"
 #include "job_params.h"
 #include "server_options.h"

@@ -10,6 +10,7 @@
 #include "gvd/common/error.h"
 #include "gvd/io/result_file.h"
 #include "gvd/io/write_outputs.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "job_compute.h"

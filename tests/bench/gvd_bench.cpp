@@ -23,6 +23,7 @@
 #include "bench/sphere_lattice.h"
 #include "bench/table1_scenes.h"
 #include "gvd/common/peak_memory.h"
+#include "gvd/distance/compute_distances.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "support/scenes.h"

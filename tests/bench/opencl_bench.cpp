@@ -29,8 +29,10 @@
 
 #include "bench/table1_scenes.h"
 #include "gvd/distance/closest_points.h"
+#include "gvd/distance/compute_distances.h"
 #include "gvd/distance/distance_field.h"
 #include "gvd/kernels/opencl_backend.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/build_octree_data_parallel.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/pipeline/pipeline.h"

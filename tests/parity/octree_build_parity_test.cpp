@@ -11,6 +11,7 @@
 
 #include "gvd/common/radix_sort.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/build_octree_data_parallel.h"
 #include "gvd/octree/contacts.h"
 #include "parity/opencl_env.h"

@@ -10,6 +10,7 @@
 #include <string>
 #include <utility>
 
+#include "gvd/octree/build_octree.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "support/expect_valid.h"

@@ -1,3 +1,5 @@
+#include "gvd/distance/compute_distances.h"
+
 #include <algorithm>
 #include <atomic>
 #include <bit>

@@ -1,3 +1,5 @@
+#include "gvd/graph/build_dual_graph.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>

@@ -14,6 +14,8 @@
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/graph/build_dual_graph.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 

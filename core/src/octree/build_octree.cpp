@@ -1,3 +1,5 @@
+#include "gvd/octree/build_octree.h"
+
 #include <algorithm>
 #include <atomic>
 #include <numeric>

@@ -8,6 +8,7 @@
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
 #include "gvd/common/stopwatch.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/subdivision_rule.h"
 

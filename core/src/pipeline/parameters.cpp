@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "gvd/common/error.h"
+#include "gvd/distance/compute_distances.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/units.h"
 

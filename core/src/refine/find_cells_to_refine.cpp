@@ -6,6 +6,7 @@
 #include "../surface/cell_faces.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/subdivision_rule.h"
 #include "gvd/refine/find_cells_to_refine.h"
 

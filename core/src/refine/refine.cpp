@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "gvd/common/peak_memory.h"
+#include "gvd/distance/compute_distances.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/refine/find_cells_to_refine.h"
 
 namespace gvd::refine {

@@ -1,9 +1,12 @@
+#include "gvd/distance/compute_distances.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <map>
 
 #include "gvd/distance/distance_field.h"
+#include "gvd/octree/build_octree.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
 

@@ -12,6 +12,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/contacts.h"
 #include "support/scenes.h"
 

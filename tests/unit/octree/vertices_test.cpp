@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "gvd/common/error.h"
+#include "gvd/octree/build_octree.h"
 #include "support/scenes.h"
 
 namespace gvd {

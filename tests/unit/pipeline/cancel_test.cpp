@@ -15,6 +15,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/json_input.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/graph/build_dual_graph.h"
 #include "gvd/graph/dual_graph.h"
 #include "gvd/io/write_grid.h"
 #include "gvd/octree/contacts.h"

@@ -7,6 +7,7 @@
 #include <tuple>
 
 #include "bench/boost_voronoi.h"
+#include "gvd/distance/compute_distances.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/load_scene.h"
 #include "support/expect_valid.h"

@@ -16,7 +16,9 @@
 #include <string>
 
 #include "gvd/common/error.h"
+#include "gvd/distance/compute_distances.h"
 #include "gvd/grid/compute_grid.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/octree.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/scene/label_volume.h"

@@ -1,20 +1,19 @@
 #pragma once
 
-#include <atomic>
+// The distance transform's data (paper §4): the closest object point of every octree vertex.
+// compute_distances.h makes it.
+
 #include <cstdint>
-#include <functional>
 #include <span>
 #include <vector>
 
 #include "gvd/common/growable_array.h"
-#include "gvd/geometry/simplex_bvh.h"
+#include "gvd/geometry/vec.h"
 #include "gvd/octree/octree.h"
 #include "gvd/octree/vertices.h"
 #include "gvd/scene/scene.h"
 
 namespace gvd::distance {
-
-class ClosestPointSolver;
 
 /// Label and closest point of every octree vertex (paper §4), in unit-domain coordinates.
 struct DistanceField {
@@ -57,65 +56,5 @@ struct DistanceField {
   double distance(uint32_t v) const;
   size_t memory_bytes() const;
 };
-
-/// How compute_distances assigns closest points to the vertices of empty leaves.
-enum class DistanceMethod {
-  /// The exact closest point of every vertex, by the BVH (or the backend's kernel), in one
-  /// data-parallel batch. The default: on the benchmark scenes it is 4-5x cheaper than the
-  /// wavefront (which is serial) and every distance is exact.
-  kExact,
-  /// The paper's Algorithm 1 (§4): exact points for the non-empty vertices only, then the
-  /// wavefront expansion over visible vertices (distances within 3/2 of the true ones), then
-  /// exact points where the GVD crosses a leaf (exact_near_gvd).
-  kWavefront,
-};
-
-/// Options of the distance transform.
-struct DistanceOptions {
-  int threads = 0;                            ///< 0 = all cores
-  const std::atomic<bool>* cancel = nullptr;  ///< stop with gvd::Error{kCancelled}
-  DistanceMethod method = DistanceMethod::kExact;
-  /// kWavefront only: after the wavefront, give every vertex of a leaf with mixed labels (a leaf
-  /// the GVD crosses) its exact closest point, repeating while new leaves become mixed. The GVD is
-  /// then surfaced from exact points at both ends of every crossed edge, and ambiguity tests
-  /// see true labels instead of wavefront noise. Costs one bounded BVH query per such vertex.
-  bool exact_near_gvd = true;
-  /// Computes the exact closest points in batches (the OpenCL kernel or the CPU twin of
-  /// closest_points.h); null = SimplexBvh::nearest on `threads` threads. Same results.
-  ClosestPointSolver* solver = nullptr;
-  /// Optional: the fraction of the exact closest-point queries done, called from the calling
-  /// thread between batches of them (for the progress display).
-  std::function<void(double)> progress;
-};
-
-/// The exact closest point of one vertex among all simplices (the per-item function of the
-/// initialisation; the OpenCL kernel runs the same item, closest_point_item.h). `upper2` bounds the
-/// search.
-ClosestHit closest_for_vertex(const SimplexBvh& bvh, Vec3 position, double upper2 = 1e300);
-
-/// Paper §4, COMPUTE_DISTANCES. With DistanceMethod::kExact (the default) every vertex gets
-/// its exact closest point by the BVH, O(V log M), data-parallel. With kWavefront (the
-/// paper's Algorithm 1): exact closest points for every non-empty vertex (a vertex of a leaf
-/// that intersects an object), then a wavefront expansion in increasing distance that pushes
-/// closest points to visible vertices (vertices on the boundary of a common leaf),
-/// O(V log V) on a 2:1-balanced tree, serial.
-/// `previous` (optional) supplies exact points already computed for the same vertex keys.
-/// With `previous_octree` (the octree `previous` was computed on, which `octree` refines), the
-/// topology is updated incrementally: vertices keep their indices (new ones are appended, so
-/// keys are no longer sorted — see sort_vertices) and only changed leaves are looked up again.
-DistanceField compute_distances(const octree::Octree& octree, const scene::UnitGeometry& geometry,
-                                const SimplexBvh& bvh, const DistanceOptions& options = {},
-                                const DistanceField* previous = nullptr,
-                                const octree::Octree* previous_octree = nullptr);
-/// The same update after a refinement, consuming `previous` (its vertex set moves into the new
-/// field instead of being copied) and `previous_octree` (freed once its leaves are matched);
-/// the result is the same.
-DistanceField compute_distances(const octree::Octree& octree, const scene::UnitGeometry& geometry,
-                                const SimplexBvh& bvh, const DistanceOptions& options,
-                                DistanceField&& previous, octree::Octree&& previous_octree);
-
-/// Puts the vertices in key order (as a fresh compute_distances has them), permuting every
-/// per-vertex array and the leaf CSR. O(V), parallel on `threads` (0 = all cores).
-void sort_vertices(DistanceField& field, int threads = 0);
 
 }  // namespace gvd::distance

@@ -5,6 +5,7 @@
 #include <span>
 #include <vector>
 
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/octree.h"
 #include "gvd/octree/octree_build_item.h"
 

@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "gvd/distance/compute_distances.h"
 #include "gvd/distance/distance_field.h"
 #include "gvd/grid/compute_grid.h"
 #include "gvd/grid/sample_result_grid.h"

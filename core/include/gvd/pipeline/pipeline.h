@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "gvd/compute/compute_backend.h"
+#include "gvd/distance/compute_distances.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/pipeline/parameters.h"
 #include "gvd/result/gvd_result.h"
 #include "gvd/scene/scene.h"

@@ -10,6 +10,7 @@
 
 #include "gvd/distance/distance_field.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"

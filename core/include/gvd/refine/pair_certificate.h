@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"

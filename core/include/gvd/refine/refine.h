@@ -9,8 +9,10 @@
 #include <cstdint>
 #include <functional>
 
+#include "gvd/distance/compute_distances.h"
 #include "gvd/distance/distance_field.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/build_octree.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/octree.h"
 #include "gvd/refine/pair_certificate.h"
