@@ -91,7 +91,7 @@ bench: build
 bench-server: build
 	tests/service/bench_server.sh $(BUILD) 10 8
 
-# gvd-server with every HTTP thread held and its request queue full (issue 16; not in `bench`).
+# gvd-server with every HTTP thread held and its request queue full (not in `bench`).
 bench-overload: build
 	tests/service/bench_overload.sh $(BUILD) 10 500
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `make docker-build`: builds the gvd image from docker/Dockerfile and smoke-tests it, on a
-# machine with no container daemon and no registry (ENVIRONMENT.md, Containers): the
+# machine with no container daemon and no registry (as this project's build machines are): the
 # debian:bookworm-slim base is made locally with debootstrap from the configured Debian mirror
 # and imported into podman (vfs storage, chroot isolation); the smoke test runs the built image
 # with `buildah run`: `gvd --version`, a small `gvd compute`, and gvd-server answering /readyz.

@@ -459,7 +459,7 @@ void print_thin_gap_summary() {
   }
 }
 
-/// Writes every scene as scene JSON (DESIGN.md) into `dir`, so that `gvd compute` can run the
+/// Writes every scene as scene JSON (docs/FORMATS.md) into `dir`, so that `gvd compute` can run the
 /// same input: --gvd_write_scenes=DIR (the thin-gap scenes as <scene>_<gap>.json; the _xyz
 /// rows are `--frame world` on the same file). Returns the process exit code.
 int write_scenes(const std::string& dir, bool slow) {

@@ -1,4 +1,4 @@
-// Benchmarks of the OpenCL backend (issue 4), linked into gvd_bench next to gvd_bench.cpp:
+// Benchmarks of the OpenCL backend, linked into gvd_bench next to gvd_bench.cpp:
 //  - BM_ClosestPoints/<scene>/{opencl,twin,scalar}: the closest-point kernel, its CPU twin on
 //    2 threads (PoCL's CPU device also uses the 2 cores) and the same per-item loop on one
 //    thread, on the same batch: the exact queries of the scene's first distance field as

@@ -1,4 +1,4 @@
-"""gvd-server's compute backend (issue 4): chosen once at start-up; `auto` uses OpenCL when a
+"""gvd-server's compute backend: chosen once at start-up; `auto` uses OpenCL when a
 device exists and otherwise the CPU twins, saying so in /readyz and in every job; an explicit
 `opencl` without a platform refuses to start with a clear message. Run with the real PoCL
 (GVD_OPENCL_EXPECTED=1 in CTest when a platform was found at configure time) and with

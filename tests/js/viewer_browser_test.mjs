@@ -624,7 +624,7 @@ async function main() {
     check(state.units === null && !(await page.textContent('#scalebar-label')).includes('mm'), 'no units when the scene has none');
     log(`3 STL files as one job: ${state.labels.join(', ')}`);
 
-    // 18. A part inside a closed box (the teapot in a box of issue 16): hidden until the
+    // 18. A part inside a closed box (the teapot in a box): hidden until the
     //     clipping plane cuts the box open or the box is hidden.
     const nested = [['box', [-1, -1, -1], 3], ['part', [0, 0, 0], 1]].map(([name, o, size]) => {
       const file = join(out, `${name}.stl`);

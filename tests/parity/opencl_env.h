@@ -1,8 +1,8 @@
 #pragma once
 
 // The one OpenCL backend of the parity test process, created once before any test uses it
-// (PoCL must be initialised once, not concurrently; ENVIRONMENT.md). Tests that need it skip
-// with the reason when there is no platform.
+// (PoCL must be initialised once: several threads making the first OpenCL calls at once crash
+// it). Tests that need it skip with the reason when there is no platform.
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-"""Scale-out with real parts (issue 14): a private redis-server on loopback (a port of its own,
+"""Scale-out with real parts: a private redis-server on loopback (a port of its own,
 no persistence), three gvd-server replicas sharing one store directory, and a single-node
 gvd-server as the reference for the outputs.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Overload test of gvd-server on loopback (issue 16): the server with its defaults (128 HTTP
+# Overload test of gvd-server on loopback: the server with its defaults (128 HTTP
 # threads) holds the bundled balls_on_plate result, then
 #   1. wrk -c256 on the cached neighbour query, as fast as it goes (256 connections, twice
 #      the threads);

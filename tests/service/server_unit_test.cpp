@@ -572,7 +572,7 @@ TEST(HeaderGate, StalledHeadersWaitOutsideTheThreads) {
   EXPECT_EQ(http.gate_counts().waiting, 0u);
 }
 
-// Issue 16: ready requests wait for a thread in a bounded queue. Two threads held by requests
+// Ready requests wait for a thread in a bounded queue. Two threads held by requests
 // that block, one request queued: every further one is answered by the gate at once with its
 // overloaded answer (here from the request line) and the connection closed; new connections
 // are still taken in (not queued behind the busy threads); once the threads are free, the
@@ -688,7 +688,7 @@ std::string exchange_on(int fd, const std::string& request) {
 
 }  // namespace
 
-// Issue 16: kept-alive connections idle between requests hold nothing but a descriptor; only
+// Kept-alive connections idle between requests hold nothing but a descriptor; only
 // those with part of their headers count toward the per-address cap (before, 256 connections
 // of one load generator were closed and reopened over and over with a cap of 64). Eight idle
 // connections with room for three all make their next request; four stalled ones: the oldest
@@ -733,7 +733,7 @@ TEST(HeaderGate, IdleConnectionsDoNotCountTowardTheClientCap) {
   for (const int fd : stalled) close(fd);
 }
 
-// Issue 16: a probe no longer waits in the queue behind requests that hold every thread: the
+// A probe no longer waits in the queue behind requests that hold every thread: the
 // gate sends /healthz to threads of its own. Two threads blocked, two requests queued (room
 // for four): /healthz is answered at once, and a kept-alive probe connection can go on with a
 // normal request, which then waits its turn.
@@ -809,7 +809,7 @@ TEST(HeaderGate, ProbesHaveALaneOfTheirOwn) {
   serving.join();
 }
 
-// Issue 16: a body read in a thread had only a time-out per recv. With begin_body (called by
+// A body read in a thread had only a time-out per recv. With begin_body (called by
 // the server's pre-routing handler), a body has a deadline (body_seconds + length /
 // min_body_rate), past which the read fails and body_timed_out() says so; and at most
 // max_body_readers threads read one at once.
@@ -891,7 +891,7 @@ TEST(HeaderGate, BodiesHaveADeadlineAndAReaderCap) {
   serving.join();
 }
 
-// Issue 16 and D4: begin_body's other two limits. Each address may be reading
+// begin_body's other two limits. Each address may be reading
 // max_body_readers_per_client bodies; the bytes of the bodies held (being read, or read and
 // still handled) stay within max_body_bytes, and are given back when the request is over,
 // not when its body has been read.

@@ -207,7 +207,7 @@ TEST(Service, SubmitPollFetchEveryOutput) {
   EXPECT_EQ(glb->get_header_value("ETag"), "\"" + s.id + "\"");
   ASSERT_GT(glb->body.size(), 20u);
   EXPECT_EQ(glb->body.substr(0, 4), "glTF");
-  // Written, read back and validated (STYLE.md).
+  // Written, read back and validated: a GLB that only looks right is not checked.
   const std::string glb_path = fresh_dir("submit-glb") + "/gvd.glb";
   std::ofstream(glb_path, std::ios::binary) << glb->body;
   const GltfReport report = validate_glb_file(glb_path);
@@ -1440,7 +1440,7 @@ TEST(Service, HeaderDeadlineIdleCloseAndPipelinedRequests) {
   close(fd);
 }
 
-// Issue 16: with every HTTP thread busy and --max-queued-requests requests waiting for one, a
+// With every HTTP thread busy and --max-queued-requests requests waiting for one, a
 // further request is answered at once (503 /problems/overloaded + Retry-After) instead of
 // waiting in an unbounded queue; /healthz stays 200 and /readyz says "overloaded". The threads
 // are held legitimately, without CPU: POST bodies that arrive slowly (bodies are read in the
@@ -1599,7 +1599,7 @@ double metric_becomes(int port, const std::string& name, double value) {
   return now;
 }
 
-// Issue 16: the per-address cap of the header gate closed kept-alive connections that sat
+// The per-address cap of the header gate closed kept-alive connections that sat
 // idle between requests, so a client (or a proxy, or wrk) with more connections than the cap
 // reconnected over and over: the 256-connection load test's p99. Only connections that have
 // sent part of their headers count toward the cap now; an idle one holds a descriptor only.
@@ -1638,7 +1638,7 @@ TEST(Service, IdleKeptAliveConnectionsAreNotEvicted) {
   for (const int fd : stalled) close(fd);
 }
 
-// Issue 16: probes waited in the one FIFO queue of ready requests behind whatever held the
+// Probes waited in the one FIFO queue of ready requests behind whatever held the
 // threads, until it was full (then the gate answered them). They have a lane of their own now.
 // Two slow bodies hold both threads and two more requests wait for them (the queue holds 8):
 // /healthz, /readyz and /metrics are answered at once all the same. (The holders share one
@@ -1684,7 +1684,7 @@ TEST(Service, ProbesAreAnsweredWhileRequestsWaitForThreads) {
   EXPECT_LE(metric_value(port, "gvd_http_requests_overloaded_total"), 0);  // -1: never counted
 }
 
-// Issue 16: request bodies are read in the threads with a time-out per recv only, so a body
+// Request bodies are read in the threads with a time-out per recv only, so a body
 // sent a byte at a time held a thread for as long as its sender liked. Now the whole body has
 // --body-seconds + its length / --min-body-rate: then 408 and the connection is closed.
 TEST(Service, SlowBodyGets408AtItsDeadline) {
@@ -1724,7 +1724,7 @@ TEST(Service, SlowBodyGets408AtItsDeadline) {
   EXPECT_EQ(r->status, 422);
 }
 
-// Issue 16: however many threads, slow bodies could take every one of them. At most
+// However many threads, slow bodies could take every one of them. At most
 // --max-body-readers threads read a body at once; one more body is refused before it is read
 // (503 /problems/overloaded + Retry-After, connection closed) while requests without a body
 // are served by the other threads.
@@ -1770,7 +1770,7 @@ TEST(Service, BodyReadersAreCapped) {
   EXPECT_EQ(metric_value(port, "gvd_http_body_readers"), 0);
 }
 
-// Issue 16: one client address could take every --max-body-readers slot, and every other
+// One client address could take every --max-body-readers slot, and every other
 // client then got 503 for as long as its bodies took. Each address may now be reading
 // --max-body-readers-per-client bodies (default: a quarter of the readers); one more from it
 // is refused before its body (503 + Retry-After, naming the flag) while other addresses are
@@ -2301,7 +2301,7 @@ TEST(ServiceQueries, UnfinishedJobsAnswer409) {
   wait_for(*c, slow.id, {"cancelled"}, 10);
 }
 
-// ---- grid jobs (mode=grid) and labelled volumes (issue 13) ---------------------------------
+// ---- grid jobs (mode=grid) and labelled volumes ---------------------------------
 
 /// A numpy .npy file as the tests read it: the header's dict and the data after it.
 struct Npy {
@@ -2606,7 +2606,7 @@ std::string coincident_spheres_json(int count) {
   return Json{{"dimension", 3}, {"objects", objects}}.dump();
 }
 
-// Issue 13: a grid job was stopped only between its stages, so DELETE (and --job-seconds, the
+// A grid job was stopped only between its stages, so DELETE (and --job-seconds, the
 // memory watchdog) waited for the whole grid. Now the grid reports progress within its stage
 // and a DELETE stops it within about a second.
 TEST(ServiceGrid, DeleteStopsARunningGridJobWithinASecond) {

@@ -213,7 +213,7 @@ TEST(WriteGrid, NrrdIn2D) {
   EXPECT_EQ(data, h.size());  // ends with the blank line
 }
 
-// Issue 13: the scene's units reach the NRRD header ("space units", one per axis, ASCII),
+// The scene's units reach the NRRD header ("space units", one per axis, ASCII),
 // and no header says units when the scene declared none.
 TEST(WriteGrid, NrrdSaysTheScenesUnits) {
   size_t data = 0;

@@ -318,7 +318,7 @@ TEST(GltfLoad, CorruptedJsonChunkIsAnError) {
                ErrorCode::kInvalidScene, "GLB \"bad\"");
 }
 
-// glTF/GLB errors say where (issue 15, structured errors): a JSON pointer into the glTF
+// glTF/GLB errors say where: a JSON pointer into the glTF
 // document, the scene object (a node with a mesh) and its triangle, or the GLB's byte offset.
 // two_nodes: scene nodes [0, 2]; node 0 "parent" (no mesh) has child 1 "tet_child" (mesh 0,
 // object 0: POSITION accessor 0, 4 vertices; indices accessor 1, 12 uint16 at BIN byte 48);

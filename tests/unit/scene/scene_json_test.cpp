@@ -450,7 +450,7 @@ TEST(SceneJson, ParseErrorsCarryTheByteOffset) {
   }
 }
 
-// What nlohmann's parser reports, in our words (issue 16 D11): no library exception names, a
+// What nlohmann's parser reports, in our words: no library exception names, a
 // number too large for a double located by its byte offset, and JSON that is no object
 // refused as a scene (invalid_scene, as in the CLI) rather than as an unknown format.
 TEST(SceneJson, ParseErrorsAreSaidWithoutLibraryNamesAndNumbersAreLocated) {
