@@ -111,6 +111,286 @@ RefineLoopOptions refine_options(const PipelineOptions& options, int dim, int ma
   return lo;
 }
 
+// One run of the pipeline: the stages in the order compute_gvd calls them, and what they hand
+// on to each other (the BVH, the touching pairs, the certifier, the closest-point solver).
+// Each stage frees what no later stage reads before memory peaks in the next.
+class Computation {
+ public:
+  Computation(Scene scene, const PipelineOptions& options)
+      : options_(options), scene_(std::move(scene)), dim_(scene_.dimension) {
+    progress_ = [this](const std::string& stage, double f) {
+      if (options_.progress) options_.progress(stage, f);
+    };
+    r_.stats.backend = options.compute ? options.compute->name() : "cpu";
+    if (!options.backend_note.empty()) r_.stats.backend += " (" + options.backend_note + ")";
+    r_.stats.threads = resolve_threads(options.threads);
+  }
+
+  /// The domain (the octree's frame), the scene on the unit lattice and its BVH.
+  void scene_stage() {
+    progress_("scene", 0);
+    sw_ = Stopwatch();
+    DomainOptions domain_options = options_.domain;
+    domain_options.threads = options_.threads;
+    domain_options.cancel = options_.cancel;
+    r_.domain = make_domain(scene_, domain_options);
+    throw_if_cancelled(options_.cancel, "the scene stage");
+    r_.geometry = make_unit_geometry(scene_, r_.domain);
+    throw_if_cancelled(options_.cancel, "the scene stage");
+    bvh_.emplace(dim_, r_.geometry.points, r_.geometry.simplices, r_.geometry.object_of,
+                 options_.cancel);
+    r_.stats.stages.push_back({"scene", sw_.seconds(),
+                               r_.geometry.points.size() * sizeof(Vec3) +
+                                   r_.geometry.simplices.size() * sizeof(Simplex) +
+                                   bvh_->memory_bytes(),
+                               r_.geometry.simplices.size()});
+  }
+
+  /// Objects closer than the lattice's resolution cannot be separated (contacts.h): those
+  /// pairs are found first, so that refinement between them stops at the contact depth.
+  /// (Checked down to 1.1 cells on plates, spheres, crossed bars, the mirrored bunnies, and 2D
+  /// squares and discs; the bound was 2*sqrt(dim) cells, which reported such resolvable gaps
+  /// as touching.) Counted in the octree stage.
+  void find_contacts() {
+    progress_("octree", 0);
+    sw_ = Stopwatch();
+    max_depth_ = resolve_max_depth(dim_, options_.max_depth);
+    touch_tolerance_ = contact_tolerance(max_depth_);
+    contacts_ =
+        find_contact_pairs(r_.geometry, *bvh_, touch_tolerance_, options_.threads, options_.cancel);
+  }
+
+  /// The octree (§3), its distance field (§4) and the refinement loop (§5 ambiguity, the
+  /// separation guarantee, unseen regions). The thin-gaps refinement leaves certified pair
+  /// cells whole (refine/pair_certificate.h). Cones across an axis are tried first; where the
+  /// refinement does not settle with them (see RefineLoopOptions::cone_certifier) the octree is
+  /// built again without.
+  void octree_distance_and_refinement() {
+    const size_t first_stage = r_.stats.stages.size();
+    for (const bool cones : {true, false}) {
+      r_.stats.stages.resize(first_stage);
+      if (!cones) sw_ = Stopwatch();  // the first attempt's octree stage counts the contacts too
+      certifier_.reset();
+      if (options_.refine == RefineRule::kCertified) {
+        certifier_.emplace(r_.geometry, *bvh_, &contacts_, true, cones, options_.cancel);
+      } else if (!cones) {
+        break;
+      }
+      const OctreeOptions tree_options =
+          octree_options(options_, contacts_, certifier(), progress_);
+      heap_computation_starts();
+      r_.octree = first_octree(r_.geometry, options_, tree_options);
+      heap_checkpoint(r_.octree.leaf_count());
+      r_.stats.stages.push_back(
+          {"octree", sw_.seconds(), r_.octree.structure_bytes(), r_.octree.leaf_count()});
+
+      progress_("distance", 0);
+      sw_ = Stopwatch();
+      // Exact closest points: the backend's kernel, else the CPU twin (same per-item function).
+      if (!solver_) {
+        solver_ = options_.compute ? options_.compute->closest_points(r_.geometry, *bvh_)
+                                   : make_cpu_closest_point_solver(*bvh_, options_.threads);
+      }
+      const DistanceOptions field_options = distance_options(options_, solver_.get(), progress_);
+      r_.field = DistanceField();  // the failed attempt's goes first
+      r_.field = compute_distances(r_.octree, r_.geometry, *bvh_, field_options);
+      r_.stats.stages.push_back(
+          {"distance", sw_.seconds(), r_.field.memory_bytes(), r_.field.size()});
+
+      progress_("ambiguity", 0);
+      sw_ = Stopwatch();
+      const RefineLoopOptions loop_options =
+          refine_options(options_, dim_, max_depth_, contacts_, certifier(), tree_options,
+                         field_options, progress_);
+      try {
+        refined_ = refine_until_resolved(r_.octree, r_.field, r_.geometry, *bvh_, loop_options);
+      } catch (const Error& e) {
+        // Unsettled cones can also grow the octree past the leaf limit before cone_rounds.
+        if (e.code() != ErrorCode::kLimitExceeded || !cones || !certifier_) throw;
+        refined_.cones_unsettled = true;
+      }
+      if (!refined_.cones_unsettled) break;
+      cones_dropped_ = true;
+      progress_("octree", 0);
+    }
+    r_.stats.unseen_left = refined_.unseen_left;
+    r_.stats.refine_rounds = refined_.rounds;
+    r_.stats.ambiguous_at_limit = refined_.ambiguous_at_limit;
+    r_.stats.touching_leaves = refined_.touching_leaves;
+    for (uint8_t c : r_.octree.certified) r_.stats.certified_leaves += c != 0;
+    r_.stats.stages.push_back(
+        {"ambiguity", sw_.seconds(), 0, static_cast<uint64_t>(refined_.rounds)});
+  }
+
+  /// Refinement is over: what only it read goes before surfacing, where memory peaks.
+  void release_refinement_state() {
+    // The closest-point solver (the OpenCL backend's device copy of the tree and geometry).
+    solver_.reset();
+    // Skew extruded cells get their direction from the certificate of their own box again
+    // (the mark does not hold it), so the certifier stays where there are some.
+    for (uint8_t c : r_.octree.certified) any_skew_ |= c >= kSkewMark && c <= kSkewConeLastMark;
+    if (!any_skew_) certifier_.reset();
+    // Surfacing reads each leaf's vertices from the field's per-leaf lists, never by key: the
+    // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks
+    // there; lookups by key binary-search the sorted keys from now on (OctreeVertices::find).
+    r_.field.vertices.drop_index();
+    // Which vertices changed in the last round is of no use from here on.
+    std::vector<uint8_t>().swap(r_.field.changed);
+    // Nor does anything after the refinement read the leaves' simplex lists (a result loaded
+    // from disk has none).
+    std::vector<uint32_t>().swap(r_.octree.simplex_begin);
+    std::vector<uint32_t>().swap(r_.octree.simplex_index);
+  }
+
+  /// The GVD (§6): every leaf's pieces, then welded into closed, oriented cells.
+  void surface_stage() {
+    progress_("surface", 0);
+    heap_checkpoint(r_.octree.leaf_count());
+    sw_ = Stopwatch();
+    SurfaceOptions surface_options;
+    surface_options.threads = options_.threads;
+    surface_options.cancel = options_.cancel;
+    // The weld: the last tenth.
+    surface_options.progress = [this](double f) { progress_("surface", 0.9 * f); };
+    if (any_skew_) {
+      surface_options.skew_direction = [this](const Box& box, Vec3& along) {
+        const PairCertifier::Certificate c = certifier_->certify(box);
+        if (!c.skew) return false;
+        along = c.along;
+        return true;
+      };
+    }
+    {
+      // Only surfacing reads the per-leaf vertex lists (~50 B per leaf): they go as it stops
+      // needing them, the inactive leaves' first (memory peaks at its end and in the weld).
+      LeafPieces pieces =
+          surface_leaves_releasing_lists(r_.octree, r_.field, r_.geometry, *bvh_, surface_options);
+      r_.gvd = weld_gvd(std::move(pieces), r_.geometry, *bvh_, r_.domain, surface_options);
+    }
+    certifier_.reset();
+    uint64_t gvd_bytes = 0;
+    for (const GvdCell& c : r_.gvd.cells) {
+      simplices_ += c.indices.size() / (dim_ == 2 ? 2 : 3);
+      gvd_bytes += c.positions.size() * (sizeof(Vec3) + sizeof(ObjectId) + sizeof(double)) +
+                   c.indices.size() * sizeof(uint32_t);
+    }
+    r_.stats.stages.push_back({"surface", sw_.seconds(), gvd_bytes, simplices_});
+  }
+
+  /// The dual graph (§7.3) with exact clearances and gaps.
+  void graph_stage() {
+    progress_("graph", 0);
+    sw_ = Stopwatch();
+    r_.graph = build_dual_graph(r_.gvd);
+    tighten_clearances(r_.graph, r_.gvd, *bvh_, r_.domain, options_.threads, options_.cancel,
+                       contacts_.pairs());
+    measure_gaps(r_.graph, *bvh_, r_.domain, contacts_.pairs(), options_.threads, options_.cancel);
+    r_.stats.stages.push_back(
+        {"graph", sw_.seconds(), r_.graph.edges.size() * sizeof(DualEdge), r_.graph.edges.size()});
+  }
+
+  /// Coplanar pieces merged, curved ones within the tolerance. After the graph: its areas
+  /// and clearances are those of the full-resolution GVD.
+  void compact_stage() {
+    progress_("compact", 0);
+    sw_ = Stopwatch();
+    CompactOptions compact_options;
+    compact_options.threads = options_.threads;
+    compact_options.curved_tolerance = options_.curved_tolerance;
+    compact_options.bvh = &*bvh_;
+    compact_options.domain = &r_.domain;
+    compact_options.cancel = options_.cancel;
+    const CompactStats compacted = compact_gvd(r_.gvd, compact_options);
+    simplices_ = compacted.simplices_after;
+    r_.stats.stages.push_back({"compact", sw_.seconds(), 0, compacted.simplices_after});
+  }
+
+  /// The warnings found by the computation itself, added to the scene's.
+  void add_warnings() {
+    if (!contacts_.empty()) {
+      std::string detail =
+          "objects that touch, intersect or come closer than the finest cell (" +
+          format_length(touch_tolerance_ * r_.domain.side) +
+          "): reported as touching, with clearance 0 and their measured gap; their cells are "
+          "separated only down to the contact depth:";
+      int listed = 0;
+      for (const auto& [a, b] : contacts_.pairs()) {
+        if (++listed > 20) {
+          detail += " ...";
+          break;
+        }
+        detail += " " + scene_.objects[a].label + "/" + scene_.objects[b].label;
+      }
+      scene_.warnings.push_back({WarningKind::kObjectsTouch, "", contacts_.pairs().size(), detail});
+    }
+    if (r_.stats.unseen_left > 0) {
+      scene_.warnings.push_back(
+          {WarningKind::kThinRegionsLeft, "", r_.stats.unseen_left,
+           "cells where a GVD point is nearer to an object the cell does not see (a region "
+           "thinner than the cell) after the allowed refinement rounds (--unseen-rounds)"});
+    }
+    if (cones_dropped_) {
+      scene_.warnings.push_back(
+          {WarningKind::kConesDropped, "", 1,
+           "the refinement did not settle with cones across an octree axis (straight rims whose "
+           "faces' normals straddle an axis, where lines along it meet the bisector more than "
+           "twice or run too close along it to count the crossings); the octree was built again "
+           "without them: as exact, but such rims cost cells down to the gap along their length "
+           "(more leaves, time and memory)"});
+    }
+    if (r_.stats.ambiguous_at_limit > 0) {
+      scene_.warnings.push_back(
+          {WarningKind::kAmbiguousCellsLeft, "", r_.stats.ambiguous_at_limit,
+           "cells whose GVD topology is ambiguous (§5) after the allowed refinement "
+           "(--ambiguity-levels/--ambiguity-rounds); surfaced by the centroid rule (§6), still "
+           "closed and oriented"});
+    }
+  }
+
+  /// The result with its figures (sizes, depth, time, peak memory) and the scene.
+  GvdResult finish() {
+    r_.stats.max_depth = r_.octree.max_depth;
+    r_.stats.depth = r_.octree.depth;
+    r_.stats.leaves = r_.octree.leaf_count();
+    r_.stats.vertices = r_.field.size();
+    r_.stats.octree_bytes =
+        r_.octree.structure_bytes() + r_.field.vertices.key.size() * sizeof(uint64_t);
+    r_.stats.bytes_per_leaf =
+        r_.stats.leaves > 0 ? static_cast<double>(r_.stats.octree_bytes) / r_.stats.leaves : 0;
+    r_.stats.distance_bytes = r_.field.memory_bytes();
+    r_.stats.gvd_simplices = simplices_;
+    r_.stats.graph_edges = r_.graph.edges.size();
+    r_.stats.total_seconds = total_.seconds();
+    r_.stats.peak_rss_bytes = peak_rss_bytes();
+    r_.stats.start_rss_bytes = start_rss_;
+    r_.scene = std::move(scene_);
+    progress_("done", 1);
+    return std::move(r_);
+  }
+
+ private:
+  const PairCertifier* certifier() const { return certifier_ ? &*certifier_ : nullptr; }
+
+  const PipelineOptions& options_;
+  const Stopwatch total_;
+  const uint64_t start_rss_ = rss_bytes();
+  Scene scene_;
+  const int dim_;
+  Progress progress_;
+  GvdResult r_;
+  Stopwatch sw_;  ///< the running stage's
+  std::optional<SimplexBvh> bvh_;
+  int max_depth_ = 0;
+  double touch_tolerance_ = 0;
+  ContactPairs contacts_;
+  std::optional<PairCertifier> certifier_;
+  std::unique_ptr<ClosestPointSolver> solver_;
+  RefineLoopResult refined_;
+  bool cones_dropped_ = false;
+  bool any_skew_ = false;
+  uint64_t simplices_ = 0;  ///< the GVD's, after surfacing and after compaction
+};
+
 }  // namespace
 
 GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
@@ -121,231 +401,16 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
                     "' is not available here (core runs: cpu; opencl needs a ComputeBackend "
                     "from gvd_kernels in PipelineOptions::compute)");
   }
-  const Stopwatch total;
-  const uint64_t start_rss = rss_bytes();
-  const Progress progress = [&](const std::string& stage, double f) {
-    if (options.progress) options.progress(stage, f);
-  };
-  GvdResult r;
-  r.stats.backend = options.compute ? options.compute->name() : "cpu";
-  if (!options.backend_note.empty()) r.stats.backend += " (" + options.backend_note + ")";
-  r.stats.threads = resolve_threads(options.threads);
-  const int dim = scene.dimension;
-
-  progress("scene", 0);
-  Stopwatch sw;
-  DomainOptions domain_options = options.domain;
-  domain_options.threads = options.threads;
-  domain_options.cancel = options.cancel;
-  r.domain = make_domain(scene, domain_options);
-  throw_if_cancelled(options.cancel, "the scene stage");
-  r.geometry = make_unit_geometry(scene, r.domain);
-  throw_if_cancelled(options.cancel, "the scene stage");
-  const SimplexBvh bvh(dim, r.geometry.points, r.geometry.simplices, r.geometry.object_of,
-                       options.cancel);
-  r.stats.stages.push_back({"scene", sw.seconds(),
-                            r.geometry.points.size() * sizeof(Vec3) +
-                                r.geometry.simplices.size() * sizeof(Simplex) + bvh.memory_bytes(),
-                            r.geometry.simplices.size()});
-
-  progress("octree", 0);
-  sw = Stopwatch();
-  // Objects closer than the lattice's resolution cannot be separated (contacts.h): find those
-  // pairs first, so that refinement between them stops at the contact depth. (Checked down to
-  // 1.1 cells on plates, spheres, crossed bars, the mirrored bunnies, and 2D squares and discs;
-  // the bound was 2*sqrt(dim) cells, which reported such resolvable gaps as touching.)
-  const int max_depth = resolve_max_depth(dim, options.max_depth);
-  const double touch_tolerance = contact_tolerance(max_depth);
-  const ContactPairs contacts =
-      find_contact_pairs(r.geometry, bvh, touch_tolerance, options.threads, options.cancel);
-  // Exact closest points: the backend's kernel, else the CPU twin (same per-item function);
-  // made at the first distance stage.
-  std::unique_ptr<ClosestPointSolver> solver;
-  // The thin-gaps refinement: certified pair cells stay leaves (refine/pair_certificate.h).
-  // Cones across an axis are tried first; where the refinement does not settle with them (see
-  // RefineLoopOptions::cone_certifier) the octree is built again without.
-  std::optional<PairCertifier> certifier;
-  const size_t first_stage = r.stats.stages.size();
-  RefineLoopResult refined;
-  bool cones_dropped = false;
-  for (const bool cones : {true, false}) {
-    r.stats.stages.resize(first_stage);
-    if (!cones) sw = Stopwatch();  // the first attempt's octree stage counts the contacts too
-    certifier.reset();
-    if (options.refine == RefineRule::kCertified) {
-      certifier.emplace(r.geometry, bvh, &contacts, true, cones, options.cancel);
-    } else if (!cones) {
-      break;
-    }
-    const OctreeOptions oo =
-        octree_options(options, contacts, certifier ? &*certifier : nullptr, progress);
-    heap_computation_starts();
-    r.octree = first_octree(r.geometry, options, oo);
-    heap_checkpoint(r.octree.leaf_count());
-    r.stats.stages.push_back(
-        {"octree", sw.seconds(), r.octree.structure_bytes(), r.octree.leaf_count()});
-
-    progress("distance", 0);
-    sw = Stopwatch();
-    if (!solver) {
-      solver = options.compute ? options.compute->closest_points(r.geometry, bvh)
-                               : make_cpu_closest_point_solver(bvh, options.threads);
-    }
-    const DistanceOptions dopt = distance_options(options, solver.get(), progress);
-    r.field = DistanceField();  // the failed attempt's goes first
-    r.field = compute_distances(r.octree, r.geometry, bvh, dopt);
-    r.stats.stages.push_back({"distance", sw.seconds(), r.field.memory_bytes(), r.field.size()});
-
-    // Ambiguity resolution (§5) and the separation guarantee: split, recompute, repeat.
-    progress("ambiguity", 0);
-    sw = Stopwatch();
-    const RefineLoopOptions lo = refine_options(
-        options, dim, max_depth, contacts, certifier ? &*certifier : nullptr, oo, dopt, progress);
-    try {
-      refined = refine_until_resolved(r.octree, r.field, r.geometry, bvh, lo);
-    } catch (const Error& e) {
-      // Unsettled cones can also grow the octree past the leaf limit before cone_rounds.
-      if (e.code() != ErrorCode::kLimitExceeded || !cones || !certifier) throw;
-      refined.cones_unsettled = true;
-    }
-    if (!refined.cones_unsettled) break;
-    cones_dropped = true;
-    progress("octree", 0);
-  }
-  r.stats.unseen_left = refined.unseen_left;
-  r.stats.refine_rounds = refined.rounds;
-  r.stats.ambiguous_at_limit = refined.ambiguous_at_limit;
-  r.stats.touching_leaves = refined.touching_leaves;
-  for (uint8_t c : r.octree.certified) r.stats.certified_leaves += c != 0;
-  r.stats.stages.push_back({"ambiguity", sw.seconds(), 0, static_cast<uint64_t>(refined.rounds)});
-  // Refinement is over: the closest-point solver (the OpenCL backend's device copy of the tree
-  // and geometry) and the certifier's adjacency go before surfacing, where memory peaks.
-  solver.reset();
-  // Skew extruded cells get their direction from the certificate of their own box again
-  // (the mark does not hold it), so the certifier stays where there are some.
-  bool any_skew = false;
-  for (uint8_t c : r.octree.certified) any_skew |= c >= kSkewMark && c <= kSkewConeLastMark;
-  if (!any_skew) certifier.reset();
-  // Surfacing reads each leaf's vertices from the field's per-leaf lists, never by key: the
-  // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks
-  // there; lookups by key binary-search the sorted keys from now on (OctreeVertices::find).
-  r.field.vertices.drop_index();
-  // Which vertices changed in the last round is of no use from here on.
-  std::vector<uint8_t>().swap(r.field.changed);
-  // Nor does anything after the refinement read the leaves' simplex lists (a result loaded
-  // from disk has none).
-  std::vector<uint32_t>().swap(r.octree.simplex_begin);
-  std::vector<uint32_t>().swap(r.octree.simplex_index);
-
-  progress("surface", 0);
-  heap_checkpoint(r.octree.leaf_count());
-  sw = Stopwatch();
-  SurfaceOptions so;
-  so.threads = options.threads;
-  so.cancel = options.cancel;
-  so.progress = [&](double f) { progress("surface", 0.9 * f); };  // the weld: the last tenth
-  if (any_skew) {
-    so.skew_direction = [&certifier](const Box& box, Vec3& along) {
-      const PairCertifier::Certificate c = certifier->certify(box);
-      if (!c.skew) return false;
-      along = c.along;
-      return true;
-    };
-  }
-  {
-    // Only surfacing reads the per-leaf vertex lists (~50 B per leaf): they go as it stops
-    // needing them, the inactive leaves' first (memory peaks at its end and in the weld).
-    LeafPieces pieces = surface_leaves_releasing_lists(r.octree, r.field, r.geometry, bvh, so);
-    r.gvd = weld_gvd(std::move(pieces), r.geometry, bvh, r.domain, so);
-  }
-  certifier.reset();
-  uint64_t simplices = 0, gvd_bytes = 0;
-  for (const GvdCell& c : r.gvd.cells) {
-    simplices += c.indices.size() / (dim == 2 ? 2 : 3);
-    gvd_bytes += c.positions.size() * (sizeof(Vec3) + sizeof(ObjectId) + sizeof(double)) +
-                 c.indices.size() * sizeof(uint32_t);
-  }
-  r.stats.stages.push_back({"surface", sw.seconds(), gvd_bytes, simplices});
-
-  progress("graph", 0);
-  sw = Stopwatch();
-  r.graph = build_dual_graph(r.gvd);
-  tighten_clearances(r.graph, r.gvd, bvh, r.domain, options.threads, options.cancel,
-                     contacts.pairs());
-  measure_gaps(r.graph, bvh, r.domain, contacts.pairs(), options.threads, options.cancel);
-  r.stats.stages.push_back(
-      {"graph", sw.seconds(), r.graph.edges.size() * sizeof(DualEdge), r.graph.edges.size()});
-  if (options.resolution == GvdResolution::kCompact) {
-    // After the graph: its areas and clearances are those of the full-resolution GVD.
-    progress("compact", 0);
-    sw = Stopwatch();
-    CompactOptions co;
-    co.threads = options.threads;
-    co.curved_tolerance = options.curved_tolerance;
-    co.bvh = &bvh;
-    co.domain = &r.domain;
-    co.cancel = options.cancel;
-    const CompactStats compacted = compact_gvd(r.gvd, co);
-    simplices = compacted.simplices_after;
-    r.stats.stages.push_back({"compact", sw.seconds(), 0, compacted.simplices_after});
-  }
-
-  // Warnings found by the computation itself.
-  if (!contacts.empty()) {
-    std::string detail =
-        "objects that touch, intersect or come closer than the finest cell (" +
-        format_length(touch_tolerance * r.domain.side) +
-        "): reported as touching, with clearance 0 and their measured gap; their cells are "
-        "separated only down to the contact depth:";
-    int listed = 0;
-    for (const auto& [a, b] : contacts.pairs()) {
-      if (++listed > 20) {
-        detail += " ...";
-        break;
-      }
-      detail += " " + scene.objects[a].label + "/" + scene.objects[b].label;
-    }
-    scene.warnings.push_back({WarningKind::kObjectsTouch, "", contacts.pairs().size(), detail});
-  }
-  if (r.stats.unseen_left > 0) {
-    scene.warnings.push_back(
-        {WarningKind::kThinRegionsLeft, "", r.stats.unseen_left,
-         "cells where a GVD point is nearer to an object the cell does not see (a region "
-         "thinner than the cell) after the allowed refinement rounds (--unseen-rounds)"});
-  }
-  if (cones_dropped) {
-    scene.warnings.push_back(
-        {WarningKind::kConesDropped, "", 1,
-         "the refinement did not settle with cones across an octree axis (straight rims whose "
-         "faces' normals straddle an axis, where lines along it meet the bisector more than "
-         "twice or run too close along it to count the crossings); the octree was built again "
-         "without them: as exact, but such rims cost cells down to the gap along their length "
-         "(more leaves, time and memory)"});
-  }
-  if (r.stats.ambiguous_at_limit > 0) {
-    scene.warnings.push_back({WarningKind::kAmbiguousCellsLeft, "", r.stats.ambiguous_at_limit,
-                              "cells whose GVD topology is ambiguous (§5) after the allowed "
-                              "refinement (--ambiguity-levels/--ambiguity-rounds); surfaced by "
-                              "the centroid rule (§6), still closed and oriented"});
-  }
-
-  r.stats.max_depth = r.octree.max_depth;
-  r.stats.depth = r.octree.depth;
-  r.stats.leaves = r.octree.leaf_count();
-  r.stats.vertices = r.field.size();
-  r.stats.octree_bytes =
-      r.octree.structure_bytes() + r.field.vertices.key.size() * sizeof(uint64_t);
-  r.stats.bytes_per_leaf =
-      r.stats.leaves > 0 ? static_cast<double>(r.stats.octree_bytes) / r.stats.leaves : 0;
-  r.stats.distance_bytes = r.field.memory_bytes();
-  r.stats.gvd_simplices = simplices;
-  r.stats.graph_edges = r.graph.edges.size();
-  r.stats.total_seconds = total.seconds();
-  r.stats.peak_rss_bytes = peak_rss_bytes();
-  r.stats.start_rss_bytes = start_rss;
-  r.scene = std::move(scene);
-  progress("done", 1);
-  return r;
+  Computation run(std::move(scene), options);
+  run.scene_stage();
+  run.find_contacts();
+  run.octree_distance_and_refinement();
+  run.release_refinement_state();
+  run.surface_stage();
+  run.graph_stage();
+  if (options.resolution == GvdResolution::kCompact) run.compact_stage();
+  run.add_warnings();
+  return run.finish();
 }
 
 }  // namespace gvd::pipeline
