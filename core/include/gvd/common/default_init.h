@@ -1,5 +1,10 @@
 #pragma once
 
+// An allocator with which `vector::resize(n)` leaves trivial elements uninitialised, and
+// UninitVector, the std::vector that uses it: a big scratch array is then first touched (its pages
+// faulted in) by the parallel loop that fills it rather than zeroed by one thread. Its new
+// elements hold no defined value until written.
+
 #include <memory>
 #include <new>
 #include <type_traits>

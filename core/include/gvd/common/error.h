@@ -1,5 +1,10 @@
 #pragma once
 
+// The core's errors: stable error codes with their machine names, gvd::Error (a code, a detail
+// text and where in the input it lies; `what()` is "<code name>: <detail>") and InternalError
+// for a violated invariant. GVD_CHECK is always on and throws InternalError naming the condition
+// and place; GVD_ASSERT does the same but is compiled out under NDEBUG.
+
 #include <cstdint>
 #include <stdexcept>
 #include <string>

@@ -1,5 +1,10 @@
 #pragma once
 
+// FlatMap64, the open-addressing hash map from 64-bit keys to 32-bit values behind the octree's
+// O(1) cell and vertex lookups: one flat array of 12-byte slots, at most half full unless told
+// otherwise, key ~0 reserved. Cheap to build and to share read-only across threads; its parallel
+// build from distinct keys gives the same layout whatever the number of threads.
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>

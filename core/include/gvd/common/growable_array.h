@@ -1,5 +1,10 @@
 #pragma once
 
+// GrowableArray, an array of trivially copyable elements that grows with realloc: a big block
+// grows by remapping its pages, so growing never holds the old and the new array at once as
+// std::vector's copy does. New elements are left uninitialised; a failed allocation throws
+// std::bad_alloc.
+
 #include <algorithm>
 #include <cstdint>
 #include <cstdlib>

@@ -1,5 +1,11 @@
 #pragma once
 
+// The parallel loop every stage uses: resolve_threads (0 or less: the hardware concurrency) and
+// parallel_for, which hands out [0, n) in chunks of `grain` to `threads` threads, the caller among
+// them, on workers kept for the life of the process (a nested or concurrent loop starts its own).
+// The first exception a body throws is rethrown once all threads have stopped, and what the
+// workers allocate is charged to the caller's MemoryAccount.
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>

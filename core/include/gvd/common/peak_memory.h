@@ -1,5 +1,11 @@
 #pragma once
 
+// The process's memory as the system reports it (peak, current and file-backed resident size,
+// process-wide; on Linux from /proc/self/status, 0 where it cannot be read), and the heap policy
+// of the processes that run computations: freed blocks of kReturnedBlockBytes and more go back to
+// the system (a small computation may keep some), so that the resident size follows what the
+// stages hold. use_returning_heap is called once, before any thread starts.
+
 #include <cstddef>
 #include <cstdint>
 

@@ -1,5 +1,10 @@
 #pragma once
 
+// Stable sorts of large arrays: bucket_scatter (a counting sort by bucket index that returns each
+// bucket's start), bucket_scatter_made (the same over items made on demand, with no second array
+// of them) and radix_sort (by a 64-bit key, O(n), 11 bits a pass). With `threads` > 1 the parts
+// are counted and scattered in parallel, and the order is the same whatever the threads.
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>

@@ -1,5 +1,8 @@
 #pragma once
 
+// Stopwatch: the wall-clock time in seconds, on std::chrono::steady_clock, since construction or
+// the last lap(), which returns the elapsed time and starts again.
+
 #include <chrono>
 
 namespace gvd {

@@ -1,5 +1,11 @@
 #pragma once
 
+// ComputeBackend, the interface to the data-parallel parts of the pipeline (closest points, the
+// data-parallel octree build's steps, the uniform grid's per-range evaluation) that `kernels/`
+// implements on OpenCL, so that core stays free of it; where no backend is passed, or it has no
+// such part (null), the CPU twins run. Also the CPU closest-point solver, which views a BVH's
+// arrays (the BVH must outlive it).
+
 #include <memory>
 #include <string>
 

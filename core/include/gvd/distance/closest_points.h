@@ -1,5 +1,11 @@
 #pragma once
 
+// The CPU closest-point queries of the distance transform (paper §4): for a batch of points, the
+// exact closest point on any simplex within each point's squared-distance bound, over a view of
+// a SimplexBvh's arrays (the BVH must outlive it). closest_points_cpu (O(n log M)) and its coherent
+// variant give bit-identical answers, also to SimplexBvh::nearest and the OpenCL kernel.
+// ClosestPointSolver, the interface a backend implements, is not thread-safe.
+
 #include <cstdint>
 #include <span>
 

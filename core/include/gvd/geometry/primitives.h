@@ -1,5 +1,11 @@
 #pragma once
 
+// Geometric primitives on Vec3 (2D data has z = 0), free functions without state: closest points
+// on segments and triangles (exact up to rounding), squared distances between points, boxes,
+// segments and triangles (0 where they cross, by crossing tests; segment to box only a lower
+// bound), conservative simplex-box overlap tests (never false when they touch) and the perturbed
+// row-crossing tests whose parity tells inside from outside, consistent on shared edges.
+
 #include <algorithm>
 
 #include "gvd/geometry/vec.h"

@@ -1,5 +1,8 @@
 #pragma once
 
+// Simplex: one segment (2D) or triangle (3D) of an object, by the indices of its vertices in that
+// object (a segment uses v[0] and v[1] and leaves v[2] = 0).
+
 #include <cstdint>
 
 namespace gvd {

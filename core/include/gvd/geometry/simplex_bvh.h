@@ -1,5 +1,11 @@
 #pragma once
 
+// SimplexBvh, the bounding volume hierarchy over a scene's simplices: exact closest points (on any
+// simplex, within one object, or excluding some objects), least distances from a segment, a
+// simplex or a whole object (exact up to rounding) and walks over the simplices whose boxes overlap
+// a box. Built once in O(M log M), cancellable, gvd::Error past its size limits; then queried
+// concurrently. Also ClosestHit and the closest-point and overlap tests of one simplex.
+
 #include <algorithm>
 #include <atomic>
 #include <cstdint>

@@ -1,5 +1,10 @@
 #pragma once
 
+// The basic geometry types: Vec3, a point or vector in 2D or 3D (2D data keeps z = 0), with its
+// arithmetic, dot and cross products, norms and distances; Box, an axis-aligned box (empty when
+// lo > hi on some axis); and PositionHash, an exact-bit hash of a position that agrees with
+// Vec3's operator==.
+
 #include <cmath>
 #include <cstddef>
 #include <cstdint>

@@ -1,5 +1,10 @@
 #pragma once
 
+// The dual graph's data: objects as nodes and an edge for every pair whose GVD cells share
+// boundary, with the interface's area, the least clearance and where it is reached, the exact gap
+// between the two objects and whether they are in contact. Edges are sorted by (a, b).
+// build_dual_graph.h makes it from a GVD, grid/grid_graph.h from a uniform grid.
+
 #include <vector>
 
 #include "gvd/geometry/vec.h"

@@ -1,5 +1,10 @@
 #pragma once
 
+// The result file: save_result and load_result write and read a finished GvdResult as a
+// versioned little-endian binary file (layout below), written atomically and checked against its
+// checksum on load; failures throw gvd::Error saying what is wrong. Also the JSON summary that
+// `gvd info` prints, and ResultStats to and from JSON.
+
 #include <cstdint>
 #include <span>
 #include <string>

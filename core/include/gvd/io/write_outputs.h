@@ -1,5 +1,11 @@
 #pragma once
 
+// Output files of a finished GVD: the GVD as binary glTF or as float64 JSON, the dual graph as
+// JSON and an exploded view (paper §7.4) as animated binary glTF, in the forms docs/FORMATS.md
+// gives. write_glb_file and write_json_file write a GVD without first holding the whole file in
+// memory. Files are written atomically (temporary file + rename); a failed read or write throws
+// gvd::Error{kIo}.
+
 #include <cstdint>
 #include <functional>
 #include <span>

@@ -1,5 +1,11 @@
 #pragma once
 
+// The data-parallel octree build: Morton codes and a binary radix tree of the object vertices,
+// the cells each simplex is stored in, conflict cells refined level by level, then the engine's
+// rule, 2:1 balance and leaves as in build_octree. Its steps sit behind OctreeBuildSteps (CPU
+// twins here, OpenCL kernels in kernels/), which run the same per-item functions
+// (octree_build_item.h), so both agree exactly and the leaves are build_octree's.
+
 #include <cstdint>
 #include <memory>
 #include <span>

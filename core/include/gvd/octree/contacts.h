@@ -1,5 +1,11 @@
 #pragma once
 
+// Contact pairs: objects whose surfaces come within a tolerance of each other (normally one
+// finest cell, which could never separate them). Refinement that only separates such a pair
+// stops at the contact depth. find_contact_pairs takes BVH candidates and confirms each pair by
+// exact distances, in O(M log M + candidate pairs); a set cancel flag stops it with
+// gvd::Error{kCancelled}.
+
 #include <atomic>
 #include <cmath>
 #include <cstdint>

@@ -1,5 +1,10 @@
 #pragma once
 
+// The octree's integer lattice: B = lattice_bits(D) bits per axis, Morton codes of cell corners
+// and 64-bit keys of lattice points (with their decoders), cell sizes, and the maps between
+// lattice points and unit-domain positions and boxes. All inline; from_unit clamps points
+// outside the domain (and NaN) to its finest cells.
+
 #include <cstdint>
 
 #include "gvd/geometry/vec.h"

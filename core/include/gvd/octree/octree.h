@@ -1,5 +1,10 @@
 #pragma once
 
+// The linear, 2:1-balanced octree (quadtree in 2D): its leaves in Morton order with their level,
+// object and certified mark, and point location in O(log N) (LeafLocator for many queries on
+// one octree). Also the verdicts by which the refinement may keep a cell that the paper's rule
+// (§3) would split, and the marks they leave on leaves.
+
 #include <cstdint>
 #include <span>
 #include <vector>

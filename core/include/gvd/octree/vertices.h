@@ -1,5 +1,10 @@
 #pragma once
 
+// The vertices of a balanced octree: every leaf corner, sorted by lattice key, with an O(1) hash
+// index and a bit filter that makes lookups of absent keys cheap (enumerate_vertices: O(N)
+// expected). Without the index, find binary-searches the keys; insert needs it. leaf_grid gives
+// the vertices on one leaf's boundary.
+
 #include <algorithm>
 #include <array>
 #include <cstdint>

@@ -1,5 +1,11 @@
 #pragma once
 
+// The whole computation: PipelineOptions (pipeline_options makes them from the parameters) and
+// compute_gvd, which takes a scene through the octree build, the distance transform, the
+// refinement rounds, surfacing and the dual graph to a GvdResult, with warnings for touching
+// objects and for ambiguity left at the depth limit. A set PipelineOptions::cancel stops it
+// with gvd::Error{kCancelled}.
+
 #include <atomic>
 #include <cstdint>
 #include <memory>

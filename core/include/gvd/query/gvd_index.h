@@ -1,5 +1,10 @@
 #pragma once
 
+// Queries on a finished GVD: GvdIndex answers the nearest object at a point, inside tests,
+// k-ring neighbours in the dual graph, paths on the GVD roadmap, exploded views and tight spots,
+// and the functions below write the answers as JSON. The index is built once from a shared
+// result; its methods are const and thread-safe, and throw gvd::Error on bad input.
+
 #include <cstdint>
 #include <memory>
 #include <optional>

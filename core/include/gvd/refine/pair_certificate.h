@@ -1,5 +1,11 @@
 #pragma once
 
+// PairCertifier, the split oracle of the thin-gaps refinement: from exact distances it proves
+// that only one object is nearest anywhere in a cell, or only two, whose bisector there is a
+// plane, a curve swept along a straight rim (axis-aligned, slanted or skew), or crosses the lines
+// along an axis at most twice (cones), so that the cell may stay a leaf. Anything else is kSplit:
+// the paper's rule (§3) applies. Thread-safe; the geometry and BVH must outlive it.
+
 #include <array>
 #include <atomic>
 #include <cstdint>

@@ -1,5 +1,9 @@
 #pragma once
 
+// A finished computation as one value: GvdResult holds the scene, domain, unit geometry, octree,
+// distance field, GVD and dual graph, and ResultStats the figures `gvd info` prints (stage times,
+// sizes, memory). kAlgorithmVersion is part of job ids and of the saved result.
+
 #include <cstdint>
 #include <string>
 #include <vector>

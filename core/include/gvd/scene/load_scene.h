@@ -1,5 +1,10 @@
 #pragma once
 
+// Reading scenes: the native JSON and the mesh formats (OBJ, glTF/GLB, PLY, STL, OFF), from one
+// file or merged from several parts, one object per part, and validated within SceneLimits.
+// Also the writers of scenes and warnings as JSON and the reader of warnings. Failures throw
+// gvd::Error.
+
 #include <atomic>
 #include <cstdint>
 #include <span>

@@ -1,5 +1,10 @@
 #pragma once
 
+// The pipeline's input and its map to the octree: labelled objects (polygon soups), their
+// validation with warnings and limits, mesh topology, the cubic domain and its frame
+// (make_domain), and the scene in the unit domain (make_unit_geometry), its coordinates snapped
+// to exact dyadic numbers. Errors are gvd::Error (kInvalidScene, kInvalidArgument, kCancelled).
+
 #include <array>
 #include <atomic>
 #include <cstdint>

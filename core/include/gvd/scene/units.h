@@ -1,5 +1,9 @@
 #pragma once
 
+// The length units a scene may declare: their canonical names and aliases, parsing (an unknown
+// unit throws gvd::Error naming the field and listing the known units), and how a unit is
+// printed. Units are a label only: no coordinate is ever converted.
+
 #include <optional>
 #include <string>
 #include <string_view>

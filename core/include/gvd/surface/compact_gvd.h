@@ -1,5 +1,10 @@
 #pragma once
 
+// Compaction of a surfaced GVD in place: flat parts of each interface merged into large pieces
+// (curved parts too, within CompactOptions::curved_tolerance), every cell kept closed and
+// oriented and every piece clear of the objects. O(GVD size). Removed vertices take their
+// clearances with them, so build the dual graph first.
+
 #include <atomic>
 #include <cstdint>
 

@@ -1,5 +1,10 @@
 #pragma once
 
+// Surfacing (paper §6): the GVD's triangles (2D: segments) from the octree and its distance
+// field, watertight across level changes, each emitted once per side and oriented into its
+// cell, with the exact clearance at every vertex, in user units. extract_gvd does it in one
+// call; surface_leaves and weld_gvd in two halves, so that the caller can free memory between.
+
 #include <atomic>
 #include <cstdint>
 #include <functional>

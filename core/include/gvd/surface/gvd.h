@@ -1,5 +1,9 @@
 #pragma once
 
+// The GVD's data: per object, the closed, oriented boundary of its generalized Voronoi cell as
+// triangles (2D: segments) in user units, with the object across every vertex and its
+// clearance. extract_gvd.h makes it.
+
 #include <cstdint>
 #include <vector>
 
