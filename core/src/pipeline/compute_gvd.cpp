@@ -50,65 +50,66 @@ using Progress = std::function<void(const std::string&, double)>;
 // The options of the first octree's build (paper §3; certified cells left whole).
 OctreeOptions octree_options(const PipelineOptions& options, const ContactPairs& contacts,
                              const SplitOracle* oracle, const Progress& progress) {
-  OctreeOptions oo;
-  oo.split_oracle = oracle;
-  oo.contacts = &contacts;
-  oo.contact_depth = options.contact_depth;
-  oo.max_depth = options.max_depth;
-  oo.max_leaves = options.max_leaves;
-  oo.threads = options.threads;
-  oo.cancel = options.cancel;
-  oo.progress = [progress](double f) { progress("octree", f); };
-  return oo;
+  OctreeOptions tree_options;
+  tree_options.split_oracle = oracle;
+  tree_options.contacts = &contacts;
+  tree_options.contact_depth = options.contact_depth;
+  tree_options.max_depth = options.max_depth;
+  tree_options.max_leaves = options.max_leaves;
+  tree_options.threads = options.threads;
+  tree_options.cancel = options.cancel;
+  tree_options.progress = [progress](double f) { progress("octree", f); };
+  return tree_options;
 }
 
 Octree first_octree(const UnitGeometry& geometry, const PipelineOptions& options,
-                    const OctreeOptions& oo) {
+                    const OctreeOptions& tree_options) {
   if (options.octree_build == OctreeBuild::kDataParallel) {
     const std::unique_ptr<OctreeBuildSteps> steps =
         options.compute ? options.compute->octree_build_steps(geometry) : nullptr;
-    return build_octree_data_parallel(geometry, oo, steps.get());
+    return build_octree_data_parallel(geometry, tree_options, steps.get());
   }
-  return build_octree(geometry, oo);
+  return build_octree(geometry, tree_options);
 }
 
 // The options of the distance transform (paper §4) with the exact closest-point solver.
 DistanceOptions distance_options(const PipelineOptions& options, ClosestPointSolver* solver,
                                  const Progress& progress) {
-  DistanceOptions dopt;
-  dopt.threads = options.threads;
-  dopt.cancel = options.cancel;
-  dopt.solver = solver;
-  dopt.method = options.distance;
-  dopt.progress = [progress](double f) { progress("distance", f); };
-  return dopt;
+  DistanceOptions field_options;
+  field_options.threads = options.threads;
+  field_options.cancel = options.cancel;
+  field_options.solver = solver;
+  field_options.method = options.distance;
+  field_options.progress = [progress](double f) { progress("distance", f); };
+  return field_options;
 }
 
 // The options of the refinement loop (§5 ambiguity, the separation guarantee, unseen
 // regions); the octree and distance options without progress (the loop reports its own).
 RefineLoopOptions refine_options(const PipelineOptions& options, int dim, int max_depth,
                                  const ContactPairs& contacts, const PairCertifier* certifier,
-                                 OctreeOptions oo, DistanceOptions dopt, const Progress& progress) {
-  RefineLoopOptions lo;
-  lo.max_rounds = options.max_refine_rounds;
-  lo.ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
-                        : dim == 2                    ? options.max_refine_rounds
-                                                      : 3;
-  lo.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
-                        : dim == 2                    ? lattice_bits(2)
-                                                      : 2;
-  lo.unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
-                     : dim == 2                 ? options.max_refine_rounds
-                                                : 4;
-  lo.cone_certifier = certifier;
-  lo.contacts = &contacts;
-  lo.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
-  oo.progress = nullptr;
-  dopt.progress = nullptr;
-  lo.octree = std::move(oo);
-  lo.distance = std::move(dopt);
-  lo.progress = [progress](double f) { progress("ambiguity", f); };
-  return lo;
+                                 OctreeOptions tree_options, DistanceOptions field_options,
+                                 const Progress& progress) {
+  RefineLoopOptions loop_options;
+  loop_options.max_rounds = options.max_refine_rounds;
+  loop_options.ambiguity_rounds = options.ambiguity_rounds >= 0 ? options.ambiguity_rounds
+                                  : dim == 2                    ? options.max_refine_rounds
+                                                                : 3;
+  loop_options.ambiguity_levels = options.ambiguity_levels >= 0 ? options.ambiguity_levels
+                                  : dim == 2                    ? lattice_bits(2)
+                                                                : 2;
+  loop_options.unseen_rounds = options.unseen_rounds >= 0 ? options.unseen_rounds
+                               : dim == 2                 ? options.max_refine_rounds
+                                                          : 4;
+  loop_options.cone_certifier = certifier;
+  loop_options.contacts = &contacts;
+  loop_options.contact_depth = resolve_contact_depth(dim, options.contact_depth, max_depth);
+  tree_options.progress = nullptr;
+  field_options.progress = nullptr;
+  loop_options.octree = std::move(tree_options);
+  loop_options.distance = std::move(field_options);
+  loop_options.progress = [progress](double f) { progress("ambiguity", f); };
+  return loop_options;
 }
 
 // One run of the pipeline: the stages in the order compute_gvd calls them, and what they hand
