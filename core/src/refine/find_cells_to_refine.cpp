@@ -336,19 +336,19 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
     const uint32_t leaf = static_cast<uint32_t>(i);
     switch (f & 3) {
       case 1:
-        ++report.ambiguous;
+        ++report.ambiguous_count;
         report.ambiguous_at_limit += at_limit;
-        if (!at_limit) report.leaves.push_back(leaf);
+        if (!at_limit) report.ambiguous_leaves.push_back(leaf);
         break;
       case 2:
-        ++report.foreign_label;
+        ++report.foreign_count;
         report.foreign_at_limit += at_limit;
-        if (!at_limit) report.foreign.push_back(leaf);
+        if (!at_limit) report.foreign_leaves.push_back(leaf);
         break;
       default:
-        ++report.misplaced;
-        report.misplaced_at_limit += at_limit;
-        if (!at_limit) report.unseen.push_back(leaf);
+        ++report.unseen_count;
+        report.unseen_at_limit += at_limit;
+        if (!at_limit) report.unseen_leaves.push_back(leaf);
         break;
     }
   }

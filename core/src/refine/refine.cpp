@@ -46,24 +46,24 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
   // of the first octree's leaf that holds it (1 B per leaf; the first octree itself would be
   // 9 B per leaf, held beside the replaced and the new one in every later round).
   std::vector<uint8_t> base_level = octree.level;
-  RefineOptions ro;
-  ro.threads = threads;
-  ro.base_level = base_level;
-  ro.ambiguity_levels = options.ambiguity_levels;
-  ro.geometry = &geometry;
-  ro.bvh = &bvh;
-  ro.contacts = options.contacts;
-  ro.contact_depth = options.contact_depth;
+  RefineOptions find_options;
+  find_options.threads = threads;
+  find_options.base_level = base_level;
+  find_options.ambiguity_levels = options.ambiguity_levels;
+  find_options.geometry = &geometry;
+  find_options.bvh = &bvh;
+  find_options.contacts = options.contacts;
+  find_options.contact_depth = options.contact_depth;
   uint64_t ambiguity_seen = 0;  // ambiguous cells found by any pass
   int rounds = 0;
   for (;;) {
-    ro.changed_only = rounds > 0;
-    report = find_cells_to_refine(octree, field, ro);
-    ambiguity_seen += report.ambiguous;
+    find_options.changed_only = rounds > 0;
+    report = find_cells_to_refine(octree, field, find_options);
+    ambiguity_seen += report.ambiguous_count;
     const bool split_ambiguous = rounds < options.ambiguity_rounds;
     const bool split_unseen = rounds < options.unseen_rounds;
-    if ((report.foreign.empty() && (!split_unseen || report.unseen.empty()) &&
-         (!split_ambiguous || report.leaves.empty())) ||
+    if ((report.foreign_leaves.empty() && (!split_unseen || report.unseen_leaves.empty()) &&
+         (!split_ambiguous || report.ambiguous_leaves.empty())) ||
         rounds >= options.max_rounds) {
       break;
     }
@@ -74,18 +74,18 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     }
     ++rounds;
     if (options.progress) options.progress(std::min(0.99, rounds / 8.0));
-    SeparationPlan plan =
-        plan_separation_splits(octree, geometry, bvh, report.foreign, threads, options.contacts,
-                               options.contact_depth, options.octree.split_oracle);
+    SeparationPlan plan = plan_separation_splits(octree, geometry, bvh, report.foreign_leaves,
+                                                 threads, options.contacts, options.contact_depth,
+                                                 options.octree.split_oracle);
     std::vector<CellRef>& splits = plan.splits;
     // Ambiguous and unseen leaves are split two levels at once: that halves the rounds, and
     // the flagged leaves are few (in 2D junctions are points; in 3D only junction cells).
     const size_t planned = splits.size();
     if (split_ambiguous) {
-      for (uint32_t leaf : report.leaves) splits.push_back(cell_of(octree, leaf));
+      for (uint32_t leaf : report.ambiguous_leaves) splits.push_back(cell_of(octree, leaf));
     }
     if (split_unseen) {
-      for (uint32_t leaf : report.unseen) splits.push_back(cell_of(octree, leaf));
+      for (uint32_t leaf : report.unseen_leaves) splits.push_back(cell_of(octree, leaf));
     }
     const size_t flagged_end = splits.size();
     for (size_t i = planned; i < flagged_end; ++i)
@@ -104,7 +104,7 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     // the update, where the refinement's memory peaks.
     previous.keep_cells_only();
     base_level = inherit_levels(previous, octree, base_level);
-    ro.base_level = base_level;
+    find_options.base_level = base_level;
     if (!keep_index) field.vertices.rebuild_index(threads);
     DistanceField next = compute_distances(octree, geometry, bvh, options.distance,
                                            std::move(field), std::move(previous));
@@ -112,18 +112,18 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
   }
   sort_vertices(field, threads);  // incremental rounds appended vertices
   // The last report holds the thin regions no round resolved (earlier ones were split).
-  out.unseen_left = report.misplaced;
+  out.unseen_left = report.unseen_count;
   if (rounds > 0 && ambiguity_seen > 0) {
     // The last rounds looked only at changed leaves: count the ambiguity left over all of
     // them (the other checks have nothing left to find). Not needed when no pass found any:
     // the first looked at every leaf, the later ones at every leaf that changed.
-    ro.changed_only = false;
-    ro.geometry = nullptr;
-    ro.bvh = nullptr;
-    report = find_cells_to_refine(octree, field, ro);
+    find_options.changed_only = false;
+    find_options.geometry = nullptr;
+    find_options.bvh = nullptr;
+    report = find_cells_to_refine(octree, field, find_options);
   }
   out.rounds = rounds;
-  out.ambiguous_at_limit = report.ambiguous_at_limit + report.leaves.size();
+  out.ambiguous_at_limit = report.ambiguous_at_limit + report.ambiguous_leaves.size();
   out.touching_leaves = report.touching_leaves;
   return out;
 }

@@ -19,16 +19,17 @@ namespace gvd::refine {
 
 /// Why leaves must be split before surfacing (paper §5 and the separation guarantee).
 struct RefineReport {
-  std::vector<uint32_t> leaves;     ///< ambiguous leaves to split (all below their limit)
-  std::vector<uint32_t> foreign;    ///< non-empty leaves with a foreign label (below the limit)
-  std::vector<uint32_t> unseen;     ///< leaves hiding an object's region (below the limit)
-  uint64_t ambiguous = 0;           ///< ambiguous cells found (any depth)
-  uint64_t ambiguous_at_limit = 0;  ///< ambiguous cells already at the depth limit
-  uint64_t foreign_label = 0;       ///< non-empty leaves with a vertex labelled by another object
-  uint64_t foreign_at_limit = 0;    ///< of those, at the depth limit
-  uint64_t touching_leaves = 0;     ///< leaves that intersect several objects (at the limit)
-  uint64_t misplaced = 0;           ///< cells whose GVD points are nearest to an unseen object
-  uint64_t misplaced_at_limit = 0;
+  std::vector<uint32_t> ambiguous_leaves;  ///< ambiguous leaves to split (all below their limit)
+  /// Non-empty leaves with a vertex labelled by another object, to split (below the limit).
+  std::vector<uint32_t> foreign_leaves;
+  std::vector<uint32_t> unseen_leaves;  ///< leaves hiding an object's region (below the limit)
+  uint64_t ambiguous_count = 0;         ///< ambiguous cells found (any depth)
+  uint64_t ambiguous_at_limit = 0;      ///< of those, at the depth limit
+  uint64_t foreign_count = 0;     ///< non-empty leaves with a vertex labelled by another object
+  uint64_t foreign_at_limit = 0;  ///< of those, at the depth limit
+  uint64_t touching_leaves = 0;   ///< leaves that intersect several objects (at the limit)
+  uint64_t unseen_count = 0;      ///< cells whose GVD points are nearest to an unseen object
+  uint64_t unseen_at_limit = 0;   ///< of those, at the depth limit
 };
 
 /// Finds the leaves to subdivide (paper §5): a cell is ambiguous when collapsing the edges of
