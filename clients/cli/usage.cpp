@@ -150,9 +150,10 @@ constexpr Synopsis kQueryOptions[] = {
      "stdin)\n"},
     {"nearest", "  --point x,y[,z]            one point (repeatable)\n"},
     {"nearest",
-     R"(  --fast                     nearest: the paper's rule alone away from objects (faster; the
-                             distance may exceed 3/2 of the true one, the object may flip
-                             near a Voronoi boundary)
+     R"(  --fast                     nearest: the octree leaf's answer where it is provably within
+                             3/2 of the true distance, the paper's rule alone away from
+                             objects (faster; the distance may exceed the true one, the
+                             object may flip near a Voronoi boundary). Default: exact
 )"},
     {"neighbors",
      "  --ring K                   rings around the object (default 1; large K = all reachable)\n"},

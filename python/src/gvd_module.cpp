@@ -644,8 +644,9 @@ array). Returns gvd.Nearest(object, distance, closest, inside): object int32 (n,
 point outside the domain or not finite, with NaN distance and closest), distance float64 (n,),
 negative inside a closed object (signed; abs() is the CLI's distance), closest float64 (n, D),
 the point on the object, inside int8 (n,): 1 inside, 0 outside, -1 for an open object (no
-inside; exact ray parity for closed ones). Exact where the octree leaf cannot prove the
-answer within 3/2 of the true distance; fast=True uses the paper's rule away from objects.
+inside; exact ray parity for closed ones). Exact; fast=True keeps the octree leaf's answer
+where it is provably within 3/2 of the true distance and uses the paper's rule alone away from
+objects (faster; the distance may exceed the true one).
 Runs on `threads` threads (0 = all cores) without the GIL, in slices of 65536 points:
 Ctrl-C between slices raises KeyboardInterrupt. Read the fields by name: later versions may
 add fields.)doc")

@@ -293,10 +293,11 @@ class Result {
   std::vector<Neighbor> neighbors(Object object, int ring = 1) const;
   std::vector<Neighbor> neighbors(std::string_view label, int ring = 1) const;
   /// Nearest object of every point (dimension() numbers each; gvd::Error{kInvalidArgument}
-  /// when the length is not a multiple of it): exact where the octree leaf cannot prove the
-  /// answer within 3/2 of the true distance (`gvd nearest`); `fast` = the paper's §4 rule
-  /// away from objects. A point outside the domain gets kNone and NaN, not an error. Runs on
-  /// `threads` threads (0 = all cores); O(log leaves) per point.
+  /// when the length is not a multiple of it): exact (`gvd nearest`); `fast` = the octree
+  /// leaf's answer where it is provably within 3/2 of the true distance, the paper's §4 rule
+  /// alone away from objects (faster; the distance may exceed the true one). A point outside the
+  /// domain gets kNone and NaN, not an error. Runs on `threads` threads (0 = all cores); O(log
+  /// leaves) per point.
   NearestBatch nearest(std::span<const double> points, bool fast = false, int threads = 0) const;
   /// A path from `from` to `to` (dimension() numbers each) on the GVD; not found (with a
   /// reason) when one of them is inside an object or no passage is wide enough.

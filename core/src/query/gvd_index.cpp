@@ -508,6 +508,7 @@ NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
   ObjectId objects[kMaxObjects];
   double object_best[kMaxObjects];
   int object_count = 0;
+  bool more_objects = false;  // candidates of more objects than kMaxObjects
   for (uint32_t k = m.leaf_begin[leaf]; k < m.leaf_begin[leaf + 1]; ++k) {
     const uint32_t c = m.leaf_point[k];
     const double d2 = dist2(u, closest[c]);
@@ -521,7 +522,9 @@ NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
     if (i == object_count && object_count < kMaxObjects) {
       objects[object_count] = o;
       object_best[object_count++] = d2;
-    } else if (i < object_count) {
+    } else if (i == object_count) {
+      more_objects = true;
+    } else {
       object_best[i] = std::min(object_best[i], d2);
     }
   }
@@ -531,9 +534,10 @@ NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
   Vec3 best_at = have ? closest[best_point] : Vec3{};
   // The GVD crosses this leaf (its corners are nearest to different objects) and the point is
   // close to it: the exact query below decides, so answers do not flip sides of the Voronoi
-  // boundary by the corners' approximation.
-  bool close_call = false;
-  if (object_count >= 2 && object_count <= 3) {
+  // boundary by the corners' approximation. Beside a junction of four or more objects too
+  // (and always when there are more than the tracked ones).
+  bool close_call = more_objects;
+  if (approximate && object_count >= 2 && !close_call) {
     double first = kInf, second = kInf;
     for (int i = 0; i < object_count; ++i) {
       if (object_best[i] < first) {
@@ -556,8 +560,9 @@ NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
   const double answer_distance = have ? std::sqrt(best) : 1e300;
   const double need = answer_distance / 1.5;
   const Octree& octree = m.result->octree;
+  // By default every answer is exact (below); the fast path may keep the candidates' answer.
   bool certified = have && approximate && octree.object[leaf] == kNoObject;
-  if (have && !close_call && !certified) {
+  if (have && approximate && !close_call && !certified) {
     const double size = std::ldexp(1.0, -octree.level[leaf]);
     const Vec3 lo = lattice::to_unit(dim, octree.corner(leaf));
     int nearest_corner = 0;
@@ -578,8 +583,8 @@ NearestAnswer GvdIndex::nearest(Vec3 point, bool approximate) const {
       certified = static_cast<double>(exact[k]) - dist(u, c) >= need;
     }
   }
-  // Unless the answer is provably within 3/2 of the truth, ask the BVH for the exact nearest
-  // point, searching only nearer than the answer so far.
+  // Unless the fast path proved the answer within 3/2 of the truth, ask the BVH for the exact
+  // nearest point, searching only nearer than the answer so far.
   if (!certified) {
     const ClosestHit hit = m.bvh.nearest(u, have ? best * (1 + 1e-12) : 1e300);
     if (hit.found()) {

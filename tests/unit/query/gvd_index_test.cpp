@@ -47,28 +47,48 @@ Vec3 random_point(const GvdResult& r, std::mt19937& rng) {
   return p;
 }
 
-// Nearest answers against brute force: the reported distance is measured to a point on the
-// reported object, so it is never below the true distance, and within the 3/2 factor; the
-// object is the true nearest one except where another is within the local cell size.
-void expect_nearest_matches_brute_force(const GvdIndex& index, int samples) {
+// Nearest answers against brute force at `points` (random ones when empty). By default
+// exact: the distance is the true one and the object the true nearest (or one tied with it
+// to 1e-12). Fast: the reported distance is measured to a point on the reported object, so
+// it is never below the true distance, and within the 3/2 factor in leaves that hold an
+// object; the object is the true nearest one except where another is within the local cell
+// size.
+void expect_nearest_matches_brute_force(const GvdIndex& index, int samples, bool fast,
+                                        std::vector<Vec3> points = {}) {
   const GvdResult& r = index.result();
   std::mt19937 rng(7);
+  if (points.empty())
+    for (int i = 0; i < samples; ++i) points.push_back(random_point(r, rng));
   int differ = 0;
-  for (int i = 0; i < samples; ++i) {
-    const Vec3 p = random_point(r, rng);
-    const NearestAnswer a = index.nearest(p);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Vec3 p = points[i];
+    const NearestAnswer a = index.nearest(p, fast);
     const test::NearestAnswer truth = test::brute_nearest(r.scene, p);
     ASSERT_LT(a.object, r.scene.objects.size());
     EXPECT_GE(a.distance, truth.distance * (1 - 1e-9) - 1e-12) << "point " << i;
-    EXPECT_LE(a.distance, 1.5 * truth.distance + 1e-12) << "point " << i;
     const double own = test::brute_distance(r.scene, a.object, p);
     EXPECT_LE(own, a.distance * (1 + 1e-9) + 1e-12) << "the closest point lies on the object";
+    if (!fast) {
+      EXPECT_TRUE(a.exact) << "point " << i;
+      EXPECT_NEAR(a.distance, truth.distance, 1e-12 * (1 + truth.distance)) << "point " << i;
+      EXPECT_NEAR(own, truth.distance, 1e-12 * (1 + truth.distance))
+          << "point " << i << ": " << r.scene.objects[a.object].label << " is not the nearest, "
+          << r.scene.objects[truth.object].label << " is";
+      continue;
+    }
+    // Within 3/2 wherever the leaf's corners prove it; the paper's rule alone in empty leaves
+    // (only conjectured within 3/2 there, and not at every point: up to ~2.9 measured).
+    const uint32_t leaf = r.octree.locate(r.domain.to_unit(p));
+    if (r.octree.object[leaf] != scene::kNoObject) {
+      EXPECT_LE(a.distance, 1.5 * truth.distance + 1e-12) << "point " << i;
+    }
     if (a.object != truth.object) {
       ++differ;
       EXPECT_LE(own - truth.distance, leaf_diagonal(r, p)) << "point " << i;
     }
   }
-  EXPECT_LE(differ, samples / 50) << differ << " of " << samples << " answers differ";
+  EXPECT_LE(differ, static_cast<int>(points.size()) / 50)
+      << differ << " of " << points.size() << " answers differ";
 }
 
 TEST(GvdIndexNearest, AgreesWithBruteForce3d) {
@@ -78,7 +98,29 @@ TEST(GvdIndexNearest, AgreesWithBruteForce3d) {
   objects.push_back(test::make_box("c", {-1, 1.2, -1}, {3, 1.5, 1}));
   objects.push_back(test::make_sphere("d", {1.1, -1.9, 0.5}, 0.7));
   const GvdIndex index(run(test::make_scene(3, std::move(objects))));
-  expect_nearest_matches_brute_force(index, 1500);
+  for (const bool fast : {false, true}) expect_nearest_matches_brute_force(index, 1500, fast);
+}
+
+// Four balls at the corners of a square and a plate below (the bundled balls_on_plate's
+// layout): above the middle of the square all four are nearly equally near, and the leaves
+// there hold candidates of all of them. The default answer is exact there too (the fast one
+// picked a ball 2.4e-4 of the distance too far at such a point: more objects in the leaf than
+// its close-call test looked at).
+TEST(GvdIndexNearest, ExactWhereFourObjectsMeet3d) {
+  std::vector<SceneObject> objects;
+  const double r = 0.5;
+  for (const Vec3& c :
+       {Vec3{0, 0, r}, Vec3{0, 1.0005, r}, Vec3{1.002, 0, r}, Vec3{1.002, 1.0005, r}})
+    objects.push_back(test::make_sphere("ball", c, r));
+  objects.push_back(test::make_box("plate", {-0.6, -0.6, -0.1}, {1.6, 1.6, -0.001}));
+  for (size_t i = 0; i < 4; ++i) objects[i].label += "_" + std::to_string(i);
+  const GvdIndex index(run(test::make_scene(3, std::move(objects))));
+  std::vector<Vec3> line;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> jitter(-1e-3, 1e-3);
+  for (int k = 0; k <= 400; ++k)
+    line.push_back({0.501 + jitter(rng), 0.50025 + jitter(rng), 0.55 + 0.7 * k / 400.0});
+  expect_nearest_matches_brute_force(index, 0, false, line);
 }
 
 TEST(GvdIndexNearest, AgreesWithBruteForce2d) {
@@ -88,7 +130,7 @@ TEST(GvdIndexNearest, AgreesWithBruteForce2d) {
   objects.push_back(test::make_circle("c", {1, 1.6, 0}, 0.4));
   objects.push_back(test::make_rect("r", {-1, -1.6, 0}, {3, -1.3, 0}));
   const GvdIndex index(run(test::make_scene(2, std::move(objects))));
-  expect_nearest_matches_brute_force(index, 3000);
+  for (const bool fast : {false, true}) expect_nearest_matches_brute_force(index, 3000, fast);
 }
 
 TEST(GvdIndexNearest, PointsOutsideTheDomainAreAnError) {

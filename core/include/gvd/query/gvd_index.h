@@ -23,17 +23,18 @@ class SimplexBvh;
 
 namespace gvd::query {
 
-/// Nearest object at a point (paper §4, last paragraph): the closest of the closest points
-/// stored on the vertices of the leaf that contains the point. `distance` is the distance to
-/// that point on the object, so it is never below the true distance (and within the 3/2
-/// factor of the distance transform).
+/// Nearest object at a point: by default exact (the true nearest object, distance and closest
+/// point, found by the BVH with the leaf's candidates as its first bound); on the fast path
+/// the paper's §4 rule (the closest of the closest points stored on the vertices of the leaf
+/// that contains the point). `distance` is the distance to `closest`, a point on the object,
+/// so it is never below the true distance.
 struct NearestAnswer {
   Vec3 point;  ///< the query point, user units, as given
   scene::ObjectId object = scene::kNoObject;
   double distance = 0;  ///< user units
   Vec3 closest;         ///< the point on `object` the distance is measured to
-  /// True when the leaf's vertices could not prove the 3/2 bound and the BVH answered
-  /// (exactly); false for the fast path of §4.
+  /// True when the BVH answered (exactly): always by default; on the fast path where the
+  /// leaf's vertices could not prove the 3/2 bound.
   bool exact = false;
   /// Whether the point is inside `object`: 1 inside, 0 outside, -1 unknown (the object is not
   /// closed, so it has no inside; is_closed_object). Exact (ray parity with symbolic
@@ -138,13 +139,14 @@ class GvdIndex {
   /// The object with this label; throws kNotFound naming the label.
   scene::ObjectId object(std::string_view label) const;
 
-  /// Nearest object at a point (user units). O(log leaves + vertices of the leaf), plus one
-  /// bounded exact BVH query where the leaf's vertices cannot prove the answer within 3/2 of
-  /// the true distance, or the point is near a Voronoi boundary. With `approximate`, the
-  /// paper's §4 rule (the closest of the leaf vertices' closest points) in every leaf that
-  /// holds no object (exact only in leaves that do): faster; the distance is still never
-  /// below the true one, but its 3/2 bound is only the paper's conjecture there, and the
-  /// object may flip within a cell of a Voronoi boundary.
+  /// Nearest object at a point (user units): exact, one BVH query bounded by the closest of
+  /// the leaf vertices' closest points (O(log leaves + vertices of the leaf) to find them).
+  /// With `approximate`, the paper's §4 rule (the closest of the leaf vertices' closest
+  /// points) in every leaf that holds no object, and elsewhere that answer where the leaf's
+  /// corners prove it within 3/2 of the true distance away from Voronoi boundaries (the BVH
+  /// otherwise): faster; the distance is still never below the true one, but its 3/2 bound
+  /// is only the paper's conjecture in empty leaves, and the object may flip within a cell of
+  /// a Voronoi boundary.
   NearestAnswer nearest(Vec3 point, bool approximate = false) const;
 
   /// Whether the object is closed (is_closed_object), so that nearest answers say whether a
