@@ -229,7 +229,7 @@ class Computation {
     solver_.reset();
     // Skew extruded cells get their direction from the certificate of their own box again
     // (the mark does not hold it), so the certifier stays where there are some.
-    for (uint8_t c : r_.octree.certified) any_skew_ |= c >= kSkewMark && c <= kSkewConeLastMark;
+    for (uint8_t c : r_.octree.certified) any_skew_ |= c >= kSkewMark && c <= kSkewLastMark;
     if (!any_skew_) certifier_.reset();
     // Surfacing reads each leaf's vertices from the field's per-leaf lists, never by key: the
     // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks

@@ -686,7 +686,8 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   // crossing the bisector at most once.
   Vec3 along, b[2];
   int slanted = -1;
-  int mixed = -1;  // a cross-section axis (skew: any axis) the gradients straddle, or -1
+  int mixed = -1;     // a cross-section axis (skew: any axis) the gradients straddle, or -1
+  int monotone = -1;  // a wedge's: the one axis along which d_a - d_b is monotone
   if (axis >= 0) {
     along[axis] = 1;
     b[0][(axis + 1) % 3] = 1;
@@ -780,12 +781,20 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
         // Slanted, straddling its own axis a (a sphere's meridian rims across a coordinate
         // plane, its equator's): a cone whose lines along a are counted as a skew cone's (e
         // from the certificate again; the two faces square to a, parallel to e, carry
-        // straight pieces). Straddling w, no octree axis, is left to splitting.
+        // straight pieces).
         mixed = slanted;
         slanted = -1;
         out.skew = true;
       } else {
-        return out;
+        // Slanted, straddling w (a part turned about two axes against the frame: its rims
+        // square to a, their normals across w): d_a - d_b is monotone along a alone. Every
+        // octree edge along either other axis runs along w in the cross-section, so lines
+        // along both are counted: a skew cone across two axes (a wedge), e from the
+        // certificate again.
+        monotone = slanted;
+        mixed = (slanted + 1) % 3;
+        slanted = -1;
+        out.skew = true;
       }
     }
     rise = rise + b[k] * (up ? 1.0 : -1.0);
@@ -877,28 +886,35 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     // apex): at 0, 1/4, ... 1 of the cell across the monotone axis, and along an extruded
     // axis at any point (all alike); skew (no invariant axis), at the quarters across both
     // other axes. Then its children are certified with it (kCone...), or, skew, asked again.
-    const int p = axis >= 0 ? 3 - axis - mixed : (mixed + 1) % 3;
-    const int q = axis >= 0 ? -1 : (mixed + 2) % 3;
-    for (int i = 0; i <= 4; ++i) {
-      for (int j = 0; j <= (q >= 0 ? 4 : 0); ++j) {
-        Vec3 p0 = box.center(), p1;
-        p0[p] = box.lo[p] + 0.25 * i * (box.hi[p] - box.lo[p]);
-        if (q >= 0) p0[q] = box.lo[q] + 0.25 * j * (box.hi[q] - box.lo[q]);
-        p1 = p0;
-        p0[mixed] = box.lo[mixed];
-        p1[mixed] = box.hi[mixed];
-        const int crossings = line_crossings(pair, p0, p1, mixed, patch);
-        if (crossings > 2) return out;
-        out.twice |= crossings == 2;
+    // A wedge's lines along both axes other than the monotone one.
+    for (int line = 0; line < (monotone >= 0 ? 2 : 1); ++line) {
+      const int m = line == 0 ? mixed : 3 - monotone - mixed;
+      const int p = axis >= 0 ? 3 - axis - m : (m + 1) % 3;
+      const int q = axis >= 0 ? -1 : (m + 2) % 3;
+      for (int i = 0; i <= 4; ++i) {
+        for (int j = 0; j <= (q >= 0 ? 4 : 0); ++j) {
+          Vec3 p0 = box.center(), p1;
+          p0[p] = box.lo[p] + 0.25 * i * (box.hi[p] - box.lo[p]);
+          if (q >= 0) p0[q] = box.lo[q] + 0.25 * j * (box.hi[q] - box.lo[q]);
+          p1 = p0;
+          p0[m] = box.lo[m];
+          p1[m] = box.hi[m];
+          const int crossings = line_crossings(pair, p0, p1, m, patch);
+          if (crossings > 2) return out;
+          out.twice |= crossings == 2;
+        }
       }
     }
     out.inherited = false;
     out.mixed = mixed;
+    out.monotone = monotone;
   }
   if (axis >= 0) {
     out.verdict = mixed < 0 ? extruded_verdict(axis) : cone_verdict(axis, mixed, out.twice);
   } else if (out.skew) {
-    out.verdict = mixed < 0 ? CellVerdict::kSkew : skew_cone_verdict(mixed, out.twice);
+    out.verdict = mixed < 0       ? CellVerdict::kSkew
+                  : monotone >= 0 ? skew_wedge_verdict(monotone, out.twice)
+                                  : skew_cone_verdict(mixed, out.twice);
   } else {
     const int i = (slanted + 1) % 3, j = (slanted + 2) % 3;
     out.verdict = slanted_verdict(slanted, along[i] * along[j] < 0);

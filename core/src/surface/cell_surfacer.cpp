@@ -257,8 +257,8 @@ class CellSurfacer {
           for (size_t i = b; i < e; ++i) {
             const uint32_t leaf = static_cast<uint32_t>(i);
             bool twice = false;
-            const int m = octree_.cone_axis(leaf, &twice);
-            if (m < 0 || !twice) continue;
+            const unsigned axes = octree_.straddled_axes(leaf, &twice);
+            if (axes == 0 || !twice) continue;
             const LeafGrid grid = field_.grid(octree_, leaf);
             ObjectId pair[2] = {kNoObject, kNoObject};
             bool many = false;
@@ -285,9 +285,12 @@ class CellSurfacer {
               for (int k = 0; k < p.n; ++k) {
                 uint32_t v = p.v[k], w = p.v[(k + 1) % p.n];
                 if (field_.label[v] != field_.label[w]) continue;
-                // Only along m: along the cell's axis C x e meets an edge nowhere or all
-                // along, and along the third axis d_a - d_b is monotone (the cone).
-                if (field_.vertices.position(v)[m] == field_.vertices.position(w)[m]) continue;
+                // Only along the straddled axes m: along the cell's axis C x e meets an edge
+                // nowhere or all along, and along the others d_a - d_b is monotone.
+                const Vec3 pv = field_.vertices.position(v), pw = field_.vertices.position(w);
+                int m = 0;
+                while (m < 2 && pv[m] == pw[m]) ++m;
+                if ((axes >> m & 1u) == 0) continue;
                 if (v > w) std::swap(v, w);
                 mine.push_back(
                     {uint64_t{v} << 32 | w, field_.label[v] == pair[0] ? pair[1] : pair[0]});
@@ -481,9 +484,13 @@ class CellSurfacer {
   // cone's gradients all point one way along the other axis), so its pieces on the face are
   // intervals along m, and the spokes sorted along m pair up in turn. m is the face's axis
   // along which the gradients of d_a - d_b at the spokes take both signs (along the other,
-  // and along an extruded cell's axis where they vanish, they keep one). A function of the
-  // face alone, so both cells of the face pair the same spokes; left unpaired (the junction
-  // point then) where the spokes do not show that structure.
+  // and along an extruded cell's axis where they vanish, they keep one). On a wedge's faces
+  // square to its monotone axis, which hold its direction e, the gradients take both signs
+  // along both axes but all lie along one line in the face (d_a - d_b is invariant along e):
+  // the pieces are straight along e and the spokes are sorted across it, along the
+  // gradients. A function of the face alone, so both cells of the face pair the same
+  // spokes; left unpaired (the junction point then) where the spokes do not show that
+  // structure.
   void pair_spokes(const detail::FacePolygon& poly, PolygonGvd& g) const {
     if (g.n % 2 != 0) return;
     const ObjectId a = std::min(g.spokes[0].label_a, g.spokes[0].label_b);
@@ -494,6 +501,8 @@ class CellSurfacer {
         return;
     const int u = (poly.axis + 1) % 3, w = (poly.axis + 2) % 3;
     bool up[2] = {false, false}, down[2] = {false, false};
+    std::array<double, 2> in_face[PolygonGvd::kMaxSpokes];
+    int first = 0;  // the spoke of the lowest id, the same from both cells of the face
     for (int i = 0; i < g.n; ++i) {
       Probe last;
       bisector_gap(g.spokes[i].p, a, b, last);
@@ -501,17 +510,36 @@ class CellSurfacer {
       if (!(len > 0)) return;
       for (int k = 0; k < 2; ++k) {
         const double c = last.grad[k == 0 ? u : w] / len;
+        in_face[i][k] = c;
         up[k] |= c > 1e-9;
         down[k] |= c < -1e-9;
       }
+      if (g.spokes[i].id < g.spokes[first].id) first = i;
     }
     const bool mixed_u = up[0] && down[0], mixed_w = up[1] && down[1];
-    if (mixed_u == mixed_w) return;
-    const int m = mixed_u ? u : w;
+    if (!mixed_u && !mixed_w) return;
+    // The direction the spokes are sorted along: the mixed axis, or (both mixed) the line
+    // every gradient lies along.
+    Vec3 along;
+    if (mixed_u != mixed_w) {
+      along[mixed_u ? u : w] = 1;
+    } else {
+      const std::array<double, 2> d = in_face[first];
+      const double d_len = std::hypot(d[0], d[1]);
+      constexpr double kParallel = 1e-6;
+      for (int i = 0; i < g.n; ++i) {
+        const double c = in_face[i][0] * d[1] - in_face[i][1] * d[0];
+        if (!(d_len > 0.01) ||
+            !(std::abs(c) <= kParallel * d_len * std::hypot(in_face[i][0], in_face[i][1])))
+          return;
+      }
+      along[u] = d[0];
+      along[w] = d[1];
+    }
     int order[PolygonGvd::kMaxSpokes];
     for (int i = 0; i < g.n; ++i) order[i] = i;
     std::sort(order, order + g.n,
-              [&](int i, int j) { return g.spokes[i].p[m] < g.spokes[j].p[m]; });
+              [&](int i, int j) { return dot(g.spokes[i].p, along) < dot(g.spokes[j].p, along); });
     std::vector<std::array<int, 2>> pairs;
     for (int i = 0; i < g.n; i += 2) {
       const Spoke& s0 = g.spokes[order[i]];
@@ -526,11 +554,14 @@ class CellSurfacer {
 
   // The polygon's spokes, paired (pair_spokes) also where four or more of them come from
   // single crossings on a face of a cone leaf whose lines may cross C twice (a hanging vertex
-  // splits such an edge): decided from the leaves on both sides, so both pair alike.
+  // splits such an edge), or on a wedge's face square to its monotone axis (two straight
+  // pieces along e there can cut opposite corners of the face, each edge crossed once):
+  // decided from the leaves on both sides, so both pair alike.
   PolygonGvd paired_polygon(uint32_t leaf, const detail::FacePolygon& poly) const {
     PolygonGvd out = polygon(poly);
     if (out.n >= 4 && out.pairs.empty() && any_cone_ &&
-        (crosses_twice(leaf) || (!poly.on_domain && crosses_twice(leaf_across(poly)))))
+        (pieces_may_pair(leaf, poly.axis) ||
+         (!poly.on_domain && pieces_may_pair(leaf_across(poly), poly.axis))))
       pair_spokes(poly, out);
     return out;
   }
@@ -538,6 +569,14 @@ class CellSurfacer {
   bool crosses_twice(uint32_t leaf) const {
     bool twice = false;
     return octree_.cone_axis(leaf, &twice) >= 0 && twice;
+  }
+
+  // Whether a face square to `face_axis` of `leaf` may hold two pieces of the leaf's pair.
+  bool pieces_may_pair(uint32_t leaf, int face_axis) const {
+    bool twice = false;
+    const unsigned axes = octree_.straddled_axes(leaf, &twice);
+    const bool wedge = axes != 0 && (axes & (axes - 1)) != 0;
+    return twice || (wedge && (axes >> face_axis & 1u) == 0);
   }
 
   // A polygon's bisector with the curves traced where the face is perpendicular to the axis

@@ -243,6 +243,13 @@ int write_variants(const std::string& dir) {
       return gvd::test::rotate(v - Vec3{0.5, 0, 0.5}, Vec3{0, 1, 0}, M_PI / 6) + Vec3{2.0, 0, 0.5};
     });
     out.emplace_back("two_blades_turned" + tag, joined(one, two, "_2"));
+    // The same, the second turned about two axes (30 degrees about y, then 20 about x): its
+    // rims straddle two axes of any frame that fits the first.
+    const Scene tilted = moved(one, [](Vec3 v) {
+      const Vec3 about_y = gvd::test::rotate(v - Vec3{0.5, 0, 0.5}, Vec3{0, 1, 0}, M_PI / 6);
+      return gvd::test::rotate(about_y, Vec3{1, 0, 0}, M_PI / 9) + Vec3{2.0, 0, 0.5};
+    });
+    out.emplace_back("two_blades_tilted" + tag, joined(one, tilted, "_2"));
   }
   return write_scenes(out, dir);
 }

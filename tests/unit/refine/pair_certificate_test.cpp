@@ -170,8 +170,8 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
     ASSERT_NEAR(dist_to(c.a, x), dist_to(c.a, y), 1e-12) << "d_a varies along e";
     ASSERT_NEAR(dist_to(c.b, x), dist_to(c.b, y), 1e-12) << "d_b varies along e";
     // Lines through x: along rise, and along each axis but e (slanted: all three); where the
-    // certificate straddles an axis (c.mixed), lines along that axis only where octree edges
-    // can run (the cell's sides and middle).
+    // certificate straddles an axis (c.mixed; a wedge: both but c.monotone), lines along that
+    // axis only where octree edges can run (the cell's sides and middle).
     Vec3 dirs[4], from[4];
     int nd = 0;
     from[nd] = x;
@@ -182,6 +182,7 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
       d[a] = c.rise[a] > 0 ? 1 : -1;
       if (std::abs(c.rise[a]) < 1e-9) continue;  // slanted: e's plane, none of e's sense
       if (a == c.mixed) continue;                // checked below
+      if (c.monotone >= 0 && a != c.monotone) continue;
       from[nd] = x;
       dirs[nd++] = d;
     }
@@ -206,25 +207,29 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
   // a roof's apex one may meet the bisector twice; the certificate must say so (`twice`: the
   // surfacer then looks for both crossings on those edges), and never more.
   // Skew cones (no axis): at quarters across both other axes, one of them drawn at random.
-  const int mono = c.axis >= 0 ? 3 - c.axis - c.mixed : (c.mixed + 1) % 3;
-  const int other = c.axis >= 0 ? -1 : (c.mixed + 2) % 3;
-  std::uniform_int_distribution<int> quarter(0, 4);
-  for (int k = 0; k <= 4; ++k) {
-    Vec3 p = point();
-    p[mono] = box.lo[mono] + 0.25 * k * side;
-    if (other >= 0) p[other] = box.lo[other] + 0.25 * quarter(rng) * side;
-    int last = 0, changes = 0;
-    for (int i = 0; i <= 128; ++i) {
-      p[c.mixed] = box.lo[c.mixed] + side * i / 128.0;
-      const int sg = sign_of(p);
-      if (sg == 0) continue;
-      changes += last != 0 && sg != last;
-      last = sg;
-    }
-    ASSERT_LE(changes, 2) << "a line along the straddled axis meets the bisector more than twice";
-    if (changes == 2) {
-      ASSERT_TRUE(c.twice) << "a line along the straddled axis meets the bisector twice, unsaid";
-      ++g_twice_seen;
+  // Wedges: along both straddled axes.
+  for (int line = 0; line < (c.monotone >= 0 ? 2 : 1); ++line) {
+    const int m = line == 0 ? c.mixed : 3 - c.monotone - c.mixed;
+    const int mono = c.axis >= 0 ? 3 - c.axis - m : (m + 1) % 3;
+    const int other = c.axis >= 0 ? -1 : (m + 2) % 3;
+    std::uniform_int_distribution<int> quarter(0, 4);
+    for (int k = 0; k <= 4; ++k) {
+      Vec3 p = point();
+      p[mono] = box.lo[mono] + 0.25 * k * side;
+      if (other >= 0) p[other] = box.lo[other] + 0.25 * quarter(rng) * side;
+      int last = 0, changes = 0;
+      for (int i = 0; i <= 128; ++i) {
+        p[m] = box.lo[m] + side * i / 128.0;
+        const int sg = sign_of(p);
+        if (sg == 0) continue;
+        changes += last != 0 && sg != last;
+        last = sg;
+      }
+      ASSERT_LE(changes, 2) << "a line along a straddled axis meets the bisector more than twice";
+      if (changes == 2) {
+        ASSERT_TRUE(c.twice) << "a line along a straddled axis meets the bisector twice, unsaid";
+        ++g_twice_seen;
+      }
     }
   }
 }
@@ -445,6 +450,67 @@ TEST(PairCertifier, SkewCellsHoldUnderBruteForce3D) {
       EXPECT_FALSE(cert.skew || cert.axis >= 0 || cert.slanted >= 0) << "level " << level;
     }
   }
+}
+
+TEST(PairCertifier, WedgeCellsHoldUnderBruteForce3D) {
+  // The blade in its slot turned 30 degrees about y, then 20 about x: the blade's edges at its
+  // ends (along y before the turn) are square to x, and the normals of their two faces (the
+  // blade's side, its end) straddle w, the direction square to the edge in the yz plane, so
+  // they straddle both y and z and keep one sign along x alone. Cells there are wedges: d_a
+  // and d_b invariant along e, one sign change along the rise and along x, at most two along
+  // y and z at the cell's quarters, and `twice` where there are two.
+  const BladeCase blade;
+  const double g = blade.g, x0 = blade.x0, x1 = blade.x1, floor_y = blade.floor_y;
+  const double pi = std::acos(-1.0);
+  auto turn = [&](Vec3 v) {
+    return test::rotate(test::rotate(v, Vec3{0, 1, 0}, pi / 6), Vec3{1, 0, 0}, pi / 9);
+  };
+  Scene turned = blade.world.scene;
+  for (SceneObject& obj : turned.objects)
+    for (Vec3& v : obj.vertices) v = turn(v);
+  const World t(std::move(turned));
+  const PairCertifier certifier(t.geometry, t.bvh, nullptr, true, true);
+  // The blade's four end edges, in the gap beside its faces, at three heights in the slot.
+  std::vector<Vec3> rims;
+  for (double y : {floor_y + 0.1, floor_y + 0.2, 0.45})
+    for (double z : {0.1, 0.9})
+      for (const Vec3& p : {Vec3{x0 - 0.5 * g, y, z}, Vec3{x1 + 0.5 * g, y, z}})
+        rims.push_back(turn(p));
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int wedges = 0, tried = 0;
+  g_twice_seen = 0;
+  for (int level = 8; level <= 11; ++level) {
+    const double cell = std::ldexp(1.0, -level);
+    for (const Vec3& rim : rims) {
+      for (int k = 0; k < 3; ++k) {
+        Vec3 unit = t.domain.to_unit(rim);
+        for (int a = 0; a < 3; ++a) unit[a] += 0.5 * u(rng) * cell;
+        const Box box = lattice_cell_at(unit, level);
+        const PairCertifier::Certificate cert = certifier.certify(box);
+        ++tried;
+        if (cert.monotone < 0) continue;
+        ASSERT_TRUE(cert.skew);
+        ASSERT_EQ(cert.monotone, 0) << "the edges are square to x";
+        ASSERT_NEAR(cert.along.x, 0, 1e-12);
+        ASSERT_NEAR(norm(cert.along), 1, 1e-12);
+        ASSERT_EQ(cert.mixed, 1);
+        ASSERT_TRUE(is_cone(cert.verdict));
+        const uint8_t mark = certified_mark(cert.verdict);
+        ASSERT_EQ(mark, kSkewWedgeMark + 2 * cert.monotone + (cert.twice ? 1 : 0));
+        ASSERT_EQ(inherited_mark(mark), 0) << "children must be asked again";
+        ++wedges;
+        audit_extruded(t, cert, box, rng);
+        if (HasFatalFailure()) return;
+      }
+    }
+  }
+  EXPECT_GT(wedges, tried / 4) << "of " << tried;
+  EXPECT_GT(g_twice_seen, 0) << "no line met the bisector twice: the audit saw no wedge's roof";
+  // Without cones, no wedge either.
+  const PairCertifier no_cones(t.geometry, t.bvh, nullptr, true, false);
+  for (const Vec3& rim : rims)
+    EXPECT_LT(no_cones.certify(lattice_cell_at(t.domain.to_unit(rim), 9)).monotone, 0);
 }
 
 TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {

@@ -50,20 +50,28 @@ enum class CellVerdict : uint8_t {
   /// were counted. kSkewCone + 2 m + twice (skew_cone_verdict); children are asked again.
   kSkewCone,
   kSkewConeLast = kSkewCone + 5,
+  /// The same where the gradients straddle two axes and keep one sign along the third, k
+  /// only (a part turned about two axes against the frame, whose rims are square to k): a
+  /// wedge, whose lines along both other axes at the quarters of the cell were counted.
+  /// kSkewWedge + 2 k + twice (skew_wedge_verdict); children are asked again.
+  kSkewWedge,
+  kSkewWedgeLast = kSkewWedge + 5,
 };
 
 /// Whether a verdict is a cone's (kCone...): certified for the cell and its children.
 inline bool is_cone(CellVerdict v) {
   return (v >= CellVerdict::kCone && v <= CellVerdict::kConeLast) ||
-         (v >= CellVerdict::kSkewCone && v <= CellVerdict::kSkewConeLast);
+         (v >= CellVerdict::kSkewCone && v <= CellVerdict::kSkewWedgeLast);
 }
 
 /// The Octree::certified mark of a verdict: 0 (not certified), 1 (kPair), 2 + axis (the
 /// extruded pair cells) or 5 + (v - kCone) (the cones); children of a cone cell carry 12 more
 /// (certified; their own children must be asked again); 29 + 2 axis + opposite (kSlanted...);
-/// kSkewMark (kSkew); kSkewMark + 1 + 2 m + twice (kSkewCone...).
+/// kSkewMark (kSkew); kSkewMark + 1 + 2 m + twice (kSkewCone...); kSkewWedgeMark + 2 k + twice
+/// (kSkewWedge...).
 inline constexpr uint8_t kSkewMark = 35;
-inline constexpr uint8_t kSkewConeLastMark = kSkewMark + 6;
+inline constexpr uint8_t kSkewWedgeMark = kSkewMark + 7;
+inline constexpr uint8_t kSkewLastMark = kSkewWedgeMark + 5;
 inline uint8_t certified_mark(CellVerdict v) {
   const int i = static_cast<int>(v);
   if (v == CellVerdict::kPair) return 1;
@@ -73,14 +81,14 @@ inline uint8_t certified_mark(CellVerdict v) {
   if (i >= static_cast<int>(CellVerdict::kSlantedX) &&
       i <= static_cast<int>(CellVerdict::kSlantedZOpposite))
     return static_cast<uint8_t>(29 + i - static_cast<int>(CellVerdict::kSlantedX));
-  if (v >= CellVerdict::kSkew && v <= CellVerdict::kSkewConeLast)
+  if (v >= CellVerdict::kSkew && v <= CellVerdict::kSkewWedgeLast)
     return static_cast<uint8_t>(kSkewMark + i - static_cast<int>(CellVerdict::kSkew));
   return 0;
 }
 
 /// The mark the children of a cell with mark `mark` carry without asking again (0: ask).
 inline uint8_t inherited_mark(uint8_t mark) {
-  if (mark >= kSkewMark && mark <= kSkewConeLastMark) return 0;
+  if (mark >= kSkewMark && mark <= kSkewLastMark) return 0;
   if (mark <= 4 || mark >= 29) return mark;
   return mark <= 16 ? static_cast<uint8_t>(mark + 12) : uint8_t{0};
 }
@@ -96,6 +104,13 @@ inline CellVerdict slanted_verdict(int axis, bool opposite) {
 /// along `mixed` cross the bisector twice.
 inline CellVerdict skew_cone_verdict(int mixed, bool twice) {
   return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kSkewCone) + 2 * mixed +
+                                  (twice ? 1 : 0));
+}
+
+/// The skew wedge's verdict whose gradients keep one sign along axis `monotone` alone;
+/// `twice`: some of its lines along the other two axes cross the bisector twice.
+inline CellVerdict skew_wedge_verdict(int monotone, bool twice) {
+  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kSkewWedge) + 2 * monotone +
                                   (twice ? 1 : 0));
 }
 
@@ -125,8 +140,9 @@ struct Octree {
   /// Per leaf: the certified_mark of the certified pair cell it lies in (0: none): at most two
   /// objects are nearest anywhere in it, and their bisector there is one exact sheet (1: a
   /// plane; 2 ... 28: a curve swept along an axis, 5 ... 28 the cones; 29 ... 34: along a
-  /// direction perpendicular to one axis), so it may hold both objects and the GVD
-  /// (refinement checks skip it). Empty after loading from disk.
+  /// direction perpendicular to one axis; 35 ... 47: along a skew direction, 36 ... 41 the
+  /// skew cones, 42 ... 47 the wedges), so it may hold both objects and the GVD (refinement
+  /// checks skip it). Empty after loading from disk.
   std::vector<uint8_t> certified;
   /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries). Only the
   /// refinement reads them: empty in compute_gvd's result and in a loaded one.
@@ -141,10 +157,15 @@ struct Octree {
     return certified[leaf] <= 4 ? certified[leaf] - 2 : (certified[leaf] - 5) % 12 / 4;
   }
   /// The cross-section axis whose lines may cross the bisector twice in the cone cell the leaf
-  /// lies in (CellVerdict::kCone...), or -1; `twice`: whether some of them do.
+  /// lies in (CellVerdict::kCone...), or -1 (a wedge: the first of its two, straddled_axes);
+  /// `twice`: whether some of them do.
   int cone_axis(uint32_t leaf, bool* twice = nullptr) const {
     if (certified.empty()) return -1;
-    if (certified[leaf] > kSkewMark && certified[leaf] <= kSkewConeLastMark) {
+    if (certified[leaf] >= kSkewWedgeMark && certified[leaf] <= kSkewLastMark) {
+      if (twice != nullptr) *twice = (certified[leaf] - kSkewWedgeMark) % 2 == 1;
+      return ((certified[leaf] - kSkewWedgeMark) / 2 + 1) % 3;
+    }
+    if (certified[leaf] > kSkewMark && certified[leaf] < kSkewWedgeMark) {
       if (twice != nullptr) *twice = (certified[leaf] - kSkewMark - 1) % 2 == 1;
       return (certified[leaf] - kSkewMark - 1) / 2;
     }
@@ -160,10 +181,18 @@ struct Octree {
     if (opposite != nullptr) *opposite = (certified[leaf] - 29) % 2 == 1;
     return (certified[leaf] - 29) / 2;
   }
-  /// Whether the leaf is a skew extruded pair cell (CellVerdict::kSkew, kSkewCone...).
+  /// The axes whose lines may cross the bisector twice in the cone or wedge cell the leaf
+  /// lies in, as bits 1 << axis (0: none); `twice`: whether some of them do.
+  unsigned straddled_axes(uint32_t leaf, bool* twice = nullptr) const {
+    const int m = cone_axis(leaf, twice);
+    if (m < 0) return 0;
+    if (certified[leaf] < kSkewWedgeMark || certified[leaf] > kSkewLastMark) return 1u << m;
+    return 7u & ~(1u << (certified[leaf] - kSkewWedgeMark) / 2);
+  }
+  /// Whether the leaf is a skew extruded pair cell (CellVerdict::kSkew, kSkewCone...,
+  /// kSkewWedge...).
   bool is_skew(uint32_t leaf) const {
-    return !certified.empty() && certified[leaf] >= kSkewMark &&
-           certified[leaf] <= kSkewConeLastMark;
+    return !certified.empty() && certified[leaf] >= kSkewMark && certified[leaf] <= kSkewLastMark;
   }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);

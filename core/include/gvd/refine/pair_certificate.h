@@ -125,7 +125,10 @@ class PairCertifier final : public octree::SplitOracle {
     /// straddles an axis is checked on the lines of the cell and its children only, so
     /// grandchildren are asked again.
     bool inherited = true;
-    int mixed = -1;      ///< then: the cross-section axis the cone straddles
+    int mixed = -1;  ///< then: the cross-section axis the cone straddles
+    /// A skew wedge (kSkewWedge...): the one axis along which d_a - d_b is monotone; it
+    /// straddles both others (mixed is the first of them).
+    int monotone = -1;
     bool twice = false;  ///< and whether some of its lines along it cross the bisector twice
     /// Slanted extruded pairs (kSlanted...): the axis perpendicular to e (axis is -1 then).
     int slanted = -1;
