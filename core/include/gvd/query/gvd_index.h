@@ -24,10 +24,9 @@ class SimplexBvh;
 namespace gvd::query {
 
 /// Nearest object at a point: by default exact (the true nearest object, distance and closest
-/// point, found by the BVH with the leaf's candidates as its first bound); on the fast path
-/// the paper's §4 rule (the closest of the closest points stored on the vertices of the leaf
-/// that contains the point). `distance` is the distance to `closest`, a point on the object,
-/// so it is never below the true distance.
+/// point, found by the BVH); on the fast path the paper's §4 rule (the closest of the closest
+/// points stored on the vertices of the leaf that contains the point). `distance` is the distance
+/// to `closest`, a point on the object, so it is never below the true distance.
 struct NearestAnswer {
   Vec3 point;  ///< the query point, user units, as given
   scene::ObjectId object = scene::kNoObject;
@@ -139,10 +138,9 @@ class GvdIndex {
   /// The object with this label; throws kNotFound naming the label.
   scene::ObjectId object(std::string_view label) const;
 
-  /// Nearest object at a point (user units): exact, one BVH query bounded by the closest of
-  /// the leaf vertices' closest points (O(log leaves + vertices of the leaf) to find them).
-  /// With `approximate`, the paper's §4 rule (the closest of the leaf vertices' closest
-  /// points) in every leaf that holds no object, and elsewhere that answer where the leaf's
+  /// Nearest object at a point (user units): exact, one BVH query (O(log simplices) for
+  /// well-spread input). With `approximate`, the paper's §4 rule (the closest of the leaf vertices'
+  /// closest points) in every leaf that holds no object, and elsewhere that answer where the leaf's
   /// corners prove it within 3/2 of the true distance away from Voronoi boundaries (the BVH
   /// otherwise): faster; the distance is still never below the true one, but its 3/2 bound
   /// is only the paper's conjecture in empty leaves, and the object may flip within a cell of
