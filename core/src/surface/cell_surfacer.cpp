@@ -566,11 +566,6 @@ class CellSurfacer {
     return out;
   }
 
-  bool crosses_twice(uint32_t leaf) const {
-    bool twice = false;
-    return octree_.cone_axis(leaf, &twice) >= 0 && twice;
-  }
-
   // Whether a face square to `face_axis` of `leaf` may hold two pieces of the leaf's pair.
   bool pieces_may_pair(uint32_t leaf, int face_axis) const {
     bool twice = false;
