@@ -62,10 +62,10 @@ int two_cubes() {
   const std::vector<double> points = {mid - 0.02, 0.5, 0.5, mid + 0.03, 0.5, 0.5,
                                       0.5,        0.5, 1.4, 50,         0,   0};
   const gvd::api::NearestBatch nearest = result.nearest(points);
-  // The distance is to a point on the object (never below the true one, within 3/2 of it).
+  // Exact: the nearest object and the distance to it (`fast` = true: never below the true
+  // one, and within 3/2 of it where the octree proves it).
   auto near = [&](size_t i, gvd::api::Object object, double distance) {
-    return nearest.object[i] == object && nearest.distance[i] >= distance - 1e-12 &&
-           nearest.distance[i] <= 1.5 * distance;
+    return nearest.object[i] == object && std::abs(nearest.distance[i] - distance) <= 1e-12;
   };
   expect(near(0, 0, mid - 0.02 - 1), "nearest to the left of the plane");
   expect(near(1, 1, 1 + gap - (mid + 0.03)), "nearest to the right of the plane");
