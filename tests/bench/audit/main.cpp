@@ -250,6 +250,13 @@ int write_variants(const std::string& dir) {
       return gvd::test::rotate(about_y, Vec3{1, 0, 0}, M_PI / 9) + Vec3{2.0, 0, 0.5};
     });
     out.emplace_back("two_blades_tilted" + tag, joined(one, tilted, "_2"));
+    // The same, the second turned by 0.7 rad about the skew axis (2, -1, 3): its rims are
+    // square to no axis of a frame that fits the first, and straddle two.
+    const Scene skewed = moved(one, [](Vec3 v) {
+      return gvd::test::rotate(v - Vec3{0.5, 0, 0.5}, Vec3{2, -1, 3} / std::sqrt(14.0), 0.7) +
+             Vec3{2.0, 0, 0.5};
+    });
+    out.emplace_back("two_blades_skew" + tag, joined(one, skewed, "_2"));
   }
   return write_scenes(out, dir);
 }
