@@ -87,6 +87,25 @@ bool planes_meet_in(int dim, const Plane& p, const Plane& q, const Box& box) {
   return t0 <= t1;
 }
 
+/// The angle the directions of `normals` seen in the plane square to axis m span (at most a
+/// half turn apart from the first; 2 pi where one of them lies within ~1 degree of m, which
+/// leaves it no direction in that plane).
+double span_square_to(const std::vector<Vec3>& normals, int m) {
+  constexpr double kPi = 3.14159265358979323846;
+  const int u = (m + 1) % 3, w = (m + 2) % 3;
+  const double first = std::atan2(normals[0][w], normals[0][u]);
+  double lo = 0, hi = 0;
+  for (Vec3 n : normals) {
+    if (!(std::hypot(n[u], n[w]) > 0.02 * norm(n))) return 2 * kPi;
+    double a = std::atan2(n[w], n[u]) - first;
+    if (a > kPi) a -= 2 * kPi;
+    if (a < -kPi) a += 2 * kPi;
+    lo = std::min(lo, a);
+    hi = std::max(hi, a);
+  }
+  return hi - lo;
+}
+
 // The plane (2D: line) of one simplex, its normal from the vertex order; false if degenerate.
 bool simplex_plane(const UnitGeometry& g, uint32_t s, Plane& plane) {
   const Simplex& t = g.simplices[s];
@@ -744,17 +763,28 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
                        [&](Vec3 n) { return std::abs(dot(n, along)) <= kPerpendicular; }))
         return out;
       // One axis may be straddled (the rims of a sphere across its great circles): a cone, as
-      // along an axis, whose lines along that axis are counted below.
+      // along an axis, whose lines along that axis are counted below. Or two, the third keeping
+      // one sign (a part turned about a skew axis against the frame): a wedge, whose lines
+      // along both are counted.
+      int straddled = 0;
       for (int a = 0; a < 3; ++a) {
         const bool up = std::all_of(normals.begin(), normals.end(),
                                     [&](Vec3 n) { return n[a] >= -kPerpendicular; });
         const bool down = std::all_of(normals.begin(), normals.end(),
                                       [&](Vec3 n) { return n[a] <= kPerpendicular; });
         if (!up && !down) {
-          if (mixed >= 0 || !cones_) return out;
-          mixed = a;
+          if (++straddled > 2 || !cones_) return out;
+          if (mixed < 0) mixed = a;
+        } else {
+          monotone = a;
         }
       }
+      if (straddled < 2) monotone = -1;
+      // On a wedge's faces square to its monotone axis the bisector is C sheared along e:
+      // it turns by less than a half turn, but by nearly one where e lies nearly in the
+      // face, and the surfacer sorts its pieces across the middle of that turn (pair_spokes
+      // in cell_surfacer.cpp, up to kMaxFaceSpan plus room for rounding).
+      if (monotone >= 0 && !(span_square_to(normals, monotone) <= kMaxFaceSpan)) return out;
       out.skew = true;
       // The cross-section's axes for `rise` below: any two orthonormal ones square to e.
       b[0] = normals[0] - along * dot(normals[0], along);

@@ -488,9 +488,10 @@ class CellSurfacer {
   // square to its monotone axis, which hold its direction e, the gradients take both signs
   // along both axes but all lie along one line in the face (d_a - d_b is invariant along e):
   // the pieces are straight along e and the spokes are sorted across it, along the
-  // gradients. A function of the face alone, so both cells of the face pair the same
-  // spokes; left unpaired (the junction point then) where the spokes do not show that
-  // structure.
+  // gradients. A skew wedge's e crosses those faces: the pieces there are C sheared along e,
+  // and the spokes are sorted across the middle of their gradients' span. A function of the
+  // face alone, so both cells of the face pair the same spokes; left unpaired (the junction
+  // point then) where the spokes do not show that structure.
   void pair_spokes(const detail::FacePolygon& poly, PolygonGvd& g) const {
     if (g.n % 2 != 0) return;
     const ObjectId a = std::min(g.spokes[0].label_a, g.spokes[0].label_b);
@@ -526,15 +527,41 @@ class CellSurfacer {
     } else {
       const std::array<double, 2> d = in_face[first];
       const double d_len = std::hypot(d[0], d[1]);
+      if (!(d_len > 0.01)) return;
       constexpr double kParallel = 1e-6;
+      bool parallel = true;
       for (int i = 0; i < g.n; ++i) {
         const double c = in_face[i][0] * d[1] - in_face[i][1] * d[0];
-        if (!(d_len > 0.01) ||
-            !(std::abs(c) <= kParallel * d_len * std::hypot(in_face[i][0], in_face[i][1])))
-          return;
+        parallel &= std::abs(c) <= kParallel * d_len * std::hypot(in_face[i][0], in_face[i][1]);
       }
-      along[u] = d[0];
-      along[w] = d[1];
+      if (parallel) {
+        along[u] = d[0];
+        along[w] = d[1];
+      } else {
+        // A skew wedge's face square to its monotone axis, which e crosses: the bisector there
+        // is C sheared along e, a curve that turns one way by less than a half turn (by
+        // nearly one where e lies nearly in the face), so it is a graph across the middle of
+        // its gradients' span, and its pieces are intervals square to that. The span from the
+        // spokes' gradients: the curve's gradients between two spokes lie between theirs. The
+        // certifier admits wedges up to PairCertifier::kMaxFaceSpan (175 degrees); the rest is
+        // room for rounding.
+        constexpr double kPi = 3.14159265358979323846;
+        const double ref = std::atan2(d[1], d[0]);
+        double lo = 0, hi = 0;
+        for (int i = 0; i < g.n; ++i) {
+          if (!(std::hypot(in_face[i][0], in_face[i][1]) > 0.01)) return;
+          double t = std::atan2(in_face[i][1], in_face[i][0]) - ref;
+          if (t > kPi) t -= 2 * kPi;
+          if (t < -kPi) t += 2 * kPi;
+          lo = std::min(lo, t);
+          hi = std::max(hi, t);
+        }
+        constexpr double kMaxSpan = 179.0 * kPi / 180.0;
+        if (!(hi - lo <= kMaxSpan)) return;
+        const double middle = ref + 0.5 * (lo + hi);
+        along[u] = -std::sin(middle);
+        along[w] = std::cos(middle);
+      }
     }
     int order[PolygonGvd::kMaxSpokes];
     for (int i = 0; i < g.n; ++i) order[i] = i;
@@ -971,6 +998,116 @@ class CellSurfacer {
     Vec3 grad;
   };
 
+  enum class Root { kFound, kNone, kWhole };
+
+  // The root of d_a - d_b on the line m + t nu, t in [t_lo, t_hi] (inside the face): Newton
+  // steps from the chord's midpoint (the slope along nu from the closest points) until the
+  // root is bracketed, the line's ends bracketing it otherwise. kNone where the ends carry one
+  // sign (no crossing, or two), kWhole where both lie on the bisector (to rounding).
+  Root root_on_line(Vec3 m, Vec3 nu, double t_lo, double t_hi, ObjectId a, ObjectId b, double len,
+                    Probe& last, double& t, double& da) const {
+    t = 0;
+    double f = bisector_gap(m, a, b, last, &da);
+    bool bracketed = false, done = std::abs(f) <= 1e-12 * da;
+    double f_lo = 0, f_hi = 0;
+    for (int it = 0; it < 4 && !done && !bracketed; ++it) {
+      const double slope = dot(last.grad, nu);
+      if (!(std::abs(slope) > 0.1)) break;
+      const double tn = std::clamp(t - f / slope, t_lo, t_hi);
+      double dn = 0;
+      const double fn = bisector_gap(m + nu * tn, a, b, last, &dn);
+      if (fn * f < 0) {
+        bracketed = true;
+        if (tn < t) {
+          t_lo = tn, f_lo = fn, t_hi = t, f_hi = f;
+        } else {
+          t_lo = t, f_lo = f, t_hi = tn, f_hi = fn;
+        }
+      }
+      t = tn;
+      f = fn;
+      da = dn;
+      done = std::abs(f) <= 1e-12 * da;
+    }
+    if (!done && !bracketed) {
+      // An end of the line on the bisector (to rounding) is a root too: where the bisector
+      // runs along the face's edge (a gap's mid-plane on a lattice plane), the curve reaches
+      // that edge and follows it.
+      double d_lo = 0, d_hi = 0;
+      f_lo = bisector_gap(m + nu * t_lo, a, b, last, &d_lo);
+      f_hi = bisector_gap(m + nu * t_hi, a, b, last, &d_hi);
+      if (std::abs(f_lo) <= 1e-12 * d_lo) f_lo = 0;
+      if (std::abs(f_hi) <= 1e-12 * d_hi) f_hi = 0;
+      if (f_lo == 0 && f_hi == 0) return Root::kWhole;
+      if (!(f_lo * f_hi <= 0)) return Root::kNone;
+      if (f_lo == 0 || f_hi == 0) {
+        t = f_lo == 0 ? t_lo : t_hi;
+        da = f_lo == 0 ? d_lo : d_hi;
+        return Root::kFound;
+      }
+    }
+    // The bisector is one simple root on the line.
+    if (!done) {
+      t = detail::bracketed_root(
+          t_lo, f_lo, t_hi, f_hi, 100,
+          [&](double s) { return bisector_gap(m + nu * s, a, b, last, &da); },
+          [&](double, double fs, double width) {
+            return std::abs(fs) <= 1e-12 * da || width <= 1e-13 * len;
+          });
+    }
+    return Root::kFound;
+  }
+
+  // The part [lo, hi] of the line m + t nu (m on the chord from p to q) inside the triangle of
+  // the chord and the curve's tangents at p and q (in the face square to `axis`), widened by
+  // `slack`: where an arc that turns one way by less than a half turn lies. False where the
+  // tangents are within a degree of parallel (no such triangle to speak of).
+  static bool arc_triangle(const CurvePoint& p, const CurvePoint& q, Vec3 m, Vec3 nu, int axis,
+                           double slack, double& lo, double& hi) {
+    const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+    using V2 = std::array<double, 2>;
+    auto in_face = [&](Vec3 v) { return V2{v[u], v[w]}; };
+    auto dot2 = [](V2 x, V2 y) { return x[0] * y[0] + x[1] * y[1]; };
+    auto sub = [](V2 x, V2 y) { return V2{x[0] - y[0], x[1] - y[1]}; };
+    const V2 gp = in_face(p.grad), gq = in_face(q.grad);
+    const double lp = std::hypot(gp[0], gp[1]), lq = std::hypot(gq[0], gq[1]);
+    if (!(lp > 0) || !(lq > 0)) return false;
+    const double cross = (gp[0] * gq[1] - gp[1] * gq[0]) / (lp * lq);
+    constexpr double kMinTurn = 0.0175;  // sin(1 degree)
+    if (!(std::abs(cross) > kMinTurn)) return false;
+    const V2 pp = in_face(p.x), qq = in_face(q.x);
+    const double cp = dot2(gp, pp), cq = dot2(gq, qq);
+    const double det = gp[0] * gq[1] - gp[1] * gq[0];
+    const V2 tt{(cp * gq[1] - gp[1] * cq) / det, (gp[0] * cq - cp * gq[0]) / det};
+    const V2 corner[3] = {pp, qq, tt};
+    const V2 mm = in_face(m), dir = in_face(nu);
+    lo = -1e300;
+    hi = 1e300;
+    for (int k = 0; k < 3; ++k) {
+      const V2 a0 = corner[k], a1 = corner[(k + 1) % 3], opposite = corner[(k + 2) % 3];
+      const V2 edge = sub(a1, a0);
+      const double el = std::hypot(edge[0], edge[1]);
+      if (!(el > 0)) return false;
+      V2 n{-edge[1] / el, edge[0] / el};
+      const double side = dot2(n, sub(opposite, a0));
+      if (!(std::abs(side) > 0)) return false;
+      if (side < 0) n = {-n[0], -n[1]};
+      // n . (mm + t dir - a0) >= -slack
+      const double c0 = dot2(n, sub(mm, a0)) + slack, c1 = dot2(n, dir);
+      if (c1 == 0) {
+        if (c0 < 0) return false;
+        continue;
+      }
+      const double bound = -c0 / c1;
+      if (c1 > 0) {
+        lo = std::max(lo, bound);
+      } else {
+        hi = std::min(hi, bound);
+      }
+    }
+    return lo < hi;
+  }
+
   void subdivide_curve(const CurvePoint& p, const CurvePoint& q, ObjectId a, ObjectId b, int axis,
                        const Box& face, int depth, Probe& last, std::vector<Vec3>& out) const {
     if (depth >= kCurveDepth) return;
@@ -1008,57 +1145,23 @@ class CellSurfacer {
       t_hi = std::min(t_hi, t1);
     }
     if (!(t_lo < t_hi)) return;
-    // Newton steps from the chord's midpoint (the slope along nu from the closest points)
-    // until the root is bracketed; the line's ends in the face bracket it otherwise.
     double t = 0, da = 0;
-    double f = bisector_gap(m, a, b, last, &da);
-    bool bracketed = false, done = std::abs(f) <= 1e-12 * da;
-    double f_lo = 0, f_hi = 0;
-    for (int it = 0; it < 4 && !done && !bracketed; ++it) {
-      const double slope = dot(last.grad, nu);
-      if (!(std::abs(slope) > 0.1)) break;
-      const double tn = std::clamp(t - f / slope, t_lo, t_hi);
-      double dn = 0;
-      const double fn = bisector_gap(m + nu * tn, a, b, last, &dn);
-      if (fn * f < 0) {
-        bracketed = true;
-        if (tn < t) {
-          t_lo = tn, f_lo = fn, t_hi = t, f_hi = f;
-        } else {
-          t_lo = t, f_lo = f, t_hi = tn, f_hi = fn;
-        }
-      }
-      t = tn;
-      f = fn;
-      da = dn;
-      done = std::abs(f) <= 1e-12 * da;
+    Root found = root_on_line(m, nu, t_lo, t_hi, a, b, len, last, t, da);
+    // The line can meet the rest of the curve too, where it turns by nearly a half turn in the
+    // face (a hairpin: a wedge's bisector seen on a face that e runs nearly along): both of
+    // the hairpin's legs cross it, their signs cancel at its ends, and the chord would cut
+    // across the hairpin's tip. An arc that turns one way by less than a half turn lies in the
+    // triangle of its chord and its tangents at p and q, and the rest of the curve outside it:
+    // where the whole line shows no crossing, the search again on its part inside that
+    // triangle. (Only there: on the inset plates' faces a crossing the whole line found
+    // outside the triangle is the right one; the triangle's premise fails there, an arc that
+    // turns one way with its tangents given by the gradients at its ends.)
+    double in_lo = 0, in_hi = 0;
+    if (found == Root::kNone && arc_triangle(p, q, m, nu, axis, 1e-9 * len, in_lo, in_hi)) {
+      const double lo = std::max(t_lo, in_lo), hi = std::min(t_hi, in_hi);
+      if (lo < hi) found = root_on_line(m, nu, lo, hi, a, b, len, last, t, da);
     }
-    if (!done && !bracketed) {
-      // An end of the line on the bisector (to rounding) is a root too: where the bisector
-      // runs along the face's edge (a gap's mid-plane on a lattice plane), the curve reaches
-      // that edge and follows it.
-      double d_lo = 0, d_hi = 0;
-      f_lo = bisector_gap(m + nu * t_lo, a, b, last, &d_lo);
-      f_hi = bisector_gap(m + nu * t_hi, a, b, last, &d_hi);
-      if (std::abs(f_lo) <= 1e-12 * d_lo) f_lo = 0;
-      if (std::abs(f_hi) <= 1e-12 * d_hi) f_hi = 0;
-      if (f_lo == 0 && f_hi == 0) return;
-      if (!(f_lo * f_hi <= 0)) return;  // no crossing on the line: keep the chord
-      if (f_lo == 0 || f_hi == 0) {
-        t = f_lo == 0 ? t_lo : t_hi;
-        da = f_lo == 0 ? d_lo : d_hi;
-        done = true;
-      }
-    }
-    // The bisector is one simple root on the line.
-    if (!done) {
-      t = detail::bracketed_root(
-          t_lo, f_lo, t_hi, f_hi, 100,
-          [&](double s) { return bisector_gap(m + nu * s, a, b, last, &da); },
-          [&](double, double fs, double width) {
-            return std::abs(fs) <= 1e-12 * da || width <= 1e-13 * len;
-          });
-    }
+    if (found != Root::kFound) return;
     const Vec3 x = m + nu * t;
     const double clearance = std::min({p.clearance, q.clearance, da});
     if (std::abs(t) <= kCurveTolerance * clearance &&

@@ -7,7 +7,8 @@
 // three or more objects meet may claim any two of them (ties within kTie); the share with
 // no tie allowed and the vertices whose third object is nearer by over 1 % are printed too.
 //
-// Usage: gvd_audit [--refine paper] [--full] [--budget N] [--explain] SCENE.json...
+// Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--budget N] [--explain]
+// SCENE.json...
 //        (--full: the GVD as surfaced, one piece per leaf, not compacted)
 //        (--explain prints every GVD triangle that crosses an object, when one does)
 //        gvd_audit --write-variants DIR     scenes of the thin-gap kinds that make_bench's
@@ -299,6 +300,7 @@ int write_real(const std::string& corpus, const std::string& dir) {
 int main(int argc, char** argv) {
   std::vector<std::string> files;
   std::string refine = "certified";
+  std::string frame = "auto";
   size_t budget = 3000;
   bool explain = false;
   bool full = false;
@@ -308,6 +310,8 @@ int main(int argc, char** argv) {
     if (a == "--write-real" && i + 2 < argc) return write_real(argv[i + 1], argv[i + 2]);
     if (a == "--refine" && i + 1 < argc) {
       refine = argv[++i];
+    } else if (a == "--frame" && i + 1 < argc) {
+      frame = argv[++i];
     } else if (a == "--full") {
       full = true;
     } else if (a == "--explain") {
@@ -324,6 +328,7 @@ int main(int argc, char** argv) {
       gvd::pipeline::PipelineOptions o;
       o.threads = 2;
       o.refine = gvd::pipeline::parse_choice<gvd::pipeline::RefineRule>(refine);
+      o.domain.frame = gvd::scene::parse_domain_frame(frame);
       if (full) o.resolution = gvd::pipeline::GvdResolution::kFull;
       // Resets the peak (VmHWM) to what is resident now, after handing what the last scene
       // left in malloc's free lists back to the system (else a failed big scene's memory

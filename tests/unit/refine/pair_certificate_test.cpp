@@ -513,6 +513,67 @@ TEST(PairCertifier, WedgeCellsHoldUnderBruteForce3D) {
     EXPECT_LT(no_cones.certify(lattice_cell_at(t.domain.to_unit(rim), 9)).monotone, 0);
 }
 
+TEST(PairCertifier, SkewWedgeCellsHoldUnderBruteForce3D) {
+  // The blade in its slot turned 0.7 rad about the skew axis (2, -1, 3): its rims are square
+  // to no axis, and the normals of their two faces straddle two axes and keep one sign along
+  // the third. Cells there are wedges across both straddled axes, e square to no axis: d_a
+  // and d_b invariant along e, one sign change along the rise and along the monotone axis, at
+  // most two along the straddled ones at the cell's quarters, `twice` where there are two;
+  // and the gradients' span seen on the faces square to the monotone axis within
+  // kMaxFaceSpan, where the surfacer sorts the pieces across its middle.
+  const BladeCase blade;
+  const double g = blade.g, x0 = blade.x0, x1 = blade.x1, floor_y = blade.floor_y;
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  auto turn = [&](Vec3 v) { return test::rotate(v, axis, 0.7); };
+  Scene turned = blade.world.scene;
+  for (SceneObject& obj : turned.objects)
+    for (Vec3& v : obj.vertices) v = turn(v);
+  const World t(std::move(turned));
+  const PairCertifier certifier(t.geometry, t.bvh, nullptr, true, true);
+  // Beside the blade's edges: the bottom ones, the ends', and the slot's mouth.
+  std::vector<Vec3> rims;
+  for (double z : {0.3, 0.5, 0.7}) {
+    rims.push_back(turn({x0 - 0.5 * g, floor_y + 0.5 * g, z}));
+    rims.push_back(turn({x1 + 0.5 * g, floor_y + 0.5 * g, z}));
+    rims.push_back(turn({x0 - 0.5 * g, 0.5, z}));
+  }
+  for (double y : {floor_y + 0.1, floor_y + 0.2, 0.45})
+    for (double z : {0.1, 0.9})
+      for (const Vec3& p : {Vec3{x0 - 0.5 * g, y, z}, Vec3{x1 + 0.5 * g, y, z}})
+        rims.push_back(turn(p));
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int wedges = 0, tried = 0;
+  g_twice_seen = 0;
+  for (int level = 8; level <= 11; ++level) {
+    const double cell = std::ldexp(1.0, -level);
+    for (const Vec3& rim : rims) {
+      for (int k = 0; k < 2; ++k) {
+        Vec3 unit = t.domain.to_unit(rim);
+        for (int a = 0; a < 3; ++a) unit[a] += 0.5 * u(rng) * cell;
+        const Box box = lattice_cell_at(unit, level);
+        const PairCertifier::Certificate cert = certifier.certify(box);
+        ++tried;
+        if (cert.monotone < 0) continue;
+        ASSERT_TRUE(cert.skew);
+        ASSERT_NEAR(norm(cert.along), 1, 1e-12);
+        for (int a = 0; a < 3; ++a)
+          ASSERT_GT(std::abs(cert.along[a]), 0.009) << "square to no axis";
+        ASSERT_NE(cert.mixed, cert.monotone);
+        ASSERT_TRUE(is_cone(cert.verdict));
+        const uint8_t mark = certified_mark(cert.verdict);
+        ASSERT_EQ(mark, kSkewWedgeMark + 2 * cert.monotone + (cert.twice ? 1 : 0));
+        ASSERT_EQ(inherited_mark(mark), 0) << "children must be asked again";
+        ++wedges;
+        audit_extruded(t, cert, box, rng);
+        if (HasFatalFailure()) return;
+      }
+    }
+  }
+  EXPECT_GT(wedges, tried / 4) << "of " << tried;
+  EXPECT_GT(g_twice_seen, 0) << "no line met the bisector twice: the audit saw no wedge's roof";
+}
+
 TEST(PairCertifier, ExtrudedConeCellsHoldUnderBruteForce3D) {
   // A hexagonal shaft in its bore: at the corners on the x axis the normals of the two faces
   // (+-30 degrees) straddle the x axis, so only the cell's own lines along y are checked and

@@ -51,8 +51,9 @@ enum class CellVerdict : uint8_t {
   kSkewCone,
   kSkewConeLast = kSkewCone + 5,
   /// The same where the gradients straddle two axes and keep one sign along the third, k
-  /// only (a part turned about two axes against the frame, whose rims are square to k): a
-  /// wedge, whose lines along both other axes at the quarters of the cell were counted.
+  /// only (a part turned about two axes against the frame, whose rims are square to k, or
+  /// about a skew axis, whose rims are square to none): a wedge, whose lines along both other
+  /// axes at the quarters of the cell were counted.
   /// kSkewWedge + 2 k + twice (skew_wedge_verdict); children are asked again.
   kSkewWedge,
   kSkewWedgeLast = kSkewWedge + 5,

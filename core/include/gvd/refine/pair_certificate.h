@@ -157,6 +157,11 @@ class PairCertifier final : public octree::SplitOracle {
   /// triangle's corners (120); the tracer's lines run along the middle of the gradients at a
   /// chord's ends, which meets a curve that turns one way once for any turn below 180.
   static constexpr double kMaxCone = 70.0 * 3.14159265358979323846 / 180.0;
+  /// Skew wedges: the largest angle their gradient directions may span seen on the faces
+  /// square to the monotone axis, where the surfacer pairs the bisector's pieces by sorting
+  /// them across the middle of that span (a graph across it for any span below 180 degrees;
+  /// the surfacer accepts up to 179).
+  static constexpr double kMaxFaceSpan = 175.0 * 3.14159265358979323846 / 180.0;
 
  private:
   Certificate certify_mirror(const Box& box, const scene::ObjectId pair[2], const double dist[2],
