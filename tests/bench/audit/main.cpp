@@ -258,9 +258,16 @@ int write_variants(const std::string& dir) {
              Vec3{2.0, 0, 0.5};
     });
     out.emplace_back("two_blades_skew" + tag, joined(one, skewed, "_2"));
-    // Two triangular shafts in their bores, the second turned the same way: its corners'
-    // normals are 120 degrees apart, so their rims can straddle all three axes.
+    // Two triangular shafts in their bores side by side (the second moved 1.5 along x), and
+    // the same with the second turned like the skew blade: its corners' normals are 120
+    // degrees apart, so their rims can straddle all three axes.
     const Scene shaft3 = gvd::test::make_shaft_in_bore(shaft(3, gap * 0.5));
+    out.emplace_back("two_shafts3" + tag, joined(shaft3,
+                                                 moved(shaft3,
+                                                       [](Vec3 v) {
+                                                         return v + Vec3{1.5, 0, 0};
+                                                       }),
+                                                 "_2"));
     const Scene shaft3_skewed = moved(shaft3, [](Vec3 v) {
       return gvd::test::rotate(v - Vec3{0.5, 0.5, 0.5}, Vec3{2, -1, 3} / std::sqrt(14.0), 0.7) +
              Vec3{2.0, 0.5, 0.5};
