@@ -258,6 +258,14 @@ struct BladeCase {
   double g = options.gap * world.domain.side;
   double x0 = 0.5 - 0.5 * options.width, x1 = 0.5 + 0.5 * options.width;
   double floor_y = 0.5 - options.depth;
+  /// Beside the blade's four end edges, in the gap by its faces, at three heights in the slot.
+  std::vector<Vec3> end_edges() const {
+    std::vector<Vec3> out;
+    for (double y : {floor_y + 0.1, floor_y + 0.2, 0.45})
+      for (double z : {0.1, 0.9})
+        for (const Vec3& p : {Vec3{x0 - 0.5 * g, y, z}, Vec3{x1 + 0.5 * g, y, z}}) out.push_back(p);
+    return out;
+  }
 };
 
 TEST(PairCertifier, ExtrudedCellsHoldUnderBruteForce3D) {
@@ -452,6 +460,54 @@ TEST(PairCertifier, SkewCellsHoldUnderBruteForce3D) {
   }
 }
 
+// The scene with every vertex moved by `turn`, in the user's frame (World).
+template <class Turn>
+World turned_world(const Scene& scene, Turn turn) {
+  Scene turned = scene;
+  for (SceneObject& obj : turned.objects)
+    for (Vec3& v : obj.vertices) v = turn(v);
+  return World(std::move(turned));
+}
+
+// Certifies cells of levels 8 ... 11 around each of `rims` (user units), `per_rim` per level at
+// random offsets. Every wedge among them (a certificate with a monotone axis) is skew, passes
+// `check`, carries its wedge mark, has its children asked again and holds under
+// audit_extruded. Counts the cells tried and the wedges; g_twice_seen counts the lines that
+// met the bisector twice.
+template <class Check>
+void audit_wedges_near(const World& t, const PairCertifier& certifier,
+                       const std::vector<Vec3>& rims, uint64_t seed, int per_rim, Check check,
+                       int& wedges, int& tried) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  wedges = tried = 0;
+  g_twice_seen = 0;
+  for (int level = 8; level <= 11; ++level) {
+    const double cell = std::ldexp(1.0, -level);
+    for (const Vec3& rim : rims) {
+      for (int k = 0; k < per_rim; ++k) {
+        Vec3 unit = t.domain.to_unit(rim);
+        for (int a = 0; a < 3; ++a) unit[a] += 0.5 * u(rng) * cell;
+        const Box box = lattice_cell_at(unit, level);
+        const PairCertifier::Certificate cert = certifier.certify(box);
+        ++tried;
+        if (cert.monotone < 0) continue;
+        ASSERT_TRUE(cert.skew);
+        ASSERT_NEAR(norm(cert.along), 1, 1e-12);
+        check(cert);
+        if (::testing::Test::HasFatalFailure()) return;
+        ASSERT_TRUE(is_cone(cert.verdict));
+        const uint8_t mark = certified_mark(cert.verdict);
+        ASSERT_EQ(mark, kSkewWedgeMark + 2 * cert.monotone + (cert.twice ? 1 : 0));
+        ASSERT_EQ(inherited_mark(mark), 0) << "children must be asked again";
+        ++wedges;
+        audit_extruded(t, cert, box, rng);
+        if (::testing::Test::HasFatalFailure()) return;
+      }
+    }
+  }
+}
+
 TEST(PairCertifier, WedgeCellsHoldUnderBruteForce3D) {
   // The blade in its slot turned 30 degrees about y, then 20 about x: the blade's edges at its
   // ends (along y before the turn) are square to x, and the normals of their two faces (the
@@ -460,51 +516,24 @@ TEST(PairCertifier, WedgeCellsHoldUnderBruteForce3D) {
   // and d_b invariant along e, one sign change along the rise and along x, at most two along
   // y and z at the cell's quarters, and `twice` where there are two.
   const BladeCase blade;
-  const double g = blade.g, x0 = blade.x0, x1 = blade.x1, floor_y = blade.floor_y;
   const double pi = std::acos(-1.0);
   auto turn = [&](Vec3 v) {
     return test::rotate(test::rotate(v, Vec3{0, 1, 0}, pi / 6), Vec3{1, 0, 0}, pi / 9);
   };
-  Scene turned = blade.world.scene;
-  for (SceneObject& obj : turned.objects)
-    for (Vec3& v : obj.vertices) v = turn(v);
-  const World t(std::move(turned));
+  const World t = turned_world(blade.world.scene, turn);
   const PairCertifier certifier(t.geometry, t.bvh, nullptr, true, true);
-  // The blade's four end edges, in the gap beside its faces, at three heights in the slot.
   std::vector<Vec3> rims;
-  for (double y : {floor_y + 0.1, floor_y + 0.2, 0.45})
-    for (double z : {0.1, 0.9})
-      for (const Vec3& p : {Vec3{x0 - 0.5 * g, y, z}, Vec3{x1 + 0.5 * g, y, z}})
-        rims.push_back(turn(p));
-  std::mt19937_64 rng(23);
-  std::uniform_real_distribution<double> u(-1, 1);
+  for (const Vec3& p : blade.end_edges()) rims.push_back(turn(p));
   int wedges = 0, tried = 0;
-  g_twice_seen = 0;
-  for (int level = 8; level <= 11; ++level) {
-    const double cell = std::ldexp(1.0, -level);
-    for (const Vec3& rim : rims) {
-      for (int k = 0; k < 3; ++k) {
-        Vec3 unit = t.domain.to_unit(rim);
-        for (int a = 0; a < 3; ++a) unit[a] += 0.5 * u(rng) * cell;
-        const Box box = lattice_cell_at(unit, level);
-        const PairCertifier::Certificate cert = certifier.certify(box);
-        ++tried;
-        if (cert.monotone < 0) continue;
-        ASSERT_TRUE(cert.skew);
+  audit_wedges_near(
+      t, certifier, rims, 23, 3,
+      [](const PairCertifier::Certificate& cert) {
         ASSERT_EQ(cert.monotone, 0) << "the edges are square to x";
         ASSERT_NEAR(cert.along.x, 0, 1e-12);
-        ASSERT_NEAR(norm(cert.along), 1, 1e-12);
         ASSERT_EQ(cert.mixed, 1);
-        ASSERT_TRUE(is_cone(cert.verdict));
-        const uint8_t mark = certified_mark(cert.verdict);
-        ASSERT_EQ(mark, kSkewWedgeMark + 2 * cert.monotone + (cert.twice ? 1 : 0));
-        ASSERT_EQ(inherited_mark(mark), 0) << "children must be asked again";
-        ++wedges;
-        audit_extruded(t, cert, box, rng);
-        if (HasFatalFailure()) return;
-      }
-    }
-  }
+      },
+      wedges, tried);
+  if (HasFatalFailure()) return;
   EXPECT_GT(wedges, tried / 4) << "of " << tried;
   EXPECT_GT(g_twice_seen, 0) << "no line met the bisector twice: the audit saw no wedge's roof";
   // Without cones, no wedge either.
@@ -518,58 +547,31 @@ TEST(PairCertifier, SkewWedgeCellsHoldUnderBruteForce3D) {
   // to no axis, and the normals of their two faces straddle two axes and keep one sign along
   // the third. Cells there are wedges across both straddled axes, e square to no axis: d_a
   // and d_b invariant along e, one sign change along the rise and along the monotone axis, at
-  // most two along the straddled ones at the cell's quarters, `twice` where there are two;
-  // and the gradients' span seen on the faces square to the monotone axis within
-  // kMaxFaceSpan, where the surfacer sorts the pieces across its middle.
+  // most two along the straddled ones at the cell's quarters, `twice` where there are two.
   const BladeCase blade;
   const double g = blade.g, x0 = blade.x0, x1 = blade.x1, floor_y = blade.floor_y;
   const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
   auto turn = [&](Vec3 v) { return test::rotate(v, axis, 0.7); };
-  Scene turned = blade.world.scene;
-  for (SceneObject& obj : turned.objects)
-    for (Vec3& v : obj.vertices) v = turn(v);
-  const World t(std::move(turned));
+  const World t = turned_world(blade.world.scene, turn);
   const PairCertifier certifier(t.geometry, t.bvh, nullptr, true, true);
-  // Beside the blade's edges: the bottom ones, the ends', and the slot's mouth.
+  // Beside the blade's bottom edges and the slot's mouth, and its end edges.
   std::vector<Vec3> rims;
   for (double z : {0.3, 0.5, 0.7}) {
     rims.push_back(turn({x0 - 0.5 * g, floor_y + 0.5 * g, z}));
     rims.push_back(turn({x1 + 0.5 * g, floor_y + 0.5 * g, z}));
     rims.push_back(turn({x0 - 0.5 * g, 0.5, z}));
   }
-  for (double y : {floor_y + 0.1, floor_y + 0.2, 0.45})
-    for (double z : {0.1, 0.9})
-      for (const Vec3& p : {Vec3{x0 - 0.5 * g, y, z}, Vec3{x1 + 0.5 * g, y, z}})
-        rims.push_back(turn(p));
-  std::mt19937_64 rng(29);
-  std::uniform_real_distribution<double> u(-1, 1);
+  for (const Vec3& p : blade.end_edges()) rims.push_back(turn(p));
   int wedges = 0, tried = 0;
-  g_twice_seen = 0;
-  for (int level = 8; level <= 11; ++level) {
-    const double cell = std::ldexp(1.0, -level);
-    for (const Vec3& rim : rims) {
-      for (int k = 0; k < 2; ++k) {
-        Vec3 unit = t.domain.to_unit(rim);
-        for (int a = 0; a < 3; ++a) unit[a] += 0.5 * u(rng) * cell;
-        const Box box = lattice_cell_at(unit, level);
-        const PairCertifier::Certificate cert = certifier.certify(box);
-        ++tried;
-        if (cert.monotone < 0) continue;
-        ASSERT_TRUE(cert.skew);
-        ASSERT_NEAR(norm(cert.along), 1, 1e-12);
+  audit_wedges_near(
+      t, certifier, rims, 29, 2,
+      [](const PairCertifier::Certificate& cert) {
         for (int a = 0; a < 3; ++a)
           ASSERT_GT(std::abs(cert.along[a]), 0.009) << "square to no axis";
         ASSERT_NE(cert.mixed, cert.monotone);
-        ASSERT_TRUE(is_cone(cert.verdict));
-        const uint8_t mark = certified_mark(cert.verdict);
-        ASSERT_EQ(mark, kSkewWedgeMark + 2 * cert.monotone + (cert.twice ? 1 : 0));
-        ASSERT_EQ(inherited_mark(mark), 0) << "children must be asked again";
-        ++wedges;
-        audit_extruded(t, cert, box, rng);
-        if (HasFatalFailure()) return;
-      }
-    }
-  }
+      },
+      wedges, tried);
+  if (HasFatalFailure()) return;
   EXPECT_GT(wedges, tried / 4) << "of " << tried;
   EXPECT_GT(g_twice_seen, 0) << "no line met the bisector twice: the audit saw no wedge's roof";
 }
