@@ -8,7 +8,7 @@
 // no tie allowed and the vertices whose third object is nearer by over 1 % are printed too.
 //
 // Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--budget N] [--explain]
-// SCENE.json...
+//                  SCENE.json...
 //        (--full: the GVD as surfaced, one piece per leaf, not compacted)
 //        (--explain prints every GVD triangle that crosses an object, when one does)
 //        gvd_audit --write-variants DIR     scenes of the thin-gap kinds that make_bench's
