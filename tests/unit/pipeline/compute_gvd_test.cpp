@@ -559,6 +559,35 @@ TEST(ComputeGvd, CadMeshedShaftInASleeveCostsTheSameAtAnyGap3D) {
         << leaves[0] << " leaves at 1e-3, " << leaves[k] << " at " << gaps[k];
 }
 
+// `one` with a copy of its objects moved by `move`, labelled with "_2": objects 0, 1 and their
+// copies 2, 3.
+template <class Move>
+Scene with_moved_copy(const Scene& one, Move move) {
+  Scene scene = one;
+  for (SceneObject obj : one.objects) {
+    for (Vec3& v : obj.vertices) v = move(v);
+    obj.label += "_2";
+    scene.objects.push_back(std::move(obj));
+  }
+  return scene;
+}
+
+// A result of with_moved_copy's scene of two pairs (0-1 and 2-3, each at gap g): valid, cells
+// oriented on each pair's interface, no uncertified leaf holding two objects, both pairs in
+// the dual graph at their exact gap and not touching.
+void expect_two_pairs_at_gap(const GvdResult& r, double g) {
+  expect_valid(r, [](ObjectId a, ObjectId b) { return std::min(a, b) / 2 == std::max(a, b) / 2; });
+  EXPECT_EQ(uncertified_leaves_holding_two(r), 0u);
+  int pairs = 0;
+  for (const DualEdge& e : r.graph.edges) {
+    if (!((e.a == 0 && e.b == 1) || (e.a == 2 && e.b == 3))) continue;
+    ++pairs;
+    EXPECT_FALSE(e.touching);
+    EXPECT_NEAR(e.gap, g, 1e-9 * g) << e.a << "-" << e.b;
+  }
+  EXPECT_EQ(pairs, 2);
+}
+
 // Two triangular shafts in their bores side by side cost about what two single ones do. Their
 // walls at 60 and 120 degrees are slanted faces whose normals come from triangles on the 2^-48
 // lattice, tilted by up to ~2e-12 by the rounding; with the slanted certificate's tolerance
@@ -571,25 +600,8 @@ TEST(ComputeGvd, TwoTriangularShaftsCostWhatTwoSingleOnesCost3D) {
   const GvdResult one = run(test::make_shaft_in_bore(so));
   so.gap = 0.5e-4;  // the joined scene's domain is about twice as large
   const Scene single = test::make_shaft_in_bore(so);
-  Scene scene = single;
-  for (SceneObject o : single.objects) {
-    for (Vec3& v : o.vertices) v = v + Vec3{1.5, 0, 0};
-    o.label += "_2";
-    scene.objects.push_back(std::move(o));
-  }
-  const double g = so.gap * make_domain(single).side;
-  const GvdResult two = run(scene);
-  expect_valid(two,
-               [](ObjectId a, ObjectId b) { return std::min(a, b) / 2 == std::max(a, b) / 2; });
-  EXPECT_EQ(uncertified_leaves_holding_two(two), 0u);
-  int pairs = 0;
-  for (const DualEdge& e : two.graph.edges) {
-    if (!((e.a == 0 && e.b == 1) || (e.a == 2 && e.b == 3))) continue;
-    ++pairs;
-    EXPECT_FALSE(e.touching);
-    EXPECT_NEAR(e.gap, g, 1e-9 * g) << e.a << "-" << e.b;
-  }
-  EXPECT_EQ(pairs, 2);
+  const GvdResult two = run(with_moved_copy(single, [](Vec3 v) { return v + Vec3{1.5, 0, 0}; }));
+  expect_two_pairs_at_gap(two, so.gap * make_domain(single).side);
   EXPECT_LE(two.stats.leaves, 3 * one.stats.leaves)
       << one.stats.leaves << " leaves for one shaft, " << two.stats.leaves << " for two";
 }
@@ -713,26 +725,11 @@ std::array<uint64_t, 2> blades_turned_against_each_other(Turn turn, const double
     o.gap = gaps[k];
     const Scene one = test::make_blade_in_slot(o);
     const double g = o.gap * make_domain(one).side;
-    Scene scene = one;
-    for (SceneObject obj : one.objects) {
-      for (Vec3& v : obj.vertices) v = turn(v - Vec3{0.5, 0, 0.5}) + Vec3{2, 0, 0.5};
-      obj.label += "_2";
-      scene.objects.push_back(std::move(obj));
-    }
-    const GvdResult r = run(scene);
+    const GvdResult r = run(with_moved_copy(one, [&](Vec3 v) {
+      return turn(v - Vec3{0.5, 0, 0.5}) + Vec3{2, 0, 0.5};
+    }));
     SCOPED_TRACE("gap " + std::to_string(gaps[k]));
-    expect_valid(r,
-                 [](ObjectId a, ObjectId b) { return std::min(a, b) / 2 == std::max(a, b) / 2; });
-    const size_t bad = uncertified_leaves_holding_two(r);
-    EXPECT_EQ(bad, 0u);
-    int pairs = 0;
-    for (const DualEdge& e : r.graph.edges) {
-      if (!((e.a == 0 && e.b == 1) || (e.a == 2 && e.b == 3))) continue;
-      ++pairs;
-      EXPECT_FALSE(e.touching);
-      EXPECT_NEAR(e.gap, g, 1e-9 * g) << e.a << "-" << e.b;
-    }
-    EXPECT_EQ(pairs, 2);
+    expect_two_pairs_at_gap(r, g);
     leaves[k] = r.stats.leaves;
   }
   return leaves;
