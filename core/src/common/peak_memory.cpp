@@ -1,8 +1,11 @@
 #include "gvd/common/peak_memory.h"
 
 #include <malloc.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
@@ -27,6 +30,7 @@ uint64_t status_kb(const std::string& name) {
 }
 
 std::atomic<bool> adaptive_heap{false};
+
 std::atomic<int> block_threshold{0};  // the M_MMAP_THRESHOLD in force (0: glibc's own)
 
 // Whether blocks were kept since the heap was last trimmed: a computation that started small
@@ -48,6 +52,47 @@ void set_block_threshold(int bytes) {
   }
 }
 
+// Huge pages for the heap of a small computation (see use_returning_heap). The heap's break
+// when use_returning_heap(true) was called: the heap above it is the computations'.
+uintptr_t heap_base = 0;
+std::atomic<bool> huge_heap{false};
+
+// Asks the kernel for (or no longer for) transparent huge pages on the heap between heap_base
+// and the break. The heap grows by brk, and a part added after this
+// call is not advised until the next one: while huge pages are wanted, the heap's top is first
+// grown to kHeapHeadroom of free room (a block allocated there and freed; glibc then keeps
+// that much as its top pad when it trims), so that the next stage's arrays fall inside the
+// advised part. Pages already faulted keep their size.
+constexpr int kHeapHeadroom = 8 << 20;
+
+void advise_heap(bool huge) {
+  mallopt(M_TOP_PAD, huge ? kHeapHeadroom : 128 << 10);  // 128 KiB: glibc's default
+  if (huge) {
+    const int threshold = block_threshold.load(std::memory_order_relaxed);
+    mallopt(M_MMAP_THRESHOLD, 2 * kHeapHeadroom);  // the block from the heap, not mapped
+    void* volatile block = malloc(kHeapHeadroom);  // volatile: the pair is not elided
+    free(block);
+    if (threshold > 0) mallopt(M_MMAP_THRESHOLD, threshold);
+  }
+  // Whole pages (the kernel maps a huge page where an aligned 2 MiB of the range is whole).
+  const uintptr_t page = static_cast<uintptr_t>(sysconf(_SC_PAGESIZE));
+  const uintptr_t begin = (heap_base + page - 1) & ~(page - 1);
+  const uintptr_t end = reinterpret_cast<uintptr_t>(sbrk(0)) & ~(page - 1);
+  if (end > begin) {
+    // Fails harmlessly where the kernel has no transparent huge pages.
+    (void)madvise(reinterpret_cast<void*>(begin), end - begin,
+                  huge ? MADV_HUGEPAGE : MADV_NOHUGEPAGE);
+  }
+}
+
+// Huge pages while the computation is small, none once it is not (not again in the same one:
+// what it holds stays in its 4 KiB pages).
+void huge_pages_while_small(size_t size) {
+  if (heap_base == 0 || !huge_heap.load(std::memory_order_relaxed)) return;
+  if (size >= kSmallComputationLeaves) huge_heap = false;
+  advise_heap(huge_heap);
+}
+
 }  // namespace
 
 uint64_t peak_rss_bytes() { return status_kb("VmHWM:"); }
@@ -58,18 +103,34 @@ uint64_t file_rss_bytes() { return status_kb("RssFile:"); }
 
 void use_returning_heap(bool small_computations_keep_blocks) {
   adaptive_heap = small_computations_keep_blocks;
+  if (small_computations_keep_blocks && heap_base == 0) {
+    heap_base = reinterpret_cast<uintptr_t>(sbrk(0));
+  } else if (!small_computations_keep_blocks && heap_base != 0) {
+    huge_heap = false;
+    advise_heap(false);  // and glibc's own top pad again
+    heap_base = 0;
+  }
   set_block_threshold(kReturnedBlockBytes);
 }
 
 void heap_checkpoint(size_t leaves) {
   if (!adaptive_heap.load(std::memory_order_relaxed)) return;
   set_block_threshold(leaves < kSmallComputationLeaves ? kKeptBlockBytes : kReturnedBlockBytes);
+  huge_pages_while_small(leaves);
+}
+
+void heap_computation_grows(size_t cells) {
+  if (adaptive_heap.load(std::memory_order_relaxed)) huge_pages_while_small(cells);
 }
 
 void heap_computation_starts() {
   if (!adaptive_heap.load(std::memory_order_relaxed)) return;
   set_block_threshold(kReturnedBlockBytes);  // trims what the last one kept
   kept_blocks = false;
+  if (heap_base != 0) {
+    huge_heap = true;
+    advise_heap(true);
+  }
 }
 
 }  // namespace gvd

@@ -7,6 +7,7 @@
 #include "gvd/common/error.h"
 #include "gvd/common/flat_hash.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/peak_memory.h"
 #include "gvd/common/radix_sort.h"
 #include "gvd/geometry/primitives.h"
 #include "gvd/octree/build_octree_data_parallel.h"
@@ -290,6 +291,7 @@ InternalSets subdivide_by_rules(const UnitGeometry& g, const OctreeOptions& opti
       }
     }
     internal_count += internal[level].size();
+    heap_computation_grows(internal_count * children_per_split + 1);  // the leaves so far
     if (internal_count * children_per_split + 1 > options.max_leaves) {
       throw Error(ErrorCode::kLimitExceeded, "octree exceeds the leaf limit of " +
                                                  std::to_string(options.max_leaves) + " at level " +
