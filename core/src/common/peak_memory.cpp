@@ -37,7 +37,8 @@ std::atomic<int> block_threshold{0};  // the M_MMAP_THRESHOLD in force (0: glibc
 // and grew frees them later, and they are given back at each checkpoint after.
 std::atomic<bool> kept_blocks{false};
 
-void set_block_threshold(int bytes) {
+// `trim`: whether the returning threshold also gives back what was kept (malloc_trim).
+void set_block_threshold(int bytes, bool trim = true) {
   int was = block_threshold.load(std::memory_order_relaxed);
   if (was != bytes && block_threshold.compare_exchange_strong(was, bytes)) {
     // Setting the threshold also stops glibc from moving it (and the trim threshold with it).
@@ -47,7 +48,7 @@ void set_block_threshold(int bytes) {
   }
   if (bytes == kKeptBlockBytes) {
     kept_blocks = true;
-  } else if (kept_blocks.load(std::memory_order_relaxed)) {
+  } else if (trim && kept_blocks.load(std::memory_order_relaxed)) {
     malloc_trim(0);
   }
 }
@@ -89,7 +90,10 @@ void advise_heap(bool huge) {
 // what it holds stays in its 4 KiB pages).
 void huge_pages_while_small(size_t size) {
   if (heap_base == 0 || !huge_heap.load(std::memory_order_relaxed)) return;
-  if (size >= kSmallComputationLeaves) huge_heap = false;
+  if (size >= kSmallComputationLeaves) {
+    huge_heap = false;
+    set_block_threshold(kReturnedBlockBytes);  // and what earlier ones kept given back
+  }
   advise_heap(huge_heap);
 }
 
@@ -125,12 +129,19 @@ void heap_computation_grows(size_t cells) {
 
 void heap_computation_starts() {
   if (!adaptive_heap.load(std::memory_order_relaxed)) return;
-  set_block_threshold(kReturnedBlockBytes);  // trims what the last one kept
-  kept_blocks = false;
-  if (heap_base != 0) {
-    huge_heap = true;
-    advise_heap(true);
+  if (heap_base == 0) {
+    set_block_threshold(kReturnedBlockBytes);  // trims what the last one kept
+    kept_blocks = false;
+    return;
   }
+  // With huge pages, what the last computation kept stays until this one turns out not to be
+  // small (huge_pages_while_small gives it back then): trimming gives back the free pages
+  // inside the heap too, which splits its huge pages, and the next small computation then
+  // faulted 4 KiB pages again (the maze's octree stage in gvd_bench's later repetitions,
+  // 33-37 ms against 22 ms in the first).
+  set_block_threshold(kReturnedBlockBytes, /*trim=*/false);
+  huge_heap = true;
+  advise_heap(true);
 }
 
 }  // namespace gvd

@@ -55,11 +55,14 @@ void use_returning_heap(bool small_computations_keep_blocks = false);
 /// called.
 void heap_checkpoint(size_t leaves);
 /// Called by the pipeline as a computation starts (its size unknown while its first octree is
-/// built): the returning policy, and what the last computation kept given back.
+/// built): the returning policy, and what the last computation kept given back (with huge
+/// pages, only once this one turns out not to be small: giving back the free pages inside the
+/// heap splits its huge pages, and the next small computation faulted 4 KiB pages again).
 void heap_computation_starts();
 /// Called while a computation's first octree is built (the cells made so far): the huge pages
 /// of use_returning_heap for the heap it has grown, or none from here on once it is past
-/// small. Nothing unless use_returning_heap(true) was called.
+/// small (and what earlier computations kept given back then). Nothing unless
+/// use_returning_heap(true) was called.
 void heap_computation_grows(size_t cells);
 inline constexpr int kReturnedBlockBytes = 256 << 10;
 inline constexpr int kKeptBlockBytes = 2 << 20;
