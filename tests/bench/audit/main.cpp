@@ -273,6 +273,13 @@ int write_variants(const std::string& dir) {
              Vec3{2.0, 0.5, 0.5};
     });
     out.emplace_back("two_shafts3_skew" + tag, joined(shaft3, shaft3_skewed, "_2"));
+    // Two hexagonal shafts, the second turned the same way: its rims' e is its own axis.
+    const Scene hex = gvd::test::make_shaft_in_bore(shaft(6, gap * 0.5));
+    const Scene hex_skewed = moved(hex, [](Vec3 v) {
+      return gvd::test::rotate(v - Vec3{0.5, 0.5, 0.5}, Vec3{2, -1, 3} / std::sqrt(14.0), 0.7) +
+             Vec3{2.0, 0.5, 0.5};
+    });
+    out.emplace_back("two_hex_skew" + tag, joined(hex, hex_skewed, "_2"));
   }
   return write_scenes(out, dir);
 }

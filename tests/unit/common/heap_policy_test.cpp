@@ -16,7 +16,7 @@ namespace gvd {
 namespace {
 
 // The VmFlags of the mapping of /proc/self/smaps that holds `address` ("" if none does).
-std::string vm_flags_at(uintptr_t address) {
+[[maybe_unused]] std::string vm_flags_at(uintptr_t address) {
   std::ifstream smaps("/proc/self/smaps");
   std::string line;
   bool inside = false;
@@ -34,7 +34,7 @@ std::string vm_flags_at(uintptr_t address) {
   return "";
 }
 
-bool has_flag(const std::string& flags, const char* flag) {
+[[maybe_unused]] bool has_flag(const std::string& flags, const char* flag) {
   return flags.find(std::string(" ") + flag + " ") != std::string::npos;
 }
 

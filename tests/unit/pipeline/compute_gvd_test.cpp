@@ -606,6 +606,30 @@ TEST(ComputeGvd, TwoTriangularShaftsCostWhatTwoSingleOnesCost3D) {
       << one.stats.leaves << " leaves for one shaft, " << two.stats.leaves << " for two";
 }
 
+// Two hexagonal shafts in their bores, the second turned 0.7 rad about the skew axis (2, -1, 3):
+// the octree's frame fits one, and the other's rims are skew wedges whose e is the shaft's
+// axis. The two faces of a rim give two normals, and e is their cross product, but each face's
+// normal comes from its own triangles on the 2^-48 lattice: e missed being square to them by
+// ~1e-12, over the skew test's 1e-12 (not the 1e-10 slanted cells allow), and every rim cell
+// was refused down to the gap (here 177,815 leaves against 30,584 for one shaft at 1e-3; on
+// gvd_audit's two_hex_skew 529,362 at 1e-4 and 2,474,312 at 1e-5). Valid, both pairs' gaps
+// exact, no uncertified leaf holding two objects, and about what two single shafts cost.
+TEST(ComputeGvd, TwoHexagonalShaftsTurnedAboutASkewAxisCostWhatTwoSingleOnesCost3D) {
+  test::ShaftInBoreOptions so;
+  so.sides = 6;
+  so.gap = 1e-3;
+  const GvdResult one = run(test::make_shaft_in_bore(so));
+  so.gap = 0.5e-3;  // the joined scene's domain is about twice as large
+  const Scene single = test::make_shaft_in_bore(so);
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  const GvdResult two = run(with_moved_copy(single, [&](Vec3 v) {
+    return test::rotate(v - Vec3{0.5, 0.5, 0.5}, axis, 0.7) + Vec3{2.0, 0.5, 0.5};
+  }));
+  expect_two_pairs_at_gap(two, so.gap * make_domain(single).side);
+  EXPECT_LE(two.stats.leaves, 3 * one.stats.leaves)
+      << one.stats.leaves << " leaves for one shaft, " << two.stats.leaves << " for two";
+}
+
 // Two pentagonal shafts in their bores side by side, the second 1.3 along x and 0.1234 along
 // y. With the default frame, make_domain puts both shafts' apexes on x on lattice planes (the
 // cube's side) and the first one's on y; the second one's apex on y lies inside cells. With
