@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <tuple>
 #include <utility>
@@ -973,37 +974,45 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
 int PairCertifier::line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int along,
                                   const std::vector<uint32_t> patch[2]) const {
   const UnitGeometry& g = geometry_;
-  // d_pair[0] - d_pair[1] at x, exact (nearest simplex among the cell's patch: every point of
-  // the cell has its nearest simplices there).
-  auto gap_at = [&](Vec3 x) {
-    double d[2];
-    for (int k = 0; k < 2; ++k) {
-      double best = 1e300;
-      for (uint32_t s : patch[k])
-        best = std::min(best, dist2(x, closest_point_on_simplex(3, g.points, g.simplices[s], x)));
-      d[k] = std::sqrt(best);
+  // Per simplex of the patch, the component along `along` of its gradient direction (outward
+  // normals of 0, inward ones of 1); NaN where its plane is degenerate.
+  std::vector<double> grad[2];
+  for (int k = 0; k < 2; ++k) {
+    const double sign = k == 0 ? outward_[pair[0]] : -outward_[pair[1]];
+    grad[k].reserve(patch[k].size());
+    for (uint32_t s : patch[k]) {
+      Plane p;
+      grad[k].push_back(simplex_plane(g, s, p) ? p.n[along] * sign
+                                               : std::numeric_limits<double>::quiet_NaN());
     }
-    return d[0] - d[1];
+  }
+  // d_pair[0] - d_pair[1] at x, exact (nearest simplex among the cell's patch: every point of
+  // the cell has its nearest simplices there). Keeps the squared distance to every simplex of
+  // the patch (d2) and the nearest per object (best) for monotone_at_last.
+  std::vector<double> d2[2] = {std::vector<double>(patch[0].size()),
+                               std::vector<double>(patch[1].size())};
+  double best[2] = {1e300, 1e300};
+  auto gap_at = [&](Vec3 x) {
+    for (int k = 0; k < 2; ++k) {
+      best[k] = 1e300;
+      for (size_t i = 0; i < patch[k].size(); ++i) {
+        d2[k][i] = dist2(x, closest_point_on_simplex(3, g.points, g.simplices[patch[k][i]], x));
+        best[k] = std::min(best[k], d2[k][i]);
+      }
+    }
+    return std::sqrt(best[0]) - std::sqrt(best[1]);
   };
-  // Whether d_0 - d_1 is monotone along the segment [a, b]: the simplices of its patch that can
-  // be nearest to a point of it (within d_k(c) + 2r of its middle c) have gradient directions
-  // (outward normals of 0, inward ones of 1) whose components along `along` share a sign.
-  auto monotone = [&](Vec3 a, Vec3 b) {
-    const Vec3 c = (a + b) * 0.5;
-    const double r = 0.5 * dist(a, b);
+  // Whether d_0 - d_1 is monotone along a segment of length 2r whose middle c gap_at was last
+  // evaluated at: the simplices of its patch that can be nearest to a point of it (within
+  // d_k(c) + 2r of c) have gradient directions whose components along `along` share a sign.
+  auto monotone_at_last = [&](double r) {
     bool up = true, down = true;
     for (int k = 0; k < 2; ++k) {
-      double best = 1e300;
-      for (uint32_t s : patch[k])
-        best = std::min(best, dist2(c, closest_point_on_simplex(3, g.points, g.simplices[s], c)));
-      const double range = (std::sqrt(best) + 2 * r) * (1 + 1e-9) + 1e-15;
-      const double sign = k == 0 ? outward_[pair[0]] : -outward_[pair[1]];
-      for (uint32_t s : patch[k]) {
-        if (dist2(c, closest_point_on_simplex(3, g.points, g.simplices[s], c)) > range * range)
-          continue;
-        Plane p;
-        if (!simplex_plane(g, s, p)) return false;
-        const double n = p.n[along] * sign;
+      const double range = (std::sqrt(best[k]) + 2 * r) * (1 + 1e-9) + 1e-15;
+      for (size_t i = 0; i < patch[k].size(); ++i) {
+        if (d2[k][i] > range * range) continue;
+        const double n = grad[k][i];
+        if (std::isnan(n)) return false;
         up &= n >= -1e-12;
         down &= n <= 1e-12;
       }
@@ -1023,9 +1032,10 @@ int PairCertifier::line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int 
     if (fa == 0 || fb == 0 || ++evaluations > kMaxEvaluations) return -1;
     const bool change = (fa < 0) != (fb < 0);
     if (!change && 0.5 * (std::abs(fa) + std::abs(fb)) > dist(a, b)) return 0;
-    if (depth >= 30 || monotone(a, b)) return change ? 1 : 0;
+    if (depth >= 30) return change ? 1 : 0;
     const Vec3 m = (a + b) * 0.5;
-    const double fm = gap_at(m);
+    const double fm = gap_at(m);  // the monotone test's distances too
+    if (monotone_at_last(0.5 * dist(a, b))) return change ? 1 : 0;
     const int left = self(self, a, m, fa, fm, depth + 1);
     if (left < 0) return -1;
     const int right = self(self, m, b, fm, fb, depth + 1);
