@@ -768,8 +768,8 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       // Within the slanted cells' tolerance: the normals of each face come from its own
       // triangles on the 2^-48 lattice, and e (their cross product) missed being square to
       // them by ~1e-12 on a hexagonal shaft turned about a skew axis, so that with 1e-12 here
-      // every rim cell was refused down to the gap (529,362 leaves at 1e-4 for two such
-      // shafts, 114,696 now).
+      // every rim cell was refused down to the gap (1,047,509 leaves at 1e-4 for two such
+      // shafts, 119,477 now).
       if (!std::all_of(normals.begin(), normals.end(),
                        [&](Vec3 n) { return std::abs(dot(n, along)) <= kSlantPerpendicular; }))
         return out;

@@ -588,22 +588,33 @@ void expect_two_pairs_at_gap(const GvdResult& r, double g) {
   EXPECT_EQ(pairs, 2);
 }
 
+// One shaft in its bore (`sides`, `gap`), and two: it at half the gap (the joined scene's
+// domain is about twice as large) beside a copy moved by `move`. The two are valid, both pairs
+// at their exact gaps, no uncertified leaf holding two objects, and cost at most three times
+// the one.
+template <class Move>
+void expect_two_shafts_cost_what_two_single_ones_do(int sides, double gap, Move move) {
+  test::ShaftInBoreOptions so;
+  so.sides = sides;
+  so.gap = gap;
+  const GvdResult one = run(test::make_shaft_in_bore(so));
+  so.gap = 0.5 * gap;
+  const Scene single = test::make_shaft_in_bore(so);
+  const GvdResult two = run(with_moved_copy(single, move));
+  expect_two_pairs_at_gap(two, so.gap * make_domain(single).side);
+  EXPECT_LE(two.stats.leaves, 3 * one.stats.leaves)
+      << one.stats.leaves << " leaves for one shaft, " << two.stats.leaves << " for two";
+}
+
 // Two triangular shafts in their bores side by side cost about what two single ones do. Their
 // walls at 60 and 120 degrees are slanted faces whose normals come from triangles on the 2^-48
 // lattice, tilted by up to ~2e-12 by the rounding; with the slanted certificate's tolerance
 // at 1e-12 the bores' mouths refined to the gap (306,636 leaves against 28,204 for one shaft
-// at 1e-4). Valid, both pairs' gaps exact, every uncertified leaf holding one object.
+// at 1e-4).
 TEST(ComputeGvd, TwoTriangularShaftsCostWhatTwoSingleOnesCost3D) {
-  test::ShaftInBoreOptions so;
-  so.sides = 3;
-  so.gap = 1e-4;
-  const GvdResult one = run(test::make_shaft_in_bore(so));
-  so.gap = 0.5e-4;  // the joined scene's domain is about twice as large
-  const Scene single = test::make_shaft_in_bore(so);
-  const GvdResult two = run(with_moved_copy(single, [](Vec3 v) { return v + Vec3{1.5, 0, 0}; }));
-  expect_two_pairs_at_gap(two, so.gap * make_domain(single).side);
-  EXPECT_LE(two.stats.leaves, 3 * one.stats.leaves)
-      << one.stats.leaves << " leaves for one shaft, " << two.stats.leaves << " for two";
+  expect_two_shafts_cost_what_two_single_ones_do(3, 1e-4, [](Vec3 v) {
+    return v + Vec3{1.5, 0, 0};
+  });
 }
 
 // Two hexagonal shafts in their bores, the second turned 0.7 rad about the skew axis (2, -1, 3):
@@ -612,22 +623,12 @@ TEST(ComputeGvd, TwoTriangularShaftsCostWhatTwoSingleOnesCost3D) {
 // normal comes from its own triangles on the 2^-48 lattice: e missed being square to them by
 // ~1e-12, over the skew test's 1e-12 (not the 1e-10 slanted cells allow), and every rim cell
 // was refused down to the gap (here 177,815 leaves against 30,584 for one shaft at 1e-3; on
-// gvd_audit's two_hex_skew 529,362 at 1e-4 and 2,474,312 at 1e-5). Valid, both pairs' gaps
-// exact, no uncertified leaf holding two objects, and about what two single shafts cost.
+// gvd_audit's two_hex_skew 1,047,509 at 1e-4 and 9,305,794 at 1e-5).
 TEST(ComputeGvd, TwoHexagonalShaftsTurnedAboutASkewAxisCostWhatTwoSingleOnesCost3D) {
-  test::ShaftInBoreOptions so;
-  so.sides = 6;
-  so.gap = 1e-3;
-  const GvdResult one = run(test::make_shaft_in_bore(so));
-  so.gap = 0.5e-3;  // the joined scene's domain is about twice as large
-  const Scene single = test::make_shaft_in_bore(so);
   const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
-  const GvdResult two = run(with_moved_copy(single, [&](Vec3 v) {
+  expect_two_shafts_cost_what_two_single_ones_do(6, 1e-3, [&](Vec3 v) {
     return test::rotate(v - Vec3{0.5, 0.5, 0.5}, axis, 0.7) + Vec3{2.0, 0.5, 0.5};
-  }));
-  expect_two_pairs_at_gap(two, so.gap * make_domain(single).side);
-  EXPECT_LE(two.stats.leaves, 3 * one.stats.leaves)
-      << one.stats.leaves << " leaves for one shaft, " << two.stats.leaves << " for two";
+  });
 }
 
 // Two pentagonal shafts in their bores side by side, the second 1.3 along x and 0.1234 along
