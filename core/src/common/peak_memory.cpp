@@ -59,11 +59,11 @@ uintptr_t heap_base = 0;
 std::atomic<bool> huge_heap{false};
 
 // Asks the kernel for (or no longer for) transparent huge pages on the heap between heap_base
-// and the break. The heap grows by brk, and a part added after this
-// call is not advised until the next one: while huge pages are wanted, the heap's top is first
-// grown to kHeapHeadroom of free room (a block allocated there and freed; glibc then keeps
-// that much as its top pad when it trims), so that the next stage's arrays fall inside the
-// advised part. Pages already faulted keep their size.
+// and the break. The heap grows by brk, and a part added after this call is not advised until
+// the next one: while huge pages are wanted, the heap's top is first grown to kHeapHeadroom of
+// free room (a block allocated there and freed; glibc then keeps that much as its top pad when
+// it trims), so that the next stage's arrays fall inside the advised part. Pages already
+// faulted keep their size.
 constexpr int kHeapHeadroom = 8 << 20;
 
 void advise_heap(bool huge) {
