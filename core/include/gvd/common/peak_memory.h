@@ -44,9 +44,9 @@ uint64_t file_rss_bytes();
 /// With `small_computations_keep_blocks`, a computation's heap also asks the kernel for
 /// transparent huge pages (madvise; where the system offers them on request) until the
 /// computation turns out not to be small (heap_computation_grows, heap_checkpoint): one fault
-/// then maps 2 MiB instead of 4 KiB. That took the maze from ~4,700 page faults to ~2,500 and
-/// 14 % off its time; on a large computation it would hold 2 MiB pages its small blocks only
-/// partly use (the spheres' peak 14-17 MB higher), so a large one gives them up.
+/// then maps 2 MiB instead of 4 KiB. That took the maze from ~5,700 page faults to ~3,200 and
+/// 16 % off its time (docs/BENCHMARKS.md); on a large computation it would hold 2 MiB pages its
+/// small blocks only partly use (the spheres' peak 14-17 MB higher), so a large one gives them up.
 void use_returning_heap(bool small_computations_keep_blocks = false);
 /// Called by the pipeline when it knows the size of the computation it runs (the octree's
 /// leaves, after each build and refinement round and before surfacing): switches the policy
