@@ -19,16 +19,11 @@ class OpenClOctreeBuildSteps final : public OctreeBuildSteps {
  public:
   OpenClOctreeBuildSteps(std::shared_ptr<OpenClBackend::Impl> impl, const UnitGeometry& g)
       : impl_(std::move(impl)), dim_(g.dimension) {
-    std::vector<item::GvdPoint> points(g.points.size());
-    for (size_t i = 0; i < g.points.size(); ++i)
-      points[i] = {g.points[i].x, g.points[i].y, g.points[i].z};
-    std::vector<uint32_t> simplices(3 * g.simplices.size());
-    for (size_t i = 0; i < g.simplices.size(); ++i)
-      for (int k = 0; k < 3; ++k) simplices[3 * i + k] = g.simplices[i].v[k];
-    point_count_ = points.size();
+    const ItemGeometry items = item_geometry(g);
+    point_count_ = items.points.size();
     simplex_count_ = g.simplices.size();
-    points_ = upload(points);
-    simplices_ = upload(simplices);
+    points_ = upload(items.points);
+    simplices_ = upload(items.simplices);
   }
 
   std::vector<uint64_t> vertex_keys(int max_level) override {

@@ -98,13 +98,15 @@ void expect_builds_agree(kernels::OpenClBackend& backend, const UnitGeometry& g,
   o.threads = 2;
   const auto steps = backend.octree_build_steps(g);
   DataParallelBuildStats sa, sb;
-  const Octree twin = build_octree_data_parallel(g, o, nullptr, &sa);
-  const Octree ocl = build_octree_data_parallel(g, o, steps.get(), &sb);
+  LeafSimplices twin_simplices, ocl_simplices;
+  const Octree twin = build_octree_data_parallel(g, o, nullptr, &sa, &twin_simplices);
+  const Octree ocl = build_octree_data_parallel(g, o, steps.get(), &sb, &ocl_simplices);
   const Octree cpu = build_octree(g, o);
   EXPECT_EQ(twin.code, ocl.code);
   EXPECT_EQ(twin.level, ocl.level);
   EXPECT_EQ(twin.object, ocl.object);
-  EXPECT_EQ(twin.simplex_index, ocl.simplex_index);
+  EXPECT_EQ(twin_simplices.begin, ocl_simplices.begin);
+  EXPECT_EQ(twin_simplices.index, ocl_simplices.index);
   EXPECT_EQ(sa.vertex_octree_leaves, sb.vertex_octree_leaves);
   EXPECT_EQ(sa.conflict_cells, sb.conflict_cells);
   EXPECT_EQ(sa.resolved_leaves, sb.resolved_leaves);

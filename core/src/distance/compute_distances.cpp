@@ -21,37 +21,6 @@ namespace gvd::distance {
 using namespace gvd::scene;
 using namespace gvd::octree;
 
-void DistanceField::keep_leaf_lists_of(std::span<const uint32_t> leaves) {
-  if (leaf_begin.empty()) return;
-  const size_t n = leaf_slots.size();
-  uint32_t k = 0;
-  size_t next = 0;
-  for (size_t leaf = 0; leaf < n; ++leaf) {
-    const uint32_t lo = leaf_begin[leaf], hi = leaf_begin[leaf + 1];
-    leaf_begin[leaf] = k;
-    if (next < leaves.size() && leaves[next] == leaf) {
-      // k <= lo: rows only move down, so a forward copy never overwrites what it reads next.
-      std::memmove(leaf_vertex.data() + k, leaf_vertex.data() + lo, (hi - lo) * sizeof(uint32_t));
-      k += hi - lo;
-      ++next;
-    } else {
-      leaf_slots[leaf] = 0;
-    }
-  }
-  leaf_begin[n] = k;
-  leaf_vertex.resize(k);
-}
-
-LeafGrid DistanceField::grid(const Octree& octree, uint32_t leaf) const {
-  // Every leaf's corners are vertices: an empty mask is a row that was not kept.
-  if (leaf_begin.empty() || leaf_slots[leaf] == 0) return leaf_grid(octree, vertices, leaf);
-  LeafGrid g;
-  g.fill(kNoVertex);
-  uint32_t k = leaf_begin[leaf];
-  for (uint32_t m = leaf_slots[leaf]; m != 0; m &= m - 1) g[std::countr_zero(m)] = leaf_vertex[k++];
-  return g;
-}
-
 double DistanceField::distance(uint32_t v) const {
   if (point[v] == kNoVertex) return std::numeric_limits<double>::infinity();
   return gvd::dist(vertices.position(v), closest[point[v]]);
@@ -228,10 +197,12 @@ void exact_everywhere(DistanceField& field, const UnitGeometry& geometry, const 
 
 // compute_distances; with `owned` (the previous field itself, given up by the caller) its
 // parts are moved into the new field instead of copied, or freed once used: the vertices, the
-// per-vertex arrays (exact_everywhere) and the per-leaf lists.
+// per-vertex arrays (exact_everywhere) and the per-leaf lists (then `lists` is
+// `previous_lists`, given up too, and receives the new ones).
 DistanceField distances(const Octree& octree, const UnitGeometry& geometry, const SimplexBvh& bvh,
                         const DistanceOptions& options, const DistanceField* previous,
-                        const Octree* previous_octree, DistanceField* owned,
+                        const Octree* previous_octree, const LeafVertices* previous_lists,
+                        LeafVertices* lists, DistanceField* owned = nullptr,
                         Octree* owned_octree = nullptr) {
   const int dim = octree.dimension;
   const int threads = resolve_threads(options.threads);
@@ -243,8 +214,8 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
   // ones are appended), and leaves that did not change keep their boundary vertices unless a
   // new vertex appeared on them.
   const bool incremental = previous != nullptr && previous_octree != nullptr &&
-                           !previous->leaf_begin.empty() &&
-                           previous->leaf_begin.size() == previous_octree->leaf_count() + 1;
+                           previous_lists != nullptr &&
+                           previous_lists->covers(previous_octree->leaf_count());
   std::vector<uint32_t> old_leaf;  // per leaf: the same leaf in previous_octree, or kNoVertex
   uint32_t old_count = 0;
   if (incremental) {
@@ -309,9 +280,11 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
   }
   const size_t nv = field.vertices.size();
 
-  // Leaf -> boundary vertices (CSR, kept in the field), and its transpose vertex -> leaves.
+  // Leaf -> boundary vertices (CSR, handed to `lists`) with their slots in the leaf's grid,
+  // and its transpose vertex -> leaves.
   Csr leaf_verts;
   leaf_verts.begin.assign(nl + 1, 0);
+  std::vector<uint32_t> slots(nl);
   {
     // Leaves whose grid must be looked up: all, or after a refinement the new ones and those
     // touching a new vertex (found by locating the cells around it).
@@ -346,7 +319,6 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
       std::vector<uint32_t> vertex;
       size_t begin = 0, end = 0;  // its leaves (parallel_for may hand a thread several grains)
     };
-    field.leaf_slots.resize(nl);
     std::vector<Compact> compact((nl + grain - 1) / grain);
     parallel_for(
         nl, threads,
@@ -358,20 +330,20 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
           for (size_t i = b; i < e; ++i) {
             if (!recompute[i]) {
               const uint32_t ol = old_leaf[i];
-              leaf_verts.begin[i + 1] = previous->leaf_begin[ol + 1] - previous->leaf_begin[ol];
-              field.leaf_slots[i] = previous->leaf_slots[ol];
+              leaf_verts.begin[i + 1] = previous_lists->begin[ol + 1] - previous_lists->begin[ol];
+              slots[i] = previous_lists->slots[ol];
               continue;
             }
             const LeafGrid g = leaf_grid(octree, field.vertices, static_cast<uint32_t>(i));
-            uint32_t c = 0, slots = 0;
+            uint32_t c = 0, mask = 0;
             for (int k = 0; k < grid_points; ++k) {
               if (g[k] == kNoVertex) continue;
               mine.vertex.push_back(g[k]);
-              slots |= 1u << k;
+              mask |= 1u << k;
               ++c;
             }
             leaf_verts.begin[i + 1] = c;
-            field.leaf_slots[i] = slots;
+            slots[i] = mask;
           }
           // Kept until every chunk is done: without unused capacity.
           mine.vertex.shrink_to_fit();
@@ -391,7 +363,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
       uint32_t pending_end = 0;  // end of the old rows of the leaves before i that move
       for (size_t i = 0; i < nl && in_place; ++i) {
         in_place = leaf_verts.begin[i] >= pending_end;
-        if (!recompute[i]) pending_end = previous->leaf_begin[old_leaf[i] + 1];
+        if (!recompute[i]) pending_end = previous_lists->begin[old_leaf[i] + 1];
       }
     }
     auto fill_row = [&](size_t i, const uint32_t* from) {
@@ -400,7 +372,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     };
     if (in_place) {
       // Backwards, so that a row is moved before anything is written over its old place.
-      leaf_verts.items = std::move(owned->leaf_vertex);
+      leaf_verts.items = std::move(lists->vertex);
       leaf_verts.items.resize(leaf_verts.begin[nl]);
       for (size_t c = compact.size(); c-- > 0;) {
         size_t from_compact = compact[c].vertex.size();
@@ -409,7 +381,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
             from_compact -= count(i);
             fill_row(i, compact[c].vertex.data() + from_compact);
           } else {
-            fill_row(i, leaf_verts.items.data() + previous->leaf_begin[old_leaf[i]]);
+            fill_row(i, leaf_verts.items.data() + previous_lists->begin[old_leaf[i]]);
           }
         }
         std::vector<uint32_t>().swap(compact[c].vertex);
@@ -433,7 +405,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
             const Compact& mine = compact[b / grain];
             for (size_t i = b; i < e; ++i) {
               if (!recompute[i]) {
-                fill_row(i, previous->leaf_vertex.data() + previous->leaf_begin[old_leaf[i]]);
+                fill_row(i, previous_lists->vertex.data() + previous_lists->begin[old_leaf[i]]);
                 continue;
               }
               fill_row(i, mine.vertex.data() + from_compact);
@@ -444,14 +416,19 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
     }
   }
   // The previous field's lists are copied where they still hold.
-  if (owned != nullptr) owned->drop_leaf_lists();
+  if (owned != nullptr) lists->release();
+  auto hand_over_lists = [&] {
+    if (lists == nullptr) return;
+    lists->begin = std::move(leaf_verts.begin);
+    lists->vertex = std::move(leaf_verts.items);
+    lists->slots = std::move(slots);
+  };
   if (options.method == DistanceMethod::kExact) {
     exact_everywhere(field, geometry, bvh, options, previous, incremental ? old_count : 0,
                      incremental ? owned : nullptr,
                      std::span<const uint32_t>(leaf_verts.items.data(), leaf_verts.items.size()),
                      threads);
-    field.leaf_begin = std::move(leaf_verts.begin);
-    field.leaf_vertex = std::move(leaf_verts.items);
+    hand_over_lists();
     return field;
   }
 
@@ -490,6 +467,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
   std::vector<Vec3> query_pos(nonempty.size());
   std::vector<double> query_bound(nonempty.size(), 0.0);
   check_cancel(options);
+  const LeafSimplices* simplices = options.leaf_simplices;
   parallel_for(
       nonempty.size(), threads,
       [&](size_t b, size_t e, int) {
@@ -512,9 +490,9 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
           double bound2 = 1e300;
           for (uint32_t a = vert_leaves.begin[v]; a < vert_leaves.begin[v + 1]; ++a) {
             const uint32_t leaf = vert_leaves.items[a];
-            if (octree.simplex_begin.size() <= leaf + 1) break;
-            for (uint32_t k = octree.simplex_begin[leaf]; k < octree.simplex_begin[leaf + 1]; ++k) {
-              const Simplex& t = geometry.simplices[octree.simplex_index[k]];
+            if (simplices == nullptr || !simplices->covers(nl)) break;
+            for (const uint32_t s : simplices->of(leaf)) {
+              const Simplex& t = geometry.simplices[s];
               bound2 =
                   std::min(bound2, dist2(pos, closest_point_on_simplex(geometry.dimension,
                                                                        geometry.points, t, pos)));
@@ -726,8 +704,7 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
   for (size_t v = 0; v < nv; ++v)
     if (field.point[v] != kNoVertex) field.point[v] = remap[field.point[v]];
   field.closest = std::move(compact);
-  field.leaf_begin = std::move(leaf_verts.begin);
-  field.leaf_vertex = std::move(leaf_verts.items);
+  hand_over_lists();
   return field;
 }
 
@@ -735,25 +712,35 @@ DistanceField distances(const Octree& octree, const UnitGeometry& geometry, cons
 
 DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options,
-                                const DistanceField* previous, const Octree* previous_octree) {
-  return distances(octree, geometry, bvh, options, previous, previous_octree, nullptr);
+                                LeafVertices* lists) {
+  return distances(octree, geometry, bvh, options, nullptr, nullptr, nullptr, lists);
 }
 
 DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options,
-                                DistanceField&& previous, Octree&& previous_octree) {
-  const bool incremental = !previous.leaf_begin.empty() &&
-                           previous.leaf_begin.size() == previous_octree.leaf_count() + 1;
-  if (!incremental) return distances(octree, geometry, bvh, options, &previous, nullptr, nullptr);
-  return distances(octree, geometry, bvh, options, &previous, &previous_octree, &previous,
-                   &previous_octree);
+                                const DistanceField& previous, const Octree* previous_octree,
+                                const LeafVertices* previous_lists, LeafVertices* lists) {
+  GVD_CHECK(lists == nullptr || lists != previous_lists, "compute_distances: lists in and out");
+  return distances(octree, geometry, bvh, options, &previous, previous_octree, previous_lists,
+                   lists);
+}
+
+DistanceField compute_distances(const Octree& octree, const UnitGeometry& geometry,
+                                const SimplexBvh& bvh, const DistanceOptions& options,
+                                DistanceField&& previous, Octree&& previous_octree,
+                                LeafVertices& lists) {
+  if (!lists.covers(previous_octree.leaf_count())) {
+    return distances(octree, geometry, bvh, options, &previous, nullptr, nullptr, &lists);
+  }
+  return distances(octree, geometry, bvh, options, &previous, &previous_octree, &lists, &lists,
+                   &previous, &previous_octree);
 }
 
 }  // namespace gvd::distance
 
 namespace gvd::distance {
 
-void sort_vertices(DistanceField& field, int threads) {
+void sort_vertices(DistanceField& field, LeafVertices* lists, int threads) {
   threads = resolve_threads(threads);
   const size_t nv = field.vertices.size();
   const std::vector<uint64_t>& key = field.vertices.key;
@@ -805,8 +792,9 @@ void sort_vertices(DistanceField& field, int threads) {
   }
   // Same keys, new positions: the index's values are renumbered in place (no inserts).
   field.vertices.index.transform_values([&](uint32_t v) { return new_index[v]; }, threads);
-  parallel_for(field.leaf_vertex.size(), threads, [&](size_t b, size_t e, int) {
-    for (size_t i = b; i < e; ++i) field.leaf_vertex[i] = new_index[field.leaf_vertex[i]];
+  if (lists == nullptr) return;
+  parallel_for(lists->vertex.size(), threads, [&](size_t b, size_t e, int) {
+    for (size_t i = b; i < e; ++i) lists->vertex[i] = new_index[lists->vertex[i]];
   });
 }
 

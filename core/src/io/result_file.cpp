@@ -451,8 +451,6 @@ Octree read_octree(Reader in) {
             " codes, " + std::to_string(o.level.size()) + " levels, " +
             std::to_string(o.object.size()) + " objects");
   }
-  // The incidence is not stored (it is rebuilt only by the octree stages); see the header.
-  o.simplex_begin.assign(o.code.size() + 1, 0);
   return o;
 }
 

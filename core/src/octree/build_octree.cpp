@@ -380,7 +380,7 @@ void balance(int dim, InternalSets& internal, int threads) {
 // simplex lists, sorted by Morton code.
 Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_depth,
                    const OctreeOptions& options, int threads, const LevelCache* cache,
-                   const CertifiedSets& certified) {
+                   const CertifiedSets& certified, LeafSimplices* simplices) {
   const int dim = g.dimension;
   struct Leaves {
     std::vector<uint64_t> code;
@@ -526,12 +526,14 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
   tree.level.resize(n);
   tree.object.resize(n);
   tree.certified.resize(n);
-  tree.simplex_begin.assign(n + 1, 0);
-  for (size_t i = 0; i < n; ++i) {
-    const uint32_t o = order[i].second;
-    tree.simplex_begin[i + 1] = tree.simplex_begin[i] + (begins[o + 1] - begins[o]);
+  if (simplices != nullptr) {
+    simplices->begin.assign(n + 1, 0);
+    for (size_t i = 0; i < n; ++i) {
+      const uint32_t o = order[i].second;
+      simplices->begin[i + 1] = simplices->begin[i] + (begins[o + 1] - begins[o]);
+    }
+    simplices->index.resize(pool.size());
   }
-  tree.simplex_index.resize(pool.size());
   parallel_for(n, threads, [&](size_t b, size_t e, int) {
     for (size_t i = b; i < e; ++i) {
       const uint32_t o = order[i].second;
@@ -539,8 +541,10 @@ Octree materialize(const UnitGeometry& g, const InternalSets& internal, int max_
       tree.level[i] = levels[o];
       tree.object[i] = objects[o];
       tree.certified[i] = certs[o];
-      std::copy(pool.begin() + begins[o], pool.begin() + begins[o + 1],
-                tree.simplex_index.begin() + tree.simplex_begin[i]);
+      if (simplices != nullptr) {
+        std::copy(pool.begin() + begins[o], pool.begin() + begins[o + 1],
+                  simplices->index.begin() + simplices->begin[i]);
+      }
     }
   });
   for (uint8_t l : levels) tree.depth = std::max<int>(tree.depth, l);
@@ -606,7 +610,8 @@ size_t Octree::structure_bytes() const {
   return code.size() * (sizeof(uint64_t) + sizeof(uint8_t) + sizeof(ObjectId)) + certified.size();
 }
 
-Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) {
+Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options,
+                    LeafSimplices* simplices) {
   const int dim = geometry.dimension;
   GVD_CHECK(dim == 2 || dim == 3, "dimension must be 2 or 3");
   const int max_depth = resolve_max_depth(dim, options.max_depth);
@@ -617,11 +622,12 @@ Octree build_octree(const UnitGeometry& geometry, const OctreeOptions& options) 
       subdivide_by_rules(geometry, options, max_depth, threads, cache, certified);
   close_upwards(dim, internal);
   balance(dim, internal, threads);
-  return materialize(geometry, internal, max_depth, options, threads, &cache, certified);
+  return materialize(geometry, internal, max_depth, options, threads, &cache, certified, simplices);
 }
 
 Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const CellRef> split,
-                               const OctreeOptions& options, std::span<const CellRef> certified) {
+                               const OctreeOptions& options, std::span<const CellRef> certified,
+                               LeafSimplices* simplices) {
   const int dim = geometry.dimension;
   const int max_depth = resolve_max_depth(dim, options.max_depth);
   InternalSets internal(max_depth + 1);
@@ -632,7 +638,7 @@ Octree octree_from_split_cells(const UnitGeometry& geometry, std::span<const Cel
   close_upwards(dim, internal);
   balance(dim, internal, resolve_threads(options.threads));
   return materialize(geometry, internal, max_depth, options, resolve_threads(options.threads),
-                     nullptr, certified_sets);
+                     nullptr, certified_sets, simplices);
 }
 
 CellRef child_cell(int dimension, CellRef cell, uint32_t child) {
@@ -640,9 +646,11 @@ CellRef child_cell(int dimension, CellRef cell, uint32_t child) {
           static_cast<uint8_t>(cell.level + 1)};
 }
 
-Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
-                     std::span<const CellRef> cells_to_split, const OctreeOptions& options,
-                     std::span<const CellRef> cells_to_certify) {
+Octree refine_octree(const Octree& octree, const LeafSimplices& simplices,
+                     const UnitGeometry& geometry, std::span<const CellRef> cells_to_split,
+                     const OctreeOptions& options, std::span<const CellRef> cells_to_certify,
+                     LeafSimplices* refined_simplices) {
+  GVD_CHECK(simplices.covers(octree.leaf_count()), "refine_octree: the leaves' simplex lists");
   // Incremental: only the cells that become internal are found (the requested ones, the
   // ancestors between them and the leaf that holds them, and what 2:1 balance then requires,
   // rippling outwards), and only the leaves they replace are re-subdivided; every other leaf
@@ -726,8 +734,9 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
         std::vector<Frame> stack;
         std::vector<uint32_t> scratch;
         for (size_t i = b; i < e; ++i) {
-          const uint32_t* lb = octree.simplex_index.data() + octree.simplex_begin[i];
-          const uint32_t* le = octree.simplex_index.data() + octree.simplex_begin[i + 1];
+          const std::span<const uint32_t> row = simplices.of(static_cast<uint32_t>(i));
+          const uint32_t* lb = row.data();
+          const uint32_t* le = lb + row.size();
           const int level = octree.level[i];
           const uint8_t cert = octree.is_certified(static_cast<uint32_t>(i)) ? octree.certified[i]
                                : any_certify ? mark_in(certify, level, octree.code[i])
@@ -793,8 +802,10 @@ Octree refine_octree(const Octree& octree, const UnitGeometry& geometry,
   CellSet leaves = concat(sets);
   tree.code = std::move(leaves.codes);
   tree.certified = std::move(leaves.certified);
-  tree.simplex_begin = std::move(leaves.begin);
-  tree.simplex_index = std::move(leaves.pool);
+  if (refined_simplices != nullptr) {
+    refined_simplices->begin = std::move(leaves.begin);
+    refined_simplices->index = std::move(leaves.pool);
+  }
   return tree;
 }
 

@@ -18,6 +18,19 @@ using namespace gvd::scene;
 
 static_assert(sizeof(item::GvdRadixNode) == 24);
 
+ItemGeometry item_geometry(const UnitGeometry& geometry) {
+  ItemGeometry out;
+  out.points.resize(geometry.points.size());
+  for (size_t i = 0; i < geometry.points.size(); ++i) {
+    const Vec3& p = geometry.points[i];
+    out.points[i] = {p.x, p.y, p.z};
+  }
+  out.simplices.resize(3 * geometry.simplices.size());
+  for (size_t i = 0; i < geometry.simplices.size(); ++i)
+    for (int k = 0; k < 3; ++k) out.simplices[3 * i + k] = geometry.simplices[i].v[k];
+  return out;
+}
+
 namespace {
 
 // Count pass, exclusive prefix sum, fill pass: the allocation scheme of draft Algorithm 2.
@@ -40,12 +53,9 @@ class CpuOctreeBuildSteps final : public OctreeBuildSteps {
  public:
   CpuOctreeBuildSteps(const UnitGeometry& g, int threads)
       : dim_(g.dimension), threads_(resolve_threads(threads)) {
-    points_.resize(g.points.size());
-    for (size_t i = 0; i < g.points.size(); ++i)
-      points_[i] = {g.points[i].x, g.points[i].y, g.points[i].z};
-    simplices_.resize(3 * g.simplices.size());
-    for (size_t i = 0; i < g.simplices.size(); ++i)
-      for (int k = 0; k < 3; ++k) simplices_[3 * i + k] = g.simplices[i].v[k];
+    ItemGeometry items = item_geometry(g);
+    points_ = std::move(items.points);
+    simplices_ = std::move(items.simplices);
   }
 
   std::vector<uint64_t> vertex_keys(int max_level) override {
@@ -167,7 +177,8 @@ std::unique_ptr<OctreeBuildSteps> make_cpu_octree_build_steps(const UnitGeometry
 }
 
 Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& options,
-                                  OctreeBuildSteps* steps, DataParallelBuildStats* stats) {
+                                  OctreeBuildSteps* steps, DataParallelBuildStats* stats,
+                                  LeafSimplices* simplices) {
   const int dim = g.dimension;
   GVD_CHECK(dim == 2 || dim == 3, "dimension must be 2 or 3");
   const int max_depth = resolve_max_depth(dim, options.max_depth);
@@ -389,12 +400,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     }
     return FlatMap64::kMissing;
   };
-  std::vector<item::GvdPoint> pts(g.points.size());
-  for (size_t i = 0; i < g.points.size(); ++i)
-    pts[i] = {g.points[i].x, g.points[i].y, g.points[i].z};
-  std::vector<uint32_t> sims(3 * g.simplices.size());
-  for (size_t i = 0; i < g.simplices.size(); ++i)
-    for (int k = 0; k < 3; ++k) sims[3 * i + k] = g.simplices[i].v[k];
+  const ItemGeometry items = item_geometry(g);
   std::vector<CellRef> splits, certified;
   std::vector<Cell> current{{0, {}, false}};
   for (int level = 0; level < max_depth && !current.empty(); ++level) {
@@ -461,8 +467,8 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
           // Inside a resolved leaf: filter the parent's list (the overlap test of the build).
           const std::vector<uint32_t>& pl = current[i].list;
           for (uint32_t t : pl)
-            if (item::gvd_simplex_touches_cell(dim, pts.data(), sims.data(), t, child.code,
-                                               level + 1))
+            if (item::gvd_simplex_touches_cell(dim, items.points.data(), items.simplices.data(), t,
+                                               child.code, level + 1))
               child.list.push_back(t);
           child.has_list = true;
         }
@@ -472,7 +478,7 @@ Octree build_octree_data_parallel(const UnitGeometry& g, const OctreeOptions& op
     current = std::move(next);
   }
   st.seconds_rule = part.lap();
-  Octree tree = octree_from_split_cells(g, splits, options, certified);
+  Octree tree = octree_from_split_cells(g, splits, options, certified, simplices);
   st.seconds_materialize = part.lap();
   if (stats) *stats = st;
   return tree;

@@ -15,10 +15,12 @@
 #include "gvd/common/stopwatch.h"
 #include "gvd/distance/closest_points.h"
 #include "gvd/distance/compute_distances.h"
+#include "gvd/distance/leaf_vertices.h"
 #include "gvd/graph/build_dual_graph.h"
 #include "gvd/octree/build_octree.h"
 #include "gvd/octree/build_octree_data_parallel.h"
 #include "gvd/octree/contacts.h"
+#include "gvd/octree/leaf_simplices.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/refine/pair_certificate.h"
 #include "gvd/refine/refine.h"
@@ -63,13 +65,13 @@ OctreeOptions octree_options(const PipelineOptions& options, const ContactPairs&
 }
 
 Octree first_octree(const UnitGeometry& geometry, const PipelineOptions& options,
-                    const OctreeOptions& tree_options) {
+                    const OctreeOptions& tree_options, LeafSimplices& simplices) {
   if (options.octree_build == OctreeBuild::kDataParallel) {
     const std::unique_ptr<OctreeBuildSteps> steps =
         options.compute ? options.compute->octree_build_steps(geometry) : nullptr;
-    return build_octree_data_parallel(geometry, tree_options, steps.get());
+    return build_octree_data_parallel(geometry, tree_options, steps.get(), nullptr, &simplices);
   }
-  return build_octree(geometry, tree_options);
+  return build_octree(geometry, tree_options, &simplices);
 }
 
 // The options of the distance transform (paper §4) with the exact closest-point solver.
@@ -180,7 +182,8 @@ class Computation {
       const OctreeOptions tree_options =
           octree_options(options_, contacts_, certifier(), progress_);
       heap_computation_starts();
-      r_.octree = first_octree(r_.geometry, options_, tree_options);
+      leaf_simplices_.release();  // the failed attempt's
+      r_.octree = first_octree(r_.geometry, options_, tree_options, leaf_simplices_);
       heap_checkpoint(r_.octree.leaf_count());
       r_.stats.stages.push_back(
           {"octree", sw_.seconds(), r_.octree.structure_bytes(), r_.octree.leaf_count()});
@@ -192,9 +195,11 @@ class Computation {
         solver_ = options_.compute ? options_.compute->closest_points(r_.geometry, *bvh_)
                                    : make_cpu_closest_point_solver(*bvh_, options_.threads);
       }
-      const DistanceOptions field_options = distance_options(options_, solver_.get(), progress_);
+      DistanceOptions field_options = distance_options(options_, solver_.get(), progress_);
+      field_options.leaf_simplices = &leaf_simplices_;
       r_.field = DistanceField();  // the failed attempt's goes first
-      r_.field = compute_distances(r_.octree, r_.geometry, *bvh_, field_options);
+      leaf_vertices_.release();
+      r_.field = compute_distances(r_.octree, r_.geometry, *bvh_, field_options, &leaf_vertices_);
       r_.stats.stages.push_back(
           {"distance", sw_.seconds(), r_.field.memory_bytes(), r_.field.size()});
 
@@ -204,7 +209,8 @@ class Computation {
           refine_options(options_, dim_, max_depth_, contacts_, certifier(), tree_options,
                          field_options, progress_);
       try {
-        refined_ = refine_until_resolved(r_.octree, r_.field, r_.geometry, *bvh_, loop_options);
+        refined_ = refine_until_resolved(r_.octree, leaf_simplices_, r_.field, leaf_vertices_,
+                                         r_.geometry, *bvh_, loop_options);
       } catch (const Error& e) {
         // Unsettled cones can also grow the octree past the leaf limit before cone_rounds.
         if (e.code() != ErrorCode::kLimitExceeded || !cones || !certifier_) throw;
@@ -231,7 +237,7 @@ class Computation {
     // (the mark does not hold it), so the certifier stays where there are some.
     for (uint8_t c : r_.octree.certified) any_skew_ |= c >= kSkewMark && c <= kSkewLastMark;
     if (!any_skew_) certifier_.reset();
-    // Surfacing reads each leaf's vertices from the field's per-leaf lists, never by key: the
+    // Surfacing reads each leaf's vertices from its row of leaf_vertices_, never by key: the
     // key -> vertex hash (~40 B per vertex, the field's largest part) goes before memory peaks
     // there; lookups by key binary-search the sorted keys from now on (OctreeVertices::find).
     r_.field.vertices.drop_index();
@@ -239,8 +245,7 @@ class Computation {
     std::vector<uint8_t>().swap(r_.field.changed);
     // Nor does anything after the refinement read the leaves' simplex lists (a result loaded
     // from disk has none).
-    std::vector<uint32_t>().swap(r_.octree.simplex_begin);
-    std::vector<uint32_t>().swap(r_.octree.simplex_index);
+    leaf_simplices_.release();
   }
 
   /// The GVD (§6): every leaf's pieces, then welded into closed, oriented cells.
@@ -262,10 +267,10 @@ class Computation {
       };
     }
     {
-      // Only surfacing reads the per-leaf vertex lists (~50 B per leaf): they go as it stops
+      // Only surfacing reads the leaves' vertex lists now (~50 B per leaf): they go as it stops
       // needing them, the inactive leaves' first (memory peaks at its end and in the weld).
-      LeafPieces pieces =
-          surface_leaves_releasing_lists(r_.octree, r_.field, r_.geometry, *bvh_, surface_options);
+      LeafPieces pieces = surface_leaves_releasing_lists(r_.octree, r_.field, leaf_vertices_,
+                                                         r_.geometry, *bvh_, surface_options);
       r_.gvd = weld_gvd(std::move(pieces), r_.geometry, *bvh_, r_.domain, surface_options);
     }
     certifier_.reset();
@@ -386,6 +391,11 @@ class Computation {
   ContactPairs contacts_;
   std::optional<PairCertifier> certifier_;
   std::unique_ptr<ClosestPointSolver> solver_;
+  /// The leaves' simplices (from the octree's build, for the refinement) and boundary
+  /// vertices (from the distance transform, for the refinement and the surfacing): what the
+  /// stages hand on beside r_'s octree and field, freed as the last reader is done.
+  LeafSimplices leaf_simplices_;
+  LeafVertices leaf_vertices_;
   RefineLoopResult refined_;
   bool cones_dropped_ = false;
   bool any_skew_ = false;

@@ -4,6 +4,7 @@
 
 // The ambiguity test runs on the faces the surfacer walks (§5 is defined on them).
 #include "../surface/cell_faces.h"
+#include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/primitives.h"
 #include "gvd/octree/build_octree.h"
@@ -221,6 +222,13 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
   // +4 when at the limit.
   std::vector<uint8_t> flag(n, 0);
   const bool check_unseen = options.geometry != nullptr && options.bvh != nullptr;
+  const LeafVertices* rows = options.leaf_vertices != nullptr && options.leaf_vertices->covers(n)
+                                 ? options.leaf_vertices
+                                 : nullptr;
+  const LeafSimplices* inside_of =
+      options.leaf_simplices != nullptr && options.leaf_simplices->covers(n)
+          ? options.leaf_simplices
+          : nullptr;
   // (edge, leaf) pairs of the leaves whose bisectors still need the unseen test.
   const size_t grain = 1024;
   std::vector<std::vector<std::pair<uint64_t, uint32_t>>> edge_chunks((n + grain - 1) / grain + 1);
@@ -233,11 +241,12 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
           const uint32_t leaf = static_cast<uint32_t>(i);
           const ObjectId obj = octree.object[leaf];
           if (octree.is_certified(leaf)) continue;
-          if (!field.leaf_begin.empty()) {
+          if (rows != nullptr) {
             // From the leaf's row of vertices: an empty leaf seen by one object only (most
             // of them), or one that did not change, has nothing to check.
-            const uint32_t* vb = field.leaf_vertex.data() + field.leaf_begin[leaf];
-            const uint32_t* ve = field.leaf_vertex.data() + field.leaf_begin[leaf + 1];
+            const std::span<const uint32_t> row = rows->of(leaf);
+            const uint32_t* vb = row.data();
+            const uint32_t* ve = vb + row.size();
             bool changed = !options.changed_only, mixed = false;
             for (const uint32_t* v = vb; v != ve; ++v) {
               changed |= field.changed[*v] != 0;
@@ -245,20 +254,19 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
             }
             if (obj != kManyObjects && (!changed || (obj == kNoObject && !mixed))) continue;
           }
-          const LeafGrid grid = field.grid(octree, leaf);
+          const LeafGrid grid =
+              rows != nullptr ? rows->grid(octree, field.vertices, leaf) : field.grid(octree, leaf);
           if (options.changed_only && obj != kManyObjects) {
             bool changed = false;
             for (uint32_t v : grid) changed |= v != kNoVertex && field.changed[v];
             if (!changed) continue;
           }
           uint8_t f = 0;
-          if (obj == kManyObjects && options.geometry != nullptr && !octree.simplex_begin.empty()) {
+          if (obj == kManyObjects && options.geometry != nullptr && inside_of != nullptr) {
             // Several objects in an uncertified leaf above the depth limit (a sub-cell of a
             // certified cell that 2:1 balance split and whose own certificate failed): the
             // paper's rule splits it, unless only touching pairs meet there.
-            const std::span<const uint32_t> inside(
-                octree.simplex_index.data() + octree.simplex_begin[leaf],
-                octree.simplex_begin[leaf + 1] - octree.simplex_begin[leaf]);
+            const std::span<const uint32_t> inside = inside_of->of(leaf);
             if (!touching_only(*options.geometry, inside, octree.level[leaf], options.contacts,
                                options.contact_depth))
               f = 2;
@@ -355,13 +363,15 @@ RefineReport find_cells_to_refine(const Octree& octree, const DistanceField& fie
   return report;
 }
 
-SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& geometry,
-                                      const SimplexBvh& bvh, std::span<const uint32_t> leaves,
-                                      int threads, const ContactPairs* contacts, int contact_depth,
+SeparationPlan plan_separation_splits(const Octree& octree, const LeafSimplices& leaf_simplices,
+                                      const UnitGeometry& geometry, const SimplexBvh& bvh,
+                                      std::span<const uint32_t> leaves, int threads,
+                                      const ContactPairs* contacts, int contact_depth,
                                       const SplitOracle* oracle) {
   threads = resolve_threads(threads);
   const int dim = octree.dimension;
   const uint32_t nchildren = 1u << dim;
+  GVD_CHECK(leaf_simplices.covers(octree.leaf_count()), "plan_separation_splits: leaf simplices");
   std::vector<std::vector<CellRef>> per_leaf(leaves.size()), certified(leaves.size());
   parallel_for(
       leaves.size(), threads,
@@ -369,8 +379,8 @@ SeparationPlan plan_separation_splits(const Octree& octree, const UnitGeometry& 
         std::vector<std::pair<CellRef, std::vector<uint32_t>>> stack;
         for (size_t i = b; i < e; ++i) {
           const uint32_t leaf = leaves[i];
-          std::vector<uint32_t> list(octree.simplex_index.begin() + octree.simplex_begin[leaf],
-                                     octree.simplex_index.begin() + octree.simplex_begin[leaf + 1]);
+          const std::span<const uint32_t> row = leaf_simplices.of(leaf);
+          std::vector<uint32_t> list(row.begin(), row.end());
           stack.clear();
           stack.push_back({cell_of(octree, leaf), std::move(list)});
           while (!stack.empty()) {

@@ -35,7 +35,8 @@ std::vector<uint8_t> inherit_levels(const Octree& before, const Octree& after,
 
 }  // namespace
 
-RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
+RefineLoopResult refine_until_resolved(Octree& octree, LeafSimplices& simplices,
+                                       DistanceField& field, LeafVertices& leaf_vertices,
                                        const UnitGeometry& geometry, const SimplexBvh& bvh,
                                        const RefineLoopOptions& options) {
   const int dim = geometry.dimension;
@@ -54,6 +55,8 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
   find_options.bvh = &bvh;
   find_options.contacts = options.contacts;
   find_options.contact_depth = options.contact_depth;
+  find_options.leaf_simplices = &simplices;
+  find_options.leaf_vertices = &leaf_vertices;
   uint64_t ambiguity_seen = 0;  // ambiguous cells found by any pass
   int rounds = 0;
   for (;;) {
@@ -74,9 +77,9 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     }
     ++rounds;
     if (options.progress) options.progress(std::min(0.99, rounds / 8.0));
-    SeparationPlan plan = plan_separation_splits(octree, geometry, bvh, report.foreign_leaves,
-                                                 threads, options.contacts, options.contact_depth,
-                                                 options.octree.split_oracle);
+    SeparationPlan plan = plan_separation_splits(
+        octree, simplices, geometry, bvh, report.foreign_leaves, threads, options.contacts,
+        options.contact_depth, options.octree.split_oracle);
     std::vector<CellRef>& splits = plan.splits;
     // Ambiguous and unseen leaves are split two levels at once: that halves the rounds, and
     // the flagged leaves are few (in 2D junctions are points; in 3D only junction cells).
@@ -97,20 +100,27 @@ RefineLoopResult refine_until_resolved(Octree& octree, DistanceField& field,
     // MB) stays: rebuilding it cost ~3 ms a round on the maze, about a tenth of its time.
     const bool keep_index = field.vertices.indexed() && field.vertices.size() < kSmallVertexIndex;
     if (!keep_index) field.vertices.drop_index();
-    octree = refine_octree(previous, geometry, splits, options.octree, plan.certified);
+    {
+      LeafSimplices refined;
+      octree = refine_octree(previous, simplices, geometry, splits, options.octree, plan.certified,
+                             &refined);
+      // The replaced octree is only looked up from now on (its leaves pass their base levels
+      // on, and the distance update matches them, then frees it): its simplex lists go before
+      // the update, where the refinement's memory peaks.
+      simplices = std::move(refined);
+    }
     heap_checkpoint(octree.leaf_count());
-    // The replaced octree is only looked up from now on (its leaves pass their base levels
-    // on, and the distance update matches them, then frees it): its simplex lists go before
-    // the update, where the refinement's memory peaks.
     previous.keep_cells_only();
     base_level = inherit_levels(previous, octree, base_level);
     find_options.base_level = base_level;
     if (!keep_index) field.vertices.rebuild_index(threads);
-    DistanceField next = compute_distances(octree, geometry, bvh, options.distance,
-                                           std::move(field), std::move(previous));
+    DistanceOptions distance_options = options.distance;
+    distance_options.leaf_simplices = &simplices;
+    DistanceField next = compute_distances(octree, geometry, bvh, distance_options,
+                                           std::move(field), std::move(previous), leaf_vertices);
     field = std::move(next);
   }
-  sort_vertices(field, threads);  // incremental rounds appended vertices
+  sort_vertices(field, &leaf_vertices, threads);  // incremental rounds appended vertices
   // The last report holds the thin regions no round resolved (earlier ones were split).
   out.unseen_left = report.unseen_count;
   if (rounds > 0 && ambiguity_seen > 0) {

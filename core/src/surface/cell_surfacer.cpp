@@ -72,10 +72,12 @@ class CellSurfacer {
   /// objects (a regular array of equal parts ties eight at a corner); more keep the centroid.
   static constexpr int kMaxJunction = 8;
 
-  CellSurfacer(const Octree& octree, const DistanceField& field, const UnitGeometry& geometry,
-               const SimplexBvh& bvh, const SurfaceOptions& options)
+  /// `rows` (optional): the field's leaf vertices, read instead of key lookups.
+  CellSurfacer(const Octree& octree, const DistanceField& field, const LeafVertices* rows,
+               const UnitGeometry& geometry, const SimplexBvh& bvh, const SurfaceOptions& options)
       : octree_(octree),
         field_(field),
+        rows_(rows != nullptr && rows->covers(octree.leaf_count()) ? rows : nullptr),
         geometry_(geometry),
         bvh_(bvh),
         dim_(octree.dimension),
@@ -84,6 +86,12 @@ class CellSurfacer {
       any_extruded_ |= octree.certified[i] >= 2;
       any_cone_ |= cone_leaf(static_cast<uint32_t>(i));
     }
+  }
+
+  /// The LeafGrid of a leaf: from its row of the field's leaf vertices where there is one.
+  LeafGrid grid_of(uint32_t leaf) const {
+    return rows_ != nullptr ? rows_->grid(octree_, field_.vertices, leaf)
+                            : field_.grid(octree_, leaf);
   }
 
   // Eq. (1) places the bisector between the closest points of the edge's two ends, as if those
@@ -121,19 +129,20 @@ class CellSurfacer {
           std::fill(std::begin(recent), std::end(recent), ~0ull);
           for (size_t leaf = b; leaf < e; ++leaf) {
             bool mixed = false;
-            if (!field_.leaf_begin.empty()) {  // from the leaf's row: no grid to build
-              const uint32_t* vb = field_.leaf_vertex.data() + field_.leaf_begin[leaf];
-              const uint32_t* ve = field_.leaf_vertex.data() + field_.leaf_begin[leaf + 1];
+            if (rows_ != nullptr) {  // from the leaf's row: no grid to build
+              const std::span<const uint32_t> row = rows_->of(static_cast<uint32_t>(leaf));
+              const uint32_t* vb = row.data();
+              const uint32_t* ve = vb + row.size();
               for (const uint32_t* v = vb; v != ve; ++v)
                 mixed |= field_.label[*v] != field_.label[*vb];
             } else {
-              const LeafGrid grid = field_.grid(octree_, static_cast<uint32_t>(leaf));
+              const LeafGrid grid = grid_of(static_cast<uint32_t>(leaf));
               for (uint32_t v : grid)
                 mixed |= v != kNoVertex && field_.label[v] != field_.label[grid[0]];
             }
             if (!mixed && !doubles_.empty())
-              mixed = touches_double(static_cast<uint32_t>(leaf),
-                                     field_.grid(octree_, static_cast<uint32_t>(leaf)));
+              mixed =
+                  touches_double(static_cast<uint32_t>(leaf), grid_of(static_cast<uint32_t>(leaf)));
             bool on_domain = false;
             if (!mixed) {
               const lattice::Coord c = octree_.corner(static_cast<uint32_t>(leaf));
@@ -143,7 +152,7 @@ class CellSurfacer {
             if (mixed || on_domain) my_active.push_back(static_cast<uint32_t>(leaf));
             if (!mixed) continue;
             const bool certified = octree_.is_certified(static_cast<uint32_t>(leaf));
-            const LeafGrid grid = field_.grid(octree_, static_cast<uint32_t>(leaf));
+            const LeafGrid grid = grid_of(static_cast<uint32_t>(leaf));
             detail::for_each_face_polygon(
                 octree_, grid, static_cast<uint32_t>(leaf), [&](const detail::FacePolygon& poly) {
                   for (int i = 0; i < poly.n; ++i) {
@@ -202,7 +211,7 @@ class CellSurfacer {
           for (size_t i = b; i < e; ++i) {
             const uint32_t leaf = static_cast<uint32_t>(i);
             if (!extruded_leaf(leaf)) continue;
-            const LeafGrid grid = field_.grid(octree_, leaf);
+            const LeafGrid grid = grid_of(leaf);
             detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
               if (!traces(leaf, p.axis)) return;
               const PolygonGvd g = paired_polygon(leaf, p);
@@ -259,7 +268,7 @@ class CellSurfacer {
             bool twice = false;
             const unsigned axes = octree_.straddled_axes(leaf, &twice);
             if (axes == 0 || !twice) continue;
-            const LeafGrid grid = field_.grid(octree_, leaf);
+            const LeafGrid grid = grid_of(leaf);
             ObjectId pair[2] = {kNoObject, kNoObject};
             bool many = false;
             for (uint32_t v : grid) {
@@ -863,7 +872,7 @@ class CellSurfacer {
   }
 
   void cell(uint32_t leaf, std::vector<Piece>& pieces) const {
-    const LeafGrid grid = field_.grid(octree_, leaf);
+    const LeafGrid grid = grid_of(leaf);
     Sink out{pieces};
     bool mixed = false;
     const ObjectId first = field_.label[grid[0]];
@@ -1677,6 +1686,7 @@ class CellSurfacer {
 
   const Octree& octree_;
   const DistanceField& field_;
+  const LeafVertices* rows_;
   const UnitGeometry& geometry_;
   const SimplexBvh& bvh_;
   std::vector<Curve> curves_;
@@ -1702,24 +1712,25 @@ LeafPieces& LeafPieces::operator=(LeafPieces&&) noexcept = default;
 
 namespace {
 
-// surface_leaves; with `lists` (the field itself), the field's per-leaf vertex lists go as soon
-// as they are no longer read: the inactive leaves' once the active ones are known, the rest at
-// the end.
+// surface_leaves, reading the leaves' vertices from `rows` (optional); with `release`, the
+// rows go as soon as they are no longer read: the inactive leaves' once the active ones are
+// known, the rest at the end.
 std::vector<SurfaceChunk> surface_chunks(const Octree& octree, const DistanceField& field,
-                                         DistanceField* lists, const UnitGeometry& geometry,
-                                         const SimplexBvh& bvh, const SurfaceOptions& options) {
+                                         LeafVertices* rows, bool release,
+                                         const UnitGeometry& geometry, const SimplexBvh& bvh,
+                                         const SurfaceOptions& options) {
   const int threads = resolve_threads(options.threads);
   const size_t grain = 512;
   const int arity = octree.dimension == 2 ? 2 : 3;
   // Each leaf's pieces share most of their corners (the cone apex, the spokes): they are
   // deduplicated per leaf first, so the global pass in weld_gvd sorts distinct (point,
   // object, other) records of each leaf rather than every corner.
-  CellSurfacer surfacer(octree, field, geometry, bvh, options);
+  CellSurfacer surfacer(octree, field, rows, geometry, bvh, options);
   surfacer.prepare(threads);
   // Only the leaves that emit anything: those the GVD crosses and those on the domain box.
   const std::vector<uint32_t>& active = surfacer.active_leaves();
   // From here on only the active leaves' grids are read (cell() is called on them alone).
-  if (lists != nullptr) lists->keep_leaf_lists_of(active);
+  if (release && rows != nullptr) rows->keep_only(active);
   std::vector<SurfaceChunk> chunks;
   chunks.resize((active.size() + grain - 1) / grain + 1);
   // In batches of whole grains when someone watches the progress (about a twentieth each).
@@ -1755,7 +1766,7 @@ std::vector<SurfaceChunk> surface_chunks(const Octree& octree, const DistanceFie
     if (options.progress)
       options.progress(static_cast<double>(std::min(start + step, active.size())) / active.size());
   }
-  if (lists != nullptr) lists->drop_leaf_lists();
+  if (release && rows != nullptr) rows->release();
   return chunks;
 }
 
@@ -1766,16 +1777,16 @@ LeafPieces surface_leaves(const Octree& octree, const DistanceField& field,
                           const SurfaceOptions& options) {
   LeafPieces out;
   out.impl_ = std::make_unique<LeafPieces::Impl>();
-  out.impl_->chunks = surface_chunks(octree, field, nullptr, geometry, bvh, options);
+  out.impl_->chunks = surface_chunks(octree, field, nullptr, false, geometry, bvh, options);
   return out;
 }
 
-LeafPieces surface_leaves_releasing_lists(const Octree& octree, DistanceField& field,
-                                          const UnitGeometry& geometry, const SimplexBvh& bvh,
-                                          const SurfaceOptions& options) {
+LeafPieces surface_leaves_releasing_lists(const Octree& octree, const DistanceField& field,
+                                          LeafVertices& leaf_vertices, const UnitGeometry& geometry,
+                                          const SimplexBvh& bvh, const SurfaceOptions& options) {
   LeafPieces out;
   out.impl_ = std::make_unique<LeafPieces::Impl>();
-  out.impl_->chunks = surface_chunks(octree, field, &field, geometry, bvh, options);
+  out.impl_->chunks = surface_chunks(octree, field, &leaf_vertices, true, geometry, bvh, options);
   return out;
 }
 

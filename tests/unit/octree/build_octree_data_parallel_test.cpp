@@ -37,15 +37,16 @@ Case make_case(Scene scene) {
 // Same leaves as build_octree, with the same objects and simplices; returns the DP octree.
 Octree expect_same_as_cpu(const UnitGeometry& g, OctreeOptions o = {}) {
   o.threads = 2;
-  const Octree cpu = build_octree(g, o);
+  LeafSimplices cpu_simplices, dp_simplices;
+  const Octree cpu = build_octree(g, o, &cpu_simplices);
   DataParallelBuildStats stats;
-  const Octree dp = build_octree_data_parallel(g, o, nullptr, &stats);
+  const Octree dp = build_octree_data_parallel(g, o, nullptr, &stats, &dp_simplices);
   EXPECT_EQ(dp.code.size(), cpu.code.size());
   EXPECT_EQ(dp.code, cpu.code);
   EXPECT_EQ(dp.level, cpu.level);
   EXPECT_EQ(dp.object, cpu.object);
-  EXPECT_EQ(dp.simplex_begin, cpu.simplex_begin);
-  EXPECT_EQ(dp.simplex_index, cpu.simplex_index);
+  EXPECT_EQ(dp_simplices.begin, cpu_simplices.begin);
+  EXPECT_EQ(dp_simplices.index, cpu_simplices.index);
   EXPECT_EQ(dp.depth, cpu.depth);
   EXPECT_GE(stats.resolved_leaves, stats.vertex_octree_leaves - stats.conflict_cells);
   return dp;

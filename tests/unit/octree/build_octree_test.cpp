@@ -24,15 +24,16 @@ struct Built {
   Domain domain;
   UnitGeometry geometry;
   Octree octree;
+  LeafSimplices simplices;  ///< the build's, beside the octree
 };
 
 Built build(Scene scene, int max_depth = 0) {
-  Built b{std::move(scene), {}, {}, {}};
+  Built b{std::move(scene), {}, {}, {}, {}};
   b.domain = make_domain(b.scene);
   b.geometry = make_unit_geometry(b.scene, b.domain);
   OctreeOptions o;
   o.max_depth = max_depth;
-  b.octree = build_octree(b.geometry, o);
+  b.octree = build_octree(b.geometry, o, &b.simplices);
   return b;
 }
 
@@ -103,6 +104,7 @@ void expect_balanced(const Octree& t) {
 void expect_incidence_complete(const Built& b) {
   const Octree& t = b.octree;
   const UnitGeometry& g = b.geometry;
+  ASSERT_TRUE(b.simplices.covers(t.leaf_count()));
   for (uint32_t s = 0; s < g.simplices.size(); ++s) {
     const Simplex& x = g.simplices[s];
     for (int k = 0; k <= 10; ++k) {
@@ -115,8 +117,7 @@ void expect_incidence_complete(const Built& b) {
           continue;
         const uint32_t leaf = t.locate(p);
         bool found = false;
-        for (uint32_t q = t.simplex_begin[leaf]; q < t.simplex_begin[leaf + 1]; ++q)
-          found |= t.simplex_index[q] == s;
+        for (const uint32_t q : b.simplices.of(leaf)) found |= q == s;
         ASSERT_TRUE(found) << "simplex " << s << " missing from leaf " << leaf;
       }
     }
@@ -185,7 +186,7 @@ TEST(BuildOctree, ManyObjectsSharingCellsHitTheReferenceLimit) {
       objects.push_back(o);
     }
     Scene scene = test::make_scene(3, objects);
-    Built b{std::move(scene), {}, {}, {}};
+    Built b{std::move(scene), {}, {}, {}, {}};
     b.domain = make_domain(b.scene);
     b.geometry = make_unit_geometry(b.scene, b.domain);
     return b;
@@ -194,9 +195,10 @@ TEST(BuildOctree, ManyObjectsSharingCellsHitTheReferenceLimit) {
   o.max_depth = 5;
   o.max_leaves = 20000;
   Built two = tetrahedra(2);
-  const Octree small = build_octree(two.geometry, o);
+  LeafSimplices small_simplices;
+  const Octree small = build_octree(two.geometry, o, &small_simplices);
   EXPECT_LT(small.leaf_count(), o.max_leaves);
-  EXPECT_LE(small.simplex_index.size(), kReferencesPerLeaf * o.max_leaves);
+  EXPECT_LE(small_simplices.index.size(), kReferencesPerLeaf * o.max_leaves);
   Built many = tetrahedra(200);
   try {
     (void)build_octree(many.geometry, o);
@@ -224,7 +226,7 @@ TEST(BuildOctree, RefineSplitsAndRebalances) {
   const uint32_t leaf = b.octree.locate({0.5, 0.5, 0});
   const int before = b.octree.level[leaf];
   std::vector<CellRef> split{cell_of(b.octree, leaf)};
-  Octree r = refine_octree(b.octree, b.geometry, split);
+  Octree r = refine_octree(b.octree, b.simplices, b.geometry, split);
   EXPECT_EQ(r.level[r.locate({0.5, 0.5, 0})], before + 1);
   expect_tiles_domain(r);
   expect_balanced(r);
@@ -245,10 +247,11 @@ TEST(BuildOctree, ManyRefinementsStayBalancedTiledAndComplete) {
     CellRef deep = cell_of(b.octree, host);
     for (int k = 0; k < 3; ++k) deep = child_cell(dim, deep, (1u << dim) - 1);
     split.push_back(deep);
-    const Octree r = refine_octree(b.octree, b.geometry, split);
+    LeafSimplices simplices;
+    const Octree r = refine_octree(b.octree, b.simplices, b.geometry, split, {}, {}, &simplices);
     expect_tiles_domain(r);
     expect_balanced(r);
-    Built refined{b.scene, b.domain, b.geometry, r};
+    Built refined{b.scene, b.domain, b.geometry, r, std::move(simplices)};
     expect_incidence_complete(refined);
     for (const CellRef& c : split) {
       if (c.level >= r.max_depth) continue;
@@ -268,23 +271,24 @@ TEST(BuildOctree, RefinementIsTheSameOnOneAndTwoThreads) {
   OctreeOptions one, two;
   one.threads = 1;
   two.threads = 2;
-  const Octree r1 = refine_octree(b.octree, b.geometry, split, one);
-  const Octree r2 = refine_octree(b.octree, b.geometry, split, two);
+  LeafSimplices s1, s2;
+  const Octree r1 = refine_octree(b.octree, b.simplices, b.geometry, split, one, {}, &s1);
+  const Octree r2 = refine_octree(b.octree, b.simplices, b.geometry, split, two, {}, &s2);
   EXPECT_GT(r1.leaf_count(), b.octree.leaf_count());
   EXPECT_EQ(r1.code, r2.code);
   EXPECT_EQ(r1.level, r2.level);
   EXPECT_EQ(r1.object, r2.object);
-  EXPECT_EQ(r1.simplex_begin, r2.simplex_begin);
-  EXPECT_EQ(r1.simplex_index, r2.simplex_index);
+  EXPECT_EQ(s1.begin, s2.begin);
+  EXPECT_EQ(s1.index, s2.index);
   EXPECT_EQ(r1.depth, r2.depth);
   expect_tiles_domain(r2);
   expect_balanced(r2);
-  Built refined{b.scene, b.domain, b.geometry, r2};
+  Built refined{b.scene, b.domain, b.geometry, r2, std::move(s2)};
   expect_incidence_complete(refined);
   // The leaf limit holds during refinement too.
   two.max_leaves = b.octree.leaf_count() + 10;
   try {
-    refine_octree(b.octree, b.geometry, split, two);
+    refine_octree(b.octree, b.simplices, b.geometry, split, two);
     FAIL() << "expected a limit error";
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::kLimitExceeded);

@@ -7,7 +7,9 @@
 #include <functional>
 
 #include "gvd/distance/distance_field.h"
+#include "gvd/distance/leaf_vertices.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/octree/leaf_simplices.h"
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"
 
@@ -40,6 +42,9 @@ struct DistanceOptions {
   /// Computes the exact closest points in batches (the OpenCL kernel or the CPU twin of
   /// closest_points.h); null = SimplexBvh::nearest on `threads` threads. Same results.
   ClosestPointSolver* solver = nullptr;
+  /// kWavefront only, optional: the simplices of each leaf (the octree build's), whose
+  /// distances bound the search of the non-empty vertices' closest points.
+  const octree::LeafSimplices* leaf_simplices = nullptr;
   /// Optional: the fraction of the exact closest-point queries done, called from the calling
   /// thread between batches of them (for the progress display).
   std::function<void(double)> progress;
@@ -55,24 +60,34 @@ ClosestHit closest_for_vertex(const SimplexBvh& bvh, Vec3 position, double upper
 /// paper's Algorithm 1): exact closest points for every non-empty vertex (a vertex of a leaf
 /// that intersects an object), then a wavefront expansion in increasing distance that pushes
 /// closest points to visible vertices (vertices on the boundary of a common leaf),
-/// O(V log V) on a 2:1-balanced tree, serial.
-/// `previous` (optional) supplies exact points already computed for the same vertex keys.
-/// With `previous_octree` (the octree `previous` was computed on, which `octree` refines), the
-/// topology is updated incrementally: vertices keep their indices (new ones are appended, so
-/// keys are no longer sorted — see sort_vertices) and only changed leaves are looked up again.
+/// O(V log V) on a 2:1-balanced tree, serial. `lists` (optional) receives the boundary
+/// vertices of every leaf, which the refinement's checks, its next update and the surfacing
+/// read.
 DistanceField compute_distances(const octree::Octree& octree, const scene::UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options = {},
-                                const DistanceField* previous = nullptr,
-                                const octree::Octree* previous_octree = nullptr);
-/// The same update after a refinement, consuming `previous` (its vertex set moves into the new
-/// field instead of being copied) and `previous_octree` (freed once its leaves are matched);
-/// the result is the same.
+                                LeafVertices* lists = nullptr);
+/// The same after a refinement: `previous` supplies exact points already computed for the
+/// same vertex keys. With `previous_octree` (the octree `previous` was computed on, which
+/// `octree` refines) and `previous_lists` (its leaves' vertices), the topology is updated
+/// incrementally: vertices keep their indices (new ones are appended, so keys are no longer
+/// sorted — see sort_vertices) and only changed leaves are looked up again.
 DistanceField compute_distances(const octree::Octree& octree, const scene::UnitGeometry& geometry,
                                 const SimplexBvh& bvh, const DistanceOptions& options,
-                                DistanceField&& previous, octree::Octree&& previous_octree);
+                                const DistanceField& previous,
+                                const octree::Octree* previous_octree = nullptr,
+                                const LeafVertices* previous_lists = nullptr,
+                                LeafVertices* lists = nullptr);
+/// The incremental update, consuming `previous` (its vertex set moves into the new field
+/// instead of being copied), `previous_octree` (freed once its leaves are matched) and
+/// `lists`: in, previous's; out, the new field's, grown in place. The result is the same.
+DistanceField compute_distances(const octree::Octree& octree, const scene::UnitGeometry& geometry,
+                                const SimplexBvh& bvh, const DistanceOptions& options,
+                                DistanceField&& previous, octree::Octree&& previous_octree,
+                                LeafVertices& lists);
 
 /// Puts the vertices in key order (as a fresh compute_distances has them), permuting every
-/// per-vertex array and the leaf CSR. O(V), parallel on `threads` (0 = all cores).
-void sort_vertices(DistanceField& field, int threads = 0);
+/// per-vertex array and renumbering `lists` (optional; the field's leaves' vertices). O(V),
+/// parallel on `threads` (0 = all cores).
+void sort_vertices(DistanceField& field, LeafVertices* lists = nullptr, int threads = 0);
 
 }  // namespace gvd::distance

@@ -66,9 +66,9 @@ result::GvdResult load_result(const std::string& path);
 /// count that does not fit the section, a missing or duplicate section, or inconsistent data
 /// (array sizes that disagree, indices out of range, unsorted keys). Unknown sections are
 /// skipped. Results of another kAlgorithmVersion are loaded as they are (see
-/// read_result_header). Rebuilds the unit geometry (make_unit_geometry), the vertex index and
-/// an empty leaf -> simplex incidence: `octree.simplex_begin` is leaves + 1 zeros and
-/// `octree.simplex_index` is empty. O(size) plus the geometry mapping.
+/// read_result_header). Rebuilds the unit geometry (make_unit_geometry) and the vertex index
+/// (the leaves' simplex and vertex lists, acceleration data of the computation, are not
+/// stored). O(size) plus the geometry mapping.
 result::GvdResult load_result_bytes(std::span<const uint8_t> bytes);
 
 /// Reads and checks only the fixed header (magic and format version), e.g. to tell which

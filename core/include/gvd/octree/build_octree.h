@@ -10,6 +10,7 @@
 #include <span>
 #include <string>
 
+#include "gvd/octree/leaf_simplices.h"
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"
 
@@ -72,16 +73,22 @@ int resolve_max_depth(int dimension, int requested);
 /// until `max_depth`; then balanced so that leaves sharing a face, edge or corner differ by
 /// at most one level (so that surfacing stays watertight across level changes). Cell–simplex
 /// tests are conservative. Level-synchronous and parallel over cells;
-/// O(sum over levels of non-empty cells x simplices per cell).
-Octree build_octree(const scene::UnitGeometry& geometry, const OctreeOptions& options = {});
+/// O(sum over levels of non-empty cells x simplices per cell). `simplices` (optional)
+/// receives the simplices that touch each leaf, which refine_octree needs.
+Octree build_octree(const scene::UnitGeometry& geometry, const OctreeOptions& options = {},
+                    LeafSimplices* simplices = nullptr);
 
 /// Splits the given cells (existing leaves, or cells inside leaves, whose ancestors are then
 /// split too; cells at max_depth are ignored), re-balances and recomputes the leaf -> simplex
-/// incidence. Leaves inside a certified leaf stay certified; the leaves that end up inside one
-/// of `cells_to_certify` (cells at or below an existing leaf) are marked certified too. Used
-/// for ambiguity resolution (§5) and the separation guarantee.
-Octree refine_octree(const Octree& octree, const scene::UnitGeometry& geometry,
-                     std::span<const CellRef> cells_to_split, const OctreeOptions& options = {},
-                     std::span<const CellRef> cells_to_certify = {});
+/// incidence from `simplices` (the octree's, from its build): only the leaves that split are
+/// tested again. Leaves inside a certified leaf stay certified; the leaves that end up inside
+/// one of `cells_to_certify` (cells at or below an existing leaf) are marked certified too.
+/// `refined_simplices` (optional; not `simplices` itself) receives the new octree's lists.
+/// Used for ambiguity resolution (§5) and the separation guarantee.
+Octree refine_octree(const Octree& octree, const LeafSimplices& simplices,
+                     const scene::UnitGeometry& geometry, std::span<const CellRef> cells_to_split,
+                     const OctreeOptions& options = {},
+                     std::span<const CellRef> cells_to_certify = {},
+                     LeafSimplices* refined_simplices = nullptr);
 
 }  // namespace gvd::octree

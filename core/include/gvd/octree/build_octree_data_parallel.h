@@ -17,6 +17,15 @@
 
 namespace gvd::octree {
 
+/// The geometry in the layout of the steps' per-item functions (octree_build_item.h): points
+/// as GvdPoint, each simplex as three point indices (the third repeats in 2D). Made once here
+/// for the CPU twins and the OpenCL steps alike.
+struct ItemGeometry {
+  std::vector<item::GvdPoint> points;
+  std::vector<uint32_t> simplices;
+};
+ItemGeometry item_geometry(const scene::UnitGeometry& geometry);
+
 /// Rows of a compressed sparse table (begin has rows + 1 entries).
 struct CsrU32 {
   std::vector<uint32_t> begin{0};
@@ -93,18 +102,21 @@ struct DataParallelBuildStats {
 /// final tree from the contents of this conflict-free octree: SHOULD_SUBDIVIDE's buffer-cell rule
 /// (§3), the closure, the 2:1 balance and the leaf -> simplex incidence are the CPU build's (the
 /// draft gives no data-parallel form for them). Same leaves as build_octree. `steps` = null runs
-/// the CPU twins.
+/// the CPU twins. `simplices` (optional) receives the leaves' simplex lists, as build_octree's.
 Octree build_octree_data_parallel(const scene::UnitGeometry& geometry,
                                   const OctreeOptions& options = {},
                                   OctreeBuildSteps* steps = nullptr,
-                                  DataParallelBuildStats* stats = nullptr);
+                                  DataParallelBuildStats* stats = nullptr,
+                                  LeafSimplices* simplices = nullptr);
 
 /// The last steps of build_octree from a set of cells to split (SHOULD_SUBDIVIDE's outcome):
 /// the ancestors of every split cell, 2:1 balance over faces, edges and corners, and the
 /// leaves with their simplices; the leaves at or below a cell of `certified` are marked
-/// certified. Used by build_octree_data_parallel.
+/// certified; `simplices` (optional) receives the leaves' simplex lists. Used by
+/// build_octree_data_parallel.
 Octree octree_from_split_cells(const scene::UnitGeometry& geometry, std::span<const CellRef> split,
                                const OctreeOptions& options = {},
-                               std::span<const CellRef> certified = {});
+                               std::span<const CellRef> certified = {},
+                               LeafSimplices* simplices = nullptr);
 
 }  // namespace gvd::octree

@@ -130,7 +130,8 @@ inline CellVerdict cone_verdict(int axis, int mixed, bool twice) {
 /// A linear, 2:1-balanced octree (quadtree in 2D) over the unit domain. Leaves only, sorted
 /// by the Morton code of their lower corner (Z order), so point location is a binary search
 /// and neighbours are O(1) hash lookups of lattice keys. Every leaf knows which object it
-/// intersects (conservatively) and, for non-empty leaves, which simplices.
+/// intersects (conservatively); which simplices, the builds hand over beside it
+/// (leaf_simplices.h).
 struct Octree {
   int dimension = 3;
   int max_depth = 0;           ///< the depth limit used
@@ -145,10 +146,6 @@ struct Octree {
   /// skew cones, 42 ... 47 the wedges), so it may hold both objects and the GVD (refinement
   /// checks skip it). Empty after loading from disk.
   std::vector<uint8_t> certified;
-  /// Simplices intersecting each leaf (CSR: simplex_begin has leaves + 1 entries). Only the
-  /// refinement reads them: empty in compute_gvd's result and in a loaded one.
-  std::vector<uint32_t> simplex_begin;
-  std::vector<uint32_t> simplex_index;
 
   size_t leaf_count() const { return code.size(); }
   bool is_certified(uint32_t leaf) const { return !certified.empty() && certified[leaf] != 0; }
@@ -211,8 +208,6 @@ struct Octree {
   void keep_cells_only() {
     std::vector<scene::ObjectId>().swap(object);
     std::vector<uint8_t>().swap(certified);
-    std::vector<uint32_t>().swap(simplex_begin);
-    std::vector<uint32_t>().swap(simplex_index);
   }
 };
 

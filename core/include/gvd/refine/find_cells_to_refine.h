@@ -9,9 +9,11 @@
 #include <vector>
 
 #include "gvd/distance/distance_field.h"
+#include "gvd/distance/leaf_vertices.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/build_octree.h"
 #include "gvd/octree/contacts.h"
+#include "gvd/octree/leaf_simplices.h"
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"
 
@@ -63,6 +65,11 @@ struct RefineOptions {
   /// other below `contact_depth` (they cannot be separated there).
   const octree::ContactPairs* contacts = nullptr;
   int contact_depth = 0;
+  /// Optional: the octree's leaf simplices (with `geometry`, a leaf holding several objects
+  /// is split unless only touching pairs meet there) and the field's leaf vertices (read
+  /// instead of looking the vertices up by key).
+  const octree::LeafSimplices* leaf_simplices = nullptr;
+  const distance::LeafVertices* leaf_vertices = nullptr;
 };
 RefineReport find_cells_to_refine(const octree::Octree& octree,
                                   const distance::DistanceField& field,
@@ -79,6 +86,7 @@ struct SeparationPlan {
   std::vector<octree::CellRef> certified;
 };
 SeparationPlan plan_separation_splits(const octree::Octree& octree,
+                                      const octree::LeafSimplices& simplices,
                                       const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
                                       std::span<const uint32_t> leaves, int threads = 0,
                                       const octree::ContactPairs* contacts = nullptr,

@@ -11,9 +11,11 @@
 
 #include "gvd/distance/compute_distances.h"
 #include "gvd/distance/distance_field.h"
+#include "gvd/distance/leaf_vertices.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/build_octree.h"
 #include "gvd/octree/contacts.h"
+#include "gvd/octree/leaf_simplices.h"
 #include "gvd/octree/octree.h"
 #include "gvd/refine/pair_certificate.h"
 #include "gvd/scene/scene.h"
@@ -53,9 +55,13 @@ struct RefineLoopResult {
   bool cones_unsettled = false;     ///< given up after cone_rounds rounds (cone_certifier)
 };
 
-/// Refines `octree` and `field` (its distance field, updated in place) until no leaf must be
-/// split or the round limits are reached; the field's vertices end in key order.
-RefineLoopResult refine_until_resolved(octree::Octree& octree, distance::DistanceField& field,
+/// Refines `octree` and `field` (its distance field), with the leaves' simplices and vertices
+/// the octree build and the distance transform handed over beside them, all updated in place,
+/// until no leaf must be split or the round limits are reached; the field's vertices end in
+/// key order.
+RefineLoopResult refine_until_resolved(octree::Octree& octree, octree::LeafSimplices& simplices,
+                                       distance::DistanceField& field,
+                                       distance::LeafVertices& leaf_vertices,
                                        const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
                                        const RefineLoopOptions& options);
 

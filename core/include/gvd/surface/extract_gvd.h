@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "gvd/distance/distance_field.h"
+#include "gvd/distance/leaf_vertices.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/octree/octree.h"
 #include "gvd/scene/scene.h"
@@ -46,7 +47,7 @@ Gvd extract_gvd(const octree::Octree& octree, const distance::DistanceField& fie
                 const scene::Domain& domain, const SurfaceOptions& options = {});
 
 /// extract_gvd in two halves, so that a caller can free between them what only the first
-/// needs (the field's per-leaf vertex lists): memory peaks in the second, where the pieces
+/// needs (the leaves' vertex lists): memory peaks in the second, where the pieces
 /// of all leaves are welded into shared vertices. `surface_leaves` surfaces every leaf;
 /// `weld_gvd` merges equal corners, measures the clearances and writes the cells, and needs
 /// nothing of the field. The result is extract_gvd's.
@@ -63,7 +64,9 @@ class LeafPieces {
   friend LeafPieces surface_leaves(const octree::Octree&, const distance::DistanceField&,
                                    const scene::UnitGeometry&, const SimplexBvh&,
                                    const SurfaceOptions&);
-  friend LeafPieces surface_leaves_releasing_lists(const octree::Octree&, distance::DistanceField&,
+  friend LeafPieces surface_leaves_releasing_lists(const octree::Octree&,
+                                                   const distance::DistanceField&,
+                                                   distance::LeafVertices&,
                                                    const scene::UnitGeometry&, const SimplexBvh&,
                                                    const SurfaceOptions&);
   friend Gvd weld_gvd(LeafPieces&&, const scene::UnitGeometry&, const SimplexBvh&,
@@ -72,13 +75,14 @@ class LeafPieces {
 LeafPieces surface_leaves(const octree::Octree& octree, const distance::DistanceField& field,
                           const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
                           const SurfaceOptions& options = {});
-/// surface_leaves, and `field` gives up its per-leaf vertex lists as soon as surfacing no longer
-/// reads them: those of the leaves that emit nothing (on the spheres, four in five) once the
-/// others are known, the rest at the end (the field then looks vertices up by key, as one
-/// loaded from disk does). The lists beside the pieces are what memory peaks on at the end
-/// of surfacing. The pieces are surface_leaves'.
+/// surface_leaves reading each leaf's vertices from `leaf_vertices` (the distance transform's
+/// lists for `field`) rather than by key, which give up their rows as soon as surfacing no
+/// longer reads them: those of the leaves that emit nothing (on the spheres, four in five) once
+/// the others are known, the rest at the end. The lists beside the pieces are what memory
+/// peaks on at the end of surfacing. The pieces are surface_leaves'.
 LeafPieces surface_leaves_releasing_lists(const octree::Octree& octree,
-                                          distance::DistanceField& field,
+                                          const distance::DistanceField& field,
+                                          distance::LeafVertices& leaf_vertices,
                                           const scene::UnitGeometry& geometry,
                                           const SimplexBvh& bvh,
                                           const SurfaceOptions& options = {});
