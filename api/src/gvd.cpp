@@ -354,6 +354,7 @@ std::vector<Contact> Result::contacts(double max_gap) const {
     o.on_b = array(c.on_b);
     o.interference = c.interference;
     o.depth_lower_bound = c.depth_lower_bound;
+    o.penetration_depth = c.penetration_depth;
     o.interface_area = c.interface_area;
     for (const gvd::query::ContactSite& s : c.sites)
       o.sites.push_back({s.area, array(s.centroid), s.min_gap, array(s.on_a), array(s.on_b)});

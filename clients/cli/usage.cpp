@@ -54,7 +54,8 @@ constexpr Synopsis kSynopses[] = {
     {"contacts",
      R"(  gvd contacts INPUT --max-gap G   object pairs closer than G (and every pair that touches or
                                    intersects): exact gap, closest points, interface area,
-                                   contact sites
+                                   contact sites; intersecting pairs' penetration depth
+                                   (exact where both objects are convex)
 )"},
     {"grid",
      R"(  gvd grid SCENE --resolution N (-o FIELD.npy | --labels LABELS.npy) [grid options]

@@ -357,6 +357,8 @@ py::list contacts(const api::Result& r, double max_gap) {
     d["interference"] = c.interference;
     d["depth_lower_bound"] = c.depth_lower_bound < 0 ? py::object(py::none())
                                                      : py::object(py::float_(c.depth_lower_bound));
+    d["penetration_depth"] = c.penetration_depth < 0 ? py::object(py::none())
+                                                     : py::object(py::float_(c.penetration_depth));
     d["interface_area"] = c.interface_area;
     d["sites"] = sites;
     out.append(d);
@@ -667,7 +669,8 @@ add fields.)doc")
            "Every pair of objects whose gap is below max_gap, and every pair that touches or "
            "intersects, sorted by gap (`gvd contacts`): a list of dicts with a, label_a, b, "
            "label_b, gap (exact, from the meshes), on_a, on_b (closest points), interference, "
-           "depth_lower_bound (None unless computable), interface_area (of the GVD between "
+           "depth_lower_bound (None unless computable), penetration_depth (exact where both "
+           "objects are convex, else None), interface_area (of the GVD between "
            "them) and sites (connected regions of that interface below the bound: area, "
            "centroid, min_gap, on_a, on_b).")
       .def(

@@ -141,7 +141,7 @@ class CliParity(unittest.TestCase):
                 self.assertGreater(len(mine), 0)
                 for m, c in zip(mine, doc["contacts"]):
                     for key in ("a", "b", "label_a", "label_b", "gap", "interference",
-                                "depth_lower_bound", "interface_area"):
+                                "depth_lower_bound", "penetration_depth", "interface_area"):
                         self.assertEqual(m[key], c[key], key)
                     self.assertEqual(m["on_a"].tolist(), c["on_a"])
                     self.assertEqual(len(m["sites"]), len(c["sites"]))

@@ -224,6 +224,10 @@ struct Contact {
   /// With interference: the deepest vertex of either object inside the other (closed)
   /// object, to its surface: a lower bound of the penetration depth; < 0: not computable.
   double depth_lower_bound = -1;
+  /// With interference, where both objects are convex (closed, one part, convex at every
+  /// edge): the penetration depth, the length of the shortest translation that separates
+  /// them, exact; < 0 otherwise (or for pairs too large to measure).
+  double penetration_depth = -1;
   double interface_area = 0;  ///< of their GVD interface (2D: length); 0 when cells do not meet
   std::vector<ContactSite> sites;  ///< largest first
 };

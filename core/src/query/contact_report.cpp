@@ -1,5 +1,6 @@
 // find_contacts: pairs closer than a bound (bounding-box sweep, then exact BVH distances), the
-// interference depth of pairs that meet, and the sites of their GVD interface below the bound.
+// interference depth of pairs that meet (exact for convex pairs: penetration_depth.h), and the
+// sites of their GVD interface below the bound.
 #include "gvd/query/contact_report.h"
 
 #include <algorithm>
@@ -7,12 +8,14 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numeric>
+#include <optional>
 #include <tuple>
 #include <unordered_map>
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/query/penetration_depth.h"
 
 namespace gvd::query {
 
@@ -353,6 +356,27 @@ std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap, size_t
     contact_of[(static_cast<uint64_t>(out[i].a) << 32) | out[i].b] = i;
     involved[out[i].a] = 1;
   }
+  // The convex shapes of the objects that interfere, each found once.
+  std::vector<ObjectId> interfering;
+  for (const Contact& c : out) {
+    if (!c.interference) continue;
+    interfering.push_back(c.a);
+    interfering.push_back(c.b);
+  }
+  std::sort(interfering.begin(), interfering.end());
+  interfering.erase(std::unique(interfering.begin(), interfering.end()), interfering.end());
+  std::vector<std::optional<ConvexShape>> shapes(interfering.size());
+  parallel_for(
+      interfering.size(), threads,
+      [&](size_t b, size_t e, int) {
+        for (size_t i = b; i < e; ++i)
+          shapes[i] = ConvexShape::of(r.scene.objects[interfering[i]], r.scene.dimension);
+      },
+      1);
+  auto shape_of = [&](ObjectId o) -> const std::optional<ConvexShape>& {
+    return shapes[std::lower_bound(interfering.begin(), interfering.end(), o) -
+                  interfering.begin()];
+  };
   std::vector<std::vector<uint32_t>> pieces(out.size());
   const size_t arity = r.scene.dimension == 2 ? 2 : 3;
   for (ObjectId a = 0; a < r.gvd.cells.size(); ++a) {
@@ -380,6 +404,11 @@ std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap, size_t
           if (c.interference) {
             c.depth_lower_bound = std::max(deepest_vertex_inside(index, c.a, c.b),
                                            deepest_vertex_inside(index, c.b, c.a));
+            const std::optional<ConvexShape>&sa = shape_of(c.a), &sb = shape_of(c.b);
+            if (sa && sb) {
+              const auto penetration = ConvexShape::penetration(*sa, *sb);
+              if (penetration) c.penetration_depth = penetration->depth;
+            }
           }
           find_sites(index, pieces[i], 0.5 * max_gap, c);
         }
@@ -415,6 +444,7 @@ std::string contacts_to_json(const GvdIndex& index, double max_gap,
          {"on_b", point_json(c.on_b, dim)},
          {"interference", c.interference},
          {"depth_lower_bound", c.depth_lower_bound < 0 ? json(nullptr) : json(c.depth_lower_bound)},
+         {"penetration_depth", c.penetration_depth < 0 ? json(nullptr) : json(c.penetration_depth)},
          {"interface_area", c.interface_area},
          {"sites", std::move(sites)}});
   }

@@ -198,7 +198,41 @@ TEST(Contacts, InterferenceReportsGapZeroAndTheDeepestVertex) {
   EXPECT_EQ(contacts[0].gap, 0);
   EXPECT_TRUE(contacts[0].interference);
   EXPECT_NEAR(contacts[0].depth_lower_bound, 0.1, 1e-9);
+  // Both are convex: the penetration depth, exactly (b moved 0.1 along +x leaves a).
+  EXPECT_NEAR(contacts[0].penetration_depth, 0.1, 1e-12);
   expect_pairs_match_brute_force(index, 0.6, find_contacts(index, 0.6), brute_gaps(result->scene));
+}
+
+// A sphere sunk into a box's corner, and a box pushed into a dented one (a corner pushed in:
+// not convex): the convex pair has its penetration depth, never below its deepest vertex and
+// never above the true sphere's; the other none.
+TEST(Contacts, PenetrationDepthOfConvexPairsOnly) {
+  SceneObject dented = test::make_box("dented", {3, 0, 0}, {4, 1, 1});
+  dented.vertices[7] = {3.7, 0.7, 0.7};
+  const auto result = run(test::make_scene(
+      3, {test::make_box("a", {0, 0, 0}, {1, 1, 1}), test::make_sphere("s", {1.1, 1.1, 1.1}, 0.3),
+          std::move(dented), test::make_box("b", {3.65, 0.6, 0.6}, {3.9, 0.9, 0.9})}));
+  const GvdIndex index(result);
+  const std::vector<Contact> contacts = find_contacts(index, 0.0);
+  ASSERT_EQ(contacts.size(), 2u);
+  for (const Contact& c : contacts) {
+    ASSERT_TRUE(c.interference);
+    if (c.a == 0) {
+      // The true sphere (radius 0.3, centre 0.1 outside each of the corner's three faces)
+      // leaves the box along the diagonal after 0.3 - 0.1 sqrt(3); the faceted one, inside
+      // it, after a little less.
+      EXPECT_EQ(c.b, 1u);
+      EXPECT_GT(c.penetration_depth, 0.1);
+      EXPECT_LE(c.penetration_depth, 0.3 - 0.1 * std::sqrt(3.0) + 1e-12);
+      EXPECT_GE(c.penetration_depth, c.depth_lower_bound - 1e-12);
+    } else {
+      EXPECT_EQ(c.a, 2u);
+      EXPECT_LT(c.penetration_depth, 0) << "the dented box is not convex";
+    }
+  }
+  const auto doc = nlohmann::json::parse(contacts_to_json(index, 0.0, contacts));
+  for (const auto& c : doc["contacts"])
+    EXPECT_EQ(c["penetration_depth"].is_null(), c["a"] == 2) << c.dump();
 }
 
 // A wall between two boxes: they are closer than the bound but their cells do not meet.
@@ -230,6 +264,7 @@ TEST(Contacts, JsonAndBadBounds) {
   EXPECT_EQ(doc["contacts"][0]["label_b"], "b");
   EXPECT_NEAR(doc["contacts"][0]["gap"].get<double>(), 0.1, 1e-12);
   EXPECT_TRUE(doc["contacts"][0]["depth_lower_bound"].is_null());
+  EXPECT_TRUE(doc["contacts"][0]["penetration_depth"].is_null());
   EXPECT_EQ(doc["contacts"][0]["on_a"].size(), 2u);
   EXPECT_THROW(find_contacts(index, -1), Error);
   // More candidate pairs than allowed: a limit error before any distance is measured.

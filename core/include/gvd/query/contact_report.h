@@ -43,6 +43,11 @@ struct Contact {
   /// point of the overlap need not be a vertex); < 0 when not computable (neither object is
   /// closed) or no vertex lies inside.
   double depth_lower_bound = -1;
+  /// With interference, where both objects are convex (ConvexShape, penetration_depth.h): the
+  /// penetration depth, the length of the shortest translation of one that leaves their
+  /// interiors disjoint (0 when they only touch), exact. < 0 when either object is not convex
+  /// or the pair is larger than kPenetrationBudget allows. Never below depth_lower_bound.
+  double penetration_depth = -1;
   /// The GVD interface between them (area in 3D, length in 2D; 0 when their cells do not
   /// meet, e.g. a third object lies between them).
   double interface_area = 0;
@@ -61,8 +66,9 @@ std::vector<Contact> find_contacts(const GvdIndex& index, double max_gap,
                                    size_t max_candidates = kMaxContactCandidates);
 
 /// {"max_gap":G,"contacts":[{"a","label_a","b","label_b","gap","on_a","on_b","interference",
-/// "depth_lower_bound" (null when < 0),"interface_area","sites":[{"area","centroid","min_gap",
-/// "on_a","on_b"}]}]} (docs/FORMATS.md), and "units" when the scene declares them.
+/// "depth_lower_bound", "penetration_depth" (each null when <
+/// 0),"interface_area","sites":[{"area","centroid","min_gap", "on_a","on_b"}]}]} (docs/FORMATS.md),
+/// and "units" when the scene declares them.
 std::string contacts_to_json(const GvdIndex& index, double max_gap,
                              const std::vector<Contact>& contacts);
 
