@@ -57,6 +57,12 @@ std::optional<ConvexShape> ConvexShape::of(const SceneObject& object, int dimens
       }
     }
   }
+  // The last check takes faces times vertices: a larger object is over the budget at once,
+  // before anything else is spent on it (a neuron of a million triangles, say).
+  if (static_cast<double>(m) * static_cast<double>(used.size()) > static_cast<double>(budget)) {
+    said = Verdict::kOverBudget;
+    return std::nullopt;
+  }
   Box box;
   for (uint32_t v : used) {
     box.extend(object.vertices[v]);
@@ -181,11 +187,6 @@ std::optional<ConvexShape> ConvexShape::of(const SceneObject& object, int dimens
     }
   }
   // Every vertex on or behind every face.
-  if (static_cast<double>(s.normal_.size()) * static_cast<double>(n) >
-      static_cast<double>(budget)) {
-    said = Verdict::kOverBudget;
-    return std::nullopt;
-  }
   for (size_t f = 0; f < s.normal_.size(); ++f)
     for (const Vec3& p : s.points_)
       if (dot(s.normal_[f], p) - s.offset_[f] > eps) return std::nullopt;
