@@ -14,6 +14,7 @@
 
 #include "gvd/common/error.h"
 #include "gvd/common/parallel.h"
+#include "gvd/common/union_find.h"
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/query/penetration_depth.h"
 
@@ -210,13 +211,7 @@ void find_sites(const GvdIndex& index, const std::vector<uint32_t>& pieces, doub
     return std::sqrt(hit.dist2) * r.domain.side;
   };
   const BelowBound<decltype(clearance)> below(t, clearance);
-  std::vector<uint32_t> parent(pieces.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto find = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  auto unite = [&](uint32_t x, uint32_t y) { parent[find(x)] = find(y); };
+  UnionFind parts(pieces.size());
   // The first piece at each vertex below t, and at each edge (its ends, in order) that has a
   // point below t (2D pieces meet at vertices only).
   std::unordered_map<Vec3, uint32_t, PositionHash>
@@ -245,7 +240,7 @@ void find_sites(const GvdIndex& index, const std::vector<uint32_t>& pieces, doub
     for (int k = 0; k < n; ++k) {
       if (!(c[k] < t)) continue;
       const auto [it, added] = at_vertex.try_emplace(p[k], i);
-      if (!added) unite(i, it->second);
+      if (!added) parts.unite(i, it->second);
     }
     if (n == 2) continue;
     for (int k = 0; k < 3; ++k) {
@@ -256,7 +251,7 @@ void find_sites(const GvdIndex& index, const std::vector<uint32_t>& pieces, doub
       if (added) {
         it->second.second = below.edge(p[k], p[j], c[k], c[j]);
       } else if (it->second.second) {
-        unite(i, it->second.first);
+        parts.unite(i, it->second.first);
       }
     }
   }
@@ -265,7 +260,7 @@ void find_sites(const GvdIndex& index, const std::vector<uint32_t>& pieces, doub
   std::vector<std::vector<std::pair<double, Vec3>>> low;
   for (uint32_t i = 0; i < pieces.size(); ++i) {
     if (!(part[i].measure > 0)) continue;
-    const auto [it, added] = site_of.try_emplace(find(i), contact.sites.size());
+    const auto [it, added] = site_of.try_emplace(parts.find(i), contact.sites.size());
     if (added) {
       contact.sites.emplace_back();
       low.emplace_back();

@@ -5,24 +5,14 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <numeric>
+
+#include "gvd/common/union_find.h"
 
 namespace gvd::query {
 
 using namespace gvd::scene;
 
 namespace {
-
-/// Roots of a union-find over n items.
-struct Parts {
-  std::vector<uint32_t> parent;
-  explicit Parts(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-  uint32_t root(uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void join(uint32_t x, uint32_t y) { parent[root(x)] = root(y); }
-};
 
 /// Whether the arcs a-b and c-d (each shorter than a half circle) cross on the unit sphere;
 /// bxa = cross(b, a), dxc = cross(d, c). The arcs cross where both planes' signs change and
@@ -46,7 +36,6 @@ std::optional<ConvexShape> ConvexShape::of(const SceneObject& object, int dimens
   // The vertices the simplices use, renumbered.
   std::vector<uint32_t> index(object.vertices.size(), ~0u);
   ConvexShape s;
-  s.dimension_ = dimension;
   std::vector<uint32_t> used;
   for (const Simplex& t : object.simplices) {
     for (int k = 0; k < arity; ++k) {
@@ -143,15 +132,15 @@ std::optional<ConvexShape> ConvexShape::of(const SceneObject& object, int dimens
       return x.edge != y.edge ? x.edge < y.edge : x.triangle < y.triangle;
     });
     if (sides.size() % 2 != 0) return std::nullopt;
-    Parts parts(m);
+    UnionFind parts(m);
     for (size_t i = 0; i < sides.size(); i += 2) {
       const Side &x = sides[i], &y = sides[i + 1];
       if (x.edge != y.edge || x.forward == y.forward) return std::nullopt;
       if (i + 2 < sides.size() && sides[i + 2].edge == x.edge) return std::nullopt;
-      parts.join(x.triangle, y.triangle);
+      parts.unite(x.triangle, y.triangle);
     }
     for (uint32_t t = 0; t < m; ++t)
-      if (parts.root(t) != parts.root(0)) return std::nullopt;
+      if (parts.find(t) != parts.find(0)) return std::nullopt;
     // Outward normals: the orientation whose enclosed volume is positive.
     double volume6 = 0;
     std::vector<Vec3> normal(m);

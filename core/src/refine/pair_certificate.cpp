@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "gvd/common/cancel.h"
+#include "gvd/common/union_find.h"
 #include "gvd/geometry/primitives.h"
 
 namespace gvd::refine {
@@ -351,16 +352,11 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   // inside an even number of the object's other shells (an outer skin, an island in a
   // cavity), negative inside an odd number (a cavity) — all of them, or all the opposite.
   poll();
-  std::vector<uint32_t> parent(geometry.simplices.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto root = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
+  UnionFind shell_of(geometry.simplices.size());
   for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
     for (int e = 0; e < 3; ++e) {
       const uint32_t u = across_[s * 3 + e];
-      if (u != kOpen && u != kNonManifold) parent[root(s)] = root(u);
+      if (u != kOpen && u != kNonManifold) shell_of.unite(s, u);
     }
   }
   // Per object, its shells' roots and volumes (few per object: past kMaxShells, none is
@@ -374,7 +370,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
     const ObjectId o = geometry.object_of[s];
     if (o >= objects || !closed[o]) continue;
-    const uint32_t r = root(s);
+    const uint32_t r = shell_of.find(s);
     std::vector<Shell>& list = shells[o];
     auto it = std::find_if(list.begin(), list.end(), [&](const Shell& h) { return h.root == r; });
     if (it == list.end()) {
@@ -399,7 +395,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   auto inside = [&](ObjectId o, uint32_t inner, uint32_t outer) {
     Vec3 p;
     for (uint32_t s : of_object[o]) {
-      if (root(s) == inner) {
+      if (shell_of.find(s) == inner) {
         p = pts[geometry.simplices[s].v[0]];
         break;
       }
@@ -408,7 +404,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
         Vec3{0.5773502691896258, 0.5773502691896257, 0.5773502691896259} + Vec3{1e-3, -2e-3, 7e-4};
     int crossings = 0;
     for (uint32_t s : of_object[o]) {
-      if (root(s) != outer) continue;
+      if (shell_of.find(s) != outer) continue;
       const Simplex& t = geometry.simplices[s];
       const Vec3 a = pts[t.v[0]], e1 = pts[t.v[1]] - a, e2 = pts[t.v[2]] - a;
       const Vec3 h = cross(d, e2);

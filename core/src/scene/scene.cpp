@@ -10,6 +10,7 @@
 
 #include "gvd/common/cancel.h"
 #include "gvd/common/error.h"
+#include "gvd/common/union_find.h"
 
 namespace gvd::scene {
 
@@ -68,19 +69,6 @@ bool is_degenerate(const SceneObject& object, const Simplex& s, int dimension) {
   const double longest = std::max({norm2(a), norm2(b), dist2(a, b)});
   return norm(cross(a, b)) <= kDegenerateTolerance * longest;
 }
-
-struct UnionFind {
-  std::vector<uint32_t> parent;
-  explicit UnionFind(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-  uint32_t find(uint32_t x) {
-    while (parent[x] != x) {
-      parent[x] = parent[parent[x]];
-      x = parent[x];
-    }
-    return x;
-  }
-  void unite(uint32_t a, uint32_t b) { parent[find(a)] = find(b); }
-};
 
 }  // namespace
 

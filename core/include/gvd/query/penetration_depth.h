@@ -57,7 +57,6 @@ class ConvexShape {
     Vec3 n1, n2;     ///< outward unit normals of its two faces
     Vec3 arc;        ///< cross(n2, n1): the plane of its arc on the Gauss map
   };
-  int dimension_ = 3;
   Vec3 centre_;
   std::vector<Vec3> points_;    ///< the vertices the faces use, relative to the centre
   std::vector<Vec3> normal_;    ///< per face: outward unit normal
