@@ -76,9 +76,16 @@ std::map<std::string, Run>& results() {
   return r;
 }
 
-const Scene& lattice() {
-  static const Scene s = make_sphere_lattice();
-  return s;
+// The lattices measured: as drawn (scale 1) and twice the size (scale 2), built once each.
+const Scene& lattice(int scale) {
+  static std::map<int, Scene> built;
+  auto it = built.find(scale);
+  if (it == built.end()) it = built.emplace(scale, make_sphere_lattice(scale)).first;
+  return it->second;
+}
+
+std::string run_name(const char* side, int scale) {
+  return std::string(side) + " x" + std::to_string(scale);
 }
 
 // Runs `work` (which fills items and seconds, or throws) in a child process and returns what
@@ -141,7 +148,8 @@ void report(benchmark::State& state, const std::string& name, const Run& run,
 }
 
 void BM_SphereLatticeGvd(benchmark::State& state) {
-  const Scene& scene = lattice();
+  const int scale = static_cast<int>(state.range(0));
+  const Scene& scene = lattice(scale);
   for (auto _ : state) {
     const Run run = run_alone([&](Run& r) {
       Stopwatch sw;
@@ -150,13 +158,14 @@ void BM_SphereLatticeGvd(benchmark::State& state) {
       r.items = compute_gvd(scene, o).stats.leaves;
       r.seconds = sw.seconds();
     });
-    report(state, "gvd", run, "leaves");
+    report(state, run_name("gvd", scale), run, "leaves");
   }
 }
 
 #ifdef GVD_BENCH_OPENVDB
 void BM_SphereLatticeOpenVdb(benchmark::State& state) {
-  const Scene& scene = lattice();
+  const int scale = static_cast<int>(state.range(0));
+  const Scene& scene = lattice(scale);
   constexpr double kVoxel = 0.02;
   constexpr float kBand = 15.0f;
   // Points in index space (the adapter's contract), all objects in one mesh; made before the
@@ -184,7 +193,7 @@ void BM_SphereLatticeOpenVdb(benchmark::State& state) {
       r.seconds = sw.seconds();
       r.items = grid->activeVoxelCount();
     });
-    report(state, "openvdb", run, "active_voxels");
+    report(state, run_name("openvdb", scale), run, "active_voxels");
   }
 }
 #endif
@@ -201,7 +210,7 @@ bool reset_peak_rss() {
 
 double peak_rss_mib() { return static_cast<double>(peak_rss_bytes()) / 1048576.0; }
 
-Scene make_sphere_lattice() {
+Scene make_sphere_lattice(double scale) {
   Scene s;
   s.dimension = 3;
   for (int k = 0; k < 4; ++k)
@@ -209,18 +218,25 @@ Scene make_sphere_lattice() {
       for (int i = 0; i < 4; ++i) {
         const std::string label =
             "sphere_" + std::to_string(i) + "_" + std::to_string(j) + "_" + std::to_string(k);
-        s.objects.push_back(icosphere(label, Vec3{double(i), double(j), double(k)}, 0.45, 4));
+        s.objects.push_back(
+            icosphere(label, Vec3{double(i), double(j), double(k)} * scale, 0.45 * scale, 4));
       }
   return s;
 }
 
 void register_sphere_lattice_benchmarks() {
   benchmark::RegisterBenchmark("BM_SphereLattice/gvd", BM_SphereLatticeGvd)
+      ->ArgName("scale")
+      ->Arg(1)
+      ->Arg(2)
       ->Iterations(1)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
 #ifdef GVD_BENCH_OPENVDB
   benchmark::RegisterBenchmark("BM_SphereLattice/openvdb_mesh_to_volume", BM_SphereLatticeOpenVdb)
+      ->ArgName("scale")
+      ->Arg(1)
+      ->Arg(2)
       ->Iterations(1)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
@@ -233,43 +249,49 @@ void print_sphere_lattice_summary() {
   std::printf(
       "\n== 64-sphere lattice (4x4x4 icospheres, 327,680 triangles): peak memory beside "
       "OpenVDB ==\n");
-  const auto gvd = r.find("gvd");
-  if (gvd != r.end()) {
-    if (gvd->second.error.empty()) {
-      std::printf("gvd:     %8.1f MiB peak, %.2f s, %llu leaves (%.0f B/leaf)\n",
-                  gvd->second.peak_mib, gvd->second.seconds,
-                  static_cast<unsigned long long>(gvd->second.items),
-                  gvd->second.peak_mib * 1048576.0 / std::max<uint64_t>(1, gvd->second.items));
-    } else {
-      std::printf("gvd:     FAILED: %s\n", gvd->second.error.c_str());
+  for (const int scale : {1, 2}) {
+    const auto gvd = r.find(run_name("gvd", scale));
+    const auto vdb = r.find(run_name("openvdb", scale));
+    if (gvd == r.end() && vdb == r.end()) continue;
+    std::printf("-- scale %d: radius %.2f, centres %d apart (gaps %.1f)\n", scale, 0.45 * scale,
+                scale, 0.1 * scale);
+    if (gvd != r.end()) {
+      if (gvd->second.error.empty()) {
+        std::printf("gvd:     %8.1f MiB peak, %.2f s, %llu leaves (%.0f B/leaf)\n",
+                    gvd->second.peak_mib, gvd->second.seconds,
+                    static_cast<unsigned long long>(gvd->second.items),
+                    gvd->second.peak_mib * 1048576.0 / std::max<uint64_t>(1, gvd->second.items));
+      } else {
+        std::printf("gvd:     FAILED: %s\n", gvd->second.error.c_str());
+      }
     }
-  }
-  const auto vdb = r.find("openvdb");
-  if (vdb == r.end()) {
-    std::printf(
-        "openvdb: not in this program (build/tests/gvd_bench_openvdb runs both side by side)\n");
-    return;
-  }
-  std::printf(
-      "openvdb: %8.1f MiB peak, %.2f s, %llu active voxels (meshToVolume, voxel 0.02, band "
-      "15 + closest-polygon index grid)\n",
-      vdb->second.peak_mib, vdb->second.seconds,
-      static_cast<unsigned long long>(vdb->second.items));
-  if (gvd != r.end() && gvd->second.error.empty() && vdb->second.peak_mib > 0) {
-    const double ratio = gvd->second.peak_mib / vdb->second.peak_mib;
-    std::printf("target gvd <= 1/6 of OpenVDB: %.2f of it (1/%.1f) %s\n", ratio, 1 / ratio,
-                ratio <= 1.0 / 6 ? "PASS" : "FAIL");
-    // The same without the pages that map files: the shared libraries' code, which other
-    // processes share and the kernel may drop (PoCL's LLVM is most of it). The end of the
-    // run's mapped files is taken as the peak's; they only grow while libraries load.
-    const double gvd_own = gvd->second.peak_mib - gvd->second.file_mib;
-    const double vdb_own = vdb->second.peak_mib - vdb->second.file_mib;
-    if (vdb_own > 0) {
+    if (vdb == r.end()) {
       std::printf(
-          "without mapped files: gvd %.1f MiB (%.1f mapped), OpenVDB %.1f MiB (%.1f mapped): "
-          "%.2f of it (1/%.1f) %s\n",
-          gvd_own, gvd->second.file_mib, vdb_own, vdb->second.file_mib, gvd_own / vdb_own,
-          vdb_own / gvd_own, gvd_own <= vdb_own / 6 ? "PASS" : "FAIL");
+          "openvdb: not in this program (build/tests/gvd_bench_openvdb runs both side by "
+          "side)\n");
+      continue;
+    }
+    std::printf(
+        "openvdb: %8.1f MiB peak, %.2f s, %llu active voxels (meshToVolume, voxel 0.02, band "
+        "15 + closest-polygon index grid)\n",
+        vdb->second.peak_mib, vdb->second.seconds,
+        static_cast<unsigned long long>(vdb->second.items));
+    if (gvd != r.end() && gvd->second.error.empty() && vdb->second.peak_mib > 0) {
+      const double ratio = gvd->second.peak_mib / vdb->second.peak_mib;
+      std::printf("target gvd <= 1/6 of OpenVDB: %.2f of it (1/%.1f) %s\n", ratio, 1 / ratio,
+                  ratio <= 1.0 / 6 ? "PASS" : "FAIL");
+      // The same without the pages that map files: the shared libraries' code, which other
+      // processes share and the kernel may drop (PoCL's LLVM is most of it). The end of the
+      // run's mapped files is taken as the peak's; they only grow while libraries load.
+      const double gvd_own = gvd->second.peak_mib - gvd->second.file_mib;
+      const double vdb_own = vdb->second.peak_mib - vdb->second.file_mib;
+      if (vdb_own > 0) {
+        std::printf(
+            "without mapped files: gvd %.1f MiB (%.1f mapped), OpenVDB %.1f MiB (%.1f mapped): "
+            "%.2f of it (1/%.1f) %s\n",
+            gvd_own, gvd->second.file_mib, vdb_own, vdb->second.file_mib, gvd_own / vdb_own,
+            vdb_own / gvd_own, gvd_own <= vdb_own / 6 ? "PASS" : "FAIL");
+      }
     }
   }
 }
