@@ -932,6 +932,30 @@ Scene make_ball_in_socket(const BallInSocketOptions& options) {
   return scene;
 }
 
+Scene make_cube_in_cavity(const CubeInCavityOptions& options) {
+  const std::string where = "make_cube_in_cavity";
+  if (!(options.gap > 0) || !(options.gap < 0.1)) bad_option(where, "gap must be in (0, 0.1)");
+  const double g = options.gap * kDomainPerExtent;  // the block spans 1: E = 1
+  SceneObject block = make_box("block", Vec3{0, 0, 0}, Vec3{1, 1, 1});
+  const SceneObject cavity =
+      make_box("cavity", Vec3{0.3 - g, 0.3 - g, 0.3 - g}, Vec3{0.7 + g, 0.7 + g, 0.7 + g});
+  const auto base = static_cast<uint32_t>(block.vertices.size());
+  block.vertices.insert(block.vertices.end(), cavity.vertices.begin(), cavity.vertices.end());
+  const size_t first_cavity = block.simplices.size();
+  for (const Simplex& t : cavity.simplices)  // turned inside out: the cavity's faces face the cube
+    block.simplices.push_back({{base + t.v[0], base + t.v[2], base + t.v[1]}});
+  std::vector<SceneObject> objects;
+  objects.push_back(std::move(block));
+  objects.push_back(make_box("cube", Vec3{0.3, 0.3, 0.3}, Vec3{0.7, 0.7, 0.7}));
+  verify_objects(where, objects, 3);
+  check_gap(where, objects[0], objects[1], 3, g);
+  if (options.cavity_inside_out) {
+    for (size_t t = first_cavity; t < objects[0].simplices.size(); ++t)
+      std::swap(objects[0].simplices[t].v[1], objects[0].simplices[t].v[2]);
+  }
+  return make_scene(3, std::move(objects));
+}
+
 Scene make_shaft_in_bore(const ShaftInBoreOptions& options) {
   const std::string where = "make_shaft_in_bore";
   constexpr double kHalf = 0.5, kHousingZ0 = 0.0, kHousingZ1 = 0.6, kShaftZ0 = -0.2, kShaftZ1 = 0.8;

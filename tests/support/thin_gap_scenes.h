@@ -94,6 +94,19 @@ struct BallInSocketOptions {
 /// Objects "socket", "ball". Checks the gap.
 scene::Scene make_ball_in_socket(const BallInSocketOptions& options = {});
 
+/// make_cube_in_cavity: the cube [0.3, 0.7]^3 sealed in a cubic cavity of the block
+/// [0,1]^3, g from it on all six faces: the cube's edges face the cavity's concave edges across
+/// g. With `cavity_inside_out` the cavity's shell is written with its normals into the
+/// block's material (as an outer skin's), as exporters that ignore nesting write it; the scene
+/// is the same solid. The block has two shells, so its scene carries a `multiple_components`
+/// warning. E = 1.
+struct CubeInCavityOptions {
+  double gap = 1e-4;               ///< face gap, fraction of the domain side (g = gap * 1.1)
+  bool cavity_inside_out = false;  ///< the cavity's triangles in the order of an outer skin
+};
+/// Objects "block", "cube". Checks the gap (before turning the cavity).
+scene::Scene make_cube_in_cavity(const CubeInCavityOptions& options = {});
+
 /// make_parallel_bars_2d: two rectangles, bar_a = [0,1] x [-0.1,0] and bar_b = [0,1] x
 /// [g, g + 0.1]: long edges parallel at g over their whole length. Each outline has its long
 /// edges split into `segments` equal segments and its short edges one segment (82 segments per

@@ -121,6 +121,19 @@ bool simplex_plane(const UnitGeometry& g, uint32_t s, Plane& plane) {
   return true;
 }
 
+// The plane of simplex s with its normal out of its object's material where that is known
+// (`facing`, PairCertifier::facing_: -1 turns the vertex order's normal), else the vertex
+// order's.
+bool oriented_plane(const UnitGeometry& g, std::span<const int8_t> facing, uint32_t s,
+                    Plane& plane) {
+  if (!simplex_plane(g, s, plane)) return false;
+  if (s < facing.size() && facing[s] < 0) {
+    plane.n = plane.n * -1.0;
+    plane.offset = -plane.offset;
+  }
+  return true;
+}
+
 // A convex polygon in 3D: a triangle clipped by at most 6 box planes and 3 triangle sides.
 struct Polygon {
   std::array<Vec3, 16> p;
@@ -165,12 +178,13 @@ Vec3 reflect_vector(const Plane& p, Vec3 v) { return v - p.n * (2 * dot(p.n, v))
 
 // Do the triangles of object `from` clipped to `clip_box` lie strictly on the side `side`
 // (+1 / -1) of `mirror` and, reflected, on the triangles of object `onto`? Coverage by areas of
-// coplanar (within kMirrorRound), equally oriented triangles, which a closed mesh does not
-// overlap, up to kMirrorRound times the piece's perimeter; the candidates come from the BVH
-// around each reflected piece. False also when more than `cap` triangles of `from` meet the
-// box.
-bool reflects_onto(const UnitGeometry& g, const SimplexBvh& bvh, const Plane& mirror, int side,
-                   ObjectId from, ObjectId onto, const Box& clip_box, size_t cap) {
+// coplanar (within kMirrorRound), equally oriented triangles (out of the material where
+// `facing` knows it, else by vertex order), which a closed mesh does not overlap, up to
+// kMirrorRound times the piece's perimeter; the candidates come from the BVH around each reflected
+// piece. False also when more than `cap` triangles of `from` meet the box.
+bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing, const SimplexBvh& bvh,
+                   const Plane& mirror, int side, ObjectId from, ObjectId onto, const Box& clip_box,
+                   size_t cap) {
   const int dim = g.dimension;
   constexpr double kRound = PairCertifier::kMirrorRound;
   std::vector<uint32_t> sources;
@@ -190,7 +204,7 @@ bool reflects_onto(const UnitGeometry& g, const SimplexBvh& bvh, const Plane& mi
     }
     bvh.visit_overlapping(query, [&](uint32_t u) {
       Plane other;
-      if (g.object_of[u] == onto && simplex_plane(g, u, other) &&
+      if (g.object_of[u] == onto && oriented_plane(g, facing, u, other) &&
           dot(other.n, normal) >= 1 - 1e-12 && std::abs(other.signed_distance(on_plane)) <= kRound)
         f(u, other);
       return true;
@@ -198,7 +212,7 @@ bool reflects_onto(const UnitGeometry& g, const SimplexBvh& bvh, const Plane& mi
   };
   for (uint32_t s : sources) {
     Plane own;
-    if (!simplex_plane(g, s, own)) return false;
+    if (!oriented_plane(g, facing, s, own)) return false;
     const Vec3 rn = reflect_vector(mirror, own.n);
     const Simplex& t = g.simplices[s];
     Polygon poly;
@@ -326,67 +340,100 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   }
   if (dim != 3) return;
   poll();
-  // Closed and consistently oriented objects: every edge has one triangle across, which runs
-  // it the other way; then the sign of the enclosed volume says where the normals point.
+  // Closed objects: every edge has exactly one triangle across. Their triangles need not be
+  // consistently ordered: each shell (edge-connected part) is oriented by walking it, each
+  // triangle ordered against the one it was reached from (a shared edge runs both ways), and
+  // then turned as a whole by the nesting rule below. Only a shell that cannot be oriented (a
+  // self-crossing mesh that closes up as a Moebius strip) leaves its object unusable.
   const uint32_t objects = geometry.object_count;
+  const size_t simplices = geometry.simplices.size();
   std::vector<uint8_t> closed(objects, 1);
-  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
-    const Simplex& t = geometry.simplices[s];
+  for (uint32_t s = 0; s < simplices; ++s) {
     const ObjectId o = geometry.object_of[s];
     if (o >= objects) continue;
     for (int e = 0; e < 3; ++e) {
       const uint32_t u = across_[s * 3 + e];
-      if (u == kOpen || u == kNonManifold) {
-        closed[o] = 0;
-        continue;
-      }
-      const uint32_t from = canonical_[t.v[e]], to = canonical_[t.v[(e + 1) % 3]];
-      const Simplex& w = geometry.simplices[u];
-      for (int i = 0; i < 3; ++i)
-        if (canonical_[w.v[i]] == from && canonical_[w.v[(i + 1) % 3]] == to) closed[o] = 0;
+      if (u == kOpen || u == kNonManifold) closed[o] = 0;
     }
   }
-  // The shells (edge-connected parts) of each object. With several, the sign of the whole
-  // enclosed volume does not say which way each one's normals point (a cavity's shell faces
-  // inward): each shell's own volume must have the sign its nesting asks — positive for a shell
-  // inside an even number of the object's other shells (an outer skin, an island in a
-  // cavity), negative inside an odd number (a cavity) — all of them, or all the opposite.
+  // Per triangle, +1 or -1: its vertex order against its shell's first triangle's (0 until
+  // reached). Whether triangle w runs the edge from -> to the same way as t does.
   poll();
-  UnionFind shell_of(geometry.simplices.size());
-  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
-    for (int e = 0; e < 3; ++e) {
-      const uint32_t u = across_[s * 3 + e];
-      if (u != kOpen && u != kNonManifold) shell_of.unite(s, u);
+  std::vector<int8_t> order_sign(simplices, 0);
+  UnionFind shell_of(simplices);
+  {
+    auto runs_alike = [&](const Simplex& w, uint32_t from, uint32_t to) {
+      for (int i = 0; i < 3; ++i)
+        if (canonical_[w.v[i]] == from && canonical_[w.v[(i + 1) % 3]] == to) return true;
+      return false;
+    };
+    std::vector<uint32_t> stack;
+    for (uint32_t first = 0; first < simplices; ++first) {
+      const ObjectId o = geometry.object_of[first];
+      if (order_sign[first] != 0 || o >= objects || !closed[o]) continue;
+      if ((first & 0xFFFFu) == 0) poll();
+      order_sign[first] = 1;
+      stack.assign(1, first);
+      while (!stack.empty()) {
+        const uint32_t s = stack.back();
+        stack.pop_back();
+        const Simplex& t = geometry.simplices[s];
+        for (int e = 0; e < 3; ++e) {
+          const uint32_t u = across_[s * 3 + e];
+          shell_of.unite(s, u);
+          const uint32_t from = canonical_[t.v[e]], to = canonical_[t.v[(e + 1) % 3]];
+          // Ordered alike, u runs the edge to -> from.
+          const int8_t want = static_cast<int8_t>(
+              runs_alike(geometry.simplices[u], from, to) ? -order_sign[s] : order_sign[s]);
+          if (order_sign[u] == 0) {
+            order_sign[u] = want;
+            stack.push_back(u);
+          } else if (order_sign[u] != want) {
+            closed[o] = 0;  // not orientable
+          }
+        }
+      }
     }
   }
+  // With several shells, the sign of the whole enclosed volume does not say which side of a
+  // shell is material (a cavity's shell faces inward): each shell's own volume, with its
+  // triangles ordered as above, must take the sign its nesting asks — positive for a shell
+  // inside an even number of the object's other shells (an outer skin, an island in a
+  // cavity), negative inside an odd number (a cavity) — or the shell is turned.
   // Per object, its shells' roots and volumes (few per object: past kMaxShells, none is
   // oriented, as a bound on the nesting tests below).
   constexpr size_t kMaxShells = 16;
   struct Shell {
     uint32_t root;
     double volume = 0;
+    int8_t turn = 0;  ///< +1 or -1: the sign that makes its ordered normals point out
   };
   std::vector<std::vector<Shell>> shells(objects);
-  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
+  auto shell_index = [&](ObjectId o, uint32_t root) {
+    const std::vector<Shell>& list = shells[o];
+    return static_cast<size_t>(
+        std::find_if(list.begin(), list.end(), [&](const Shell& h) { return h.root == root; }) -
+        list.begin());
+  };
+  for (uint32_t s = 0; s < simplices; ++s) {
     const ObjectId o = geometry.object_of[s];
     if (o >= objects || !closed[o]) continue;
     const uint32_t r = shell_of.find(s);
     std::vector<Shell>& list = shells[o];
-    auto it = std::find_if(list.begin(), list.end(), [&](const Shell& h) { return h.root == r; });
-    if (it == list.end()) {
+    size_t i = shell_index(o, r);
+    if (i == list.size()) {
       if (list.size() == kMaxShells) {
         closed[o] = 0;
         continue;
       }
       list.push_back({r});
-      it = list.end() - 1;
     }
     const Simplex& t = geometry.simplices[s];
-    it->volume += dot(pts[t.v[0]], cross(pts[t.v[1]], pts[t.v[2]]));
+    list[i].volume += order_sign[s] * dot(pts[t.v[0]], cross(pts[t.v[1]], pts[t.v[2]]));
   }
   // The simplices of the objects with several shells, by object.
   std::vector<std::vector<uint32_t>> of_object(objects);
-  for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
+  for (uint32_t s = 0; s < simplices; ++s) {
     const ObjectId o = geometry.object_of[s];
     if (o < objects && closed[o] && shells[o].size() > 1) of_object[o].push_back(s);
   }
@@ -420,11 +467,9 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
     }
     return crossings % 2 == 1;
   };
-  outward_.assign(objects, 0);
   for (uint32_t o = 0; o < objects; ++o) {
-    if (!closed[o] || shells[o].empty()) continue;
-    int agree = 0, oppose = 0;
-    for (const Shell& h : shells[o]) {
+    if (!closed[o]) continue;
+    for (Shell& h : shells[o]) {
       int depth = 0;
       if (shells[o].size() > 1) {
         poll();
@@ -432,12 +477,17 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
           if (other.root != h.root && inside(o, h.root, other.root)) ++depth;
       }
       const double expected = depth % 2 == 0 ? 1.0 : -1.0;
-      if (h.volume * expected > 0) ++agree;
-      if (h.volume * expected < 0) ++oppose;
+      if (h.volume * expected > 0) h.turn = 1;
+      if (h.volume * expected < 0) h.turn = -1;
+      if (h.turn == 0) closed[o] = 0;  // no volume: which side is material is unknown
     }
-    const int n = static_cast<int>(shells[o].size());
-    if (agree == n) outward_[o] = 1;
-    if (oppose == n) outward_[o] = -1;
+  }
+  facing_.assign(simplices, 0);
+  for (uint32_t s = 0; s < simplices; ++s) {
+    const ObjectId o = geometry.object_of[s];
+    if (o >= objects || !closed[o]) continue;
+    const Shell& h = shells[o][shell_index(o, shell_of.find(s))];
+    facing_[s] = static_cast<int8_t>(order_sign[s] * h.turn);
   }
 }
 
@@ -607,7 +657,7 @@ PairCertifier::Certificate PairCertifier::certify_mirror(
   for (int k = 0; k < 2; ++k) {
     for (uint32_t s : patch[k]) {
       Plane p;
-      if (!simplex_plane(g, s, p)) return out;
+      if (!oriented_plane(g, facing_, s, p)) return out;
       const bool seen = std::any_of(planes[k].begin(), planes[k].end(), [&](const Plane& q) {
         return dot(p.n, q.n) >= 1 - 1e-12 && std::abs(p.offset - q.offset) <= kFlat;
       });
@@ -640,8 +690,8 @@ PairCertifier::Certificate PairCertifier::certify_mirror(
       const double sa = pa.offset - mirror.offset;
       if (!(std::abs(sa) > kFlat)) continue;
       const int side_a = sa < 0 ? -1 : 1;
-      if (!reflects_onto(g, bvh_, mirror, side_a, pair[0], pair[1], near, kMaxActive) ||
-          !reflects_onto(g, bvh_, mirror, -side_a, pair[1], pair[0], near, kMaxActive))
+      if (!reflects_onto(g, facing_, bvh_, mirror, side_a, pair[0], pair[1], near, kMaxActive) ||
+          !reflects_onto(g, facing_, bvh_, mirror, -side_a, pair[1], pair[0], near, kMaxActive))
         continue;
       out.verdict = CellVerdict::kPair;
       out.mirror = true;
@@ -665,9 +715,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     const std::vector<uint32_t> patch[2]) const {
   const UnitGeometry& g = geometry_;
   Certificate out;
-  if (g.dimension != 3 || outward_.empty()) return out;
-  const int sign[2] = {outward_[pair[0]], outward_[pair[1]]};
-  if (sign[0] == 0 || sign[1] == 0) return out;
+  if (g.dimension != 3 || facing_.empty()) return out;
   // Surfacing closes cells on the domain box with straight cuts; keep extruded cells off it.
   for (int i = 0; i < 3; ++i)
     if (!(box.lo[i] > 0) || !(box.hi[i] < 1)) return out;
@@ -684,8 +732,8 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   for (int k = 0; k < 2; ++k) {
     for (uint32_t s : patch[k]) {
       Plane p;
-      if (!simplex_plane(g, s, p)) return out;
-      normals.push_back(p.n * static_cast<double>(k == 0 ? sign[0] : -sign[1]));
+      if (facing_[s] == 0 || !oriented_plane(g, facing_, s, p)) return out;
+      normals.push_back(p.n * (k == 0 ? 1.0 : -1.0));
       const bool seen = std::any_of(planes[k].begin(), planes[k].end(), [&](const Plane& q) {
         return dot(p.n, q.n) >= 1 - 1e-12 && std::abs(p.offset - q.offset) <= kFlat;
       });
@@ -883,7 +931,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       const bool bounded = bvh_.visit_overlapping(near, [&](uint32_t s) {
         if (g.object_of[s] != pair[k]) return true;
         Plane own;
-        if (!simplex_plane(g, s, own) || dot(own.n, plane.n) < 1 - 1e-12 ||
+        if (!oriented_plane(g, facing_, s, own) || dot(own.n, plane.n) < 1 - 1e-12 ||
             std::abs(plane.signed_distance(g.points[g.simplices[s].v[0]])) > kFlat)
           return true;
         Polygon poly;
@@ -936,7 +984,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
           p1 = p0;
           p0[m] = box.lo[m];
           p1[m] = box.hi[m];
-          const int crossings = line_crossings(pair, p0, p1, m, patch);
+          const int crossings = line_crossings(p0, p1, m, patch);
           if (crossings > 2) return out;
           out.twice |= crossings == 2;
         }
@@ -967,19 +1015,19 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   return out;
 }
 
-int PairCertifier::line_crossings(const ObjectId pair[2], Vec3 p0, Vec3 p1, int along,
+int PairCertifier::line_crossings(Vec3 p0, Vec3 p1, int along,
                                   const std::vector<uint32_t> patch[2]) const {
   const UnitGeometry& g = geometry_;
   // Per simplex of the patch, the component along `along` of its gradient direction (outward
   // normals of 0, inward ones of 1); NaN where its plane is degenerate.
   std::vector<double> grad[2];
   for (int k = 0; k < 2; ++k) {
-    const double sign = k == 0 ? outward_[pair[0]] : -outward_[pair[1]];
     grad[k].reserve(patch[k].size());
     for (uint32_t s : patch[k]) {
       Plane p;
-      grad[k].push_back(simplex_plane(g, s, p) ? p.n[along] * sign
-                                               : std::numeric_limits<double>::quiet_NaN());
+      grad[k].push_back(facing_[s] != 0 && oriented_plane(g, facing_, s, p)
+                            ? p.n[along] * (k == 0 ? 1.0 : -1.0)
+                            : std::numeric_limits<double>::quiet_NaN());
     }
   }
   // d_pair[0] - d_pair[1] at x, exact (nearest simplex among the cell's patch: every point of

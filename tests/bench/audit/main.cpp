@@ -235,6 +235,12 @@ int write_variants(const std::string& dir) {
                      moved(gvd::test::make_shaft_in_bore(shaft(6, gap)), [](Vec3 v) {
                        return Vec3{v.z, v.x, v.y};
                      }));
+    // A cube in a cubic cavity whose shell is written inside out (normals into the block's
+    // material): the certificates take the material side from the nesting.
+    gvd::test::CubeInCavityOptions cube;
+    cube.gap = gap;
+    cube.cavity_inside_out = true;
+    out.emplace_back("cube_in_turned_cavity" + tag, gvd::test::make_cube_in_cavity(cube));
     // Two blades in slots, the second turned by 30 degrees about y against the first: one
     // octree frame cannot serve both.
     gvd::test::BladeInSlotOptions blade;

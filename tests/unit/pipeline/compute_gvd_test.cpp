@@ -259,6 +259,45 @@ TEST(ComputeGvd, ThinGapAnswersAreInvariantUnderRotationTranslationAndRelabellin
   EXPECT_LE(b.stats.leaves, 2 * w.stats.leaves) << w.stats.leaves << " leaves at 1e-2";
 }
 
+// A cube in a cubic cavity of a unit block, 1.1e-4 from it on all six faces: the
+// cube's edges face the cavity's across the gap, rims whose certificates need to know which
+// side of each face is material. The input's vertex order must not decide that: with the
+// cavity's shell drawn inside out (its normals into the block's material, as an exporter that
+// ignores nesting writes it), or every third triangle of both objects reversed, the cost and
+// the answers are those of the consistently drawn scene. (With the object's vertex order
+// trusted, the turned cavity refused every rim: an L-shaped part in an L-shaped groove took
+// 9.3M leaves at 1e-4 against 37k, and the leaf limit at 1e-5.)
+TEST(ComputeGvd, ThinGapCostDoesNotDependOnTheInputsVertexOrder3D) {
+  test::CubeInCavityOptions co;
+  const double g = co.gap * 1.1;  // the block spans 1
+  auto scene = [&](bool turn_cavity, int reverse_every) {
+    co.cavity_inside_out = turn_cavity;
+    Scene s = test::make_cube_in_cavity(co);
+    for (SceneObject& o : s.objects)
+      for (size_t t = 0; reverse_every > 0 && t < o.simplices.size(); t += reverse_every)
+        std::swap(o.simplices[t].v[1], o.simplices[t].v[2]);
+    return s;
+  };
+  const GvdResult drawn = run(scene(false, 0));
+  expect_valid(drawn);
+  ASSERT_EQ(drawn.graph.edges.size(), 1u);
+  const double gap = drawn.graph.edges[0].gap;
+  EXPECT_NEAR(gap, g, 1e-9 * g);
+  EXPECT_GT(drawn.stats.certified_leaves, 0u);
+  for (const auto& [turn, every] : {std::pair{true, 0}, {false, 3}, {true, 3}}) {
+    SCOPED_TRACE(std::string(turn ? "cavity turned" : "") +
+                 (every ? ", every third reversed" : ""));
+    const GvdResult r = run(scene(turn, every));
+    expect_valid(r);
+    EXPECT_EQ(r.stats.leaves, drawn.stats.leaves);
+    EXPECT_EQ(r.stats.certified_leaves, drawn.stats.certified_leaves);
+    EXPECT_EQ(graph_pairs(r.graph), graph_pairs(drawn.graph));
+    ASSERT_EQ(r.graph.edges.size(), 1u);
+    EXPECT_NEAR(r.graph.edges[0].gap, gap, 1e-9 * gap);
+    EXPECT_FALSE(r.graph.edges[0].touching);
+  }
+}
+
 // Checks the GVD of a shaft in its bore (make_shaft_in_bore, face gap g) inside the bore and
 // away from the corners (where the shaft's edge is nearer than its faces): the mid surface,
 // the prism whose apothem is the bore's less g / 2, exactly. Returns the vertices checked.

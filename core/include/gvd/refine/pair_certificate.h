@@ -50,8 +50,9 @@ namespace gvd::refine {
 ///   enough that rounding cannot tilt the bisector visibly (kMirrorTolerance). 2D needs no
 ///   mirrors: its rims are points, and flat cells already cost log(1/g) there.
 /// - Extruded pairs (3D; straight rims: an edge facing a face or a corner across g): both
-///   objects are closed, consistently oriented, their normals out of the material (each of
-///   up to 16 shells by its nesting), every simplex that can be nearest has
+///   objects are closed (their normals taken out of the material, each of up to 16 shells
+///   oriented by walking it and turned by its nesting, whatever the input's vertex order),
+///   every simplex that can be nearest has
 ///   its normal perpendicular to one axis e, and on each of their planes the object's triangles
 ///   cover, within the box Q, a full strip across Q along e. Then both distance functions are
 ///   invariant along e in the cell, and the bisector is C x e for a curve C of the cross-section
@@ -168,10 +169,10 @@ class PairCertifier final : public octree::SplitOracle {
                              double r, const std::vector<uint32_t> patch[2]) const;
   Certificate certify_extruded(const Box& box, const scene::ObjectId pair[2], const double dist[2],
                                double r, const std::vector<uint32_t> patch[2]) const;
-  /// How often d_pair[0] - d_pair[1] changes sign on the segment [p0, p1] along axis `along`
-  /// inside the cell whose nearest simplices are `patch` (3: more than twice, or undecided).
-  int line_crossings(const scene::ObjectId pair[2], Vec3 p0, Vec3 p1, int along,
-                     const std::vector<uint32_t> patch[2]) const;
+  /// How often d_0 - d_1 (the distances to the objects of patch[0] and patch[1]) changes sign
+  /// on the segment [p0, p1] along axis `along` inside the cell whose nearest simplices are
+  /// `patch` (3: more than twice, or undecided).
+  int line_crossings(Vec3 p0, Vec3 p1, int along, const std::vector<uint32_t> patch[2]) const;
 
   static constexpr uint32_t kOpen = 0xFFFFFFFFu;         ///< a side with no simplex across
   static constexpr uint32_t kNonManifold = 0xFFFFFFFEu;  ///< a side with several
@@ -186,10 +187,13 @@ class PairCertifier final : public octree::SplitOracle {
   /// Per simplex side (3D: edge v[e] v[e+1]; 2D: end v[e]): the simplex of the same object
   /// across it, kOpen or kNonManifold.
   std::vector<uint32_t> across_;
-  /// Per object (3D): +1 when it is closed and consistently oriented and its normals (from
-  /// the vertex order) point out of its material — each of its shells (at most 16) with the
-  /// volume sign its nesting among the others asks — -1 when they all point in, 0 otherwise.
-  std::vector<int8_t> outward_;
+  /// Per simplex (3D): +1 when the normal of its vertex order points out of its object's
+  /// material, -1 when it points in, 0 when the object is not closed (an open or non-manifold
+  /// edge, more than 16 shells, a shell that cannot be oriented or encloses no volume). The
+  /// material is found by the object's shells' nesting, not by the input's vertex order: each
+  /// shell is oriented by walking it and turned so that its volume takes the sign its nesting
+  /// asks, so a cavity drawn the wrong way or triangles flipped in a closed mesh cost nothing.
+  std::vector<int8_t> facing_;
 };
 
 }  // namespace gvd::refine
