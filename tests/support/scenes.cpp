@@ -33,6 +33,28 @@ SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi) {
   return o;
 }
 
+SceneObject make_box_with_split_bottom(const std::string& label, Vec3 lo, Vec3 hi, int k) {
+  SceneObject o = make_box(label, lo, hi);
+  o.simplices.erase(o.simplices.begin(), o.simplices.begin() + 2);  // quad {0, 2, 3, 1}
+  auto coordinate = [&](double a, double b, int i) { return i == k ? b : a + (b - a) * i / k; };
+  auto at = [&](int i, int j) {
+    const Vec3 p{coordinate(lo.x, hi.x, i), coordinate(lo.y, hi.y, j), lo.z};
+    for (uint32_t v = 0; v < o.vertices.size(); ++v)
+      if (o.vertices[v].x == p.x && o.vertices[v].y == p.y && o.vertices[v].z == p.z) return v;
+    o.vertices.push_back(p);
+    return static_cast<uint32_t>(o.vertices.size() - 1);
+  };
+  for (int i = 0; i < k; ++i) {
+    for (int j = 0; j < k; ++j) {
+      // Facing -z, as make_box's quad (x, y) -> (x, y+) -> (x+, y+) -> (x+, y).
+      const uint32_t a = at(i, j), b = at(i, j + 1), c = at(i + 1, j + 1), d = at(i + 1, j);
+      o.simplices.push_back({{a, b, c}});
+      o.simplices.push_back({{a, c, d}});
+    }
+  }
+  return o;
+}
+
 SceneObject make_sphere(const std::string& label, Vec3 c, double r, int rings, int segments) {
   SceneObject o;
   o.label = label;

@@ -11,6 +11,12 @@ namespace gvd::test {
 /// A closed box [lo, hi] as 12 outward triangles.
 scene::SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi);
 
+/// make_box with its face z = lo.z as a k x k grid of quads (2 k^2 triangles), the other faces
+/// two triangles each: the grid's points on the face's sides are T-junctions, where the side
+/// faces' edges run past them. Closed as a solid, though no edge of the bottom's rim has one
+/// triangle across it.
+scene::SceneObject make_box_with_split_bottom(const std::string& label, Vec3 lo, Vec3 hi, int k);
+
 /// p rotated by `angle` (radians) about the unit axis `axis` through the origin (Rodrigues).
 Vec3 rotate(Vec3 p, Vec3 axis, double angle);
 /// A closed UV sphere with `rings` x `segments` quads split into triangles.

@@ -340,7 +340,10 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   }
   if (dim != 3) return;
   poll();
-  // Closed objects: every edge has exactly one triangle across. Their triangles need not be
+  match_split_sides(cancel);
+  poll();
+  // Closed objects: every edge has exactly one triangle across (or several, end to end, along
+  // a T-junction: match_split_sides). Their triangles need not be
   // consistently ordered: each shell (edge-connected part) is oriented by walking it, each
   // triangle ordered against the one it was reached from (a shared edge runs both ways), and
   // then turned as a whole by the nesting rule below. Only a shell that cannot be oriented (a
@@ -356,17 +359,29 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
       if (u == kOpen || u == kNonManifold) closed[o] = 0;
     }
   }
+  // The simplices across a side, with whether each runs the side's line the same way.
+  auto for_each_across = [&](uint32_t side, auto&& f) {
+    const uint32_t u = across_[side];
+    if (u == kSplit) {
+      for (auto it = split_links(side); it != split_.end() && it->side == side; ++it)
+        f(it->simplex, it->alike);
+      return;
+    }
+    const Simplex& t = geometry.simplices[side / 3];
+    const int e = static_cast<int>(side % 3);
+    const uint32_t from = canonical_[t.v[e]], to = canonical_[t.v[(e + 1) % 3]];
+    const Simplex& w = geometry.simplices[u];
+    bool alike = false;
+    for (int i = 0; i < 3; ++i)
+      alike |= canonical_[w.v[i]] == from && canonical_[w.v[(i + 1) % 3]] == to;
+    f(u, alike);
+  };
   // Per triangle, +1 or -1: its vertex order against its shell's first triangle's (0 until
   // reached). Whether triangle w runs the edge from -> to the same way as t does.
   poll();
   std::vector<int8_t> order_sign(simplices, 0);
   UnionFind shell_of(simplices);
   {
-    auto runs_alike = [&](const Simplex& w, uint32_t from, uint32_t to) {
-      for (int i = 0; i < 3; ++i)
-        if (canonical_[w.v[i]] == from && canonical_[w.v[(i + 1) % 3]] == to) return true;
-      return false;
-    };
     std::vector<uint32_t> stack;
     for (uint32_t first = 0; first < simplices; ++first) {
       const ObjectId o = geometry.object_of[first];
@@ -377,20 +392,18 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
       while (!stack.empty()) {
         const uint32_t s = stack.back();
         stack.pop_back();
-        const Simplex& t = geometry.simplices[s];
         for (int e = 0; e < 3; ++e) {
-          const uint32_t u = across_[s * 3 + e];
-          shell_of.unite(s, u);
-          const uint32_t from = canonical_[t.v[e]], to = canonical_[t.v[(e + 1) % 3]];
-          // Ordered alike, u runs the edge to -> from.
-          const int8_t want = static_cast<int8_t>(
-              runs_alike(geometry.simplices[u], from, to) ? -order_sign[s] : order_sign[s]);
-          if (order_sign[u] == 0) {
-            order_sign[u] = want;
-            stack.push_back(u);
-          } else if (order_sign[u] != want) {
-            closed[o] = 0;  // not orientable
-          }
+          // Ordered alike, u runs the edge the other way.
+          for_each_across(s * 3 + e, [&](uint32_t u, bool alike) {
+            shell_of.unite(s, u);
+            const int8_t want = static_cast<int8_t>(alike ? -order_sign[s] : order_sign[s]);
+            if (order_sign[u] == 0) {
+              order_sign[u] = want;
+              stack.push_back(u);
+            } else if (order_sign[u] != want) {
+              closed[o] = 0;  // not orientable
+            }
+          });
         }
       }
     }
@@ -585,25 +598,39 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
           }
           const uint32_t u = across_[s * arity + e];
           if (u == kOpen || u == kNonManifold) return false;
-          const Simplex& w = g.simplices[u];
-          // The vertex of u off this side (2D: u's other end point).
-          uint32_t far = kOpen;
-          for (int i = 0; i < arity; ++i) {
-            const uint32_t cv = canonical_[w.v[i]];
-            if (cv != canonical_[t.v[e]] && (dim == 2 || cv != canonical_[t.v[(e + 1) % 3]])) {
-              far = w.v[i];
+          // The vertices off this side of the simplices across it (2D: u's other end point):
+          // one, or (a T-junction, kSplit) the far vertex of each simplex along it.
+          uint32_t far[kMaxSplit];
+          int n_far = 0;
+          if (u == kSplit) {
+            for (auto it = split_links(s * arity + e); it != split_.end() && it->side == s * 3 + e;
+                 ++it) {
+              if (n_far == kMaxSplit) return false;
+              far[n_far++] = g.simplices[it->simplex].v[(it->other_side + 2) % 3];
             }
-          }
-          if (far == kOpen || !on_plane(far)) return false;
-          const Vec3 pf = g.points[far];
-          if (dim == 2) {
-            // u must go on beyond pe, away from this segment's other end.
-            if (!(dot(qe - pe, pf - pe) < 0)) return false;
           } else {
-            const Vec3 own = g.points[t.v[(e + 2) % 3]];
-            const double side_own = dot(cross(qe - pe, own - pe), p.n);
-            const double side_far = dot(cross(qe - pe, pf - pe), p.n);
-            if (!(side_own * side_far < 0)) return false;
+            const Simplex& w = g.simplices[u];
+            far[0] = kOpen;
+            for (int i = 0; i < arity; ++i) {
+              const uint32_t cv = canonical_[w.v[i]];
+              if (cv != canonical_[t.v[e]] && (dim == 2 || cv != canonical_[t.v[(e + 1) % 3]])) {
+                far[0] = w.v[i];
+              }
+            }
+            n_far = 1;
+          }
+          for (int f = 0; f < n_far; ++f) {
+            if (far[f] == kOpen || !on_plane(far[f])) return false;
+            const Vec3 pf = g.points[far[f]];
+            if (dim == 2) {
+              // u must go on beyond pe, away from this segment's other end.
+              if (!(dot(qe - pe, pf - pe) < 0)) return false;
+            } else {
+              const Vec3 own = g.points[t.v[(e + 2) % 3]];
+              const double side_own = dot(cross(qe - pe, own - pe), p.n);
+              const double side_far = dot(cross(qe - pe, pf - pe), p.n);
+              if (!(side_own * side_far < 0)) return false;
+            }
           }
         }
       }
@@ -1013,6 +1040,75 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   // rise is where d_pair[0] - d_pair[1] grows; for a = pair[1] it is the other way.
   out.rise = rise * ((first_k == 0 ? 1.0 : -1.0) / std::sqrt(2.0));
   return out;
+}
+
+std::vector<PairCertifier::SplitLink>::const_iterator PairCertifier::split_links(
+    uint32_t side) const {
+  return std::lower_bound(split_.begin(), split_.end(), side,
+                          [](const SplitLink& l, uint32_t x) { return l.side < x; });
+}
+
+void PairCertifier::match_split_sides(const std::atomic<bool>* cancel) {
+  const UnitGeometry& g = geometry_;
+  const std::vector<Vec3>& pts = g.points;
+  // An end point within this of the other side's line lies on it: the lattice's rounding
+  // (2^-48) of a T-junction's vertex computed on a slanted edge, and a little.
+  constexpr double kOnLine = kMirrorRound;
+  // Simplices looked at per open side at most (a crowd of coincident copies: left open).
+  constexpr size_t kMaxCandidates = 64;
+  std::vector<SplitLink> links;
+  std::vector<uint32_t> matched;
+  for (uint32_t side = 0; side < across_.size(); ++side) {
+    if ((side & 0xFFFFu) == 0) throw_if_cancelled(cancel, "the octree's certificates");
+    if (across_[side] != kOpen) continue;
+    const uint32_t s = side / 3;
+    const int e = static_cast<int>(side % 3);
+    const Simplex& t = g.simplices[s];
+    const Vec3 p = pts[t.v[e]], q = pts[t.v[(e + 1) % 3]];
+    const double len = norm(q - p);
+    if (!(len > 2 * kOnLine)) continue;
+    const Vec3 dir = (q - p) / len;
+    auto off_line = [&](Vec3 x) {
+      const Vec3 r = x - p;
+      return norm(r - dir * dot(r, dir));
+    };
+    Box query;
+    for (int i = 0; i < 3; ++i) {
+      query.lo[i] = std::min(p[i], q[i]) - kOnLine;
+      query.hi[i] = std::max(p[i], q[i]) + kOnLine;
+    }
+    const size_t first = links.size();
+    double covered = 0;
+    size_t seen = 0;
+    const bool bounded = bvh_.visit_overlapping(query, [&](uint32_t u) {
+      if (u == s || g.object_of[u] != g.object_of[s]) return true;
+      if (++seen > kMaxCandidates) return false;
+      const Simplex& w = g.simplices[u];
+      for (int f = 0; f < 3; ++f) {
+        // Only open sides: a side matched end to end has its one simplex across already.
+        if (across_[u * 3 + f] != kOpen) continue;
+        const Vec3 a = pts[w.v[f]], b = pts[w.v[(f + 1) % 3]];
+        if (off_line(a) > kOnLine || off_line(b) > kOnLine) continue;
+        const double ta = dot(a - p, dir), tb = dot(b - p, dir);
+        const double lo = std::max(0.0, std::min(ta, tb)), hi = std::min(len, std::max(ta, tb));
+        if (!(hi - lo > 2 * kOnLine)) continue;  // meets it at a point, or not at all
+        covered += hi - lo;
+        links.push_back({side, u, static_cast<uint8_t>(f), ta < tb});
+      }
+      return true;
+    });
+    // Covered once along its whole length, by sides that overlap only at their ends.
+    const size_t found = links.size() - first;
+    if (!bounded || found == 0 || found > kMaxSplit ||
+        std::abs(covered - len) > 2 * kOnLine * static_cast<double>(found + 1)) {
+      links.resize(first);
+      continue;
+    }
+    matched.push_back(side);
+  }
+  for (uint32_t side : matched) across_[side] = kSplit;
+  // Sorted by side (they were made in that order).
+  split_ = std::move(links);
 }
 
 int PairCertifier::line_crossings(Vec3 p0, Vec3 p1, int along,

@@ -730,6 +730,50 @@ TEST(PairCertifier, ExtrudedCellsNeedClosedStraightQuadrantRims) {
   }
 }
 
+// A box over a slab, 1e-3 apart, whose bottom face is a 3 x 3 grid of quads: its grid points
+// on the face's sides are T-junctions (the side faces' edges run past them), so no edge of
+// the bottom's rim has one triangle across, yet the box is closed. Its rim cells get the
+// certificate the conforming box's get, and it holds under the brute-force audit. With the
+// grid's own points (not the box's corners) lowered by 1e-9, those on the rim lie off the
+// side faces' edges: a crack along the rim, and no extruded certificate.
+TEST(PairCertifier, TJunctionsCloseAShell) {
+  auto box_over_slab = [](int k, double drop) {
+    SceneObject box =
+        test::make_box_with_split_bottom("box", {0.2, 0.2, 0.1001}, {0.6, 0.6, 0.3}, k);
+    for (size_t v = 8; v < box.vertices.size(); ++v) box.vertices[v].z -= drop;  // not corners
+    Scene scene;
+    scene.dimension = 3;
+    scene.objects = {test::make_box("slab", {0, 0, 0}, {1, 1, 0.1}), box};
+    return scene;
+  };
+  const World plain(box_over_slab(1, 0));
+  const World split(box_over_slab(3, 0));
+  const World cracked(box_over_slab(3, 1e-9));
+  const PairCertifier c_plain(plain.geometry, plain.bvh, nullptr, true);
+  const PairCertifier c_split(split.geometry, split.bvh, nullptr, true);
+  const PairCertifier c_cracked(cracked.geometry, cracked.bvh, nullptr, true);
+  std::mt19937_64 rng(7);
+  int certified = 0;
+  // Cells along the rim x = 0.2 (along y) and y = 0.2 (along x), where the bottom's grid
+  // points at 1/3 and 2/3 of the side lie.
+  for (const Vec3 at : {Vec3{0.195, 0.3, 0.0995}, Vec3{0.195, 0.33, 0.0995},
+                        Vec3{0.195, 0.4666, 0.0995}, Vec3{0.3333, 0.195, 0.0995}}) {
+    SCOPED_TRACE(std::to_string(at.x) + ", " + std::to_string(at.y));
+    const PairCertifier::Certificate want = c_plain.certify(user_cube(plain, at, 0.01));
+    const Box box = user_cube(split, at, 0.01);
+    const PairCertifier::Certificate cert = c_split.certify(box);
+    ASSERT_GE(want.axis, 0);
+    EXPECT_EQ(cert.verdict, want.verdict);
+    EXPECT_EQ(cert.axis, want.axis);
+    if (cert.axis < 0) continue;
+    ++certified;
+    audit_extruded(split, cert, box, rng);
+    if (HasFatalFailure()) return;
+    EXPECT_LT(c_cracked.certify(user_cube(cracked, at, 0.01)).axis, 0) << "a crack";
+  }
+  EXPECT_EQ(certified, 4);
+}
+
 TEST(PairCertifier, ParallelPlatesAreCertifiedAcrossTheGap) {
   const World s(test::make_scene(3, {test::make_box("low", {0, 0, 0}, {1, 1, 0.1}),
                                      test::make_box("high", {0, 0, 0.1001}, {1, 1, 0.2})}));

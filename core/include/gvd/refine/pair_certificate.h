@@ -50,8 +50,9 @@ namespace gvd::refine {
 ///   enough that rounding cannot tilt the bisector visibly (kMirrorTolerance). 2D needs no
 ///   mirrors: its rims are points, and flat cells already cost log(1/g) there.
 /// - Extruded pairs (3D; straight rims: an edge facing a face or a corner across g): both
-///   objects are closed (their normals taken out of the material, each of up to 16 shells
-///   oriented by walking it and turned by its nesting, whatever the input's vertex order),
+///   objects are closed (T-junctions count as closed: match_split_sides; their normals taken
+///   out of the material, each of up to 16 shells oriented by walking it and turned by its
+///   nesting, whatever the input's vertex order),
 ///   every simplex that can be nearest has
 ///   its normal perpendicular to one axis e, and on each of their planes the object's triangles
 ///   cover, within the box Q, a full strip across Q along e. Then both distance functions are
@@ -176,6 +177,25 @@ class PairCertifier final : public octree::SplitOracle {
 
   static constexpr uint32_t kOpen = 0xFFFFFFFFu;         ///< a side with no simplex across
   static constexpr uint32_t kNonManifold = 0xFFFFFFFEu;  ///< a side with several
+  /// 3D: a side with several simplices across it end to end along its line (a T-junction: a
+  /// vertex of the neighbours lies inside the side), each once (split_).
+  static constexpr uint32_t kSplit = 0xFFFFFFFDu;
+  /// Simplices across one kSplit side at most.
+  static constexpr int kMaxSplit = 8;
+  /// One simplex across a kSplit side: its side `other_side` lies on the side's line, and
+  /// `alike` says whether it runs that line the same way.
+  struct SplitLink {
+    uint32_t side;
+    uint32_t simplex;
+    uint8_t other_side;
+    bool alike;
+  };
+  /// Marks kSplit the open sides covered once, along their whole length, by open sides of
+  /// other simplices of the same object on their line (end points within kMirrorRound of it),
+  /// and records those in split_.
+  void match_split_sides(const std::atomic<bool>* cancel);
+  /// The first of a kSplit side's links in split_.
+  std::vector<SplitLink>::const_iterator split_links(uint32_t side) const;
 
   const scene::UnitGeometry& geometry_;
   const SimplexBvh& bvh_;
@@ -185,8 +205,10 @@ class PairCertifier final : public octree::SplitOracle {
   /// Per point: the lowest index of a point at the same position (soups share no indices).
   std::vector<uint32_t> canonical_;
   /// Per simplex side (3D: edge v[e] v[e+1]; 2D: end v[e]): the simplex of the same object
-  /// across it, kOpen or kNonManifold.
+  /// across it, kOpen, kNonManifold or kSplit.
   std::vector<uint32_t> across_;
+  /// The simplices across each kSplit side, sorted by side (3D).
+  std::vector<SplitLink> split_;
   /// Per simplex (3D): +1 when the normal of its vertex order points out of its object's
   /// material, -1 when it points in, 0 when the object is not closed (an open or non-manifold
   /// edge, more than 16 shells, a shell that cannot be oriented or encloses no volume). The
