@@ -343,10 +343,10 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   match_split_sides(cancel);
   poll();
   // Closed objects: every edge has exactly one triangle across (or several, end to end, along
-  // a T-junction: match_split_sides). Their triangles need not be
-  // consistently ordered: each shell (edge-connected part) is oriented by walking it, each
-  // triangle ordered against the one it was reached from (a shared edge runs both ways), and
-  // then turned as a whole by the nesting rule below. Only a shell that cannot be oriented (a
+  // a T-junction: match_split_sides). Their triangles need not be consistently ordered: each
+  // shell (edge-connected part) is oriented by walking it, each triangle ordered against the
+  // one it was reached from (a shared edge runs both ways), and then turned as a whole by the
+  // nesting rule below. Only a shell that cannot be oriented (a
   // self-crossing mesh that closes up as a Moebius strip) leaves its object unusable.
   const uint32_t objects = geometry.object_count;
   const size_t simplices = geometry.simplices.size();
@@ -359,7 +359,8 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
       if (u == kOpen || u == kNonManifold) closed[o] = 0;
     }
   }
-  // The simplices across a side, with whether each runs the side's line the same way.
+  // The simplices across a side, with whether each runs the side's line the same way as the
+  // side's own simplex does.
   auto for_each_across = [&](uint32_t side, auto&& f) {
     const uint32_t u = across_[side];
     if (u == kSplit) {
@@ -377,7 +378,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
     f(u, alike);
   };
   // Per triangle, +1 or -1: its vertex order against its shell's first triangle's (0 until
-  // reached). Whether triangle w runs the edge from -> to the same way as t does.
+  // reached).
   poll();
   std::vector<int8_t> order_sign(simplices, 0);
   UnionFind shell_of(simplices);
@@ -603,8 +604,8 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
           uint32_t far[kMaxSplit];
           int n_far = 0;
           if (u == kSplit) {
-            for (auto it = split_links(s * arity + e); it != split_.end() && it->side == s * 3 + e;
-                 ++it) {
+            const uint32_t side = s * arity + e;
+            for (auto it = split_links(side); it != split_.end() && it->side == side; ++it) {
               if (n_far == kMaxSplit) return false;
               far[n_far++] = g.simplices[it->simplex].v[(it->other_side + 2) % 3];
             }
