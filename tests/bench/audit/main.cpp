@@ -241,6 +241,14 @@ int write_variants(const std::string& dir) {
     cube.gap = gap;
     cube.cavity_inside_out = true;
     out.emplace_back("cube_in_turned_cavity" + tag, gvd::test::make_cube_in_cavity(cube));
+    // A plate over a slab whose bottom is a 4 x 4 grid of quads meeting the side faces at
+    // T-junctions (no edge of the bottom's rim has one triangle across it).
+    const double plate_g = gap * 1.1;  // the slab spans 1: E = 1
+    out.emplace_back(
+        "plate_t_junctions" + tag,
+        gvd::test::make_scene(3, {gvd::test::make_box("slab", {0, 0, 0}, {1, 1, 0.1}),
+                                  gvd::test::make_box_with_split_bottom(
+                                      "plate", {0.1, 0.1, 0.1 + plate_g}, {0.9, 0.9, 0.2}, 4)}));
     // Two blades in slots, the second turned by 30 degrees about y against the first: one
     // octree frame cannot serve both.
     gvd::test::BladeInSlotOptions blade;
