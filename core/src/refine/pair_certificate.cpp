@@ -234,9 +234,11 @@ bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing, const 
     for_each_cover(piece, rn, poly.p[0], [&](uint32_t u, const Plane& other) {
       Polygon part = poly;
       const Simplex& w = g.simplices[u];
+      // w's sides run around the normal of its vertex order, which `other` may have turned.
+      const Vec3 order_normal = u < facing.size() && facing[u] < 0 ? other.n * -1.0 : other.n;
       for (int e = 0; e < 3 && part.n > 0; ++e) {
         const Vec3 a = g.points[w.v[e]], b = g.points[w.v[(e + 1) % 3]];
-        const Vec3 outward = cross(b - a, other.n);  // w's inside is where this is <= 0
+        const Vec3 outward = cross(b - a, order_normal);  // w's inside is where this is <= 0
         clip(part, outward, dot(outward, a));
       }
       if (part.n >= 3) covered += area(part);

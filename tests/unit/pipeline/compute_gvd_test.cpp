@@ -266,7 +266,8 @@ TEST(ComputeGvd, ThinGapAnswersAreInvariantUnderRotationTranslationAndRelabellin
 // ignores nesting writes it), or every third triangle of both objects reversed, the cost and
 // the answers are those of the consistently drawn scene. (With the object's vertex order
 // trusted, the turned cavity refused every rim: an L-shaped part in an L-shaped groove took
-// 9.3M leaves at 1e-4 against 37k, and the leaf limit at 1e-5.)
+// 9.3M leaves at 1e-4 against 37k, and the leaf limit at 1e-5.) The same for mirror cells
+// beside a box written inside out.
 TEST(ComputeGvd, ThinGapCostDoesNotDependOnTheInputsVertexOrder3D) {
   test::CubeInCavityOptions co;
   const double g = co.gap * 1.1;  // the block spans 1
@@ -296,6 +297,23 @@ TEST(ComputeGvd, ThinGapCostDoesNotDependOnTheInputsVertexOrder3D) {
     EXPECT_NEAR(r.graph.edges[0].gap, gap, 1e-9 * gap);
     EXPECT_FALSE(r.graph.edges[0].touching);
   }
+  // Two boxes side by side, 1e-4 apart, flush on top, bottom and ends: their rims are mirror
+  // images in the mid-plane. With one box written inside out (all its normals in) the mirror
+  // test compared its triangles against turned normals and failed: 4,543,428 leaves against
+  // 568.
+  auto boxes = [&](bool inside_out) {
+    SceneObject a = test::make_box("a", {0, 0, 0}, {0.4, 1, 0.6});
+    if (inside_out)
+      for (Simplex& t : a.simplices) std::swap(t.v[1], t.v[2]);
+    return test::make_scene(3, {std::move(a), test::make_box("b", {0.4001, 0, 0}, {0.8, 1, 0.6})});
+  };
+  const GvdResult flush = run(boxes(false));
+  const GvdResult turned = run(boxes(true));
+  expect_valid(turned);
+  EXPECT_EQ(turned.stats.leaves, flush.stats.leaves);
+  EXPECT_EQ(turned.stats.certified_leaves, flush.stats.certified_leaves);
+  ASSERT_EQ(turned.graph.edges.size(), 1u);
+  EXPECT_NEAR(turned.graph.edges[0].gap, 1e-4, 1e-12);
 }
 
 // A plate over a slab, 1e-4 apart, whose bottom face is a 4 x 4 grid of quads meeting the
