@@ -52,9 +52,8 @@ namespace gvd::refine {
 /// - Extruded pairs (3D; straight rims: an edge facing a face or a corner across g): both
 ///   objects are closed (T-junctions count as closed: match_split_sides; their normals taken
 ///   out of the material, each of up to 16 shells oriented by walking it and turned by its
-///   nesting, whatever the input's vertex order),
-///   every simplex that can be nearest has
-///   its normal perpendicular to one axis e, and on each of their planes the object's triangles
+///   nesting, whatever the input's vertex order), every simplex that can be nearest has its
+///   normal perpendicular to one axis e, and on each of their planes the object's triangles
 ///   cover, within the box Q, a full strip across Q along e. Then both distance functions are
 ///   invariant along e in the cell, and the bisector is C x e for a curve C of the cross-section
 ///   (kExtrudedX + e). Also, all outward normals of a and all inward normals of b lie in one
