@@ -9,7 +9,6 @@
 #include <utility>
 
 #include "gvd/common/cancel.h"
-#include "gvd/common/union_find.h"
 #include "gvd/geometry/primitives.h"
 
 namespace gvd::refine {
@@ -380,10 +379,10 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
     f(u, alike);
   };
   // Per triangle, +1 or -1: its vertex order against its shell's first triangle's (0 until
-  // reached).
+  // reached); and its shell, named by that first triangle.
   poll();
   std::vector<int8_t> order_sign(simplices, 0);
-  UnionFind shell_of(simplices);
+  std::vector<uint32_t> shell_of(simplices, 0);
   {
     std::vector<uint32_t> stack;
     for (uint32_t first = 0; first < simplices; ++first) {
@@ -391,6 +390,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
       if (order_sign[first] != 0 || o >= objects || !closed[o]) continue;
       if ((first & 0xFFFFu) == 0) poll();
       order_sign[first] = 1;
+      shell_of[first] = first;
       stack.assign(1, first);
       while (!stack.empty()) {
         const uint32_t s = stack.back();
@@ -398,10 +398,10 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
         for (int e = 0; e < 3; ++e) {
           // Ordered alike, u runs the edge the other way.
           for_each_across(s * 3 + e, [&](uint32_t u, bool alike) {
-            shell_of.unite(s, u);
             const int8_t want = static_cast<int8_t>(alike ? -order_sign[s] : order_sign[s]);
             if (order_sign[u] == 0) {
               order_sign[u] = want;
+              shell_of[u] = first;
               stack.push_back(u);
             } else if (order_sign[u] != want) {
               closed[o] = 0;  // not orientable
@@ -434,7 +434,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   for (uint32_t s = 0; s < simplices; ++s) {
     const ObjectId o = geometry.object_of[s];
     if (o >= objects || !closed[o]) continue;
-    const uint32_t r = shell_of.find(s);
+    const uint32_t r = shell_of[s];
     std::vector<Shell>& list = shells[o];
     size_t i = shell_index(o, r);
     if (i == list.size()) {
@@ -458,7 +458,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   auto inside = [&](ObjectId o, uint32_t inner, uint32_t outer) {
     Vec3 p;
     for (uint32_t s : of_object[o]) {
-      if (shell_of.find(s) == inner) {
+      if (shell_of[s] == inner) {
         p = pts[geometry.simplices[s].v[0]];
         break;
       }
@@ -467,7 +467,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
         Vec3{0.5773502691896258, 0.5773502691896257, 0.5773502691896259} + Vec3{1e-3, -2e-3, 7e-4};
     int crossings = 0;
     for (uint32_t s : of_object[o]) {
-      if (shell_of.find(s) != outer) continue;
+      if (shell_of[s] != outer) continue;
       const Simplex& t = geometry.simplices[s];
       const Vec3 a = pts[t.v[0]], e1 = pts[t.v[1]] - a, e2 = pts[t.v[2]] - a;
       const Vec3 h = cross(d, e2);
@@ -502,7 +502,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   for (uint32_t s = 0; s < simplices; ++s) {
     const ObjectId o = geometry.object_of[s];
     if (o >= objects || !closed[o]) continue;
-    const Shell& h = shells[o][shell_index(o, shell_of.find(s))];
+    const Shell& h = shells[o][shell_index(o, shell_of[s])];
     facing_[s] = static_cast<int8_t>(order_sign[s] * h.turn);
   }
 }

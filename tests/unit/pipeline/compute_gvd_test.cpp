@@ -301,7 +301,7 @@ TEST(ComputeGvd, ThinGapCostDoesNotDependOnTheInputsVertexOrder3D) {
   // images in the mid-plane. With one box written inside out (all its normals in) the mirror
   // test compared its triangles against turned normals and failed: 4,543,428 leaves against
   // 568.
-  auto boxes = [&](bool inside_out) {
+  auto boxes = [](bool inside_out) {
     SceneObject a = test::make_box("a", {0, 0, 0}, {0.4, 1, 0.6});
     if (inside_out)
       for (Simplex& t : a.simplices) std::swap(t.v[1], t.v[2]);
