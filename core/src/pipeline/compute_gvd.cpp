@@ -24,6 +24,7 @@
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/refine/pair_certificate.h"
 #include "gvd/refine/refine.h"
+#include "gvd/scene/snap_faces.h"
 #include "gvd/surface/compact_gvd.h"
 #include "gvd/surface/extract_gvd.h"
 
@@ -136,6 +137,9 @@ class Computation {
     DomainOptions domain_options = options_.domain;
     domain_options.threads = options_.threads;
     domain_options.cancel = options_.cancel;
+    // Certificates need flat faces flat; a float32 input's are flat only to its rounding.
+    if (options_.refine == RefineRule::kCertified)
+      snap_ = snap_float32_faces(scene_, options_.threads, options_.cancel);
     r_.domain = make_domain(scene_, domain_options);
     throw_if_cancelled(options_.cancel, "the scene stage");
     r_.geometry = make_unit_geometry(scene_, r_.domain);
@@ -313,6 +317,23 @@ class Computation {
 
   /// The warnings found by the computation itself, added to the scene's.
   void add_warnings() {
+    if (snap_.vertices > 0) {
+      char numbers[160];
+      std::snprintf(numbers, sizeof numbers, "%llu vertices moved by at most %s",
+                    static_cast<unsigned long long>(snap_.vertices),
+                    format_length(snap_.max_move).c_str());
+      std::string detail = std::string("float32 coordinates: ") + numbers +
+                           " (the scene's float32 rounding is " + format_length(snap_.rounding) +
+                           ") onto " + std::to_string(snap_.planes) + " exact planes of " +
+                           std::to_string(snap_.faces) +
+                           " flat faces, so that faces flat, parallel or square to rounding "
+                           "are so exactly and thin gaps between them stay cheap";
+      if (snap_.refused > 0)
+        detail += "; " + std::to_string(snap_.refused) +
+                  " vertices left where they are (a move longer than 16 roundings or than 1 % "
+                  "of their distance to another object)";
+      scene_.warnings.push_back({WarningKind::kFacesSnapped, "", snap_.vertices, detail});
+    }
     if (!contacts_.empty()) {
       std::string detail =
           "objects that touch, intersect or come closer than the finest cell (" +
@@ -381,6 +402,7 @@ class Computation {
   const Stopwatch total_;
   const uint64_t start_rss_ = rss_bytes();
   Scene scene_;
+  FaceSnap snap_;
   const int dim_;
   Progress progress_;
   GvdResult r_;

@@ -27,6 +27,7 @@ constexpr std::pair<WarningKind, const char*> kWarningNames[] = {
     {WarningKind::kAmbiguousCellsLeft, "ambiguous_cells_left"},
     {WarningKind::kConesDropped, "cones_dropped"},
     {WarningKind::kReorientedTriangles, "reoriented_triangles"},
+    {WarningKind::kFacesSnapped, "faces_snapped"},
 };
 
 /// Vertices or simplices validate_scene handles between two reads of the cancel flag (about a

@@ -501,7 +501,7 @@ TEST(SceneWarnings, EveryKindHasOneNameBothWaysAndIsDocumented) {
   std::stringstream doc;
   doc << formats.rdbuf();
   std::set<std::string> names;
-  for (int k = 0; k <= static_cast<int>(WarningKind::kReorientedTriangles); ++k) {
+  for (int k = 0; k <= static_cast<int>(WarningKind::kFacesSnapped); ++k) {
     const auto kind = static_cast<WarningKind>(k);
     const std::string name = warning_kind_name(kind);
     EXPECT_NE(name, "unknown") << k;

@@ -46,6 +46,7 @@ enum class WarningKind {
   kAmbiguousCellsLeft,   ///< cells still ambiguous at the refinement limit (the pipeline)
   kConesDropped,         ///< the refinement did not settle with cones; built without (the pipeline)
   kReorientedTriangles,  ///< triangles reversed to agree with their neighbours (3D)
+  kFacesSnapped,         ///< float32 faces moved onto exact planes (the pipeline, snap_faces.h)
 };
 
 /// The stable name of a kind ("degenerate_simplices", "open_mesh", ...).

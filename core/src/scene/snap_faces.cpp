@@ -1,0 +1,558 @@
+// Flat faces of a float32 input put back on exact planes (snap_faces.h).
+
+#include "gvd/scene/snap_faces.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "gvd/common/cancel.h"
+#include "gvd/common/parallel.h"
+#include "gvd/geometry/simplex_bvh.h"
+
+namespace gvd::scene {
+
+namespace {
+
+/// A face's vertices lie within this many roundings of its plane.
+constexpr double kFaceRoundings = 4;
+/// Parallel faces join one normal while each stays within this many roundings (root mean
+/// square) of its plane under it.
+constexpr double kParallelRoundings = 2;
+/// Faces whose normals differ by more than this are never tried together.
+constexpr double kMaxTilt = 1e-4;
+/// The longest move, in roundings, and its largest share of the distance to other objects.
+constexpr double kMaxMoveRoundings = 16;
+constexpr double kMaxMoveShare = 0.01;
+/// A lone triangle is a face when every neighbour meets it at 20 degrees or more.
+constexpr double kSharpCos = 0.9396926207859084;
+/// Planes at a vertex are taken while the sine of their angles (2 planes) or the volume of
+/// their unit normals (3) stays above this.
+constexpr double kApart = 0.05;
+constexpr size_t kCancelEvery = size_t{1} << 12;
+constexpr const char* kCancelWhat = "snapping float32 faces";
+
+/// xx, yy, zz, xy, xz, yz.
+using Sym3 = std::array<double, 6>;
+
+/// The unit eigenvector of the least eigenvalue of `m` (cyclic Jacobi).
+Vec3 least_axis(const Sym3& m) {
+  double a[3][3] = {{m[0], m[3], m[4]}, {m[3], m[1], m[5]}, {m[4], m[5], m[2]}};
+  double v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  static constexpr int kPairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  for (int sweep = 0; sweep < 64; ++sweep) {
+    if (a[0][1] == 0 && a[0][2] == 0 && a[1][2] == 0) break;
+    for (const auto& pq : kPairs) {
+      const int p = pq[0], q = pq[1];
+      if (a[p][q] == 0) continue;
+      const double theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
+      const double t = std::abs(theta) > 1e150
+                           ? 0.5 / theta
+                           : std::copysign(1.0, theta) / (std::abs(theta) + std::sqrt(theta * theta + 1));
+      const double c = 1 / std::sqrt(t * t + 1), s = t * c;
+      for (int k = 0; k < 3; ++k) {
+        const double akp = a[k][p], akq = a[k][q];
+        a[k][p] = c * akp - s * akq;
+        a[k][q] = s * akp + c * akq;
+      }
+      for (int k = 0; k < 3; ++k) {
+        const double apk = a[p][k], aqk = a[q][k];
+        a[p][k] = c * apk - s * aqk;
+        a[q][k] = s * apk + c * aqk;
+      }
+      a[p][q] = a[q][p] = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double vkp = v[k][p], vkq = v[k][q];
+        v[k][p] = c * vkp - s * vkq;
+        v[k][q] = s * vkp + c * vkq;
+      }
+    }
+  }
+  int k = 0;
+  for (int i = 1; i < 3; ++i)
+    if (a[i][i] < a[k][k]) k = i;
+  const Vec3 n{v[0][k], v[1][k], v[2][k]};
+  return n / norm(n);
+}
+
+/// n^T m n.
+double along(const Sym3& m, Vec3 n) {
+  return m[0] * n.x * n.x + m[1] * n.y * n.y + m[2] * n.z * n.z +
+         2 * (m[3] * n.x * n.y + m[4] * n.x * n.z + m[5] * n.y * n.z);
+}
+
+Sym3 operator+(const Sym3& a, const Sym3& b) {
+  Sym3 r;
+  for (int i = 0; i < 6; ++i) r[i] = a[i] + b[i];
+  return r;
+}
+
+/// Whether x is exactly a float32 (finite). By its bits, not by a round trip through float:
+/// GCC 12.2 at -O2 folds a vectorised double -> float -> double round trip of neighbouring
+/// values away (the truncation of .x and .y of a Vec3 is dropped; -fno-tree-slp-vectorize
+/// keeps it).
+bool float32_exact(double x) {
+  if (x == 0) return true;
+  if (!std::isfinite(x)) return false;
+  int e = 0;
+  std::frexp(x, &e);  // |x| = m 2^e, m in [0.5, 1)
+  if (e > 128) return false;  // beyond float32's largest
+  // Significant bits a float32 has at this magnitude: 24, fewer among the subnormals.
+  const int bits = e >= -125 ? 24 : 24 - (-125 - e);
+  if (bits <= 0) return false;
+  const double scaled = std::ldexp(x, bits - e);  // an integer when x has no more bits
+  return scaled == std::trunc(scaled);
+}
+
+/// Edge-connected triangles of one object on one plane.
+struct Group {
+  uint32_t object = 0;
+  std::vector<uint32_t> vertices;  ///< the object's, sorted, unique
+  uint32_t triangles = 0;
+  double area = 0;
+  Vec3 centroid;
+  Sym3 scatter{};  ///< sum of (p - centroid)(p - centroid)^T over the vertices
+  Vec3 normal;     ///< unit, the way of the triangles' normals
+  bool face = false;
+  uint32_t plane = 0;  ///< index into the planes, for faces
+};
+
+/// Parallel faces under one normal.
+struct Direction {
+  Sym3 scatter{};
+  Vec3 normal;
+  std::vector<uint32_t> members;  ///< groups
+};
+
+struct Plane {
+  Vec3 normal;  ///< unit
+  double offset = 0;  ///< normal . x on the plane
+  double area = 0;
+};
+
+/// The bin of a quantised direction, moved by (dx, dy, dz) bins.
+uint64_t direction_key(Vec3 n, int dx, int dy, int dz) {
+  const int64_t q[3] = {std::llround(n.x / kMaxTilt) + dx, std::llround(n.y / kMaxTilt) + dy,
+                        std::llround(n.z / kMaxTilt) + dz};
+  uint64_t k = 0;
+  for (int64_t c : q) k = k * 0x9e3779b97f4a7c15ull + static_cast<uint64_t>(c + (int64_t{1} << 40));
+  return k;
+}
+
+}  // namespace
+
+FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* cancel) {
+  FaceSnap report;
+  if (scene.dimension != 3 || scene.objects.size() < 2) return report;
+  double largest = 0;
+  for (const SceneObject& object : scene.objects) {
+    throw_if_cancelled(cancel, kCancelWhat);
+    for (const Vec3& p : object.vertices) {
+      if (!float32_exact(p.x) || !float32_exact(p.y) || !float32_exact(p.z)) return report;
+      largest = std::max({largest, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+    }
+  }
+  if (!(largest > 0)) return report;
+  const double rounding = std::ldexp(largest, -24);
+  report.rounding = rounding;
+  const double face_tol = kFaceRoundings * rounding;
+
+  // Faces: edge-connected triangles whose normals agree within what rounding their vertices
+  // can tilt them by, grown from the largest, then fitted and kept when every vertex lies
+  // within face_tol of the fitted plane.
+  std::vector<Group> groups;
+  std::vector<std::vector<int32_t>> group_of(scene.objects.size());
+  for (uint32_t o = 0; o < scene.objects.size(); ++o) {
+    const SceneObject& object = scene.objects[o];
+    const size_t count = object.simplices.size();
+    std::vector<Vec3> normal(count);
+    std::vector<double> area(count), altitude(count);
+    for (size_t t = 0; t < count; ++t) {
+      if (t % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
+      const Simplex& s = object.simplices[t];
+      const Vec3 a = object.vertices[s.v[0]], b = object.vertices[s.v[1]],
+                 c = object.vertices[s.v[2]];
+      const Vec3 n = cross(b - a, c - a);
+      const double twice = norm(n);
+      const double longest = std::sqrt(std::max({dist2(a, b), dist2(b, c), dist2(c, a)}));
+      area[t] = twice / 2;
+      altitude[t] = longest > 0 ? twice / longest : 0;
+      normal[t] = twice > 0 ? n / twice : Vec3{};
+    }
+    // Each edge's triangles: the neighbour across it where exactly two share it.
+    std::vector<std::pair<uint64_t, uint32_t>> edges;
+    edges.reserve(3 * count);
+    for (uint32_t t = 0; t < count; ++t)
+      for (int e = 0; e < 3; ++e) {
+        uint64_t a = object.simplices[t].v[e], b = object.simplices[t].v[(e + 1) % 3];
+        if (a > b) std::swap(a, b);
+        edges.push_back({a << 32 | b, t * 3 + e});
+      }
+    std::sort(edges.begin(), edges.end());
+    std::vector<int64_t> across(3 * count, -1);
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+      if (j - i == 2) {
+        across[edges[i].second] = edges[i + 1].second / 3;
+        across[edges[i + 1].second] = edges[i].second / 3;
+      }
+      i = j;
+    }
+    edges = {};
+    auto agree = [&](uint32_t t, uint32_t u) {
+      if (!(altitude[t] > 0) || !(altitude[u] > 0) || dot(normal[t], normal[u]) <= 0) return false;
+      const double tilt = 2 * std::sqrt(3.0) * rounding * (1 / altitude[t] + 1 / altitude[u]);
+      return norm(cross(normal[t], normal[u])) <= 2 * tilt;
+    };
+    std::vector<uint32_t> order(count);
+    for (uint32_t t = 0; t < count; ++t) order[t] = t;
+    std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
+      return area[x] != area[y] ? area[x] > area[y] : x < y;
+    });
+    std::vector<int32_t>& of = group_of[o];
+    of.assign(count, -1);
+    std::vector<uint32_t> stack, members;
+    for (const uint32_t seed : order) {
+      if (of[seed] >= 0 || !(area[seed] > 0)) continue;
+      if (groups.size() % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
+      const auto id = static_cast<int32_t>(groups.size());
+      Group g;
+      g.object = o;
+      of[seed] = id;
+      stack.assign(1, seed);
+      members.clear();
+      Vec3 weighted;
+      while (!stack.empty()) {
+        const uint32_t t = stack.back();
+        stack.pop_back();
+        members.push_back(t);
+        weighted = weighted + normal[t] * area[t];
+        g.area += area[t];
+        for (int e = 0; e < 3; ++e) {
+          const int64_t u = across[t * 3 + e];
+          if (u < 0 || of[u] >= 0 || !agree(t, static_cast<uint32_t>(u))) continue;
+          of[u] = id;
+          stack.push_back(static_cast<uint32_t>(u));
+        }
+      }
+      g.triangles = static_cast<uint32_t>(members.size());
+      for (uint32_t t : members)
+        for (int k = 0; k < 3; ++k) g.vertices.push_back(object.simplices[t].v[k]);
+      std::sort(g.vertices.begin(), g.vertices.end());
+      g.vertices.erase(std::unique(g.vertices.begin(), g.vertices.end()), g.vertices.end());
+      for (uint32_t v : g.vertices) g.centroid = g.centroid + object.vertices[v];
+      g.centroid = g.centroid / static_cast<double>(g.vertices.size());
+      for (uint32_t v : g.vertices) {
+        const Vec3 d = object.vertices[v] - g.centroid;
+        g.scatter = g.scatter + Sym3{d.x * d.x, d.y * d.y, d.z * d.z, d.x * d.y, d.x * d.z, d.y * d.z};
+      }
+      g.normal = least_axis(g.scatter);
+      if (dot(g.normal, weighted) < 0) g.normal = g.normal * -1.0;
+      bool flat = true;
+      for (uint32_t v : g.vertices)
+        flat = flat && std::abs(dot(object.vertices[v] - g.centroid, g.normal)) <= face_tol;
+      bool sharp = g.triangles >= 2;
+      if (g.triangles == 1) {
+        sharp = true;
+        for (int e = 0; e < 3; ++e) {
+          const int64_t u = across[seed * 3 + e];
+          if (u >= 0 && dot(normal[seed], normal[u]) > kSharpCos) sharp = false;
+        }
+      }
+      g.face = flat && sharp;
+      groups.push_back(std::move(g));
+    }
+  }
+
+  // Directions: faces by decreasing area, each joining the first direction (within kMaxTilt)
+  // under whose joint normal it and every member stay within kParallelRoundings.
+  std::vector<uint32_t> faces;
+  for (uint32_t i = 0; i < groups.size(); ++i)
+    if (groups[i].face) faces.push_back(i);
+  report.faces = faces.size();
+  if (faces.empty()) return report;
+  std::sort(faces.begin(), faces.end(), [&](uint32_t x, uint32_t y) {
+    return groups[x].area != groups[y].area ? groups[x].area > groups[y].area : x < y;
+  });
+  const double parallel_tol2 = kParallelRoundings * kParallelRoundings * rounding * rounding;
+  std::vector<Direction> directions;
+  std::unordered_map<uint64_t, std::vector<uint32_t>> bins;
+  std::vector<uint32_t> direction_of(groups.size(), 0);
+  for (size_t i = 0; i < faces.size(); ++i) {
+    if (i % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
+    const uint32_t f = faces[i];
+    const Group& g = groups[f];
+    auto fits = [&](const Direction& d, Vec3 n) {
+      if (along(g.scatter, n) > parallel_tol2 * static_cast<double>(g.vertices.size())) return false;
+      for (uint32_t m : d.members)
+        if (along(groups[m].scatter, n) >
+            parallel_tol2 * static_cast<double>(groups[m].vertices.size()))
+          return false;
+      return true;
+    };
+    // Directions are binned by their first face's normal; a face looks in the bins around
+    // its normal and around the opposite one.
+    int64_t joined = -1;
+    for (int sign = 1; sign >= -1 && joined < 0; sign -= 2)
+    for (int dx = -1; dx <= 1 && joined < 0; ++dx)
+      for (int dy = -1; dy <= 1 && joined < 0; ++dy)
+        for (int dz = -1; dz <= 1 && joined < 0; ++dz) {
+          const auto bin = bins.find(direction_key(g.normal * sign, dx, dy, dz));
+          if (bin == bins.end()) continue;
+          for (uint32_t c : bin->second) {
+            Direction& d = directions[c];
+            if (norm(cross(d.normal, g.normal)) > kMaxTilt) continue;
+            const Sym3 joint = d.scatter + g.scatter;
+            const Vec3 n = least_axis(joint);
+            if (!fits(d, n)) continue;
+            d.scatter = joint;
+            d.normal = n;
+            d.members.push_back(f);
+            joined = c;
+            break;
+          }
+        }
+    if (joined < 0) {
+      joined = static_cast<int64_t>(directions.size());
+      Direction d;
+      d.scatter = g.scatter;
+      d.normal = g.normal;
+      d.members.push_back(f);
+      directions.push_back(std::move(d));
+      bins[direction_key(g.normal, 0, 0, 0)].push_back(static_cast<uint32_t>(joined));
+    }
+    direction_of[f] = static_cast<uint32_t>(joined);
+  }
+
+  // Square corners: each direction, the most area first, is made exactly perpendicular to the
+  // earlier ones it is perpendicular to within kMaxTilt, where its faces stay within
+  // kParallelRoundings of their planes under the turned normal. (Fitted one by one, the
+  // directions of a box drawn at an angle are square only to ~1e-8, and the certificates of
+  // a rim need the faces beside it square to the octree's axes.)
+  {
+    std::vector<double> area(directions.size(), 0);
+    std::vector<uint32_t> order(directions.size());
+    for (uint32_t d = 0; d < directions.size(); ++d) {
+      order[d] = d;
+      for (uint32_t m : directions[d].members) area[d] += groups[m].area;
+    }
+    std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
+      return area[x] != area[y] ? area[x] > area[y] : x < y;
+    });
+    std::vector<Vec3> square;  // the directions so far
+    for (const uint32_t di : order) {
+      Direction& d = directions[di];
+      const Vec3 n = d.normal;
+      std::vector<Vec3> across;
+      for (const Vec3& s : square)
+        if (std::abs(dot(n, s)) <= kMaxTilt) across.push_back(s);
+      Vec3 turned = n;
+      if (across.size() == 1) {
+        turned = n - across[0] * dot(n, across[0]);
+      } else if (across.size() >= 2) {
+        for (size_t j = 1; j < across.size(); ++j) {
+          const Vec3 c = cross(across[0], across[j]);
+          if (norm(c) >= kApart) {
+            turned = dot(c, n) < 0 ? c * -1.0 : c;
+            break;
+          }
+        }
+        if (turned == n) turned = n - across[0] * dot(n, across[0]);
+      }
+      turned = turned / norm(turned);
+      bool fits = true;
+      for (uint32_t m : d.members)
+        fits = fits && along(groups[m].scatter, turned) <=
+                           parallel_tol2 * static_cast<double>(groups[m].vertices.size());
+      if (fits) d.normal = turned;
+      square.push_back(d.normal);
+    }
+  }
+
+  // Planes: within a direction, faces the same way whose offsets lie within face_tol of the
+  // first of a run share its mean offset.
+  std::vector<Plane> planes;
+  for (const Direction& d : directions) {
+    struct Entry {
+      int side;
+      double offset;
+      uint32_t group;
+    };
+    std::vector<Entry> entries;
+    for (uint32_t m : d.members)
+      entries.push_back({dot(groups[m].normal, d.normal) < 0 ? -1 : 1,
+                         dot(d.normal, groups[m].centroid), m});
+    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+      return a.side != b.side ? a.side < b.side : a.offset < b.offset;
+    });
+    for (size_t i = 0; i < entries.size();) {
+      size_t j = i;
+      double weighted = 0, weight = 0, area = 0;
+      bool same = true;
+      while (j < entries.size() && entries[j].side == entries[i].side &&
+             entries[j].offset - entries[i].offset <= face_tol) {
+        const Group& g = groups[entries[j].group];
+        const auto w = static_cast<double>(g.vertices.size());
+        weighted += w * entries[j].offset;
+        weight += w;
+        area += g.area;
+        same = same && entries[j].offset == entries[i].offset;
+        ++j;
+      }
+      Plane plane;
+      plane.normal = d.normal;
+      plane.offset = same ? entries[i].offset : weighted / weight;
+      plane.area = area;
+      for (size_t k = i; k < j; ++k) groups[entries[k].group].plane = static_cast<uint32_t>(planes.size());
+      planes.push_back(plane);
+      i = j;
+    }
+  }
+  report.planes = planes.size();
+
+  // Each vertex's planes, the largest first, taken while well apart; the move to where they
+  // meet.
+  struct Move {
+    uint32_t object;
+    uint32_t vertex;
+    Vec3 to;
+  };
+  std::vector<Move> moves;
+  for (uint32_t o = 0; o < scene.objects.size(); ++o) {
+    throw_if_cancelled(cancel, kCancelWhat);
+    const SceneObject& object = scene.objects[o];
+    std::vector<std::pair<uint32_t, uint32_t>> at;  // (vertex, plane)
+    for (size_t t = 0; t < object.simplices.size(); ++t) {
+      const int32_t gi = group_of[o][t];
+      if (gi < 0 || !groups[gi].face) continue;
+      for (int k = 0; k < 3; ++k) at.push_back({object.simplices[t].v[k], groups[gi].plane});
+    }
+    std::sort(at.begin(), at.end());
+    at.erase(std::unique(at.begin(), at.end()), at.end());
+    std::vector<uint32_t> mine;
+    for (size_t i = 0; i < at.size();) {
+      if (i % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
+      const uint32_t v = at[i].first;
+      mine.clear();
+      for (; i < at.size() && at[i].first == v; ++i) mine.push_back(at[i].second);
+      std::sort(mine.begin(), mine.end(), [&](uint32_t x, uint32_t y) {
+        return planes[x].area != planes[y].area ? planes[x].area > planes[y].area : x < y;
+      });
+      std::array<const Plane*, 3> chosen{};
+      int n = 0;
+      for (uint32_t pi : mine) {
+        const Plane& q = planes[pi];
+        if (n == 1 && !(norm(cross(chosen[0]->normal, q.normal)) >= kApart)) continue;
+        if (n == 2 &&
+            !(std::abs(dot(cross(chosen[0]->normal, chosen[1]->normal), q.normal)) >= kApart))
+          continue;
+        chosen[n++] = &q;
+        if (n == 3) break;
+      }
+      const Vec3 p = object.vertices[v];
+      double r[3];
+      for (int k = 0; k < n; ++k) r[k] = chosen[k]->offset - dot(chosen[k]->normal, p);
+      Vec3 step;
+      if (n == 1) {
+        step = chosen[0]->normal * r[0];
+      } else if (n == 2) {
+        const Vec3 a = chosen[0]->normal, b = chosen[1]->normal;
+        const double ab = dot(a, b), det = 1 - ab * ab;
+        step = a * ((r[0] - ab * r[1]) / det) + b * ((r[1] - ab * r[0]) / det);
+      } else {
+        const Vec3 a = chosen[0]->normal, b = chosen[1]->normal, c = chosen[2]->normal;
+        const double det = dot(a, cross(b, c));
+        step = (cross(b, c) * r[0] + cross(c, a) * r[1] + cross(a, b) * r[2]) / det;
+      }
+      const Vec3 to = p + step;
+      if (to == p) continue;
+      if (!(dist(to, p) <= kMaxMoveRoundings * rounding)) {
+        ++report.refused;
+        continue;
+      }
+      moves.push_back({o, v, to});
+    }
+  }
+
+  // No gap may change by more than 2 % of itself: a vertex moves by at most 1 % of the
+  // distance from each of its triangles to every other object (a point of a triangle moves
+  // by no more than its farthest-moving vertex).
+  if (!moves.empty()) {
+    std::vector<std::vector<int64_t>> move_of(scene.objects.size());
+    for (uint32_t o = 0; o < scene.objects.size(); ++o)
+      move_of[o].assign(scene.objects[o].vertices.size(), -1);
+    for (size_t i = 0; i < moves.size(); ++i)
+      move_of[moves[i].object][moves[i].vertex] = static_cast<int64_t>(i);
+    std::vector<Vec3> points;
+    std::vector<Simplex> simplices;
+    std::vector<uint32_t> object_of;
+    std::vector<double> reach;  // per simplex with a moving vertex: its largest move / 1 %
+    std::vector<uint32_t> moving;  // those simplices
+    std::vector<Simplex> moving_own;  // with the object's own vertex indices
+    for (uint32_t o = 0; o < scene.objects.size(); ++o) {
+      const SceneObject& object = scene.objects[o];
+      const auto base = static_cast<uint32_t>(points.size());
+      points.insert(points.end(), object.vertices.begin(), object.vertices.end());
+      for (Simplex s : object.simplices) {
+        double most = 0;
+        for (const uint32_t k : s.v)
+          if (move_of[o][k] >= 0)
+            most = std::max(most, dist(moves[move_of[o][k]].to, object.vertices[k]));
+        if (most > 0) {
+          moving.push_back(static_cast<uint32_t>(simplices.size()));
+          moving_own.push_back(s);
+          reach.push_back(most / kMaxMoveShare);
+        }
+        for (uint32_t& k : s.v) k += base;
+        simplices.push_back(s);
+        object_of.push_back(o);
+      }
+    }
+    const SimplexBvh bvh(3, points, simplices, object_of, cancel);
+    // Per moving simplex, the distance to the nearest other object when it is within reach.
+    std::vector<double> near(moving.size(), 1e300);
+    parallel_for(
+        moving.size(), resolve_threads(threads),
+        [&](size_t begin, size_t end, int) {
+          throw_if_cancelled(cancel, kCancelWhat);
+          for (size_t i = begin; i < end; ++i) {
+            const Simplex& s = simplices[moving[i]];
+            const Vec3 q[3] = {points[s.v[0]], points[s.v[1]], points[s.v[2]]};
+            const ClosestHit hit =
+                bvh.closest_to_simplex(q, reach[i] * reach[i], object_of[moving[i]]);
+            if (hit.found()) near[i] = std::sqrt(hit.dist2);
+          }
+        },
+        256);
+    std::vector<char> refuse(moves.size(), 0);
+    for (size_t i = 0; i < moving.size(); ++i) {
+      if (near[i] == 1e300) continue;
+      const uint32_t o = object_of[moving[i]];
+      for (const uint32_t k : moving_own[i].v) {
+        const int64_t m = move_of[o][k];
+        if (m >= 0 && dist(moves[m].to, scene.objects[o].vertices[k]) > kMaxMoveShare * near[i])
+          refuse[m] = 1;
+      }
+    }
+    for (size_t i = 0; i < moves.size(); ++i) {
+      const Move& m = moves[i];
+      Vec3& p = scene.objects[m.object].vertices[m.vertex];
+      if (refuse[i] != 0) {
+        ++report.refused;
+        continue;
+      }
+      report.max_move = std::max(report.max_move, dist(m.to, p));
+      ++report.vertices;
+      p = m.to;
+    }
+  }
+  return report;
+}
+
+}  // namespace gvd::scene
