@@ -978,6 +978,13 @@ class CellSurfacer {
   // curve twice. A function of the face and the two points alone, so both cells of the face
   // get the same curve.
   static constexpr double kCurveTolerance = 1e-3;
+  /// An end of a search line counts as on the bisector where d_a - d_b is within this (unit
+  /// lengths) of 0, however small the clearance: the lattice's rounding of the objects (2^-48
+  /// per coordinate, a face flat to the certificates' 1e-12) moves the bisector that much. A
+  /// gap's mid-plane on a lattice plane, turned with the scene, lies 4.7e-14 off the face's
+  /// edge at a clearance of 5e-5 (inset plates at 1e-4 turned 0.7 rad): taken as off it, the
+  /// curve from a rim's parabola to the edge found no root and its chord cut the rim's corner.
+  static constexpr double kOnEdge = 1e-12;
   static constexpr int kCurveDepth = 48;
   std::vector<Vec3> trace_curve(const detail::FacePolygon& poly, const Spoke& s0,
                                 const Spoke& s1) const {
@@ -1045,8 +1052,8 @@ class CellSurfacer {
       double d_lo = 0, d_hi = 0;
       f_lo = bisector_gap(m + nu * t_lo, a, b, last, &d_lo);
       f_hi = bisector_gap(m + nu * t_hi, a, b, last, &d_hi);
-      if (std::abs(f_lo) <= 1e-12 * d_lo) f_lo = 0;
-      if (std::abs(f_hi) <= 1e-12 * d_hi) f_hi = 0;
+      if (std::abs(f_lo) <= std::max(1e-12 * d_lo, kOnEdge)) f_lo = 0;
+      if (std::abs(f_hi) <= std::max(1e-12 * d_hi, kOnEdge)) f_hi = 0;
       if (f_lo == 0 && f_hi == 0) return Root::kWhole;
       if (!(f_lo * f_hi <= 0)) return Root::kNone;
       if (f_lo == 0 || f_hi == 0) {

@@ -303,6 +303,26 @@ TEST(ComputeGvd, ThinGapCostDoesNotDependOnFloat32Coordinates3D) {
   EXPECT_TRUE(said);
 }
 
+// Six plates, every other one inset by 0.1 (its rims over its neighbours' faces), turned
+// 0.7 rad about (2, -1, 3): the middle gap's mid-plane lies on the lattice plane y = 1/2, to
+// the lattice's rounding (4.7e-14 off it). On the faces across an inset rim, the curve from
+// the rim's parabola to the face's edge found no root where the mid-plane runs along that
+// edge, so its chord cut the rim's corner: 5 GVD triangles through a plate (2 at 1e-5).
+TEST(ComputeGvd, TurnedInsetPlatesKeepTheGvdOffTheirRims3D) {
+  test::StackedPlatesOptions po;
+  po.gap = 1e-4;
+  po.inset = 0.1;
+  Scene scene = test::make_stacked_plates(po);
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  for (SceneObject& o : scene.objects)
+    for (Vec3& v : o.vertices) v = test::rotate(v, axis, 0.7);
+  const GvdResult r = run(scene);
+  expect_valid(r);
+  EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 3000), 0u);
+  const auto pairs = graph_pairs(r.graph);
+  for (ObjectId i = 0; i + 1 < 6; ++i) EXPECT_EQ(pairs.count({i, i + 1}), 1u) << i;
+}
+
 TEST(ComputeGvd, ThinGapCostDoesNotDependOnTheInputsVertexOrder3D) {
   test::CubeInCavityOptions co;
   const double g = co.gap * 1.1;  // the block spans 1
