@@ -34,6 +34,13 @@ constexpr double kSharpCos = 0.9396926207859084;
 /// Planes at a vertex are taken while the sine of their angles (2 planes) or the volume of
 /// their unit normals (3) stays above this.
 constexpr double kApart = 0.05;
+/// Faces of a direction checked one by one when a face joins it or it is squared (the
+/// largest; the rest together), and the largest directions others are squared against: a
+/// soup of a million lone triangles is a million directions.
+constexpr size_t kCheckedFaces = 16;
+constexpr size_t kSquareTo = 64;
+/// Moves shorter than this share of the largest coordinate are rounding, not moves.
+constexpr double kStill = 0x1p-50;
 constexpr size_t kCancelEvery = size_t{1} << 12;
 constexpr const char* kCancelWhat = "snapping float32 faces";
 
@@ -125,6 +132,7 @@ struct Group {
 /// Parallel faces under one normal.
 struct Direction {
   Sym3 scatter{};
+  uint64_t vertices = 0;  ///< of its faces
   Vec3 normal;
   std::vector<uint32_t> members;  ///< groups
 };
@@ -135,13 +143,51 @@ struct Plane {
   double area = 0;
 };
 
-/// The bin of a quantised direction, moved by (dx, dy, dz) bins.
-uint64_t direction_key(Vec3 n, int dx, int dy, int dz) {
-  const int64_t q[3] = {std::llround(n.x / kMaxTilt) + dx, std::llround(n.y / kMaxTilt) + dy,
-                        std::llround(n.z / kMaxTilt) + dz};
+/// n or -n: the one whose largest component is positive.
+Vec3 canonical(Vec3 n) {
+  int big = 0;
+  for (int k = 1; k < 3; ++k)
+    if (std::abs(n[k]) > std::abs(n[big])) big = k;
+  return n[big] < 0 ? n * -1.0 : n;
+}
+
+/// Whether canonical() could pick the other sign for a normal within kMaxTilt of n: its two
+/// largest components are nearly as large, of opposite signs.
+bool sign_ambiguous(Vec3 n) {
+  double m[3] = {std::abs(n.x), std::abs(n.y), std::abs(n.z)};
+  std::sort(m, m + 3);
+  return m[2] - m[1] <= 4 * kMaxTilt;
+}
+
+/// Directions are binned on a grid of side 2 kMaxTilt: the bins a normal within kMaxTilt of n
+/// can lie in are, per axis, those of n - kMaxTilt and n + kMaxTilt (one or two).
+constexpr double kBin = 2 * kMaxTilt;
+uint64_t bin_key(const int64_t q[3]) {
   uint64_t k = 0;
-  for (int64_t c : q) k = k * 0x9e3779b97f4a7c15ull + static_cast<uint64_t>(c + (int64_t{1} << 40));
+  for (int i = 0; i < 3; ++i)
+    k = k * 0x9e3779b97f4a7c15ull + static_cast<uint64_t>(q[i] + (int64_t{1} << 40));
   return k;
+}
+uint64_t direction_key(Vec3 n) {
+  const int64_t q[3] = {static_cast<int64_t>(std::floor(n.x / kBin)),
+                        static_cast<int64_t>(std::floor(n.y / kBin)),
+                        static_cast<int64_t>(std::floor(n.z / kBin))};
+  return bin_key(q);
+}
+/// Calls f(key) for each bin a normal within kMaxTilt of n can lie in, until f returns true.
+template <class F>
+bool for_each_near_bin(Vec3 n, F&& f) {
+  int64_t lo[3], hi[3];
+  for (int i = 0; i < 3; ++i) {
+    lo[i] = static_cast<int64_t>(std::floor((n[i] - kMaxTilt) / kBin));
+    hi[i] = static_cast<int64_t>(std::floor((n[i] + kMaxTilt) / kBin));
+  }
+  int64_t q[3];
+  for (q[0] = lo[0]; q[0] <= hi[0]; ++q[0])
+    for (q[1] = lo[1]; q[1] <= hi[1]; ++q[1])
+      for (q[2] = lo[2]; q[2] <= hi[2]; ++q[2])
+        if (f(bin_key(q))) return true;
+  return false;
 }
 
 }  // namespace
@@ -281,6 +327,18 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
     return groups[x].area != groups[y].area ? groups[x].area > groups[y].area : x < y;
   });
   const double parallel_tol2 = kParallelRoundings * kParallelRoundings * rounding * rounding;
+  // Under normal n, each of a direction's largest faces (the first to join it) stays within
+  // kParallelRoundings of its plane. The others count only together (so that a direction of
+  // many faces costs no more per face); a face that fits badly is caught where its vertices
+  // move (at most kMaxMoveRoundings).
+  auto largest_fit = [&](const Direction& d, Vec3 n) {
+    for (size_t k = 0; k < std::min(d.members.size(), kCheckedFaces); ++k) {
+      const Group& m = groups[d.members[k]];
+      if (along(m.scatter, n) > parallel_tol2 * static_cast<double>(m.vertices.size()))
+        return false;
+    }
+    return true;
+  };
   std::vector<Direction> directions;
   std::unordered_map<uint64_t, std::vector<uint32_t>> bins;
   std::vector<uint32_t> direction_of(groups.size(), 0);
@@ -288,50 +346,51 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
     if (i % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
     const uint32_t f = faces[i];
     const Group& g = groups[f];
-    auto fits = [&](const Direction& d, Vec3 n) {
-      if (along(g.scatter, n) > parallel_tol2 * static_cast<double>(g.vertices.size())) return false;
-      for (uint32_t m : d.members)
-        if (along(groups[m].scatter, n) >
-            parallel_tol2 * static_cast<double>(groups[m].vertices.size()))
-          return false;
-      return true;
+    auto fits = [&](const Direction& d, const Sym3& joint, Vec3 n) {
+      const auto count = static_cast<double>(g.vertices.size());
+      return along(g.scatter, n) <= parallel_tol2 * count &&
+             along(joint, n) <= parallel_tol2 * (static_cast<double>(d.vertices) + count) &&
+             largest_fit(d, n);
     };
-    // Directions are binned by their first face's normal; a face looks in the bins around
-    // its normal and around the opposite one.
+    // Directions are binned by their first face's canonical normal; a face looks in the bins
+    // around its own, and around the opposite one where the sign could go either way.
     int64_t joined = -1;
-    for (int sign = 1; sign >= -1 && joined < 0; sign -= 2)
-    for (int dx = -1; dx <= 1 && joined < 0; ++dx)
-      for (int dy = -1; dy <= 1 && joined < 0; ++dy)
-        for (int dz = -1; dz <= 1 && joined < 0; ++dz) {
-          const auto bin = bins.find(direction_key(g.normal * sign, dx, dy, dz));
-          if (bin == bins.end()) continue;
-          for (uint32_t c : bin->second) {
-            Direction& d = directions[c];
-            if (norm(cross(d.normal, g.normal)) > kMaxTilt) continue;
-            const Sym3 joint = d.scatter + g.scatter;
-            const Vec3 n = least_axis(joint);
-            if (!fits(d, n)) continue;
-            d.scatter = joint;
-            d.normal = n;
-            d.members.push_back(f);
-            joined = c;
-            break;
-          }
+    const Vec3 key_normal = canonical(g.normal);
+    for (int sign = 1; sign >= (sign_ambiguous(key_normal) ? -1 : 1) && joined < 0; sign -= 2) {
+      for_each_near_bin(key_normal * sign, [&](uint64_t key) {
+        const auto bin = bins.find(key);
+        if (bin == bins.end()) return false;
+        for (uint32_t c : bin->second) {
+          Direction& d = directions[c];
+          if (norm(cross(d.normal, g.normal)) > kMaxTilt) continue;
+          const Sym3 joint = d.scatter + g.scatter;
+          const Vec3 n = least_axis(joint);
+          if (!fits(d, joint, n)) continue;
+          d.scatter = joint;
+          d.vertices += g.vertices.size();
+          d.normal = n;
+          d.members.push_back(f);
+          joined = c;
+          return true;
         }
+        return false;
+      });
+    }
     if (joined < 0) {
       joined = static_cast<int64_t>(directions.size());
       Direction d;
       d.scatter = g.scatter;
+      d.vertices = g.vertices.size();
       d.normal = g.normal;
       d.members.push_back(f);
       directions.push_back(std::move(d));
-      bins[direction_key(g.normal, 0, 0, 0)].push_back(static_cast<uint32_t>(joined));
+      bins[direction_key(key_normal)].push_back(static_cast<uint32_t>(joined));
     }
     direction_of[f] = static_cast<uint32_t>(joined);
   }
 
   // Square corners: each direction, the most area first, is made exactly perpendicular to the
-  // earlier ones it is perpendicular to within kMaxTilt, where its faces stay within
+  // earlier ones (of the kSquareTo largest) it is perpendicular to within kMaxTilt, where its faces stay within
   // kParallelRoundings of their planes under the turned normal. (Fitted one by one, the
   // directions of a box drawn at an angle are square only to ~1e-8, and the certificates of
   // a rim need the faces beside it square to the octree's axes.)
@@ -345,9 +404,10 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
     std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
       return area[x] != area[y] ? area[x] > area[y] : x < y;
     });
-    std::vector<Vec3> square;  // the directions so far
-    for (const uint32_t di : order) {
-      Direction& d = directions[di];
+    std::vector<Vec3> square;  // the largest directions so far
+    for (size_t i = 0; i < order.size(); ++i) {
+      if (i % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
+      Direction& d = directions[order[i]];
       const Vec3 n = d.normal;
       std::vector<Vec3> across;
       for (const Vec3& s : square)
@@ -366,12 +426,11 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
         if (turned == n) turned = n - across[0] * dot(n, across[0]);
       }
       turned = turned / norm(turned);
-      bool fits = true;
-      for (uint32_t m : d.members)
-        fits = fits && along(groups[m].scatter, turned) <=
-                           parallel_tol2 * static_cast<double>(groups[m].vertices.size());
-      if (fits) d.normal = turned;
-      square.push_back(d.normal);
+      if (turned != n &&
+          along(d.scatter, turned) <= parallel_tol2 * static_cast<double>(d.vertices) &&
+          largest_fit(d, turned))
+        d.normal = turned;
+      if (square.size() < kSquareTo) square.push_back(d.normal);
     }
   }
 
@@ -471,7 +530,9 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
         step = (cross(b, c) * r[0] + cross(c, a) * r[1] + cross(a, b) * r[2]) / det;
       }
       const Vec3 to = p + step;
-      if (to == p) continue;
+      // A move within a few units in the last place is the planes' own rounding: the vertex is
+      // on them already (to the certificates' 1e-12, by far).
+      if (!(norm(step) > kStill * largest)) continue;
       if (!(dist(to, p) <= kMaxMoveRoundings * rounding)) {
         ++report.refused;
         continue;
