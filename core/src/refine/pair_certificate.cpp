@@ -749,8 +749,11 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   // Surfacing closes cells on the domain box with straight cuts; keep extruded cells off it.
   for (int i = 0; i < 3; ++i)
     if (!(box.lo[i] > 0) || !(box.hi[i] < 1)) return out;
-  // The gradient directions: a's outward normals and b's inward ones.
-  constexpr double kPerpendicular = 1e-12;
+  // The gradient directions: a's outward normals and b's inward ones, square to an axis within
+  // kPerpendicular: a tilt of 1e-10 moves the bisector by at most 1e-10 of the cell across it.
+  // (1e-12 refused a scene turned and moved 1000 away, whose coordinates' rounding tilts a
+  // small triangle's normal by ~4e-12: every rim refined to the gap, the leaf limit.)
+  constexpr double kPerpendicular = 1e-10;
   // A slanted face's normal comes from its triangle's vertices on the 2^-48 lattice, whose
   // rounding tilts it by up to ~2e-12 on a small triangle (the walls of a triangular bore at
   // 60 degrees: with 1e-12 here, their mouths' rims refined to the gap, 306,636 leaves at 1e-4
