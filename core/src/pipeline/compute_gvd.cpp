@@ -315,6 +315,25 @@ class Computation {
     r_.stats.stages.push_back({"compact", sw_.seconds(), 0, compacted.simplices_after});
   }
 
+  /// octree_distance_and_refinement; a limit hit after float32 faces were left where they
+  /// are says so (their rounding is what the cells chase).
+  void octree_distance_and_refinement_or_why() {
+    try {
+      octree_distance_and_refinement();
+    } catch (const Error& e) {
+      if (e.code() != ErrorCode::kLimitExceeded || snap_.refused == 0) throw;
+      throw Error(e.code(),
+                  e.detail() + "; " + std::to_string(snap_.refused) +
+                      " vertices of flat faces of this float32 input were not put on exact "
+                      "planes (a move longer than 16 of its roundings, " +
+                      format_length(snap_.rounding) +
+                      ", or than 1 % of their distance to another object): where the file's "
+                      "rounding is that large a share of a gap, the faces are flat only to it "
+                      "and the gap refines to it",
+                  e.where());
+    }
+  }
+
   /// The warnings found by the computation itself, added to the scene's.
   void add_warnings() {
     if (snap_.vertices > 0) {
@@ -437,7 +456,7 @@ GvdResult compute_gvd(Scene scene, const PipelineOptions& options) {
   Computation run(std::move(scene), options);
   run.scene_stage();
   run.find_contacts();
-  run.octree_distance_and_refinement();
+  run.octree_distance_and_refinement_or_why();
   run.release_refinement_state();
   run.surface_stage();
   run.graph_stage();

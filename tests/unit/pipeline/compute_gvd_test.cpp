@@ -350,6 +350,36 @@ TEST(ComputeGvd, TurnedInsetPlatesKeepTheGvdOffTheirRims3D) {
   for (ObjectId i = 0; i + 1 < 6; ++i) EXPECT_EQ(pairs.count({i, i + 1}), 1u) << i;
 }
 
+// The same blade at 1.1e-4, 100 from the origin in float32: the rounding there (6e-6) is 5 %
+// of the gap, so the faces facing it stay where the file has them (moving them would change
+// the gap by more than 2 %) and the gap refines to the rounding. The leaf limit's error then
+// says why.
+TEST(ComputeGvd, LeafLimitSaysWhenFloat32RoundingIsAShareOfTheGap3D) {
+  test::BladeInSlotOptions bo;
+  bo.gap = 1e-4;
+  Scene scene = test::make_blade_in_slot(bo);
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  for (SceneObject& o : scene.objects)
+    for (Vec3& v : o.vertices) {
+      v = test::rotate(v, axis, 0.7) + Vec3{100, -50, 25};
+      for (int k = 0; k < 3; ++k) {
+        volatile float f = static_cast<float>(v[k]);
+        v[k] = f;
+      }
+    }
+  PipelineOptions o;
+  o.threads = 2;
+  o.max_leaves = 200'000;
+  try {
+    compute_gvd(scene, o);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::kLimitExceeded);
+    EXPECT_NE(e.detail().find("float32 input were not put on exact planes"), std::string::npos)
+        << e.detail();
+  }
+}
+
 TEST(ComputeGvd, ThinGapCostDoesNotDependOnTheInputsVertexOrder3D) {
   test::CubeInCavityOptions co;
   const double g = co.gap * 1.1;  // the block spans 1
