@@ -58,9 +58,10 @@ Vec3 least_axis(const Sym3& m) {
       const int p = pq[0], q = pq[1];
       if (a[p][q] == 0) continue;
       const double theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
-      const double t = std::abs(theta) > 1e150
-                           ? 0.5 / theta
-                           : std::copysign(1.0, theta) / (std::abs(theta) + std::sqrt(theta * theta + 1));
+      const double t =
+          std::abs(theta) > 1e150
+              ? 0.5 / theta
+              : std::copysign(1.0, theta) / (std::abs(theta) + std::sqrt(theta * theta + 1));
       const double c = 1 / std::sqrt(t * t + 1), s = t * c;
       for (int k = 0; k < 3; ++k) {
         const double akp = a[k][p], akq = a[k][q];
@@ -107,7 +108,7 @@ bool float32_exact(double x) {
   if (x == 0) return true;
   if (!std::isfinite(x)) return false;
   int e = 0;
-  std::frexp(x, &e);  // |x| = m 2^e, m in [0.5, 1)
+  std::frexp(x, &e);          // |x| = m 2^e, m in [0.5, 1)
   if (e > 128) return false;  // beyond float32's largest
   // Significant bits a float32 has at this magnitude: 24, fewer among the subnormals.
   const int bits = e >= -125 ? 24 : 24 - (-125 - e);
@@ -138,7 +139,7 @@ struct Direction {
 };
 
 struct Plane {
-  Vec3 normal;  ///< unit
+  Vec3 normal;        ///< unit
   double offset = 0;  ///< normal . x on the plane
   double area = 0;
 };
@@ -152,7 +153,7 @@ Vec3 canonical(Vec3 n) {
 }
 
 /// Whether canonical() could pick the other sign for a normal within kMaxTilt of n: its two
-/// largest components are nearly as large, of opposite signs.
+/// largest components are nearly as large (either could be the largest).
 bool sign_ambiguous(Vec3 n) {
   double m[3] = {std::abs(n.x), std::abs(n.y), std::abs(n.z)};
   std::sort(m, m + 3);
@@ -296,7 +297,8 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
       g.centroid = g.centroid / static_cast<double>(g.vertices.size());
       for (uint32_t v : g.vertices) {
         const Vec3 d = object.vertices[v] - g.centroid;
-        g.scatter = g.scatter + Sym3{d.x * d.x, d.y * d.y, d.z * d.z, d.x * d.y, d.x * d.z, d.y * d.z};
+        g.scatter =
+            g.scatter + Sym3{d.x * d.x, d.y * d.y, d.z * d.z, d.x * d.y, d.x * d.z, d.y * d.z};
       }
       g.normal = least_axis(g.scatter);
       if (dot(g.normal, weighted) < 0) g.normal = g.normal * -1.0;
@@ -317,7 +319,8 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
   }
 
   // Directions: faces by decreasing area, each joining the first direction (within kMaxTilt)
-  // under whose joint normal it and every member stay within kParallelRoundings.
+  // under whose joint normal it, the direction's largest faces and all of them together stay
+  // within kParallelRoundings.
   std::vector<uint32_t> faces;
   for (uint32_t i = 0; i < groups.size(); ++i)
     if (groups[i].face) faces.push_back(i);
@@ -341,7 +344,6 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
   };
   std::vector<Direction> directions;
   std::unordered_map<uint64_t, std::vector<uint32_t>> bins;
-  std::vector<uint32_t> direction_of(groups.size(), 0);
   for (size_t i = 0; i < faces.size(); ++i) {
     if (i % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
     const uint32_t f = faces[i];
@@ -386,14 +388,13 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
       directions.push_back(std::move(d));
       bins[direction_key(key_normal)].push_back(static_cast<uint32_t>(joined));
     }
-    direction_of[f] = static_cast<uint32_t>(joined);
   }
 
-  // Square corners: each direction, the most area first, is made exactly perpendicular to the
-  // earlier ones (of the kSquareTo largest) it is perpendicular to within kMaxTilt, where its faces stay within
-  // kParallelRoundings of their planes under the turned normal. (Fitted one by one, the
-  // directions of a box drawn at an angle are square only to ~1e-8, and the certificates of
-  // a rim need the faces beside it square to the octree's axes.)
+  // Square corners: each direction, the most area first, is made exactly perpendicular to
+  // the earlier ones (of the kSquareTo largest) it is perpendicular to within kMaxTilt, where
+  // its faces stay within kParallelRoundings of their planes under the turned normal. (Fitted
+  // one by one, the directions of a box drawn at an angle are square only to ~1e-8, and the
+  // certificates of a rim need the faces beside it square to the octree's axes.)
   {
     std::vector<double> area(directions.size(), 0);
     std::vector<uint32_t> order(directions.size());
@@ -445,8 +446,8 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
     };
     std::vector<Entry> entries;
     for (uint32_t m : d.members)
-      entries.push_back({dot(groups[m].normal, d.normal) < 0 ? -1 : 1,
-                         dot(d.normal, groups[m].centroid), m});
+      entries.push_back(
+          {dot(groups[m].normal, d.normal) < 0 ? -1 : 1, dot(d.normal, groups[m].centroid), m});
     std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
       return a.side != b.side ? a.side < b.side : a.offset < b.offset;
     });
@@ -468,7 +469,8 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
       plane.normal = d.normal;
       plane.offset = same ? entries[i].offset : weighted / weight;
       plane.area = area;
-      for (size_t k = i; k < j; ++k) groups[entries[k].group].plane = static_cast<uint32_t>(planes.size());
+      for (size_t k = i; k < j; ++k)
+        groups[entries[k].group].plane = static_cast<uint32_t>(planes.size());
       planes.push_back(plane);
       i = j;
     }
@@ -553,8 +555,8 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
     std::vector<Vec3> points;
     std::vector<Simplex> simplices;
     std::vector<uint32_t> object_of;
-    std::vector<double> reach;  // per simplex with a moving vertex: its largest move / 1 %
-    std::vector<uint32_t> moving;  // those simplices
+    std::vector<double> reach;        // per simplex with a moving vertex: its largest move / 1 %
+    std::vector<uint32_t> moving;     // those simplices
     std::vector<Simplex> moving_own;  // with the object's own vertex indices
     for (uint32_t o = 0; o < scene.objects.size(); ++o) {
       const SceneObject& object = scene.objects[o];

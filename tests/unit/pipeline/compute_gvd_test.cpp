@@ -299,7 +299,8 @@ TEST(ComputeGvd, ThinGapCostDoesNotDependOnFloat32Coordinates3D) {
   ASSERT_EQ(r.graph.edges.size(), 1u);
   EXPECT_NEAR(r.graph.edges[0].gap, 1.1e-3, 1e-3 * 1.1e-3);
   bool said = false;
-  for (const SceneWarning& w : r.scene.warnings) said = said || w.kind == WarningKind::kFacesSnapped;
+  for (const SceneWarning& w : r.scene.warnings)
+    said = said || w.kind == WarningKind::kFacesSnapped;
   EXPECT_TRUE(said);
 }
 

@@ -43,7 +43,8 @@ double largest_coordinate(const Scene& scene) {
 }
 
 Vec3 unit_normal(const SceneObject& o, const Simplex& t) {
-  const Vec3 n = cross(o.vertices[t.v[1]] - o.vertices[t.v[0]], o.vertices[t.v[2]] - o.vertices[t.v[0]]);
+  const Vec3 n =
+      cross(o.vertices[t.v[1]] - o.vertices[t.v[0]], o.vertices[t.v[2]] - o.vertices[t.v[0]]);
   return n / norm(n);
 }
 
@@ -148,8 +149,8 @@ TEST(SnapFaces, LeavesDoublesCurvedMeshesAndExactFacesAlone) {
       o.vertices[v] = centre + (o.vertices[v] - centre) * (1 + 0.02 * std::sin(7.0 * v));
     return o;
   };
-  Scene balls = test::make_scene(3, {bumpy("a", {0.3, 0.3, 0.3}, 0.2),
-                                     bumpy("b", {0.7, 0.3, 0.3}, 0.19)});
+  Scene balls =
+      test::make_scene(3, {bumpy("a", {0.3, 0.3, 0.3}, 0.2), bumpy("b", {0.7, 0.3, 0.3}, 0.19)});
   turn(balls);
   round_to_float32(balls);
   copy = balls;
@@ -204,7 +205,8 @@ TEST(SnapFaces, KeepsADesignedTiltAndEveryGap) {
   turn(tight);
   round_to_float32(tight);
   const double rounding = std::ldexp(largest_coordinate(tight), -24);
-  for (Vec3& v : tight.objects[1].vertices) v = v + test::rotate({0, 0, 3 * rounding}, kAxis, kAngle);
+  for (Vec3& v : tight.objects[1].vertices)
+    v = v + test::rotate({0, 0, 3 * rounding}, kAxis, kAngle);
   round_to_float32(tight);
   const double gap = test::min_distance_3d(tight.objects[0], tight.objects[1]);
   ASSERT_GT(gap, rounding);

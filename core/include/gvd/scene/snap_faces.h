@@ -21,11 +21,11 @@ struct FaceSnap {
   /// 2^-24 of the largest coordinate magnitude: the most that rounding to float32 moved any
   /// coordinate (0 when the scene is not float32, or not 3D: then nothing was done).
   double rounding = 0;
-  uint64_t faces = 0;      ///< flat faces found (of two or more triangles, or sharp ones)
-  uint64_t planes = 0;     ///< the exact planes they were put on (parallel faces share a normal)
-  uint64_t vertices = 0;   ///< vertices moved
-  uint64_t refused = 0;    ///< vertices that would have moved too far (below), left where they are
-  double max_move = 0;     ///< the largest move (user units)
+  uint64_t faces = 0;     ///< flat faces found (of two or more triangles, or sharp ones)
+  uint64_t planes = 0;    ///< the exact planes they were put on (parallel faces share a normal)
+  uint64_t vertices = 0;  ///< vertices moved
+  uint64_t refused = 0;   ///< vertices that would have moved too far (below), left where they are
+  double max_move = 0;    ///< the largest move (user units)
 };
 
 /// Only when the scene is 3D and every coordinate is exactly a float32 (an STL, a glTF, or a
