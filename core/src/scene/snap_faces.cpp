@@ -14,6 +14,7 @@
 #include "gvd/common/cancel.h"
 #include "gvd/common/parallel.h"
 #include "gvd/geometry/simplex_bvh.h"
+#include "gvd/geometry/symmetric_eigen.h"
 
 namespace gvd::scene {
 
@@ -47,40 +48,11 @@ constexpr const char* kCancelWhat = "snapping float32 faces";
 /// xx, yy, zz, xy, xz, yz.
 using Sym3 = std::array<double, 6>;
 
-/// The unit eigenvector of the least eigenvalue of `m` (cyclic Jacobi).
+/// The unit eigenvector of the least eigenvalue of `m`.
 Vec3 least_axis(const Sym3& m) {
   double a[3][3] = {{m[0], m[3], m[4]}, {m[3], m[1], m[5]}, {m[4], m[5], m[2]}};
-  double v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  static constexpr int kPairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
-  for (int sweep = 0; sweep < 64; ++sweep) {
-    if (a[0][1] == 0 && a[0][2] == 0 && a[1][2] == 0) break;
-    for (const auto& pq : kPairs) {
-      const int p = pq[0], q = pq[1];
-      if (a[p][q] == 0) continue;
-      const double theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
-      const double t =
-          std::abs(theta) > 1e150
-              ? 0.5 / theta
-              : std::copysign(1.0, theta) / (std::abs(theta) + std::sqrt(theta * theta + 1));
-      const double c = 1 / std::sqrt(t * t + 1), s = t * c;
-      for (int k = 0; k < 3; ++k) {
-        const double akp = a[k][p], akq = a[k][q];
-        a[k][p] = c * akp - s * akq;
-        a[k][q] = s * akp + c * akq;
-      }
-      for (int k = 0; k < 3; ++k) {
-        const double apk = a[p][k], aqk = a[q][k];
-        a[p][k] = c * apk - s * aqk;
-        a[q][k] = s * apk + c * aqk;
-      }
-      a[p][q] = a[q][p] = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double vkp = v[k][p], vkq = v[k][q];
-        v[k][p] = c * vkp - s * vkq;
-        v[k][q] = s * vkp + c * vkq;
-      }
-    }
-  }
+  double v[3][3];
+  symmetric_eigen(a, v);
   int k = 0;
   for (int i = 1; i < 3; ++i)
     if (a[i][i] < a[k][k]) k = i;

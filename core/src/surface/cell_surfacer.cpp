@@ -10,6 +10,7 @@
 #include "gvd/common/flat_hash.h"
 #include "gvd/common/parallel.h"
 #include "gvd/common/radix_sort.h"
+#include "gvd/geometry/symmetric_eigen.h"
 #include "gvd/surface/extract_gvd.h"
 #include "leaf_pieces.h"
 
@@ -807,36 +808,8 @@ class CellSurfacer {
         for (int j = 0; j < 3; ++j) a[i][j] += n[k][i] * n[k][j];
       }
     }
-    double v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};  // columns: the eigenvectors
-    for (int sweep = 0; sweep < 32; ++sweep) {
-      const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-      const double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-      if (!(off > 1e-30 * diag)) break;
-      for (int pi = 0; pi < 2; ++pi) {
-        for (int qi = pi + 1; qi < 3; ++qi) {
-          if (a[pi][qi] == 0) continue;
-          const double theta = (a[qi][qi] - a[pi][pi]) / (2 * a[pi][qi]);
-          const double t =
-              (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1));
-          const double c = 1 / std::sqrt(t * t + 1), sn = t * c;
-          for (int k = 0; k < 3; ++k) {  // a <- a J (columns pi, qi)
-            const double akp = a[k][pi], akq = a[k][qi];
-            a[k][pi] = c * akp - sn * akq;
-            a[k][qi] = sn * akp + c * akq;
-          }
-          for (int k = 0; k < 3; ++k) {  // a <- J^T a (rows pi, qi)
-            const double apk = a[pi][k], aqk = a[qi][k];
-            a[pi][k] = c * apk - sn * aqk;
-            a[qi][k] = sn * apk + c * aqk;
-          }
-          for (int k = 0; k < 3; ++k) {
-            const double vkp = v[k][pi], vkq = v[k][qi];
-            v[k][pi] = c * vkp - sn * vkq;
-            v[k][qi] = sn * vkp + c * vkq;
-          }
-        }
-      }
-    }
+    double v[3][3];  // columns: the eigenvectors
+    symmetric_eigen(a, v);
     const double largest = std::max({a[0][0], a[1][1], a[2][2]});
     if (!(largest > 0)) return false;
     step = Vec3{};
