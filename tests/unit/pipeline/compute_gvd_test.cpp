@@ -268,6 +268,28 @@ TEST(ComputeGvd, ThinGapAnswersAreInvariantUnderRotationTranslationAndRelabellin
 // trusted, the turned cavity refused every rim: an L-shaped part in an L-shaped groove took
 // 9.3M leaves at 1e-4 against 37k, and the leaf limit at 1e-5.) The same for mirror cells
 // beside a box written inside out.
+// make_blade_in_slot at `gap`, turned 0.7 rad about the skew axis (2, -1, 3).
+Scene turned_blade(double gap) {
+  test::BladeInSlotOptions bo;
+  bo.gap = gap;
+  Scene scene = test::make_blade_in_slot(bo);
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  for (SceneObject& o : scene.objects)
+    for (Vec3& v : o.vertices) v = test::rotate(v, axis, 0.7);
+  return scene;
+}
+
+// Every coordinate rounded to float32, as STL and glTF store them (through a volatile float:
+// GCC 12.2 at -O2 drops a plain double -> float -> double round trip of x and y).
+void round_to_float32(Scene& scene) {
+  for (SceneObject& o : scene.objects)
+    for (Vec3& v : o.vertices)
+      for (int k = 0; k < 3; ++k) {
+        volatile float f = static_cast<float>(v[k]);
+        v[k] = f;
+      }
+}
+
 // A blade in a slot (clearance 1.1e-3 over its faces and floor) drawn at an angle and stored
 // as float32 (an STL, a glTF): its faces are flat, parallel and square only to the rounding,
 // which every certificate refused, so it cost what the paper's rule costs (3,971,878 leaves
@@ -275,19 +297,9 @@ TEST(ComputeGvd, ThinGapAnswersAreInvariantUnderRotationTranslationAndRelabellin
 // (snap_faces.h): the cost of the double twin, measured side by side; valid, and no GVD
 // piece crosses the objects as the file has them; the gap right.
 TEST(ComputeGvd, ThinGapCostDoesNotDependOnFloat32Coordinates3D) {
-  test::BladeInSlotOptions bo;
-  bo.gap = 1e-3;
-  Scene doubles = test::make_blade_in_slot(bo);
-  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
-  for (SceneObject& o : doubles.objects)
-    for (Vec3& v : o.vertices) v = test::rotate(v, axis, 0.7);
+  const Scene doubles = turned_blade(1e-3);
   Scene floats = doubles;
-  for (SceneObject& o : floats.objects)
-    for (Vec3& v : o.vertices)
-      for (int k = 0; k < 3; ++k) {
-        volatile float f = static_cast<float>(v[k]);  // (GCC 12 -O2 drops a plain round trip)
-        v[k] = f;
-      }
+  round_to_float32(floats);
   const GvdResult twin = run(doubles);
   PipelineOptions o;
   o.threads = 2;
@@ -310,12 +322,7 @@ TEST(ComputeGvd, ThinGapCostDoesNotDependOnFloat32Coordinates3D) {
 // (leaf limit); a tilt of 1e-10 moves the bisector by at most 1e-10 of the cell across it.
 // Now the cost of the blade at the origin, measured side by side; valid, the gap right.
 TEST(ComputeGvd, ThinGapCostDoesNotDependOnWhereTheSceneIs3D) {
-  test::BladeInSlotOptions bo;
-  bo.gap = 1e-4;
-  Scene here = test::make_blade_in_slot(bo);
-  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
-  for (SceneObject& o : here.objects)
-    for (Vec3& v : o.vertices) v = test::rotate(v, axis, 0.7);
+  const Scene here = turned_blade(1e-4);
   Scene there = here;
   for (SceneObject& o : there.objects)
     for (Vec3& v : o.vertices) v = v + Vec3{1000, -500, 250};
@@ -356,18 +363,10 @@ TEST(ComputeGvd, TurnedInsetPlatesKeepTheGvdOffTheirRims3D) {
 // the gap by more than 2 %) and the gap refines to the rounding. The leaf limit's error then
 // says why.
 TEST(ComputeGvd, LeafLimitSaysWhenFloat32RoundingIsAShareOfTheGap3D) {
-  test::BladeInSlotOptions bo;
-  bo.gap = 1e-4;
-  Scene scene = test::make_blade_in_slot(bo);
-  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  Scene scene = turned_blade(1e-4);
   for (SceneObject& o : scene.objects)
-    for (Vec3& v : o.vertices) {
-      v = test::rotate(v, axis, 0.7) + Vec3{100, -50, 25};
-      for (int k = 0; k < 3; ++k) {
-        volatile float f = static_cast<float>(v[k]);
-        v[k] = f;
-      }
-    }
+    for (Vec3& v : o.vertices) v = v + Vec3{100, -50, 25};
+  round_to_float32(scene);
   PipelineOptions o;
   o.threads = 2;
   o.max_leaves = 200'000;
