@@ -12,6 +12,15 @@ Vec3 rotate(Vec3 p, Vec3 axis, double angle) {
   return p * c + cross(axis, p) * s + axis * (dot(axis, p) * (1 - c));
 }
 
+void round_to_float32(Scene& scene) {
+  for (SceneObject& o : scene.objects)
+    for (Vec3& v : o.vertices)
+      for (int k = 0; k < 3; ++k) {
+        volatile float f = static_cast<float>(v[k]);
+        v[k] = f;
+      }
+}
+
 Box bounds(const SceneObject& object) {
   Box b;
   for (const Vec3& v : object.vertices) b.extend(v);

@@ -41,4 +41,9 @@ Box bounds(const scene::SceneObject& object);
 /// Wraps objects into a validated scene.
 scene::Scene make_scene(int dimension, std::vector<scene::SceneObject> objects);
 
+/// Every coordinate rounded to float32, as STL and glTF store them. (Through a volatile
+/// float: GCC 12.2 at -O2 drops a vectorised double -> float -> double round trip of a Vec3's
+/// x and y.)
+void round_to_float32(scene::Scene& scene);
+
 }  // namespace gvd::test

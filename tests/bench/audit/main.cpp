@@ -295,17 +295,13 @@ int write_variants(const std::string& dir) {
     });
     out.emplace_back("two_hex_skew" + tag, joined(hex, hex_skewed, "_2"));
     // Turned 0.7 rad about (2, -1, 3), in doubles and rounded to float32 (an STL or glTF of
-    // a tilted assembly, whose faces are flat only to the rounding: snap_faces.h). Through
-    // a volatile float: GCC 12.2 at -O2 drops a vectorised round trip of x and y.
+    // a tilted assembly, whose faces are flat only to the rounding: snap_faces.h).
     auto turned = [](Scene s, bool float32) {
-      return moved(std::move(s), [float32](Vec3 v) {
-        v = gvd::test::rotate(v, Vec3{2, -1, 3} / std::sqrt(14.0), 0.7);
-        for (int k = 0; float32 && k < 3; ++k) {
-          volatile float f = static_cast<float>(v[k]);
-          v[k] = f;
-        }
-        return v;
+      s = moved(std::move(s), [](Vec3 v) {
+        return gvd::test::rotate(v, Vec3{2, -1, 3} / std::sqrt(14.0), 0.7);
       });
+      if (float32) gvd::test::round_to_float32(s);
+      return s;
     };
     gvd::test::BladeInSlotOptions full;
     full.gap = gap;

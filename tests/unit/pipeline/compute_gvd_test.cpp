@@ -279,17 +279,6 @@ Scene turned_blade(double gap) {
   return scene;
 }
 
-// Every coordinate rounded to float32, as STL and glTF store them (through a volatile float:
-// GCC 12.2 at -O2 drops a plain double -> float -> double round trip of x and y).
-void round_to_float32(Scene& scene) {
-  for (SceneObject& o : scene.objects)
-    for (Vec3& v : o.vertices)
-      for (int k = 0; k < 3; ++k) {
-        volatile float f = static_cast<float>(v[k]);
-        v[k] = f;
-      }
-}
-
 // A blade in a slot (clearance 1.1e-3 over its faces and floor) drawn at an angle and stored
 // as float32 (an STL, a glTF): its faces are flat, parallel and square only to the rounding,
 // which every certificate refused, so it cost what the paper's rule costs (3,971,878 leaves
@@ -299,7 +288,7 @@ void round_to_float32(Scene& scene) {
 TEST(ComputeGvd, ThinGapCostDoesNotDependOnFloat32Coordinates3D) {
   const Scene doubles = turned_blade(1e-3);
   Scene floats = doubles;
-  round_to_float32(floats);
+  test::round_to_float32(floats);
   const GvdResult twin = run(doubles);
   PipelineOptions o;
   o.threads = 2;
@@ -366,7 +355,7 @@ TEST(ComputeGvd, LeafLimitSaysWhenFloat32RoundingIsAShareOfTheGap3D) {
   Scene scene = turned_blade(1e-4);
   for (SceneObject& o : scene.objects)
     for (Vec3& v : o.vertices) v = v + Vec3{100, -50, 25};
-  round_to_float32(scene);
+  test::round_to_float32(scene);
   PipelineOptions o;
   o.threads = 2;
   o.max_leaves = 200'000;

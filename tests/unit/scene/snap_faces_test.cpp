@@ -24,17 +24,6 @@ void turn(Scene& scene) {
     for (Vec3& v : o.vertices) v = test::rotate(v, kAxis, kAngle);
 }
 
-/// (Through a volatile float: GCC 12.2 at -O2 and above drops a vectorised round trip of
-/// a Vec3's x and y.)
-void round_to_float32(Scene& scene) {
-  for (SceneObject& o : scene.objects)
-    for (Vec3& v : o.vertices)
-      for (int k = 0; k < 3; ++k) {
-        volatile float f = static_cast<float>(v[k]);
-        v[k] = f;
-      }
-}
-
 double largest_coordinate(const Scene& scene) {
   double m = 0;
   for (const SceneObject& o : scene.objects)
@@ -101,7 +90,7 @@ TEST(SnapFaces, PutsATurnedFloat32AssemblyOnExactSquarePlanes) {
   std::vector<Vec3> design;  // turned in doubles: the design
   std::vector<double> offset;
   design_of(scene, design, offset);
-  round_to_float32(scene);
+  test::round_to_float32(scene);
   const Scene before = scene;
   const Squareness was = measure(scene, design, offset);
   EXPECT_GT(was.parallel, 1e-9);  // the rounding broke them: the test means something
@@ -152,7 +141,7 @@ TEST(SnapFaces, LeavesDoublesCurvedMeshesAndExactFacesAlone) {
   Scene balls =
       test::make_scene(3, {bumpy("a", {0.3, 0.3, 0.3}, 0.2), bumpy("b", {0.7, 0.3, 0.3}, 0.19)});
   turn(balls);
-  round_to_float32(balls);
+  test::round_to_float32(balls);
   copy = balls;
   snap = snap_float32_faces(copy);
   EXPECT_GT(snap.rounding, 0.0);
@@ -163,7 +152,7 @@ TEST(SnapFaces, LeavesDoublesCurvedMeshesAndExactFacesAlone) {
 
   Scene along = test::make_scene(3, {test::make_box("a", {0.1, 0.2, 0.1}, {0.4, 0.9, 0.7}),
                                      test::make_box("b", {0.41, 0.25, 0.15}, {0.8, 0.6, 0.5})});
-  round_to_float32(along);
+  test::round_to_float32(along);
   copy = along;
   snap = snap_float32_faces(copy);
   EXPECT_EQ(snap.faces, 12u);
@@ -182,7 +171,7 @@ TEST(SnapFaces, KeepsADesignedTiltAndEveryGap) {
   for (Vec3& v : scene.objects[1].vertices)
     if (v.z < 0.5) v.z += 1e-5 * (v.y - 0.1);
   turn(scene);
-  round_to_float32(scene);
+  test::round_to_float32(scene);
   auto bottom_tilt = [](const Scene& s) {
     // The largest angle between a's top triangles and b's bottom triangles (normals opposed).
     double tilt = 0;
@@ -203,11 +192,11 @@ TEST(SnapFaces, KeepsADesignedTiltAndEveryGap) {
   Scene tight = test::make_scene(3, {test::make_box("a", {0.1, 0.1, 0.1}, {0.9, 0.9, 0.4}),
                                      test::make_box("b", {0.2, 0.2, 0.4}, {0.8, 0.8, 0.6})});
   turn(tight);
-  round_to_float32(tight);
+  test::round_to_float32(tight);
   const double rounding = std::ldexp(largest_coordinate(tight), -24);
   for (Vec3& v : tight.objects[1].vertices)
     v = v + test::rotate({0, 0, 3 * rounding}, kAxis, kAngle);
-  round_to_float32(tight);
+  test::round_to_float32(tight);
   const double gap = test::min_distance_3d(tight.objects[0], tight.objects[1]);
   ASSERT_GT(gap, rounding);
   const FaceSnap snap = snap_float32_faces(tight);
