@@ -55,12 +55,12 @@ bool fit_plane(const UnitGeometry& g, const std::vector<uint32_t>& patch, Plane&
 
 // Does the line (3D: the planes' intersection; 2D: the lines' intersection point) of two
 // planes meet the box (inflated by a hair)? Coincident planes count as meeting.
-bool planes_meet_in(int dim, const Plane& p, const Plane& q, const Box& box) {
+bool planes_meet_in(int dim, const Plane& p, const Plane& q, const Box& box, double flat) {
   const double hair = 1e-12;
   if (dim == 2) {
     const double det = p.n.x * q.n.y - p.n.y * q.n.x;
     if (std::abs(det) < 1e-12) {
-      return std::abs(dot(q.n, p.n * p.offset) - q.offset) <= PairCertifier::kFlat;
+      return std::abs(dot(q.n, p.n * p.offset) - q.offset) <= flat;
     }
     const double x = (p.offset * q.n.y - q.offset * p.n.y) / det;
     const double y = (p.n.x * q.offset - q.n.x * p.offset) / det;
@@ -70,7 +70,7 @@ bool planes_meet_in(int dim, const Plane& p, const Plane& q, const Box& box) {
   const Vec3 m = cross(p.n, q.n);
   const double m2 = norm2(m);
   if (m2 < 1e-24) {
-    return std::abs(dot(q.n, p.n * p.offset) - q.offset) <= PairCertifier::kFlat;
+    return std::abs(dot(q.n, p.n * p.offset) - q.offset) <= flat;
   }
   const Vec3 x0 = (cross(q.n, m) * p.offset + cross(m, p.n) * q.offset) / m2;
   double t0 = -1e300, t1 = 1e300;
@@ -177,15 +177,14 @@ Vec3 reflect_vector(const Plane& p, Vec3 v) { return v - p.n * (2 * dot(p.n, v))
 
 // Do the triangles of object `from` clipped to `clip_box` lie strictly on the side `side`
 // (+1 / -1) of `mirror` and, reflected, on the triangles of object `onto`? Coverage by areas of
-// coplanar (within kMirrorRound), equally oriented triangles (out of the material where
-// `facing` knows it, else by vertex order), which a closed mesh does not overlap, up to
-// kMirrorRound times the piece's perimeter; the candidates come from the BVH around each reflected
+// coplanar (within `round`, PairCertifier::mirror_round_), equally oriented triangles (out of the
+// material where `facing` knows it, else by vertex order), which a closed mesh does not overlap, up
+// to `round` times the piece's perimeter; the candidates come from the BVH around each reflected
 // piece. False also when more than `cap` triangles of `from` meet the box.
 bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing, const SimplexBvh& bvh,
                    const Plane& mirror, int side, ObjectId from, ObjectId onto, const Box& clip_box,
-                   size_t cap) {
+                   size_t cap, double flat, double round) {
   const int dim = g.dimension;
-  constexpr double kRound = PairCertifier::kMirrorRound;
   std::vector<uint32_t> sources;
   if (!bvh.visit_overlapping(clip_box, [&](uint32_t s) {
         if (g.object_of[s] == from &&
@@ -198,13 +197,13 @@ bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing, const 
   auto for_each_cover = [&](const Box& piece, Vec3 normal, Vec3 on_plane, auto&& f) {
     Box query = piece;
     for (int i = 0; i < dim; ++i) {
-      query.lo[i] -= kRound;
-      query.hi[i] += kRound;
+      query.lo[i] -= round;
+      query.hi[i] += round;
     }
     bvh.visit_overlapping(query, [&](uint32_t u) {
       Plane other;
       if (g.object_of[u] == onto && oriented_plane(g, facing, u, other) &&
-          dot(other.n, normal) >= 1 - 1e-12 && std::abs(other.signed_distance(on_plane)) <= kRound)
+          dot(other.n, normal) >= 1 - 1e-12 && std::abs(other.signed_distance(on_plane)) <= round)
         f(u, other);
       return true;
     });
@@ -222,7 +221,7 @@ bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing, const 
     Box piece;
     double perimeter = 0;
     for (int i = 0; i < poly.n; ++i) {
-      if (!(side * mirror.signed_distance(poly.p[i]) > PairCertifier::kFlat)) return false;
+      if (!(side * mirror.signed_distance(poly.p[i]) > flat)) return false;
       perimeter += dist(poly.p[i], poly.p[(i + 1) % poly.n]);
     }
     for (int i = 0; i < poly.n; ++i) {
@@ -242,7 +241,7 @@ bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing, const 
       }
       if (part.n >= 3) covered += area(part);
     });
-    if (covered < own_area - kRound * perimeter) return false;
+    if (covered < own_area - round * perimeter) return false;
   }
   return true;
 }
@@ -279,7 +278,13 @@ void sort_polling(std::vector<T>& v, Less less, Poll poll) {
 PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
                              const ContactPairs* contacts, bool extruded, bool cones,
                              const std::atomic<bool>* cancel)
-    : geometry_(geometry), bvh_(bvh), contacts_(contacts), extruded_(extruded), cones_(cones) {
+    : geometry_(geometry),
+      bvh_(bvh),
+      contacts_(contacts),
+      extruded_(extruded),
+      cones_(cones),
+      flat_(std::max(kFlat, 8 * geometry.rounding)),
+      mirror_round_(std::max(kMirrorRound, 4 * geometry.rounding)) {
   const auto poll = [cancel] { throw_if_cancelled(cancel, "the octree's certificates"); };
   poll();
   const std::vector<Vec3>& pts = geometry.points;
@@ -585,7 +590,7 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
     for (int k = 0; k < 2; ++k) {
       if (!fit_plane(g, patch[k], plane[k])) return false;
       const Plane& p = plane[k];
-      auto on_plane = [&](uint32_t v) { return std::abs(p.signed_distance(g.points[v])) <= kFlat; };
+      auto on_plane = [&](uint32_t v) { return std::abs(p.signed_distance(g.points[v])) <= flat_; };
       for (uint32_t s : patch[k]) {
         const Simplex& t = g.simplices[s];
         for (int e = 0; e < arity; ++e)
@@ -645,7 +650,7 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
     if (mirror.verdict != CellVerdict::kSplit || !extruded_) return mirror;
     return certify_extruded(box, pair, dist_of, r, patch);
   }
-  if (planes_meet_in(dim, plane[0], plane[1], box)) return out;
+  if (planes_meet_in(dim, plane[0], plane[1], box, flat_)) return out;
   // Which bisector branches cross the cell: s_a = s_b and s_a = -s_b are affine, so their
   // extremes over the cell are at its corners.
   double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
@@ -659,8 +664,8 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
       hi[k] = std::max(hi[k], f[k]);
     }
   }
-  const bool crosses_plus = lo[0] <= kFlat && hi[0] >= -kFlat;
-  const bool crosses_minus = lo[1] <= kFlat && hi[1] >= -kFlat;
+  const bool crosses_plus = lo[0] <= flat_ && hi[0] >= -flat_;
+  const bool crosses_minus = lo[1] <= flat_ && hi[1] >= -flat_;
   if (crosses_plus && crosses_minus) return out;
   out.verdict = CellVerdict::kPair;
   const int first_k = a < b ? 0 : 1;
@@ -689,7 +694,7 @@ PairCertifier::Certificate PairCertifier::certify_mirror(
       Plane p;
       if (!oriented_plane(g, facing_, s, p)) return out;
       const bool seen = std::any_of(planes[k].begin(), planes[k].end(), [&](const Plane& q) {
-        return dot(p.n, q.n) >= 1 - 1e-12 && std::abs(p.offset - q.offset) <= kFlat;
+        return dot(p.n, q.n) >= 1 - 1e-12 && std::abs(p.offset - q.offset) <= flat_;
       });
       if (!seen) planes[k].push_back(p);
       if (planes[k].size() > kMaxPlanes) return out;
@@ -709,19 +714,21 @@ PairCertifier::Certificate PairCertifier::certify_mirror(
       // and keeps the GVD's pieces about as fine as the clearance, which roadmap paths need.
       const double gap = std::abs(pa.offset + pb.offset);
       if (dot(pa.n, pb.n) > -1 + 1e-12 || gap > kMirrorGap) continue;
-      // Vertices off their mirror images by the rounding kMirrorRound tilt the bisector by
-      // about kMirrorRound / gap: over the cell it stays within kMirrorTolerance of the gap.
-      if (r * kMirrorRound > kMirrorTolerance * gap * gap) continue;
+      // Vertices off their mirror images by the rounding mirror_round_ tilt the bisector by
+      // about mirror_round_ / gap: over the cell it stays within kMirrorTolerance of the gap.
+      if (r * mirror_round_ > kMirrorTolerance * gap * gap) continue;
       Plane mirror;
       mirror.n = pa.n - pb.n;
       mirror.n = mirror.n / norm(mirror.n);
       mirror.offset = 0.5 * (pa.offset - pb.offset);
       // A's side: where its facing plane lies.
       const double sa = pa.offset - mirror.offset;
-      if (!(std::abs(sa) > kFlat)) continue;
+      if (!(std::abs(sa) > flat_)) continue;
       const int side_a = sa < 0 ? -1 : 1;
-      if (!reflects_onto(g, facing_, bvh_, mirror, side_a, pair[0], pair[1], near, kMaxActive) ||
-          !reflects_onto(g, facing_, bvh_, mirror, -side_a, pair[1], pair[0], near, kMaxActive))
+      if (!reflects_onto(g, facing_, bvh_, mirror, side_a, pair[0], pair[1], near, kMaxActive,
+                         flat_, mirror_round_) ||
+          !reflects_onto(g, facing_, bvh_, mirror, -side_a, pair[1], pair[0], near, kMaxActive,
+                         flat_, mirror_round_))
         continue;
       out.verdict = CellVerdict::kPair;
       out.mirror = true;
@@ -768,7 +775,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       if (facing_[s] == 0 || !oriented_plane(g, facing_, s, p)) return out;
       normals.push_back(p.n * (k == 0 ? 1.0 : -1.0));
       const bool seen = std::any_of(planes[k].begin(), planes[k].end(), [&](const Plane& q) {
-        return dot(p.n, q.n) >= 1 - 1e-12 && std::abs(p.offset - q.offset) <= kFlat;
+        return dot(p.n, q.n) >= 1 - 1e-12 && std::abs(p.offset - q.offset) <= flat_;
       });
       if (!seen) planes[k].push_back(p);
       if (planes[k].size() > kMaxPlanes) return out;
@@ -965,7 +972,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
         if (g.object_of[s] != pair[k]) return true;
         Plane own;
         if (!oriented_plane(g, facing_, s, own) || dot(own.n, plane.n) < 1 - 1e-12 ||
-            std::abs(plane.signed_distance(g.points[g.simplices[s].v[0]])) > kFlat)
+            std::abs(plane.signed_distance(g.points[g.simplices[s].v[0]])) > flat_)
           return true;
         Polygon poly;
         for (int e = 0; e < 3; ++e) poly.p[poly.n++] = g.points[g.simplices[s].v[e]];
@@ -1059,7 +1066,7 @@ void PairCertifier::match_split_sides(const std::atomic<bool>* cancel) {
   const std::vector<Vec3>& pts = g.points;
   // An end point within this of the other side's line lies on it: the lattice's rounding
   // (2^-48) of a T-junction's vertex computed on a slanted edge, and a little.
-  constexpr double kOnLine = kMirrorRound;
+  const double on_line = mirror_round_;
   // Simplices looked at per open side at most (a crowd of coincident copies: left open).
   constexpr size_t kMaxCandidates = 64;
   std::vector<SplitLink> links;
@@ -1072,7 +1079,7 @@ void PairCertifier::match_split_sides(const std::atomic<bool>* cancel) {
     const Simplex& t = g.simplices[s];
     const Vec3 p = pts[t.v[e]], q = pts[t.v[(e + 1) % 3]];
     const double len = norm(q - p);
-    if (!(len > 2 * kOnLine)) continue;
+    if (!(len > 2 * on_line)) continue;
     const Vec3 dir = (q - p) / len;
     auto off_line = [&](Vec3 x) {
       const Vec3 r = x - p;
@@ -1080,8 +1087,8 @@ void PairCertifier::match_split_sides(const std::atomic<bool>* cancel) {
     };
     Box query;
     for (int i = 0; i < 3; ++i) {
-      query.lo[i] = std::min(p[i], q[i]) - kOnLine;
-      query.hi[i] = std::max(p[i], q[i]) + kOnLine;
+      query.lo[i] = std::min(p[i], q[i]) - on_line;
+      query.hi[i] = std::max(p[i], q[i]) + on_line;
     }
     const size_t first = links.size();
     double covered = 0;
@@ -1094,10 +1101,10 @@ void PairCertifier::match_split_sides(const std::atomic<bool>* cancel) {
         // Only open sides: a side matched end to end has its one simplex across already.
         if (across_[u * 3 + f] != kOpen) continue;
         const Vec3 a = pts[w.v[f]], b = pts[w.v[(f + 1) % 3]];
-        if (off_line(a) > kOnLine || off_line(b) > kOnLine) continue;
+        if (off_line(a) > on_line || off_line(b) > on_line) continue;
         const double ta = dot(a - p, dir), tb = dot(b - p, dir);
         const double lo = std::max(0.0, std::min(ta, tb)), hi = std::min(len, std::max(ta, tb));
-        if (!(hi - lo > 2 * kOnLine)) continue;  // meets it at a point, or not at all
+        if (!(hi - lo > 2 * on_line)) continue;  // meets it at a point, or not at all
         covered += hi - lo;
         links.push_back({side, u, static_cast<uint8_t>(f), ta < tb});
       }
@@ -1106,7 +1113,7 @@ void PairCertifier::match_split_sides(const std::atomic<bool>* cancel) {
     // Covered once along its whole length, by sides that overlap only at their ends.
     const size_t found = links.size() - first;
     if (!bounded || found == 0 || found > kMaxSplit ||
-        std::abs(covered - len) > 2 * kOnLine * static_cast<double>(found + 1)) {
+        std::abs(covered - len) > 2 * on_line * static_cast<double>(found + 1)) {
       links.resize(first);
       continue;
     }

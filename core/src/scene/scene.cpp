@@ -595,6 +595,11 @@ UnitGeometry make_unit_geometry(const Scene& scene, const Domain& domain) {
   g.points.reserve(scene.vertex_count());
   g.simplices.reserve(scene.simplex_count());
   g.object_of.reserve(scene.simplex_count());
+  double largest = 0;
+  for (const SceneObject& object : scene.objects)
+    for (const Vec3& v : object.vertices)
+      largest = std::max({largest, std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+  g.rounding = std::ldexp(largest, -53) / domain.side;
   for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
     const SceneObject& object = scene.objects[oi];
     const auto offset = static_cast<uint32_t>(g.points.size());

@@ -347,6 +347,28 @@ TEST(ComputeGvd, TurnedInsetPlatesKeepTheGvdOffTheirRims3D) {
   for (ObjectId i = 0; i + 1 < 6; ++i) EXPECT_EQ(pairs.count({i, i + 1}), 1u) << i;
 }
 
+// Six stacked plates 1e-5 apart, flush on their sides, turned 0.7 rad and moved 1000 away:
+// their doubles carry ~1e-13 of rounding there, and the flush sides' mirror images matched
+// only to the lattice's 4 * 2^-48, so the mirror cells refined every side to the gap (leaf
+// limit). The certificates' flatness and mirror tolerances now grow with the input's own
+// rounding (UnitGeometry::rounding): the paper's cost would not fit in 1M leaves.
+TEST(ComputeGvd, FlushPlatesFarFromTheOriginStayCheap3D) {
+  test::StackedPlatesOptions po;
+  po.gap = 1e-5;
+  Scene scene = test::make_stacked_plates(po);
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  for (SceneObject& o : scene.objects)
+    for (Vec3& v : o.vertices) v = test::rotate(v, axis, 0.7) + Vec3{1000, -500, 250};
+  PipelineOptions o;
+  o.threads = 2;
+  o.max_leaves = 1'000'000;
+  const GvdResult r = compute_gvd(scene, o);
+  expect_valid(r);
+  EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 3000), 0u);
+  const auto pairs = graph_pairs(r.graph);
+  for (ObjectId i = 0; i + 1 < 6; ++i) EXPECT_EQ(pairs.count({i, i + 1}), 1u) << i;
+}
+
 // The same blade at 1.1e-4, 100 from the origin in float32: the rounding there (6e-6) is 5 %
 // of the gap, so the faces facing it stay where the file has them (moving them would change
 // the gap by more than 2 %) and the gap refines to the rounding. The leaf limit's error then

@@ -142,7 +142,9 @@ class PairCertifier final : public octree::SplitOracle {
   /// Cells with more simplices than this in reach are not certified (their children are).
   static constexpr size_t kMaxActive = 256;
   /// Largest distance of a vertex from its patch's plane (unit domain) accepted as flat. The
-  /// lattice snaps coordinates to 2^-48, so exactly coplanar input stays within ~1e-14.
+  /// lattice snaps coordinates to 2^-48, so exactly coplanar input stays within ~1e-14. (The
+  /// least: flat_ and mirror_round_ grow with the input's own rounding, UnitGeometry::rounding,
+  /// for a scene far from the origin.)
   static constexpr double kFlat = 1e-12;
   /// Mirror pairs are certified only across gaps (between the facing planes) up to this,
   /// as a fraction of the domain side.
@@ -215,6 +217,11 @@ class PairCertifier final : public octree::SplitOracle {
   /// shell is oriented by walking it and turned so that its volume takes the sign its nesting
   /// asks, so a cavity drawn the wrong way or triangles flipped in a closed mesh cost nothing.
   std::vector<int8_t> facing_;
+  /// kFlat and kMirrorRound, or 8 and 4 times the input coordinates' own rounding where that
+  /// is larger (a scene 1000 times its size from the origin: its doubles carry ~1e-13 of it,
+  /// and flush faces turned with it are coplanar only to that).
+  double flat_ = kFlat;
+  double mirror_round_ = kMirrorRound;
 };
 
 }  // namespace gvd::refine

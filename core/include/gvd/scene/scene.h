@@ -244,6 +244,10 @@ struct UnitGeometry {
   std::vector<Simplex> simplices;   ///< indices into `points`
   std::vector<ObjectId> object_of;  ///< per simplex
   uint32_t object_count = 0;
+  /// The input coordinates' own rounding in unit lengths: 2^-53 of the largest coordinate
+  /// magnitude (user units) over the domain's side. Below the lattice's 2^-49 unless the
+  /// scene lies far from the origin.
+  double rounding = 0;
 };
 
 /// Maps every object of the scene into the unit domain. Vertices outside the domain are an
