@@ -757,15 +757,18 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   for (int i = 0; i < 3; ++i)
     if (!(box.lo[i] > 0) || !(box.hi[i] < 1)) return out;
   // The gradient directions: a's outward normals and b's inward ones, square to an axis within
-  // kPerpendicular: a tilt of 1e-10 moves the bisector by at most 1e-10 of the cell across it.
-  // (1e-12 refused a scene turned and moved 1000 away, whose coordinates' rounding tilts a
-  // small triangle's normal by ~4e-12: every rim refined to the gap, the leaf limit.)
-  constexpr double kPerpendicular = 1e-10;
+  // `perpendicular`, 1e-10 near the origin: a tilt t moves the bisector by at most t of the
+  // cell across it. (1e-12 refused a scene turned and moved 1000 away, whose coordinates'
+  // rounding tilts a small triangle's normal by ~4e-12: every rim refined to the gap, the leaf
+  // limit.) Farther out, the input's own rounding (UnitGeometry::rounding) tilts a triangle of
+  // least altitude h (unit) by ~3.5 roundings / h: 4000 roundings hold triangles down to
+  // h ~ 1e-3 (a scene 1e5 times its size away: 4e-8).
+  const double perpendicular = std::max(1e-10, 4e3 * geometry_.rounding);
   // A slanted face's normal comes from its triangle's vertices on the 2^-48 lattice, whose
   // rounding tilts it by up to ~2e-12 on a small triangle (the walls of a triangular bore at
   // 60 degrees: with 1e-12 here, their mouths' rims refined to the gap, 306,636 leaves at 1e-4
   // for two of them). A tilt of 1e-10 moves the bisector by at most 1e-10 of the cell across it.
-  constexpr double kSlantPerpendicular = 1e-10;
+  const double slant_perpendicular = perpendicular;
   std::vector<Vec3> normals;
   std::vector<Plane> planes[2];
   constexpr size_t kMaxPlanes = 8;
@@ -784,7 +787,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   int axis = -1;
   for (int a = 0; a < 3 && axis < 0; ++a) {
     if (std::all_of(normals.begin(), normals.end(),
-                    [&](Vec3 n) { return std::abs(n[a]) <= kPerpendicular; }))
+                    [&](Vec3 n) { return std::abs(n[a]) <= perpendicular; }))
       axis = a;
   }
   // The direction e of extrusion and the cross-section's axes b[0], b[1] (both perpendicular
@@ -818,7 +821,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       constexpr double kMinSlant = 0.01;
       if (std::abs(e[(a + 1) % 3]) < kMinSlant || std::abs(e[(a + 2) % 3]) < kMinSlant) continue;
       if (std::all_of(normals.begin(), normals.end(),
-                      [&](Vec3 n) { return std::abs(dot(n, e)) <= kSlantPerpendicular; })) {
+                      [&](Vec3 n) { return std::abs(dot(n, e)) <= slant_perpendicular; })) {
         slanted = a;
         along = e / norm(e);
         b[0][a] = 1;
@@ -855,7 +858,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       // every rim cell was refused down to the gap (1,047,509 leaves at 1e-4 for two such
       // shafts, 119,477 now).
       if (!std::all_of(normals.begin(), normals.end(),
-                       [&](Vec3 n) { return std::abs(dot(n, along)) <= kSlantPerpendicular; }))
+                       [&](Vec3 n) { return std::abs(dot(n, along)) <= slant_perpendicular; }))
         return out;
       // One axis may be straddled (the rims of a sphere across its great circles): a cone, as
       // along an axis, whose lines along that axis are counted below. Or two, the third keeping
@@ -864,9 +867,9 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       int straddled = 0;
       for (int a = 0; a < 3; ++a) {
         const bool up = std::all_of(normals.begin(), normals.end(),
-                                    [&](Vec3 n) { return n[a] >= -kPerpendicular; });
+                                    [&](Vec3 n) { return n[a] >= -perpendicular; });
         const bool down = std::all_of(normals.begin(), normals.end(),
-                                      [&](Vec3 n) { return n[a] <= kPerpendicular; });
+                                      [&](Vec3 n) { return n[a] <= perpendicular; });
         if (!up && !down) {
           if (++straddled > 2 || !cones_) return out;
           if (mixed < 0) mixed = a;
@@ -895,9 +898,9 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   const bool skew = out.skew;  // a slanted cone becomes one below, after its quadrant test
   for (int k = 0; k < 2 && !skew; ++k) {
     const bool up = std::all_of(normals.begin(), normals.end(),
-                                [&](Vec3 n) { return dot(n, b[k]) >= -kPerpendicular; });
+                                [&](Vec3 n) { return dot(n, b[k]) >= -perpendicular; });
     const bool down = std::all_of(normals.begin(), normals.end(),
-                                  [&](Vec3 n) { return dot(n, b[k]) <= kPerpendicular; });
+                                  [&](Vec3 n) { return dot(n, b[k]) <= perpendicular; });
     if (!up && !down) {
       if (mixed >= 0 || !cones_) return out;
       if (axis >= 0) {

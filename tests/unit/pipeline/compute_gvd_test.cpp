@@ -312,19 +312,24 @@ TEST(ComputeGvd, ThinGapCostDoesNotDependOnFloat32Coordinates3D) {
 // Now the cost of the blade at the origin, measured side by side; valid, the gap right.
 TEST(ComputeGvd, ThinGapCostDoesNotDependOnWhereTheSceneIs3D) {
   const Scene here = turned_blade(1e-4);
-  Scene there = here;
-  for (SceneObject& o : there.objects)
-    for (Vec3& v : o.vertices) v = v + Vec3{1000, -500, 250};
   const GvdResult twin = run(here);
-  PipelineOptions o;
-  o.threads = 2;
-  o.max_leaves = 1'000'000;  // the paper's cost fails here at once
-  const GvdResult r = compute_gvd(there, o);
-  EXPECT_LE(r.stats.leaves, twin.stats.leaves * 11 / 10);
-  expect_valid(r);
-  EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 3000), 0u);
-  ASSERT_EQ(r.graph.edges.size(), 1u);
-  EXPECT_NEAR(r.graph.edges[0].gap, 1.1e-4, 1e-6 * 1.1e-4);
+  // 1e5 away the rounding is 1.5e-11: the perpendicular test grows with it (8.4M leaves at
+  // 1e-10 for the blade at 1e-5).
+  for (const double t : {1e3, 1e5}) {
+    SCOPED_TRACE(t);
+    Scene there = here;
+    for (SceneObject& o : there.objects)
+      for (Vec3& v : o.vertices) v = v + Vec3{1, -0.5, 0.25} * t;
+    PipelineOptions o;
+    o.threads = 2;
+    o.max_leaves = 1'000'000;  // the paper's cost fails here at once
+    const GvdResult r = compute_gvd(there, o);
+    EXPECT_LE(r.stats.leaves, twin.stats.leaves * 11 / 10);
+    expect_valid(r);
+    EXPECT_EQ(test::count_gvd_object_crossings(r.scene, r.gvd, 3000), 0u);
+    ASSERT_EQ(r.graph.edges.size(), 1u);
+    EXPECT_NEAR(r.graph.edges[0].gap, 1.1e-4, 1e-6 * 1.1e-4);
+  }
 }
 
 // Six plates, every other one inset by 0.1 (its rims over its neighbours' faces), turned
