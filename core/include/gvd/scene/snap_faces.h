@@ -34,8 +34,9 @@ struct FaceSnap {
 /// tolerance (across all objects, either side) one common normal and faces on one plane
 /// within it (facing the same way) one offset, and moves each vertex to where the planes of
 /// its faces meet (at most three, the largest faces first, taken while they stay well apart
-/// in angle). A move longer than 16 roundings, or than 1 % of the vertex's distance to every
-/// other object (so that no gap changes by more than 2 % of itself), is refused. Faces of
+/// in angle). A move longer than 16 roundings, or than 1 % of the distance from one of the
+/// vertex's triangles to another object (so that no gap changes by more than 2 % of itself),
+/// is refused. Faces of
 /// curved meshes are not faces here: a lone triangle counts only when every neighbour meets
 /// it at 20 degrees or more. O(T log T) for T triangles, plus a BVH when any vertex moves.
 /// `cancel` (may be null) is read every few thousand triangles.
