@@ -112,18 +112,10 @@ bool is_closed_object(const SceneObject& object, int dimension) {
   return t.open == 0 && t.non_manifold == 0;
 }
 
-namespace {
-
-/// Makes the triangles of each edge-connected part of a 3D object agree in orientation: two
-/// triangles that share an edge used by exactly those two must run it in opposite directions
-/// (CAD and scan exports often flip some faces). In each part the orientation of the larger
-/// area is kept and the other triangles are reversed; a part that cannot be oriented (a Moebius
-/// strip) is left as it is. Returns the number of triangles reversed. Reads `cancel` between
-/// its steps and every kCancelGrain triangles of the walk.
-uint64_t orient_consistently(SceneObject& object, const std::atomic<bool>* cancel) {
+std::vector<uint32_t> triangles_across(const SceneObject& object, const std::atomic<bool>* cancel,
+                                       const char* what) {
   const size_t n = object.simplices.size();
-  // The triangles across each edge used by exactly two (sorted undirected edges; 16 bytes per
-  // triangle side, as mesh_topology's pairs).
+  // Sorted undirected edges, 16 bytes per triangle side (as mesh_topology's pairs).
   struct Side {
     uint64_t edge;
     uint32_t side;  ///< 3 * triangle + e
@@ -137,11 +129,11 @@ uint64_t orient_consistently(SceneObject& object, const std::atomic<bool>* cance
       sides.push_back({uint64_t{std::min(a, b)} << 32 | std::max(a, b), 3 * t + e});
     }
   }
-  throw_if_cancelled(cancel, kValidating);
+  throw_if_cancelled(cancel, what);
   std::sort(sides.begin(), sides.end(),
             [](const Side& x, const Side& y) { return x.edge < y.edge; });
-  throw_if_cancelled(cancel, kValidating);
-  std::vector<uint32_t> across(3 * n, 0xFFFFFFFFu);
+  throw_if_cancelled(cancel, what);
+  std::vector<uint32_t> across(3 * n, kNoNeighbour);
   for (size_t i = 0; i < sides.size();) {
     size_t j = i;
     while (j < sides.size() && sides[j].edge == sides[i].edge) ++j;
@@ -151,7 +143,20 @@ uint64_t orient_consistently(SceneObject& object, const std::atomic<bool>* cance
     }
     i = j;
   }
-  std::vector<Side>().swap(sides);
+  return across;
+}
+
+namespace {
+
+/// Makes the triangles of each edge-connected part of a 3D object agree in orientation: two
+/// triangles that share an edge used by exactly those two must run it in opposite directions
+/// (CAD and scan exports often flip some faces). In each part the orientation of the larger
+/// area is kept and the other triangles are reversed; a part that cannot be oriented (a Moebius
+/// strip) is left as it is. Returns the number of triangles reversed. Reads `cancel` between
+/// its steps and every kCancelGrain triangles of the walk.
+uint64_t orient_consistently(SceneObject& object, const std::atomic<bool>* cancel) {
+  const size_t n = object.simplices.size();
+  const std::vector<uint32_t> across = triangles_across(object, cancel, kValidating);
   // Whether triangles t and u (sharing an edge) run it the same way.
   auto same_way = [&](uint32_t t, uint32_t u) {
     const Simplex& a = object.simplices[t];
@@ -185,7 +190,7 @@ uint64_t orient_consistently(SceneObject& object, const std::atomic<bool>* cance
       (flip[t] ? other : kept) += area(t);
       for (int e = 0; e < 3; ++e) {
         const uint32_t u = across[3 * t + e];
-        if (u == 0xFFFFFFFFu) continue;
+        if (u == kNoNeighbour) continue;
         // Agreeing neighbours run the shared edge in opposite directions.
         const int8_t want = static_cast<int8_t>(flip[t] ^ (same_way(t, u) ? 1 : 0));
         if (flip[u] < 0) {

@@ -203,27 +203,7 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
       altitude[t] = longest > 0 ? twice / longest : 0;
       normal[t] = twice > 0 ? n / twice : Vec3{};
     }
-    // Each edge's triangles: the neighbour across it where exactly two share it.
-    std::vector<std::pair<uint64_t, uint32_t>> edges;
-    edges.reserve(3 * count);
-    for (uint32_t t = 0; t < count; ++t)
-      for (int e = 0; e < 3; ++e) {
-        uint64_t a = object.simplices[t].v[e], b = object.simplices[t].v[(e + 1) % 3];
-        if (a > b) std::swap(a, b);
-        edges.push_back({a << 32 | b, t * 3 + e});
-      }
-    std::sort(edges.begin(), edges.end());
-    std::vector<int64_t> across(3 * count, -1);
-    for (size_t i = 0; i < edges.size();) {
-      size_t j = i;
-      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-      if (j - i == 2) {
-        across[edges[i].second] = edges[i + 1].second / 3;
-        across[edges[i + 1].second] = edges[i].second / 3;
-      }
-      i = j;
-    }
-    edges = {};
+    const std::vector<uint32_t> across = triangles_across(object, cancel, kCancelWhat);
     auto agree = [&](uint32_t t, uint32_t u) {
       if (!(altitude[t] > 0) || !(altitude[u] > 0) || dot(normal[t], normal[u]) <= 0) return false;
       const double tilt = 2 * std::sqrt(3.0) * rounding * (1 / altitude[t] + 1 / altitude[u]);
@@ -254,10 +234,10 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
         weighted = weighted + normal[t] * area[t];
         g.area += area[t];
         for (int e = 0; e < 3; ++e) {
-          const int64_t u = across[t * 3 + e];
-          if (u < 0 || of[u] >= 0 || !agree(t, static_cast<uint32_t>(u))) continue;
+          const uint32_t u = across[t * 3 + e];
+          if (u == kNoNeighbour || of[u] >= 0 || !agree(t, u)) continue;
           of[u] = id;
-          stack.push_back(static_cast<uint32_t>(u));
+          stack.push_back(u);
         }
       }
       g.triangles = static_cast<uint32_t>(members.size());
@@ -281,8 +261,8 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
       if (g.triangles == 1) {
         sharp = true;
         for (int e = 0; e < 3; ++e) {
-          const int64_t u = across[seed * 3 + e];
-          if (u >= 0 && dot(normal[seed], normal[u]) > kSharpCos) sharp = false;
+          const uint32_t u = across[seed * 3 + e];
+          if (u != kNoNeighbour && dot(normal[seed], normal[u]) > kSharpCos) sharp = false;
         }
       }
       g.face = flat && sharp;

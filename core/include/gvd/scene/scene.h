@@ -108,6 +108,16 @@ struct SceneLimits {
 void validate_scene(Scene& scene, const SceneLimits& limits = {},
                     const std::atomic<bool>* cancel = nullptr);
 
+/// No triangle across a side (triangles_across).
+inline constexpr uint32_t kNoNeighbour = 0xFFFFFFFFu;
+/// Per side of each triangle of a 3D object (index 3 t + e: the edge v[e] v[e+1]), the
+/// triangle across it where exactly two triangles use that edge (vertices matched by index),
+/// else kNoNeighbour. O(S log S). `cancel` (may be null) is read between its steps: set, it
+/// stops with gvd::Error{kCancelled} naming `what`.
+std::vector<uint32_t> triangles_across(const SceneObject& object,
+                                       const std::atomic<bool>* cancel = nullptr,
+                                       const char* what = "validating the scene");
+
 /// An object's boundary and non-manifold elements: in 2D vertices of degree 1 and > 2, in 3D
 /// edges used by one and by more than two triangles (vertices matched by index). Both 0: the
 /// object is closed (validate_scene's open_mesh and non_manifold warnings count the same).
