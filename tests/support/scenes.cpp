@@ -1,5 +1,6 @@
 #include "support/scenes.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -62,6 +63,55 @@ SceneObject make_box_with_split_bottom(const std::string& label, Vec3 lo, Vec3 h
     }
   }
   return o;
+}
+
+scene::Scene make_slot_of_parts(const SlotOfPartsOptions& options) {
+  const double g = options.gap;
+  SceneObject slot;
+  slot.label = "slot";
+  auto add = [&](const SceneObject& part) {
+    const auto base = static_cast<uint32_t>(slot.vertices.size());
+    slot.vertices.insert(slot.vertices.end(), part.vertices.begin(), part.vertices.end());
+    for (Simplex t : part.simplices) {
+      for (uint32_t& v : t.v) v += base;
+      slot.simplices.push_back(t);
+    }
+  };
+  if (options.boxes) {
+    add(make_box("floor", {0, 0, 0}, {1, 0.2, 1}));
+    add(make_box("left", {0, options.walls_from, 0}, {0.45, 0.5, 1}));
+    add(make_box("right", {0.55, options.walls_from, 0}, {1, 0.5, 1}));
+  } else {
+    const double u[8][2] = {{0, 0},      {1, 0},      {1, 0.5},    {0.55, 0.5},
+                            {0.55, 0.2}, {0.45, 0.2}, {0.45, 0.5}, {0, 0.5}};
+    for (int z = 0; z < 2; ++z)
+      for (const auto& p : u) slot.vertices.push_back({p[0], p[1], double(z)});
+    for (uint32_t i = 0; i < 8; ++i) {
+      const uint32_t j = (i + 1) % 8;
+      slot.simplices.push_back({{i, j, j + 8}});
+      slot.simplices.push_back({{i, j + 8, i + 8}});
+    }
+    // The U's ends: A B E, A E F, A F G, A G H, B C D, B D E.
+    const uint32_t cap[6][3] = {{0, 1, 4}, {0, 4, 5}, {0, 5, 6}, {0, 6, 7}, {1, 2, 3}, {1, 3, 4}};
+    for (const auto& t : cap) {
+      slot.simplices.push_back({{t[0], t[2], t[1]}});
+      slot.simplices.push_back({{t[0] + 8, t[1] + 8, t[2] + 8}});
+    }
+  }
+  if (options.weld) {
+    std::vector<Vec3> unique;
+    for (Simplex& t : slot.simplices) {
+      for (uint32_t& v : t.v) {
+        const Vec3 p = slot.vertices[v];
+        const auto at = std::find(unique.begin(), unique.end(), p);
+        v = static_cast<uint32_t>(at - unique.begin());
+        if (at == unique.end()) unique.push_back(p);
+      }
+    }
+    slot.vertices = unique;
+  }
+  return make_scene(
+      3, {std::move(slot), make_box("blade", {0.45 + g, 0.2 + g, 0}, {0.55 - g, 0.8, 1})});
 }
 
 SceneObject make_sphere(const std::string& label, Vec3 c, double r, int rings, int segments) {

@@ -17,6 +17,22 @@ scene::SceneObject make_box(const std::string& label, Vec3 lo, Vec3 hi);
 /// triangle across it.
 scene::SceneObject make_box_with_split_bottom(const std::string& label, Vec3 lo, Vec3 hi, int k);
 
+/// A slot [0,1] x [0,0.5] x [0,1] with its opening x in [0.45, 0.55] above the floor y = 0.2,
+/// and a blade x in [0.45 + gap, 0.55 - gap], y in [0.2 + gap, 0.8] in it (gap in scene units,
+/// on both faces and the floor, whole length). The slot as a quick script builds it: a floor
+/// box and two wall boxes in one object, the walls standing on the floor (walls_from 0.2: their
+/// undersides glued to its top, their edges there used by four triangles) or pushed into it
+/// (0.1), with every part's own corners or (`weld`, as an STL is read) corners at one
+/// position welded; or as one closed mesh (`boxes` false: the U's prism, walls_from unused).
+struct SlotOfPartsOptions {
+  bool boxes = true;
+  double walls_from = 0.2;
+  bool weld = false;
+  double gap = 1e-3;
+};
+/// Objects "slot", "blade".
+scene::Scene make_slot_of_parts(const SlotOfPartsOptions& options);
+
 /// p rotated by `angle` (radians) about the unit axis `axis` through the origin (Rodrigues).
 Vec3 rotate(Vec3 p, Vec3 axis, double angle);
 /// A closed UV sphere with `rings` x `segments` quads split into triangles.

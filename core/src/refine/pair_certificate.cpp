@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <span>
 #include <tuple>
 #include <utility>
 
@@ -180,14 +181,17 @@ Vec3 reflect_vector(const Plane& p, Vec3 v) { return v - p.n * (2 * dot(p.n, v))
 // coplanar (within `round`, PairCertifier::mirror_round_), equally oriented triangles (out of the
 // material where `facing` knows it, else by vertex order), which a closed mesh does not overlap, up
 // to `round` times the piece's perimeter; the candidates come from the BVH around each reflected
-// piece. False also when more than `cap` triangles of `from` meet the box.
-bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing, const SimplexBvh& bvh,
-                   const Plane& mirror, int side, ObjectId from, ObjectId onto, const Box& clip_box,
-                   size_t cap, double flat, double round) {
+// piece. Triangles `buried` inside their object (glued between its parts) are neither pieces
+// nor covers. False also when more than `cap` triangles of `from` meet the box.
+bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing,
+                   std::span<const uint8_t> buried, const SimplexBvh& bvh, const Plane& mirror,
+                   int side, ObjectId from, ObjectId onto, const Box& clip_box, size_t cap,
+                   double flat, double round) {
   const int dim = g.dimension;
+  auto is_buried = [&](uint32_t s) { return s < buried.size() && buried[s] != 0; };
   std::vector<uint32_t> sources;
   if (!bvh.visit_overlapping(clip_box, [&](uint32_t s) {
-        if (g.object_of[s] == from &&
+        if (g.object_of[s] == from && !is_buried(s) &&
             simplex_overlaps_box(dim, g.points, g.simplices[s], clip_box, 0))
           sources.push_back(s);
         return sources.size() <= cap;
@@ -202,7 +206,7 @@ bool reflects_onto(const UnitGeometry& g, std::span<const int8_t> facing, const 
     }
     bvh.visit_overlapping(query, [&](uint32_t u) {
       Plane other;
-      if (g.object_of[u] == onto && oriented_plane(g, facing, u, other) &&
+      if (g.object_of[u] == onto && !is_buried(u) && oriented_plane(g, facing, u, other) &&
           dot(other.n, normal) >= 1 - 1e-12 && std::abs(other.signed_distance(on_plane)) <= round)
         f(u, other);
       return true;
@@ -273,6 +277,115 @@ void sort_polling(std::vector<T>& v, Less less, Poll poll) {
   }
 }
 
+// A side of a simplex keyed by its object and its end points' canonical indices (3D: side
+// s * 3 + e runs from vertex e to e + 1 of simplex s; 2D: side s * 2 + e is end point e).
+struct SideRecord {
+  uint32_t object, lo, hi, side;
+};
+
+// Parts of one object that share an edge: the most triangles around one edge that are paired.
+constexpr size_t kMaxAroundEdge = 16;
+
+// Pairs the n > 2 triangles around one edge (3D) where closed parts of one object meet along
+// it: three boxes written as one object, a slot's walls on its floor. By the input's vertex
+// indices when each part has its own (every index pair twice); else around the edge by angle
+// (an STL's welded corners): the triangles' vertex orders must alternate around it (each
+// part's pair runs the edge both ways), coplanar ones (faces glued together) taking the turn
+// the alternation asks, and each is paired with its neighbour on the side away from its
+// normal, the material's side when the input's normals point out. False (non-manifold) when
+// neither works.
+bool pair_around_edge(const UnitGeometry& g, const std::vector<uint32_t>& canonical,
+                      std::span<const SideRecord> group, std::vector<uint32_t>& across) {
+  const size_t n = group.size();
+  if (n % 2 != 0 || n > kMaxAroundEdge) return false;
+  auto pair = [&](uint32_t x, uint32_t y) {
+    across[x] = y / 3;
+    across[y] = x / 3;
+  };
+  std::array<std::pair<uint64_t, uint32_t>, kMaxAroundEdge> by_index;
+  for (size_t k = 0; k < n; ++k) {
+    const Simplex& t = g.simplices[group[k].side / 3];
+    const int e = static_cast<int>(group[k].side % 3);
+    const uint32_t a = std::min(t.v[e], t.v[(e + 1) % 3]), b = std::max(t.v[e], t.v[(e + 1) % 3]);
+    by_index[k] = {(uint64_t{a} << 32) | b, group[k].side};
+  }
+  std::sort(by_index.begin(), by_index.begin() + static_cast<std::ptrdiff_t>(n));
+  bool twice = true;
+  for (size_t k = 0; k < n && twice; k += 2) {
+    twice = by_index[k].first == by_index[k + 1].first &&
+            (k + 2 >= n || by_index[k + 2].first != by_index[k].first);
+  }
+  if (twice) {
+    for (size_t k = 0; k < n; k += 2) pair(by_index[k].second, by_index[k + 1].second);
+    return true;
+  }
+  // Around the edge: angle of each triangle's third vertex about the line lo -> hi, and
+  // whether the triangle runs the edge lo -> hi (then its normal turns the way angles grow).
+  const Vec3 p = g.points[group[0].lo], d = g.points[group[0].hi] - p;
+  const int i = std::abs(d.x) <= std::abs(d.y) && std::abs(d.x) <= std::abs(d.z)
+                    ? 0
+                    : (std::abs(d.y) <= std::abs(d.z) ? 1 : 2);
+  Vec3 w;
+  w[i] = 1;
+  const Vec3 b0 = cross(d, w) / norm(cross(d, w)), b1 = cross(d, b0) / norm(cross(d, b0));
+  struct Around {
+    double angle;
+    bool forward;
+    uint32_t side;
+  };
+  std::array<Around, kMaxAroundEdge> around;
+  for (size_t k = 0; k < n; ++k) {
+    const Simplex& t = g.simplices[group[k].side / 3];
+    const int e = static_cast<int>(group[k].side % 3);
+    const Vec3 u = g.points[t.v[(e + 2) % 3]] - p;
+    around[k] = {std::atan2(dot(u, b1), dot(u, b0)), canonical[t.v[e]] == group[k].lo,
+                 group[k].side};
+  }
+  const auto first = around.begin(), last = around.begin() + static_cast<std::ptrdiff_t>(n);
+  std::sort(first, last, [](const Around& x, const Around& y) { return x.angle < y.angle; });
+  // Faces within this angle of each other are coplanar (glued); at most two such.
+  constexpr double kSameAngle = 1e-9;
+  constexpr double kTurn = 6.283185307179586;
+  auto gap_before = [&](size_t k) {
+    return k == 0 ? around[0].angle + kTurn - around[n - 1].angle
+                  : around[k].angle - around[k - 1].angle;
+  };
+  size_t start = n;
+  for (size_t k = 0; k < n && start == n; ++k)
+    if (gap_before(k) > kSameAngle) start = k;
+  if (start == n) return false;
+  std::rotate(first, first + static_cast<std::ptrdiff_t>(start), last);
+  for (size_t k = 1; k + 1 < n; ++k)
+    if (gap_before(k) <= kSameAngle && gap_before(k + 1) <= kSameAngle) return false;
+  // Alternating from the first triangle's direction; a coplanar couple is put in the order
+  // that keeps the alternation (the first couple in either, whichever alternates).
+  auto alternate = [&]() {
+    for (size_t k = 0; k < n; ++k) {
+      const bool want = k % 2 == 0 ? around[0].forward : !around[0].forward;
+      if (around[k].forward == want) continue;
+      if (k + 1 < n && gap_before(k + 1) <= kSameAngle && around[k + 1].forward == want) {
+        std::swap(around[k], around[k + 1]);
+        continue;
+      }
+      return false;
+    }
+    return true;
+  };
+  const std::array<Around, kMaxAroundEdge> sorted = around;
+  if (!alternate()) {
+    if (!(gap_before(1) <= kSameAngle)) return false;
+    around = sorted;
+    std::swap(around[0], around[1]);
+    if (!alternate()) return false;
+  }
+  // A triangle running lo -> hi has its normal towards growing angles: its material lies
+  // before it. Pairs (backward, forward) in angle order bound the material.
+  const size_t from = around[0].forward ? 1 : 0;
+  for (size_t k = 0; k < n; k += 2)
+    pair(around[(from + k) % n].side, around[(from + k + 1) % n].side);
+  return true;
+}
+
 }  // namespace
 
 PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh,
@@ -308,10 +421,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   // Sides by (object, canonical end points); two records of one key are across each other.
   const int dim = geometry.dimension;
   const int sides = dim == 2 ? 2 : 3;
-  struct Record {
-    uint32_t object, lo, hi, side;
-  };
-  std::vector<Record> records;
+  std::vector<SideRecord> records;
   records.reserve(geometry.simplices.size() * sides);
   for (uint32_t s = 0; s < geometry.simplices.size(); ++s) {
     const Simplex& t = geometry.simplices[s];
@@ -324,7 +434,7 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
   }
   sort_polling(
       records,
-      [](const Record& x, const Record& y) {
+      [](const SideRecord& x, const SideRecord& y) {
         return std::tie(x.object, x.lo, x.hi, x.side) < std::tie(y.object, y.lo, y.hi, y.side);
       },
       poll);
@@ -339,7 +449,9 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
     if (j - i == 2) {
       across_[records[i].side] = records[i + 1].side / sides;
       across_[records[i + 1].side] = records[i].side / sides;
-    } else if (j - i > 2) {
+    } else if (j - i > 2 &&
+               (dim != 3 || !pair_around_edge(geometry, canonical_,
+                                              std::span(records).subspan(i, j - i), across_))) {
       for (size_t k = i; k < j; ++k) across_[records[k].side] = kNonManifold;
     }
     i = j;
@@ -458,35 +570,59 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
     const ObjectId o = geometry.object_of[s];
     if (o < objects && closed[o] && shells[o].size() > 1) of_object[o].push_back(s);
   }
-  // Whether shell `inner`'s first point lies inside shell `outer` (same object): crossings
-  // of a ray in a direction no input is aligned with, by parity.
+  // Whether shell `inner` lies inside shell `outer` (same object): at its vertices of least
+  // and greatest x, y and z, none outside and one inside by the parity of a ray's crossings in
+  // a direction no input is aligned with. Vertices on the outer shell (within flat_) decide
+  // nothing, and one vertex outside says the shells only touch or overlap (parts glued or
+  // pushed into each other, whose union is the object) rather than nest (a cavity).
   auto inside = [&](ObjectId o, uint32_t inner, uint32_t outer) {
-    Vec3 p;
+    constexpr int kTests = 6;
+    uint32_t test[kTests];
+    bool any = false;
     for (uint32_t s : of_object[o]) {
-      if (shell_of[s] == inner) {
-        p = pts[geometry.simplices[s].v[0]];
-        break;
+      if (shell_of[s] != inner) continue;
+      for (uint32_t v : geometry.simplices[s].v) {
+        for (int k = 0; k < kTests; ++k) {
+          const int axis = k / 2;
+          if (!any ||
+              (k % 2 == 0 ? pts[v][axis] < pts[test[k]][axis] : pts[v][axis] > pts[test[k]][axis]))
+            test[k] = v;
+        }
+        any = true;
       }
     }
     const Vec3 d =
         Vec3{0.5773502691896258, 0.5773502691896257, 0.5773502691896259} + Vec3{1e-3, -2e-3, 7e-4};
-    int crossings = 0;
+    int crossings[kTests] = {};
+    double near2[kTests];
+    std::fill(near2, near2 + kTests, 1e300);
     for (uint32_t s : of_object[o]) {
       if (shell_of[s] != outer) continue;
       const Simplex& t = geometry.simplices[s];
       const Vec3 a = pts[t.v[0]], e1 = pts[t.v[1]] - a, e2 = pts[t.v[2]] - a;
       const Vec3 h = cross(d, e2);
       const double det = dot(e1, h);
-      if (det == 0) continue;
-      const Vec3 q = p - a;
-      const double u = dot(q, h) / det;
-      if (u < 0 || u > 1) continue;
-      const Vec3 k = cross(q, e1);
-      const double v = dot(d, k) / det;
-      if (v < 0 || u + v > 1) continue;
-      if (dot(e2, k) / det > 0) ++crossings;
+      for (int k = 0; k < kTests; ++k) {
+        const Vec3 p = pts[test[k]];
+        near2[k] =
+            std::min(near2[k], dist2(p, closest_point_on_triangle(p, a, pts[t.v[1]], pts[t.v[2]])));
+        if (det == 0) continue;
+        const Vec3 q = p - a;
+        const double u = dot(q, h) / det;
+        if (u < 0 || u > 1) continue;
+        const Vec3 kq = cross(q, e1);
+        const double v = dot(d, kq) / det;
+        if (v < 0 || u + v > 1) continue;
+        if (dot(e2, kq) / det > 0) ++crossings[k];
+      }
     }
-    return crossings % 2 == 1;
+    bool in = false;
+    for (int k = 0; k < kTests; ++k) {
+      if (!(near2[k] > flat_ * flat_)) continue;
+      if (crossings[k] % 2 == 0) return false;
+      in = true;
+    }
+    return in;
   };
   for (uint32_t o = 0; o < objects; ++o) {
     if (!closed[o]) continue;
@@ -509,6 +645,58 @@ PairCertifier::PairCertifier(const UnitGeometry& geometry, const SimplexBvh& bvh
     if (o >= objects || !closed[o]) continue;
     const Shell& h = shells[o][shell_index(o, shell_of[s])];
     facing_[s] = static_cast<int8_t>(order_sign[s] * h.turn);
+  }
+  // Faces glued between parts of one object (a slot's wall standing on its floor: the wall's
+  // underside lies on the floor's top) are inside the object, not on its surface: a triangle
+  // covered whole by coplanar triangles of one other shell of its object facing the other way
+  // is buried. Every point of it lies on those, so leaving it out of the certificates changes
+  // no distance, and its normal (into the other part) is no gradient of the object's distance.
+  for (uint32_t o = 0; o < objects; ++o) {
+    if (!closed[o] || shells[o].size() < 2) continue;
+    if (buried_.empty()) buried_.assign(simplices, 0);
+    poll();
+    for (uint32_t s : of_object[o]) {
+      Plane own;
+      if (!simplex_plane(geometry, s, own)) continue;
+      const Simplex& t = geometry.simplices[s];
+      Box bounds;
+      double perimeter = 0;
+      for (int e = 0; e < 3; ++e) {
+        bounds.extend(pts[t.v[e]]);
+        perimeter += dist(pts[t.v[e]], pts[t.v[(e + 1) % 3]]);
+      }
+      for (int i = 0; i < 3; ++i) {
+        bounds.lo[i] -= flat_;
+        bounds.hi[i] += flat_;
+      }
+      Polygon whole;
+      for (int e = 0; e < 3; ++e) whole.p[whole.n++] = pts[t.v[e]];
+      const double own_area = area(whole);
+      std::array<double, kMaxShells> covered{};
+      size_t seen = 0;
+      const bool bounded = bvh_.visit_overlapping(bounds, [&](uint32_t u) {
+        if (geometry.object_of[u] != o || shell_of[u] == shell_of[s]) return true;
+        Plane other;
+        if (!simplex_plane(geometry, u, other) ||
+            facing_[u] * facing_[s] * dot(other.n, own.n) > -1 + 1e-12)
+          return true;
+        const Simplex& w = geometry.simplices[u];
+        for (uint32_t v : w.v)
+          if (std::abs(own.signed_distance(pts[v])) > flat_) return true;
+        Polygon part;
+        for (int e = 0; e < 3; ++e) part.p[part.n++] = pts[w.v[e]];
+        for (int e = 0; e < 3 && part.n > 0; ++e) {
+          const Vec3 a = pts[t.v[e]], b = pts[t.v[(e + 1) % 3]];
+          const Vec3 outward = cross(b - a, own.n);  // s's inside is where this is <= 0
+          clip(part, outward, dot(outward, a));
+        }
+        if (part.n >= 3) covered[shell_index(o, shell_of[u])] += area(part);
+        return ++seen <= kMaxActive;
+      });
+      if (!bounded) continue;
+      for (double c : covered)
+        if (c >= own_area - mirror_round_ * perimeter) buried_[s] = 1;
+    }
   }
 }
 
@@ -574,7 +762,7 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
   const bool bounded = bvh_.visit_overlapping(query, [&](uint32_t s) {
     const ObjectId o = g.object_of[s];
     const int k = o == a ? 0 : (o == b ? 1 : -1);
-    if (k < 0) return true;
+    if (k < 0 || buried(s)) return true;
     const Vec3 q = closest_point_on_simplex(dim, g.points, g.simplices[s], c);
     if (dist2(c, q) > range2[k] ||
         !simplex_overlaps_box(dim, g.points, g.simplices[s], box, slack[k]))
@@ -725,10 +913,10 @@ PairCertifier::Certificate PairCertifier::certify_mirror(
       const double sa = pa.offset - mirror.offset;
       if (!(std::abs(sa) > flat_)) continue;
       const int side_a = sa < 0 ? -1 : 1;
-      if (!reflects_onto(g, facing_, bvh_, mirror, side_a, pair[0], pair[1], near, kMaxActive,
-                         flat_, mirror_round_) ||
-          !reflects_onto(g, facing_, bvh_, mirror, -side_a, pair[1], pair[0], near, kMaxActive,
-                         flat_, mirror_round_))
+      if (!reflects_onto(g, facing_, buried_, bvh_, mirror, side_a, pair[0], pair[1], near,
+                         kMaxActive, flat_, mirror_round_) ||
+          !reflects_onto(g, facing_, buried_, bvh_, mirror, -side_a, pair[1], pair[0], near,
+                         kMaxActive, flat_, mirror_round_))
         continue;
       out.verdict = CellVerdict::kPair;
       out.mirror = true;
@@ -972,7 +1160,7 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
       double area_sum = 0, lo = 1e300, hi = -1e300;
       size_t seen = 0;
       const bool bounded = bvh_.visit_overlapping(near, [&](uint32_t s) {
-        if (g.object_of[s] != pair[k]) return true;
+        if (g.object_of[s] != pair[k] || buried(s)) return true;
         Plane own;
         if (!oriented_plane(g, facing_, s, own) || dot(own.n, plane.n) < 1 - 1e-12 ||
             std::abs(plane.signed_distance(g.points[g.simplices[s].v[0]])) > flat_)

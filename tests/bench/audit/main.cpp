@@ -28,6 +28,7 @@
 #include <set>
 #include <span>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "bench/sphere_lattice.h"
@@ -316,6 +317,17 @@ int write_variants(const std::string& dir) {
                      turned(gvd::test::make_shaft_in_bore(shaft(6, gap)), true));
     out.emplace_back("inset_plates_f32_turned" + tag,
                      turned(gvd::test::make_stacked_plates(inset), true));
+    // A slot of three boxes in one object (support/scenes.h): walls standing on the floor,
+    // the same with welded corners (an STL), walls pushed into the floor. E = 1.
+    for (const auto& [name, walls_from, weld] :
+         {std::tuple{"slot_of_boxes", 0.2, false}, std::tuple{"slot_of_welded_boxes", 0.2, true},
+          std::tuple{"slot_of_pushed_boxes", 0.1, false}}) {
+      gvd::test::SlotOfPartsOptions parts;
+      parts.walls_from = walls_from;
+      parts.weld = weld;
+      parts.gap = gap * 1.1;
+      out.emplace_back(std::string(name) + tag, gvd::test::make_slot_of_parts(parts));
+    }
   }
   return write_scenes(out, dir);
 }

@@ -52,8 +52,9 @@ namespace gvd::refine {
 /// - Extruded pairs (3D; straight rims: an edge facing a face or a corner across g): both
 ///   objects are closed (T-junctions count as closed: match_split_sides; their normals taken
 ///   out of the material, each of up to 16 shells oriented by walking it and turned by its
-///   nesting, whatever the input's vertex order), every simplex that can be nearest has its
-///   normal perpendicular to one axis e, and on each of their planes the object's triangles
+///   nesting, whatever the input's vertex order; parts of one object that share edges paired
+///   around them, and faces glued between parts left out), every simplex that can be nearest has
+///   its normal perpendicular to one axis e, and on each of their planes the object's triangles
 ///   cover, within the box Q, a full strip across Q along e. Then both distance functions are
 ///   invariant along e in the cell, and the bisector is C x e for a curve C of the cross-section
 ///   (kExtrudedX + e). Also, all outward normals of a and all inward normals of b lie in one
@@ -217,6 +218,10 @@ class PairCertifier final : public octree::SplitOracle {
   /// shell is oriented by walking it and turned so that its volume takes the sign its nesting
   /// asks, so a cavity drawn the wrong way or triangles flipped in a closed mesh cost nothing.
   std::vector<int8_t> facing_;
+  /// Per simplex (empty: none): 1 where it is a face glued between two parts of its object,
+  /// inside the object (see the constructor); certificates leave it out.
+  std::vector<uint8_t> buried_;
+  bool buried(uint32_t s) const { return s < buried_.size() && buried_[s] != 0; }
   /// kFlat and kMirrorRound, or 8 and 4 times the input coordinates' own rounding where that
   /// is larger (a scene 1000 times its size from the origin: its doubles carry ~1e-13 of it,
   /// and flush faces turned with it are coplanar only to that).
