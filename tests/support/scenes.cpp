@@ -204,4 +204,11 @@ Scene make_scene(int dimension, std::vector<SceneObject> objects) {
   return s;
 }
 
+void round_to_decimals(Scene& scene, int places) {
+  const double scale = std::pow(10.0, places);
+  for (SceneObject& o : scene.objects)
+    for (Vec3& v : o.vertices)
+      for (int i = 0; i < 3; ++i) v[i] = std::round(v[i] * scale) / scale;
+}
+
 }  // namespace gvd::test

@@ -61,5 +61,7 @@ scene::Scene make_scene(int dimension, std::vector<scene::SceneObject> objects);
 /// float: GCC 12.2 at -O2 drops a vectorised double -> float -> double round trip of a Vec3's
 /// x and y.)
 void round_to_float32(scene::Scene& scene);
+/// Every coordinate rounded to `places` decimals, as an OBJ or ASCII STL writer prints them.
+void round_to_decimals(scene::Scene& scene, int places);
 
 }  // namespace gvd::test

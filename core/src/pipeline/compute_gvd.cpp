@@ -137,9 +137,10 @@ class Computation {
     DomainOptions domain_options = options_.domain;
     domain_options.threads = options_.threads;
     domain_options.cancel = options_.cancel;
-    // Certificates need flat faces flat; a float32 input's are flat only to its rounding.
+    // Certificates need flat faces flat; a float32 or few-decimal input's are flat only to
+    // its rounding.
     if (options_.refine == RefineRule::kCertified)
-      snap_ = snap_float32_faces(scene_, options_.threads, options_.cancel);
+      snap_ = snap_rounded_faces(scene_, options_.threads, options_.cancel);
     r_.domain = make_domain(scene_, domain_options);
     throw_if_cancelled(options_.cancel, "the scene stage");
     r_.geometry = make_unit_geometry(scene_, r_.domain);
@@ -315,7 +316,7 @@ class Computation {
     r_.stats.stages.push_back({"compact", sw_.seconds(), 0, compacted.simplices_after});
   }
 
-  /// octree_distance_and_refinement; a limit hit after float32 faces were left where they
+  /// octree_distance_and_refinement; a limit hit after rounded faces were left where they
   /// are says so (their rounding is what the cells chase).
   void octree_distance_and_refinement_or_why() {
     try {
@@ -324,7 +325,9 @@ class Computation {
       if (e.code() != ErrorCode::kLimitExceeded || snap_.refused == 0) throw;
       throw Error(e.code(),
                   e.detail() + "; " + std::to_string(snap_.refused) +
-                      " vertices of flat faces of this float32 input were not put on exact "
+                      " vertices of flat faces of this " +
+                      (snap_.float32 ? std::string("float32") : std::string("decimal")) +
+                      " input were not put on exact "
                       "planes (a move longer than 16 of its roundings, " +
                       format_length(snap_.rounding) +
                       ", or than 1 % of their distance to another object): where the file's "
@@ -341,9 +344,10 @@ class Computation {
       std::snprintf(numbers, sizeof numbers, "%llu vertices moved by at most %s",
                     static_cast<unsigned long long>(snap_.vertices),
                     format_length(snap_.max_move).c_str());
-      std::string detail = std::string("float32 coordinates: ") + numbers +
-                           " (the scene's float32 rounding is " + format_length(snap_.rounding) +
-                           ") onto " + std::to_string(snap_.planes) + " exact planes of " +
+      const char* kind = snap_.float32 ? "float32" : "decimal";
+      std::string detail = std::string(kind) + " coordinates: " + numbers + " (the scene's " +
+                           kind + " rounding is " + format_length(snap_.rounding) + ") onto " +
+                           std::to_string(snap_.planes) + " exact planes of " +
                            std::to_string(snap_.faces) +
                            " flat faces, so that faces flat, parallel or square to rounding "
                            "are so exactly and thin gaps between them stay cheap";

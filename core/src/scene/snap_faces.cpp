@@ -1,9 +1,11 @@
-// Flat faces of a float32 input put back on exact planes (snap_faces.h).
+// Flat faces of a rounded input (float32, or decimals with few digits) put back on exact
+// planes (snap_faces.h).
 
 #include "gvd/scene/snap_faces.h"
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -43,7 +45,7 @@ constexpr size_t kSquareTo = 64;
 /// Moves shorter than this share of the largest coordinate are rounding, not moves.
 constexpr double kStill = 0x1p-50;
 constexpr size_t kCancelEvery = size_t{1} << 12;
-constexpr const char* kCancelWhat = "snapping float32 faces";
+constexpr const char* kCancelWhat = "snapping rounded faces";
 
 /// xx, yy, zz, xy, xz, yz.
 using Sym3 = std::array<double, 6>;
@@ -72,6 +74,63 @@ Sym3 operator+(const Sym3& a, const Sym3& b) {
   return r;
 }
 
+/// A scatter matrix sum (p - c)(p - c)^T held in a frame whose third axis is near the normal
+/// of the points' plane: n^T S n is then a sum of small terms, exact to the last bits,
+/// where in x, y, z it is the small difference of large ones (a face of a unit part turned
+/// against the axes, flat to 5e-11, has n^T S n ~ 1e-19 beside entries ~10: computed in x, y, z
+/// it was rounding noise, and faces written with 10 decimals never joined their parallels).
+struct FramedScatter {
+  Vec3 axis[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  Sym3 s{};
+
+  /// A frame whose third axis is n (unit).
+  static FramedScatter around(Vec3 n) {
+    FramedScatter f;
+    const int i = std::abs(n.x) <= std::abs(n.y) && std::abs(n.x) <= std::abs(n.z)
+                      ? 0
+                      : (std::abs(n.y) <= std::abs(n.z) ? 1 : 2);
+    Vec3 w;
+    w[i] = 1;
+    f.axis[0] = cross(n, w) / norm(cross(n, w));
+    f.axis[1] = cross(n, f.axis[0]);
+    f.axis[2] = n;
+    return f;
+  }
+  Vec3 local(Vec3 v) const { return {dot(v, axis[0]), dot(v, axis[1]), dot(v, axis[2])}; }
+  void add_point(Vec3 d) {
+    const Vec3 q = local(d);
+    s = s + Sym3{q.x * q.x, q.y * q.y, q.z * q.z, q.x * q.y, q.x * q.z, q.y * q.z};
+  }
+  /// n^T S n for a unit n (x, y, z).
+  double along(Vec3 n) const { return scene::along(s, local(n)); }
+  /// The same points' scatter, in this frame.
+  Sym3 in_frame_of(const FramedScatter& other) const {
+    // R[i][j] = other.axis[i] . axis[j]: this frame's coordinates to the other's.
+    double r[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) r[i][j] = dot(other.axis[i], axis[j]);
+    const double m[3][3] = {{s[0], s[3], s[4]}, {s[3], s[1], s[5]}, {s[4], s[5], s[2]}};
+    double out[3][3] = {};
+    for (int i = 0; i < 3; ++i)
+      for (int k = i; k < 3; ++k)
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) out[i][k] += r[i][a] * m[a][b] * r[k][b];
+    return {out[0][0], out[1][1], out[2][2], out[0][1], out[0][2], out[1][2]};
+  }
+  /// This plus `other`, in this frame.
+  FramedScatter plus(const FramedScatter& other) const {
+    FramedScatter f = *this;
+    f.s = s + other.in_frame_of(*this);
+    return f;
+  }
+  /// The unit eigenvector of the least eigenvalue (x, y, z).
+  Vec3 least_normal() const {
+    const Vec3 q = least_axis(s);
+    const Vec3 n = axis[0] * q.x + axis[1] * q.y + axis[2] * q.z;
+    return n / norm(n);
+  }
+};
+
 /// Whether x is exactly a float32 (finite). By its bits, not by a round trip through float:
 /// GCC 12.2 at -O2 folds a vectorised double -> float -> double round trip of neighbouring
 /// values away (the truncation of .x and .y of a Vec3 is dropped; -fno-tree-slp-vectorize
@@ -89,6 +148,63 @@ bool float32_exact(double x) {
   return scaled == std::trunc(scaled);
 }
 
+/// A coordinate written as a decimal: its significant digits and the place of its last one
+/// (10^last), from the shortest text that reads back as the same double (what a writer of
+/// that many digits wrote, or a double's own 15 to 17).
+struct Decimal {
+  int digits = 0;
+  int last = 0;
+};
+Decimal shortest_decimal(double x) {
+  char text[32];
+  const std::to_chars_result r =
+      std::to_chars(text, text + sizeof text, x, std::chars_format::scientific);
+  Decimal d;
+  int exponent = 0;
+  const char* p = text;
+  if (*p == '-') ++p;
+  for (; p < r.ptr && *p != 'e'; ++p)
+    if (*p >= '0' && *p <= '9') ++d.digits;
+  if (p < r.ptr) std::from_chars(p + 1 + (p[1] == '+' ? 1 : 0), r.ptr, exponent);
+  d.last = exponent - (d.digits - 1);
+  return d;
+}
+
+/// The rounding of a scene written as decimal text with few digits (an OBJ, an ASCII STL or
+/// PLY, a JSON written with 8 decimals), 0 when it is not one: every coordinate's shortest
+/// text has at most kMaxDecimalDigits significant digits (a computed double has 15 to 17),
+/// and at least half the non-zero ones use up the writer's precision — the most decimal
+/// places seen, or the most significant digits (so a scene written by hand, 0.2 and 0.451,
+/// is not taken for a rounded one; nor one of integers, which is exact). Then the larger of
+/// half a unit in that last place and half a unit in the last of that many significant
+/// digits of the largest coordinate bounds what the writer lost, whichever way it wrote.
+constexpr int kMaxDecimalDigits = 14;
+double decimal_rounding(const Scene& scene, double largest, const std::atomic<bool>* cancel) {
+  int most_digits = 0, least_last = 0;
+  bool any = false;
+  std::vector<Decimal> seen;
+  for (const SceneObject& object : scene.objects) {
+    throw_if_cancelled(cancel, kCancelWhat);
+    for (const Vec3& p : object.vertices) {
+      for (int i = 0; i < 3; ++i) {
+        if (p[i] == 0) continue;
+        const Decimal d = shortest_decimal(p[i]);
+        if (d.digits > kMaxDecimalDigits) return 0;
+        most_digits = std::max(most_digits, d.digits);
+        least_last = any ? std::min(least_last, d.last) : d.last;
+        any = true;
+        seen.push_back(d);
+      }
+    }
+  }
+  if (!any || least_last >= 0) return 0;
+  size_t full = 0;
+  for (const Decimal& d : seen) full += d.digits == most_digits || d.last == least_last;
+  if (2 * full < seen.size()) return 0;
+  return std::max(0.5 * std::pow(10.0, least_last),
+                  0.5 * std::pow(10.0, 1 - most_digits) * largest);
+}
+
 /// Edge-connected triangles of one object on one plane.
 struct Group {
   uint32_t object = 0;
@@ -96,15 +212,15 @@ struct Group {
   uint32_t triangles = 0;
   double area = 0;
   Vec3 centroid;
-  Sym3 scatter{};  ///< sum of (p - centroid)(p - centroid)^T over the vertices
-  Vec3 normal;     ///< unit, the way of the triangles' normals
+  FramedScatter scatter;  ///< sum of (p - centroid)(p - centroid)^T over the vertices
+  Vec3 normal;            ///< unit, the way of the triangles' normals
   bool face = false;
   uint32_t plane = 0;  ///< index into the planes, for faces
 };
 
 /// Parallel faces under one normal.
 struct Direction {
-  Sym3 scatter{};
+  FramedScatter scatter;  ///< its faces', in the frame of its first
   uint64_t vertices = 0;  ///< of its faces
   Vec3 normal;
   std::vector<uint32_t> members;  ///< groups
@@ -165,20 +281,24 @@ bool for_each_near_bin(Vec3 n, F&& f) {
 
 }  // namespace
 
-FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* cancel) {
+FaceSnap snap_rounded_faces(Scene& scene, int threads, const std::atomic<bool>* cancel) {
   FaceSnap report;
   if (scene.dimension != 3 || scene.objects.size() < 2) return report;
   double largest = 0;
+  bool float32 = true;
   for (const SceneObject& object : scene.objects) {
     throw_if_cancelled(cancel, kCancelWhat);
     for (const Vec3& p : object.vertices) {
-      if (!float32_exact(p.x) || !float32_exact(p.y) || !float32_exact(p.z)) return report;
+      float32 = float32 && float32_exact(p.x) && float32_exact(p.y) && float32_exact(p.z);
       largest = std::max({largest, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
     }
   }
   if (!(largest > 0)) return report;
-  const double rounding = std::ldexp(largest, -24);
+  const double rounding =
+      float32 ? std::ldexp(largest, -24) : decimal_rounding(scene, largest, cancel);
+  if (!(rounding > 0)) return report;
   report.rounding = rounding;
+  report.float32 = float32;
   const double face_tol = kFaceRoundings * rounding;
 
   // Faces: edge-connected triangles whose normals agree within what rounding their vertices
@@ -247,12 +367,11 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
       g.vertices.erase(std::unique(g.vertices.begin(), g.vertices.end()), g.vertices.end());
       for (uint32_t v : g.vertices) g.centroid = g.centroid + object.vertices[v];
       g.centroid = g.centroid / static_cast<double>(g.vertices.size());
-      for (uint32_t v : g.vertices) {
-        const Vec3 d = object.vertices[v] - g.centroid;
-        g.scatter =
-            g.scatter + Sym3{d.x * d.x, d.y * d.y, d.z * d.z, d.x * d.y, d.x * d.z, d.y * d.z};
-      }
-      g.normal = least_axis(g.scatter);
+      // Fitted twice: in x, y, z for the frame, then in that frame.
+      for (uint32_t v : g.vertices) g.scatter.add_point(object.vertices[v] - g.centroid);
+      g.scatter = FramedScatter::around(g.scatter.least_normal());
+      for (uint32_t v : g.vertices) g.scatter.add_point(object.vertices[v] - g.centroid);
+      g.normal = g.scatter.least_normal();
       if (dot(g.normal, weighted) < 0) g.normal = g.normal * -1.0;
       bool flat = true;
       for (uint32_t v : g.vertices)
@@ -289,8 +408,7 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
   auto largest_fit = [&](const Direction& d, Vec3 n) {
     for (size_t k = 0; k < std::min(d.members.size(), kCheckedFaces); ++k) {
       const Group& m = groups[d.members[k]];
-      if (along(m.scatter, n) > parallel_tol2 * static_cast<double>(m.vertices.size()))
-        return false;
+      if (m.scatter.along(n) > parallel_tol2 * static_cast<double>(m.vertices.size())) return false;
     }
     return true;
   };
@@ -300,10 +418,10 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
     if (i % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
     const uint32_t f = faces[i];
     const Group& g = groups[f];
-    auto fits = [&](const Direction& d, const Sym3& joint, Vec3 n) {
+    auto fits = [&](const Direction& d, const FramedScatter& joint, Vec3 n) {
       const auto count = static_cast<double>(g.vertices.size());
-      return along(g.scatter, n) <= parallel_tol2 * count &&
-             along(joint, n) <= parallel_tol2 * (static_cast<double>(d.vertices) + count) &&
+      return g.scatter.along(n) <= parallel_tol2 * count &&
+             joint.along(n) <= parallel_tol2 * (static_cast<double>(d.vertices) + count) &&
              largest_fit(d, n);
     };
     // Directions are binned by their first face's canonical normal; a face looks in the bins
@@ -317,8 +435,8 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
         for (uint32_t c : bin->second) {
           Direction& d = directions[c];
           if (norm(cross(d.normal, g.normal)) > kMaxTilt) continue;
-          const Sym3 joint = d.scatter + g.scatter;
-          const Vec3 n = least_axis(joint);
+          const FramedScatter joint = d.scatter.plus(g.scatter);
+          const Vec3 n = joint.least_normal();
           if (!fits(d, joint, n)) continue;
           d.scatter = joint;
           d.vertices += g.vertices.size();
@@ -380,7 +498,7 @@ FaceSnap snap_float32_faces(Scene& scene, int threads, const std::atomic<bool>* 
       }
       turned = turned / norm(turned);
       if (turned != n &&
-          along(d.scatter, turned) <= parallel_tol2 * static_cast<double>(d.vertices) &&
+          d.scatter.along(turned) <= parallel_tol2 * static_cast<double>(d.vertices) &&
           largest_fit(d, turned))
         d.normal = turned;
       if (square.size() < kSquareTo) square.push_back(d.normal);

@@ -1,4 +1,4 @@
-// snap_float32_faces: a float32 input's flat faces put back on exact planes, by no more than
+// snap_rounded_faces: a float32 input's flat faces put back on exact planes, by no more than
 // the rounding, never across a gap.
 #include "gvd/scene/snap_faces.h"
 
@@ -97,7 +97,7 @@ TEST(SnapFaces, PutsATurnedFloat32AssemblyOnExactSquarePlanes) {
   EXPECT_GT(was.square, 1e-9);
   EXPECT_GT(was.flat, 1e-10);
 
-  const FaceSnap snap = snap_float32_faces(scene, 2);
+  const FaceSnap snap = snap_rounded_faces(scene, 2);
   const double rounding = std::ldexp(largest_coordinate(before), -24);
   EXPECT_EQ(snap.rounding, rounding);
   EXPECT_EQ(snap.faces, 12u);
@@ -118,6 +118,71 @@ TEST(SnapFaces, PutsATurnedFloat32AssemblyOnExactSquarePlanes) {
               test::min_distance_3d(before.objects[0], before.objects[1]), 4 * rounding);
 }
 
+// The same assembly written with 8 decimals (an OBJ, a JSON scene written by a script that
+// rounds): flat, parallel and square only to 5e-9, which the certificates refused as they
+// refused float32's rounding. Put on exact planes as a float32 one is, the rounding taken
+// from the digits.
+TEST(SnapFaces, PutsATurnedAssemblyWrittenWithFewDecimalsOnExactSquarePlanes) {
+  Scene scene = test::make_scene(3, {test::make_box("a", {0.1, 0.2, 0.1}, {0.4, 0.9, 0.7}),
+                                     test::make_box("b", {0.4003, 0.25, 0.15}, {0.8, 0.6, 0.5})});
+  turn(scene);
+  std::vector<Vec3> design;
+  std::vector<double> offset;
+  design_of(scene, design, offset);
+  test::round_to_decimals(scene, 8);
+  const Scene before = scene;
+  const Squareness was = measure(scene, design, offset);
+  EXPECT_GT(was.parallel, 1e-9);
+  EXPECT_GT(was.flat, 1e-10);
+
+  const FaceSnap snap = snap_rounded_faces(scene, 2);
+  EXPECT_FALSE(snap.float32);
+  // Half a unit in the 8th place, or in the 8th significant digit of the largest coordinate.
+  EXPECT_GE(snap.rounding, 0.5e-8);
+  EXPECT_LE(snap.rounding, 0.5e-8 * 10);
+  EXPECT_EQ(snap.faces, 12u);
+  EXPECT_EQ(snap.vertices, 16u);
+  EXPECT_EQ(snap.refused, 0u);
+  const Squareness now = measure(scene, design, offset);
+  EXPECT_LT(now.parallel, 1e-14);
+  EXPECT_LT(now.square, 1e-14);
+  EXPECT_LT(now.flat, 1e-15);
+  double moved = 0;
+  for (size_t o = 0; o < scene.objects.size(); ++o)
+    for (size_t v = 0; v < scene.objects[o].vertices.size(); ++v)
+      moved = std::max(moved, dist(scene.objects[o].vertices[v], before.objects[o].vertices[v]));
+  EXPECT_LE(moved, 16 * snap.rounding);
+  EXPECT_NEAR(test::min_distance_3d(scene.objects[0], scene.objects[1]),
+              test::min_distance_3d(before.objects[0], before.objects[1]), 4 * snap.rounding);
+
+  // With 11 decimals the faces are flat to 5e-12 against entries of their scatter ~0.1: the
+  // fit must hold there too (in x, y, z its rounding noise refused every parallel face).
+  Scene fine = test::make_scene(3, {test::make_box("a", {0.1, 0.2, 0.1}, {0.4, 0.9, 0.7}),
+                                    test::make_box("b", {0.4003, 0.25, 0.15}, {0.8, 0.6, 0.5})});
+  turn(fine);
+  test::round_to_decimals(fine, 11);
+  const FaceSnap fine_snap = snap_rounded_faces(fine, 2);
+  EXPECT_GT(fine_snap.rounding, 0.0);
+  EXPECT_LE(fine_snap.rounding, 0.5e-11 * 10);
+  EXPECT_EQ(fine_snap.faces, 12u);
+  EXPECT_EQ(fine_snap.vertices, 16u);
+  EXPECT_EQ(fine_snap.refused, 0u);
+  EXPECT_LT(measure(fine, design, offset).parallel, 1e-14);
+}
+
+// A scene written by hand in short decimals (0.2, 0.4003) is exact, not rounded: most of its
+// coordinates use fewer digits than the longest. Nor is one of integers (past float32's 2^24,
+// which the float32 rule would take). Both left alone.
+TEST(SnapFaces, TakesShortDecimalsAndIntegersForExact) {
+  Scene by_hand = test::make_scene(3, {test::make_box("a", {0.1, 0.2, 0.1}, {0.4, 0.9, 0.7}),
+                                       test::make_box("b", {0.4003, 0.25, 0.15}, {0.8, 0.6, 0.5})});
+  EXPECT_EQ(snap_rounded_faces(by_hand).rounding, 0.0);
+  const double big = 16777217;  // 2^24 + 1: no float32
+  Scene integers = test::make_scene(3, {test::make_box("a", {big, 2, 1}, {big + 3, 9, 7}),
+                                        test::make_box("b", {big + 4, 3, 2}, {big + 7, 6, 5})});
+  EXPECT_EQ(snap_rounded_faces(integers).rounding, 0.0);
+}
+
 // Doubles, curved meshes and a scene drawn along the axes in float32 are left as they are.
 // (A UV sphere's quads are flat: those are faces, and are snapped.)
 TEST(SnapFaces, LeavesDoublesCurvedMeshesAndExactFacesAlone) {
@@ -125,8 +190,8 @@ TEST(SnapFaces, LeavesDoublesCurvedMeshesAndExactFacesAlone) {
                                        test::make_box("b", {0.41, 0.25, 0.15}, {0.8, 0.6, 0.5})});
   turn(doubles);
   Scene copy = doubles;
-  FaceSnap snap = snap_float32_faces(copy);
-  EXPECT_EQ(snap.rounding, 0.0);  // not float32: nothing done
+  FaceSnap snap = snap_rounded_faces(copy);
+  EXPECT_EQ(snap.rounding, 0.0);  // neither float32 nor few decimals: nothing done
   for (size_t o = 0; o < copy.objects.size(); ++o)
     EXPECT_EQ(copy.objects[o].vertices, doubles.objects[o].vertices);
 
@@ -143,7 +208,7 @@ TEST(SnapFaces, LeavesDoublesCurvedMeshesAndExactFacesAlone) {
   turn(balls);
   test::round_to_float32(balls);
   copy = balls;
-  snap = snap_float32_faces(copy);
+  snap = snap_rounded_faces(copy);
   EXPECT_GT(snap.rounding, 0.0);
   EXPECT_EQ(snap.faces, 0u);
   EXPECT_EQ(snap.vertices, 0u);
@@ -154,7 +219,7 @@ TEST(SnapFaces, LeavesDoublesCurvedMeshesAndExactFacesAlone) {
                                      test::make_box("b", {0.41, 0.25, 0.15}, {0.8, 0.6, 0.5})});
   test::round_to_float32(along);
   copy = along;
-  snap = snap_float32_faces(copy);
+  snap = snap_rounded_faces(copy);
   EXPECT_EQ(snap.faces, 12u);
   EXPECT_EQ(snap.vertices, 0u);  // already exact
   for (size_t o = 0; o < copy.objects.size(); ++o)
@@ -184,7 +249,7 @@ TEST(SnapFaces, KeepsADesignedTiltAndEveryGap) {
   };
   const double before = bottom_tilt(scene);
   ASSERT_NEAR(before, 1e-5, 2e-6);
-  snap_float32_faces(scene);
+  snap_rounded_faces(scene);
   EXPECT_NEAR(bottom_tilt(scene), before, 1e-6);
 
   // Boxes 3 roundings apart (1.8e-7 at coordinates near 0.9... rounding ~6e-8): the facing
@@ -199,7 +264,7 @@ TEST(SnapFaces, KeepsADesignedTiltAndEveryGap) {
   test::round_to_float32(tight);
   const double gap = test::min_distance_3d(tight.objects[0], tight.objects[1]);
   ASSERT_GT(gap, rounding);
-  const FaceSnap snap = snap_float32_faces(tight);
+  const FaceSnap snap = snap_rounded_faces(tight);
   EXPECT_GT(snap.refused, 0u);
   EXPECT_NEAR(test::min_distance_3d(tight.objects[0], tight.objects[1]), gap, 0.02 * gap);
 }
