@@ -10,7 +10,8 @@
 // Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--budget N] [--explain]
 //                  SCENE.json...
 //        (--full: the GVD as surfaced, one piece per leaf, not compacted)
-//        (--explain prints every GVD triangle that crosses an object, when one does)
+//        (--explain prints every GVD triangle that crosses an object, when one does, and
+//        the first 10 sampled vertices whose claimed pair a third object beats)
 //        gvd_audit --write-variants DIR     scenes of the thin-gap kinds that make_bench's
 //                                           sweeps do not hold (turned, other polygons)
 //        gvd_audit --write-real CORPUS DIR  scenes of real meshes from the corpus that
@@ -61,6 +62,7 @@ struct Audit {
   double strict_pair = 1;    ///< the same with no tie allowed
   size_t off_junctions = 0;  ///< vertices with a third object nearer by more than 1 %
   double flipped = 0;        ///< share of the sampled GVD area facing the wrong way
+  int explained = 0;         ///< wrong-pair vertices printed (--explain)
 };
 
 /// Where three or more objects meet (a junction: a Voronoi edge or vertex) they are equally
@@ -68,7 +70,7 @@ struct Audit {
 /// when it is nearer than the farther claimed one by more than this part of that distance.
 constexpr double kTie = 1e-6;
 
-Audit audit(const GvdResult& r, size_t budget) {
+Audit audit(const GvdResult& r, size_t budget, bool explain) {
   Audit a;
   const int dim = r.scene.dimension;
   for (const GvdCell& cell : r.gvd.cells) a.open_edges += gvd::test::count_open_edges(cell, dim);
@@ -95,6 +97,16 @@ Audit audit(const GvdResult& r, size_t budget) {
                                                        : 1e300;
       const double far = std::max(da, db);
       right += third >= far * (1 - kTie) ? 1 : 0;
+      if (explain && third < far * (1 - kTie) && a.explained < 10) {
+        ++a.explained;
+        std::printf(
+            "wrong pair: vertex (%.17g %.17g %.17g) claims %s %.9e | %s %.9e; nearest %s "
+            "%.9e, %s %.9e (third nearer by %.2e of the distance)\n",
+            p.x, p.y, p.z, r.scene.objects[cell.object].label.c_str(), da,
+            r.scene.objects[cell.other[v]].label.c_str(), db,
+            r.scene.objects[nn.object].label.c_str(), nn.distance,
+            r.scene.objects[nn.second].label.c_str(), nn.second_distance, (far - third) / far);
+      }
       strict += third >= far ? 1 : 0;
       a.off_junctions += third < far * (1 - 0.01) ? 1 : 0;
     }
@@ -415,7 +427,7 @@ int main(int argc, char** argv) {
       for (size_t i = 0; i < r.scene.objects.size() && i < input.objects.size(); ++i)
         if (r.scene.objects[i].vertices.size() == input.objects[i].vertices.size())
           r.scene.objects[i].vertices = input.objects[i].vertices;
-      const Audit a = audit(r, budget);
+      const Audit a = audit(r, budget, explain);
       if (explain) explain_crossings(r);
       const bool bad = a.open_edges || a.crossings || a.median_gap > 0.05 || a.right_pair < 0.95;
       failed += bad;
