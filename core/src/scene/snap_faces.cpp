@@ -184,8 +184,9 @@ double decimal_rounding(const Scene& scene, double largest, const std::atomic<bo
   bool any = false;
   std::vector<Decimal> seen;
   for (const SceneObject& object : scene.objects) {
-    throw_if_cancelled(cancel, kCancelWhat);
-    for (const Vec3& p : object.vertices) {
+    for (size_t v = 0; v < object.vertices.size(); ++v) {
+      if (v % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
+      const Vec3& p = object.vertices[v];
       for (int i = 0; i < 3; ++i) {
         if (p[i] == 0) continue;
         const Decimal d = shortest_decimal(p[i]);
