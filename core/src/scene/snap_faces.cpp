@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -507,9 +508,21 @@ FaceSnap snap_rounded_faces(Scene& scene, int threads, const std::atomic<bool>* 
   }
 
   // Planes: within a direction, faces the same way whose offsets lie within face_tol of the
-  // first of a run share its mean offset.
+  // first of a run share its mean offset. Then a run facing the other way within face_tol
+  // that holds a face of one of the same objects is glued to it (a slot's wall standing on
+  // its floor, written as two boxes of one object: the wall's underside on the floor's top):
+  // both take their mean offset, so that the glued faces stay coplanar. Faces of different
+  // objects facing each other are never moved together (that would close a gap).
   std::vector<Plane> planes;
+  struct Run {
+    int side;
+    uint32_t plane;
+    double weight;
+    std::vector<uint32_t> objects;  ///< sorted, unique
+  };
+  std::vector<Run> runs;
   for (const Direction& d : directions) {
+    runs.clear();
     struct Entry {
       int side;
       double offset;
@@ -540,10 +553,42 @@ FaceSnap snap_rounded_faces(Scene& scene, int threads, const std::atomic<bool>* 
       plane.normal = d.normal;
       plane.offset = same ? entries[i].offset : weighted / weight;
       plane.area = area;
-      for (size_t k = i; k < j; ++k)
-        groups[entries[k].group].plane = static_cast<uint32_t>(planes.size());
+      Run run{entries[i].side, static_cast<uint32_t>(planes.size()), weight, {}};
+      for (size_t k = i; k < j; ++k) {
+        groups[entries[k].group].plane = run.plane;
+        run.objects.push_back(groups[entries[k].group].object);
+      }
+      std::sort(run.objects.begin(), run.objects.end());
+      run.objects.erase(std::unique(run.objects.begin(), run.objects.end()), run.objects.end());
       planes.push_back(plane);
+      runs.push_back(std::move(run));
       i = j;
+    }
+    // Runs are sorted by side, then offset: each one facing down (-1) against the nearest
+    // facing up within face_tol that shares an object.
+    std::vector<uint8_t> glued(runs.size(), 0);
+    for (size_t a = 0; a < runs.size() && runs[a].side < 0; ++a) {
+      size_t best = runs.size();
+      double best_gap = face_tol;
+      for (size_t b = 0; b < runs.size(); ++b) {
+        if (runs[b].side < 0 || glued[b]) continue;
+        const double gap = std::abs(planes[runs[b].plane].offset - planes[runs[a].plane].offset);
+        if (gap > best_gap) continue;
+        std::vector<uint32_t> common;
+        std::set_intersection(runs[a].objects.begin(), runs[a].objects.end(),
+                              runs[b].objects.begin(), runs[b].objects.end(),
+                              std::back_inserter(common));
+        if (common.empty()) continue;
+        best = b;
+        best_gap = gap;
+      }
+      if (best == runs.size()) continue;
+      glued[a] = glued[best] = 1;
+      Plane& down = planes[runs[a].plane];
+      Plane& up = planes[runs[best].plane];
+      const double mean = (down.offset * runs[a].weight + up.offset * runs[best].weight) /
+                          (runs[a].weight + runs[best].weight);
+      down.offset = up.offset = mean;
     }
   }
   report.planes = planes.size();

@@ -355,6 +355,37 @@ TEST(ComputeGvd, ThinGapCostDoesNotDependOnFloat32Coordinates3D) {
   expect_costs_what_its_double_twin_costs(doubles, floats, "float32");
 }
 
+// The slot of boxes (walls standing on the floor) turned 0.7 rad and stored as float32 (an
+// STL of the assembly): the walls' undersides, glued to the floor's top, are coplanar with it
+// only to the rounding, face the other way, and were put on a plane of their own, 1e-8 off
+// the floor's: not buried, every floor corner refused (leaf limit). Glued faces of one
+// object now share their plane: the cost of the one-mesh slot turned in doubles; valid.
+TEST(ComputeGvd, SlotOfBoxesTurnedInFloat32CostsWhatOneMeshDoes3D) {
+  const Vec3 axis = Vec3{2, -1, 3} / std::sqrt(14.0);
+  auto turned = [&](Scene scene) {
+    for (SceneObject& o : scene.objects)
+      for (Vec3& v : o.vertices) v = test::rotate(v, axis, 0.7);
+    return scene;
+  };
+  test::SlotOfPartsOptions one;
+  one.boxes = false;
+  one.gap = 1e-5;
+  const GvdResult twin = run(turned(test::make_slot_of_parts(one)));
+  test::SlotOfPartsOptions parts = one;
+  parts.boxes = true;
+  Scene floats = turned(test::make_slot_of_parts(parts));
+  test::round_to_float32(floats);
+  PipelineOptions o;
+  o.threads = 2;
+  o.max_leaves = 1'000'000;
+  const GvdResult r = compute_gvd(floats, o);
+  EXPECT_LE(r.stats.leaves, twin.stats.leaves * 11 / 10);
+  expect_valid(r);
+  EXPECT_EQ(test::count_gvd_object_crossings(floats, r.gvd, 3000), 0u);
+  ASSERT_EQ(r.graph.edges.size(), 1u);
+  EXPECT_NEAR(r.graph.edges[0].gap, 1e-5, 0.02 * 1e-5);
+}
+
 // The turned blade at 1e-5 written with 10 decimals (an OBJ, an ASCII STL, a JSON scene from
 // a script that rounds): its faces are flat and parallel only to 5e-11, and every certificate
 // refused them (the leaf limit). The rounding is read from the digits and the faces put on
