@@ -336,16 +336,20 @@ FaceSnap snap_rounded_faces(Scene& scene, int threads, const std::atomic<bool>* 
     std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
       return area[x] != area[y] ? area[x] > area[y] : x < y;
     });
+    // Per triangle: its face's index in `groups`, or not seen yet, seen in no face, or in
+    // the group being grown. Only faces are kept (a curved mesh's lone triangles would cost
+    // a group each).
+    constexpr int32_t kUnseen = -1, kNoFace = -2, kGrowing = -3;
     std::vector<int32_t>& of = group_of[o];
-    of.assign(count, -1);
+    of.assign(count, kUnseen);
     std::vector<uint32_t> stack, members;
+    size_t seeds = 0;
     for (const uint32_t seed : order) {
-      if (of[seed] >= 0 || !(area[seed] > 0)) continue;
-      if (groups.size() % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
-      const auto id = static_cast<int32_t>(groups.size());
+      if (of[seed] != kUnseen || !(area[seed] > 0)) continue;
+      if (++seeds % kCancelEvery == 0) throw_if_cancelled(cancel, kCancelWhat);
       Group g;
       g.object = o;
-      of[seed] = id;
+      of[seed] = kGrowing;
       stack.assign(1, seed);
       members.clear();
       Vec3 weighted;
@@ -357,8 +361,8 @@ FaceSnap snap_rounded_faces(Scene& scene, int threads, const std::atomic<bool>* 
         g.area += area[t];
         for (int e = 0; e < 3; ++e) {
           const uint32_t u = across[t * 3 + e];
-          if (u == kNoNeighbour || of[u] >= 0 || !agree(t, u)) continue;
-          of[u] = id;
+          if (u == kNoNeighbour || of[u] != kUnseen || !agree(t, u)) continue;
+          of[u] = kGrowing;
           stack.push_back(u);
         }
       }
@@ -387,7 +391,9 @@ FaceSnap snap_rounded_faces(Scene& scene, int threads, const std::atomic<bool>* 
         }
       }
       g.face = flat && sharp;
-      groups.push_back(std::move(g));
+      const int32_t id = g.face ? static_cast<int32_t>(groups.size()) : kNoFace;
+      for (uint32_t t : members) of[t] = id;
+      if (g.face) groups.push_back(std::move(g));
     }
   }
 
