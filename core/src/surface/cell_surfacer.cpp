@@ -753,7 +753,10 @@ class CellSurfacer {
         } else if (nl == 3) {
           const double a12 = dot(n[0], n[1]), a22 = dot(n[1], n[1]);
           const double det = a11 * a22 - a12 * a12;
-          if (!(det > 1e-12 * a11 * a22)) return false;
+          // Singular where a held coordinate leaves one free in 2D (a junction on the cell's
+          // side): the two conditions are then solved in the least squares sense. Kept off in
+          // 3D, where such steps moved coarse junctions onto rims (see r above).
+          if (!(det > 1e-12 * a11 * a22)) return dim_ == 2 && least_change(n, r, 2, step);
           step =
               n[0] * ((r[0] * a22 - r[1] * a12) / det) + n[1] * ((a11 * r[1] - a12 * r[0]) / det);
         } else if (!least_change(n, r, nl - 1, step)) {

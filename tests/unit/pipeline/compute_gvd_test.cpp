@@ -188,9 +188,36 @@ TEST(ComputeGvd, ThinGapBetweenBarsIsTheirExactMidLine2D) {
 // for a difference ~1e-7: its rounding moved the junction by 3e-10, 0.5 % of its distance to
 // the squares, and a third square was nearer than the claimed pair at 92 of 1200 vertices.
 // Now every vertex (full resolution) claims a pair no third object beats by more than 1e-6 of
-// the distance, and is equidistant from that pair.
+// the distance, and is equidistant from that pair. The same where three meet (bricks).
 TEST(ComputeGvd, JunctionsOfPackedSquaresAreEquidistant2D) {
   const double gap = 1e-7;
+  // Every vertex (full resolution) claims a pair that no third object beats by more than
+  // `tie` of the distance, and is equidistant from it.
+  auto expect_equidistant = [](const Scene& scene, double tie) {
+    const GvdResult r = run(scene, 0, "exact", "certified", "full");
+    expect_valid(r);
+    size_t checked = 0;
+    for (const GvdCell& cell : r.gvd.cells) {
+      for (size_t v = 0; v < cell.positions.size(); ++v) {
+        if (cell.other[v] == kNoObject) continue;
+        const Vec3 p = cell.positions[v];
+        const double da = test::brute_distance(scene, cell.object, p);
+        const double db = test::brute_distance(scene, cell.other[v], p);
+        const test::NearestAnswer nn = test::brute_nearest(scene, p);
+        const double third =
+            nn.object != cell.object && nn.object != cell.other[v]
+                ? nn.distance
+                : (nn.second != cell.object && nn.second != cell.other[v] ? nn.second_distance
+                                                                          : 1e300);
+        const double far = std::max(da, db);
+        ASSERT_GE(third, far * (1 - tie)) << "vertex at " << p.x << ", " << p.y;
+        // Edge points keep a hair of 1e-6 of their edge (a few gaps long) off its ends.
+        ASSERT_NEAR(da, db, 1e-5 * far);
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 100u);
+  };
   const int n = 4;
   std::vector<SceneObject> squares;
   for (int i = 0; i < n; ++i)
@@ -199,30 +226,25 @@ TEST(ComputeGvd, JunctionsOfPackedSquaresAreEquidistant2D) {
       squares.push_back(test::make_rect("r" + std::to_string(i) + "_" + std::to_string(j),
                                         {x, y, 0}, {x + 1.0 / n - gap, y + 1.0 / n - gap, 0}));
     }
-  const Scene scene = test::make_scene(2, std::move(squares));
-  const GvdResult r = run(scene, 0, "exact", "certified", "full");
-  expect_valid(r);
-  size_t checked = 0;
-  for (const GvdCell& cell : r.gvd.cells) {
-    for (size_t v = 0; v < cell.positions.size(); ++v) {
-      if (cell.other[v] == kNoObject) continue;
-      const Vec3 p = cell.positions[v];
-      const double da = test::brute_distance(scene, cell.object, p);
-      const double db = test::brute_distance(scene, cell.other[v], p);
-      const test::NearestAnswer nn = test::brute_nearest(scene, p);
-      const double third =
-          nn.object != cell.object && nn.object != cell.other[v]
-              ? nn.distance
-              : (nn.second != cell.object && nn.second != cell.other[v] ? nn.second_distance
-                                                                        : 1e300);
-      const double far = std::max(da, db);
-      ASSERT_GE(third, far * (1 - 1e-6)) << "vertex at " << p.x << ", " << p.y;
-      // Edge points keep a hair of 1e-6 of their edge (a few gaps long) off its ends.
-      ASSERT_NEAR(da, db, 1e-5 * far);
-      ++checked;
-    }
+  expect_equidistant(test::make_scene(2, std::move(squares)), 1e-6);
+  // Bricks: rows of four offset by half a brick, so three meet at each T. A junction on the
+  // side of the cell that holds its three spokes was held there in one coordinate, where the
+  // two conditions left for the other are one too many for an exact solve: the step stopped,
+  // 4 % of the gap off (a third brick nearer by 6 % of the distance). Now solved in the least
+  // squares sense (within the hair that keeps it off the side).
+  std::vector<SceneObject> bricks;
+  for (int row = 0; row < 4; ++row) {
+    const double shift = row % 2 == 0 ? 0 : 0.125;
+    std::vector<double> xs{0};
+    for (int k = 0; k <= 4; ++k)
+      if (shift + k * 0.25 > 0 && shift + k * 0.25 < 1) xs.push_back(shift + k * 0.25);
+    xs.push_back(1);
+    for (size_t k = 0; k + 1 < xs.size(); ++k)
+      bricks.push_back(test::make_rect("b" + std::to_string(row) + "_" + std::to_string(k),
+                                       {xs[k], row * 0.25, 0},
+                                       {xs[k + 1] - gap, (row + 1) * 0.25 - gap, 0}));
   }
-  EXPECT_GT(checked, 100u);
+  expect_equidistant(test::make_scene(2, std::move(bricks)), 1e-5);
 }
 
 // Facing plates: the certified refinement gives the exact mid-plane over the whole face with
