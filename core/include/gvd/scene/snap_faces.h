@@ -42,7 +42,9 @@ struct FaceSnap {
 /// the largest coordinate. It groups each object's edge-connected triangles that lie on one
 /// plane within 4 roundings (a face), gives faces whose planes are parallel within the same
 /// tolerance (across all objects, either side) one common normal and faces on one plane
-/// within it (facing the same way) one offset, and moves each vertex to where the planes of
+/// within it (facing the same way) one offset, glues a plane facing the other way within it
+/// that holds a face of the same object (parts of one object glued together) to the same
+/// offset, and moves each vertex to where the planes of
 /// its faces meet (at most three, the largest faces first, taken while they stay well apart
 /// in angle). A move longer than 16 roundings, or than 1 % of the distance from one of the
 /// vertex's triangles to another object (so that no gap changes by more than 2 % of itself),
