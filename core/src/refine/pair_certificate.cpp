@@ -1155,46 +1155,13 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
     near.hi[i] += grow;
   }
   for (int k = 0; k < 2; ++k) {
+    std::vector<Vec3> n;
+    std::vector<double> offset;
     for (const Plane& plane : planes[k]) {
-      const Vec3 u = cross(along, plane.n);
-      double area_sum = 0, lo = 1e300, hi = -1e300;
-      size_t seen = 0;
-      const bool bounded = bvh_.visit_overlapping(near, [&](uint32_t s) {
-        if (g.object_of[s] != pair[k] || buried(s)) return true;
-        Plane own;
-        if (!oriented_plane(g, facing_, s, own) || dot(own.n, plane.n) < 1 - 1e-12 ||
-            std::abs(plane.signed_distance(g.points[g.simplices[s].v[0]])) > flat_)
-          return true;
-        Polygon poly;
-        for (int e = 0; e < 3; ++e) poly.p[poly.n++] = g.points[g.simplices[s].v[e]];
-        clip_to_box(poly, near);
-        if (poly.n < 3) return true;
-        area_sum += area(poly);
-        for (int i = 0; i < poly.n; ++i) {
-          lo = std::min(lo, dot(u, poly.p[i]));
-          hi = std::max(hi, dot(u, poly.p[i]));
-        }
-        return ++seen <= 4 * kMaxActive;
-      });
-      if (!bounded || !(hi > lo)) return out;
-      double strip = 0;
-      if (axis >= 0) {
-        strip = (hi - lo) * (near.hi[axis] - near.lo[axis]);
-      } else {
-        // The plane inside the box, between lo and hi across e.
-        const Vec3 m = near.center();
-        const Vec3 on = m - plane.n * plane.signed_distance(m);
-        const double reach = norm(near.hi - near.lo);
-        Polygon poly;
-        for (const auto& [x, y] : {std::pair{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}})
-          poly.p[poly.n++] = on + along * (x * reach) + u * (y * reach);
-        clip_to_box(poly, near);
-        clip(poly, u, hi);
-        clip(poly, u * -1.0, -lo);
-        strip = poly.n >= 3 ? area(poly) : 0;
-      }
-      if (!(strip > 0) || std::abs(area_sum - strip) > 1e-9 * strip) return out;
+      n.push_back(plane.n);
+      offset.push_back(plane.offset);
     }
+    if (!strips_cover(near, axis, along, pair[k], n, offset)) return out;
   }
   if (mixed >= 0) {
     // The lines of the cell along `mixed` where octree edges of it and of its children can
@@ -1244,6 +1211,151 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   // rise is where d_pair[0] - d_pair[1] grows; for a = pair[1] it is the other way.
   out.rise = rise * ((first_k == 0 ? 1.0 : -1.0) / std::sqrt(2.0));
   return out;
+}
+
+PairCertifier::Junction PairCertifier::certify_junction(const Box& box) const {
+  const UnitGeometry& g = geometry_;
+  Junction out;
+  if (g.dimension != 3 || facing_.empty()) return out;
+  for (int i = 0; i < 3; ++i)
+    if (!(box.lo[i] > 0) || !(box.hi[i] < 1)) return out;
+  auto widen = [](double d) { return d * (1 + 1e-9) + 1e-15; };
+  const Vec3 c = box.center();
+  const double r = 0.5 * norm(box.hi - box.lo);
+  // The active objects (certify, step 1): every object within D + 2r of the centre.
+  ObjectId objects[kMaxJunction + 1];
+  double dist[kMaxJunction + 1];
+  int n = 0;
+  double reach2 = std::numeric_limits<double>::infinity();
+  for (;;) {
+    const ClosestHit hit = n == 0 ? bvh_.nearest(c) : bvh_.nearest_excluding(c, objects, n, reach2);
+    if (!hit.found()) break;
+    if (n == kMaxJunction) return out;
+    objects[n] = g.object_of[hit.simplex];
+    dist[n] = std::sqrt(hit.dist2);
+    if (n == 0) reach2 = widen(dist[0] + 2 * r) * widen(dist[0] + 2 * r);
+    ++n;
+  }
+  if (n < 3) return out;
+  if (contacts_ != nullptr)
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j)
+        if (contacts_->touching(objects[i], objects[j])) return out;
+  // Each object's simplices that can be nearest to a point of the cell (as in certify).
+  double range2[kMaxJunction], slack[kMaxJunction], most = 0;
+  for (int k = 0; k < n; ++k) {
+    const double range = widen(dist[k] + 2 * r);
+    range2[k] = range * range;
+    slack[k] = widen(dist[k] + r);
+    most = std::max(most, slack[k]);
+  }
+  Box query = box;
+  for (int i = 0; i < 3; ++i) {
+    query.lo[i] -= most;
+    query.hi[i] += most;
+  }
+  std::vector<uint32_t> patch[kMaxJunction];
+  size_t total = 0;
+  const bool bounded = bvh_.visit_overlapping(query, [&](uint32_t s) {
+    const ObjectId o = g.object_of[s];
+    const int k = static_cast<int>(std::find(objects, objects + n, o) - objects);
+    if (k == n || buried(s)) return true;
+    const Vec3 q = closest_point_on_simplex(3, g.points, g.simplices[s], c);
+    if (dist2(c, q) > range2[k] || !simplex_overlaps_box(3, g.points, g.simplices[s], box, slack[k]))
+      return true;
+    patch[k].push_back(s);
+    return ++total <= kMaxActive;
+  });
+  if (!bounded) return out;
+  // Every one square to one axis e, closed, on at most kMaxPlanes planes per object.
+  const double perpendicular = std::max(1e-10, 4e3 * geometry_.rounding);
+  constexpr size_t kMaxPlanes = 8;
+  std::vector<Vec3> normals[kMaxJunction];
+  std::vector<double> offsets[kMaxJunction];
+  bool square_to[3] = {true, true, true};
+  for (int k = 0; k < n; ++k) {
+    if (patch[k].empty()) return out;
+    for (uint32_t s : patch[k]) {
+      Plane p;
+      if (facing_[s] == 0 || !oriented_plane(g, facing_, s, p)) return out;
+      for (int a = 0; a < 3; ++a) square_to[a] = square_to[a] && std::abs(p.n[a]) <= perpendicular;
+      bool seen = false;
+      for (size_t i = 0; i < normals[k].size() && !seen; ++i)
+        seen = dot(p.n, normals[k][i]) >= 1 - 1e-12 && std::abs(p.offset - offsets[k][i]) <= flat_;
+      if (seen) continue;
+      if (normals[k].size() == kMaxPlanes) return out;
+      normals[k].push_back(p.n);
+      offsets[k].push_back(p.offset);
+    }
+  }
+  const int axis = square_to[0] ? 0 : square_to[1] ? 1 : square_to[2] ? 2 : -1;
+  if (axis < 0) return out;
+  Vec3 along;
+  along[axis] = 1;
+  // On each plane a strip across the box that holds every simplex that can be nearest.
+  Box near = box;
+  for (int i = 0; i < 3; ++i) {
+    near.lo[i] -= most;
+    near.hi[i] += most;
+  }
+  for (int k = 0; k < n; ++k)
+    if (!strips_cover(near, axis, along, objects[k], normals[k], offsets[k])) return out;
+  out.certified = true;
+  out.axis = axis;
+  out.n_objects = n;
+  for (int k = 0; k < n; ++k) {  // ascending (insertion: n <= kMaxJunction)
+    int at = k;
+    for (; at > 0 && out.objects[at - 1] > objects[k]; --at) out.objects[at] = out.objects[at - 1];
+    out.objects[at] = objects[k];
+  }
+  return out;
+}
+
+bool PairCertifier::strips_cover(const Box& near, int axis, Vec3 along, ObjectId object,
+                                 std::span<const Vec3> n, std::span<const double> offset) const {
+  const UnitGeometry& g = geometry_;
+  for (size_t i = 0; i < n.size(); ++i) {
+    const Plane plane{n[i], offset[i]};
+    const Vec3 u = cross(along, plane.n);
+    double area_sum = 0, lo = 1e300, hi = -1e300;
+    size_t seen = 0;
+    const bool bounded = bvh_.visit_overlapping(near, [&](uint32_t s) {
+      if (g.object_of[s] != object || buried(s)) return true;
+      Plane own;
+      if (!oriented_plane(g, facing_, s, own) || dot(own.n, plane.n) < 1 - 1e-12 ||
+          std::abs(plane.signed_distance(g.points[g.simplices[s].v[0]])) > flat_)
+        return true;
+      Polygon poly;
+      for (int e = 0; e < 3; ++e) poly.p[poly.n++] = g.points[g.simplices[s].v[e]];
+      clip_to_box(poly, near);
+      if (poly.n < 3) return true;
+      area_sum += area(poly);
+      for (int k = 0; k < poly.n; ++k) {
+        lo = std::min(lo, dot(u, poly.p[k]));
+        hi = std::max(hi, dot(u, poly.p[k]));
+      }
+      return ++seen <= 4 * kMaxActive;
+    });
+    if (!bounded || !(hi > lo)) return false;
+    double strip = 0;
+    if (axis >= 0) {
+      strip = (hi - lo) * (near.hi[axis] - near.lo[axis]);
+    } else {
+      // The plane inside the box, between lo and hi across e.
+      const Vec3 m = near.center();
+      const Vec3 on = m - plane.n * plane.signed_distance(m);
+      const double reach = norm(near.hi - near.lo);
+      Polygon poly;
+      for (const auto& [x, y] : {std::pair{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}})
+        poly.p[poly.n++] = on + along * (x * reach) + u * (y * reach);
+      clip_to_box(poly, near);
+      clip(poly, u, hi);
+      clip(poly, u * -1.0, -lo);
+      strip = poly.n >= 3 ? area(poly) : 0;
+    }
+    if (!(strip > 0) || std::abs(area_sum - strip) > 1e-9 * strip) return false;
+  }
+  return true;
 }
 
 std::vector<PairCertifier::SplitLink>::const_iterator PairCertifier::split_links(

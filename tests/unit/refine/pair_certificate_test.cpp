@@ -969,5 +969,102 @@ TEST(PairCertifier, OpenRimsFoldsAndNonManifoldSidesAreNotCertified) {
   }
 }
 
+// Packed columns (3 x 3 boxes along z, gap g) and a blade in a slot of three separate parts
+// (floor, two walls, all g apart): lines along z where three or four objects meet. Cells on
+// those lines are junction cells; at sampled points of each, every active object's distance
+// is invariant along e (brute force) and no other object is nearer than the nearest active one.
+// Cells that reach the columns' ends, or the same columns turned by 0.2 rad, are not.
+TEST(PairCertifier, JunctionCellsHoldUnderBruteForce3D) {
+  const double g = 1e-3;
+  Scene columns;
+  columns.dimension = 3;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      columns.objects.push_back(test::make_box("c" + std::to_string(i) + std::to_string(j),
+                                               Vec3{0.3 * i, 0.3 * j, 0},
+                                               Vec3{0.3 * i + 0.3 - g, 0.3 * j + 0.3 - g, 1}));
+  Scene slot;
+  slot.dimension = 3;
+  slot.objects.push_back(test::make_box("floor", Vec3{0, 0, 0}, Vec3{1, 0.2, 1}));
+  slot.objects.push_back(test::make_box("left", Vec3{0, 0.2 + g, 0}, Vec3{0.45, 0.5, 1}));
+  slot.objects.push_back(test::make_box("right", Vec3{0.55, 0.2 + g, 0}, Vec3{1, 0.5, 1}));
+  slot.objects.push_back(test::make_box("blade", Vec3{0.45 + g, 0.2 + g, -0.1}, Vec3{0.55 - g, 0.6, 1.1}));
+  struct Case {
+    const char* name;
+    Scene scene;
+    std::vector<Vec3> lines;  // points (x, y) of the junction lines along z
+  };
+  std::vector<Case> cases;
+  cases.push_back({"columns", columns, {{0.3, 0.3, 0}, {0.6, 0.3, 0}, {0.3, 0.6, 0}, {0.6, 0.6, 0}}});
+  cases.push_back({"slot of parts", slot, {{0.45, 0.2, 0}, {0.55, 0.2, 0}}});
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1), t(0, 1);
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const World s(c.scene);
+    const ContactPairs contacts = find_contact_pairs(s.geometry, s.bvh, contact_tolerance(21));
+    const PairCertifier certifier(s.geometry, s.bvh, &contacts, true);
+    int certified = 0;
+    for (int level = 5; level <= 12; ++level) {
+      const double cell = std::ldexp(1.0, -level);
+      int at_level = 0;
+      for (const Vec3 line : c.lines) {
+        for (int k = 0; k < 4; ++k) {
+          Vec3 p = line + Vec3{0.5 * g * u(rng), 0.5 * g * u(rng), 0};
+          p.z = 0.35 + 0.3 * t(rng);
+          Vec3 unit = s.domain.to_unit(p);
+          for (int a = 0; a < 2; ++a) unit[a] += u(rng) * cell;
+          const Box box = lattice_cell_at(unit, level);
+          const PairCertifier::Junction j = certifier.certify_junction(box);
+          if (!j.certified) continue;
+          ++at_level;
+          ASSERT_EQ(j.axis, 2);
+          ASSERT_GE(j.n_objects, 3);
+          for (int i = 0; i < 24; ++i) {
+            Vec3 x, y;
+            for (int a = 0; a < 3; ++a) x[a] = box.lo[a] + t(rng) * (box.hi[a] - box.lo[a]);
+            y = x;
+            y.z = box.lo.z + t(rng) * (box.hi.z - box.lo.z);
+            const Vec3 qx = s.domain.from_unit(x), qy = s.domain.from_unit(y);
+            double nearest_active = 1e300;
+            for (int k2 = 0; k2 < j.n_objects; ++k2) {
+              const double dx = test::brute_distance(s.scene, j.objects[k2], qx);
+              const double dy = test::brute_distance(s.scene, j.objects[k2], qy);
+              ASSERT_NEAR(dx, dy, 1e-12) << "object " << j.objects[k2] << " level " << level;
+              nearest_active = std::min(nearest_active, dx);
+            }
+            for (ObjectId o = 0; o < s.scene.objects.size(); ++o) {
+              if (std::find(j.objects, j.objects + j.n_objects, o) != j.objects + j.n_objects)
+                continue;
+              ASSERT_GT(test::brute_distance(s.scene, o, qx), nearest_active)
+                  << "object " << o << " level " << level;
+            }
+          }
+        }
+      }
+      EXPECT_GT(at_level, 0) << "level " << level;
+      certified += at_level;
+    }
+    EXPECT_GT(certified, 0);
+    // At the columns' ends (and the blade's, which runs past the slot) the strips end: a cell
+    // reaching z = 1 is no junction cell.
+    for (int level = 5; level <= 10; ++level) {
+      const Box box = lattice_cell_at(s.domain.to_unit(c.lines[0] + Vec3{0, 0, 1}), level);
+      EXPECT_FALSE(certifier.certify_junction(box).certified) << "an end, level " << level;
+    }
+  }
+  // The columns turned by 0.2 rad about x: their faces are square to no axis.
+  Scene turned = columns;
+  for (SceneObject& o : turned.objects)
+    for (Vec3& v : o.vertices) v = test::rotate(v, Vec3{1, 0, 0}, 0.2);
+  const World s(turned);
+  const PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
+  for (int level = 5; level <= 10; ++level) {
+    const Vec3 p = test::rotate(Vec3{0.3, 0.3, 0.5}, Vec3{1, 0, 0}, 0.2);
+    EXPECT_FALSE(certifier.certify_junction(lattice_cell_at(s.domain.to_unit(p), level)).certified)
+        << "turned, level " << level;
+  }
+}
+
 }  // namespace
 }  // namespace gvd

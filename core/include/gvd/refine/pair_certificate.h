@@ -140,6 +140,24 @@ class PairCertifier final : public octree::SplitOracle {
   };
   Certificate certify(const Box& box) const;
 
+  /// A junction cell (3D): three to kMaxJunction objects can be nearest somewhere in the cell,
+  /// none of them a contact pair, and every simplex of theirs that can be nearest to a point of
+  /// the cell has its normal square to one axis e, its object closed, and on each of their
+  /// planes the object's triangles cover a full strip across the box that holds them along e
+  /// (the extruded pairs' conditions, for every object). Then every distance function is
+  /// invariant along e in the cell, and the GVD there is G x e for the GVD G of the cross-section
+  /// (a plane GVD of the objects' sections: the junction lines where packed boxes meet, a blade
+  /// in the corner of two parts). Not yet asked by classify: its surfacing is the next step
+  /// (docs/ALGORITHM.md, "Junction lines").
+  static constexpr int kMaxJunction = 8;
+  struct Junction {
+    bool certified = false;
+    int axis = -1;      ///< e
+    int n_objects = 0;  ///< the active objects, ascending
+    scene::ObjectId objects[kMaxJunction] = {};
+  };
+  Junction certify_junction(const Box& box) const;
+
   /// Cells with more simplices than this in reach are not certified (their children are).
   static constexpr size_t kMaxActive = 256;
   /// Largest distance of a vertex from its patch's plane (unit domain) accepted as flat. The
@@ -172,6 +190,12 @@ class PairCertifier final : public octree::SplitOracle {
                              double r, const std::vector<uint32_t> patch[2]) const;
   Certificate certify_extruded(const Box& box, const scene::ObjectId pair[2], const double dist[2],
                                double r, const std::vector<uint32_t> patch[2]) const;
+  /// Whether, on each plane n[i] . x = offset[i] (unit normals, out of `object`'s material) of
+  /// its simplices that can be nearest, `object`'s triangles clipped to `near` add up to a
+  /// full strip across `near` along `along` (`axis` >= 0: that coordinate axis): a closed
+  /// mesh's triangles do not overlap, so equal areas mean the strip is covered.
+  bool strips_cover(const Box& near, int axis, Vec3 along, scene::ObjectId object,
+                    std::span<const Vec3> n, std::span<const double> offset) const;
   /// How often d_0 - d_1 (the distances to the objects of patch[0] and patch[1]) changes sign
   /// on the segment [p0, p1] along axis `along` inside the cell whose nearest simplices are
   /// `patch` (3: more than twice, or undecided).
