@@ -117,18 +117,26 @@ void use_returning_heap(bool small_computations_keep_blocks) {
   set_block_threshold(kReturnedBlockBytes);
 }
 
+namespace {
+thread_local int nested_computations = 0;
+}  // namespace
+
+NestedComputation::NestedComputation() { ++nested_computations; }
+NestedComputation::~NestedComputation() { --nested_computations; }
+
 void heap_checkpoint(size_t leaves) {
-  if (!adaptive_heap.load(std::memory_order_relaxed)) return;
+  if (!adaptive_heap.load(std::memory_order_relaxed) || nested_computations > 0) return;
   set_block_threshold(leaves < kSmallComputationLeaves ? kKeptBlockBytes : kReturnedBlockBytes);
   huge_pages_while_small(leaves);
 }
 
 void heap_computation_grows(size_t cells) {
-  if (adaptive_heap.load(std::memory_order_relaxed)) huge_pages_while_small(cells);
+  if (adaptive_heap.load(std::memory_order_relaxed) && nested_computations == 0)
+    huge_pages_while_small(cells);
 }
 
 void heap_computation_starts() {
-  if (!adaptive_heap.load(std::memory_order_relaxed)) return;
+  if (!adaptive_heap.load(std::memory_order_relaxed) || nested_computations > 0) return;
   if (heap_base == 0) {
     set_block_threshold(kReturnedBlockBytes);  // trims what the last one kept
     kept_blocks = false;

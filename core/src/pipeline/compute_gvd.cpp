@@ -3,7 +3,10 @@
 #include <cstdio>
 #include <functional>
 #include <memory>
+#include <map>
+#include <mutex>
 #include <optional>
+#include <tuple>
 #include <set>
 #include <string>
 #include <vector>
@@ -27,6 +30,7 @@
 #include "gvd/scene/snap_faces.h"
 #include "gvd/surface/compact_gvd.h"
 #include "gvd/surface/extract_gvd.h"
+#include "gvd/pipeline/junction_face.h"
 
 namespace gvd::pipeline {
 
@@ -181,6 +185,7 @@ class Computation {
       certifier_.reset();
       if (options_.refine == RefineRule::kCertified) {
         certifier_.emplace(r_.geometry, *bvh_, &contacts_, true, cones, options_.cancel);
+        certifier_->enable_junctions(options_.junctions && dim_ == 3);
       } else if (!cones) {
         break;
       }
@@ -210,9 +215,22 @@ class Computation {
 
       progress_("ambiguity", 0);
       sw_ = Stopwatch();
-      const RefineLoopOptions loop_options =
+      RefineLoopOptions loop_options =
           refine_options(options_, dim_, max_depth_, contacts_, certifier(), tree_options,
                          field_options, progress_);
+      if (certifier_ && certifier_->junctions()) {
+        loop_options.unswept_junctions = [this](const Octree& octree, const DistanceField& field,
+                                                const LeafVertices& rows) {
+          SurfaceOptions o;
+          o.threads = options_.threads;
+          o.cancel = options_.cancel;
+          o.junction_face = junction_faces();
+          std::vector<uint32_t> unswept =
+              unswept_junction_leaves(octree, field, &rows, r_.geometry, *bvh_, o);
+          for (uint32_t leaf : unswept) certifier_->refuse_junctions_in(octree.box(leaf));
+          return unswept;
+        };
+      }
       try {
         refined_ = refine_until_resolved(r_.octree, leaf_simplices_, r_.field, leaf_vertices_,
                                          r_.geometry, *bvh_, loop_options);
@@ -271,6 +289,9 @@ class Computation {
         return true;
       };
     }
+    bool any_junction = false;
+    for (uint8_t c : r_.octree.certified) any_junction |= c >= kJunctionMark;
+    if (any_junction) surface_options.junction_face = junction_faces();
     {
       // Only surfacing reads the leaves' vertex lists now (~50 B per leaf): they go as it stops
       // needing them, the inactive leaves' first (memory peaks at its end and in the weld).
@@ -421,6 +442,26 @@ class Computation {
  private:
   const PairCertifier* certifier() const { return certifier_ ? &*certifier_ : nullptr; }
 
+  // The plane GVD of a junction cell's face (junction_face_gvd), each face computed once: the
+  // refinement's check and the surfacing ask for the same faces, from both cells of each.
+  std::function<bool(const Box&, int, FaceGvd&)> junction_faces() {
+    return [this](const Box& face, int axis, FaceGvd& out) {
+      const FaceKey key{face.lo.x, face.lo.y, face.lo.z, face.hi.x, face.hi.y, face.hi.z, axis};
+      {
+        const std::lock_guard<std::mutex> lock(face_mutex_);
+        const auto it = faces_.find(key);
+        if (it != faces_.end()) {
+          out = it->second.second;
+          return it->second.first;
+        }
+      }
+      const bool crossed = junction_face_gvd(r_.geometry, *bvh_, face, axis, out, options_.cancel);
+      const std::lock_guard<std::mutex> lock(face_mutex_);
+      faces_.emplace(key, std::make_pair(crossed, out));
+      return crossed;
+    };
+  }
+
   const PipelineOptions& options_;
   const Stopwatch total_;
   const uint64_t start_rss_ = rss_bytes();
@@ -435,6 +476,9 @@ class Computation {
   double touch_tolerance_ = 0;
   ContactPairs contacts_;
   std::optional<PairCertifier> certifier_;
+  using FaceKey = std::tuple<double, double, double, double, double, double, int>;
+  std::mutex face_mutex_;
+  std::map<FaceKey, std::pair<bool, FaceGvd>> faces_;
   std::unique_ptr<ClosestPointSolver> solver_;
   /// The leaves' simplices (from the octree's build, for the refinement) and boundary
   /// vertices (from the distance transform, for the refinement and the surfacing): what the

@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "gvd/common/cancel.h"
+#include "gvd/common/peak_memory.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/result/gvd_result.h"
 
@@ -37,18 +38,22 @@ bool clip_segment(Vec3& p0, Vec3& p1, const Box& box) {
     }
   }
   if (!(t0 <= t1)) return false;
-  const Vec3 a = p0, b = p1;
-  if (t0 > 0) p0 = a + d * t0;
-  if (t1 < 1) p1 = a + d * t1;
-  (void)b;
+  const Vec3 a = p0;
+  // Cut ends land on the box up to rounding: held inside it.
+  auto onto = [&](Vec3 p) {
+    for (int i = 0; i < 2; ++i) p[i] = std::clamp(p[i], box.lo[i], box.hi[i]);
+    return p;
+  };
+  if (t0 > 0) p0 = onto(a + d * t0);
+  if (t1 < 1) p1 = onto(a + d * t1);
   return true;
 }
 
 }  // namespace
 
 bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& face, int axis,
-                       JunctionFace& out, const std::atomic<bool>* cancel) {
-  out = JunctionFace();
+                       surface::FaceGvd& out, const std::atomic<bool>* cancel) {
+  out = surface::FaceGvd();
   const int u = (axis + 1) % 3, w = (axis + 2) % 3;
   auto widen = [](double d) { return d * (1 + 1e-9) + 1e-15; };
   const Vec3 c = face.center();
@@ -138,6 +143,7 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
   options.domain.box = domain;
   options.domain.padding = 0;
   options.domain.frame = DomainFrame::kWorld;
+  const NestedComputation nested;  // the heap policy is the computation around it's
   const result::GvdResult result = compute_gvd(std::move(plane), options);
   // One side of each interface (the lower object's cell), its points shared by position.
   std::map<std::tuple<double, double>, uint32_t> index;

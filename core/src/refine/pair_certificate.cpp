@@ -704,7 +704,7 @@ CellVerdict PairCertifier::classify(const Box& box, std::span<const uint32_t> in
   // A quick test first, which gives the verdict certify would give: simplices of three
   // objects touching the cell make three active objects (kSplit without a BVH query).
   // Folded patches of two objects may still be mirror images, so certify decides those.
-  if (!inside.empty()) {
+  if (!inside.empty() && !junctions_) {
     const UnitGeometry& g = geometry_;
     ObjectId objects[2] = {kNoObject, kNoObject};
     for (uint32_t s : inside) {
@@ -742,7 +742,17 @@ PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
   }
   const ObjectId b = g.object_of[second.simplex];
   const uint32_t pair[2] = {a, b};
-  if (bvh_.nearest_excluding(c, pair, 2, reach * reach).found()) return out;
+  if (bvh_.nearest_excluding(c, pair, 2, reach * reach).found()) {
+    if (!junctions_) return out;
+    const Junction j = certify_junction(box);
+    if (j.certified) {
+      out.verdict = static_cast<CellVerdict>(static_cast<int>(CellVerdict::kJunctionX) + j.axis);
+      out.axis = j.axis;
+      out.a = j.objects[0];
+      out.b = j.objects[1];
+    }
+    return out;
+  }
   if (contacts_ != nullptr && contacts_->touching(a, b)) return out;
 
   // The simplices of each object that can be nearest to a point of the cell.
@@ -1213,10 +1223,40 @@ PairCertifier::Certificate PairCertifier::certify_extruded(
   return out;
 }
 
+namespace {
+
+// The level and lattice cell (at that level) of a cell box of the unit domain.
+std::array<uint32_t, 4> cell_at(const Box& box) {
+  const int level = static_cast<int>(std::lround(-std::log2(box.hi.x - box.lo.x)));
+  std::array<uint32_t, 4> out{static_cast<uint32_t>(level), 0, 0, 0};
+  for (int a = 0; a < 3; ++a)
+    out[a + 1] = static_cast<uint32_t>(std::floor(std::ldexp(box.lo[a], level) + 0.5));
+  return out;
+}
+
+}  // namespace
+
+void PairCertifier::refuse_junctions_in(const Box& box) {
+  const std::lock_guard<std::mutex> lock(refused_mutex_);
+  refused_.insert(cell_at(box));
+}
+
+bool PairCertifier::junction_refused(const Box& box) const {
+  const std::lock_guard<std::mutex> lock(refused_mutex_);
+  if (refused_.empty()) return false;
+  const std::array<uint32_t, 4> c = cell_at(box);
+  for (uint32_t level = 0; level <= c[0]; ++level) {
+    std::array<uint32_t, 4> up{level, 0, 0, 0};
+    for (int a = 1; a < 4; ++a) up[a] = c[a] >> (c[0] - level);
+    if (refused_.count(up) != 0) return true;
+  }
+  return false;
+}
+
 PairCertifier::Junction PairCertifier::certify_junction(const Box& box) const {
   const UnitGeometry& g = geometry_;
   Junction out;
-  if (g.dimension != 3 || facing_.empty()) return out;
+  if (g.dimension != 3 || facing_.empty() || junction_refused(box)) return out;
   for (int i = 0; i < 3; ++i)
     if (!(box.lo[i] > 0) || !(box.hi[i] < 1)) return out;
   auto widen = [](double d) { return d * (1 + 1e-9) + 1e-15; };

@@ -65,8 +65,11 @@ RefineLoopResult refine_until_resolved(Octree& octree, LeafSimplices& simplices,
     ambiguity_seen += report.ambiguous_count;
     const bool split_ambiguous = rounds < options.ambiguity_rounds;
     const bool split_unseen = rounds < options.unseen_rounds;
+    std::vector<uint32_t> unswept;
+    if (options.unswept_junctions && rounds < options.max_rounds)
+      unswept = options.unswept_junctions(octree, field, leaf_vertices);
     if ((report.foreign_leaves.empty() && (!split_unseen || report.unseen_leaves.empty()) &&
-         (!split_ambiguous || report.ambiguous_leaves.empty())) ||
+         (!split_ambiguous || report.ambiguous_leaves.empty()) && unswept.empty()) ||
         rounds >= options.max_rounds) {
       break;
     }
@@ -93,6 +96,7 @@ RefineLoopResult refine_until_resolved(Octree& octree, LeafSimplices& simplices,
     const size_t flagged_end = splits.size();
     for (size_t i = planned; i < flagged_end; ++i)
       for (uint32_t c = 0; c < (1u << dim); ++c) splits.push_back(child_cell(dim, splits[i], c));
+    for (uint32_t leaf : unswept) splits.push_back(cell_of(octree, leaf));
     Octree previous = std::move(octree);
     // The vertex index (key -> vertex, ~16 B per vertex) is not read while the octree is
     // rebuilt, where the old and the new octree are held at once: a large one goes before and

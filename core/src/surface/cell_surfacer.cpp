@@ -3,6 +3,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <tuple>
 #include <unordered_map>
 
 #include "cell_faces.h"
@@ -65,6 +67,13 @@ struct PolygonGvd {
   /// faces. Empty otherwise.
   std::vector<std::array<int, 2>> pairs;
   std::vector<std::vector<Vec3>> pair_curves;
+  /// On a face square to the axis of a junction cell on either side of it: the plane GVD of
+  /// the face (SurfaceOptions::junction_face), its ends on the face's border moved onto the
+  /// spokes. Segments between `jpoints`, `jleft` of each on its left seen from +axis.
+  bool junction = false;
+  std::vector<Vec3> jpoints;
+  std::vector<std::array<uint32_t, 2>> jsegments;
+  std::vector<std::array<ObjectId, 2>> jleft_right;
 };
 
 class CellSurfacer {
@@ -82,10 +91,12 @@ class CellSurfacer {
         geometry_(geometry),
         bvh_(bvh),
         dim_(octree.dimension),
-        skew_direction_(options.skew_direction) {
+        skew_direction_(options.skew_direction),
+        junction_face_(options.junction_face) {
     for (size_t i = 0; i < octree.certified.size(); ++i) {
-      any_extruded_ |= octree.certified[i] >= 2;
+      any_extruded_ |= octree.certified[i] >= 2 && octree.certified[i] < kJunctionMark;
       any_cone_ |= cone_leaf(static_cast<uint32_t>(i));
+      any_junction_ |= octree.certified[i] >= kJunctionMark && static_cast<bool>(junction_face_);
     }
   }
 
@@ -247,6 +258,26 @@ class CellSurfacer {
   // once and exactly, before surfacing; every cell with the edge (cone or not) then gets both
   // spokes (polygon).
   bool cone_leaf(uint32_t leaf) const { return octree_.cone_axis(leaf) >= 0; }
+
+  // Whether junction leaf `leaf` sweeps as it stands (cell_3d would take junction_cell).
+  bool junction_sweeps_as_it_stands(uint32_t leaf) const {
+    const LeafGrid grid = grid_of(leaf);
+    bool mixed = false;
+    for (uint32_t v : grid)
+      if (v != kNoVertex && field_.label[v] != field_.label[grid[0]]) mixed = true;
+    if (!mixed) return true;
+    detail::FacePolygon polys[24];
+    PolygonGvd gvds[24];
+    int np = 0;
+    detail::for_each_face_polygon(octree_, grid, leaf, [&](const detail::FacePolygon& p) {
+      polys[np] = p;
+      gvds[np] = polygon(leaf, p);
+      ++np;
+    });
+    std::vector<Piece> scratch;
+    Sink sink{scratch};
+    return junction_cell(leaf, polys, gvds, np, sink);
+  }
   // An extruded pair cell of any kind (along an axis, slanted or skew; cones included), whose
   // curves on its traced faces are traced and whose sheet is a ladder between them. Skew
   // cells only when the caller can give their direction.
@@ -615,6 +646,7 @@ class CellSurfacer {
   // of an extruded pair cell on either side of it (the same answer from both cells).
   PolygonGvd polygon(uint32_t leaf, const detail::FacePolygon& poly) const {
     PolygonGvd out = paired_polygon(leaf, poly);
+    if (any_junction_ && junction_polygon(leaf, poly, out)) return out;
     if (!any_extruded_ || (out.n != 2 && out.pairs.empty()) || !traced_face(leaf, poly)) return out;
     if (out.n == 2) out.curve = curve_between(poly, out.spokes[0], out.spokes[1]);
     for (size_t k = 0; k < out.pairs.size(); ++k)
@@ -1240,6 +1272,14 @@ class CellSurfacer {
     if (!mixed && !any_domain) return;
     if (mixed && !any_domain && extruded_leaf(leaf) && extruded_cell(leaf, polys, gvds, np, out))
       return;
+    if (mixed && !any_domain && any_junction_ && octree_.junction_axis(leaf) >= 0) {
+      std::vector<Piece> own;
+      Sink mine{own};
+      if (junction_cell(leaf, polys, gvds, np, mine)) {
+        out.out.insert(out.out.end(), own.begin(), own.end());
+        return;
+      }
+    }
     // The spokes form closed curves on the cell surface; faces sharing a bisector belong to
     // the same curve. Each connected curve is coned to the centroid of its own bisectors
     // (the paper's cell centroid when there is one curve), so two sheets crossing one cell
@@ -1300,6 +1340,22 @@ class CellSurfacer {
           prev = next;
         }
       };
+      if (g.junction) {
+        // The plane GVD of a junction cell's face: each segment fanned from the apex, its
+        // left object (seen from +axis) on the side a spoke's label_a takes.
+        for (size_t k = 0; k < g.jsegments.size(); ++k) {
+          const Vec3 p = g.jpoints[g.jsegments[k][0]], q = g.jpoints[g.jsegments[k][1]];
+          const ObjectId l = g.jleft_right[k][0], r = g.jleft_right[k][1];
+          if (outward_plus) {
+            emit(out, p, q, rc, l, r);
+            emit(out, q, p, rc, r, l);
+          } else {
+            emit(out, q, p, rc, l, r);
+            emit(out, p, q, rc, r, l);
+          }
+        }
+        continue;
+      }
       if (g.n == 2 && !g.curve.empty()) {
         fan(g.spokes[0], g.spokes[1], g.curve);
         continue;
@@ -1383,6 +1439,279 @@ class CellSurfacer {
   // at one point there. The sheet is the ruled ladder between P and Q, merged by position
   // along C's chord; the rungs' midpoints split the first and last triangles. False (and
   // nothing emitted) when the faces do not show that structure; the cone is used then.
+  // Whether `leaf` is a junction cell that sweeps along `face_axis`.
+  bool junction_sweeps(uint32_t leaf, int face_axis) const {
+    return octree_.junction_axis(leaf) == face_axis;
+  }
+
+  // On a face square to the axis of a junction cell on either side of it: the face's plane
+  // GVD (from the face alone, so both cells get the same pieces), its ends on the border moved
+  // onto the polygon's spokes (each spoke takes the one end on its ring edge with its pair).
+  // False (g unchanged) where neither cell is a junction cell along the face's normal, or the
+  // plane GVD's ends do not match the spokes one to one.
+  bool junction_polygon(uint32_t leaf, const detail::FacePolygon& poly, PolygonGvd& g) const {
+    // Between two junction cells along the face's normal only: an ordinary leaf across would
+    // fan its apex over the plane GVD, which its own faces do not bound; the junction cell
+    // takes that leaf's ordinary pieces on the face instead (junction_cell).
+    if (poly.on_domain || !junction_sweeps(leaf, poly.axis) ||
+        !junction_sweeps(leaf_across(poly), poly.axis))
+      return false;
+    Box face;
+    for (int i = 0; i < poly.n; ++i) face.extend(field_.vertices.position(poly.v[i]));
+    FaceGvd fg;
+    if (!junction_face_(face, poly.axis, fg) || fg.segments.empty()) return g.n == 0;
+    std::vector<int> degree(fg.points.size(), 0);
+    for (const auto& [a, b] : fg.segments) {
+      ++degree[a];
+      ++degree[b];
+    }
+    // Each end on the border: the spoke on its ring edge with the same pair.
+    const double side = std::max(face.hi[(poly.axis + 1) % 3] - face.lo[(poly.axis + 1) % 3],
+                                 face.hi[(poly.axis + 2) % 3] - face.lo[(poly.axis + 2) % 3]);
+    bool taken[PolygonGvd::kMaxSpokes] = {};
+    int matched = 0;
+    std::vector<Vec3> points = fg.points;
+    for (size_t v = 0; v < fg.points.size(); ++v) {
+      if (degree[v] != 1) continue;
+      ObjectId pair[2] = {kNoObject, kNoObject};
+      for (size_t k = 0; k < fg.segments.size(); ++k)
+        if (fg.segments[k].first == v || fg.segments[k].second == v) {
+          pair[0] = std::min(fg.pairs[k].first, fg.pairs[k].second);
+          pair[1] = std::max(fg.pairs[k].first, fg.pairs[k].second);
+        }
+      int best = -1;
+      double best_d = 1e-6 * side;
+      for (int i = 0; i < g.n; ++i) {
+        const Spoke& sp = g.spokes[i];
+        if (taken[i] || std::min(sp.label_a, sp.label_b) != pair[0] ||
+            std::max(sp.label_a, sp.label_b) != pair[1])
+          continue;
+        const Vec3 a = field_.vertices.position(poly.v[sp.ring_edge]);
+        const Vec3 b = field_.vertices.position(poly.v[(sp.ring_edge + 1) % poly.n]);
+        const double d = norm(closest_point_on_segment(fg.points[v], a, b) - fg.points[v]);
+        if (d <= best_d) {
+          best_d = d;
+          best = i;
+        }
+      }
+      if (best < 0) return false;
+      taken[best] = true;
+      points[v] = g.spokes[best].p;
+      ++matched;
+    }
+    if (matched != g.n) return false;
+    g.junction = true;
+    g.jpoints = std::move(points);
+    g.jsegments.clear();
+    g.jleft_right.clear();
+    for (size_t k = 0; k < fg.segments.size(); ++k) {
+      g.jsegments.push_back({fg.segments[k].first, fg.segments[k].second});
+      g.jleft_right.push_back({fg.pairs[k].first, fg.pairs[k].second});
+    }
+    return true;
+  }
+
+  // A junction cell along axis e: the GVD is the plane GVD of its end faces swept along e.
+  // Each end face's pieces are chained into paths between their ends (spokes on the border, or
+  // junctions where three or more meet); each path on the lower face is matched with the path
+  // on the upper face of the same pair whose ends match (spokes joined by the side faces'
+  // pieces, junctions by position), and a ruled ladder joins them. False where anything fails
+  // to match (the caller then surfaces the cell as an ordinary one).
+  bool junction_cell(uint32_t leaf, const detail::FacePolygon* polys, const PolygonGvd* gvds,
+                     int np, Sink& out) const {
+    const int axis = octree_.junction_axis(leaf);
+    if (axis < 0) return false;
+    Vec3 dir;
+    dir[axis] = 1;
+    struct Run {
+      uint64_t from, to;
+      std::vector<Vec3> points;
+    };
+    std::vector<Run> sides;
+    // Per end: the segments (positions), their left / right objects, and which positions are
+    // spokes (their ids).
+    struct End {
+      std::vector<std::array<Vec3, 2>> seg;
+      std::vector<std::array<ObjectId, 2>> lr;
+      std::vector<std::pair<Vec3, uint64_t>> spokes;
+    };
+    End ends[2];
+    for (int f = 0; f < np; ++f) {
+      const PolygonGvd& g = gvds[f];
+      if (polys[f].axis == axis) {
+        End& e = ends[polys[f].side == 2 ? 1 : 0];
+        if (g.n == 0 && !g.junction) continue;
+        // Between two junction cells the face must carry its plane GVD (else a junction lies
+        // on the face's border, where the labels show another crossing).
+        if (!g.junction && !polys[f].on_domain && junction_sweeps(leaf_across(polys[f]), axis)) {
+          return false;
+        }
+        if (g.junction) {
+          for (size_t k = 0; k < g.jsegments.size(); ++k) {
+            e.seg.push_back({g.jpoints[g.jsegments[k][0]], g.jpoints[g.jsegments[k][1]]});
+            e.lr.push_back(g.jleft_right[k]);
+          }
+        } else if (!g.pairs.empty()) {
+          return false;
+        } else if (g.n == 2) {
+          // As cell_3d emits them: a spoke's label_a lies left of its piece seen from +axis.
+          Vec3 prev = g.spokes[0].p;
+          for (size_t k = 0; k <= g.curve.size(); ++k) {
+            const Vec3 next = k < g.curve.size() ? g.curve[k] : g.spokes[1].p;
+            e.seg.push_back({prev, next});
+            e.lr.push_back({g.spokes[0].label_a, g.spokes[0].label_b});
+            prev = next;
+          }
+        } else {
+          for (int i = 0; i < g.n; ++i) {
+            e.seg.push_back({g.spokes[i].p, g.centroid});
+            e.lr.push_back({g.spokes[i].label_a, g.spokes[i].label_b});
+          }
+        }
+        for (int i = 0; i < g.n; ++i) e.spokes.emplace_back(g.spokes[i].p, g.spokes[i].id);
+        continue;
+      }
+      if (g.n == 0) continue;
+      if (g.n != 2 || g.junction) return false;
+      sides.push_back({g.spokes[0].id, g.spokes[1].id, {g.spokes[0].p, g.spokes[1].p}});
+    }
+    // Paths: maximal chains of one pair through points where exactly two segments meet.
+    struct Path {
+      ObjectId left, right;
+      Vec3 first, last;
+      std::vector<Vec3> points;
+    };
+    auto key = [](Vec3 p) { return std::tuple<double, double, double>(p.x, p.y, p.z); };
+    std::vector<Path> paths[2];
+    for (int e = 0; e < 2; ++e) {
+      End& end = ends[e];
+      // One direction per curve: the smaller object on the left (a piece walked the other way
+      // has its objects on the other sides).
+      for (size_t k = 0; k < end.seg.size(); ++k) {
+        if (end.lr[k][0] > end.lr[k][1]) {
+          std::swap(end.lr[k][0], end.lr[k][1]);
+          std::swap(end.seg[k][0], end.seg[k][1]);
+        }
+      }
+      std::map<std::tuple<double, double, double>, int> degree;
+      for (const auto& s : end.seg) {
+        ++degree[key(s[0])];
+        ++degree[key(s[1])];
+      }
+      std::vector<uint8_t> used(end.seg.size(), 0);
+      auto next_from = [&](Vec3 p, ObjectId l, ObjectId r) {
+        for (size_t k = 0; k < end.seg.size(); ++k)
+          if (!used[k] && end.seg[k][0] == p && end.lr[k][0] == l && end.lr[k][1] == r) return k;
+        return end.seg.size();
+      };
+      for (size_t k = 0; k < end.seg.size(); ++k) {
+        if (used[k] || degree[key(end.seg[k][0])] == 2) continue;
+        Path path{end.lr[k][0], end.lr[k][1], end.seg[k][0], end.seg[k][1], {end.seg[k][0]}};
+        size_t at = k;
+        for (;;) {
+          used[at] = 1;
+          const Vec3 q = end.seg[at][1];
+          path.points.push_back(q);
+          path.last = q;
+          if (degree[key(q)] != 2) break;
+          at = next_from(q, path.left, path.right);
+          if (at == end.seg.size()) return false;
+        }
+        paths[e].push_back(std::move(path));
+      }
+      if (std::find(used.begin(), used.end(), 0) != used.end()) return false;  // a loop
+    }
+    if (paths[0].size() != paths[1].size()) return false;
+    // The spoke id at a position of an end, or 0.
+    auto spoke_at = [&](int e, Vec3 p) -> uint64_t {
+      for (const auto& [q, id] : ends[e].spokes)
+        if (q == p) return id;
+      return 0;
+    };
+    // From a spoke id, along the side faces' pieces, to the spoke id on the other end (the
+    // points passed on the way in `mid`).
+    std::vector<uint8_t> side_used(sides.size(), 0);
+    auto rung = [&](uint64_t from, std::vector<Vec3>& mid) {
+      uint64_t at = from;
+      for (size_t steps = 0; steps <= sides.size(); ++steps) {
+        bool moved = false;
+        for (size_t i = 0; i < sides.size() && !moved; ++i) {
+          if (side_used[i]) continue;
+          const Run& r = sides[i];
+          if (r.from != at && r.to != at) continue;
+          side_used[i] = 1;
+          const bool fwd = r.from == at;
+          if (at != from) mid.push_back(fwd ? r.points.front() : r.points.back());
+          at = fwd ? r.to : r.from;
+          moved = true;
+        }
+        if (!moved) break;
+      }
+      return at;
+    };
+    const Box box = octree_.box(leaf);
+    const double tolerance = 1e-6 * (box.hi.x - box.lo.x);
+    // The objects meeting at a junction of an end, sorted.
+    auto objects_at = [&](int e, Vec3 p) {
+      std::vector<ObjectId> o;
+      for (size_t k = 0; k < ends[e].seg.size(); ++k)
+        if (ends[e].seg[k][0] == p || ends[e].seg[k][1] == p) {
+          o.push_back(ends[e].lr[k][0]);
+          o.push_back(ends[e].lr[k][1]);
+        }
+      std::sort(o.begin(), o.end());
+      o.erase(std::unique(o.begin(), o.end()), o.end());
+      return o;
+    };
+    // Junctions match by position (plane GVDs of both ends), else by the objects that meet
+    // there when only one junction of each end has them (an ordinary face's centroid).
+    auto same_junction = [&](Vec3 p, Vec3 q) {
+      Vec3 d = p - q;
+      d[axis] = 0;
+      if (norm(d) <= tolerance) return true;
+      const std::vector<ObjectId> op = objects_at(0, p), oq = objects_at(1, q);
+      if (op != oq) return false;
+      for (int e = 0; e < 2; ++e) {
+        std::vector<Vec3> seen;
+        for (const auto& s : ends[e].seg)
+          for (const Vec3 x : s)
+            if (std::find(seen.begin(), seen.end(), x) == seen.end() && objects_at(e, x) == op)
+              seen.push_back(x);
+        if (seen.size() != 1) return false;
+      }
+      return true;
+    };
+    std::vector<Tri> tris;
+    std::vector<uint8_t> matched(paths[1].size(), 0);
+    for (const Path& lower : paths[0]) {
+      const uint64_t s_first = spoke_at(0, lower.first), s_last = spoke_at(0, lower.last);
+      std::vector<Vec3> rung_first, rung_last;
+      const uint64_t t_first = s_first != 0 ? rung(s_first, rung_first) : 0;
+      const uint64_t t_last = s_last != 0 ? rung(s_last, rung_last) : 0;
+      size_t k = paths[1].size();
+      for (size_t i = 0; i < paths[1].size() && k == paths[1].size(); ++i) {
+        const Path& upper = paths[1][i];
+        if (matched[i] || upper.left != lower.left || upper.right != lower.right) continue;
+        const uint64_t u_first = spoke_at(1, upper.first), u_last = spoke_at(1, upper.last);
+        const bool first_ok = s_first != 0 ? u_first == t_first
+                                           : u_first == 0 && same_junction(lower.first, upper.first);
+        const bool last_ok = s_last != 0 ? u_last == t_last
+                                         : u_last == 0 && same_junction(lower.last, upper.last);
+        if (first_ok && last_ok) k = i;
+      }
+      if (k == paths[1].size()) return false;
+      matched[k] = 1;
+      if (!ladder(lower.points, paths[1][k].points, dir, rung_first, rung_last, tris)) return false;
+      for (Tri& t : tris) {
+        emit(out, t.v[0], t.v[1], t.v[2], lower.left, lower.right);
+        emit(out, t.v[1], t.v[0], t.v[2], lower.right, lower.left);
+      }
+      tris.clear();
+    }
+    return std::count(side_used.begin(), side_used.end(), 1) ==
+           static_cast<std::ptrdiff_t>(sides.size());
+  }
+
   bool extruded_cell(uint32_t leaf, const detail::FacePolygon* polys, const PolygonGvd* gvds,
                      int np, Sink& out) const {
     ObjectId x = kNoObject, y = kNoObject;
@@ -1686,8 +2015,10 @@ class CellSurfacer {
   std::vector<uint32_t> active_;
   size_t refined_count_ = 0;
   int dim_;
+  bool any_junction_ = false;
   bool any_extruded_ = false;
   std::function<bool(const Box&, Vec3&)> skew_direction_;
+  std::function<bool(const Box& face, int axis, FaceGvd& out)> junction_face_;
   bool any_cone_ = false;
   std::vector<DoubleCrossing> doubles_;
   FlatMap64 double_index_;  // octree edge -> index in doubles_
@@ -1784,6 +2115,33 @@ Gvd extract_gvd(const Octree& octree, const DistanceField& field, const UnitGeom
                 const SimplexBvh& bvh, const Domain& domain, const SurfaceOptions& options) {
   return weld_gvd(surface_leaves(octree, field, geometry, bvh, options), geometry, bvh, domain,
                   options);
+}
+
+}  // namespace gvd::surface
+
+namespace gvd::surface {
+
+std::vector<uint32_t> unswept_junction_leaves(const Octree& octree, const DistanceField& field,
+                                              const LeafVertices* rows,
+                                              const UnitGeometry& geometry, const SimplexBvh& bvh,
+                                              const SurfaceOptions& options) {
+  std::vector<uint32_t> junctions, out;
+  for (size_t i = 0; i < octree.certified.size(); ++i)
+    if (octree.junction_axis(static_cast<uint32_t>(i)) >= 0)
+      junctions.push_back(static_cast<uint32_t>(i));
+  if (junctions.empty() || !options.junction_face) return out;
+  const CellSurfacer surfacer(octree, field, rows, geometry, bvh, options);
+  std::vector<uint8_t> fails(junctions.size(), 0);
+  parallel_for(
+      junctions.size(), resolve_threads(options.threads),
+      [&](size_t b, size_t e, int) {
+        for (size_t i = b; i < e; ++i)
+          fails[i] = !surfacer.junction_sweeps_as_it_stands(junctions[i]);
+      },
+      8);
+  for (size_t i = 0; i < junctions.size(); ++i)
+    if (fails[i]) out.push_back(junctions[i]);
+  return out;
 }
 
 }  // namespace gvd::surface

@@ -7,7 +7,7 @@
 // three or more objects meet may claim any two of them (ties within kTie); the share with
 // no tie allowed and the vertices whose third object is nearer by over 1 % are printed too.
 //
-// Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--budget N] [--explain]
+// Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--junctions] [--budget N] [--explain]
 //                  SCENE.json...
 //        (--full: the GVD as surfaced, one piece per leaf, not compacted)
 //        (--explain prints every GVD triangle that crosses an object, when one does, and
@@ -386,6 +386,7 @@ int main(int argc, char** argv) {
   size_t budget = 3000;
   bool explain = false;
   bool full = false;
+  bool junctions = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--write-variants" && i + 1 < argc) return write_variants(argv[++i]);
@@ -396,6 +397,8 @@ int main(int argc, char** argv) {
       frame = argv[++i];
     } else if (a == "--full") {
       full = true;
+    } else if (a == "--junctions") {
+      junctions = true;
     } else if (a == "--explain") {
       explain = true;
     } else if (a == "--budget" && i + 1 < argc) {
@@ -412,6 +415,7 @@ int main(int argc, char** argv) {
       o.refine = gvd::pipeline::parse_choice<gvd::pipeline::RefineRule>(refine);
       o.domain.frame = gvd::scene::parse_domain_frame(frame);
       if (full) o.resolution = gvd::pipeline::GvdResolution::kFull;
+      o.junctions = junctions;
       // Resets the peak (VmHWM) to what is resident now, after handing what the last scene
       // left in malloc's free lists back to the system (else a failed big scene's memory
       // stays resident and counts in every later row's peak).

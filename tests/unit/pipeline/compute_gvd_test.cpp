@@ -446,6 +446,68 @@ TEST(ComputeGvd, SlotOfBoxesCostsWhatOneMeshDoes3D) {
   }
 }
 
+// Lines where three or four objects meet (3 x 3 packed columns, gap g; a blade in a slot of
+// three separate parts, all g apart): without junction cells every cell along such a line
+// shrinks to the gap (the columns: 1.43M leaves at 1e-3, the leaf limit at 1e-4). With them
+// (PipelineOptions::junctions) the GVD there is the plane GVD of the sections swept along the
+// line: the cost at 1e-5 stays within twice the cost at 1e-3, the result is valid, no piece
+// crosses an object, and every pair of faces across a gap is a neighbour pair with that gap.
+TEST(ComputeGvd, JunctionLinesCostWhatTheirSectionsCost3D) {
+  auto columns = [](double g) {
+    Scene s;
+    s.dimension = 3;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        s.objects.push_back(test::make_box("c" + std::to_string(i) + std::to_string(j),
+                                           Vec3{0.3 * i, 0.3 * j, 0},
+                                           Vec3{0.3 * i + 0.3 - g, 0.3 * j + 0.3 - g, 1}));
+    return s;
+  };
+  auto slot = [](double g) {
+    Scene s;
+    s.dimension = 3;
+    s.objects.push_back(test::make_box("floor", Vec3{0, 0, 0}, Vec3{1, 0.2, 1}));
+    s.objects.push_back(test::make_box("left", Vec3{0, 0.2 + g, 0}, Vec3{0.45, 0.5, 1}));
+    s.objects.push_back(test::make_box("right", Vec3{0.55, 0.2 + g, 0}, Vec3{1, 0.5, 1}));
+    s.objects.push_back(
+        test::make_box("blade", Vec3{0.45 + g, 0.2 + g, -0.1}, Vec3{0.55 - g, 0.6, 1.1}));
+    return s;
+  };
+  struct Case {
+    const char* name;
+    std::function<Scene(double)> make;
+    std::vector<std::pair<std::string, std::string>> across;  // pairs facing across a gap g
+  };
+  const std::vector<Case> cases = {
+      {"columns", columns, {{"c00", "c01"}, {"c00", "c10"}, {"c11", "c12"}, {"c11", "c21"}}},
+      {"slot of parts", slot, {{"floor", "blade"}, {"left", "blade"}, {"right", "blade"},
+                               {"floor", "left"}, {"floor", "right"}}}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    PipelineOptions o;
+    o.threads = 2;
+    o.junctions = true;
+    o.max_leaves = 1'000'000;
+    const GvdResult wide = compute_gvd(c.make(1e-3), o);
+    const double g = 1e-5;
+    const Scene scene = c.make(g);
+    const GvdResult r = compute_gvd(scene, o);
+    EXPECT_LE(r.stats.leaves, 2 * wide.stats.leaves);
+    expect_valid(r);
+    EXPECT_EQ(test::count_gvd_object_crossings(scene, r.gvd, 3000), 0u);
+    for (const auto& [a, b] : c.across) {
+      const ObjectId ia = *scene.find(a), ib = *scene.find(b);
+      bool found = false;
+      for (const DualEdge& e : r.graph.edges) {
+        if (std::minmax(e.a, e.b) != std::minmax(ia, ib)) continue;
+        found = true;
+        EXPECT_NEAR(e.gap, g, 1e-6 * g) << a << " " << b;
+      }
+      EXPECT_TRUE(found) << a << " " << b;
+    }
+  }
+}
+
 // The blade in its slot turned 0.7 rad, then moved 1000 away (coordinates ~1e3 in doubles:
 // their rounding, 1.1e-13, tilts a small triangle's normal by up to ~4e-12): the rims' faces
 // were taken as square to their axis only within 1e-12, so every rim refined to the gap

@@ -104,13 +104,13 @@ TEST(JunctionFace, PlaneGvdOfJunctionCellsHoldsUnderBruteForce3D) {
         if (!j.certified) continue;
         ASSERT_EQ(j.axis, 2);
         const double side_user = (box.hi.x - box.lo.x) * s.domain.side;
-        JunctionFace face[2];
+        surface::FaceGvd face[2];
         for (int end = 0; end < 2; ++end) {
           Box f = box;
           f.lo.z = f.hi.z = end == 0 ? box.lo.z : box.hi.z;
           ASSERT_TRUE(junction_face_gvd(s.geometry, s.bvh, f, 2, face[end]));
           ++faces;
-          const JunctionFace& jf = face[end];
+          const surface::FaceGvd& jf = face[end];
           // (Three objects can be nearest by the certificate's bound and yet no GVD cross it.)
           if (jf.segments.empty()) continue;
           ++crossed;

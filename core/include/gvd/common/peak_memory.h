@@ -64,6 +64,16 @@ void heap_computation_starts();
 /// small (and what earlier computations kept given back then). Nothing unless
 /// use_returning_heap(true) was called.
 void heap_computation_grows(size_t cells);
+/// While one lives on a thread, the three calls above do nothing on that thread: a computation
+/// run inside another (the plane GVD on a junction cell's face) must not switch the heap
+/// policy of the one around it.
+class NestedComputation {
+ public:
+  NestedComputation();
+  ~NestedComputation();
+  NestedComputation(const NestedComputation&) = delete;
+  NestedComputation& operator=(const NestedComputation&) = delete;
+};
 inline constexpr int kReturnedBlockBytes = 256 << 10;
 inline constexpr int kKeptBlockBytes = 2 << 20;
 /// Below this many leaves a computation is small (~25 MB at 200 B per leaf).

@@ -57,6 +57,13 @@ enum class CellVerdict : uint8_t {
   /// kSkewWedge + 2 k + twice (skew_wedge_verdict); children are asked again.
   kSkewWedge,
   kSkewWedgeLast = kSkewWedge + 5,
+  /// Junction cells (3D): three or more objects meet along a line along axis 0, 1 or 2, and
+  /// every distance function is invariant along it in the cell, so the GVD there is the plane
+  /// GVD of the objects' sections swept along the axis (PairCertifier::certify_junction).
+  /// Their children are asked again.
+  kJunctionX,
+  kJunctionY,
+  kJunctionZ,
 };
 
 /// Whether a verdict is a cone's (kCone...): certified for the cell and its children.
@@ -69,10 +76,11 @@ inline bool is_cone(CellVerdict v) {
 /// extruded pair cells) or 5 + (v - kCone) (the cones); children of a cone cell carry 12 more
 /// (certified; their own children must be asked again); 29 + 2 axis + opposite (kSlanted...);
 /// kSkewMark (kSkew); kSkewMark + 1 + 2 m + twice (kSkewCone...); kSkewWedgeMark + 2 k + twice
-/// (kSkewWedge...).
+/// (kSkewWedge...); kJunctionMark + axis (kJunctionX...).
 inline constexpr uint8_t kSkewMark = 35;
 inline constexpr uint8_t kSkewWedgeMark = kSkewMark + 7;
 inline constexpr uint8_t kSkewLastMark = kSkewWedgeMark + 5;
+inline constexpr uint8_t kJunctionMark = kSkewLastMark + 1;  ///< + axis (kJunctionX...)
 inline uint8_t certified_mark(CellVerdict v) {
   const int i = static_cast<int>(v);
   if (v == CellVerdict::kPair) return 1;
@@ -84,12 +92,14 @@ inline uint8_t certified_mark(CellVerdict v) {
     return static_cast<uint8_t>(29 + i - static_cast<int>(CellVerdict::kSlantedX));
   if (v >= CellVerdict::kSkew && v <= CellVerdict::kSkewWedgeLast)
     return static_cast<uint8_t>(kSkewMark + i - static_cast<int>(CellVerdict::kSkew));
+  if (v >= CellVerdict::kJunctionX && v <= CellVerdict::kJunctionZ)
+    return static_cast<uint8_t>(kJunctionMark + i - static_cast<int>(CellVerdict::kJunctionX));
   return 0;
 }
 
 /// The mark the children of a cell with mark `mark` carry without asking again (0: ask).
 inline uint8_t inherited_mark(uint8_t mark) {
-  if (mark >= kSkewMark && mark <= kSkewLastMark) return 0;
+  if (mark >= kSkewMark) return 0;  // skew and junction cells: ask again
   if (mark <= 4 || mark >= 29) return mark;
   return mark <= 16 ? static_cast<uint8_t>(mark + 12) : uint8_t{0};
 }
@@ -143,8 +153,9 @@ struct Octree {
   /// objects are nearest anywhere in it, and their bisector there is one exact sheet (1: a
   /// plane; 2 ... 28: a curve swept along an axis, 5 ... 28 the cones; 29 ... 34: along a
   /// direction perpendicular to one axis; 35 ... 47: along a skew direction, 36 ... 41 the
-  /// skew cones, 42 ... 47 the wedges), so it may hold both objects and the GVD (refinement
-  /// checks skip it). Empty after loading from disk.
+  /// skew cones, 42 ... 47 the wedges; 48 ... 50: a junction cell of three or more objects
+  /// along axis 0, 1, 2), so it may hold both objects and the GVD (refinement checks skip
+  /// it). Empty after loading from disk.
   std::vector<uint8_t> certified;
 
   size_t leaf_count() const { return code.size(); }
@@ -191,6 +202,12 @@ struct Octree {
   /// kSkewWedge...).
   bool is_skew(uint32_t leaf) const {
     return !certified.empty() && certified[leaf] >= kSkewMark && certified[leaf] <= kSkewLastMark;
+  }
+  /// The axis of the junction cell (CellVerdict::kJunctionX...) the leaf is, or -1.
+  int junction_axis(uint32_t leaf) const {
+    if (certified.empty() || certified[leaf] < kJunctionMark || certified[leaf] > kJunctionMark + 2)
+      return -1;
+    return certified[leaf] - kJunctionMark;
   }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);

@@ -5,28 +5,18 @@
 // invariant along e, the 3D GVD in the cell is G x e for the plane GVD G of the objects'
 // sections. G on a face square to e is computed from that face alone (so both cells of the face
 // get the same pieces): the objects that can be nearest to a point of the face, their simplices
-// in reach projected along e (exact: a coordinate dropped), and the 2D pipeline run on them with
-// the face as its domain.
+// in reach projected along e (exact: a coordinate dropped) and cut to a square of 2^m faces
+// around it (the face one of its lattice cells), the 2D pipeline run on them, and its pieces cut
+// to the face.
 
 #include <atomic>
-#include <cstdint>
-#include <utility>
-#include <vector>
 
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/geometry/vec.h"
 #include "gvd/scene/scene.h"
+#include "gvd/surface/extract_gvd.h"
 
 namespace gvd::pipeline {
-
-/// The plane GVD of a face: segments between points (unit domain, on the face's plane), each
-/// between two objects (lower id first). Points are shared: a junction is one point, and its
-/// segments meet there; a segment's end on the face's border is its only segment there.
-struct JunctionFace {
-  std::vector<Vec3> points;
-  std::vector<std::pair<uint32_t, uint32_t>> segments;
-  std::vector<std::pair<scene::ObjectId, scene::ObjectId>> pairs;  ///< per segment
-};
 
 /// The GVD on the face `face` (unit domain; flat along `axis`: lo[axis] == hi[axis]) of a
 /// junction cell whose objects are invariant along `axis`. Only simplices square to `axis` are
@@ -34,6 +24,6 @@ struct JunctionFace {
 /// can be nearest on the face (no GVD there: `out` empty). Throws gvd::Error{kCancelled} when
 /// `cancel` is set.
 bool junction_face_gvd(const scene::UnitGeometry& geometry, const SimplexBvh& bvh, const Box& face,
-                       int axis, JunctionFace& out, const std::atomic<bool>* cancel = nullptr);
+                       int axis, surface::FaceGvd& out, const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace gvd::pipeline

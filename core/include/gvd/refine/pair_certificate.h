@@ -8,6 +8,8 @@
 
 #include <array>
 #include <atomic>
+#include <mutex>
+#include <set>
 #include <cstdint>
 #include <span>
 #include <utility>
@@ -107,6 +109,15 @@ class PairCertifier final : public octree::SplitOracle {
                                std::span<const uint32_t> inside = {}) const override;
 
   bool cones() const { return cones_; }
+  /// Also certify junction cells (certify_junction: kJunctionX...); the surfacer must then
+  /// sweep their faces' plane GVDs (SurfaceOptions::junction_face). Set before use.
+  void enable_junctions(bool on = true) { junctions_ = on; }
+  bool junctions() const { return junctions_; }
+  /// No junction cell inside `box` (a lattice cell) from now on: one there could not be
+  /// surfaced (surface::unswept_junction_leaves: a junction on a face between two cells, where
+  /// the octree's labels show another crossing). Its cells follow the other certificates and
+  /// the paper's rule. Thread-safe.
+  void refuse_junctions_in(const Box& box);
 
   /// A verdict with its witnesses (tests and audits use them).
   struct Certificate {
@@ -147,7 +158,7 @@ class PairCertifier final : public octree::SplitOracle {
   /// (the extruded pairs' conditions, for every object). Then every distance function is
   /// invariant along e in the cell, and the GVD there is G x e for the GVD G of the cross-section
   /// (a plane GVD of the objects' sections: the junction lines where packed boxes meet, a blade
-  /// in the corner of two parts). Not yet asked by classify: its surfacing is the next step
+  /// in the corner of two parts). certify and classify ask it once enable_junctions is set
   /// (docs/ALGORITHM.md, "Junction lines").
   static constexpr int kMaxJunction = 8;
   struct Junction {
@@ -228,6 +239,11 @@ class PairCertifier final : public octree::SplitOracle {
   const octree::ContactPairs* contacts_;
   bool extruded_;
   bool cones_;
+  bool junctions_ = false;
+  /// The lattice cells refuse_junctions_in named, as (level, x, y, z).
+  mutable std::mutex refused_mutex_;
+  std::set<std::array<uint32_t, 4>> refused_;
+  bool junction_refused(const Box& box) const;
   /// Per point: the lowest index of a point at the same position (soups share no indices).
   std::vector<uint32_t> canonical_;
   /// Per simplex side (3D: edge v[e] v[e+1]; 2D: end v[e]): the simplex of the same object

@@ -45,6 +45,12 @@ struct RefineLoopOptions {
   int cone_rounds = 24;
   /// Called after each round with an estimate of the fraction done (< 1).
   std::function<void(double)> progress;
+  /// Optional: the junction cells (CellVerdict::kJunctionX...) the surfacer could not sweep
+  /// as they stand (surface::unswept_junction_leaves); the loop splits them like leaves that
+  /// hold a foreign label, and their children are asked again.
+  std::function<std::vector<uint32_t>(const octree::Octree&, const distance::DistanceField&,
+                                      const distance::LeafVertices&)>
+      unswept_junctions;
 };
 
 struct RefineLoopResult {

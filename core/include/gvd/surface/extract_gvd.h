@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "gvd/distance/distance_field.h"
@@ -20,6 +21,16 @@
 #include "gvd/surface/gvd.h"
 
 namespace gvd::surface {
+
+/// The plane GVD on one face of a junction cell (CellVerdict::kJunctionX...): segments
+/// between points (unit domain, on the face's plane), the first object of each pair on the
+/// left of its segment seen from + the face's axis. Points are shared: where segments meet,
+/// they meet at one point. Made by pipeline::junction_face_gvd.
+struct FaceGvd {
+  std::vector<Vec3> points;
+  std::vector<std::pair<uint32_t, uint32_t>> segments;
+  std::vector<std::pair<scene::ObjectId, scene::ObjectId>> pairs;  ///< per segment: left, right
+};
 
 /// Options of the surfacing stage.
 struct SurfaceOptions {
@@ -33,6 +44,10 @@ struct SurfaceOptions {
   /// when the octree has such cells (compute_gvd sets it from its PairCertifier); without it
   /// they are surfaced as ordinary cells.
   std::function<bool(const Box& box, Vec3& along)> skew_direction;
+  /// Junction cells (CellVerdict::kJunctionX...): the GVD on the face `face` (flat along
+  /// `axis`) from that face alone; false when none crosses it. Needed when the octree has
+  /// such cells; without it they are surfaced as ordinary cells.
+  std::function<bool(const Box& face, int axis, FaceGvd& out)> junction_face;
 };
 
 /// Paper §6: bisector points (eq. 1, clamped to the edge) on every octree edge whose ends
@@ -88,5 +103,18 @@ LeafPieces surface_leaves_releasing_lists(const octree::Octree& octree,
                                           const SurfaceOptions& options = {});
 Gvd weld_gvd(LeafPieces&& pieces, const scene::UnitGeometry& geometry, const SimplexBvh& bvh,
              const scene::Domain& domain, const SurfaceOptions& options = {});
+
+/// The junction cells (CellVerdict::kJunctionX...) whose GVD the surfacer could not sweep as
+/// they stand: an end face's pieces that do not pair with the other end's, a side face whose
+/// pieces are no rungs, a plane GVD whose ends on the border are not the face's spokes (its
+/// edges' labels hide a crossing). The refinement splits them (refine.h); surfacing such a
+/// cell as an ordinary one would put pieces through its objects. Needs
+/// options.junction_face; `rows` (optional) as in surface_leaves_releasing_lists.
+std::vector<uint32_t> unswept_junction_leaves(const octree::Octree& octree,
+                                              const distance::DistanceField& field,
+                                              const distance::LeafVertices* rows,
+                                              const scene::UnitGeometry& geometry,
+                                              const SimplexBvh& bvh,
+                                              const SurfaceOptions& options);
 
 }  // namespace gvd::surface
