@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <tuple>
 #include <unordered_map>
 
@@ -1460,46 +1461,141 @@ class CellSurfacer {
     for (int i = 0; i < poly.n; ++i) face.extend(field_.vertices.position(poly.v[i]));
     FaceGvd fg;
     if (!junction_face_(face, poly.axis, fg) || fg.segments.empty()) return g.n == 0;
-    std::vector<int> degree(fg.points.size(), 0);
-    for (const auto& [a, b] : fg.segments) {
-      ++degree[a];
-      ++degree[b];
-    }
-    // Each end on the border: the spoke on its ring edge with the same pair.
-    const double side = std::max(face.hi[(poly.axis + 1) % 3] - face.lo[(poly.axis + 1) % 3],
-                                 face.hi[(poly.axis + 2) % 3] - face.lo[(poly.axis + 2) % 3]);
-    bool taken[PolygonGvd::kMaxSpokes] = {};
-    int matched = 0;
-    std::vector<Vec3> points = fg.points;
-    for (size_t v = 0; v < fg.points.size(); ++v) {
-      if (degree[v] != 1) continue;
-      ObjectId pair[2] = {kNoObject, kNoObject};
-      for (size_t k = 0; k < fg.segments.size(); ++k)
-        if (fg.segments[k].first == v || fg.segments[k].second == v) {
-          pair[0] = std::min(fg.pairs[k].first, fg.pairs[k].second);
-          pair[1] = std::max(fg.pairs[k].first, fg.pairs[k].second);
-        }
+    // The plane GVD against the octree's labels. Where a gap's mid-plane lies on a lattice
+    // plane (a grid of parts at round coordinates), pieces run along the face's border and
+    // a junction sits on it; the labels of the vertices there (ties, decided one way) show
+    // those pieces on one side of the border only. So: a piece along the border stays where
+    // a spoke of its pair lies on a ring edge at one of its ends (this side shows it), else it
+    // goes; then every point left on the border (an end, or a junction on it) moves onto the
+    // spoke on its ring edge whose pair it separates, each spoke taken once, all taken.
+    const int u = (poly.axis + 1) % 3, w = (poly.axis + 2) % 3;
+    const double side = std::max(face.hi[u] - face.lo[u], face.hi[w] - face.lo[w]);
+    // The 2D pipeline, too, keeps a bisector along a lattice line a hair (1e-6 of an edge)
+    // to the side its labels choose: within this of the border a point counts as on it.
+    const double hair = 1e-5 * side;
+    auto on_line = [&](Vec3 p, int a, double at) { return std::abs(p[a] - at) <= hair; };
+    auto on_border = [&](Vec3 p) {
+      return on_line(p, u, face.lo[u]) || on_line(p, u, face.hi[u]) || on_line(p, w, face.lo[w]) ||
+             on_line(p, w, face.hi[w]);
+    };
+    auto along_border = [&](Vec3 p, Vec3 q) {
+      for (const int a : {u, w})
+        for (const double at : {face.lo[a], face.hi[a]})
+          if (on_line(p, a, at) && on_line(q, a, at)) return true;
+      return false;
+    };
+    // The spokes within `hair`-ish reach of a point on the border (on a ring edge through it).
+    auto spoke_near = [&](Vec3 p, ObjectId x, ObjectId y, const bool* taken) {
       int best = -1;
-      double best_d = 1e-6 * side;
+      double best_d = 2 * hair;
       for (int i = 0; i < g.n; ++i) {
         const Spoke& sp = g.spokes[i];
-        if (taken[i] || std::min(sp.label_a, sp.label_b) != pair[0] ||
-            std::max(sp.label_a, sp.label_b) != pair[1])
+        if ((taken != nullptr && taken[i]) ||
+            std::minmax(sp.label_a, sp.label_b) != std::minmax(x, y))
           continue;
         const Vec3 a = field_.vertices.position(poly.v[sp.ring_edge]);
         const Vec3 b = field_.vertices.position(poly.v[(sp.ring_edge + 1) % poly.n]);
-        const double d = norm(closest_point_on_segment(fg.points[v], a, b) - fg.points[v]);
+        const double d = norm(closest_point_on_segment(p, a, b) - p);
         if (d <= best_d) {
           best_d = d;
           best = i;
         }
       }
+      return best;
+    };
+    // Points within the hair of each other are one (a junction next to a tiny piece the 2D
+    // pipeline kept beside a lattice line); pieces between them go.
+    {
+      std::vector<uint32_t> rep(fg.points.size());
+      std::iota(rep.begin(), rep.end(), 0u);
+      for (size_t i = 0; i < fg.points.size(); ++i)
+        for (size_t j = 0; j < i && rep[i] == i; ++j)
+          if (rep[j] == j && norm(fg.points[i] - fg.points[j]) <= hair) rep[i] = static_cast<uint32_t>(j);
+      std::vector<std::pair<uint32_t, uint32_t>> segments;
+      std::vector<std::pair<ObjectId, ObjectId>> pairs;
+      for (size_t k = 0; k < fg.segments.size(); ++k) {
+        const uint32_t a = rep[fg.segments[k].first], b = rep[fg.segments[k].second];
+        if (a == b) continue;
+        segments.emplace_back(a, b);
+        pairs.push_back(fg.pairs[k]);
+      }
+      fg.segments = std::move(segments);
+      fg.pairs = std::move(pairs);
+    }
+    // Pieces along the border, chained (through points where two pieces of one pair meet):
+    // a chain stays when one of its ends has a spoke of its pair.
+    const size_t ns = fg.segments.size();
+    std::vector<uint8_t> keep(ns, 1), along(ns, 0);
+    std::vector<int> uses(fg.points.size(), 0);
+    for (size_t k = 0; k < ns; ++k) {
+      along[k] = along_border(fg.points[fg.segments[k].first], fg.points[fg.segments[k].second]);
+      ++uses[fg.segments[k].first];
+      ++uses[fg.segments[k].second];
+    }
+    std::vector<size_t> chain(ns);
+    std::iota(chain.begin(), chain.end(), size_t{0});
+    auto root = [&](size_t x) {
+      while (chain[x] != x) x = chain[x] = chain[chain[x]];
+      return x;
+    };
+    for (size_t k = 0; k < ns; ++k)
+      for (size_t l = k + 1; l < ns; ++l) {
+        if (!along[k] || !along[l] || fg.pairs[k] != fg.pairs[l]) continue;
+        for (const uint32_t v : {fg.segments[k].first, fg.segments[k].second})
+          if (uses[v] == 2 && (fg.segments[l].first == v || fg.segments[l].second == v))
+            chain[root(k)] = root(l);
+      }
+    std::vector<uint8_t> shown(ns, 0);
+    for (size_t k = 0; k < ns; ++k) {
+      if (!along[k]) continue;
+      for (const uint32_t v : {fg.segments[k].first, fg.segments[k].second})
+        if (spoke_near(fg.points[v], fg.pairs[k].first, fg.pairs[k].second, nullptr) >= 0)
+          shown[root(k)] = 1;
+    }
+    for (size_t k = 0; k < ns; ++k)
+      if (along[k]) keep[k] = shown[root(k)];
+    std::vector<std::vector<size_t>> at(fg.points.size());
+    for (size_t k = 0; k < fg.segments.size(); ++k) {
+      if (!keep[k]) continue;
+      at[fg.segments[k].first].push_back(k);
+      at[fg.segments[k].second].push_back(k);
+    }
+    bool taken[PolygonGvd::kMaxSpokes] = {};
+    int matched = 0;
+    std::vector<Vec3> points = fg.points;
+    for (size_t v = 0; v < fg.points.size(); ++v) {
+      if (at[v].empty() || !on_border(fg.points[v])) continue;
+      // Inside a chain along the border: no end.
+      if (at[v].size() == 2 && along[at[v][0]] && along[at[v][1]] &&
+          fg.pairs[at[v][0]] == fg.pairs[at[v][1]])
+        continue;
+      // The spoke of a pair of the objects that meet here.
+      std::vector<ObjectId> objects;
+      for (size_t k : at[v]) {
+        objects.push_back(fg.pairs[k].first);
+        objects.push_back(fg.pairs[k].second);
+      }
+      std::sort(objects.begin(), objects.end());
+      objects.erase(std::unique(objects.begin(), objects.end()), objects.end());
+      int best = -1;
+      for (size_t x = 0; x < objects.size() && best < 0; ++x)
+        for (size_t y = x + 1; y < objects.size() && best < 0; ++y)
+          best = spoke_near(fg.points[v], objects[x], objects[y], taken);
       if (best < 0) return false;
       taken[best] = true;
       points[v] = g.spokes[best].p;
       ++matched;
     }
     if (matched != g.n) return false;
+    std::vector<std::pair<uint32_t, uint32_t>> segments;
+    std::vector<std::pair<ObjectId, ObjectId>> pairs;
+    for (size_t k = 0; k < fg.segments.size(); ++k) {
+      if (!keep[k]) continue;
+      segments.push_back(fg.segments[k]);
+      pairs.push_back(fg.pairs[k]);
+    }
+    fg.segments = std::move(segments);
+    fg.pairs = std::move(pairs);
     g.junction = true;
     g.jpoints = std::move(points);
     g.jsegments.clear();
@@ -1581,6 +1677,16 @@ class CellSurfacer {
       Vec3 first, last;
       std::vector<Vec3> points;
     };
+    // The spoke id at a position of an end where a side face's piece starts (a spoke on the
+    // cell's border; those on lines inside a split end face join pieces of one path), or 0.
+    auto spoke_at = [&](int e, Vec3 p) -> uint64_t {
+      for (const auto& [q, id] : ends[e].spokes) {
+        if (!(q == p)) continue;
+        for (const Run& r : sides)
+          if (r.from == id || r.to == id) return id;
+      }
+      return 0;
+    };
     auto key = [](Vec3 p) { return std::tuple<double, double, double>(p.x, p.y, p.z); };
     std::vector<Path> paths[2];
     for (int e = 0; e < 2; ++e) {
@@ -1605,7 +1711,8 @@ class CellSurfacer {
         return end.seg.size();
       };
       for (size_t k = 0; k < end.seg.size(); ++k) {
-        if (used[k] || degree[key(end.seg[k][0])] == 2) continue;
+        if (used[k] || (degree[key(end.seg[k][0])] == 2 && spoke_at(e, end.seg[k][0]) == 0))
+          continue;
         Path path{end.lr[k][0], end.lr[k][1], end.seg[k][0], end.seg[k][1], {end.seg[k][0]}};
         size_t at = k;
         for (;;) {
@@ -1613,7 +1720,7 @@ class CellSurfacer {
           const Vec3 q = end.seg[at][1];
           path.points.push_back(q);
           path.last = q;
-          if (degree[key(q)] != 2) break;
+          if (degree[key(q)] != 2 || spoke_at(e, q) != 0) break;
           at = next_from(q, path.left, path.right);
           if (at == end.seg.size()) return false;
         }
@@ -1622,16 +1729,17 @@ class CellSurfacer {
       if (std::find(used.begin(), used.end(), 0) != used.end()) return false;  // a loop
     }
     if (paths[0].size() != paths[1].size()) return false;
-    // The spoke id at a position of an end, or 0.
-    auto spoke_at = [&](int e, Vec3 p) -> uint64_t {
-      for (const auto& [q, id] : ends[e].spokes)
-        if (q == p) return id;
-      return 0;
-    };
     // From a spoke id, along the side faces' pieces, to the spoke id on the other end (the
-    // points passed on the way in `mid`).
+    // points passed on the way in `mid`); each start walked once (several paths may end at
+    // one spoke where a junction lies on the border).
     std::vector<uint8_t> side_used(sides.size(), 0);
+    std::map<uint64_t, std::pair<uint64_t, std::vector<Vec3>>> rungs;
     auto rung = [&](uint64_t from, std::vector<Vec3>& mid) {
+      const auto found = rungs.find(from);
+      if (found != rungs.end()) {
+        mid = found->second.second;
+        return found->second.first;
+      }
       uint64_t at = from;
       for (size_t steps = 0; steps <= sides.size(); ++steps) {
         bool moved = false;
@@ -1647,6 +1755,7 @@ class CellSurfacer {
         }
         if (!moved) break;
       }
+      rungs.emplace(from, std::make_pair(at, mid));
       return at;
     };
     const Box box = octree_.box(leaf);
