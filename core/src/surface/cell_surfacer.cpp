@@ -1630,6 +1630,7 @@ class CellSurfacer {
       std::vector<std::array<Vec3, 2>> seg;
       std::vector<std::array<ObjectId, 2>> lr;
       std::vector<std::pair<Vec3, uint64_t>> spokes;
+      std::vector<std::array<ObjectId, 2>> spoke_pairs;
     };
     End ends[2];
     for (int f = 0; f < np; ++f) {
@@ -1664,7 +1665,11 @@ class CellSurfacer {
             e.lr.push_back({g.spokes[i].label_a, g.spokes[i].label_b});
           }
         }
-        for (int i = 0; i < g.n; ++i) e.spokes.emplace_back(g.spokes[i].p, g.spokes[i].id);
+        for (int i = 0; i < g.n; ++i) {
+          e.spokes.emplace_back(g.spokes[i].p, g.spokes[i].id);
+          e.spoke_pairs.push_back({std::min(g.spokes[i].label_a, g.spokes[i].label_b),
+                                   std::max(g.spokes[i].label_a, g.spokes[i].label_b)});
+        }
         continue;
       }
       if (g.n == 0) continue;
@@ -1728,6 +1733,22 @@ class CellSurfacer {
       }
       if (std::find(used.begin(), used.end(), 0) != used.end()) return false;  // a loop
     }
+    // A junction on a border spoke (a gap's mid-plane on a lattice plane) whose spoke's pair
+    // has no piece on this end: that pair's piece has no length here (the other end, or the
+    // side face, may show it), a path from the junction to itself.
+    for (int e = 0; e < 2; ++e) {
+      std::map<std::tuple<double, double, double>, std::vector<std::array<ObjectId, 2>>> at;
+      for (size_t k = 0; k < ends[e].seg.size(); ++k)
+        for (const Vec3 x : ends[e].seg[k]) at[key(x)].push_back(ends[e].lr[k]);
+      for (size_t i = 0; i < ends[e].spokes.size(); ++i) {
+        const Vec3 p = ends[e].spokes[i].first;
+        const auto it = at.find(key(p));
+        if (it == at.end() || it->second.size() < 2 || spoke_at(e, p) == 0) continue;
+        const std::array<ObjectId, 2> pair = ends[e].spoke_pairs[i];
+        if (std::find(it->second.begin(), it->second.end(), pair) != it->second.end()) continue;
+        paths[e].push_back({pair[0], pair[1], p, p, {p, p}});
+      }
+    }
     if (paths[0].size() != paths[1].size()) return false;
     // From a spoke id, along the side faces' pieces, to the spoke id on the other end (the
     // points passed on the way in `mid`); each start walked once (several paths may end at
@@ -1768,6 +1789,11 @@ class CellSurfacer {
           o.push_back(ends[e].lr[k][0]);
           o.push_back(ends[e].lr[k][1]);
         }
+      for (size_t i = 0; i < ends[e].spokes.size(); ++i)
+        if (ends[e].spokes[i].first == p) {
+          o.push_back(ends[e].spoke_pairs[i][0]);
+          o.push_back(ends[e].spoke_pairs[i][1]);
+        }
       std::sort(o.begin(), o.end());
       o.erase(std::unique(o.begin(), o.end()), o.end());
       return o;
@@ -1790,27 +1816,47 @@ class CellSurfacer {
       }
       return true;
     };
+    // A path's end is a plain spoke (one piece ends there, on the border: joined to the other
+    // end by a side face's rung) or a junction (several meet, maybe on a spoke).
+    auto pieces_at = [&](int e, Vec3 p) {
+      int n = 0;
+      for (const auto& sg : ends[e].seg) n += (sg[0] == p) + (sg[1] == p);
+      return n;
+    };
+    auto plain_spoke = [&](int e, Vec3 p) { return spoke_at(e, p) != 0 && pieces_at(e, p) == 1; };
     std::vector<Tri> tris;
     std::vector<uint8_t> matched(paths[1].size(), 0);
     for (const Path& lower : paths[0]) {
-      const uint64_t s_first = spoke_at(0, lower.first), s_last = spoke_at(0, lower.last);
       std::vector<Vec3> rung_first, rung_last;
-      const uint64_t t_first = s_first != 0 ? rung(s_first, rung_first) : 0;
-      const uint64_t t_last = s_last != 0 ? rung(s_last, rung_last) : 0;
+      const bool plain_first = plain_spoke(0, lower.first), plain_last = plain_spoke(0, lower.last);
+      const uint64_t t_first = plain_first ? rung(spoke_at(0, lower.first), rung_first) : 0;
+      const uint64_t t_last = plain_last ? rung(spoke_at(0, lower.last), rung_last) : 0;
+      auto ends_match = [&](bool plain, uint64_t target, Vec3 p, Vec3 q) {
+        if (plain) return spoke_at(1, q) == target;  // the rung leads there
+        if (plain_spoke(1, q)) {
+          std::vector<Vec3> unused;
+          return spoke_at(0, p) != 0 && rung(spoke_at(0, p), unused) == spoke_at(1, q);
+        }
+        return same_junction(p, q);
+      };
       size_t k = paths[1].size();
       for (size_t i = 0; i < paths[1].size() && k == paths[1].size(); ++i) {
         const Path& upper = paths[1][i];
         if (matched[i] || upper.left != lower.left || upper.right != lower.right) continue;
-        const uint64_t u_first = spoke_at(1, upper.first), u_last = spoke_at(1, upper.last);
-        const bool first_ok = s_first != 0 ? u_first == t_first
-                                           : u_first == 0 && same_junction(lower.first, upper.first);
-        const bool last_ok = s_last != 0 ? u_last == t_last
-                                         : u_last == 0 && same_junction(lower.last, upper.last);
-        if (first_ok && last_ok) k = i;
+        if (ends_match(plain_first, t_first, lower.first, upper.first) &&
+            ends_match(plain_last, t_last, lower.last, upper.last))
+          k = i;
       }
       if (k == paths[1].size()) return false;
       matched[k] = 1;
-      if (!ladder(lower.points, paths[1][k].points, dir, rung_first, rung_last, tris)) return false;
+      const Path& upper = paths[1][k];
+      // A junction on spokes at both ends: its rung may pass a split side face's midpoints.
+      if (!plain_first && spoke_at(0, lower.first) != 0 && spoke_at(1, upper.first) != 0)
+        rung(spoke_at(0, lower.first), rung_first);
+      if (!plain_last && spoke_at(0, lower.last) != 0 && spoke_at(1, upper.last) != 0)
+        rung(spoke_at(0, lower.last), rung_last);
+      std::vector<Vec3> p = lower.points, q = upper.points;
+      if (!ladder_between(p, q, dir, rung_first, rung_last, tris)) return false;
       for (Tri& t : tris) {
         emit(out, t.v[0], t.v[1], t.v[2], lower.left, lower.right);
         emit(out, t.v[1], t.v[0], t.v[2], lower.right, lower.left);
@@ -1981,6 +2027,24 @@ class CellSurfacer {
   struct Tri {
     Vec3 v[3];
   };
+
+  // ladder, also where one of the two paths has no length (a junction on a spoke at one end,
+  // its pair's piece only at the other): a fan from that point over the other path, the
+  // rungs' midpoints fanned from it too.
+  static bool ladder_between(const std::vector<Vec3>& p, const std::vector<Vec3>& q, Vec3 dir,
+                             const std::vector<Vec3>& rung_first,
+                             const std::vector<Vec3>& rung_last, std::vector<Tri>& tris) {
+    const bool p_point = p.front() == p.back(), q_point = q.front() == q.back();
+    if (p_point && q_point) return true;  // no piece at either end
+    if (!p_point && !q_point) return ladder(p, q, dir, rung_first, rung_last, tris);
+    if (!rung_first.empty() || !rung_last.empty()) return false;
+    if (q_point) {
+      for (size_t i = 0; i + 1 < p.size(); ++i) tris.push_back({{p[i + 1], p[i], q[0]}});
+    } else {
+      for (size_t j = 0; j + 1 < q.size(); ++j) tris.push_back({{q[j], q[j + 1], p[0]}});
+    }
+    return true;
+  }
 
   // The ruled ladder between a path P on the entry faces and the path Q on the exit faces
   // (the same piece of C), merged by position along P's chord in the cross-section; the
