@@ -1511,6 +1511,16 @@ class CellSurfacer {
       for (size_t i = 0; i < fg.points.size(); ++i)
         for (size_t j = 0; j < i && rep[i] == i; ++j)
           if (rep[j] == j && norm(fg.points[i] - fg.points[j]) <= hair) rep[i] = static_cast<uint32_t>(j);
+      // At the mean of its points: two three-way junctions the 2D pipeline found a hair apart
+      // around a four-way one have it between them.
+      std::vector<Vec3> sum(fg.points.size());
+      std::vector<int> count(fg.points.size(), 0);
+      for (size_t i = 0; i < fg.points.size(); ++i) {
+        sum[rep[i]] = sum[rep[i]] + fg.points[i];
+        ++count[rep[i]];
+      }
+      for (size_t i = 0; i < fg.points.size(); ++i)
+        if (count[i] > 1) fg.points[i] = sum[i] / count[i];
       std::vector<std::pair<uint32_t, uint32_t>> segments;
       std::vector<std::pair<ObjectId, ObjectId>> pairs;
       for (size_t k = 0; k < fg.segments.size(); ++k) {
