@@ -65,6 +65,28 @@ SceneObject make_box_with_split_bottom(const std::string& label, Vec3 lo, Vec3 h
   return o;
 }
 
+scene::Scene make_packed_columns(int n, double pitch, double gap) {
+  scene::Scene s;
+  s.dimension = 3;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      s.objects.push_back(make_box("c" + std::to_string(i) + std::to_string(j),
+                                   Vec3{pitch * i, pitch * j, 0},
+                                   Vec3{pitch * (i + 1) - gap, pitch * (j + 1) - gap, 1}));
+  return s;
+}
+
+scene::Scene make_slot_of_separate_parts(double gap) {
+  scene::Scene s;
+  s.dimension = 3;
+  s.objects.push_back(make_box("floor", Vec3{0, 0, 0}, Vec3{1, 0.2, 1}));
+  s.objects.push_back(make_box("left", Vec3{0, 0.2 + gap, 0}, Vec3{0.45, 0.5, 1}));
+  s.objects.push_back(make_box("right", Vec3{0.55, 0.2 + gap, 0}, Vec3{1, 0.5, 1}));
+  s.objects.push_back(
+      make_box("blade", Vec3{0.45 + gap, 0.2 + gap, -0.1}, Vec3{0.55 - gap, 0.6, 1.1}));
+  return s;
+}
+
 scene::Scene make_slot_of_parts(const SlotOfPartsOptions& options) {
   const double g = options.gap;
   SceneObject slot;

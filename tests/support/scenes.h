@@ -33,6 +33,13 @@ struct SlotOfPartsOptions {
 /// Objects "slot", "blade".
 scene::Scene make_slot_of_parts(const SlotOfPartsOptions& options);
 
+/// n x n boxes ("c<i><j>"), columns along z over [0, 1], `pitch` apart with `gap` between
+/// neighbours: lines along z where four meet.
+scene::Scene make_packed_columns(int n, double pitch, double gap);
+/// A blade in a slot of three separate parts, all `gap` apart: "floor" [0,1] x [0,0.2] x [0,1],
+/// walls "left" [0,0.45] and "right" [0.55,1] from 0.2 + gap up to 0.5, and "blade" between
+/// them from 0.2 + gap up to 0.6, running past both ends along z: lines where three meet.
+scene::Scene make_slot_of_separate_parts(double gap);
 /// p rotated by `angle` (radians) about the unit axis `axis` through the origin (Rodrigues).
 Vec3 rotate(Vec3 p, Vec3 axis, double angle);
 /// A closed UV sphere with `rings` x `segments` quads split into triangles.

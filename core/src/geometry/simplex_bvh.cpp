@@ -1,6 +1,7 @@
 #include "gvd/geometry/simplex_bvh.h"
 
 #include <algorithm>
+#include <limits>
 #include <exception>
 #include <numeric>
 #include <string>
@@ -650,6 +651,22 @@ SimplexBvh::ObjectPair SimplexBvh::object_distance(uint32_t a, uint32_t b, doubl
       if (best.found ? c.dist2 < best.dist2 : c.dist2 <= best.dist2) stack.push_back(c);
   }
   return best;
+}
+
+int objects_in_reach(const SimplexBvh& bvh, std::span<const uint32_t> object_of, Vec3 c, double r,
+                     int max, uint32_t* objects, double* dist) {
+  auto widen = [](double d) { return d * (1 + 1e-9) + 1e-15; };
+  int n = 0;
+  double reach2 = std::numeric_limits<double>::infinity();
+  for (;;) {
+    const ClosestHit hit = n == 0 ? bvh.nearest(c) : bvh.nearest_excluding(c, objects, n, reach2);
+    if (!hit.found()) return n;
+    if (n == max) return -1;
+    objects[n] = object_of[hit.simplex];
+    dist[n] = std::sqrt(hit.dist2);
+    if (n == 0) reach2 = widen(dist[0] + 2 * r) * widen(dist[0] + 2 * r);
+    ++n;
+  }
 }
 
 }  // namespace gvd

@@ -58,21 +58,15 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
   auto widen = [](double d) { return d * (1 + 1e-9) + 1e-15; };
   const Vec3 c = face.center();
   const double r = 0.5 * norm(face.hi - face.lo);
-  // The objects that can be nearest to a point of the face (PairCertifier::certify, step 1).
-  uint32_t objects[kMaxObjects + 1];
+  // The objects that can be nearest to a point of the face (PairCertifier::certify, step 1);
+  // more than a junction cell may hold: none of its faces (the surfacer refuses it).
+  uint32_t found[kMaxObjects + 1];
   double dist[kMaxObjects + 1];
-  int n = 0;
-  double reach2 = 1e300;
-  for (;;) {
-    const ClosestHit hit = n == 0 ? bvh.nearest(c) : bvh.nearest_excluding(c, objects, n, reach2);
-    if (!hit.found() || n == kMaxObjects) break;
-    objects[n] = g.object_of[hit.simplex];
-    dist[n] = std::sqrt(hit.dist2);
-    if (n == 0) reach2 = widen(dist[0] + 2 * r) * widen(dist[0] + 2 * r);
-    ++n;
-  }
+  const int n = objects_in_reach(bvh, g.object_of, c, r, kMaxObjects, found, dist);
   if (n < 2) return false;
-  std::sort(objects, objects + n);  // a canonical order (the plane scene's object ids)
+  // In a canonical order (the plane scene's object ids).
+  std::vector<uint32_t> objects(found, found + n);
+  std::sort(objects.begin(), objects.end());
   // Their simplices in reach, square to the axis, projected along it: exact (a coordinate
   // dropped), and the two far ends of a triangle's three projected corners make its segment.
   // Every point of an object that can be nearest to a point of the face lies within its

@@ -1265,17 +1265,7 @@ PairCertifier::Junction PairCertifier::certify_junction(const Box& box) const {
   // The active objects (certify, step 1): every object within D + 2r of the centre.
   ObjectId objects[kMaxJunction + 1];
   double dist[kMaxJunction + 1];
-  int n = 0;
-  double reach2 = std::numeric_limits<double>::infinity();
-  for (;;) {
-    const ClosestHit hit = n == 0 ? bvh_.nearest(c) : bvh_.nearest_excluding(c, objects, n, reach2);
-    if (!hit.found()) break;
-    if (n == kMaxJunction) return out;
-    objects[n] = g.object_of[hit.simplex];
-    dist[n] = std::sqrt(hit.dist2);
-    if (n == 0) reach2 = widen(dist[0] + 2 * r) * widen(dist[0] + 2 * r);
-    ++n;
-  }
+  const int n = objects_in_reach(bvh_, g.object_of, c, r, kMaxJunction, objects, dist);
   if (n < 3) return out;
   if (contacts_ != nullptr)
     for (int i = 0; i < n; ++i)

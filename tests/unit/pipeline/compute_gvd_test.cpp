@@ -453,26 +453,7 @@ TEST(ComputeGvd, SlotOfBoxesCostsWhatOneMeshDoes3D) {
 // line: the cost at 1e-5 stays within twice the cost at 1e-3, the result is valid, no piece
 // crosses an object, and every pair of faces across a gap is a neighbour pair with that gap.
 TEST(ComputeGvd, JunctionLinesCostWhatTheirSectionsCost3D) {
-  auto columns = [](double g) {
-    Scene s;
-    s.dimension = 3;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        s.objects.push_back(test::make_box("c" + std::to_string(i) + std::to_string(j),
-                                           Vec3{0.3 * i, 0.3 * j, 0},
-                                           Vec3{0.3 * i + 0.3 - g, 0.3 * j + 0.3 - g, 1}));
-    return s;
-  };
-  auto slot = [](double g) {
-    Scene s;
-    s.dimension = 3;
-    s.objects.push_back(test::make_box("floor", Vec3{0, 0, 0}, Vec3{1, 0.2, 1}));
-    s.objects.push_back(test::make_box("left", Vec3{0, 0.2 + g, 0}, Vec3{0.45, 0.5, 1}));
-    s.objects.push_back(test::make_box("right", Vec3{0.55, 0.2 + g, 0}, Vec3{1, 0.5, 1}));
-    s.objects.push_back(
-        test::make_box("blade", Vec3{0.45 + g, 0.2 + g, -0.1}, Vec3{0.55 - g, 0.6, 1.1}));
-    return s;
-  };
+  auto columns = [](double g) { return test::make_packed_columns(3, 0.3, g); };
   struct Case {
     const char* name;
     std::function<Scene(double)> make;
@@ -480,7 +461,7 @@ TEST(ComputeGvd, JunctionLinesCostWhatTheirSectionsCost3D) {
   };
   const std::vector<Case> cases = {
       {"columns", columns, {{"c00", "c01"}, {"c00", "c10"}, {"c11", "c12"}, {"c11", "c21"}}},
-      {"slot of parts", slot, {{"floor", "blade"}, {"left", "blade"}, {"right", "blade"},
+      {"slot of parts", test::make_slot_of_separate_parts, {{"floor", "blade"}, {"left", "blade"}, {"right", "blade"},
                                {"floor", "left"}, {"floor", "right"}}}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

@@ -11,10 +11,10 @@
 #include <string>
 
 #include "gvd/octree/contacts.h"
-#include "gvd/octree/lattice.h"
 #include "gvd/refine/pair_certificate.h"
 #include "support/oracles.h"
 #include "support/scenes.h"
+#include "support/unit_world.h"
 
 namespace gvd {
 
@@ -23,54 +23,8 @@ using namespace gvd::octree;
 using namespace gvd::refine;
 using namespace gvd::pipeline;
 
-namespace {
-
-struct World {
-  Scene scene;
-  Domain domain;
-  UnitGeometry geometry;
-  SimplexBvh bvh;
-  explicit World(Scene s) : scene(std::move(s)) {
-    DomainOptions options;
-    options.frame = DomainFrame::kWorld;
-    domain = make_domain(scene, options);
-    geometry = make_unit_geometry(scene, domain);
-    bvh = SimplexBvh(scene.dimension, geometry.points, geometry.simplices, geometry.object_of);
-  }
-};
-
-Box lattice_cell_at(Vec3 unit, int level) {
-  const double cell = std::ldexp(1.0, -level);
-  const uint64_t size = lattice::cell_size(3, level);
-  lattice::Coord c;
-  for (int a = 0; a < 3; ++a)
-    c.c[a] = static_cast<uint32_t>(std::floor(unit[a] / cell) * static_cast<double>(size));
-  return lattice::cell_box(3, c, level);
-}
-
-Scene packed_columns(double g) {
-  Scene s;
-  s.dimension = 3;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      s.objects.push_back(test::make_box("c" + std::to_string(i) + std::to_string(j),
-                                         Vec3{0.3 * i, 0.3 * j, 0},
-                                         Vec3{0.3 * i + 0.3 - g, 0.3 * j + 0.3 - g, 1}));
-  return s;
-}
-
-Scene slot_of_parts(double g) {
-  Scene s;
-  s.dimension = 3;
-  s.objects.push_back(test::make_box("floor", Vec3{0, 0, 0}, Vec3{1, 0.2, 1}));
-  s.objects.push_back(test::make_box("left", Vec3{0, 0.2 + g, 0}, Vec3{0.45, 0.5, 1}));
-  s.objects.push_back(test::make_box("right", Vec3{0.55, 0.2 + g, 0}, Vec3{1, 0.5, 1}));
-  s.objects.push_back(
-      test::make_box("blade", Vec3{0.45 + g, 0.2 + g, -0.1}, Vec3{0.55 - g, 0.6, 1.1}));
-  return s;
-}
-
-}  // namespace
+using World = test::UnitWorld;
+using test::lattice_cell_at;
 
 // On both end faces of junction cells of packed columns and of a blade in a slot of separate
 // parts (gap 1e-3): every point of the face's GVD is equidistant from the objects of its
@@ -85,8 +39,8 @@ TEST(JunctionFace, PlaneGvdOfJunctionCellsHoldsUnderBruteForce3D) {
     std::vector<Vec3> lines;
   };
   std::vector<Case> cases;
-  cases.push_back({"columns", packed_columns(g), {{0.3, 0.3, 0}, {0.6, 0.3, 0}, {0.3, 0.6, 0}}});
-  cases.push_back({"slot of parts", slot_of_parts(g), {{0.45, 0.2, 0}, {0.55, 0.2, 0}}});
+  cases.push_back({"columns", test::make_packed_columns(3, 0.3, g), {{0.3, 0.3, 0}, {0.6, 0.3, 0}, {0.3, 0.6, 0}}});
+  cases.push_back({"slot of parts", test::make_slot_of_separate_parts(g), {{0.45, 0.2, 0}, {0.55, 0.2, 0}}});
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-1, 1), t(0, 1);
   for (const Case& c : cases) {

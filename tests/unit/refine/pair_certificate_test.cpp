@@ -14,6 +14,7 @@
 #include "support/oracles.h"
 #include "support/scenes.h"
 #include "support/thin_gap_scenes.h"
+#include "support/unit_world.h"
 
 namespace gvd {
 
@@ -23,21 +24,7 @@ using namespace gvd::refine;
 
 namespace {
 
-struct World {
-  Scene scene;
-  Domain domain;
-  UnitGeometry geometry;
-  SimplexBvh bvh;
-  // The user's axes, so that tilted copies stay tilted against the octree (user_cube maps
-  // axis-aligned boxes).
-  explicit World(Scene s) : scene(std::move(s)) {
-    DomainOptions options;
-    options.frame = DomainFrame::kWorld;
-    domain = make_domain(scene, options);
-    geometry = make_unit_geometry(scene, domain);
-    bvh = SimplexBvh(scene.dimension, geometry.points, geometry.simplices, geometry.object_of);
-  }
-};
+using World = test::UnitWorld;
 
 // A square sheet [0,1]^2 at height z, split into n x n cells of two triangles each (welded).
 SceneObject make_sheet(const std::string& label, double z, int n) {
@@ -236,14 +223,7 @@ void audit_extruded(const World& s, const PairCertifier::Certificate& c, const B
 }
 
 // The box of the level-`level` lattice cell holding unit point `unit`.
-Box lattice_cell_at(Vec3 unit, int level) {
-  const double cell = std::ldexp(1.0, -level);
-  const uint64_t size = lattice::cell_size(3, level);
-  lattice::Coord c;
-  for (int a = 0; a < 3; ++a)
-    c.c[a] = static_cast<uint32_t>(std::floor(unit[a] / cell) * static_cast<double>(size));
-  return lattice::cell_box(3, c, level);
-}
+using test::lattice_cell_at;
 
 // A blade in a slot at 1e-3 (coarse triangles) with an extruding certifier and its rims'
 // coordinates (user units).
@@ -976,19 +956,8 @@ TEST(PairCertifier, OpenRimsFoldsAndNonManifoldSidesAreNotCertified) {
 // Cells that reach the columns' ends, or the same columns turned by 0.2 rad, are not.
 TEST(PairCertifier, JunctionCellsHoldUnderBruteForce3D) {
   const double g = 1e-3;
-  Scene columns;
-  columns.dimension = 3;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      columns.objects.push_back(test::make_box("c" + std::to_string(i) + std::to_string(j),
-                                               Vec3{0.3 * i, 0.3 * j, 0},
-                                               Vec3{0.3 * i + 0.3 - g, 0.3 * j + 0.3 - g, 1}));
-  Scene slot;
-  slot.dimension = 3;
-  slot.objects.push_back(test::make_box("floor", Vec3{0, 0, 0}, Vec3{1, 0.2, 1}));
-  slot.objects.push_back(test::make_box("left", Vec3{0, 0.2 + g, 0}, Vec3{0.45, 0.5, 1}));
-  slot.objects.push_back(test::make_box("right", Vec3{0.55, 0.2 + g, 0}, Vec3{1, 0.5, 1}));
-  slot.objects.push_back(test::make_box("blade", Vec3{0.45 + g, 0.2 + g, -0.1}, Vec3{0.55 - g, 0.6, 1.1}));
+  const Scene columns = test::make_packed_columns(3, 0.3, g);
+  const Scene slot = test::make_slot_of_separate_parts(g);
   struct Case {
     const char* name;
     Scene scene;

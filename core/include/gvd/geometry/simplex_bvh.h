@@ -300,4 +300,13 @@ void SimplexBvh::for_each_overlapping_in_object(uint32_t object, const Box& box,
   }
 }
 
+/// The objects that can be nearest to some point within `r` of `c`: the nearest one (at
+/// distance d) and every other one within d + 2r of c (a point x there has d_k(x) >= d_k(c) - r
+/// > d + r >= its nearest distance otherwise), nearest first, with their distances at c, a
+/// little generous so that rounding never drops one. Needs `object_of` at the BVH's
+/// construction. Returns how many (0 for an empty scene), or -1 when there are more than
+/// `max`; `objects` and `dist` hold max + 1 entries.
+int objects_in_reach(const SimplexBvh& bvh, std::span<const uint32_t> object_of, Vec3 c, double r,
+                     int max, uint32_t* objects, double* dist);
+
 }  // namespace gvd
