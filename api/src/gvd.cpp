@@ -288,6 +288,7 @@ Result compute(const Scene& scene, const ComputeOptions& options) {
   params.octree_build = parse_choice<OctreeBuild>(options.octree_build);
   params.distance = parse_choice<DistanceMethod>(options.distance);
   params.refine = parse_choice<RefineRule>(options.refine);
+  params.junctions = parse_choice<JunctionCells>(options.junctions);
   params.resolution = parse_choice<GvdResolution>(options.resolution);
   params.curved_tolerance = options.curved_tolerance;
   params.ambiguity_levels = options.ambiguity_levels;

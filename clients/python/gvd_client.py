@@ -249,7 +249,7 @@ _CONTENT_TYPES = {
     ".off": "application/octet-stream", ".npy": "application/x-npy",
 }
 _PARAMS = ("max_depth", "contact_depth", "ambiguity_levels", "ambiguity_rounds",
-           "unseen_rounds", "domain", "frame", "refine", "resolution", "curved_tolerance",
+           "unseen_rounds", "domain", "frame", "refine", "junctions", "resolution", "curved_tolerance",
            "mode", "metric", "float64", "unsigned", "range_cells", "spacing", "background",
            "units")
 

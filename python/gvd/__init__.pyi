@@ -162,6 +162,7 @@ def compute(
     octree_build: str = "levels",
     distance: str = "exact",
     refine: str = "certified",
+    junctions: str = "off",
     resolution: str = "compact",
     curved_tolerance: float = 0.0,
     contact_depth: int = 0,

@@ -427,6 +427,8 @@ The options (the flags of `gvd compute`; units are the scene's):
   octree_build      'levels' | 'data-parallel'
   distance          'exact' | 'wavefront'
   refine            'certified' | 'paper'
+  junctions         'off' | 'on': junction cells (3D), where three or more objects meet along
+                    a straight line (off by default for now: see docs/ALGORITHM.md)
   resolution        'compact' | 'full'
   curved_tolerance  in [0, 1)
   contact_depth     0 = default (2D 14, 3D 8)
@@ -716,7 +718,7 @@ stops it within a fraction of a second (KeyboardInterrupt).)doc")
       [](const py::object& scene, const py::object& progress, CancelToken* cancel, int max_depth,
          std::optional<std::vector<double>> domain, std::string frame, int threads,
          std::string backend, std::string octree_build, std::string distance, std::string refine,
-         std::string resolution, double curved_tolerance, int contact_depth, uint64_t max_leaves,
+         std::string junctions, std::string resolution, double curved_tolerance, int contact_depth, uint64_t max_leaves,
          uint64_t max_objects, uint64_t max_simplices, int ambiguity_levels, int ambiguity_rounds,
          int unseen_rounds) {
         api::ComputeOptions o;
@@ -728,6 +730,7 @@ stops it within a fraction of a second (KeyboardInterrupt).)doc")
         o.octree_build = std::move(octree_build);
         o.distance = std::move(distance);
         o.refine = std::move(refine);
+        o.junctions = std::move(junctions);
         o.resolution = std::move(resolution);
         o.curved_tolerance = curved_tolerance;
         o.contact_depth = contact_depth;
@@ -747,7 +750,7 @@ stops it within a fraction of a second (KeyboardInterrupt).)doc")
       "cancel"_a = static_cast<CancelToken*>(nullptr), "max_depth"_a = d.max_depth,
       "domain"_a = py::none(), "frame"_a = d.frame, "threads"_a = d.threads,
       "backend"_a = d.backend, "octree_build"_a = d.octree_build, "distance"_a = d.distance,
-      "refine"_a = d.refine, "resolution"_a = d.resolution,
+      "refine"_a = d.refine, "junctions"_a = d.junctions, "resolution"_a = d.resolution,
       "curved_tolerance"_a = d.curved_tolerance, "contact_depth"_a = d.contact_depth,
       "max_leaves"_a = d.max_leaves, "max_objects"_a = d.max_objects,
       "max_simplices"_a = d.max_simplices, "ambiguity_levels"_a = d.ambiguity_levels,
