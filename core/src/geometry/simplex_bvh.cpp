@@ -1,8 +1,8 @@
 #include "gvd/geometry/simplex_bvh.h"
 
 #include <algorithm>
-#include <limits>
 #include <exception>
+#include <limits>
 #include <numeric>
 #include <string>
 #include <thread>

@@ -2,13 +2,13 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
-#include <memory>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
-#include <tuple>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "gvd/common/cancel.h"
@@ -24,13 +24,13 @@
 #include "gvd/octree/build_octree_data_parallel.h"
 #include "gvd/octree/contacts.h"
 #include "gvd/octree/leaf_simplices.h"
+#include "gvd/pipeline/junction_face.h"
 #include "gvd/pipeline/pipeline.h"
 #include "gvd/refine/pair_certificate.h"
 #include "gvd/refine/refine.h"
 #include "gvd/scene/snap_faces.h"
 #include "gvd/surface/compact_gvd.h"
 #include "gvd/surface/extract_gvd.h"
-#include "gvd/pipeline/junction_face.h"
 
 namespace gvd::pipeline {
 

@@ -8,9 +8,9 @@
 
 #include <array>
 #include <atomic>
+#include <cstdint>
 #include <mutex>
 #include <set>
-#include <cstdint>
 #include <span>
 #include <utility>
 #include <vector>
