@@ -718,9 +718,9 @@ stops it within a fraction of a second (KeyboardInterrupt).)doc")
       [](const py::object& scene, const py::object& progress, CancelToken* cancel, int max_depth,
          std::optional<std::vector<double>> domain, std::string frame, int threads,
          std::string backend, std::string octree_build, std::string distance, std::string refine,
-         std::string junctions, std::string resolution, double curved_tolerance, int contact_depth, uint64_t max_leaves,
-         uint64_t max_objects, uint64_t max_simplices, int ambiguity_levels, int ambiguity_rounds,
-         int unseen_rounds) {
+         std::string junctions, std::string resolution, double curved_tolerance, int contact_depth,
+         uint64_t max_leaves, uint64_t max_objects, uint64_t max_simplices, int ambiguity_levels,
+         int ambiguity_rounds, int unseen_rounds) {
         api::ComputeOptions o;
         o.max_depth = max_depth;
         if (domain) o.domain = std::move(*domain);

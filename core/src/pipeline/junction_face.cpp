@@ -142,7 +142,8 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
   // One side of each interface (the lower object's cell), its points shared by position.
   std::map<std::tuple<double, double>, uint32_t> index;
   auto point = [&](Vec3 p) {
-    const auto [it, added] = index.try_emplace({p.x, p.y}, static_cast<uint32_t>(out.points.size()));
+    const auto [it, added] =
+        index.try_emplace({p.x, p.y}, static_cast<uint32_t>(out.points.size()));
     if (added) {
       Vec3 q;
       q[u] = p.x;

@@ -507,8 +507,7 @@ Slot slot_of(PipelineParams& p, const ParamSpec& spec) {
   else if (n == "refine")
     s = choice_slot(p.refine, [](PipelineParams& q, int c) { q.refine = RefineRule(c); });
   else if (n == "junctions")
-    s = choice_slot(p.junctions,
-                    [](PipelineParams& q, int c) { q.junctions = JunctionCells(c); });
+    s = choice_slot(p.junctions, [](PipelineParams& q, int c) { q.junctions = JunctionCells(c); });
   else if (n == "resolution" && spec.kind == ParamKind::kChoice)
     s = choice_slot(p.resolution,
                     [](PipelineParams& q, int c) { q.resolution = GvdResolution(c); });

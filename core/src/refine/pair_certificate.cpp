@@ -1291,7 +1291,8 @@ PairCertifier::Junction PairCertifier::certify_junction(const Box& box) const {
     const int k = static_cast<int>(std::find(objects, objects + n, o) - objects);
     if (k == n || buried(s)) return true;
     const Vec3 q = closest_point_on_simplex(3, g.points, g.simplices[s], c);
-    if (dist2(c, q) > range2[k] || !simplex_overlaps_box(3, g.points, g.simplices[s], box, slack[k]))
+    if (dist2(c, q) > range2[k] ||
+        !simplex_overlaps_box(3, g.points, g.simplices[s], box, slack[k]))
       return true;
     patch[k].push_back(s);
     return ++total <= kMaxActive;

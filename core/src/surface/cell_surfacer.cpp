@@ -1510,7 +1510,8 @@ class CellSurfacer {
       std::iota(rep.begin(), rep.end(), 0u);
       for (size_t i = 0; i < fg.points.size(); ++i)
         for (size_t j = 0; j < i && rep[i] == i; ++j)
-          if (rep[j] == j && norm(fg.points[i] - fg.points[j]) <= hair) rep[i] = static_cast<uint32_t>(j);
+          if (rep[j] == j && norm(fg.points[i] - fg.points[j]) <= hair)
+            rep[i] = static_cast<uint32_t>(j);
       // At the mean of its points: two three-way junctions the 2D pipeline found a hair apart
       // around a four-way one have it between them.
       std::vector<Vec3> sum(fg.points.size());

@@ -7,7 +7,8 @@
 // three or more objects meet may claim any two of them (ties within kTie); the share with
 // no tie allowed and the vertices whose third object is nearer by over 1 % are printed too.
 //
-// Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--junctions] [--budget N] [--explain]
+// Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--junctions] [--budget N]
+// [--explain]
 //                  SCENE.json...
 //        (--full: the GVD as surfaced, one piece per leaf, not compacted)
 //        (--explain prints every GVD triangle that crosses an object, when one does, and

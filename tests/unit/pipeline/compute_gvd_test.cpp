@@ -461,8 +461,13 @@ TEST(ComputeGvd, JunctionLinesCostWhatTheirSectionsCost3D) {
   };
   const std::vector<Case> cases = {
       {"columns", columns, {{"c00", "c01"}, {"c00", "c10"}, {"c11", "c12"}, {"c11", "c21"}}},
-      {"slot of parts", test::make_slot_of_separate_parts, {{"floor", "blade"}, {"left", "blade"}, {"right", "blade"},
-                               {"floor", "left"}, {"floor", "right"}}}};
+      {"slot of parts",
+       test::make_slot_of_separate_parts,
+       {{"floor", "blade"},
+        {"left", "blade"},
+        {"right", "blade"},
+        {"floor", "left"},
+        {"floor", "right"}}}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     PipelineOptions o;

@@ -39,8 +39,11 @@ TEST(JunctionFace, PlaneGvdOfJunctionCellsHoldsUnderBruteForce3D) {
     std::vector<Vec3> lines;
   };
   std::vector<Case> cases;
-  cases.push_back({"columns", test::make_packed_columns(3, 0.3, g), {{0.3, 0.3, 0}, {0.6, 0.3, 0}, {0.3, 0.6, 0}}});
-  cases.push_back({"slot of parts", test::make_slot_of_separate_parts(g), {{0.45, 0.2, 0}, {0.55, 0.2, 0}}});
+  cases.push_back({"columns",
+                   test::make_packed_columns(3, 0.3, g),
+                   {{0.3, 0.3, 0}, {0.6, 0.3, 0}, {0.3, 0.6, 0}}});
+  cases.push_back(
+      {"slot of parts", test::make_slot_of_separate_parts(g), {{0.45, 0.2, 0}, {0.55, 0.2, 0}}});
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-1, 1), t(0, 1);
   for (const Case& c : cases) {
@@ -94,8 +97,9 @@ TEST(JunctionFace, PlaneGvdOfJunctionCellsHoldsUnderBruteForce3D) {
             if (degree[v] == 1) {
               const Vec3 x = jf.points[v];
               const double hair = 1e-12;
-              const bool border = std::abs(x.x - box.lo.x) <= hair || std::abs(x.x - box.hi.x) <= hair ||
-                                  std::abs(x.y - box.lo.y) <= hair || std::abs(x.y - box.hi.y) <= hair;
+              const bool border =
+                  std::abs(x.x - box.lo.x) <= hair || std::abs(x.x - box.hi.x) <= hair ||
+                  std::abs(x.y - box.lo.y) <= hair || std::abs(x.y - box.hi.y) <= hair;
               EXPECT_TRUE(border) << "a loose end inside the face, level " << level;
             }
             if (degree[v] >= 3) {

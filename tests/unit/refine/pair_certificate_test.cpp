@@ -964,7 +964,8 @@ TEST(PairCertifier, JunctionCellsHoldUnderBruteForce3D) {
     std::vector<Vec3> lines;  // points (x, y) of the junction lines along z
   };
   std::vector<Case> cases;
-  cases.push_back({"columns", columns, {{0.3, 0.3, 0}, {0.6, 0.3, 0}, {0.3, 0.6, 0}, {0.6, 0.6, 0}}});
+  cases.push_back(
+      {"columns", columns, {{0.3, 0.3, 0}, {0.6, 0.3, 0}, {0.3, 0.6, 0}, {0.6, 0.6, 0}}});
   cases.push_back({"slot of parts", slot, {{0.45, 0.2, 0}, {0.55, 0.2, 0}}});
   std::mt19937_64 rng(17);
   std::uniform_real_distribution<double> u(-1, 1), t(0, 1);

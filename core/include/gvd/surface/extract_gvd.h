@@ -114,7 +114,6 @@ std::vector<uint32_t> unswept_junction_leaves(const octree::Octree& octree,
                                               const distance::DistanceField& field,
                                               const distance::LeafVertices* rows,
                                               const scene::UnitGeometry& geometry,
-                                              const SimplexBvh& bvh,
-                                              const SurfaceOptions& options);
+                                              const SimplexBvh& bvh, const SurfaceOptions& options);
 
 }  // namespace gvd::surface
