@@ -240,9 +240,12 @@ struct ThinGapCase {
                       ///< lopsided), two_pentagon_shafts (two of them, one 0.1234 higher),
                       ///< three_shafts (three hexagonal ones at unrelated places),
                       ///< ball_in_socket (a UV sphere sealed in a box's scaled cavity);
+                      ///< packed_columns (3 x 3 boxes 0.3 apart), box_grid (4 x 4, 0.25
+                      ///< apart), slot_of_parts (a blade in a slot of three separate parts):
+                      ///< lines where three or four objects meet;
                       ///< *_xyz: the same with the octree kept on x, y, z
   double gap = 0;
-  std::string refine;  ///< "certified" or "paper"
+  std::string refine;  ///< "certified", "paper", or "junctions" (certified, --junctions on)
 };
 
 /// The scene `make` builds with its options' gap set to `gap`.
@@ -318,6 +321,9 @@ Scene make_thin_gap_scene(const std::string& name, double gap) {
     return s;
   }
   if (name == "ball_in_socket") return with_gap(&gvd::test::make_ball_in_socket, gap);
+  if (name == "packed_columns") return gvd::test::make_packed_columns(3, 0.3, gap);
+  if (name == "box_grid") return gvd::test::make_packed_columns(4, 0.25, gap);
+  if (name == "slot_of_parts") return gvd::test::make_slot_of_separate_parts(gap);
   if (name == "bars_2d") return with_gap(&gvd::test::make_parallel_bars_2d, gap);
   gvd::test::PolygonPairsOptions o;  // pairs_2d: gaps log-spaced from `gap` to 1e-3
   o.min_gap = gap;
@@ -343,7 +349,9 @@ void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
   const Scene scene = make_thin_gap_scene(c.scene, c.gap);
   gvd::pipeline::PipelineOptions options;
   options.threads = kThreads;
-  options.refine = gvd::pipeline::parse_choice<gvd::pipeline::RefineRule>(c.refine);
+  options.junctions = c.refine == "junctions";
+  options.refine = gvd::pipeline::parse_choice<gvd::pipeline::RefineRule>(
+      options.junctions ? "certified" : c.refine);
   if (c.scene.ends_with("_xyz")) options.domain.frame = gvd::scene::DomainFrame::kWorld;
   ThinGapRun run;
   run.c = c;
@@ -410,6 +418,16 @@ std::vector<ThinGapCase> thin_gap_cases(bool slow) {
   // Rims along no axis nor square to one (skew cells and skew cones; BENCHMARKS "A ball sealed
   // in a socket"); the paper's rule only down to 3e-3.
   add("ball_in_socket", {1e-2, 3e-3, 1e-3}, {1e-2, 3e-3});
+  // Lines where three or four objects meet (BENCHMARKS "Junction lines"): junction cells
+  // (--junctions on) beside the certified refinement without them, which pays length/g there.
+  auto junctions = [&](const char* scene, std::vector<double> gaps) {
+    for (double g : gaps) all.push_back({scene, g, "junctions"});
+  };
+  add("packed_columns", {1e-3}, {});
+  junctions("packed_columns", {1e-3, 1e-4, 1e-5});
+  add("slot_of_parts", {1e-3}, {});
+  junctions("slot_of_parts", {1e-3, 1e-4, 1e-5});
+  junctions("box_grid", {1e-3});
   if (slow) {
     add("blade_in_slot", {}, {1e-3});
     add("shaft_in_bore", {}, {1e-3});
