@@ -1574,6 +1574,7 @@ class CellSurfacer {
     bool taken[PolygonGvd::kMaxSpokes] = {};
     int matched = 0;
     std::vector<Vec3> points = fg.points;
+    std::vector<uint32_t> loose;  // junctions on the border without a spoke of their own
     for (size_t v = 0; v < fg.points.size(); ++v) {
       if (at[v].empty() || !on_border(fg.points[v])) continue;
       // Inside a chain along the border: no end.
@@ -1592,12 +1593,17 @@ class CellSurfacer {
       for (size_t x = 0; x < objects.size() && best < 0; ++x)
         for (size_t y = x + 1; y < objects.size() && best < 0; ++y)
           best = spoke_near(fg.points[v], objects[x], objects[y], taken);
-      if (best < 0) return false;
+      if (best < 0) {
+        // A junction at a corner of the face where the labels give the corner to a fourth
+        // object: its spokes join the junction below.
+        if (at[v].size() < 2) return false;
+        loose.push_back(static_cast<uint32_t>(v));
+        continue;
+      }
       taken[best] = true;
       points[v] = g.spokes[best].p;
       ++matched;
     }
-    if (matched != g.n) return false;
     std::vector<std::pair<uint32_t, uint32_t>> segments;
     std::vector<std::pair<ObjectId, ObjectId>> pairs;
     for (size_t k = 0; k < fg.segments.size(); ++k) {
@@ -1605,6 +1611,29 @@ class CellSurfacer {
       segments.push_back(fg.segments[k]);
       pairs.push_back(fg.pairs[k]);
     }
+    // Spokes left over next to a junction on the border: a piece of their pair from the spoke
+    // to it (a spoke's label_a on its left seen from +axis, as cell_3d fans them).
+    for (int i = 0; i < g.n && !loose.empty(); ++i) {
+      if (taken[i]) continue;
+      uint32_t nearest = 0;
+      double best_d = 4 * hair;
+      bool found = false;
+      for (const uint32_t v : loose) {
+        const double d = norm(points[v] - g.spokes[i].p);
+        if (d <= best_d) {
+          best_d = d;
+          nearest = v;
+          found = true;
+        }
+      }
+      if (!found) continue;
+      taken[i] = true;
+      ++matched;
+      points.push_back(g.spokes[i].p);
+      segments.emplace_back(static_cast<uint32_t>(points.size() - 1), nearest);
+      pairs.emplace_back(g.spokes[i].label_a, g.spokes[i].label_b);
+    }
+    if (matched != g.n) return false;
     fg.segments = std::move(segments);
     fg.pairs = std::move(pairs);
     g.junction = true;
