@@ -64,9 +64,12 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
   double dist[kMaxObjects + 1];
   const int n = objects_in_reach(bvh, g.object_of, c, r, kMaxObjects, found, dist);
   if (n < 2) return false;
-  // In a canonical order (the plane scene's object ids).
-  std::vector<uint32_t> objects(found, found + n);
-  std::sort(objects.begin(), objects.end());
+  // In a canonical order (the plane scene's object ids), each with its distance at c.
+  std::vector<std::pair<uint32_t, double>> by_id;
+  for (int k = 0; k < n; ++k) by_id.emplace_back(found[k], dist[k]);
+  std::sort(by_id.begin(), by_id.end());
+  std::vector<uint32_t> objects;
+  for (const auto& [o, d] : by_id) objects.push_back(o);
   // Their simplices in reach, square to the axis, projected along it: exact (a coordinate
   // dropped), and the two far ends of a triangle's three projected corners make its segment.
   // Every point of an object that can be nearest to a point of the face lies within its
@@ -77,8 +80,7 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
   double grow = 0;
   double slack[kMaxObjects];
   for (int k = 0; k < n; ++k) {
-    const double d = std::sqrt(bvh.nearest_in_object(c, objects[k]).dist2);
-    slack[k] = widen(d + r);
+    slack[k] = widen(by_id[k].second + r);
     grow = std::max(grow, slack[k]);
   }
   const double side = face.hi[u] - face.lo[u];
