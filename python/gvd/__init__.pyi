@@ -162,7 +162,7 @@ def compute(
     octree_build: str = "levels",
     distance: str = "exact",
     refine: str = "certified",
-    junctions: str = "off",
+    junctions: str = "on",
     resolution: str = "compact",
     curved_tolerance: float = 0.0,
     contact_depth: int = 0,

@@ -427,8 +427,8 @@ The options (the flags of `gvd compute`; units are the scene's):
   octree_build      'levels' | 'data-parallel'
   distance          'exact' | 'wavefront'
   refine            'certified' | 'paper'
-  junctions         'off' | 'on': junction cells (3D), where three or more objects meet along
-                    a straight line (off by default for now: see docs/ALGORITHM.md)
+  junctions         'on' | 'off': junction cells (3D), where three or more objects meet along
+                    a straight line (on by default: see docs/ALGORITHM.md)
   resolution        'compact' | 'full'
   curved_tolerance  in [0, 1)
   contact_depth     0 = default (2D 14, 3D 8)

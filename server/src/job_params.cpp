@@ -66,8 +66,6 @@ std::string JobParams::to_json() const {
   nlohmann::json j = nlohmann::json::object();
   for (const ParamSpec& p : pipeline_parameters()) {
     if (!in_normalized_text(p, is_grid())) continue;
-    // Off, junction cells leave the text (and so the ids) as they were before them.
-    if (p.name == "junctions" && junctions == JunctionCells::kOff) continue;
     nlohmann::json& v = j[std::string(p.name)];
     switch (p.kind) {
       case ParamKind::kInt:

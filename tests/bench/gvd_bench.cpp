@@ -245,7 +245,9 @@ struct ThinGapCase {
                       ///< lines where three or four objects meet;
                       ///< *_xyz: the same with the octree kept on x, y, z
   double gap = 0;
-  std::string refine;  ///< "certified", "paper", or "junctions" (certified, --junctions on)
+  /// "certified" (the default: junction cells on), "paper", or "no_junctions" (certified,
+  /// --junctions off)
+  std::string refine;
 };
 
 /// The scene `make` builds with its options' gap set to `gap`.
@@ -349,9 +351,9 @@ void BM_ThinGap(benchmark::State& state, ThinGapCase c) {
   const Scene scene = make_thin_gap_scene(c.scene, c.gap);
   gvd::pipeline::PipelineOptions options;
   options.threads = kThreads;
-  options.junctions = c.refine == "junctions";
+  options.junctions = c.refine != "no_junctions";
   options.refine = gvd::pipeline::parse_choice<gvd::pipeline::RefineRule>(
-      options.junctions ? "certified" : c.refine);
+      c.refine == "no_junctions" ? "certified" : c.refine);
   if (c.scene.ends_with("_xyz")) options.domain.frame = gvd::scene::DomainFrame::kWorld;
   ThinGapRun run;
   run.c = c;
@@ -419,15 +421,16 @@ std::vector<ThinGapCase> thin_gap_cases(bool slow) {
   // in a socket"); the paper's rule only down to 3e-3.
   add("ball_in_socket", {1e-2, 3e-3, 1e-3}, {1e-2, 3e-3});
   // Lines where three or four objects meet (BENCHMARKS "Junction lines"): junction cells
-  // (--junctions on) beside the certified refinement without them, which pays length/g there.
-  auto junctions = [&](const char* scene, std::vector<double> gaps) {
-    for (double g : gaps) all.push_back({scene, g, "junctions"});
+  // (the default) beside the certified refinement without them (--junctions off), which pays
+  // length/g there.
+  auto no_junctions = [&](const char* scene, std::vector<double> gaps) {
+    for (double g : gaps) all.push_back({scene, g, "no_junctions"});
   };
-  add("packed_columns", {1e-3}, {});
-  junctions("packed_columns", {1e-3, 1e-4, 1e-5});
-  add("slot_of_parts", {1e-3}, {});
-  junctions("slot_of_parts", {1e-3, 1e-4, 1e-5});
-  junctions("box_grid", {1e-3});
+  add("packed_columns", {1e-3, 1e-4, 1e-5}, {});
+  no_junctions("packed_columns", {1e-3});
+  add("slot_of_parts", {1e-3, 1e-4, 1e-5}, {});
+  no_junctions("slot_of_parts", {1e-3});
+  add("box_grid", {1e-3}, {});
   if (slow) {
     add("blade_in_slot", {}, {1e-3});
     add("shaft_in_bore", {}, {1e-3});
@@ -445,12 +448,12 @@ void print_thin_gap_summary() {
       kThreads);
   // B/leaf: the peak over the leaves; B/leaf+: only what the computation added to the memory
   // the process held when it began (the OpenCL runtime, the scene).
-  std::printf("%-15s %-9s %7s %5s %9s %9s %9s %9s %8s %8s %8s %8s %9s %8s %8s %s\n", "scene",
+  std::printf("%-15s %-12s %7s %5s %9s %9s %9s %9s %8s %8s %8s %8s %9s %8s %8s %s\n", "scene",
               "refine", "gap", "depth", "leaves", "certified", "gvd_simp", "octree", "distance",
               "ambig", "surface", "total", "RSS_MiB", "B/leaf", "B/leaf+", "2D: pairs vs Boost");
   for (const ThinGapRun& r : thin_gap_runs()) {
     if (!r.error.empty()) {
-      std::printf("%-15s %-9s %7.0e FAILED: %s\n", r.c.scene.c_str(), r.c.refine.c_str(), r.c.gap,
+      std::printf("%-15s %-12s %7.0e FAILED: %s\n", r.c.scene.c_str(), r.c.refine.c_str(), r.c.gap,
                   r.error.c_str());
       continue;
     }
@@ -463,7 +466,7 @@ void print_thin_gap_summary() {
     const double peak_bytes = r.peak_rss_mib * 1048576.0;
     const double added = std::max(0.0, peak_bytes - static_cast<double>(s.start_rss_bytes));
     std::printf(
-        "%-15s %-9s %7.0e %5d %9llu %9llu %9llu %9.0f %8.0f %8.0f %8.0f %8.0f %9.0f %8.0f %8.0f "
+        "%-15s %-12s %7.0e %5d %9llu %9llu %9llu %9.0f %8.0f %8.0f %8.0f %8.0f %9.0f %8.0f %8.0f "
         "%s\n",
         r.c.scene.c_str(), r.c.refine.c_str(), r.c.gap, s.depth,
         static_cast<unsigned long long>(s.leaves),
@@ -489,7 +492,7 @@ void print_thin_gap_summary() {
     my /= pts.size();
     double sxy = 0, sxx = 0;
     for (const auto& [x, y] : pts) sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
-    std::printf("  %-15s %-9s %.2f over %zu gaps\n", key.first.c_str(), key.second.c_str(),
+    std::printf("  %-15s %-12s %.2f over %zu gaps\n", key.first.c_str(), key.second.c_str(),
                 sxx > 0 ? sxy / sxx : 0.0, pts.size());
   }
 }

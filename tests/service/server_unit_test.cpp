@@ -214,11 +214,13 @@ TEST(JobParams, NormalizedTextAndValidation) {
 }
 
 TEST(JobParams, GridModeIsItsOwnNormalizedTextAndAdaptiveIdsStay) {
-  // An adaptive job's text (and so its id) is what it was before mode=grid existed.
+  // An adaptive job's text (and so its id) holds no grid-mode parameter: what it was before
+  // mode=grid existed, with `junctions` since junction cells became the default.
   EXPECT_EQ(JobParams{}.to_json(),
             "{\"ambiguity_levels\":-1,\"ambiguity_rounds\":-1,\"contact_depth\":0,"
-            "\"curved_tolerance\":0.0,\"domain\":[],\"frame\":\"auto\",\"max_depth\":0,"
-            "\"refine\":\"certified\",\"resolution\":\"compact\",\"unseen_rounds\":-1}");
+            "\"curved_tolerance\":0.0,\"domain\":[],\"frame\":\"auto\",\"junctions\":\"on\","
+            "\"max_depth\":0,\"refine\":\"certified\",\"resolution\":\"compact\","
+            "\"unseen_rounds\":-1}");
   JobParams g;
   g.set("resolution", "64");  // before mode: the order of the query does not matter
   g.set("mode", "grid");
@@ -262,9 +264,10 @@ TEST(JobId, ContentAddressed) {
   p.max_depth = 5;
   EXPECT_NE(id, job_id(scene, p.to_json()));
   EXPECT_NE(id, job_id(scene + " ", JobParams{}.to_json()));
-  // Scene ids stay those of every earlier store: SHA-256 of the same text, computed apart
-  // (python3: hashlib.sha256(b'gvd-job\nalgorithm 4\n{}\n' + scene).hexdigest()[:32]).
-  EXPECT_EQ(job_id(scene, "{}"), "17eeb7ebe5b1b2308d6548a04d30f680");
+  // SHA-256 of the algorithm version and the texts, computed apart (python3:
+  // hashlib.sha256(b'gvd-job\nalgorithm 5\n{}\n' + scene).hexdigest()[:32]); version 5 since
+  // junction cells became the default (the results of such scenes changed).
+  EXPECT_EQ(job_id(scene, "{}"), "289bef7984bf6cc9e783a96ea1c6d732");
 }
 
 // A labelled volume's job is addressed by its bytes and options as uploaded (the scene is only

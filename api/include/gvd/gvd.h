@@ -117,7 +117,7 @@ struct ComputeOptions {
   std::string octree_build = "levels";  ///< --octree-build levels|data-parallel
   std::string distance = "exact";       ///< --distance exact|wavefront
   std::string refine = "certified";     ///< --refine certified|paper
-  std::string junctions = "off";        ///< --junctions off|on (junction cells; 3D)
+  std::string junctions = "on";         ///< --junctions on|off (junction cells; 3D)
   std::string resolution = "compact";   ///< --resolution compact|full (the GVD's pieces)
   double curved_tolerance = 0;          ///< --curved-tolerance in [0, 1)
   int contact_depth = 0;                ///< --contact-depth; 0 = default (2D 14, 3D 8)

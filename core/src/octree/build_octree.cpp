@@ -578,7 +578,12 @@ uint32_t Octree::locate_lattice(const lattice::Coord& p) const {
 
 LeafLocator::LeafLocator(const Octree& octree) : octree_(&octree) {
   const int bits = octree.dimension * lattice_bits(octree.dimension);
-  shift_ = std::max(0, bits - kPrefixBits);
+  // About two prefixes per leaf, at most 2^kPrefixBits: a small octree (a junction face's
+  // plane GVD builds thousands of them) does not fill a table of 65k entries each time.
+  int prefix_bits = 2;
+  while (prefix_bits < kPrefixBits && (size_t{1} << prefix_bits) < 2 * octree.code.size())
+    ++prefix_bits;
+  shift_ = std::max(0, bits - prefix_bits);
   const size_t prefixes = (size_t{1} << (bits - shift_)) + 1;
   start_.assign(prefixes, static_cast<uint32_t>(octree.code.size()));
   // Filled from the back: each prefix starts at the first leaf whose prefix is not smaller.

@@ -26,7 +26,7 @@ constexpr std::string_view kOctreeBuilds[] = {"levels", "data-parallel"};
 constexpr std::string_view kDistances[] = {"exact", "wavefront"};
 constexpr std::string_view kRefines[] = {"certified", "paper"};
 constexpr std::string_view kResolutions[] = {"compact", "full"};
-constexpr std::string_view kJunctions[] = {"off", "on"};
+constexpr std::string_view kJunctions[] = {"on", "off"};
 constexpr std::string_view kModes[] = {"adaptive", "grid"};
 constexpr std::string_view kMetrics[] = {"l2", "l1", "linf"};
 constexpr std::string_view kVolumeFaces[] = {"merged", "voxel"};
@@ -140,9 +140,8 @@ const ParamSpec kParams[] = {
      .help = "3D, with certified refinement: also certify cells where three or more objects "
              "meet along a straight line along an axis (packed boxes, a part in the corner of "
              "two others), their GVD the sections' plane GVD swept along it, so such lines cost "
-             "what their sections cost instead of length/gap. Off by default for now: on grids "
-             "of parts at round coordinates (four-way lines on octree planes) some GVD vertices "
-             "there sit ~1e-6 of the distance off the exact tie"},
+             "what their sections cost instead of length/gap (default on; off: the earlier "
+             "rules alone)"},
     {.name = "resolution",
      .kind = ParamKind::kChoice,
      .mode = ParamMode::kAdaptive,

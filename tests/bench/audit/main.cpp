@@ -7,9 +7,8 @@
 // three or more objects meet may claim any two of them (ties within kTie); the share with
 // no tie allowed and the vertices whose third object is nearer by over 1 % are printed too.
 //
-// Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--junctions] [--budget N]
-// [--explain]
-//                  SCENE.json...
+// Usage: gvd_audit [--refine paper] [--frame auto|world] [--full] [--junctions on|off]
+//                  [--budget N] [--explain] SCENE.json...
 //        (--full: the GVD as surfaced, one piece per leaf, not compacted)
 //        (--explain prints every GVD triangle that crosses an object, when one does, and
 //        the first 10 sampled vertices whose claimed pair a third object beats)
@@ -26,10 +25,12 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <span>
 #include <string>
+#include <system_error>
 #include <tuple>
 #include <vector>
 
@@ -346,6 +347,12 @@ int write_variants(const std::string& dir) {
 }
 
 int write_scenes(const std::vector<std::pair<std::string, Scene>>& out, const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    std::fprintf(stderr, "gvd_audit: cannot create %s: %s\n", dir.c_str(), ec.message().c_str());
+    return 1;
+  }
   for (const auto& [name, scene] : out) {
     const std::string path = dir + "/" + name + ".json";
     std::ofstream f(path);
@@ -387,7 +394,7 @@ int main(int argc, char** argv) {
   size_t budget = 3000;
   bool explain = false;
   bool full = false;
-  bool junctions = false;
+  bool junctions = true;  // as the product's default
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--write-variants" && i + 1 < argc) return write_variants(argv[++i]);
@@ -398,8 +405,8 @@ int main(int argc, char** argv) {
       frame = argv[++i];
     } else if (a == "--full") {
       full = true;
-    } else if (a == "--junctions") {
-      junctions = true;
+    } else if (a == "--junctions" && i + 1 < argc) {
+      junctions = std::string(argv[++i]) != "off";
     } else if (a == "--explain") {
       explain = true;
     } else if (a == "--budget" && i + 1 < argc) {

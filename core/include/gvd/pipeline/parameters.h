@@ -32,8 +32,8 @@ enum class RefineRule { kCertified, kPaper };
 /// The GVD's pieces (`resolution` of the adaptive mode): flat parts merged (compact_gvd.h),
 /// or one piece per octree leaf it crosses.
 enum class GvdResolution { kCompact, kFull };
-/// Junction cells (`junctions`, PipelineOptions::junctions): off (default) or on.
-enum class JunctionCells { kOff, kOn };
+/// Junction cells (`junctions`, PipelineOptions::junctions): on (default) or off.
+enum class JunctionCells { kOn, kOff };  // the default first, as every choice's
 /// How the first octree is built (`octree_build`): level by level, or the data-parallel
 /// Karras / conflict-cell construction. The same leaves either way.
 enum class OctreeBuild { kLevels, kDataParallel };
@@ -204,7 +204,7 @@ struct PipelineParams {
   OctreeBuild octree_build = OctreeBuild::kLevels;
   distance::DistanceMethod distance = distance::DistanceMethod::kExact;
   RefineRule refine = RefineRule::kCertified;
-  JunctionCells junctions = JunctionCells::kOff;
+  JunctionCells junctions = JunctionCells::kOn;
   GvdResolution resolution = GvdResolution::kCompact;
   double curved_tolerance = 0;
   int ambiguity_levels = -1;  ///< < 0 = default

@@ -60,9 +60,9 @@ struct PipelineOptions {
   RefineRule refine = RefineRule::kCertified;
   /// With kCertified, 3D: also certify junction cells, where three or more objects meet along
   /// a straight line along an axis (packed boxes' corners, a part in the corner of two others),
-  /// surfaced as their faces' plane GVD swept along it (junction_face.h). Off by default while
-  /// it is being completed (docs/ALGORITHM.md, "Junction lines").
-  bool junctions = false;
+  /// surfaced as their faces' plane GVD swept along it (junction_face.h; docs/ALGORITHM.md,
+  /// "Junction lines"). On by default; off, such lines cost length / gap.
+  bool junctions = true;
   /// kCompact (default: flat parts of the GVD merged into large pieces, compact_gvd.h) or
   /// kFull (one piece per octree leaf it crosses, as surfaced).
   GvdResolution resolution = GvdResolution::kCompact;

@@ -17,7 +17,7 @@
 namespace gvd::result {
 
 /// Version of the algorithm; part of job ids and of the saved result.
-inline constexpr uint32_t kAlgorithmVersion = 4;
+inline constexpr uint32_t kAlgorithmVersion = 5;
 
 /// Wall time, size and memory of one stage.
 struct StageStats {
