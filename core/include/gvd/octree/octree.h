@@ -230,8 +230,8 @@ struct Octree {
 
 /// Leaf location for many queries on one octree: where each top Morton prefix (up to 16 bits,
 /// about two prefixes per leaf) starts in the sorted leaf codes, so that a query searches only
-/// its prefix's range (a few steps instead of log N cache misses). Same answers as Octree::locate_lattice. The octree must
-/// outlive it and not change.
+/// its prefix's range (a few steps instead of log N cache misses). Same answers as
+/// Octree::locate_lattice. The octree must outlive it and not change.
 class LeafLocator {
  public:
   explicit LeafLocator(const Octree& octree);
