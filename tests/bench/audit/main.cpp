@@ -250,6 +250,16 @@ int write_variants(const std::string& dir) {
                      moved(gvd::test::make_shaft_in_bore(shaft(6, gap)), [](Vec3 v) {
                        return Vec3{v.z, v.x, v.y};
                      }));
+    // Six stacked plates with flush sides, turned 0.7 rad about (2, -1, 3) and moved 1000
+    // from the origin, where their doubles carry ~1e-13 of rounding
+    // (ComputeGvd.FlushPlatesFarFromTheOriginStayCheap3D at 1e-5).
+    gvd::test::StackedPlatesOptions plates;
+    plates.gap = gap;
+    out.emplace_back("stacked_plates_far" + tag,
+                     moved(gvd::test::make_stacked_plates(plates), [](Vec3 v) {
+                       return gvd::test::rotate(v, Vec3{2, -1, 3} / std::sqrt(14.0), 0.7) +
+                              Vec3{1000, -500, 250};
+                     }));
     // A cube in a cubic cavity whose shell is written inside out (normals into the block's
     // material): the certificates take the material side from the nesting.
     gvd::test::CubeInCavityOptions cube;
