@@ -37,7 +37,7 @@ uint8_t child_mark(int dim, const OctreeOptions& options, uint8_t parent, uint64
   const uint8_t inherited = inherited_mark(parent);
   if (inherited != 0 || parent == 0 || options.split_oracle == nullptr) return inherited;
   const Box box = lattice::cell_box(dim, lattice::morton_decode(dim, code), level);
-  return certified_mark(options.split_oracle->classify(box, list));
+  return certified_mark(options.split_oracle->classify_child(box, list, parent));
 }
 
 // The mark of cell (code, level) in `sets`, 0 if none.

@@ -720,6 +720,17 @@ CellVerdict PairCertifier::classify(const Box& box, std::span<const uint32_t> in
   return certify(box).verdict;
 }
 
+CellVerdict PairCertifier::classify_child(const Box& box, std::span<const uint32_t> inside,
+                                          uint8_t parent) const {
+  const CellVerdict v = classify(box, inside);
+  if (v != CellVerdict::kSplit || !junctions_ || parent < kJunctionMark ||
+      parent > kJunctionMark + 2)
+    return v;
+  const Junction j = certify_junction(box, 2, parent - kJunctionMark);
+  if (!j.certified) return v;
+  return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kJunctionX) + j.axis);
+}
+
 PairCertifier::Certificate PairCertifier::certify(const Box& box) const {
   const UnitGeometry& g = geometry_;
   const int dim = g.dimension;
@@ -1253,7 +1264,8 @@ bool PairCertifier::junction_refused(const Box& box) const {
   return false;
 }
 
-PairCertifier::Junction PairCertifier::certify_junction(const Box& box) const {
+PairCertifier::Junction PairCertifier::certify_junction(const Box& box, int min_objects,
+                                                        int axis_first) const {
   const UnitGeometry& g = geometry_;
   Junction out;
   if (g.dimension != 3 || facing_.empty() || junction_refused(box)) return out;
@@ -1266,7 +1278,7 @@ PairCertifier::Junction PairCertifier::certify_junction(const Box& box) const {
   ObjectId objects[kMaxJunction + 1];
   double dist[kMaxJunction + 1];
   const int n = objects_in_reach(bvh_, g.object_of, c, r, kMaxJunction, objects, dist);
-  if (n < 3) return out;
+  if (n < std::max(2, min_objects)) return out;
   if (contacts_ != nullptr)
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j)
@@ -1309,7 +1321,13 @@ PairCertifier::Junction PairCertifier::certify_junction(const Box& box) const {
     for (uint32_t s : patch[k]) {
       Plane p;
       if (facing_[s] == 0 || !oriented_plane(g, facing_, s, p)) return out;
-      for (int a = 0; a < 3; ++a) square_to[a] = square_to[a] && std::abs(p.n[a]) <= perpendicular;
+      int square = 0;
+      for (int a = 0; a < 3; ++a) {
+        square += std::abs(p.n[a]) <= perpendicular ? 1 : 0;
+        square_to[a] = square_to[a] && std::abs(p.n[a]) <= perpendicular;
+      }
+      // Two objects: their sections rectilinear (every plane square to two axes).
+      if (n == 2 && square < 2) return out;
       bool seen = false;
       for (size_t i = 0; i < normals[k].size() && !seen; ++i)
         seen = dot(p.n, normals[k][i]) >= 1 - 1e-12 && std::abs(p.offset - offsets[k][i]) <= flat_;
@@ -1319,18 +1337,26 @@ PairCertifier::Junction PairCertifier::certify_junction(const Box& box) const {
       offsets[k].push_back(p.offset);
     }
   }
-  const int axis = square_to[0] ? 0 : square_to[1] ? 1 : square_to[2] ? 2 : -1;
-  if (axis < 0) return out;
-  Vec3 along;
-  along[axis] = 1;
-  // On each plane a strip across the box that holds every simplex that can be nearest.
+  // On each plane a strip across the box that holds every simplex that can be nearest, along
+  // an axis every plane is square to (where they are square to two, facing faces of which one
+  // may end across one of them: the first that gives strips, axis_first tried first).
   Box near = box;
   for (int i = 0; i < 3; ++i) {
     near.lo[i] -= most;
     near.hi[i] += most;
   }
-  for (int k = 0; k < n; ++k)
-    if (!strips_cover(near, axis, along, objects[k], normals[k], offsets[k])) return out;
+  int axis = -1;
+  for (int t = 0; t < 3 && axis < 0; ++t) {
+    const int a = axis_first >= 0 ? (axis_first + t) % 3 : t;
+    if (!square_to[a]) continue;
+    Vec3 along;
+    along[a] = 1;
+    bool covered = true;
+    for (int k = 0; k < n && covered; ++k)
+      covered = strips_cover(near, a, along, objects[k], normals[k], offsets[k]);
+    if (covered) axis = a;
+  }
+  if (axis < 0) return out;
   out.certified = true;
   out.axis = axis;
   out.n_objects = n;

@@ -1036,5 +1036,60 @@ TEST(PairCertifier, JunctionCellsHoldUnderBruteForce3D) {
   }
 }
 
+// A child of a junction cell beside the line may see two of its objects only, a rim of one
+// in reach of the other (no pair certificate): a blade's bottom edge over a floor g below,
+// the blade's side in reach. classify_child makes it a junction cell of two along the
+// parent's axis (z: the floor's top and the blade's bottom are square to x as well, but the
+// blade's bottom ends across x); classify alone, or under another parent, splits it. Brute
+// force: both distances invariant along z in every such cell.
+TEST(PairCertifier, TwoObjectJunctionCellsUnderJunctionCellsHoldUnderBruteForce3D) {
+  const double g = 1e-3;
+  Scene scene;
+  scene.dimension = 3;
+  scene.objects.push_back(test::make_box("floor", {0, 0, 0}, {1, 0.2, 1}));
+  scene.objects.push_back(test::make_box("blade", {0.45, 0.2 + g, -0.1}, {0.55, 0.6, 1.1}));
+  const World s(scene);
+  PairCertifier certifier(s.geometry, s.bvh, nullptr, true);
+  certifier.enable_junctions();
+  const uint8_t junction_z = certified_mark(CellVerdict::kJunctionZ);
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> u(-1, 1), t(0, 1);
+  int two = 0;
+  for (int level = 5; level <= 12; ++level) {
+    const double cell = std::ldexp(1.0, -level);
+    for (int k = 0; k < 16; ++k) {
+      const Vec3 p{0.45 + 2 * g * u(rng), 0.2 + 0.5 * g + g * u(rng), 0.3 + 0.4 * t(rng)};
+      Vec3 unit = s.domain.to_unit(p);
+      for (int a = 0; a < 2; ++a) unit[a] += 0.5 * u(rng) * cell;
+      const Box box = lattice_cell_at(unit, level);
+      const CellVerdict v = certifier.classify_child(box, {}, junction_z);
+      if (v == certifier.classify(box)) continue;
+      ASSERT_EQ(certifier.classify(box), CellVerdict::kSplit);
+      ASSERT_EQ(v, CellVerdict::kJunctionZ) << "level " << level;
+      EXPECT_EQ(certifier.classify_child(box, {}, certified_mark(CellVerdict::kPair)),
+                CellVerdict::kSplit);
+      ++two;
+      for (int i = 0; i < 24; ++i) {
+        Vec3 x;
+        for (int a = 0; a < 3; ++a) x[a] = box.lo[a] + t(rng) * (box.hi[a] - box.lo[a]);
+        Vec3 y = x;
+        y.z = box.lo.z + t(rng) * (box.hi.z - box.lo.z);
+        for (ObjectId o = 0; o < 2; ++o) {
+          ASSERT_NEAR(test::brute_distance(scene, o, s.domain.from_unit(x)),
+                      test::brute_distance(scene, o, s.domain.from_unit(y)), 1e-12)
+              << "object " << o << " level " << level;
+        }
+      }
+    }
+  }
+  EXPECT_GT(two, 0);
+  // Not where the floor ends (z = 1).
+  for (int level = 5; level <= 10; ++level) {
+    const Box box = lattice_cell_at(s.domain.to_unit(Vec3{0.45, 0.2 + 0.5 * g, 1}), level);
+    EXPECT_NE(certifier.classify_child(box, {}, junction_z), CellVerdict::kJunctionZ)
+        << "an end, level " << level;
+  }
+}
+
 }  // namespace
 }  // namespace gvd

@@ -29,6 +29,13 @@ class SplitOracle {
   /// The verdict for the closed cell `box` (unit domain). `inside` (optional) lists the
   /// simplices that touch the cell, which lets most cells that must split be told cheaply.
   virtual CellVerdict classify(const Box& box, std::span<const uint32_t> inside = {}) const = 0;
+  /// The verdict for a child of a certified cell whose mark (certified_mark) is `parent` and
+  /// which does not pass it on (inherited_mark 0). By default classify's.
+  virtual CellVerdict classify_child(const Box& box, std::span<const uint32_t> inside,
+                                     uint8_t parent) const {
+    (void)parent;
+    return classify(box, inside);
+  }
 };
 
 /// Simplex references per leaf of OctreeOptions::max_leaves that the cells' lists may hold.

@@ -107,6 +107,14 @@ class PairCertifier final : public octree::SplitOracle {
 
   octree::CellVerdict classify(const Box& box,
                                std::span<const uint32_t> inside = {}) const override;
+  /// classify's verdict, but a child of a junction cell that it would split is a junction cell
+  /// of two objects when certify_junction(box, 2) holds along the parent's axis: one level
+  /// below a junction cell, beside the line, a cell may see two of its objects only, a rim of
+  /// one in reach of the other (no pair certificate). Split into pair cells, such a cell forces
+  /// the junction cell beside it along the line to split by 2:1 balance, whose children are
+  /// such cells again: a split that runs along the whole line, a cell per round.
+  octree::CellVerdict classify_child(const Box& box, std::span<const uint32_t> inside,
+                                     uint8_t parent) const override;
 
   bool cones() const { return cones_; }
   /// Also certify junction cells (certify_junction: kJunctionX...); the surfacer must then
@@ -151,7 +159,9 @@ class PairCertifier final : public octree::SplitOracle {
   };
   Certificate certify(const Box& box) const;
 
-  /// A junction cell (3D): three to kMaxJunction objects can be nearest somewhere in the cell,
+  /// A junction cell (3D): `min_objects` (three, or two: classify_child) to kMaxJunction objects
+  /// can be nearest somewhere in the cell (two: only where every plane in reach is square to
+  /// two axes, so that their plane GVD is made of straight pieces),
   /// none of them a contact pair, and every simplex of theirs that can be nearest to a point of
   /// the cell has its normal square to one axis e, its object closed, and on each of their
   /// planes the object's triangles cover a full strip across the box that holds them along e
@@ -167,7 +177,8 @@ class PairCertifier final : public octree::SplitOracle {
     int n_objects = 0;  ///< the active objects, ascending
     scene::ObjectId objects[kMaxJunction] = {};
   };
-  Junction certify_junction(const Box& box) const;
+  /// `axis_first`: the axis tried first where the planes are square to two (-1: x, y, z).
+  Junction certify_junction(const Box& box, int min_objects = 3, int axis_first = -1) const;
 
   /// Cells with more simplices than this in reach are not certified (their children are).
   static constexpr size_t kMaxActive = 256;
