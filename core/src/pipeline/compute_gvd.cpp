@@ -443,7 +443,8 @@ class Computation {
   const PairCertifier* certifier() const { return certifier_ ? &*certifier_ : nullptr; }
 
   // The plane GVD of a junction cell's face (junction_face_gvd), each face computed once: the
-  // refinement's check and the surfacing ask for the same faces, from both cells of each.
+  // refinement's check and the surfacing ask for the same faces, from both cells of each; and
+  // once per section (sections_: a junction line's faces one above the other).
   std::function<bool(const Box&, int, FaceGvd&)> junction_faces() {
     return [this](const Box& face, int axis, FaceGvd& out) {
       const FaceKey key{face.lo.x, face.lo.y, face.lo.z, face.hi.x, face.hi.y, face.hi.z, axis};
@@ -455,7 +456,8 @@ class Computation {
           return it->second.first;
         }
       }
-      const bool crossed = junction_face_gvd(r_.geometry, *bvh_, face, axis, out, options_.cancel);
+      const bool crossed =
+          junction_face_gvd(r_.geometry, *bvh_, face, axis, out, options_.cancel, &sections_);
       const std::lock_guard<std::mutex> lock(face_mutex_);
       faces_.emplace(key, std::make_pair(crossed, out));
       return crossed;
@@ -479,6 +481,7 @@ class Computation {
   using FaceKey = std::tuple<double, double, double, double, double, double, int>;
   std::mutex face_mutex_;
   std::map<FaceKey, std::pair<bool, FaceGvd>> faces_;
+  JunctionSectionCache sections_;  ///< the faces' plane GVDs by their section
   std::unique_ptr<ClosestPointSolver> solver_;
   /// The leaves' simplices (from the octree's build, for the refinement) and boundary
   /// vertices (from the distance transform, for the refinement and the surfacing): what the

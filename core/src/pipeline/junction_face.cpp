@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <tuple>
 
@@ -49,10 +50,37 @@ bool clip_segment(Vec3& p0, Vec3& p1, const Box& box) {
   return true;
 }
 
+// Appends the bytes of `v` to `key`.
+template <class T>
+void append(std::string& key, T v) {
+  char bytes[sizeof(T)];
+  std::memcpy(bytes, &v, sizeof(T));
+  key.append(bytes, sizeof(T));
+}
+
 }  // namespace
 
+bool JunctionSectionCache::find(const std::string& key, int axis, double at, bool& crossed,
+                                surface::FaceGvd& out) const {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = map_.find(key);
+    if (it == map_.end()) return false;
+    crossed = it->second.first;
+    out = it->second.second;
+  }
+  for (Vec3& p : out.points) p[axis] = at;
+  return true;
+}
+
+void JunctionSectionCache::add(std::string key, bool crossed, const surface::FaceGvd& gvd) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  map_.emplace(std::move(key), std::make_pair(crossed, gvd));
+}
+
 bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& face, int axis,
-                       surface::FaceGvd& out, const std::atomic<bool>* cancel) {
+                       surface::FaceGvd& out, const std::atomic<bool>* cancel,
+                       JunctionSectionCache* sections) {
   out = surface::FaceGvd();
   const int u = (axis + 1) % 3, w = (axis + 2) % 3;
   auto widen = [](double d) { return d * (1 + 1e-9) + 1e-15; };
@@ -133,6 +161,24 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
     }
   }
   throw_if_cancelled(cancel, "a junction cell's face");
+  // The section: the face across the axis, the square around it and the objects' segments
+  // (exact bits), which is all the plane GVD below is computed from.
+  std::string key;
+  if (sections != nullptr) {
+    append(key, axis);
+    for (const double v : {face.lo[u], face.lo[w], face.hi[u], face.hi[w], lo.x, lo.y, extent})
+      append(key, v);
+    for (int k = 0; k < n; ++k) {
+      append(key, objects[k]);
+      append(key, plane.objects[k].vertices.size());
+      for (const Vec3& v : plane.objects[k].vertices) {
+        append(key, v.x);
+        append(key, v.y);
+      }
+    }
+    bool crossed = false;
+    if (sections->find(key, axis, face.lo[axis], crossed, out)) return crossed;
+  }
   PipelineOptions options;
   options.threads = 1;
   options.cancel = cancel;
@@ -169,6 +215,7 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
       out.pairs.emplace_back(objects[cell.object], objects[other]);
     }
   }
+  if (sections != nullptr) sections->add(std::move(key), true, out);
   return true;
 }
 

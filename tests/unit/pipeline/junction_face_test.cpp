@@ -9,6 +9,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <tuple>
 
 #include "gvd/octree/contacts.h"
 #include "gvd/refine/pair_certificate.h"
@@ -125,6 +126,68 @@ TEST(JunctionFace, PlaneGvdOfJunctionCellsHoldsUnderBruteForce3D) {
     EXPECT_GT(crossed, 4);
     EXPECT_GT(junctions, 0);
   }
+}
+
+// The section cache: a face one above another along a junction line (the same section) gets
+// the GVD the face computed alone gets, moved along the axis; a face whose section differs (the
+// fourth column of the line ends below it) is computed from its own.
+TEST(JunctionFace, FacesWithTheSameSectionShareOneComputation3D) {
+  const double g = 1e-3;
+  Scene scene = test::make_packed_columns(2, 0.3, g);
+  // The column at [0.3, 0.6) x [0.3, 0.6) ends at z = 0.5.
+  const ObjectId shortened = static_cast<ObjectId>(scene.objects.size() - 1);
+  for (Vec3& v : scene.objects[shortened].vertices) {
+    ASSERT_GE(v.x, 0.3 - 1e-12);
+    ASSERT_GE(v.y, 0.3 - 1e-12);
+    v.z = std::min(v.z, 0.5);
+  }
+  const World s(scene);
+  auto sorted = [](const surface::FaceGvd& f) {
+    std::vector<std::tuple<double, double, double, double, double, double, ObjectId, ObjectId>>
+        out;
+    for (size_t i = 0; i < f.segments.size(); ++i) {
+      Vec3 a = f.points[f.segments[i].first], b = f.points[f.segments[i].second];
+      if (std::tie(b.x, b.y, b.z) < std::tie(a.x, a.y, a.z)) std::swap(a, b);
+      out.emplace_back(a.x, a.y, a.z, b.x, b.y, b.z, f.pairs[i].first, f.pairs[i].second);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  const int level = 7;
+  const double cell = std::ldexp(1.0, -level);
+  const Vec3 at = s.domain.to_unit(Vec3{0.3 - 0.5 * g, 0.3 - 0.5 * g, 0.2});
+  Box face = lattice_cell_at(at, level);
+  face.hi.z = face.lo.z;
+  JunctionSectionCache sections;
+  surface::FaceGvd first, alone, shared;
+  ASSERT_TRUE(junction_face_gvd(s.geometry, s.bvh, face, 2, first, nullptr, &sections));
+  ASSERT_FALSE(first.segments.empty());
+  // Two cells higher, the same section.
+  Box higher = face;
+  higher.lo.z = higher.hi.z = face.lo.z + 2 * cell;
+  ASSERT_TRUE(junction_face_gvd(s.geometry, s.bvh, higher, 2, alone));
+  ASSERT_TRUE(junction_face_gvd(s.geometry, s.bvh, higher, 2, shared, nullptr, &sections));
+  EXPECT_EQ(sections.size(), 1u) << "one section, computed once";
+  EXPECT_EQ(sorted(shared), sorted(alone));
+  for (const Vec3& p : shared.points) EXPECT_EQ(p.z, higher.lo.z);
+  // Above the shortened column: three columns, its own section, its own GVD.
+  Box beside = face;
+  beside.lo.z = beside.hi.z = s.domain.to_unit(Vec3{0, 0, 0.75}).z;
+  beside.lo.z = beside.hi.z = std::floor(beside.lo.z / cell) * cell;
+  surface::FaceGvd beside_alone, beside_shared;
+  const bool a = junction_face_gvd(s.geometry, s.bvh, beside, 2, beside_alone);
+  const bool b =
+      junction_face_gvd(s.geometry, s.bvh, beside, 2, beside_shared, nullptr, &sections);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(sections.size(), 2u) << "another section";
+  EXPECT_EQ(sorted(beside_shared), sorted(beside_alone));
+  ASSERT_FALSE(beside_alone.segments.empty());
+  std::set<ObjectId> objects;
+  for (const auto& [l, r] : beside_alone.pairs) objects.insert({l, r});
+  EXPECT_EQ(objects.count(shortened), 0u) << "the shortened column ends below";
+  std::set<ObjectId> below;
+  for (const auto& [l, r] : first.pairs) below.insert({l, r});
+  EXPECT_EQ(below.count(shortened), 1u);
 }
 
 }  // namespace gvd

@@ -10,6 +10,10 @@
 // to the face.
 
 #include <atomic>
+#include <map>
+#include <mutex>
+#include <string>
+#include <utility>
 
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/geometry/vec.h"
@@ -18,12 +22,35 @@
 
 namespace gvd::pipeline {
 
+/// Plane GVDs of junction faces by their section: the plane scene a face gives (its objects'
+/// segments, the square around the face) and the face across the axis. Faces between junction
+/// cells that differ only in their place along the axis and see the same sections (a junction
+/// line's cells, one above the other) share one computation. Safe to share between threads.
+class JunctionSectionCache {
+ public:
+  /// The plane GVD stored for `key`, its points moved onto coordinate `at` along `axis`.
+  bool find(const std::string& key, int axis, double at, bool& crossed,
+            surface::FaceGvd& out) const;
+  void add(std::string key, bool crossed, const surface::FaceGvd& gvd);
+  /// The sections computed.
+  size_t size() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return map_.size();
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, std::pair<bool, surface::FaceGvd>> map_;
+};
+
 /// The GVD on the face `face` (unit domain; flat along `axis`: lo[axis] == hi[axis]) of a
 /// junction cell whose objects are invariant along `axis`. Only simplices square to `axis` are
 /// projected: within a junction cell no other can be nearest. False when fewer than two objects
 /// can be nearest on the face (no GVD there: `out` empty). Throws gvd::Error{kCancelled} when
 /// `cancel` is set.
+/// `sections` (optional): computed once per section (JunctionSectionCache).
 bool junction_face_gvd(const scene::UnitGeometry& geometry, const SimplexBvh& bvh, const Box& face,
-                       int axis, surface::FaceGvd& out, const std::atomic<bool>* cancel = nullptr);
+                       int axis, surface::FaceGvd& out, const std::atomic<bool>* cancel = nullptr,
+                       JunctionSectionCache* sections = nullptr);
 
 }  // namespace gvd::pipeline
