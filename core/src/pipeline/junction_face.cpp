@@ -60,22 +60,21 @@ void append(std::string& key, T v) {
 
 }  // namespace
 
-bool JunctionSectionCache::find(const std::string& key, int axis, double at, bool& crossed,
+bool JunctionSectionCache::find(const std::string& key, int axis, double at,
                                 surface::FaceGvd& out) const {
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     const auto it = map_.find(key);
     if (it == map_.end()) return false;
-    crossed = it->second.first;
-    out = it->second.second;
+    out = it->second;
   }
   for (Vec3& p : out.points) p[axis] = at;
   return true;
 }
 
-void JunctionSectionCache::add(std::string key, bool crossed, const surface::FaceGvd& gvd) {
+void JunctionSectionCache::add(std::string key, const surface::FaceGvd& gvd) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  map_.emplace(std::move(key), std::make_pair(crossed, gvd));
+  map_.emplace(std::move(key), gvd);
 }
 
 bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& face, int axis,
@@ -176,8 +175,7 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
         append(key, v.y);
       }
     }
-    bool crossed = false;
-    if (sections->find(key, axis, face.lo[axis], crossed, out)) return crossed;
+    if (sections->find(key, axis, face.lo[axis], out)) return true;
   }
   PipelineOptions options;
   options.threads = 1;
@@ -215,7 +213,7 @@ bool junction_face_gvd(const UnitGeometry& g, const SimplexBvh& bvh, const Box& 
       out.pairs.emplace_back(objects[cell.object], objects[other]);
     }
   }
-  if (sections != nullptr) sections->add(std::move(key), true, out);
+  if (sections != nullptr) sections->add(std::move(key), out);
   return true;
 }
 

@@ -723,10 +723,9 @@ CellVerdict PairCertifier::classify(const Box& box, std::span<const uint32_t> in
 CellVerdict PairCertifier::classify_child(const Box& box, std::span<const uint32_t> inside,
                                           uint8_t parent) const {
   const CellVerdict v = classify(box, inside);
-  if (v != CellVerdict::kSplit || !junctions_ || parent < kJunctionMark ||
-      parent > kJunctionMark + 2)
-    return v;
-  const Junction j = certify_junction(box, 2, parent - kJunctionMark);
+  const int axis = junction_axis_of_mark(parent);
+  if (v != CellVerdict::kSplit || !junctions_ || axis < 0) return v;
+  const Junction j = certify_junction(box, 2, axis);
   if (!j.certified) return v;
   return static_cast<CellVerdict>(static_cast<int>(CellVerdict::kJunctionX) + j.axis);
 }

@@ -1895,8 +1895,8 @@ class CellSurfacer {
         rung(spoke_at(0, lower.first), rung_first);
       if (!plain_last && spoke_at(0, lower.last) != 0 && spoke_at(1, upper.last) != 0)
         rung(spoke_at(0, lower.last), rung_last);
-      std::vector<Vec3> p = lower.points, q = upper.points;
-      if (!ladder_between(p, q, dir, rung_first, rung_last, tris)) return false;
+      if (!ladder_between(lower.points, upper.points, dir, rung_first, rung_last, tris))
+        return false;
       for (Tri& t : tris) {
         emit(out, t.v[0], t.v[1], t.v[2], lower.left, lower.right);
         emit(out, t.v[1], t.v[0], t.v[2], lower.right, lower.left);

@@ -143,8 +143,7 @@ TEST(JunctionFace, FacesWithTheSameSectionShareOneComputation3D) {
   }
   const World s(scene);
   auto sorted = [](const surface::FaceGvd& f) {
-    std::vector<std::tuple<double, double, double, double, double, double, ObjectId, ObjectId>>
-        out;
+    std::vector<std::tuple<double, double, double, double, double, double, ObjectId, ObjectId>> out;
     for (size_t i = 0; i < f.segments.size(); ++i) {
       Vec3 a = f.points[f.segments[i].first], b = f.points[f.segments[i].second];
       if (std::tie(b.x, b.y, b.z) < std::tie(a.x, a.y, a.z)) std::swap(a, b);
@@ -172,12 +171,10 @@ TEST(JunctionFace, FacesWithTheSameSectionShareOneComputation3D) {
   for (const Vec3& p : shared.points) EXPECT_EQ(p.z, higher.lo.z);
   // Above the shortened column: three columns, its own section, its own GVD.
   Box beside = face;
-  beside.lo.z = beside.hi.z = s.domain.to_unit(Vec3{0, 0, 0.75}).z;
-  beside.lo.z = beside.hi.z = std::floor(beside.lo.z / cell) * cell;
+  beside.lo.z = beside.hi.z = std::floor(s.domain.to_unit(Vec3{0, 0, 0.75}).z / cell) * cell;
   surface::FaceGvd beside_alone, beside_shared;
   const bool a = junction_face_gvd(s.geometry, s.bvh, beside, 2, beside_alone);
-  const bool b =
-      junction_face_gvd(s.geometry, s.bvh, beside, 2, beside_shared, nullptr, &sections);
+  const bool b = junction_face_gvd(s.geometry, s.bvh, beside, 2, beside_shared, nullptr, &sections);
   EXPECT_EQ(a, b);
   EXPECT_EQ(sections.size(), 2u) << "another section";
   EXPECT_EQ(sorted(beside_shared), sorted(beside_alone));

@@ -81,6 +81,11 @@ inline constexpr uint8_t kSkewMark = 35;
 inline constexpr uint8_t kSkewWedgeMark = kSkewMark + 7;
 inline constexpr uint8_t kSkewLastMark = kSkewWedgeMark + 5;
 inline constexpr uint8_t kJunctionMark = kSkewLastMark + 1;  ///< + axis (kJunctionX...)
+/// The axis of a junction cell's mark (kJunctionMark + axis), or -1 for any other mark.
+inline int junction_axis_of_mark(uint8_t mark) {
+  return mark >= kJunctionMark && mark <= kJunctionMark + 2 ? mark - kJunctionMark : -1;
+}
+
 inline uint8_t certified_mark(CellVerdict v) {
   const int i = static_cast<int>(v);
   if (v == CellVerdict::kPair) return 1;
@@ -205,9 +210,7 @@ struct Octree {
   }
   /// The axis of the junction cell (CellVerdict::kJunctionX...) the leaf is, or -1.
   int junction_axis(uint32_t leaf) const {
-    if (certified.empty() || certified[leaf] < kJunctionMark || certified[leaf] > kJunctionMark + 2)
-      return -1;
-    return certified[leaf] - kJunctionMark;
+    return certified.empty() ? -1 : junction_axis_of_mark(certified[leaf]);
   }
   lattice::Coord corner(uint32_t leaf) const {
     return lattice::morton_decode(dimension, code[leaf]);

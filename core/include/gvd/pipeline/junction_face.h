@@ -13,7 +13,6 @@
 #include <map>
 #include <mutex>
 #include <string>
-#include <utility>
 
 #include "gvd/geometry/simplex_bvh.h"
 #include "gvd/geometry/vec.h"
@@ -29,9 +28,8 @@ namespace gvd::pipeline {
 class JunctionSectionCache {
  public:
   /// The plane GVD stored for `key`, its points moved onto coordinate `at` along `axis`.
-  bool find(const std::string& key, int axis, double at, bool& crossed,
-            surface::FaceGvd& out) const;
-  void add(std::string key, bool crossed, const surface::FaceGvd& gvd);
+  bool find(const std::string& key, int axis, double at, surface::FaceGvd& out) const;
+  void add(std::string key, const surface::FaceGvd& gvd);
   /// The sections computed.
   size_t size() const {
     const std::lock_guard<std::mutex> lock(mutex_);
@@ -40,7 +38,7 @@ class JunctionSectionCache {
 
  private:
   mutable std::mutex mutex_;
-  std::map<std::string, std::pair<bool, surface::FaceGvd>> map_;
+  std::map<std::string, surface::FaceGvd> map_;
 };
 
 /// The GVD on the face `face` (unit domain; flat along `axis`: lo[axis] == hi[axis]) of a
